@@ -1,0 +1,16 @@
+"""Layer 0: array conventions, validation, rng, tolerances, the PointSet container."""
+
+from ._pointset import PointSet, readonly
+from ._validation import as_labels, as_normals, as_points, as_rng, describe_indices
+from .errors import PointAtlasError
+
+__all__ = [
+    "PointAtlasError",
+    "PointSet",
+    "as_labels",
+    "as_normals",
+    "as_points",
+    "as_rng",
+    "describe_indices",
+    "readonly",
+]

@@ -1,0 +1,94 @@
+"""The small frozen point-set container."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+import numpy as np
+
+from ._validation import as_normals, as_points
+
+__all__ = ["PointSet", "readonly"]
+
+
+def readonly(arr: np.ndarray | None) -> np.ndarray | None:
+    """Return ``arr`` with its writeable flag cleared (None passes through)."""
+    if arr is None:
+        return None
+    arr = np.asarray(arr)
+    arr.flags.writeable = False
+    return arr
+
+
+@dataclass(frozen=True, slots=True)
+class PointSet:
+    """Points with optional unit normals and per-point attributes.
+
+    Parameters
+    ----------
+    points : ndarray of shape (N, 3), float64
+        Coordinates.
+    normals : ndarray of shape (N, 3), float64, optional
+        Normals; rescaled to unit length. Zero-length or non-finite normals raise.
+    attributes : mapping of str to ndarray of shape (N, ...)
+        Per-point scalar or vector fields (labels, colours, features).
+    name : str
+        A name for reports and file names.
+
+    Examples
+    --------
+    >>> ps = PointSet([[0, 0, 0], [1, 0, 0]], normals=[[0, 0, 1], [0, 0, 3]])
+    >>> ps.n_points, ps.has_normals, float(ps.normals[1, 2])
+    (2, True, 1.0)
+    """
+
+    points: np.ndarray
+    normals: np.ndarray | None = None
+    attributes: Mapping[str, np.ndarray] = field(default_factory=dict)
+    name: str = ""
+
+    def __post_init__(self):
+        pts = np.array(as_points(self.points, min_points=0), copy=True)
+        object.__setattr__(self, "points", readonly(pts))
+        if self.normals is not None:
+            nrm = as_normals(self.normals, pts.shape[0])
+            object.__setattr__(self, "normals", readonly(nrm))
+        attrs = {}
+        for key, value in dict(self.attributes).items():
+            arr = np.array(value, copy=True)
+            if arr.ndim == 0 or arr.shape[0] != pts.shape[0]:
+                raise ValueError(
+                    f"attribute {key!r} must have one entry per point ({pts.shape[0]}); "
+                    f"got shape {arr.shape}"
+                )
+            attrs[str(key)] = readonly(arr)
+        object.__setattr__(self, "attributes", MappingProxyType(attrs))
+
+    @property
+    def n_points(self) -> int:
+        """Number of points N."""
+        return int(self.points.shape[0])
+
+    @property
+    def has_normals(self) -> bool:
+        """Whether normals are present."""
+        return self.normals is not None
+
+    def replace(self, **changes) -> PointSet:
+        """Return a copy with some fields replaced (points, normals, attributes, name)."""
+        fields = {
+            "points": self.points,
+            "normals": self.normals,
+            "attributes": dict(self.attributes),
+            "name": self.name,
+        }
+        fields.update(changes)
+        return PointSet(**fields)
+
+    def with_attributes(self, **attributes) -> PointSet:
+        """Return a copy with the given per-point attributes added or replaced."""
+        attrs = dict(self.attributes)
+        attrs.update(attributes)
+        return self.replace(attributes=attrs)
