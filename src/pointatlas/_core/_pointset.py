@@ -66,6 +66,23 @@ class PointSet:
             attrs[str(key)] = readonly(arr)
         object.__setattr__(self, "attributes", MappingProxyType(attrs))
 
+    @classmethod
+    def _from_validated(cls, points, normals=None, attributes=None, name: str = "") -> PointSet:
+        """Wrap arrays the caller has already validated and owns (private to pointatlas).
+
+        No checks and no copies (used by ``pointatlas.io`` readers on fresh arrays):
+        ``points`` must be C-contiguous finite float64 (N, 3), ``normals`` unit
+        float64 (N, 3) or None, ``attributes`` a dict of arrays with N rows. The
+        arrays are made read-only.
+        """
+        obj = object.__new__(cls)
+        object.__setattr__(obj, "points", readonly(points))
+        object.__setattr__(obj, "normals", readonly(normals))
+        attrs = {str(k): readonly(v) for k, v in dict(attributes or {}).items()}
+        object.__setattr__(obj, "attributes", MappingProxyType(attrs))
+        object.__setattr__(obj, "name", str(name))
+        return obj
+
     @property
     def n_points(self) -> int:
         """Number of points N."""

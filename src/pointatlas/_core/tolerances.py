@@ -15,3 +15,57 @@ DISTANCE_TIE_RTOL = 0.0
 
 #: How many offending indices an error message lists before "...".
 MAX_LISTED_INDICES = 5
+
+#: normals room: a neighbourhood whose covariance has lambda_2 <= this * lambda_1
+#: (coincident or collinear points) has no defined tangent plane; exactly collinear
+#: samples give lambda_2 / lambda_1 ~ 1e-16 from round-off, a real thin strip of
+#: points stays far above 1e-10.
+NORMAL_DEGENERATE_RATIO = 1e-10
+
+#: normals room: added to the MST edge weights 1 - |n_i . n_j| (scaled by
+#: 1 + |p_i - p_j| / mean edge length) so parallel normals (weight exactly 0) are
+#: not dropped as "no edge" by scipy and ties prefer shorter edges; far below the
+#: angular term of any non-parallel pair (1 degree -> 1.5e-4).
+MST_WEIGHT_EPS = 1e-9
+
+#: normals room: the outward vote sum_i a_i n_i . (p_i - c) of a component counts
+#: as undecided (open, planar-like patch) when below this fraction of
+#: sum_i a_i |p_i - c|; the top-point rule decides instead.
+OUTWARD_VOTE_RTOL = 1e-3
+
+#: A mesh vertex whose summed face area vector is shorter than this fraction of
+#: the summed lengths of those vectors has no defined normal (it is unreferenced,
+#: lies only on zero-area faces, or its faces cancel); relative, so it does not
+#: depend on the mesh's units. Round-off in the sums is ~1e-16 relative.
+MESH_NORMAL_CANCEL_RTOL = 1e-12
+
+#: VSA switch (segment): a point moves only when its energy term drops by more than
+#: this (absolute, in units of weight x squared normal distance); keeps round-off
+#: in dot products of near-identical proxies from moving points back and forth.
+VSA_SWITCH_MIN_GAIN = 1e-12
+
+#: VSA (segment): default bound on a region's mean normal deviation angle (radians,
+#: arccos of the mean cosine |S|/W) when neither eta nor max_angle is given.
+#: 10 degrees gives ~10 regions around a cylinder, independent of the sampling density.
+VSA_DEFAULT_MAX_ANGLE = 0.17453292519943295
+
+#: simplify: singular values of a vertex's stacked proxy-plane normals below this
+#: fraction of the largest are treated as zero in the least-squares intersection.
+#: For two planes the ratio is tan(theta/2); 0.0437 = tan(2.5 deg), i.e. planes
+#: within 5 degrees of parallel do not fix the vertex along that direction (the
+#: near-parallel Fandisk outliers of thesis Fig. 4.11).
+SIMPLIFY_PLANE_SV_RTOL = 0.0437
+
+#: simplify: a least-squares vertex may lie at most this fraction of the distance
+#: from its witness points to the nearest contributing region centroid away from
+#: the witness points; farther solutions drop the weakest plane direction.
+SIMPLIFY_VERTEX_BOUND = 0.5
+
+#: simplify: the Eq. 4.12 optimisation counts as successful when every constraint
+#: holds to this tolerance in coordinates scaled by the RMS radius of the points
+#: (1e-9 of the model size, far below any sampling spacing).
+SIMPLIFY_CONSTRAINT_TOL = 1e-9
+
+#: simplify: all proxy normals within this angle (radians, 5 deg) of one direction
+#: (up to sign) means all proxy planes are parallel and no vertex is defined.
+SIMPLIFY_PARALLEL_ANGLE = 0.08726646259971647

@@ -1,0 +1,480 @@
+"""Run one function over many model files on a dask cluster, resumably."""
+
+from __future__ import annotations
+
+import contextlib
+import fnmatch
+import json
+import logging
+import math
+import os
+import tempfile
+import time
+import traceback
+import warnings
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+
+import numpy as np
+
+__all__ = ["BatchReport", "list_models", "run_batch", "to_jsonable"]
+
+#: default model patterns of `list_models`
+MODEL_PATTERNS = ("*.obj", "*.off", "*.ply", "*.stl")
+
+_RESULT_SUFFIX = ".json"
+_ERROR_SUFFIX = ".error.json"
+
+
+@dataclass(frozen=True, slots=True)
+class BatchReport:
+    """Outcome of `run_batch`.
+
+    Parameters
+    ----------
+    results : mapping of str to dict
+        Model stem -> result of every model with a result, computed now or read
+        back from an earlier run (plain JSON types).
+    failures : mapping of str to str
+        Model stem -> ``"ErrorType: message"`` for the models that failed this run.
+    n_done : int
+        Models computed successfully in this run.
+    n_skipped : int
+        Models whose result existed already (not recomputed).
+    n_failed : int
+        Models that failed in this run.
+    out_dir : pathlib.Path
+        The output folder (``results/`` and ``summary.json`` inside).
+    elapsed_s : float
+        Wall-clock seconds of the run.
+    """
+
+    results: Mapping[str, dict]
+    failures: Mapping[str, str]
+    n_done: int
+    n_skipped: int
+    n_failed: int
+    out_dir: Path = field(default_factory=Path)
+    elapsed_s: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "results", MappingProxyType(dict(self.results)))
+        object.__setattr__(self, "failures", MappingProxyType(dict(self.failures)))
+
+
+def to_jsonable(value):
+    """Convert numpy scalars/arrays, paths, tuples and sets into plain JSON types.
+
+    Parameters
+    ----------
+    value : object
+        A result: dicts, lists, tuples, numbers, strings, numpy values, paths.
+
+    Returns
+    -------
+    plain : object
+        The same structure with dict keys as str, numpy arrays as (nested) lists,
+        numpy scalars as Python numbers, paths as str. Non-finite floats stay
+        ``nan``/``inf`` (written as ``NaN``/``Infinity``, which Python's json reads).
+
+    Raises
+    ------
+    TypeError
+        A value of another type (its type and position are named).
+
+    Examples
+    --------
+    >>> to_jsonable({"a": np.arange(2), 3: np.float32(0.5), "p": (1, 2)})
+    {'a': [0, 1], '3': 0.5, 'p': [1, 2]}
+    """
+    return _plain(value, "result")
+
+
+def _plain(value, where: str):
+    if value is None or isinstance(value, bool | str):
+        return value
+    if isinstance(value, int | float):
+        return value
+    if isinstance(value, np.generic):
+        return _plain(value.item(), where)
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind not in "biufU" and value.dtype != object:
+            raise TypeError(f"{where}: cannot store an array of dtype {value.dtype} as JSON")
+        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value.tolist())]
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, Mapping):
+        return {str(_plain(k, where)): _plain(v, f"{where}[{k!r}]") for k, v in value.items()}
+    if isinstance(value, list | tuple | set | frozenset):
+        items = sorted(value, key=repr) if isinstance(value, set | frozenset) else value
+        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(items)]
+    raise TypeError(f"{where}: cannot store {type(value).__name__} as JSON")
+
+
+def _write_json(path: Path, payload) -> None:
+    """Write JSON atomically: a temporary file in the same folder, then os.replace."""
+    text = json.dumps(payload, indent=2, sort_keys=False)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.write("\n")
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def _read_json(path: Path):
+    """The stored object, or None if the file is missing or unreadable."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return json.load(fh)
+    except (OSError, ValueError):
+        return None
+
+
+def _error_record(exc: BaseException, tb_text: str | None = None) -> dict:
+    if tb_text is None:
+        tb_text = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
+    return {"type": type(exc).__name__, "message": str(exc), "traceback": tb_text}
+
+
+def _run_task(func, path: str, seed_seq):
+    """Executed on a worker: call func(path, rng), never raise.
+
+    Returns ``("ok", plain_result, seconds)`` or ``("error", error_record, seconds)``.
+    """
+    start = time.perf_counter()
+    try:
+        rng = np.random.default_rng(seed_seq)
+        result = func(path, rng)
+        if not isinstance(result, Mapping):
+            raise TypeError(f"func must return a dict; got {type(result).__name__}")
+        plain = _plain(result, "result")
+        json.dumps(plain)  # fail here (recorded) rather than when writing
+        return "ok", plain, time.perf_counter() - start
+    except Exception as exc:  # any failure of one model is recorded, never fatal
+        return "error", _error_record(exc), time.perf_counter() - start
+
+
+def _validate_inputs(inputs) -> list[tuple[str, str]]:
+    """Sorted ``(path, stem)`` pairs; stems must be unique (they name the outputs)."""
+    if isinstance(inputs, str | os.PathLike):
+        raise TypeError("inputs must be a list of paths; got a single path (use list_models)")
+    try:
+        paths = sorted({os.fspath(p) for p in inputs})
+    except TypeError as exc:
+        raise TypeError(f"inputs must be an iterable of paths; {exc}") from None
+    stems: dict[str, str] = {}
+    for p in paths:
+        stem = Path(p).stem
+        if not stem or stem.startswith("."):
+            raise ValueError(f"inputs: cannot name an output after {p!r}")
+        if stem in stems:
+            raise ValueError(
+                f"inputs must have distinct file stems (outputs are named after them); "
+                f"{stems[stem]!r} and {p!r} share {stem!r}"
+            )
+        stems[stem] = p
+    return [(p, Path(p).stem) for p in paths]
+
+
+def _import_dask():
+    try:
+        import distributed  # noqa: F401
+    except ImportError as exc:  # pragma: no cover - dask is a core dependency
+        raise ImportError(
+            "pointatlas.batch needs dask.distributed: pip install 'dask[distributed]'"
+        ) from exc
+    return distributed
+
+
+@contextlib.contextmanager
+def _client(scheduler, n_workers: int):
+    """A dask Client: to ``scheduler`` (an address or a Client) or to a fresh
+    LocalCluster of ``n_workers`` single-threaded processes, closed afterwards."""
+    distributed = _import_dask()
+    import dask
+
+    if scheduler is not None and hasattr(scheduler, "submit"):
+        yield scheduler, getattr(getattr(scheduler, "scheduler", None), "address", None)
+        return
+    stack = contextlib.ExitStack()
+    # dask's start-up/shut-down chatter must not reach a warnings-as-errors run; the
+    # user's own warning filters stay in force while tasks run
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            if scheduler is None:
+                # a dead worker is retried once on another, then reported KilledWorker
+                stack.enter_context(dask.config.set({"distributed.scheduler.allowed-failures": 1}))
+                cluster = stack.enter_context(
+                    distributed.LocalCluster(
+                        n_workers=n_workers,
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=None,
+                        silence_logs=logging.ERROR,
+                    )
+                )
+                client = stack.enter_context(distributed.Client(cluster))
+                label = f"LocalCluster(n_workers={n_workers})"
+            else:
+                client = stack.enter_context(distributed.Client(str(scheduler)))
+                label = str(scheduler)
+        except BaseException:
+            stack.close()
+            raise
+    try:
+        yield client, label
+    finally:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            stack.close()
+
+
+def _progress(enabled: bool, description: str, total: int):
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    return Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=Console(stderr=True),
+        transient=True,
+        disable=not enabled,
+    )
+
+
+def run_batch(
+    func: Callable,
+    inputs: Iterable,
+    out_dir,
+    *,
+    scheduler=None,
+    n_workers: int = 2,
+    seed: int = 0,
+    name: str | None = None,
+    progress: bool = True,
+) -> BatchReport:
+    """Run ``func(path, rng) -> dict`` over model files on a dask cluster, resumably.
+
+    Parameters
+    ----------
+    func : callable
+        A module-level (picklable) function ``func(path: str, rng:
+        numpy.random.Generator) -> dict`` whose result is JSON-serialisable after
+        numpy values are converted (`to_jsonable`). Workers import its module, so it
+        must be importable there (functions from ``__main__`` are pickled by value).
+    inputs : iterable of str or path-like
+        Model files. They are sorted; their file stems (names without extension)
+        must be distinct, as they name the outputs.
+    out_dir : str or path-like
+        Output folder (created): ``results/<stem>.json`` per model,
+        ``results/<stem>.error.json`` per failure, ``summary.json``.
+    scheduler : str or distributed.Client, optional
+        Address of a running dask scheduler (``"tcp://host:8786"``) or a Client to
+        use. Default: a fresh ``LocalCluster`` of ``n_workers`` single-threaded
+        worker processes, closed at the end.
+    n_workers : int
+        Worker processes of the local cluster (>= 1; ignored with ``scheduler``).
+    seed : int
+        Root seed (>= 0). The model at position i of the sorted inputs gets
+        ``np.random.default_rng(np.random.SeedSequence(seed).spawn(n)[i])``,
+        independent of scheduling, of the number of workers and of resuming.
+    name : str, optional
+        Label for the progress bar and the summary (default: ``func.__name__``).
+    progress : bool
+        Show a transient progress bar of models done on stderr.
+
+    Returns
+    -------
+    report : BatchReport
+        ``results`` (stem -> result, including results read back from an earlier
+        run), ``failures`` (stem -> ``"Type: message"``), ``n_done``,
+        ``n_skipped``, ``n_failed``.
+
+    Raises
+    ------
+    TypeError
+        ``func`` not callable, ``inputs`` not an iterable of paths.
+    ValueError
+        Duplicate stems, ``n_workers`` < 1, negative ``seed``.
+
+    Notes
+    -----
+    Each result is written the moment its task finishes (temporary file, then
+    ``os.replace``), so an interrupted batch loses only running models; a rerun skips
+    models whose ``<stem>.json`` exists and retries failed ones. An exception in
+    ``func`` (or a worker dying twice on a model) is recorded in
+    ``<stem>.error.json`` with type, message and traceback, and the batch goes on.
+    STYLE section 6 (seeding); decisions in docs/decisions.md (batch).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     run_batch(len, [], tmp, progress=False).n_done
+    0
+    """
+    if not callable(func):
+        raise TypeError(f"func must be callable; got {type(func).__name__}")
+    if isinstance(n_workers, bool) or not isinstance(n_workers, int | np.integer):
+        raise TypeError(f"n_workers must be an integer; got {type(n_workers).__name__}")
+    if n_workers < 1:
+        raise ValueError(f"n_workers must be >= 1; got {n_workers}")
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0; got {seed!r}")
+    items = _validate_inputs(inputs)
+    label = name or getattr(func, "__name__", "batch")
+    out = Path(out_dir)
+    results_dir = out / "results"
+    results_dir.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    children = np.random.SeedSequence(int(seed)).spawn(len(items))
+
+    results: dict[str, dict] = {}
+    failures: dict[str, str] = {}
+    models: dict[str, dict] = {}
+    todo = []
+    for index, (path, stem) in enumerate(items):
+        stored = _read_json(results_dir / f"{stem}{_RESULT_SUFFIX}")
+        if isinstance(stored, dict):
+            results[stem] = stored
+            models[stem] = {"input": path, "index": index, "status": "skipped"}
+        else:
+            todo.append((index, path, stem))
+    n_skipped = len(results)
+    n_done = 0
+    where = None
+    complete = False
+    try:
+        with _progress(progress, label, len(items)) as bar:
+            task = bar.add_task(label, total=len(items), completed=n_skipped)
+            if todo:
+                with _client(scheduler, int(n_workers)) as (client, where):
+                    n_done = _consume(
+                        client, func, todo, children, results_dir, results, failures, models,
+                        lambda: bar.advance(task),
+                    )  # fmt: skip
+            complete = True
+    finally:
+        elapsed = time.perf_counter() - start
+        summary = {
+            "name": label,
+            "seed": int(seed),
+            "scheduler": where,
+            "complete": complete,
+            "n_inputs": len(items),
+            "n_done": n_done,
+            "n_skipped": n_skipped,
+            "n_failed": len(failures),
+            "elapsed_s": round(elapsed, 3),
+            "failures": dict(sorted(failures.items())),
+            "models": dict(sorted(models.items())),
+        }
+        _write_json(out / "summary.json", summary)
+    return BatchReport(
+        results=dict(sorted(results.items())),
+        failures=dict(sorted(failures.items())),
+        n_done=n_done,
+        n_skipped=n_skipped,
+        n_failed=len(failures),
+        out_dir=out,
+        elapsed_s=elapsed,
+    )
+
+
+def _consume(client, func, todo, children, results_dir, results, failures, models, advance):
+    """Submit one task per model and store each outcome as soon as it arrives."""
+    from distributed import as_completed
+
+    futures = {}
+    for index, path, stem in todo:
+        fut = client.submit(_run_task, func, path, children[index], pure=False)
+        futures[fut] = (index, path, stem)
+    n_done = 0
+    for fut in as_completed(list(futures)):
+        index, path, stem = futures.pop(fut)
+        try:
+            status, payload, seconds = fut.result()
+        except Exception as exc:  # the task itself failed: worker death, unpicklable func
+            status, payload, seconds = "error", _error_record(exc), math.nan
+        record = {"input": path, "index": index}
+        if status == "ok":
+            _write_json(results_dir / f"{stem}{_RESULT_SUFFIX}", payload)
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(results_dir / f"{stem}{_ERROR_SUFFIX}")
+            results[stem] = payload
+            record["status"] = "done"
+            n_done += 1
+        else:
+            _write_json(results_dir / f"{stem}{_ERROR_SUFFIX}", {**record, **payload})
+            failures[stem] = f"{payload['type']}: {payload['message']}"
+            record["status"] = "failed"
+        record["elapsed_s"] = None if math.isnan(seconds) else round(seconds, 4)
+        models[stem] = record
+        advance()
+    return n_done
+
+
+def list_models(directory, patterns: Iterable[str] = MODEL_PATTERNS, *, recursive: bool = False):
+    """The model files of a folder, sorted.
+
+    Parameters
+    ----------
+    directory : str or path-like
+        Folder to list.
+    patterns : iterable of str
+        Shell patterns matched case-insensitively against file names (default
+        ``*.obj``, ``*.off``, ``*.ply``, ``*.stl``).
+    recursive : bool
+        Also list sub-folders.
+
+    Returns
+    -------
+    paths : list of pathlib.Path
+        Matching regular files, sorted by path.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``directory`` does not exist.
+    NotADirectoryError
+        ``directory`` is a file.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     _ = (Path(tmp) / "b.OBJ").write_text(""), (Path(tmp) / "a.txt").write_text("")
+    ...     [p.name for p in list_models(tmp)]
+    ['b.OBJ']
+    """
+    folder = Path(directory)
+    if not folder.exists():
+        raise FileNotFoundError(f"directory not found: {folder}")
+    if not folder.is_dir():
+        raise NotADirectoryError(f"directory is not a folder: {folder}")
+    pats = [patterns] if isinstance(patterns, str) else list(patterns)
+    pats = [p.lower() for p in pats]
+    found = folder.rglob("*") if recursive else folder.iterdir()
+    return sorted(
+        p
+        for p in found
+        if p.is_file() and any(fnmatch.fnmatchcase(p.name.lower(), pat) for pat in pats)
+    )

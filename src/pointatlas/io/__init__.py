@@ -1,0 +1,35 @@
+"""Reading and writing point sets and meshes (PLY, OBJ, OFF, STL, XYZ, LAS/LAZ).
+
+Every read error is a :class:`PointAtlasIOError` naming the file; every write is
+atomic (:func:`atomic_write`).
+"""
+
+from ._api import (
+    MESH_EXTENSIONS,
+    POINT_EXTENSIONS,
+    POINT_WRITE_EXTENSIONS,
+    as_point_set,
+    read_mesh,
+    read_point_set,
+    write_mesh,
+    write_point_set,
+)
+from ._atomic import atomic_write
+from ._errors import PointAtlasIOError
+from ._mesh import Mesh, fan_triangulate, vertex_normals
+
+__all__ = [
+    "MESH_EXTENSIONS",
+    "POINT_EXTENSIONS",
+    "POINT_WRITE_EXTENSIONS",
+    "Mesh",
+    "PointAtlasIOError",
+    "as_point_set",
+    "atomic_write",
+    "fan_triangulate",
+    "read_mesh",
+    "read_point_set",
+    "vertex_normals",
+    "write_mesh",
+    "write_point_set",
+]

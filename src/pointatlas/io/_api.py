@@ -1,0 +1,671 @@
+"""Public reading, writing and conversion functions."""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .._core import PointAtlasError, PointSet, as_normals, as_points, describe_indices
+from .._core.tolerances import NORMAL_ZERO_LENGTH
+from ._atomic import atomic_write
+from ._errors import PointAtlasIOError, describe_exception, fail
+from ._las import read_las, write_las
+from ._mesh import Mesh, _check_faces, _vertex_normals
+from ._obj import read_obj, read_off, write_obj, write_off
+from ._ply import read_ply, write_ply
+from ._raw import RawData, colors_to_uint8
+from ._stl import read_stl, write_stl
+from ._xyz import read_xyz, write_xyz
+
+__all__ = [
+    "MESH_EXTENSIONS",
+    "POINT_EXTENSIONS",
+    "POINT_WRITE_EXTENSIONS",
+    "as_point_set",
+    "read_mesh",
+    "read_point_set",
+    "write_mesh",
+    "write_point_set",
+]
+
+_READERS = {
+    ".ply": read_ply,
+    ".obj": read_obj,
+    ".off": read_off,
+    ".stl": read_stl,
+    ".xyz": read_xyz,
+    ".txt": read_xyz,
+    ".las": read_las,
+    ".laz": read_las,
+}
+#: Extensions read_point_set understands (lower case).
+POINT_EXTENSIONS = tuple(sorted(_READERS))
+#: Extensions read_mesh and write_mesh understand.
+MESH_EXTENSIONS = (".obj", ".off", ".ply", ".stl")
+#: Extensions write_point_set understands.
+POINT_WRITE_EXTENSIONS = (".las", ".laz", ".ply", ".txt", ".xyz")
+_RESERVED = {"x", "y", "z", "nx", "ny", "nz", "red", "green", "blue", "alpha"}
+_NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
+_ZERO_POLICIES = ("raise", "drop")
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def _load(path) -> tuple[Path, RawData]:
+    """Read any supported file into validated raw arrays (errors: PointAtlasIOError)."""
+    try:
+        p = Path(os.fspath(path))
+    except TypeError:
+        raise PointAtlasError(
+            f"path must be a str or os.PathLike; got {type(path).__name__}"
+        ) from None
+    ext = p.suffix.lower()
+    if ext not in _READERS:
+        raise fail(p, f"unknown file extension {ext or '(none)'!r}; supported: {POINT_EXTENSIONS}")
+    try:
+        st = p.stat()
+    except FileNotFoundError:
+        raise fail(p, "no such file") from None
+    except OSError as exc:
+        raise fail(p, f"cannot access ({exc.strerror})") from None
+    if not p.is_file():
+        raise fail(p, "not a regular file")
+    if st.st_size == 0:
+        raise fail(p, "empty file (0 bytes)")
+    try:
+        raw = _READERS[ext](p)
+    except PointAtlasIOError:
+        raise
+    except OSError as exc:
+        raise fail(p, f"cannot read ({exc.strerror or describe_exception(exc)})") from None
+    except Exception as exc:  # any parser failure on corrupt input becomes an I/O error
+        raise fail(p, f"cannot parse {ext} file ({describe_exception(exc)})") from None
+    if not np.isfinite(raw.points).all():
+        bad = ~np.isfinite(raw.points).all(axis=1)
+        raise fail(p, f"non-finite (NaN/Inf) coordinates at {describe_indices(bad)} vertices")
+    if raw.face_offsets is not None:
+        try:
+            _check_faces(raw.faces, raw.face_offsets, raw.points.shape[0])
+        except PointAtlasError as exc:
+            raise fail(p, str(exc)) from None
+    return p, raw
+
+
+def read_point_set(path, *, with_normals: bool = True, zero_normals: str = "raise") -> PointSet:
+    """Read a point set from PLY, OBJ, OFF, STL, XYZ/TXT, LAS or LAZ.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; the format is chosen by the extension (case-insensitive).
+    with_normals : bool
+        Attach normals when the file provides them (PLY ``nx ny nz``, XYZ columns
+        4-6, LAS extra bytes ``nx ny nz``) or when it is a mesh (area-weighted
+        vertex normals). False skips them.
+    zero_normals : {"raise", "drop"}
+        What to do with points that have no usable normal: a mesh vertex that is
+        unreferenced, lies only on zero-area faces or whose faces cancel, or a
+        zero/non-finite normal stored in the file. ``"raise"`` (default) raises
+        PointAtlasIOError naming their count and first indices; ``"drop"`` leaves
+        those points out and records the kept points' original indices in the
+        attribute ``source_index`` (int64).
+
+    Returns
+    -------
+    point_set : PointSet
+        Points (N, 3) float64, unit normals or None, attributes (other PLY vertex
+        properties with their dtypes, ``colors`` (N, 3|4) uint8, LAS dimensions,
+        extra XYZ columns ``column_<j>``), name = the file stem.
+
+    Raises
+    ------
+    PointAtlasIOError
+        Missing, empty, truncated or malformed file, unknown extension, non-numeric
+        values, NaN/Inf coordinates, faces with out-of-range indices, points
+        without normals (``zero_normals="raise"``). The message names the file.
+    PointAtlasError
+        Invalid ``zero_normals``.
+
+    Notes
+    -----
+    A mesh read as a point set is its vertex set with area-weighted vertex normals
+    (the thesis' convention, e.g. section 4.4); see :func:`vertex_normals`. OBJ
+    ``vn`` records are ignored; PLY vertex normals, when present, win over the faces.
+    STL corners are merged into vertices when bit-identical.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "tri.obj"
+    >>> _ = f.write_text("v 0 0 0\\nv 1 0 0\\nv 0 1 0\\nf 1 2 3\\n")
+    >>> ps = read_point_set(f)
+    >>> ps.n_points, ps.normals[0].tolist(), ps.name
+    (3, [0.0, 0.0, 1.0], 'tri')
+    """
+    if zero_normals not in _ZERO_POLICIES:
+        raise PointAtlasError(f"zero_normals must be 'raise' or 'drop'; got {zero_normals!r}")
+    p, raw = _load(path)
+    normals = None
+    if with_normals:
+        if raw.normals is not None:
+            normals, what = raw.normals, "zero-length or non-finite normals in the file"
+        elif raw.has_faces:
+            normals = _vertex_normals(raw.points, raw.faces, raw.face_offsets)
+            what = (
+                "vertices without an area-weighted normal (unreferenced, only on "
+                "zero-area faces, or faces cancelling)"
+            )
+    return _finish(
+        p,
+        raw.points,
+        normals,
+        raw.attributes,
+        p.stem,
+        zero_normals,
+        what="" if normals is None else what,
+        trusted=True,
+    )
+
+
+def _finish(
+    source, points, normals, attributes, name, zero_normals, *, what: str, trusted: bool = False
+) -> PointSet:
+    """Apply the zero-normal policy and build the PointSet (errors name ``source``).
+
+    ``trusted``: the arrays are fresh, owned by the caller and ``points`` are known
+    finite, so the PointSet wraps them without a second validation pass.
+    """
+    attributes = dict(attributes)
+    if normals is not None:
+        lengths = _row_lengths(normals)
+        bad = ~(lengths > NORMAL_ZERO_LENGTH)
+        if np.isinf(lengths).any():
+            bad |= np.isinf(lengths)
+        if bad.any():
+            if zero_normals == "raise":
+                raise fail(
+                    source,
+                    f"{what}: {describe_indices(bad)}; pass zero_normals='drop' to leave "
+                    f"them out or with_normals=False",
+                )
+            keep = ~bad
+            points, normals, lengths = points[keep], normals[keep], lengths[keep]
+            attributes = {k: v[keep] for k, v in attributes.items()}
+            attributes["source_index"] = np.flatnonzero(keep).astype(np.int64)
+        if trusted:  # fresh array owned by the reader: scale in place, column-wise
+            inv = np.divide(1.0, lengths, out=lengths)
+            for c in range(3):
+                normals[:, c] *= inv
+        else:
+            normals = normals / lengths[:, None]
+    if trusted:
+        attrs = {k: v if v.flags.owndata else v.copy() for k, v in attributes.items()}
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        return PointSet._from_validated(points, normals, attrs, name=name)
+    try:
+        return PointSet(points, normals, attributes, name=name)
+    except ValueError as exc:
+        raise fail(source, str(exc)) from None
+
+
+def _row_lengths(vectors: np.ndarray) -> np.ndarray:
+    """Euclidean length of each row of an (N, 3) array (NaN rows give NaN)."""
+    sq = vectors[:, 0] * vectors[:, 0]
+    sq += vectors[:, 1] * vectors[:, 1]
+    sq += vectors[:, 2] * vectors[:, 2]
+    return np.sqrt(sq, out=sq)
+
+
+def read_mesh(path) -> Mesh:
+    """Read a triangle or polygon mesh from PLY, OBJ, OFF or STL.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; ``.ply``, ``.obj``, ``.off`` or ``.stl`` (case-insensitive).
+
+    Returns
+    -------
+    mesh : Mesh
+        Vertices in file order (STL: distinct corners in order of first
+        appearance), polygon faces as stored, per-face colours from PLY/OFF when
+        present, name = the file stem. A PLY without a face element gives a mesh
+        with no faces.
+
+    Raises
+    ------
+    PointAtlasIOError
+        As :func:`read_point_set`, and for point-only formats (XYZ, LAS).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "quad.off"
+    >>> _ = f.write_text("OFF\\n4 1 0\\n0 0 0\\n1 0 0\\n1 1 0\\n0 1 0\\n4 0 1 2 3\\n")
+    >>> m = read_mesh(f)
+    >>> m.n_vertices, m.n_faces, m.face_sizes.tolist()
+    (4, 1, [4])
+    """
+    p = Path(os.fspath(path))
+    if p.suffix.lower() not in MESH_EXTENSIONS:
+        raise fail(p, f"not a mesh format {p.suffix!r}; mesh formats: {MESH_EXTENSIONS}")
+    p, raw = _load(p)
+    faces = raw.faces if raw.faces is not None else np.zeros(0, dtype=np.int64)
+    offsets = raw.face_offsets if raw.face_offsets is not None else np.zeros(1, dtype=np.int64)
+    try:
+        return Mesh(raw.points, faces, offsets, face_colors=raw.face_colors, name=p.stem)
+    except PointAtlasError as exc:
+        raise fail(p, str(exc)) from None
+
+
+# --------------------------------------------------------------------------- writing
+
+
+def _ply_column(name: str, values: np.ndarray, path) -> np.ndarray:
+    """Convert one attribute column to a PLY-storable dtype (see io-decisions)."""
+    kind, size = values.dtype.kind, values.dtype.itemsize
+    if kind == "b":
+        return values.astype(np.uint8)
+    if kind == "f":
+        return values.astype(np.float32 if size <= 4 else np.float64)
+    if kind in "iu" and size <= 4:
+        return values
+    if kind in "iu":
+        target = np.int32 if kind == "i" else np.uint32
+        info = np.iinfo(target)
+        if values.size == 0 or (values.min() >= info.min and values.max() <= info.max):
+            return values.astype(target)
+        if np.abs(values.astype(np.float64)).max() <= 2.0**53:
+            return values.astype(np.float64)
+    raise fail(path, f"attribute {name!r} of dtype {values.dtype} cannot be stored in PLY")
+
+
+def _gather(data, normals, attributes, colors) -> tuple[np.ndarray, np.ndarray | None, dict]:
+    """Collect validated points, normals, attributes (colours under 'colors')."""
+    if isinstance(data, PointSet):
+        points = data.points
+        base_normals = data.normals
+        attrs = dict(data.attributes)
+    else:
+        try:
+            points = as_points(data, name="data", min_points=0)
+        except (TypeError, ValueError) as exc:
+            raise PointAtlasError(str(exc)) from None
+        base_normals, attrs = None, {}
+    n = points.shape[0]
+    try:
+        nrm = as_normals(normals, n) if normals is not None else base_normals
+    except (TypeError, ValueError) as exc:
+        raise PointAtlasError(str(exc)) from None
+    for key, value in dict(attributes or {}).items():
+        attrs[str(key)] = np.asarray(value)
+    if colors is not None:
+        attrs["colors"] = np.asarray(colors)
+    for key, value in attrs.items():
+        if value.ndim not in (1, 2) or value.shape[0] != n:
+            raise PointAtlasError(
+                f"attribute {key!r} must have shape (N,) or (N, k) with N = {n}; got {value.shape}"
+            )
+        if value.dtype.kind not in "biuf":
+            raise PointAtlasError(f"attribute {key!r} must be numeric; got dtype {value.dtype}")
+    if "colors" in attrs:
+        value = attrs["colors"]
+        converted = colors_to_uint8(value) if value.ndim == 2 else None
+        if converted is None or converted.shape[1] not in (3, 4):
+            raise PointAtlasError(
+                "colors must have shape (N, 3) or (N, 4), uint8 0..255 or floats in [0, 1]; "
+                f"got shape {value.shape}, dtype {value.dtype}"
+            )
+        attrs["colors"] = converted
+    return points, nrm, attrs
+
+
+def write_point_set(
+    path, data, *, normals=None, attributes=None, colors=None, binary: bool = True
+) -> Path:
+    """Write a point set atomically to PLY, XYZ/TXT, LAS or LAZ.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination; the format is chosen by the extension.
+    data : PointSet or array_like of shape (N, 3)
+        The points (with a PointSet its normals and attributes are written too).
+    normals : array_like of shape (N, 3), optional
+        Normals (replacing those of ``data``); rescaled to unit length.
+    attributes : mapping of str to array_like of shape (N,) or (N, k), optional
+        Extra per-point fields (added to, or replacing, those of ``data``).
+    colors : array_like of shape (N, 3) or (N, 4), optional
+        RGB(A) as uint8 0..255 or floats in [0, 1]; also taken from the attribute
+        ``colors``.
+    binary : bool
+        PLY only: binary little-endian (default) or ASCII.
+
+    Returns
+    -------
+    path : pathlib.Path
+        The written file.
+
+    Raises
+    ------
+    PointAtlasIOError
+        Unsupported extension, an attribute that the format cannot store, or the
+        write failed (the previous file, if any, is left untouched).
+    PointAtlasError
+        Invalid points, normals, attributes or colours.
+
+    Notes
+    -----
+    PLY: x, y, z and nx, ny, nz as double; colours as uchar red/green/blue(/alpha);
+    1-D attributes as vertex properties of their own type (bool -> uchar, float16
+    -> float, int64/uint64 -> int/uint when the values fit, else double when exact);
+    an (N, k) attribute becomes ``name_0`` ... ``name_{k-1}``. XYZ/TXT stores only
+    coordinates and normals. LAS/LAZ: LAS 1.4 point format 6/7, coordinates scaled
+    to the finest power of ten that fits int32 (round-trip error at most 2.5e-9 of the
+    extent), attributes that are not standard dimensions and the normals as extra
+    bytes. Writes go through :func:`atomic_write`.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "pts.ply"
+    >>> _ = write_point_set(f, [[0, 0, 0], [1, 2, 3]], attributes={"label": [4, 5]})
+    >>> ps = read_point_set(f)
+    >>> ps.points[1].tolist(), ps.attributes["label"].tolist()
+    ([1.0, 2.0, 3.0], [4, 5])
+    """
+    p = Path(os.fspath(path))
+    ext = p.suffix.lower()
+    if ext not in POINT_WRITE_EXTENSIONS:
+        raise fail(
+            p, f"cannot write point sets as {ext or '(none)'!r}; use {POINT_WRITE_EXTENSIONS}"
+        )
+    points, nrm, attrs = _gather(data, normals, attributes, colors)
+    cols = attrs.pop("colors", None)
+    for key in attrs:
+        if ext == ".ply" and (key in _RESERVED or not _NAME_RE.match(key)):
+            raise PointAtlasError(
+                f"attribute name {key!r} cannot be a PLY property (reserved or not an identifier)"
+            )
+    if ext == ".ply":
+        columns = [(k, points[:, c]) for c, k in enumerate("xyz")]
+        if nrm is not None:
+            columns += [(k, nrm[:, c]) for c, k in enumerate(("nx", "ny", "nz"))]
+        for key, value in attrs.items():
+            if value.ndim == 1:
+                columns.append((key, _ply_column(key, value, p)))
+            else:
+                columns += [
+                    (f"{key}_{j}", _ply_column(key, value[:, j], p)) for j in range(value.shape[1])
+                ]
+        if cols is not None:
+            columns += [
+                (k, cols[:, c])
+                for c, k in enumerate(("red", "green", "blue", "alpha")[: cols.shape[1]])
+            ]
+        _write_guarded(
+            p,
+            "wb",
+            lambda fh: write_ply(fh, columns, binary=binary, comments=("written by pointatlas",)),
+        )
+    elif ext in (".xyz", ".txt"):
+        _write_guarded(p, "w", lambda fh: write_xyz(fh, points, nrm))
+    else:
+        flat_attrs = {}
+        for key, value in attrs.items():
+            if value.ndim == 1:
+                flat_attrs[key] = value
+            else:
+                flat_attrs.update({f"{key}_{j}": value[:, j] for j in range(value.shape[1])})
+        _write_guarded(
+            p, "wb", lambda fh: write_las(fh, points, nrm, flat_attrs, cols, laz=ext == ".laz")
+        )
+    return p
+
+
+def _write_guarded(p: Path, mode: str, writer) -> None:
+    try:
+        with atomic_write(p, mode, newline="\n" if mode == "w" else None) as fh:
+            writer(fh)
+    except (PointAtlasError, KeyboardInterrupt):
+        raise
+    except OSError as exc:
+        raise fail(p, f"cannot write ({exc.strerror or describe_exception(exc)})") from None
+    except Exception as exc:  # laspy and friends
+        raise fail(p, f"cannot write ({describe_exception(exc)})") from None
+
+
+def write_mesh(
+    path, mesh_or_vertices, faces=None, *, face_offsets=None, face_colors=None, binary: bool = True
+) -> Path:
+    """Write a triangle or polygon mesh atomically to PLY, OBJ, OFF or STL.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination; the format is chosen by the extension.
+    mesh_or_vertices : Mesh or array_like of shape (V, 3)
+        A mesh, or its vertices (then ``faces`` is required).
+    faces : array_like, optional
+        (F, k) indices, a sequence of polygons, or flat indices with ``face_offsets``.
+    face_offsets : array_like of shape (F + 1,), optional
+        Compressed-row offsets for flat ``faces``.
+    face_colors : array_like of shape (F, 3) or (F, 4), uint8, optional
+        Per-face colours (PLY and OFF; replaces the mesh's own).
+    binary : bool
+        PLY only: binary little-endian (default) or ASCII.
+
+    Returns
+    -------
+    path : pathlib.Path
+        The written file.
+
+    Raises
+    ------
+    PointAtlasIOError
+        Unsupported extension, face colours for OBJ/STL, or the write failed.
+    PointAtlasError
+        Invalid mesh.
+
+    Notes
+    -----
+    Polygon faces are written as polygons (PLY, OBJ, OFF) or fan-triangulated (STL,
+    float32 coordinates by the format). PLY vertices are doubles; the face list is
+    ``property list uchar int vertex_indices`` (``uint`` counts for faces over 255
+    vertices) plus uchar ``red green blue (alpha)``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "quad.obj"
+    >>> _ = write_mesh(f, [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2, 3]])
+    >>> f.read_text().splitlines()[-1]
+    'f 1 2 3 4'
+    """
+    p = Path(os.fspath(path))
+    ext = p.suffix.lower()
+    if ext not in MESH_EXTENSIONS:
+        raise fail(p, f"cannot write meshes as {ext or '(none)'!r}; use {MESH_EXTENSIONS}")
+    if isinstance(mesh_or_vertices, Mesh):
+        if faces is not None or face_offsets is not None:
+            raise PointAtlasError("faces must not be given together with a Mesh")
+        mesh = mesh_or_vertices
+        if face_colors is not None:
+            mesh = Mesh(
+                mesh.vertices,
+                mesh.faces,
+                mesh.face_offsets,
+                face_colors=_face_colors(face_colors),
+                name=mesh.name,
+            )
+    else:
+        if faces is None:
+            raise PointAtlasError("faces are required when vertices are given")
+        fc = None if face_colors is None else _face_colors(face_colors)
+        mesh = Mesh(mesh_or_vertices, faces, face_offsets, face_colors=fc)
+    if mesh.face_colors is not None and ext in (".obj", ".stl"):
+        raise fail(p, f"{ext} cannot store face colours; use .ply or .off")
+    v, f, o = mesh.vertices, mesh.faces, mesh.face_offsets
+    if ext == ".ply":
+        columns = [(k, v[:, c]) for c, k in enumerate("xyz")]
+        _write_guarded(
+            p,
+            "wb",
+            lambda fh: write_ply(
+                fh,
+                columns,
+                faces=f,
+                face_offsets=o,
+                face_colors=mesh.face_colors,
+                binary=binary,
+                comments=("written by pointatlas",),
+            ),
+        )
+    elif ext == ".obj":
+        _write_guarded(p, "w", lambda fh: write_obj(fh, v, f, o))
+    elif ext == ".off":
+        _write_guarded(p, "w", lambda fh: write_off(fh, v, f, o, mesh.face_colors))
+    else:
+        _write_guarded(p, "wb", lambda fh: write_stl(fh, v, mesh.triangles))
+    return p
+
+
+def _face_colors(values) -> np.ndarray:
+    arr = np.asarray(values)
+    converted = colors_to_uint8(arr) if arr.ndim == 2 else None
+    if converted is None:
+        raise PointAtlasError(
+            "face_colors must have shape (F, 3) or (F, 4), uint8 0..255 or floats in [0, 1]; "
+            f"got shape {arr.shape}, dtype {arr.dtype}"
+        )
+    return converted
+
+
+# --------------------------------------------------------------------------- conversion
+
+
+def as_point_set(obj, *, name: str | None = None, zero_normals: str = "raise") -> PointSet:
+    """Convert arrays, files, meshes and Open3D/trimesh objects into a PointSet.
+
+    Parameters
+    ----------
+    obj : PointSet, Mesh, str, os.PathLike, array_like, trimesh or Open3D object
+        - PointSet: returned as is (renamed when ``name`` is given);
+        - str / os.PathLike: read with :func:`read_point_set`;
+        - (N, 3) array: points; (N, 6) array: points and normals;
+        - :class:`Mesh`, ``trimesh.Trimesh``, ``open3d.geometry.TriangleMesh``:
+          vertices with area-weighted vertex normals;
+        - ``trimesh.PointCloud``, ``open3d.geometry.PointCloud``: points, their
+          normals (Open3D) and colours when present.
+    name : str, optional
+        Name of the result.
+    zero_normals : {"raise", "drop"}
+        Policy for mesh vertices without a normal, as in :func:`read_point_set`.
+
+    Returns
+    -------
+    point_set : PointSet
+
+    Raises
+    ------
+    PointAtlasError
+        Unsupported object or invalid arrays; PointAtlasIOError for files.
+
+    Notes
+    -----
+    Open3D and trimesh are recognised by duck typing (their attributes), so neither
+    is imported here. Arrays are copied once into the (read-only) PointSet.
+
+    Examples
+    --------
+    >>> as_point_set([[0, 0, 0, 0, 0, 2]]).normals.tolist()
+    [[0.0, 0.0, 1.0]]
+    """
+    if zero_normals not in _ZERO_POLICIES:
+        raise PointAtlasError(f"zero_normals must be 'raise' or 'drop'; got {zero_normals!r}")
+    if isinstance(obj, PointSet):
+        return obj if name is None else obj.replace(name=name)
+    if isinstance(obj, (str, os.PathLike)):
+        ps = read_point_set(obj, zero_normals=zero_normals)
+        return ps if name is None else ps.replace(name=name)
+    label = type(obj).__name__
+    what = "vertices without an area-weighted normal"
+    if isinstance(obj, Mesh):
+        return _mesh_point_set(
+            label, obj.vertices, obj.faces, obj.face_offsets, {}, name or obj.name, zero_normals
+        )
+    if callable(getattr(obj, "has_triangles", None)) and hasattr(obj, "vertices"):
+        verts = np.asarray(obj.vertices, dtype=np.float64)
+        tris = np.asarray(obj.triangles, dtype=np.int64).reshape(-1, 3)
+        return _mesh_point_set(
+            label,
+            verts,
+            tris.reshape(-1),
+            np.arange(tris.shape[0] + 1) * 3,
+            {},
+            name or "",
+            zero_normals,
+        )
+    if callable(getattr(obj, "has_normals", None)) and hasattr(obj, "points"):
+        pts = np.asarray(obj.points, dtype=np.float64)
+        nrm = np.asarray(obj.normals, dtype=np.float64) if obj.has_normals() else None
+        attrs = {}
+        if callable(getattr(obj, "has_colors", None)) and obj.has_colors():
+            converted = colors_to_uint8(np.clip(np.asarray(obj.colors, dtype=np.float64), 0.0, 1.0))
+            attrs["colors"] = converted
+        return _from_arrays(label, pts, nrm, attrs, name or "", zero_normals, "zero-length normals")
+    if hasattr(obj, "vertices") and hasattr(obj, "faces"):
+        verts = np.asarray(obj.vertices, dtype=np.float64)
+        tris = np.asarray(obj.faces, dtype=np.int64)
+        if tris.ndim != 2:
+            raise PointAtlasError(f"{label}.faces must have shape (F, k); got {tris.shape}")
+        offsets = np.arange(tris.shape[0] + 1, dtype=np.int64) * tris.shape[1]
+        return _mesh_point_set(
+            label, verts, tris.reshape(-1), offsets, {}, name or "", zero_normals
+        )
+    if hasattr(obj, "vertices") and not isinstance(obj, np.ndarray):
+        pts = np.asarray(obj.vertices, dtype=np.float64)
+        attrs = {}
+        colors = getattr(obj, "colors", None)
+        if colors is not None and np.asarray(colors).shape[:1] == pts.shape[:1] and len(pts):
+            converted = colors_to_uint8(np.asarray(colors))
+            if converted is not None:
+                attrs["colors"] = converted
+        return _from_arrays(label, pts, None, attrs, name or "", zero_normals, what)
+    try:
+        arr = np.asarray(obj, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise PointAtlasError(f"cannot convert {label} to a PointSet") from None
+    if arr.ndim != 2 or arr.shape[1] not in (3, 6):
+        raise PointAtlasError(f"array must have shape (N, 3) or (N, 6); got {arr.shape}")
+    nrm = arr[:, 3:] if arr.shape[1] == 6 else None
+    return _from_arrays(label, arr[:, :3], nrm, {}, name or "", zero_normals, "zero-length normals")
+
+
+def _mesh_point_set(label, verts, flat, offsets, attrs, name, zero_normals) -> PointSet:
+    try:
+        verts = as_points(verts, name=f"{label} vertices", min_points=0)
+        _check_faces(flat, offsets, verts.shape[0])
+    except ValueError as exc:
+        raise PointAtlasError(str(exc)) from None
+    nrm = _vertex_normals(verts, flat, offsets)
+    return _from_arrays(
+        label, verts, nrm, attrs, name, zero_normals, "vertices without an area-weighted normal"
+    )
+
+
+def _from_arrays(label, pts, nrm, attrs, name, zero_normals, what) -> PointSet:
+    try:
+        pts = as_points(pts, name=f"{label} points", min_points=0)
+    except ValueError as exc:
+        raise PointAtlasError(str(exc)) from None
+    if nrm is not None and nrm.shape != pts.shape:
+        raise PointAtlasError(f"{label} normals must have shape {pts.shape}; got {nrm.shape}")
+    try:
+        return _finish(label, pts, nrm, attrs, name, zero_normals, what=what)
+    except PointAtlasIOError as exc:
+        raise PointAtlasError(str(exc)) from None

@@ -1,0 +1,37 @@
+"""Synthetic test shapes with exact normals, mesh sampling and noise (GUIDE "Test models")."""
+
+from ._mesh import SynthMesh, face_areas, vertex_normals
+from ._noise import add_gaussian_noise, add_normal_noise
+from ._sample import MeshSample, sample_mesh
+from ._shapes import (
+    cube,
+    cylinder,
+    dodecahedron,
+    fibonacci_sphere,
+    icosphere,
+    line,
+    octahedron,
+    plane_patch,
+    sphere,
+    torus,
+)
+
+__all__ = [
+    "MeshSample",
+    "SynthMesh",
+    "add_gaussian_noise",
+    "add_normal_noise",
+    "cube",
+    "cylinder",
+    "dodecahedron",
+    "face_areas",
+    "fibonacci_sphere",
+    "icosphere",
+    "line",
+    "octahedron",
+    "plane_patch",
+    "sample_mesh",
+    "sphere",
+    "torus",
+    "vertex_normals",
+]

@@ -1,0 +1,82 @@
+import numpy as np
+import pytest
+
+from pointatlas._core import PointAtlasError, PointSet, as_labels, as_normals, as_points
+
+
+def test_as_points_shape_and_dtype():
+    pts = as_points([[0, 0, 0], [1, 2, 3]])
+    assert pts.dtype == np.float64 and pts.shape == (2, 3)
+
+
+@pytest.mark.parametrize("bad", [np.zeros((4, 2)), np.zeros(3), np.zeros((2, 3, 1))])
+def test_as_points_rejects_bad_shapes(bad):
+    with pytest.raises(ValueError, match=r"points must have shape \(N, 3\); got"):
+        as_points(bad)
+
+
+def test_as_points_names_non_finite_indices():
+    pts = np.zeros((10, 3))
+    pts[[2, 7], 1] = [np.nan, np.inf]
+    with pytest.raises(ValueError, match=r"non-finite.*2 \(indices 2, 7\)"):
+        as_points(pts)
+
+
+def test_as_points_non_numeric_is_type_error():
+    with pytest.raises(TypeError, match="points must be numeric"):
+        as_points([["a", "b", "c"]])
+
+
+def test_as_normals_normalises_and_copies():
+    raw = np.array([[0.0, 0.0, 2.0], [3.0, 4.0, 0.0]])
+    out = as_normals(raw)
+    np.testing.assert_allclose(np.linalg.norm(out, axis=1), 1.0)
+    assert raw[0, 2] == 2.0  # input untouched
+
+
+def test_as_normals_zero_length_lists_count_and_indices():
+    nrm = np.ones((8, 3))
+    nrm[[1, 3, 4, 5, 6, 7]] = 0.0
+    with pytest.raises(ValueError, match=r"zero-length vectors at 6 \(indices 1, 3, 4, 5, 6, \.\.\.\)"):
+        as_normals(nrm)
+
+
+def test_as_normals_non_finite_and_count_mismatch():
+    with pytest.raises(ValueError, match="non-finite"):
+        as_normals([[np.nan, 0, 1]])
+    with pytest.raises(ValueError, match="one row per point"):
+        as_normals(np.ones((2, 3)), 3)
+
+
+def test_as_labels():
+    assert as_labels([0.0, 2.0]).tolist() == [0, 2]
+    with pytest.raises(ValueError, match="must be integers"):
+        as_labels([0.5, 1.0])
+    with pytest.raises(ValueError, match="one entry per point"):
+        as_labels([0, 1], 3)
+
+
+def test_pointset_is_frozen_and_readonly():
+    pts = np.random.default_rng(0).random((5, 3))
+    ps = PointSet(pts, normals=np.tile([0, 0, 5.0], (5, 1)), attributes={"f": np.arange(5)})
+    assert ps.n_points == 5 and ps.has_normals
+    np.testing.assert_allclose(ps.normals[:, 2], 1.0)
+    with pytest.raises(ValueError):
+        ps.points[0, 0] = 1.0
+    with pytest.raises(AttributeError):
+        ps.name = "x"
+    pts[0, 0] = 42.0  # the PointSet holds its own copy
+    assert ps.points[0, 0] != 42.0
+    ps2 = ps.with_attributes(g=np.ones(5))
+    assert set(ps2.attributes) == {"f", "g"} and set(ps.attributes) == {"f"}
+
+
+def test_pointset_rejects_bad_attribute_and_bad_normals():
+    with pytest.raises(ValueError, match="attribute 'f' must have one entry per point"):
+        PointSet(np.zeros((3, 3)), attributes={"f": np.arange(2)})
+    with pytest.raises(ValueError, match="zero-length"):
+        PointSet(np.zeros((2, 3)), normals=np.zeros((2, 3)))
+
+
+def test_pointatlas_error_is_value_error():
+    assert issubclass(PointAtlasError, ValueError)
