@@ -26,9 +26,9 @@ test: lint
 
 bench: install
 	$(BIN)/python -m pip install --quiet -e ".[dev,bench]"
-	$(BIN)/python benchmarks/bench_neighbors.py
-	$(BIN)/python benchmarks/bench_normals.py
-	$(BIN)/python benchmarks/bench_io.py
+	for b in neighbors io normals features vsa simplify viz synth batch; do \
+		$(BIN)/python benchmarks/bench_$$b.py || exit 1; \
+	done
 
 clean:
 	rm -rf $(VENV) demo-output build *.egg-info

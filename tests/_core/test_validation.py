@@ -37,7 +37,8 @@ def test_as_normals_normalises_and_copies():
 def test_as_normals_zero_length_lists_count_and_indices():
     nrm = np.ones((8, 3))
     nrm[[1, 3, 4, 5, 6, 7]] = 0.0
-    with pytest.raises(ValueError, match=r"zero-length vectors at 6 \(indices 1, 3, 4, 5, 6, \.\.\.\)"):
+    expected = r"zero-length vectors at 6 \(indices 1, 3, 4, 5, 6, \.\.\.\)"
+    with pytest.raises(ValueError, match=expected):
         as_normals(nrm)
 
 

@@ -69,3 +69,25 @@ SIMPLIFY_CONSTRAINT_TOL = 1e-9
 #: simplify: all proxy normals within this angle (radians, 5 deg) of one direction
 #: (up to sign) means all proxy planes are parallel and no vertex is defined.
 SIMPLIFY_PARALLEL_ANGLE = 0.08726646259971647
+
+#: VSA (segment): iterations of the main loop in which merges are allowed. Merges
+#: may raise the energy (thesis 4.3.3 b), so split/merge/switch can ping-pong for
+#: ever; after this many rounds only split, switch and update run, which never
+#: raise the energy, so the loop terminates (Theorem 1). Region counts settle
+#: within 2-4 rounds on the bundled models.
+VSA_MERGE_ROUNDS = 8
+
+#: Safety margin of the k-NN grid (pointatlas.neighbors), relative to the cell
+#: size: cell faces computed as lo + i * h and the floor() that assigns points to
+#: cells can disagree by round-off, so pruning and "search finished" bounds are
+#: shrunk by this much (far above float64 round-off for <= 2**21 cells per axis).
+GRID_CELL_MARGIN = 1e-6
+
+#: Relative margin certifying a cKDTree candidate list (pointatlas.neighbors): the
+#: tree's squared distances may differ from ours by round-off, so a row is only
+#: final when the first left-out candidate is farther by more than this.
+KDTREE_CERTIFY_RTOL = 1e-12
+
+#: Relative widening of the radius handed to cKDTree for closed-ball queries; the
+#: exact test (squared distance <= radius**2) is re-applied afterwards.
+RADIUS_QUERY_WIDEN = 1e-9

@@ -7,6 +7,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 
 from .._core import as_points
+from . import _kernels
 from ._knn import query_knn
 
 __all__ = ["knn_graph", "knn_components", "mean_spacing"]
@@ -24,14 +25,21 @@ def knn_graph(points, k: int, *, symmetric: bool = True, indices=None) -> sparse
     symmetric : bool
         If True (default) i ~ j when either is among the other's k nearest.
     indices : ndarray of shape (N, k), int64, optional
-        Precomputed `query_knn` indices (avoids a second query).
+        Precomputed `query_knn` indices (avoids a second query); column 0 (the
+        point itself) is ignored.
 
     Returns
     -------
     graph : scipy.sparse.csr_array of shape (N, N), float64
         Entry (i, j) is the distance |p_i - p_j|. Exact duplicates are stored as
         explicit zeros, so use ``graph.indices``/``indptr`` (the structure), not
-        ``graph.data != 0``, for adjacency.
+        ``graph.data != 0``, for adjacency. Columns are sorted within each row.
+
+    Notes
+    -----
+    The structure is built by a numba kernel (counting scatter, per-row sort and
+    de-duplication); distances are evaluated on bounding-box-centred
+    coordinates, as in `query_knn`.
 
     Examples
     --------
@@ -40,22 +48,19 @@ def knn_graph(points, k: int, *, symmetric: bool = True, indices=None) -> sparse
     [[0.0, 1.0, 0.0], [1.0, 0.0, 4.0], [0.0, 4.0, 0.0]]
     """
     pts = as_points(points)
+    n = pts.shape[0]
     if indices is None:
         indices, _ = query_knn(pts, k)
-    n = pts.shape[0]
-    nbr = np.asarray(indices, dtype=np.int64)[:, 1:]
-    rows = np.repeat(np.arange(n, dtype=np.int64), nbr.shape[1])
-    cols = nbr.ravel()
-    if symmetric:
-        rows, cols = np.concatenate([rows, cols]), np.concatenate([cols, rows])
-        key = np.unique(rows * n + cols)
-        rows, cols = key // n, key % n
-    diff = pts[rows] - pts[cols]
-    dist = np.sqrt(np.einsum("ij,ij->i", diff, diff))
-    order = np.lexsort((cols, rows))
-    rows, cols, dist = rows[order], cols[order], dist[order]
-    indptr = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
+    nbr = np.asarray(indices, dtype=np.int64)
+    if nbr.ndim != 2 or nbr.shape[0] != n or nbr.shape[1] < 1:
+        raise ValueError(f"indices must have shape ({n}, k) with k >= 1; got {nbr.shape}")
+    if nbr.size and (nbr.min() < 0 or nbr.max() >= n):
+        raise ValueError(f"indices must lie in [0, {n}); got values in [{nbr.min()}, {nbr.max()}]")
+    nbr = np.ascontiguousarray(nbr[:, 1:])
+    indptr, cols = _kernels.graph_structure(nbr, n, bool(symmetric))
+    # distances on bounding-box-centred coordinates, like query_knn
+    centred = pts - 0.5 * (pts.min(axis=0) + pts.max(axis=0)) if n else pts
+    dist = _kernels.edge_lengths(centred, indptr, cols)
     return sparse.csr_array((dist, cols, indptr), shape=(n, n))
 
 

@@ -3,8 +3,17 @@
 Combinatorial neighbourhood (thesis Example 1 v, GUIDE conventions): the k nearest
 points *including the point itself*. Decision (docs/decisions.md): column 0 is
 always the point itself, even when exact duplicates with smaller indices exist;
-the other k - 1 columns are the remaining points ordered by (distance, index), so
-among equally distant candidates the smaller index wins and N^c is unique.
+the other k - 1 columns are the remaining points ordered by (squared distance,
+index), so among equally distant candidates the smaller index wins and N^c is
+unique. Squared distances are evaluated as ``dx*dx + dy*dy + dz*dz`` in float64 on
+coordinates centred on their bounding-box centre; exact equality is a tie.
+
+Two backends give identical results (tested): ``"grid"``, a numba kernel on a
+compact sorted-cell grid (``_grid.py``, ``_kernels.py``), and ``"kdtree"``, scipy's
+``cKDTree`` followed by an exact numba re-selection of its candidates. ``"auto"``
+(default) runs the grid and hands the few queries it cannot certify within 3
+cell rings (isolated outliers far from the bulk) to the k-d tree; ``"grid"`` does
+the same after 16 rings.
 """
 
 from __future__ import annotations
@@ -15,8 +24,20 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .._core import PointAtlasError, as_points, readonly
+from .._core.tolerances import RADIUS_QUERY_WIDEN
+from . import _kernels as K
+from ._grid import knn_grid_for, radius_grid_for
 
 __all__ = ["NeighborIndex", "RadiusNeighbors", "query_knn", "query_radius"]
+
+_BACKENDS = ("auto", "grid", "kdtree")
+
+#: Rings of cells the grid kernel searches before handing a query to the k-d tree
+#: (backend "auto"; "grid" searches further, bounding the cost of a far outlier).
+_MAX_RING = {"auto": 3, "grid": 16}
+
+#: Candidate entries per k-d tree query chunk (bounds temporary memory).
+_CHUNK_ENTRIES = 1 << 22
 
 
 def _check_k(k, n_points: int) -> int:
@@ -33,45 +54,34 @@ def _check_k(k, n_points: int) -> int:
     return k
 
 
-def _order_rows(idx: np.ndarray, dist: np.ndarray, self_idx: np.ndarray, k: int):
-    """Sort candidate rows by (distance, index), put self first, keep k columns.
-
-    ``idx``/``dist`` are (M, C) candidate arrays padded with index = huge and
-    dist = inf; every row contains its own point.
-    """
-    order = np.lexsort((idx, dist), axis=-1)
-    idx = np.take_along_axis(idx, order, axis=1)
-    dist = np.take_along_axis(dist, order, axis=1)
-    is_self = idx == self_idx[:, None]
-    # drop the self column: stable selection of the others, then prepend self
-    others_rank = np.cumsum(~is_self, axis=1) - 1
-    keep = (~is_self) & (others_rank < k - 1)
-    m = idx.shape[0]
-    out_idx = np.empty((m, k), dtype=np.int64)
-    out_dist = np.empty((m, k), dtype=np.float64)
-    out_idx[:, 0] = self_idx
-    out_dist[:, 0] = 0.0
-    if k > 1:
-        rows, cols = np.nonzero(keep)
-        out_idx[rows, 1 + others_rank[rows, cols]] = idx[rows, cols]
-        out_dist[rows, 1 + others_rank[rows, cols]] = dist[rows, cols]
-    return out_idx, out_dist
+def _check_backend(backend) -> str:
+    if backend not in _BACKENDS:
+        raise ValueError(f"backend must be one of {_BACKENDS}; got {backend!r}")
+    return backend
 
 
 class NeighborIndex:
-    """A k-d tree over a point set, built once and queried many times.
+    """A spatial index over a point set, built once and queried many times.
 
     Parameters
     ----------
     points : array_like of shape (N, 3)
         Coordinates (validated; non-finite values raise).
+    backend : {"auto", "grid", "kdtree"}
+        ``"grid"``: numba kernel on a compact sorted-cell grid, searching up to
+        16 rings of cells around a query; ``"kdtree"``: scipy ``cKDTree`` plus an
+        exact re-selection; ``"auto"`` (default): the grid with 3 rings. Queries
+        the grid cannot certify within its rings (far outliers) are answered by
+        the k-d tree path. All give identical results.
 
     Notes
     -----
-    Coordinates are centred on their bounding-box centre before the tree is built
-    so distances keep their precision for UTM-like inputs. Exact ties are broken by
-    smaller index (GUIDE conventions). The one-shot functions `query_knn` and
-    `query_radius` wrap this class.
+    Coordinates are centred on their bounding-box centre before anything else so
+    distances keep their precision for UTM-like inputs (a shift by 1e6 gives the
+    same neighbours). Exact ties of the squared distance are broken by smaller
+    index (GUIDE conventions). The one-shot functions `query_knn` and
+    `query_radius` wrap this class. Grids depend on k (or the radius) and are
+    built per query; the k-d tree is built lazily once.
 
     Examples
     --------
@@ -80,16 +90,24 @@ class NeighborIndex:
     [[0, 1], [1, 0], [2, 1]]
     """
 
-    def __init__(self, points):
+    def __init__(self, points, *, backend: str = "auto"):
         pts = as_points(points, min_points=1)
+        self.backend = _check_backend(backend)
         self.center_ = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
         self.points_ = readonly(pts - self.center_)
-        self.tree_ = cKDTree(self.points_, balanced_tree=False, compact_nodes=False)
+        self._tree = None
 
     @property
     def n_points(self) -> int:
         """Number of indexed points."""
         return int(self.points_.shape[0])
+
+    @property
+    def tree_(self) -> cKDTree:
+        """The scipy ``cKDTree`` over the centred points (built on first use)."""
+        if self._tree is None:
+            self._tree = cKDTree(self.points_, balanced_tree=False, compact_nodes=False)
+        return self._tree
 
     def knn(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """k nearest neighbours of every indexed point, the point itself first.
@@ -113,41 +131,59 @@ class NeighborIndex:
         """
         n = self.n_points
         k = _check_k(k, n)
-        kk = min(k + 1, n)
-        dist, idx = self.tree_.query(self.points_, k=kk, workers=-1)
-        dist = np.asarray(dist, dtype=np.float64).reshape(n, kk)
-        idx = np.asarray(idx, dtype=np.int64).reshape(n, kk)
-        self_idx = np.arange(n, dtype=np.int64)
-        has_self = (idx == self_idx[:, None]).any(axis=1)
-        if kk > k:
-            boundary_tie = dist[:, k - 1] == dist[:, k]
+        if k == 1:
+            return np.arange(n, dtype=np.int64)[:, None], np.zeros((n, 1))
+        if self.backend == "kdtree":
+            out_idx, out_d2 = self._knn_kdtree(np.arange(n, dtype=np.int64), k)
         else:
-            boundary_tie = np.zeros(n, dtype=bool)
-        problem = np.flatnonzero(boundary_tie | ~has_self)
-        out_idx, out_dist = _order_rows(idx, dist, self_idx, k)
-        if problem.size:
-            radius = dist[problem, k - 1] if kk > k else dist[problem, -1]
-            fix_idx, fix_dist = self._ball_candidates(problem, radius)
-            out_idx[problem], out_dist[problem] = _order_rows(fix_idx, fix_dist, problem, k)
-        return out_idx, out_dist
+            grid = knn_grid_for(self.points_, k)
+            out_idx = np.empty((n, k), dtype=np.int64)
+            out_d2 = np.empty((n, k), dtype=np.float64)
+            failed = np.zeros(n, dtype=np.bool_)
+            max_ring = _MAX_RING[self.backend]
+            K.knn_grid(
+                grid.xs, grid.ys, grid.zs, grid.ids, grid.ukeys, grid.cstart, grid.lo,
+                grid.h, grid.nx, grid.ny, grid.nz, k, max_ring, out_idx, out_d2, failed,
+            )  # fmt: skip
+            rows = np.flatnonzero(failed)
+            if rows.size:
+                out_idx[rows], out_d2[rows] = self._knn_kdtree(rows, k)
+        K.sqrt_inplace(out_d2)
+        return out_idx, out_d2
 
-    def _ball_candidates(self, rows: np.ndarray, radius: np.ndarray):
-        """All points within ``radius`` (closed ball, slightly widened) of ``rows``."""
-        r = radius * (1.0 + 1e-12) + 1e-300
-        lists = self.tree_.query_ball_point(self.points_[rows], r, workers=-1)
-        lengths = np.fromiter((len(v) for v in lists), dtype=np.int64, count=len(lists))
-        flat = np.fromiter((j for v in lists for j in v), dtype=np.int64, count=lengths.sum())
-        width = int(lengths.max())
-        cand = np.full((rows.size, width), np.iinfo(np.int64).max, dtype=np.int64)
-        col = np.arange(flat.size) - np.repeat(np.cumsum(lengths) - lengths, lengths)
-        row = np.repeat(np.arange(rows.size), lengths)
-        cand[row, col] = flat
-        dist = np.full(cand.shape, np.inf)
-        diff = self.points_[flat] - self.points_[rows[row]]
-        dist[row, col] = np.sqrt(np.einsum("ij,ij->i", diff, diff))
-        # the tree's own distances decide the ordering elsewhere; recompute with the
-        # same formula here so exactly tied points compare equal
-        return cand, dist
+    def _knn_kdtree(self, rows: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Exact k-NN rows (squared distances) of ``rows`` from the k-d tree.
+
+        Queries k + 1 candidates, re-selects them exactly by (d2, index) and
+        doubles the candidate count for the rows whose k-th neighbour ties with
+        the first point left out (grids, duplicates) until no tie is possible.
+        """
+        n = self.n_points
+        pts = self.points_
+        out_idx = np.empty((rows.size, k), dtype=np.int64)
+        out_d2 = np.empty((rows.size, k), dtype=np.float64)
+        pending = np.arange(rows.size, dtype=np.int64)
+        kk = min(k + 1, n)
+        while pending.size:
+            all_points = kk >= n
+            chunk = max(1, _CHUNK_ENTRIES // kk)
+            still = []
+            for s in range(0, pending.size, chunk):
+                part = pending[s : s + chunk]
+                q = rows[part]
+                dist, cand = self.tree_.query(pts[q], k=kk, workers=-1)
+                cand = np.asarray(cand, dtype=np.int64).reshape(q.size, kk)
+                last = np.asarray(dist, dtype=np.float64).reshape(q.size, kk)[:, -1] ** 2
+                idx_p = np.empty((q.size, k), dtype=np.int64)
+                d2_p = np.empty((q.size, k), dtype=np.float64)
+                ok = np.empty(q.size, dtype=np.bool_)
+                K.select_candidates(pts, q, cand, last, k, all_points, idx_p, d2_p, ok)
+                out_idx[part[ok]] = idx_p[ok]
+                out_d2[part[ok]] = d2_p[ok]
+                still.append(part[~ok])
+            pending = np.concatenate(still)
+            kk = min(2 * kk, n)
+        return out_idx, out_d2
 
     def radius(self, radius: float) -> RadiusNeighbors:
         """All points within ``radius`` (closed ball) of every indexed point.
@@ -155,29 +191,63 @@ class NeighborIndex:
         Parameters
         ----------
         radius : float
-            Ball radius in the input's units (> 0).
+            Ball radius in the input's units (> 0). A point is inside when its
+            squared distance is <= ``radius**2`` (float64).
 
         Returns
         -------
         neighbors : RadiusNeighbors
             CSR-style arrays; each row starts with the point itself, then by
             (distance, index).
+
+        Raises
+        ------
+        ValueError
+            Non-positive or non-finite radius.
         """
         radius = float(radius)
         if not np.isfinite(radius) or radius <= 0:
             raise ValueError(f"radius must be a positive finite number; got {radius}")
+        if self.backend == "kdtree":
+            return self._radius_kdtree(radius)
         n = self.n_points
-        lists = self.tree_.query_ball_point(self.points_, radius, workers=-1)
-        lengths = np.fromiter((len(v) for v in lists), dtype=np.int64, count=n)
-        flat = np.fromiter((j for v in lists for j in v), dtype=np.int64, count=lengths.sum())
-        row = np.repeat(np.arange(n, dtype=np.int64), lengths)
-        diff = self.points_[flat] - self.points_[row]
-        dist = np.sqrt(np.einsum("ij,ij->i", diff, diff))
-        not_self = (flat != row).astype(np.int8)
-        order = np.lexsort((flat, dist, not_self, row))
+        grid = radius_grid_for(self.points_, radius)
+        r2 = radius * radius
+        counts = np.zeros(n, dtype=np.int64)
+        dummy_i = np.empty(0, dtype=np.int64)
+        dummy_d = np.empty(0, dtype=np.float64)
+        args = (grid.xs, grid.ys, grid.zs, grid.ids, grid.ukeys, grid.cstart, grid.lo, grid.h,
+                grid.nx, grid.ny, grid.nz, r2)  # fmt: skip
+        K.radius_grid(*args, counts, dummy_i, dummy_i, dummy_d, False)
         indptr = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(lengths, out=indptr[1:])
-        return RadiusNeighbors(indptr=indptr, indices=flat[order], distances=dist[order])
+        np.cumsum(counts, out=indptr[1:])
+        indices = np.empty(indptr[-1], dtype=np.int64)
+        d2 = np.empty(indptr[-1], dtype=np.float64)
+        K.radius_grid(*args, counts, indptr, indices, d2, True)
+        return RadiusNeighbors(indptr=indptr, indices=indices, distances=np.sqrt(d2, out=d2))
+
+    def _radius_kdtree(self, radius: float) -> RadiusNeighbors:
+        n = self.n_points
+        pts = self.points_
+        pairs = self.tree_.sparse_distance_matrix(
+            self.tree_, radius * (1.0 + RADIUS_QUERY_WIDEN), output_type="ndarray"
+        )
+        i = np.asarray(pairs["i"], dtype=np.int64)
+        j = np.asarray(pairs["j"], dtype=np.int64)
+        d = pts[j] - pts[i]
+        d2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
+        keep = (d2 <= radius * radius) & (i != j)
+        i, j, d2 = i[keep], j[keep], d2[keep]
+        self_rows = np.arange(n, dtype=np.int64)
+        i = np.concatenate([self_rows, i])
+        j = np.concatenate([self_rows, j])
+        d2 = np.concatenate([np.zeros(n), d2])
+        order = np.argsort(i, kind="stable")
+        i, j, d2 = i[order], j[order], d2[order]
+        indptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(np.bincount(i, minlength=n), out=indptr[1:])
+        K.sort_rows(indptr, j, d2)
+        return RadiusNeighbors(indptr=indptr, indices=j, distances=np.sqrt(d2))
 
 
 @dataclass(frozen=True, slots=True)
@@ -212,7 +282,7 @@ class RadiusNeighbors:
         return self.indices[self.indptr[i] : self.indptr[i + 1]]
 
 
-def query_knn(points, k: int) -> tuple[np.ndarray, np.ndarray]:
+def query_knn(points, k: int, *, backend: str = "auto") -> tuple[np.ndarray, np.ndarray]:
     """k nearest neighbours of every point, the point itself included and first.
 
     Parameters
@@ -221,6 +291,8 @@ def query_knn(points, k: int) -> tuple[np.ndarray, np.ndarray]:
         Coordinates.
     k : int
         Neighbourhood size including the point itself (1 <= k <= N).
+    backend : {"auto", "grid", "kdtree"}
+        Search structure (see `NeighborIndex`); results are identical.
 
     Returns
     -------
@@ -232,14 +304,18 @@ def query_knn(points, k: int) -> tuple[np.ndarray, np.ndarray]:
     Raises
     ------
     PointAtlasError
-        k larger than the number of points.
+        k larger than the number of points ("too few points for k").
     ValueError
-        Non-finite or badly shaped points.
+        Non-finite or badly shaped points, k < 1, unknown backend.
+    TypeError
+        Non-integer k.
 
     Notes
     -----
     Combinatorial neighbourhood of thesis Example 1 (v) with the tie-break of the
-    GUIDE. Duplicate points are allowed: the point itself stays in column 0.
+    GUIDE. Duplicate points are allowed: the point itself stays in column 0 and
+    its duplicates follow by index. Ties are exact float64 equality of squared
+    distances on bounding-box-centred coordinates.
 
     Examples
     --------
@@ -247,10 +323,10 @@ def query_knn(points, k: int) -> tuple[np.ndarray, np.ndarray]:
     >>> idx[0].tolist(), dist[0].tolist()
     ([0, 1], [0.0, 1.0])
     """
-    return NeighborIndex(points).knn(k)
+    return NeighborIndex(points, backend=backend).knn(k)
 
 
-def query_radius(points, radius: float) -> RadiusNeighbors:
+def query_radius(points, radius: float, *, backend: str = "auto") -> RadiusNeighbors:
     """All points within ``radius`` of every point (closed ball, itself first).
 
     Parameters
@@ -258,12 +334,21 @@ def query_radius(points, radius: float) -> RadiusNeighbors:
     points : array_like of shape (N, 3)
         Coordinates.
     radius : float
-        Ball radius in the input's units.
+        Ball radius in the input's units; inside means squared distance
+        <= ``radius**2``.
+    backend : {"auto", "grid", "kdtree"}
+        ``"auto"`` and ``"grid"`` use a grid of cells of size ``radius``;
+        ``"kdtree"`` uses scipy's ``cKDTree``. Results are identical.
 
     Returns
     -------
     neighbors : RadiusNeighbors
-        CSR-style neighbourhoods.
+        CSR-style neighbourhoods: itself first, then by (distance, index).
+
+    Raises
+    ------
+    ValueError
+        Non-finite or badly shaped points; non-positive radius.
 
     Notes
     -----
@@ -275,4 +360,4 @@ def query_radius(points, radius: float) -> RadiusNeighbors:
     >>> nb.counts.tolist(), nb.row(1).tolist()
     ([2, 2, 1], [1, 0])
     """
-    return NeighborIndex(points).radius(radius)
+    return NeighborIndex(points, backend=backend).radius(radius)

@@ -1,0 +1,740 @@
+"""Core commands: ``info``, ``normals``, ``render``, ``data list/export`` and ``demo``.
+
+Conventions (docs/parts/cli-decisions.md): user errors print one red line and exit
+1, usage errors exit 2 (typer); outputs are written atomically; angles on the
+command line are degrees (``--*-deg``); long steps show a progress bar on a
+terminal.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.markup import escape
+from rich.table import Table
+
+from .._core import PointAtlasError, PointSet
+from ..io import MESH_EXTENSIONS, read_mesh, read_point_set, write_mesh, write_point_set
+from ..neighbors import mean_spacing, query_knn
+from ..normals import angle_error, estimate_normals, flipped_fraction, orient_normals
+from ._app import DEMO_STEPS, app, console, data_app, demo_step, guarded, progress_bar
+
+__all__ = [
+    "DEMO_STEPS",
+    "compare_normals",
+    "point_set_info",
+    "info_table",
+    "knn_component_sizes",
+    "render_file",
+    "run_demo",
+    "select_steps",
+    "step_name",
+]
+
+#: Extensions ``write_point_set`` writes (checked before any work is done).
+POINT_WRITE_EXTENSIONS = (".las", ".laz", ".ply", ".txt", ".xyz")
+#: Orientation methods of ``pointatlas normals`` (``none`` keeps PCA signs).
+ORIENT_METHODS = ("mst", "outward", "viewpoint", "none")
+#: Point-only formats whose data are conventionally z-up (LiDAR / GIS).
+Z_UP_EXTENSIONS = (".las", ".laz")
+#: Integer attributes whose name contains one of these are drawn as categories.
+CATEGORY_HINTS = ("label", "class", "region", "segment", "cluster", "component")
+#: Model used by ``pointatlas demo``.
+DEMO_MODEL = "fandisk"
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _check_output(path: Path, extensions: tuple[str, ...], what: str) -> Path:
+    """Fail early (before any work) on a bad output extension or missing folder."""
+    path = Path(path)
+    if path.suffix.lower() not in extensions:
+        raise PointAtlasError(
+            f"{what} must end in one of {', '.join(extensions)}; got {str(path)!r}"
+        )
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise PointAtlasError(f"output folder does not exist: {str(folder)!r}")
+    return path
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.6g}"
+
+
+def _vec(v) -> str:
+    return "(" + ", ".join(_fmt(float(c)) for c in v) + ")"
+
+
+def _duplicates(points: np.ndarray) -> int:
+    """Number of redundant copies: N minus the number of distinct positions."""
+    if points.shape[0] < 2:
+        return 0
+    canon = np.ascontiguousarray(points + 0.0)  # -0.0 == 0.0
+    rows = canon.view(np.dtype((np.void, canon.dtype.itemsize * 3))).ravel()
+    return int(points.shape[0] - np.unique(rows).shape[0])
+
+
+def knn_component_sizes(indices: np.ndarray) -> np.ndarray:
+    """Sizes of the connected components of the symmetric k-NN graph, largest first.
+
+    Same partition as `pointatlas.neighbors.knn_components` (i ~ j when either is
+    among the other's neighbours), computed as the *weakly* connected components
+    of the directed k-NN graph: no symmetrisation, de-duplication or distances,
+    so it stays linear-time at 1e6 points.
+
+    Parameters
+    ----------
+    indices : ndarray of shape (N, k), int64
+        `query_knn` indices (column 0 is the point itself).
+
+    Returns
+    -------
+    sizes : ndarray of shape (n_components,), int64
+    """
+    from scipy import sparse
+    from scipy.sparse import csgraph
+
+    n, k = indices.shape
+    rows = np.repeat(np.arange(n, dtype=np.int64), k)
+    graph = sparse.csr_array(
+        (np.ones(n * k, dtype=np.int8), (rows, indices.reshape(-1))), shape=(n, n)
+    )
+    _, labels = csgraph.connected_components(graph, directed=True, connection="weak")
+    return np.sort(np.bincount(labels))[::-1]
+
+
+def point_set_info(ps: PointSet, *, k: int = 8, n_faces: int | None = None, face_sizes=None):
+    """Summary of a point set as a JSON-ready dict (used by ``info`` and ``demo``).
+
+    Parameters
+    ----------
+    ps : PointSet
+        The points (normals and attributes optional).
+    k : int
+        Neighbourhood size (point itself included) of the k-NN graph whose
+        connected components are counted.
+    n_faces : int, optional
+        Number of faces when the file is a mesh.
+    face_sizes : ndarray of shape (F,), int, optional
+        Vertices per face, to tell triangle from polygon meshes.
+
+    Returns
+    -------
+    info : dict
+        points, faces, face_kind, normals, bbox_min/max/size, mean_spacing (GUIDE
+        l: mean distance to the 12 nearest; None below 2 points), knn_k,
+        knn_components, largest_component, duplicates, attributes.
+
+    Raises
+    ------
+    PointAtlasError
+        k < 2.
+    """
+    if k < 2:
+        raise PointAtlasError(f"--k must be at least 2 (the point itself and a neighbour); got {k}")
+    pts = ps.points
+    n = ps.n_points
+    info: dict = {"name": ps.name, "points": n}
+    info["faces"] = None if n_faces is None else int(n_faces)
+    if face_sizes is not None and len(face_sizes):
+        lo, hi = int(np.min(face_sizes)), int(np.max(face_sizes))
+        info["face_kind"] = "triangles" if lo == hi == 3 else f"polygons ({lo}-{hi} vertices)"
+    else:
+        info["face_kind"] = None
+    info["normals"] = bool(ps.has_normals)
+    if n:
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        info["bbox_min"] = lo.tolist()
+        info["bbox_max"] = hi.tolist()
+        info["bbox_size"] = (hi - lo).tolist()
+    else:
+        info["bbox_min"] = info["bbox_max"] = info["bbox_size"] = None
+    k_eff = min(k, n)
+    k_query = min(max(k, 13), n)
+    info["knn_k"] = k_eff
+    if n >= 2:
+        indices, distances = query_knn(pts, k_query)
+        k_l = min(12, n - 1)
+        info["mean_spacing"] = mean_spacing(pts, k=k_l, distances=distances)
+        info["mean_spacing_k"] = k_l
+        sizes = knn_component_sizes(indices[:, :k_eff])
+        info["knn_components"] = int(sizes.size)
+        info["largest_component"] = int(sizes[0])
+    else:
+        info["mean_spacing"] = None
+        info["mean_spacing_k"] = None
+        info["knn_components"] = n
+        info["largest_component"] = n
+    info["duplicates"] = _duplicates(pts)
+    info["attributes"] = {
+        name: {"dtype": str(arr.dtype), "shape": list(arr.shape[1:])}
+        for name, arr in sorted(ps.attributes.items())
+    }
+    return info
+
+
+def info_table(info: dict, *, title: str | None = None) -> Table:
+    """A rich table of :func:`point_set_info`'s dict."""
+    table = Table(title=title, show_header=False, title_justify="left")
+    table.add_column("property", style="bold")
+    table.add_column("value")
+    table.add_row("points", f"{info['points']:,}")
+    if info["faces"] is not None:
+        kind = f" ({info['face_kind']})" if info.get("face_kind") else ""
+        table.add_row("faces", f"{info['faces']:,}{kind}")
+    table.add_row("normals", "yes" if info["normals"] else "no")
+    if info["bbox_min"] is not None:
+        table.add_row("bounding box min", _vec(info["bbox_min"]))
+        table.add_row("bounding box max", _vec(info["bbox_max"]))
+        table.add_row("bounding box size", _vec(info["bbox_size"]))
+    if info["mean_spacing"] is not None:
+        table.add_row(f"mean spacing l ({info['mean_spacing_k']}-NN)", _fmt(info["mean_spacing"]))
+    comp = f"{info['knn_components']:,}"
+    if info["knn_components"] > 1:
+        comp += f" (largest {info['largest_component']:,} points)"
+    table.add_row(f"{info['knn_k']}-NN components", comp)
+    table.add_row("duplicate points", f"{info['duplicates']:,}")
+    attrs = info["attributes"]
+    listed = ", ".join(
+        f"{name} ({a['dtype']}{'x' + 'x'.join(map(str, a['shape'])) if a['shape'] else ''})"
+        for name, a in attrs.items()
+    )
+    table.add_row("attributes", escape(listed) or "none")
+    return table
+
+
+def _read_for_info(path: Path):
+    """Read a file for ``info``: all points, normals if usable, faces if a mesh."""
+    n_faces = face_sizes = None
+    if path.suffix.lower() in MESH_EXTENSIONS:
+        mesh = read_mesh(path)
+        if mesh.n_faces or path.suffix.lower() != ".ply":
+            n_faces, face_sizes = mesh.n_faces, mesh.face_sizes
+    ps = read_point_set(path, zero_normals="drop")
+    if "source_index" in ps.attributes:  # some points lack a normal: keep them all
+        ps = read_point_set(path, with_normals=False)
+    return ps, n_faces, face_sizes
+
+
+def compare_normals(estimated: np.ndarray, reference: np.ndarray) -> dict:
+    """Angle errors (degrees) and flipped fraction of normals against a reference."""
+    oriented = np.degrees(angle_error(estimated, reference))
+    unoriented = np.degrees(angle_error(estimated, reference, unoriented=True))
+    return {
+        "mean_angle_error_deg": float(oriented.mean()),
+        "median_angle_error_deg": float(np.median(oriented)),
+        "mean_unoriented_error_deg": float(unoriented.mean()),
+        "flipped_fraction": float(flipped_fraction(estimated, reference)),
+    }
+
+
+def _compute_normals(points, *, k: int, orient: str, orient_k: int, viewpoint, advance):
+    if orient not in ORIENT_METHODS:
+        raise PointAtlasError(
+            f"--orient must be one of {', '.join(ORIENT_METHODS)}; got {orient!r}"
+        )
+    if orient == "viewpoint" and viewpoint is None:
+        raise PointAtlasError("--orient viewpoint needs --viewpoint X Y Z")
+    if viewpoint is not None and orient != "viewpoint":
+        raise PointAtlasError("--viewpoint is only used with --orient viewpoint")
+    n = points.shape[0]
+    if k < 3 or k > n:
+        raise PointAtlasError(f"--k must lie in [3, number of points = {n}]; got {k}")
+    if orient_k < 2:
+        raise PointAtlasError(f"--orient-k must be at least 2; got {orient_k}")
+    orient_k = min(orient_k, n)  # tiny inputs: the whole set is the neighbourhood
+    graph = orient in ("mst", "outward")
+    neighbors = query_knn(points, max(k, orient_k) if graph else k)
+    unoriented = estimate_normals(points, k, neighbors=neighbors)
+    advance()
+    if orient == "none":
+        oriented = unoriented
+    elif orient == "viewpoint":
+        oriented = orient_normals(points, unoriented, method="viewpoint", viewpoint=viewpoint)
+    else:
+        oriented = orient_normals(
+            points, unoriented, k=orient_k, method=orient, neighbors=neighbors
+        )
+    advance()
+    return oriented
+
+
+def _pick_coloring(ps: PointSet, color_by: str) -> dict:
+    """Keyword arguments of ``render_points`` for ``--color-by`` (see the docs)."""
+    attrs = ps.attributes
+    key = color_by.strip()
+    if key == "normals":
+        return {}
+    if key == "labels" and "labels" not in attrs:
+        candidates = [a for a in attrs if any(h in a.lower() for h in CATEGORY_HINTS)]
+        if not candidates:
+            raise PointAtlasError(
+                "--color-by labels: the file has no 'labels' attribute; fields: " + _field_list(ps)
+            )
+        key = candidates[0]
+    if key in attrs:
+        values = np.asarray(attrs[key])
+        if values.ndim == 2 and values.shape[1] in (3, 4) and key.lower() in ("colors", "colours"):
+            return {"colors": values}
+        if values.ndim != 1:
+            raise PointAtlasError(
+                f"--color-by {key}: attribute has shape {values.shape}, not one value per "
+                f"point; fields: {_field_list(ps)}"
+            )
+        if values.dtype.kind in "iu" and any(h in key.lower() for h in CATEGORY_HINTS):
+            return {"labels": values}
+        if values.dtype.kind not in "biuf":
+            raise PointAtlasError(f"--color-by {key}: attribute is not numeric ({values.dtype})")
+        return {"scalars": values.astype(np.float64), "scalar_name": key}
+    if key in ("x", "y", "z"):
+        axis = "xyz".index(key)
+        return {"scalars": ps.points[:, axis], "scalar_name": key}
+    raise PointAtlasError(
+        f"--color-by {color_by!r} is not a field of the file; fields: {_field_list(ps)}"
+    )
+
+
+def _field_list(ps: PointSet) -> str:
+    return ", ".join(["normals", "x", "y", "z", *sorted(ps.attributes)])
+
+
+def _view(azimuth_deg: float, elevation_deg: float, up: str, path: Path):
+    if not (math.isfinite(azimuth_deg) and math.isfinite(elevation_deg)):
+        raise PointAtlasError("--azimuth-deg and --elevation-deg must be finite")
+    if not -90.0 <= elevation_deg <= 90.0:
+        raise PointAtlasError(f"--elevation-deg must lie in [-90, 90]; got {elevation_deg}")
+    if up == "auto":
+        up = "z" if path.suffix.lower() in Z_UP_EXTENSIONS else "y"
+    if up not in ("x", "y", "z"):
+        raise PointAtlasError(f"--up must be auto, x, y or z; got {up!r}")
+    return math.radians(azimuth_deg), math.radians(elevation_deg), np.eye(3)["xyz".index(up)]
+
+
+def render_file(
+    in_path: Path,
+    out_path: Path,
+    *,
+    color_by: str = "normals",
+    title: str | None = None,
+    size=(1024, 1024),
+    azimuth_deg: float = 35.0,
+    elevation_deg: float = 25.0,
+    up: str = "auto",
+    cmap: str = "viridis",
+    draw: str = "auto",
+) -> Path:
+    """Render a point-set or mesh file to a PNG (the ``render`` command)."""
+    from ..viz import fit_camera, render_mesh, render_points
+
+    out_path = _check_output(Path(out_path), (".png",), "OUT")
+    az, el, up_vec = _view(azimuth_deg, elevation_deg, up, Path(in_path))
+    if draw not in ("auto", "points", "mesh"):
+        raise PointAtlasError(f"--as must be auto, points or mesh; got {draw!r}")
+    mesh = None
+    if draw != "points" and Path(in_path).suffix.lower() in MESH_EXTENSIONS:
+        mesh = read_mesh(in_path)
+        if mesh.n_faces == 0:
+            mesh = None
+    if draw == "mesh" and mesh is None:
+        raise PointAtlasError(f"--as mesh: {str(in_path)!r} has no faces")
+    if draw == "mesh" and color_by != "normals":
+        raise PointAtlasError("--color-by colours points; use it without --as mesh")
+    if mesh is not None and (draw == "mesh" or color_by == "normals"):
+        camera = fit_camera(mesh.vertices, azimuth=az, elevation=el, up=up_vec)
+        colors = mesh.face_colors if color_by == "normals" else None
+        return render_mesh(
+            out_path,
+            mesh.vertices,
+            mesh.faces,
+            face_offsets=mesh.face_offsets,
+            face_colors=colors,
+            title=title or mesh.name,
+            view=camera,
+            size=size,
+        )
+    ps = read_point_set(in_path, zero_normals="drop")
+    coloring = _pick_coloring(ps, color_by)
+    camera = fit_camera(ps.points, azimuth=az, elevation=el, up=up_vec)
+    return render_points(
+        out_path,
+        ps.points,
+        normals=ps.normals,
+        cmap=cmap,
+        title=title or ps.name,
+        view=camera,
+        size=size,
+        **coloring,
+    )
+
+
+# --------------------------------------------------------------------------- info
+
+
+@app.command("info")
+@guarded
+def info_command(
+    file: Annotated[Path, typer.Argument(help="Point set or mesh (PLY, OBJ, OFF, STL, XYZ, LAS).")],
+    k: Annotated[
+        int, typer.Option("--k", help="k of the k-NN graph whose components are counted.")
+    ] = 8,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")] = False,
+):
+    """Summary of a point set: size, bounding box, spacing, k-NN components, attributes."""
+    with progress_bar(f"reading {file.name}") as advance:
+        ps, n_faces, face_sizes = _read_for_info(file)
+        advance()
+    with progress_bar("neighbourhoods") as advance:
+        info = point_set_info(ps, k=k, n_faces=n_faces, face_sizes=face_sizes)
+        advance()
+    info = {"file": str(file), **info}
+    if as_json:
+        typer.echo(json.dumps(info, indent=2))
+    else:
+        console.print(info_table(info, title=escape(str(file))))
+
+
+# --------------------------------------------------------------------------- normals
+
+
+@app.command("normals")
+@guarded
+def normals_command(
+    in_path: Annotated[Path, typer.Argument(metavar="IN", help="Input point set or mesh.")],
+    out_path: Annotated[
+        Path, typer.Argument(metavar="OUT", help="Output .ply (or .xyz/.las/.laz).")
+    ],
+    k: Annotated[
+        int, typer.Option("--k", help="PCA neighbourhood size (point itself included).")
+    ] = 20,
+    orient: Annotated[
+        str, typer.Option("--orient", help="Orientation: mst, outward, viewpoint or none.")
+    ] = "mst",
+    orient_k: Annotated[
+        int, typer.Option("--orient-k", help="k of the orientation graph (capped at N).")
+    ] = 10,
+    viewpoint: Annotated[
+        tuple[float, float, float] | None,
+        typer.Option("--viewpoint", help="Sensor position X Y Z for --orient viewpoint."),
+    ] = None,
+):
+    """Estimate (PCA) and orient normals; write the points with them.
+
+    When the input already has normals (a mesh, or a PLY with nx ny nz) the new
+    normals are compared with them (angle error, flipped fraction).
+    """
+    out_path = _check_output(out_path, POINT_WRITE_EXTENSIONS, "OUT")
+    if orient not in ORIENT_METHODS:
+        raise PointAtlasError(
+            f"--orient must be one of {', '.join(ORIENT_METHODS)}; got {orient!r}"
+        )
+    ps = read_point_set(in_path, with_normals=False)
+    try:
+        reference = read_point_set(in_path).normals
+    except PointAtlasError:  # some points without a normal: nothing to compare with
+        reference = None
+    t0 = time.perf_counter()
+    with progress_bar("normals", total=2) as advance:
+        normals = _compute_normals(
+            ps.points, k=k, orient=orient, orient_k=orient_k, viewpoint=viewpoint, advance=advance
+        )
+    seconds = time.perf_counter() - t0
+    write_point_set(out_path, ps.replace(normals=normals))
+    table = Table(
+        title=f"normals of {escape(in_path.name)}", show_header=False, title_justify="left"
+    )
+    table.add_column("property", style="bold")
+    table.add_column("value")
+    table.add_row("points", f"{ps.n_points:,}")
+    table.add_row("k / orientation", f"{k} / {orient}")
+    table.add_row("time", f"{seconds:.2f} s")
+    if reference is not None:
+        stats = compare_normals(normals, reference)
+        table.add_row(
+            "mean angle error vs input normals", f"{stats['mean_angle_error_deg']:.2f} deg"
+        )
+        table.add_row("  ignoring sign", f"{stats['mean_unoriented_error_deg']:.2f} deg")
+        table.add_row("flipped fraction", f"{stats['flipped_fraction']:.4f}")
+    table.add_row("written", escape(str(out_path)))
+    console.print(table)
+
+
+# --------------------------------------------------------------------------- render
+
+
+@app.command("render")
+@guarded
+def render_command(
+    in_path: Annotated[Path, typer.Argument(metavar="IN", help="Point set or mesh file.")],
+    out_path: Annotated[Path, typer.Argument(metavar="OUT.png", help="PNG to write.")],
+    color_by: Annotated[
+        str,
+        typer.Option(
+            "--color-by",
+            help="normals (shading, default), labels, x/y/z, or any per-point attribute.",
+        ),
+    ] = "normals",
+    title: Annotated[str | None, typer.Option("--title", help="Picture title.")] = None,
+    size: Annotated[tuple[int, int], typer.Option("--size", help="Width and height (pixels).")] = (
+        1024,
+        1024,
+    ),
+    azimuth_deg: Annotated[float, typer.Option("--azimuth-deg", help="View azimuth.")] = 35.0,
+    elevation_deg: Annotated[float, typer.Option("--elevation-deg", help="View elevation.")] = 25.0,
+    up: Annotated[
+        str, typer.Option("--up", help="Up axis: auto (z for LAS/LAZ, else y), x, y or z.")
+    ] = "auto",
+    cmap: Annotated[
+        str, typer.Option("--cmap", help="Matplotlib colormap for scalars.")
+    ] = "viridis",
+    draw: Annotated[
+        str, typer.Option("--as", help="auto (mesh when the file has faces), points or mesh.")
+    ] = "auto",
+):
+    """Render a point set or mesh to a PNG (offscreen, fixed camera)."""
+    with progress_bar("rendering") as advance:
+        path = render_file(
+            in_path,
+            out_path,
+            color_by=color_by,
+            title=title,
+            size=size,
+            azimuth_deg=azimuth_deg,
+            elevation_deg=elevation_deg,
+            up=up,
+            cmap=cmap,
+            draw=draw,
+        )
+        advance()
+    console.print(f"wrote {escape(str(path))}")
+
+
+# --------------------------------------------------------------------------- data
+
+
+def _data_module():
+    try:
+        from .. import data
+    except ImportError as exc:  # pragma: no cover - the data room ships with the package
+        raise PointAtlasError(f"bundled models are not available ({exc})") from None
+    return data
+
+
+@data_app.command("list")
+@guarded
+def data_list_command(
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")] = False,
+):
+    """List the bundled models and synthetic shapes (name, points, licence, source)."""
+    rows = [
+        {"name": r.name, "points": r.n_points, "license": r.license, "source": r.source}
+        for r in _data_module().info()
+    ]
+    if as_json:
+        typer.echo(json.dumps(rows, indent=2))
+        return
+    table = Table(title="bundled models (pointatlas data export NAME OUT)", title_justify="left")
+    table.add_column("name", style="bold", no_wrap=True)
+    table.add_column("points", justify="right", no_wrap=True)
+    table.add_column("licence")
+    table.add_column("source", overflow="fold")
+    for r in rows:
+        table.add_row(r["name"], f"{r['points']:,}", r["license"], r["source"])
+    console.print(table)
+
+
+@data_app.command("export")
+@guarded
+def data_export_command(
+    name: Annotated[str, typer.Argument(help="Bundled model name (see `pointatlas data list`).")],
+    out_path: Annotated[
+        Path, typer.Argument(metavar="OUT", help="Output file; format by extension.")
+    ],
+    points_only: Annotated[
+        bool,
+        typer.Option(
+            "--points", help="Write the point set (normals, attributes such as labels), no faces."
+        ),
+    ] = False,
+):
+    """Write a bundled model to a file.
+
+    Mesh formats (.obj .off .stl .ply) keep the faces; point formats (.xyz .txt
+    .las .laz), or ``--points`` with .ply, write the points with their normals and
+    attributes (e.g. the ground-truth ``labels`` of synthetic shapes).
+    """
+    data = _data_module()
+    ext = out_path.suffix.lower()
+    _check_output(
+        out_path, tuple(sorted(set(MESH_EXTENSIONS) | set(POINT_WRITE_EXTENSIONS))), "OUT"
+    )
+    if name not in data.names():
+        raise PointAtlasError(f"unknown model {name!r}; bundled: {', '.join(data.names())}")
+    if points_only and ext not in POINT_WRITE_EXTENSIONS:
+        raise PointAtlasError(
+            f"--points needs a point format ({', '.join(POINT_WRITE_EXTENSIONS)})"
+        )
+    if ext in MESH_EXTENSIONS and not points_only:
+        mesh = data.load_mesh(name)
+        path = write_mesh(out_path, mesh)
+        console.print(
+            f"wrote {escape(str(path))} ({mesh.n_vertices:,} vertices, {mesh.n_faces:,} faces)"
+        )
+        return
+    ps = data.load(name)
+    path = write_point_set(out_path, ps)
+    console.print(f"wrote {escape(str(path))} ({ps.n_points:,} points)")
+
+
+# --------------------------------------------------------------------------- demo
+
+
+@demo_step
+def demo_info(ps: PointSet, out_dir: Path, console) -> None:
+    """The model: size, bounding box, spacing, k-NN components."""
+    info = point_set_info(ps, k=8)
+    console.print(info_table(info, title=f"{escape(ps.name)} (bundled)"))
+    (out_dir / f"{ps.name}_info.json").write_text(json.dumps(info, indent=2))
+
+
+@demo_step
+def demo_normals(ps: PointSet, out_dir: Path, console) -> PointSet:
+    """Normals: PCA estimate (k = 20), MST orientation, compared with the mesh normals."""
+    if not ps.has_normals:
+        raise PointAtlasError("the demo model has no reference normals")
+    t0 = time.perf_counter()
+    with progress_bar("normals", total=2) as advance:
+        estimated = _compute_normals(
+            ps.points, k=20, orient="mst", orient_k=10, viewpoint=None, advance=advance
+        )
+    seconds = time.perf_counter() - t0
+    stats = compare_normals(estimated, ps.normals)
+    error = np.degrees(angle_error(estimated, ps.normals))
+    path = write_point_set(
+        out_dir / f"{ps.name}_normals.ply",
+        ps.replace(normals=estimated),
+        attributes={"normal_error_deg": error},
+    )
+    table = Table(show_header=False)
+    table.add_column("property", style="bold")
+    table.add_column("value")
+    table.add_row("time", f"{seconds:.2f} s")
+    table.add_row("mean angle error", f"{stats['mean_angle_error_deg']:.2f} deg")
+    table.add_row("median angle error", f"{stats['median_angle_error_deg']:.2f} deg")
+    table.add_row("mean error ignoring sign", f"{stats['mean_unoriented_error_deg']:.2f} deg")
+    table.add_row("flipped fraction", f"{stats['flipped_fraction']:.4f}")
+    table.add_row("written", escape(str(path)))
+    console.print(table)
+    (out_dir / f"{ps.name}_normals.json").write_text(json.dumps(stats, indent=2))
+    return ps.with_attributes(normal_error_deg=error)
+
+
+@demo_step
+def demo_picture(ps: PointSet, out_dir: Path, console) -> None:
+    """Picture: the model and the normal error of the PCA estimate."""
+    from ..viz import MeshPanel, PointsPanel, fit_camera, render_side_by_side
+
+    panels = []
+    mesh = None
+    try:
+        mesh = _data_module().load_mesh(ps.name)
+    except (AttributeError, PointAtlasError, ValueError, OSError):
+        mesh = None
+    if mesh is not None:
+        panels.append(
+            MeshPanel(mesh.vertices, mesh.faces, face_offsets=mesh.face_offsets, title="mesh")
+        )
+    else:
+        panels.append(PointsPanel(ps.points, normals=ps.normals, title="points"))
+    if "normal_error_deg" in ps.attributes:
+        panels.append(
+            PointsPanel(
+                ps.points,
+                normals=ps.normals,
+                scalars=ps.attributes["normal_error_deg"],
+                scalar_name="PCA normal error (deg)",
+                cmap="YlOrRd",
+                clim=(0.0, 30.0),
+                title="points: normal error (k = 20, MST)",
+            )
+        )
+    camera = fit_camera(ps.points)
+    path = render_side_by_side(
+        out_dir / f"{ps.name}.png",
+        panels,
+        title=f"{ps.name}: {ps.n_points:,} points",
+        view=camera,
+        size=(900 * len(panels), 900),
+    )
+    console.print(f"picture: {escape(str(path))}")
+
+
+def step_name(step) -> str:
+    """Short name of a demo step: its function name without a ``demo_`` prefix."""
+    name = step.__name__
+    return name[5:] if name.startswith("demo_") else name
+
+
+def select_steps(only: str | None) -> list:
+    """The demo steps to run: all, or those named in a comma-separated ``only``."""
+    if only is None:
+        return list(DEMO_STEPS)
+    wanted = [w.strip() for w in only.split(",") if w.strip()]
+    known = [step_name(s) for s in DEMO_STEPS]
+    unknown = [w for w in wanted if w not in known]
+    if unknown or not wanted:
+        raise PointAtlasError(
+            f"--only: unknown step(s) {', '.join(unknown) or '(none given)'}; steps: "
+            + ", ".join(known)
+        )
+    return [s for s in DEMO_STEPS if step_name(s) in wanted]
+
+
+def run_demo(out_dir: Path, *, model: str = DEMO_MODEL, steps=None) -> list[Path]:
+    """Run the demo steps on a bundled model; returns the files written."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise PointAtlasError(f"--out {str(out_dir)!r} exists and is not a folder")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data = _data_module()
+    if model not in data.names():
+        raise PointAtlasError(f"unknown model {model!r}; bundled: {', '.join(data.names())}")
+    ps = data.load(model)
+    start = time.time() - 1.0
+    steps = list(DEMO_STEPS if steps is None else steps)
+    for i, step in enumerate(steps, 1):
+        heading = (step.__doc__ or step.__name__).strip().splitlines()[0]
+        console.rule(f"[bold]{i}/{len(steps)}  {heading}", align="left")
+        result = step(ps, out_dir, console)
+        if isinstance(result, PointSet):
+            ps = result
+    return sorted(p for p in out_dir.iterdir() if p.is_file() and p.stat().st_mtime >= start)
+
+
+@app.command("demo")
+@guarded
+def demo_command(
+    out: Annotated[Path, typer.Option("--out", help="Folder for the outputs.")] = Path(
+        "pointatlas-demo"
+    ),
+    model: Annotated[str, typer.Option("--model", help="Bundled model to use.")] = DEMO_MODEL,
+    only: Annotated[
+        str | None,
+        typer.Option(
+            "--only", help="Comma-separated steps to run (default: all), e.g. info,normals."
+        ),
+    ] = None,
+):
+    """Run the tour on a bundled model (fandisk): info, normals, pictures, ..."""
+    written = run_demo(out, model=model, steps=select_steps(only))
+    console.rule("[bold]outputs", align="left")
+    for path in written:
+        console.print(f"  {escape(str(path))}")
+    console.print(f"all outputs are in {escape(str(out.resolve()))}")

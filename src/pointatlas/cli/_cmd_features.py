@@ -1,0 +1,377 @@
+"""``pointatlas features``: per-point eigen-features, optimal neighbourhoods, pictures.
+
+Thesis 5.2-5.4 and 6.1-6.2 (GUIDE C1/C2). Writes every feature, the chosen
+(a, b, k) and the reason codes as PLY scalar fields (CloudCompare shows them as
+scalar fields), and with ``--render`` the pictures of Fig. 5.3 and Figs. 6.2/6.5.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from .._core import PointAtlasError
+from ..features import (
+    REASON_CODES,
+    THESIS_ANGLE_GRID,
+    FeatureResult,
+    covariance_features,
+    optimal_k_features,
+    optimal_neighbourhood,
+)
+from ._app import app, console, demo_step, guarded
+
+__all__ = [
+    "classify_dimension",
+    "compute_features_for",
+    "demo_features",
+    "fig_5_3",
+    "features_command",
+    "render_feature_pictures",
+]
+
+#: class names of the dimension classification (Fig. 5.3 bottom row), label -1 = degenerate
+DIMENSION_CLASSES = ("linear", "planar", "scattered")
+
+
+def classify_dimension(result: FeatureResult) -> np.ndarray:
+    """Label 0/1/2 = largest of linearity / planarity / scattering, -1 where undefined."""
+    lps = np.column_stack([result.linearity, result.planarity, result.scattering])
+    ok = np.isfinite(lps).all(axis=1)
+    cls = np.full(result.n_points, -1, dtype=np.int64)
+    cls[ok] = np.argmax(lps[ok], axis=1)
+    return cls
+
+
+def _parse_grid_deg(text: str | None, name: str) -> tuple[float, ...]:
+    if text is None:
+        return THESIS_ANGLE_GRID
+    try:
+        vals = [float(v) for v in text.replace(";", ",").split(",") if v.strip()]
+    except ValueError:
+        raise PointAtlasError(
+            f"{name} must be comma-separated angles in degrees, e.g. 0,30,60; got {text!r}"
+        ) from None
+    if not vals or min(vals) < 0 or max(vals) > 180:
+        raise PointAtlasError(f"{name} angles must lie in [0, 180] degrees; got {text!r}")
+    return tuple(math.radians(v) if v < 180 else math.pi for v in vals)
+
+
+def compute_features_for(
+    points,
+    normals,
+    *,
+    k: int | None = None,
+    k_range: tuple[int, int] | None = None,
+    weights: str = "auto",
+    a_grid=THESIS_ANGLE_GRID,
+    b_grid=THESIS_ANGLE_GRID,
+    flatness=(8, 8),
+    criterion: str = "e_dim",
+) -> tuple[FeatureResult, str]:
+    """Dispatch to fixed-k / optimal-k / optimal (a, b, k); returns (result, mode text)."""
+    if weights not in ("auto", "sigmoid", "equal"):
+        raise PointAtlasError(f"--weights must be sigmoid, equal or auto; got {weights!r}")
+    if weights == "auto":
+        weights = "sigmoid" if normals is not None else "equal"
+    if weights == "sigmoid" and normals is None:
+        raise PointAtlasError(
+            "--weights sigmoid needs normals; the input has none (use --weights equal "
+            "or a mesh / a point file with nx, ny, nz)"
+        )
+    if k is not None and k_range is not None:
+        raise PointAtlasError("give --k or --k-range, not both")
+    if weights == "equal":
+        if k_range is None:
+            kk = 14 if k is None else k
+            return covariance_features(points, kk, flatness=flatness), f"fixed k = {kk}"
+        res = optimal_k_features(points, k_range=k_range, criterion=criterion, flatness=flatness)
+        return res, f"optimal k in {k_range[0]}..{k_range[1]} by {criterion}, equal weights"
+    kr = k_range if k_range is not None else ((k, k) if k is not None else (6, 20))
+    res = optimal_neighbourhood(
+        points, normals, a_grid=a_grid, b_grid=b_grid, k_range=kr, flatness=flatness
+    )
+    n_pairs = sum(1 for a in a_grid for b in b_grid if a <= b)
+    return res, f"optimal (a, b, k): {n_pairs} (a, b) pairs x k in {kr[0]}..{kr[1]}"
+
+
+def render_feature_pictures(
+    out_dir, points, normals, result: FeatureResult, *, name: str, energies=None, size: int = 800
+):
+    """Fig. 5.3 (E_dim, dimension classes) and Figs. 6.2/6.5 (four energies) as PNGs.
+
+    ``energies`` is the result drawn in the energy pictures; the thesis (6.2) uses
+    equal weights and k = 14, which is computed here when omitted.
+    """
+    from ..viz import PointsPanel, render_points, render_side_by_side
+
+    if energies is None:
+        energies = covariance_features(points, 14, flatness=result.flatness_exponents)
+    k_text = f"k = {int(energies.k.max())}" if energies.k.size else ""
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    e_dim = np.where(np.isfinite(result.e_dim), result.e_dim, np.nan)
+    cls = classify_dimension(result)
+    counts = [int((cls == c).sum()) for c in range(3)]
+    written = [
+        render_side_by_side(
+            out / f"{name}_fig5_3.png",
+            [
+                PointsPanel(
+                    points,
+                    normals=normals,
+                    scalars=e_dim,
+                    scalar_name="E_dim",
+                    title="E_dim (Eq. 5.7), grey = degenerate",
+                ),
+                PointsPanel(
+                    points,
+                    normals=normals,
+                    labels=cls,
+                    title="largest of L / P / S: "
+                    + ", ".join(f"{c} {n}" for c, n in zip(DIMENSION_CLASSES, counts, strict=True)),
+                ),
+            ],
+            title=f"{name}: classification error and dimension classes",
+            size=(2 * size, size),
+        )
+    ]
+    panels = [
+        ("flatness", f"flatness m = {energies.flatness_exponents}"),
+        ("omnivariance", "omnivariance"),
+        ("anisotropy", "anisotropy (reversed)"),
+        ("change_of_curvature", "change of curvature"),
+    ]
+    written.append(
+        render_side_by_side(
+            out / f"{name}_fig6_5.png",
+            [
+                PointsPanel(
+                    points,
+                    normals=normals,
+                    scalars=getattr(energies, f),
+                    scalar_name=f,
+                    cmap="Blues",
+                    title=t,
+                )
+                for f, t in panels
+            ],
+            title=f"{name}: eigenvalue energies (Eqs. 6.1, 6.2), equal weights, {k_text}",
+            size=(4 * size, size),
+        )
+    )
+    written.append(
+        render_points(
+            out / f"{name}_flatness.png",
+            points,
+            normals=normals,
+            scalars=energies.flatness,
+            scalar_name="flatness",
+            cmap="Blues",
+            title=f"{name}: flatness (Eq. 6.1, m1, m2 = {energies.flatness_exponents}), {k_text}",
+            size=(size, size),
+        )
+    )
+    return written
+
+
+@app.command("features")
+@guarded
+def features_command(
+    input_path: Annotated[Path, typer.Argument(metavar="IN", help="Point set or mesh file.")],
+    output: Annotated[Path, typer.Argument(metavar="OUT.ply", help="Output point file.")],
+    k: Annotated[
+        int | None, typer.Option("--k", help="Fixed neighbourhood size (default 14).", min=3)
+    ] = None,
+    k_range: Annotated[
+        tuple[int, int] | None,
+        typer.Option("--k-range", help="Search k in KMIN..KMAX (thesis: 6 20)."),
+    ] = None,
+    weights: Annotated[
+        str,
+        typer.Option(
+            "--weights",
+            help="sigmoid: search the (a, b) grid on normal angles (Eq. 5.9); equal: "
+            "unweighted; auto: sigmoid when the input has normals.",
+        ),
+    ] = "auto",
+    a_grid: Annotated[
+        str | None,
+        typer.Option("--a-grid-deg", "--a-grid", help="a values in degrees, e.g. 0,30,60."),
+    ] = None,
+    b_grid: Annotated[
+        str | None,
+        typer.Option("--b-grid-deg", "--b-grid", help="b values in degrees (default as a)."),
+    ] = None,
+    flatness: Annotated[
+        tuple[int, int], typer.Option("--flatness", help="Even exponents M1 M2 of Eq. 6.1.")
+    ] = (8, 8),
+    criterion: Annotated[
+        str,
+        typer.Option("--criterion", help="Equal-weight k search: e_dim or eigenentropy."),
+    ] = "e_dim",
+    render: Annotated[
+        Path | None, typer.Option("--render", help="Write Fig. 5.3 / 6.5 pictures here.")
+    ] = None,
+    render_size: Annotated[
+        int, typer.Option("--render-size", min=64, help="Pixels per picture panel.")
+    ] = 800,
+) -> None:
+    """Eigen-features per point (linearity ... flatness) with the optimal neighbourhood."""
+    from ..io import read_point_set, write_point_set
+
+    if output.suffix.lower() not in (".ply", ".las", ".laz"):
+        raise PointAtlasError(f"OUT must be a .ply (or .las/.laz) file; got {output.name!r}")
+    try:
+        ps = read_point_set(input_path)
+    except PointAtlasError as exc:
+        if "zero_normals" not in str(exc):
+            raise
+        # vertices without a usable normal (unreferenced, zero-area faces) are left out
+        ps = read_point_set(input_path, zero_normals="drop")
+        console.print(f"  note: {str(exc).split(':', 2)[-1].strip().split(';')[0]}; left out")
+    a_vals = _parse_grid_deg(a_grid, "--a-grid-deg")
+    b_vals = _parse_grid_deg(b_grid, "--b-grid-deg") if b_grid is not None else a_vals
+    t0 = time.perf_counter()
+    result, mode = compute_features_for(
+        ps.points,
+        ps.normals,
+        k=k,
+        k_range=tuple(k_range) if k_range is not None else None,
+        weights=weights,
+        a_grid=a_vals,
+        b_grid=b_vals,
+        flatness=tuple(flatness),
+        criterion=criterion,
+    )
+    elapsed = time.perf_counter() - t0
+    fields = result.scalar_fields()
+    fields["dimension_class"] = classify_dimension(result)
+    write_point_set(output, ps.points, normals=ps.normals, attributes=fields)
+    n = result.n_points
+    console.print(f"{input_path.name}: {n} points, {mode} ({elapsed:.2f} s)")
+    ok = result.is_valid
+    if ok.any():
+        console.print(
+            f"  E_dim mean {np.mean(result.e_dim[ok]):.4f}, flatness mean "
+            f"{np.mean(result.flatness[ok]):.4f}"
+        )
+    for code, count in zip(*np.unique(result.reason, return_counts=True), strict=True):
+        if code:
+            console.print(f"  {count} point(s) degenerate: {REASON_CODES[int(code)]} (NaN)")
+    console.print(f"  wrote {output}")
+    if render is not None:
+        fixed_equal = mode.startswith("fixed")
+        energies = result if fixed_equal else None
+        for p in render_feature_pictures(
+            render,
+            ps.points,
+            ps.normals,
+            result,
+            name=Path(input_path).stem,
+            energies=energies,
+            size=render_size,
+        ):
+            console.print(f"  wrote {p}")
+
+
+def fig_5_3(points, normals, out_dir, *, name: str, console=None) -> tuple[dict, list[Path]]:
+    """Fig. 5.3: equal weights vs cut-off a = b = arccos(0.9) vs optimal (a, b, k).
+
+    Each column minimises E_dim over k = 6..20 for its weights; top picture E_dim,
+    bottom picture the largest of linearity / planarity / scattering (grey:
+    degenerate for every k, the thesis' red points).
+    """
+    from ..viz import PointsPanel, render_side_by_side
+
+    cut = math.acos(0.9)
+    results = {
+        "equal weights [WJM14]": optimal_k_features(points, k_range=(6, 20), criterion="e_dim"),
+        "cut-off a = b = arccos 0.9": optimal_neighbourhood(
+            points, normals, a_grid=[cut], b_grid=[cut]
+        ),
+        "optimal (a, b, k), Eq. 5.9": optimal_neighbourhood(points, normals),
+    }
+    out = Path(out_dir)
+    stats = {}
+    edim_panels = []
+    class_panels = []
+    for title, res in results.items():
+        ok = res.is_valid
+        e = np.where(np.isfinite(res.e_dim), res.e_dim, np.nan)
+        stats[title] = {
+            "mean_e_dim": float(np.mean(res.e_dim[ok])) if ok.any() else float("nan"),
+            "n_degenerate": int((~ok).sum()),
+            "classes": [int((classify_dimension(res) == c).sum()) for c in range(3)],
+        }
+        edim_panels.append(
+            PointsPanel(
+                points,
+                normals=normals,
+                scalars=e,
+                scalar_name="E_dim",
+                clim=(0, 1),
+                title=f"{title}\nmean E_dim {stats[title]['mean_e_dim']:.3f}",
+            )
+        )
+        class_panels.append(
+            PointsPanel(
+                points,
+                normals=normals,
+                labels=classify_dimension(res),
+                title=f"{title}\nlinear / planar / scattered = "
+                + " / ".join(str(c) for c in stats[title]["classes"]),
+            )
+        )
+    written = [
+        render_side_by_side(
+            out / f"{name}_fig5_3_edim.png",
+            edim_panels,
+            title=f"{name}: E_dim (grey = degenerate for every k)",
+        ),
+        render_side_by_side(
+            out / f"{name}_fig5_3_classes.png",
+            class_panels,
+            title=f"{name}: largest of linearity / planarity / scattering",
+        ),
+    ]
+    return stats, written
+
+
+@demo_step
+def demo_features(ps, out_dir: Path, console) -> None:
+    """Features: optimal normal-weighted neighbourhoods and the fandisk classification."""
+    from rich.table import Table
+
+    from ..io import write_point_set
+
+    if not ps.has_normals:
+        raise PointAtlasError("the demo model has no normals")
+    t0 = time.perf_counter()
+    stats, written = fig_5_3(ps.points, ps.normals, out_dir, name=ps.name)
+    seconds = time.perf_counter() - t0
+    best = optimal_neighbourhood(ps.points, ps.normals)
+    fields = best.scalar_fields()
+    fields["dimension_class"] = classify_dimension(best)
+    write_point_set(out_dir / f"{ps.name}_features.ply", ps, attributes=fields)
+    table = Table(title=f"Fig. 5.3 on {ps.name} ({seconds:.1f} s)")
+    for col in ("weights", "mean E_dim", "degenerate", "linear / planar / scattered"):
+        table.add_column(col)
+    for title, s in stats.items():
+        table.add_row(
+            title,
+            f"{s['mean_e_dim']:.4f}",
+            str(s["n_degenerate"]),
+            " / ".join(str(c) for c in s["classes"]),
+        )
+    console.print(table)
+
+
+# the experiment command lives in its own module; importing it registers it
+from . import _exp_features  # noqa: E402, F401

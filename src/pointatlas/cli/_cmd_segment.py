@@ -1,0 +1,315 @@
+"""``pointatlas segment``: VSA (thesis 4.2-4.3) or region growing; demo step.
+
+Writes the input points with a ``label`` field and colours, a per-region table
+(CSV and JSON beside the output) and optionally a picture.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import time
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from .._core import PointAtlasError
+from ..segment import region_growing, vsa_segment
+from ._app import app, console, demo_step, guarded
+
+__all__ = ["region_table", "segment_command", "segment_point_set", "table_paths"]
+
+
+def _parse_seeds(text: str):
+    if text.strip().lower() == "all":
+        return "all"
+    try:
+        value = int(text)
+    except ValueError:
+        raise PointAtlasError(
+            f"--seeds must be a positive integer or 'all'; got {text!r}"
+        ) from None
+    if value < 1:
+        raise PointAtlasError(f"--seeds must be a positive integer or 'all'; got {text!r}")
+    return value
+
+
+def segment_point_set(
+    points,
+    normals,
+    *,
+    method: str = "vsa",
+    eta: float | None = None,
+    max_angle_deg: float | None = None,
+    seeds="all",
+    k: int = 8,
+    split: bool = True,
+    merge: bool = True,
+    switch: str = "batch",
+    classic: bool = False,
+    weights: str = "uniform",
+    smoothness_deg: float = 15.0,
+    curvature_threshold: float | None = None,
+    min_cluster_size: int = 1,
+    seed: int = 0,
+):
+    """Run the chosen method; returns (result, summary dict)."""
+    if method == "vsa":
+        res = vsa_segment(
+            points,
+            normals,
+            k=k,
+            weights=weights,
+            seeds=seeds,
+            eta=eta,
+            max_angle=None if max_angle_deg is None else math.radians(max_angle_deg),
+            split=split,
+            merge=merge,
+            switch=switch,
+            classic=classic,
+            rng=seed,
+        )
+        summary = {
+            "method": "vsa",
+            "n_regions": res.n_regions,
+            "energy": res.energy,
+            "mse": res.mse,
+            "n_iter": res.n_iter,
+            "converged": res.converged,
+            "stop_reason": res.stop_reason,
+            "assigned_fraction": 1.0,
+        }
+        return res, summary
+    if method == "region-growing":
+        res = region_growing(
+            points,
+            normals,
+            k=k,
+            smoothness_angle=math.radians(smoothness_deg),
+            curvature_threshold=curvature_threshold,
+            min_cluster_size=min_cluster_size,
+        )
+        summary = {
+            "method": "region-growing",
+            "n_regions": res.n_regions,
+            "mse": res.mse,
+            "assigned_fraction": res.assigned_fraction,
+            "n_degenerate": res.n_degenerate,
+        }
+        return res, summary
+    raise PointAtlasError(f"--method must be vsa or region-growing; got {method!r}")
+
+
+def region_table(res) -> list[dict]:
+    """One row per region: id, size, proxy normal, centroid, L21 (and seed for VSA)."""
+    rows = []
+    seeds = getattr(res, "seed_indices", None)
+    for r in range(res.n_regions):
+        row = {
+            "region": r,
+            "n_points": int(res.region_counts[r]),
+            "l21": float(res.region_l21[r]),
+            "nx": float(res.proxy_normals[r, 0]),
+            "ny": float(res.proxy_normals[r, 1]),
+            "nz": float(res.proxy_normals[r, 2]),
+            "cx": float(res.centroids[r, 0]),
+            "cy": float(res.centroids[r, 1]),
+            "cz": float(res.centroids[r, 2]),
+        }
+        if seeds is not None:
+            row["seed_index"] = int(seeds[r])
+        rows.append(row)
+    return rows
+
+
+def table_paths(output: Path) -> tuple[Path, Path]:
+    """``OUT_regions.csv`` and ``OUT_regions.json`` beside ``OUT``."""
+    stem = output.with_suffix("")
+    return Path(f"{stem}_regions.csv"), Path(f"{stem}_regions.json")
+
+
+def _json_safe(value):
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _write_tables(output: Path, rows: list[dict], summary: dict) -> tuple[Path, Path]:
+    from ..io import atomic_write
+
+    csv_path, json_path = table_paths(output)
+    buf = io.StringIO()
+    fields = list(rows[0]) if rows else ["region", "n_points"]
+    writer = csv.DictWriter(buf, fieldnames=fields, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    text = buf.getvalue()
+    payload = {
+        "summary": {key: _json_safe(val) for key, val in summary.items()},
+        "regions": [{key: _json_safe(val) for key, val in row.items()} for row in rows],
+    }
+    with atomic_write(csv_path, "w") as fh:
+        fh.write(text)
+    with atomic_write(json_path, "w") as fh:
+        json.dump(payload, fh, indent=1, allow_nan=False)
+    return csv_path, json_path
+
+
+@app.command("segment")
+@guarded
+def segment_command(
+    input_path: Annotated[Path, typer.Argument(metavar="IN", help="Point set or mesh.")],
+    output: Annotated[Path, typer.Argument(metavar="OUT.ply", help="Labelled point set.")],
+    eta: Annotated[
+        float | None, typer.Option("--eta", help="L21 threshold for split/merge (thesis: 25).")
+    ] = None,
+    max_angle_deg: Annotated[
+        float | None,
+        typer.Option("--max-angle-deg", "--max-angle", help="Max mean normal deviation (deg)."),
+    ] = None,
+    seeds: Annotated[str, typer.Option("--seeds", help="Number of seeds or 'all'.")] = "all",
+    k: Annotated[int, typer.Option("--k", help="Neighbours, the point itself included.")] = 8,
+    no_split: Annotated[bool, typer.Option("--no-split", help="Disable split.")] = False,
+    no_merge: Annotated[bool, typer.Option("--no-merge", help="Disable merge.")] = False,
+    switch: Annotated[str, typer.Option("--switch", help="batch, single or none.")] = "batch",
+    classic: Annotated[
+        bool, typer.Option("--classic", help="Classic VSA loop (flood/update/re-seed).")
+    ] = False,
+    method: Annotated[str, typer.Option("--method", help="vsa or region-growing.")] = "vsa",
+    weights: Annotated[str, typer.Option("--weights", help="uniform or area (Eq. 4.6).")] = (
+        "uniform"
+    ),
+    smoothness_deg: Annotated[
+        float, typer.Option("--smoothness-deg", help="Region growing: smoothness angle.")
+    ] = 15.0,
+    curvature_threshold: Annotated[
+        float | None,
+        typer.Option("--curvature-threshold", help="Region growing: seed curvature bound."),
+    ] = None,
+    min_cluster_size: Annotated[
+        int, typer.Option("--min-cluster-size", help="Region growing: smallest region kept.")
+    ] = 1,
+    estimate: Annotated[
+        bool,
+        typer.Option("--estimate-normals", help="Estimate (PCA) and orient normals first."),
+    ] = False,
+    normal_k: Annotated[
+        int, typer.Option("--normal-k", help="Neighbours for --estimate-normals.")
+    ] = 20,
+    render: Annotated[
+        Path | None, typer.Option("--render", help="Also write a PNG picture.")
+    ] = None,
+    seed: Annotated[int, typer.Option("--seed", help="Seed for random seeds.")] = 0,
+):
+    """Segment a point set into flat regions (VSA, thesis 4.2-4.3) or by region growing."""
+    from ..io import read_point_set, write_point_set
+
+    if output.suffix.lower() != ".ply":
+        raise PointAtlasError(f"OUT must be a .ply file; got {str(output)!r}")
+    if switch not in ("batch", "single", "none"):
+        raise PointAtlasError(f"--switch must be batch, single or none; got {switch!r}")
+    seeds_value = _parse_seeds(seeds)
+    t0 = time.perf_counter()
+    ps = read_point_set(input_path, with_normals=not estimate, zero_normals="drop")
+    extra = {}
+    if "source_index" in ps.attributes:
+        kept = np.asarray(ps.attributes["source_index"])
+        extra["source_index"] = kept
+        console.print(
+            f"[yellow]note:[/] left out the points without a usable normal; "
+            f"{kept.size:,} kept (field source_index holds their original indices)"
+        )
+    normals = ps.normals
+    if normals is None:
+        if not estimate:
+            raise PointAtlasError(
+                f"{input_path} has no normals; pass --estimate-normals to estimate them"
+            )
+        from ..normals import estimate_normals, orient_normals
+
+        normals = orient_normals(ps.points, estimate_normals(ps.points, normal_k))
+    res, summary = segment_point_set(
+        ps.points,
+        normals,
+        method=method,
+        eta=eta,
+        max_angle_deg=max_angle_deg,
+        seeds=seeds_value,
+        k=k,
+        split=not no_split,
+        merge=not no_merge,
+        switch=switch,
+        classic=classic,
+        weights=weights,
+        smoothness_deg=smoothness_deg,
+        curvature_threshold=curvature_threshold,
+        min_cluster_size=min_cluster_size,
+        seed=seed,
+    )
+    summary.update(
+        {
+            "input": str(input_path),
+            "n_points": int(ps.n_points),
+            "k": k,
+            "seed": seed,
+            "seconds": round(time.perf_counter() - t0, 3),
+        }
+    )
+    from ..viz import label_colors
+
+    labels = np.asarray(res.labels)
+    colors = (label_colors(labels) * 255).round().astype(np.uint8)
+    write_point_set(
+        output, ps.points, normals=normals, attributes={"label": labels, **extra}, colors=colors
+    )
+    csv_path, json_path = _write_tables(output, region_table(res), summary)
+    console.print(
+        f"{summary['method']}: {summary['n_regions']} regions on {ps.n_points:,} points, "
+        f"MSE {summary['mse']:.3e}, assigned {summary['assigned_fraction']:.1%} "
+        f"({summary['seconds']:.1f} s)"
+    )
+    console.print(f"wrote {output}, {csv_path}, {json_path}")
+    if render is not None:
+        from ..viz import render_points
+
+        path = render_points(
+            render,
+            ps.points,
+            normals=normals,
+            labels=labels,
+            title=f"{ps.name}: {summary['method']}, {summary['n_regions']} regions",
+        )
+        console.print(f"picture: {path}")
+
+
+@demo_step
+def demo_segment(ps, out_dir, console):
+    """Segmentation: VSA from every point with split and merge (eta = 25)."""
+    from ..io import write_point_set
+    from ..viz import label_colors, render_points
+
+    res = vsa_segment(ps.points, ps.normals, k=8, eta=25.0)
+    colors = (label_colors(res.labels) * 255).round().astype(np.uint8)
+    write_point_set(
+        out_dir / f"{ps.name}_segments.ply",
+        ps.points,
+        normals=ps.normals,
+        attributes={"label": np.asarray(res.labels)},
+        colors=colors,
+    )
+    path = render_points(
+        out_dir / f"{ps.name}_segments.png",
+        ps.points,
+        normals=ps.normals,
+        labels=res.labels,
+        title=f"{ps.name}: VSA, eta = 25, {res.n_regions} regions",
+    )
+    console.print(
+        f"VSA: {res.n_regions} regions, MSE {res.mse:.3e}, {res.n_iter} iterations "
+        f"({res.stop_reason}); picture: {path}"
+    )
+    return ps.with_attributes(segment_label=np.asarray(res.labels))

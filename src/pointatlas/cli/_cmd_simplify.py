@@ -1,0 +1,247 @@
+"""``pointatlas simplify``: VSA segmentation -> surface-like complex -> polygon mesh.
+
+Also registers the demo step (segment and simplify the demo model) and the
+``pointatlas experiment simplify`` reproductions (``_exp_simplify``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from .._core import PointAtlasError, PointSet
+from ..io import read_point_set, write_mesh
+from ..simplify import SimplifyWarning, simplify_points
+from . import _exp_simplify  # noqa: F401  (registers ``experiment simplify``)
+from ._app import app, console, demo_step, err_console, guarded, progress_bar
+
+__all__ = ["parse_seeds", "render_simplification", "simplification_table"]
+
+MESH_OUT = (".obj", ".ply", ".off")
+#: Segmentation of the demo model: VSA from every point, split/merge threshold eta.
+DEMO_ETA = 20.0
+
+
+def parse_seeds(text: str):
+    """``"all"``, a count (``"12"``) or comma-separated point indices (``"0,5,9"``)."""
+    text = text.strip()
+    if text == "all":
+        return "all"
+    try:
+        if "," in text:
+            return np.array([int(t) for t in text.split(",") if t.strip()], dtype=np.int64)
+        return int(text)
+    except ValueError:
+        raise PointAtlasError(
+            f"--seeds must be 'all', a count or comma-separated indices; got {text!r}"
+        ) from None
+
+
+def _check_out(path: Path, what: str) -> Path:
+    path = Path(path)
+    if path.suffix.lower() not in MESH_OUT:
+        raise PointAtlasError(f"{what} must end in {', '.join(MESH_OUT)}; got {str(path)!r}")
+    if not path.parent.exists():
+        raise PointAtlasError(f"folder of {what} does not exist: {str(path.parent)!r}")
+    return path
+
+
+def simplification_table(mesh, seg=None, *, title: str | None = None) -> Table:
+    """A rich table of the mesh's quality report."""
+    s = mesh.summary()
+    table = Table(title=title, show_header=False, title_justify="left")
+    table.add_column("property", style="bold")
+    table.add_column("value")
+    if seg is not None:
+        table.add_row("VSA regions", str(seg.n_regions))
+    table.add_row("faces (regions meshed)", f"{s['n_faces']} ({s['n_regions']} regions)")
+    table.add_row("vertices", str(s["n_vertices"]))
+    table.add_row("faces with holes", str(s["n_faces_with_holes"]))
+    table.add_row("vertex method", s["vertex_method"] + (" (fallback)" if s["fallback"] else ""))
+    table.add_row("guarded vertices", str(s["n_guarded_vertices"]))
+    table.add_row(
+        "closed / manifold / oriented",
+        f"{s['is_closed']} / {s['is_manifold']} / {s['is_oriented']}",
+    )
+    table.add_row("faces not ok", str(s["faces_not_ok"]))
+    table.add_row("max planarity error", f"{s['max_planarity_error']:.3g}")
+    table.add_row("mean / max distance", f"{s['mean_distance']:.4g} / {s['max_distance']:.4g}")
+    return table
+
+
+def render_simplification(path: Path, points, normals, mesh, *, title: str | None = None):
+    """Side-by-side picture: the segmented points and the simplified mesh."""
+    from ..viz import MeshPanel, PointsPanel, fit_camera, render_side_by_side
+
+    camera = fit_camera(points)
+    panels = [
+        PointsPanel(points, normals=normals, labels=mesh.labels, title="regions meshed"),
+        MeshPanel(
+            mesh.vertices,
+            [p.tolist() for p in mesh.polygons],
+            face_labels=mesh.face_region[mesh.polygon_face],
+            title=f"simplified mesh: {mesh.n_faces} faces",
+        ),
+    ]
+    return render_side_by_side(path, panels, title=title, view=camera, size=(1800, 900))
+
+
+def _run(points, normals, **kw):
+    """simplify_points, with a SimplifyWarning turned into one yellow line."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SimplifyWarning)
+        result = simplify_points(points, normals, **kw)
+    for w in caught:
+        if issubclass(w.category, SimplifyWarning):
+            err_console.print(f"[bold yellow]warning:[/] {w.message}", highlight=False)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return result
+
+
+@app.command("simplify")
+@guarded
+def simplify_command(
+    infile: Annotated[Path, typer.Argument(help="Point set or mesh (PLY, OBJ, OFF, ...).")],
+    out: Annotated[Path, typer.Argument(help="Simplified polygon mesh (.obj, .ply, .off).")],
+    k: Annotated[int, typer.Option("--k", help="Neighbourhood size (thesis: 8).")] = 8,
+    eta: Annotated[
+        float | None, typer.Option("--eta", help="L21 threshold for split/merge (4.3.3).")
+    ] = None,
+    max_angle_deg: Annotated[
+        float | None,
+        typer.Option(
+            "--max-angle-deg", "--max-angle", help="Max mean normal deviation per region (deg)."
+        ),
+    ] = None,
+    seeds: Annotated[
+        str, typer.Option("--seeds", help="'all', a number of random seeds, or indices.")
+    ] = "all",
+    split: Annotated[bool, typer.Option("--split/--no-split", help="Split step.")] = True,
+    merge: Annotated[bool, typer.Option("--merge/--no-merge", help="Merge step.")] = True,
+    switch: Annotated[str, typer.Option("--switch", help="batch, single or none.")] = "batch",
+    classic: Annotated[
+        bool, typer.Option("--classic", help="Classic VSA loop (flood/update/re-seed).")
+    ] = False,
+    weights: Annotated[str, typer.Option("--weights", help="uniform or area (Eq. 4.6).")] = (
+        "uniform"
+    ),
+    max_iter: Annotated[int, typer.Option("--max-iter", help="VSA iterations.")] = 100,
+    seed: Annotated[int, typer.Option("--seed", help="Seed for random VSA seeds.")] = 0,
+    vertices: Annotated[
+        str, typer.Option("--vertices", help="lsq (plane intersection) or optimize (Eq. 4.12).")
+    ] = "lsq",
+    faces: Annotated[
+        str, typer.Option("--faces", help="general (cycles, holes) or star ([SZP20]).")
+    ] = "general",
+    centers: Annotated[
+        str, typer.Option("--centers", help="Proxy plane point: centroid or seed (C_i).")
+    ] = "centroid",
+    weight: Annotated[float, typer.Option("--weight", help="w~ of Eq. 4.11.")] = 1.0,
+    min_region_size: Annotated[
+        int | None, typer.Option("--min-region-size", help="Merge smaller regions (default k).")
+    ] = None,
+    repair: Annotated[
+        bool, typer.Option("--repair/--no-repair", help="Merge regions that cannot be meshed.")
+    ] = True,
+    smooth: Annotated[int, typer.Option("--smooth", help="Label majority-filter passes.")] = 2,
+    triangles: Annotated[
+        Path | None, typer.Option("--triangles", help="Also write the triangulated mesh here.")
+    ] = None,
+    report: Annotated[
+        Path | None, typer.Option("--report", help="Write the quality report as JSON.")
+    ] = None,
+    render: Annotated[
+        Path | None, typer.Option("--render", help="PNG: segmentation and mesh side by side.")
+    ] = None,
+):
+    """Segment a point set (VSA) and write its simplified polygon mesh."""
+    out = _check_out(out, "OUT")
+    if triangles is not None:
+        triangles = _check_out(triangles, "--triangles")
+    if render is not None and Path(render).suffix.lower() != ".png":
+        raise PointAtlasError(f"--render must end in .png; got {str(render)!r}")
+    if eta is not None and max_angle_deg is not None:
+        raise PointAtlasError("give --eta or --max-angle-deg, not both")
+    max_angle = None
+    if max_angle_deg is not None:
+        if not (math.isfinite(max_angle_deg) and 0.0 <= max_angle_deg <= 180.0):
+            raise PointAtlasError(f"--max-angle-deg must lie in [0, 180]; got {max_angle_deg}")
+        max_angle = math.radians(max_angle_deg)
+    seed_spec = parse_seeds(seeds)
+    ps = read_point_set(infile)
+    normals = ps.normals
+    if normals is None:
+        from ._cmd_core import _compute_normals
+
+        err_console.print("no normals in the input: estimating them (k = 20, MST orientation)")
+        with progress_bar("normals", total=2) as advance:
+            normals = _compute_normals(
+                ps.points, k=20, orient="mst", orient_k=10, viewpoint=None, advance=advance
+            )
+    result = _run(
+        ps.points,
+        normals,
+        k=k,
+        seeds=seed_spec,
+        eta=eta,
+        max_angle=max_angle,
+        split=split,
+        merge=merge,
+        switch=switch,
+        classic=classic,
+        weights=weights,
+        max_iter=max_iter,
+        rng=seed,
+        vertices=vertices,
+        faces=faces,
+        centers=centers,
+        weight=weight,
+        min_region_size=min_region_size,
+        repair=repair,
+        smooth=smooth,
+    )
+    mesh = result.mesh
+    polys = [p.tolist() for p in mesh.polygons]
+    written = [write_mesh(out, mesh.vertices, polys)]
+    if triangles is not None:
+        written.append(write_mesh(triangles, mesh.vertices, mesh.triangles))
+    if report is not None:
+        info = {"input": str(infile), "seed": seed, **mesh.summary()}
+        info["complex"] = mesh.complex.summary()
+        Path(report).write_text(json.dumps(info, indent=2))
+        written.append(Path(report))
+    if render is not None:
+        written.append(render_simplification(render, ps.points, normals, mesh, title=ps.name))
+    console.print(simplification_table(mesh, result.segmentation, title=ps.name))
+    for path in written:
+        console.print(f"written: {path}")
+
+
+@demo_step
+def demo_simplify(ps: PointSet, out_dir: Path, console) -> None:
+    """Segmentation (VSA) and simplified polygon mesh, side by side."""
+    if not ps.has_normals:
+        raise PointAtlasError("the demo model has no normals")
+    result = _run(ps.points, ps.normals, eta=DEMO_ETA)
+    mesh = result.mesh
+    obj = write_mesh(
+        out_dir / f"{ps.name}_simplified.obj", mesh.vertices, [p.tolist() for p in mesh.polygons]
+    )
+    png = render_simplification(
+        out_dir / f"{ps.name}_simplified.png",
+        ps.points,
+        ps.normals,
+        mesh,
+        title=f"{ps.name}: VSA (eta = {DEMO_ETA:g}) and the simplified mesh",
+    )
+    (out_dir / f"{ps.name}_simplified.json").write_text(json.dumps(mesh.summary(), indent=2))
+    console.print(simplification_table(mesh, result.segmentation))
+    console.print(f"mesh: {obj}\npicture: {png}")

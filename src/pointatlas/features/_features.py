@@ -1,0 +1,446 @@
+"""Normal-weighted covariances and eigen-features (thesis 5.3, 6.1, 6.2; GUIDE C1)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from .._core import PointAtlasError, readonly
+from ..neighbors import query_knn
+from ._kernels import (
+    N_FEATURES,
+    REASON_FEW_DISTINCT,
+    REASON_NONFINITE,
+    REASON_OK,
+    REASON_ZERO_EIGENSUM,
+    REASON_ZERO_WEIGHTS,
+    covariance_kernel,
+    eigvals_batch_kernel,
+    features_kernel,
+    fused_kernel,
+    spatial_order_kernel,
+)
+from ._weights import _check_ab, _check_indices, _unit_normals_or_nan, normal_angles
+
+__all__ = [
+    "FEATURE_NAMES",
+    "REASON_CODES",
+    "FeatureResult",
+    "covariance_features",
+    "eigen_features",
+    "symmetric_eigenvalues",
+    "weighted_covariances",
+]
+
+#: per-point features, in the order of the columns written by the kernel
+FEATURE_NAMES = (
+    "linearity",
+    "planarity",
+    "scattering",
+    "e_dim",
+    "omnivariance",
+    "anisotropy",
+    "change_of_curvature",
+    "eigenentropy",
+    "eigen_sum",
+    "verticality",
+    "flatness",
+)
+
+#: reason code -> meaning (uint8 per point; 0 = features defined)
+REASON_CODES = {
+    REASON_OK: "ok",
+    REASON_NONFINITE: "non-finite coordinates or normals in the neighbourhood",
+    REASON_ZERO_WEIGHTS: "all weights zero",
+    REASON_FEW_DISTINCT: "fewer than 3 distinct points with positive weight",
+    REASON_ZERO_EIGENSUM: "eigenvalue sum zero",
+}
+
+
+@dataclass(frozen=True, slots=True)
+class FeatureResult:
+    """Per-point eigen-features and the neighbourhood each point used.
+
+    Attributes
+    ----------
+    eigenvalues : ndarray of shape (N, 3), float64
+        lambda_1 >= lambda_2 >= lambda_3 >= 0 of the covariance (Eq. 5.4); NaN when
+        degenerate.
+    linearity, planarity, scattering : ndarray of shape (N,), float64
+        Eq. 5.6.
+    e_dim : ndarray of shape (N,), float64
+        Eq. 5.7 (0 ln 0 = 0); +inf where an optimal search found no valid choice.
+    omnivariance, anisotropy, change_of_curvature : ndarray of shape (N,), float64
+        Eq. 6.2 on normalised eigenvalues (anisotropy reversed as in 6.2).
+    eigenentropy, eigen_sum, verticality, flatness : ndarray of shape (N,), float64
+        -sum e_i ln e_i; lambda_1 + lambda_2 + lambda_3; 1 - |v3_z|; Eq. 6.1.
+    eigenvector_1, eigenvector_3 : ndarray of shape (N, 3), float64
+        Unit eigenvectors of lambda_1 (main direction) and lambda_3 (PCA normal,
+        sign arbitrary).
+    k : ndarray of shape (N,), int64
+        Neighbourhood size used (-1 where no choice was valid).
+    a, b : ndarray of shape (N,), float64
+        Sigmoid thresholds used (radians; pi, pi for equal weights; NaN if none).
+    reason : ndarray of shape (N,), uint8
+        0 where features are defined, else a code of `REASON_CODES`.
+    flatness_exponents : tuple of int
+        (m1, m2) of Eq. 6.1.
+    """
+
+    eigenvalues: np.ndarray
+    linearity: np.ndarray
+    planarity: np.ndarray
+    scattering: np.ndarray
+    e_dim: np.ndarray
+    omnivariance: np.ndarray
+    anisotropy: np.ndarray
+    change_of_curvature: np.ndarray
+    eigenentropy: np.ndarray
+    eigen_sum: np.ndarray
+    verticality: np.ndarray
+    flatness: np.ndarray
+    eigenvector_1: np.ndarray
+    eigenvector_3: np.ndarray
+    k: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    reason: np.ndarray
+    flatness_exponents: tuple = field(default=(8, 8))
+
+    def __post_init__(self):
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, np.ndarray):
+                object.__setattr__(self, f.name, readonly(value))
+
+    @property
+    def n_points(self) -> int:
+        """Number of points."""
+        return int(self.reason.shape[0])
+
+    @property
+    def is_valid(self) -> np.ndarray:
+        """Boolean mask of points whose features are defined (reason == 0)."""
+        return self.reason == REASON_OK
+
+    def scalar_fields(self) -> dict[str, np.ndarray]:
+        """All per-point scalars by name (for PLY scalar fields / CSV).
+
+        Returns
+        -------
+        fields : dict of str to ndarray of shape (N,)
+            ``eigenvalue_1..3``, every feature of `FEATURE_NAMES`, ``k``, ``a``,
+            ``b`` (radians) and ``reason``.
+        """
+        out = {f"eigenvalue_{i + 1}": self.eigenvalues[:, i] for i in range(3)}
+        for name in FEATURE_NAMES:
+            out[name] = getattr(self, name)
+        out["k"] = self.k
+        out["a"] = self.a
+        out["b"] = self.b
+        out["reason"] = self.reason
+        return out
+
+
+def _as_points_allow_nan(points) -> np.ndarray:
+    try:
+        arr = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"points must be numeric; got {type(points).__name__}: {exc}") from None
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"points must have shape (N, 3); got {arr.shape}")
+    return np.ascontiguousarray(arr)
+
+
+def _check_k(k, name: str = "k") -> int:
+    if isinstance(k, bool) or not isinstance(k, int | np.integer):
+        raise TypeError(f"{name} must be an integer; got {type(k).__name__}")
+    if k < 1:
+        raise ValueError(f"{name} must be >= 1; got {k}")
+    return int(k)
+
+
+def _check_flatness(flatness) -> tuple[int, int]:
+    try:
+        m1, m2 = (int(v) for v in flatness)
+    except (TypeError, ValueError):
+        raise TypeError(f"flatness must be a pair of even integers; got {flatness!r}") from None
+    if m1 < 0 or m2 < 0 or m1 % 2 or m2 % 2:
+        raise ValueError(f"flatness exponents m1, m2 must be even and >= 0 (Eq. 6.1); got {m1, m2}")
+    return m1, m2
+
+
+def _neighbourhoods(points: np.ndarray, kmax: int, neighbors) -> np.ndarray:
+    """(N, kmax) neighbour table, self first, sorted by distance.
+
+    Computed with `query_knn` among the finite points when ``neighbors`` is None
+    (non-finite points get a row of themselves and are flagged by the kernels);
+    otherwise the first ``kmax`` columns of the given table.
+    """
+    n = points.shape[0]
+    if neighbors is not None:
+        idx = _check_indices(neighbors, n)
+        if idx.shape[1] < kmax:
+            raise ValueError(f"neighbors must have at least {kmax} columns; got {idx.shape[1]}")
+        return np.ascontiguousarray(idx[:, :kmax])
+    finite = np.isfinite(points).all(axis=1)
+    n_finite = int(finite.sum())
+    if n_finite < kmax:
+        raise PointAtlasError(
+            f"too few points: neighbourhoods of k = {kmax} need at least {kmax} finite points; "
+            f"got {n_finite}"
+        )
+    if n_finite == n:
+        return query_knn(points, kmax)[0]
+    keep = np.flatnonzero(finite)
+    sub = query_knn(points[keep], kmax)[0]
+    idx = np.repeat(np.arange(n, dtype=np.int64)[:, None], kmax, axis=1)
+    idx[keep] = keep[sub]
+    return idx
+
+
+def _spatial_order(points: np.ndarray) -> np.ndarray:
+    """Cache-friendly visiting order (about 16 points per grid cell, Morton order)."""
+    n = points.shape[0]
+    bits = int(np.clip(np.ceil(np.log2(max(n, 2) / 16) / 3), 1, 7))
+    return spatial_order_kernel(points, bits)
+
+
+def _choice_features(points, idx, k_of, angles, a_of, b_of, flatness) -> FeatureResult:
+    n = points.shape[0]
+    eig = np.empty((n, 3))
+    vec1 = np.empty((n, 3))
+    vec3 = np.empty((n, 3))
+    feats = np.empty((n, N_FEATURES))
+    reason = np.empty(n, dtype=np.uint8)
+    use_normals = angles is not None
+    ang = angles if use_normals else np.empty((0, 0))
+    m1, m2 = flatness
+    order = _spatial_order(points)
+    fused_kernel(
+        points, idx, order, k_of, ang, use_normals, a_of, b_of, m1, m2, eig, vec1, vec3, feats,
+        reason,
+    )  # fmt: skip
+    cols = {name: feats[:, c] for c, name in enumerate(FEATURE_NAMES)}
+    return FeatureResult(
+        eigenvalues=eig,
+        eigenvector_1=vec1,
+        eigenvector_3=vec3,
+        k=np.asarray(k_of, dtype=np.int64),
+        a=np.asarray(a_of, dtype=np.float64),
+        b=np.asarray(b_of, dtype=np.float64),
+        reason=reason,
+        flatness_exponents=(m1, m2),
+        **cols,
+    )
+
+
+def weighted_covariances(points, neighbors, weights=None) -> tuple[np.ndarray, np.ndarray]:
+    """Covariance matrices of Eq. 5.4 for every point's neighbourhood.
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3)
+        Coordinates (non-finite rows are allowed and flagged).
+    neighbors : array_like of shape (N, k), int
+        Neighbour indices of each point (the point itself included).
+    weights : array_like of shape (N, k), optional
+        Non-negative weights w_ij (e.g. `normal_weights`); all 1 when omitted.
+
+    Returns
+    -------
+    covariances : ndarray of shape (N, 3, 3), float64
+        C_i = sum_j w_ij (p_j - pbar_i)(p_j - pbar_i)^T with the *unweighted*
+        barycentre pbar_i (Eq. 5.4 as printed); NaN rows where non-finite.
+    reason : ndarray of shape (N,), uint8
+        Reason codes (`REASON_CODES`); the matrix is still returned for codes 2-3.
+
+    Raises
+    ------
+    ValueError
+        Bad shapes, negative weights or indices out of range.
+
+    Notes
+    -----
+    Computed relative to each point (a per-point origin) so large coordinate offsets
+    do not cost precision.
+
+    Examples
+    --------
+    >>> pts = [[0, 0, 0], [2, 0, 0], [0, 2, 0]]
+    >>> cov, reason = weighted_covariances(pts, [[0, 1, 2]] * 3)
+    >>> round(float(np.trace(cov[0])), 6), int(reason[0])
+    (5.333333, 0)
+    """
+    pts = _as_points_allow_nan(points)
+    idx = _check_indices(neighbors, pts.shape[0])
+    if weights is None:
+        w = np.empty((0, 0))
+        use = False
+    else:
+        w = np.ascontiguousarray(np.asarray(weights, dtype=np.float64))
+        if w.shape != idx.shape:
+            raise ValueError(f"weights must have the shape of neighbors {idx.shape}; got {w.shape}")
+        if (w < 0).any():
+            raise ValueError("weights must be >= 0")
+        use = True
+    out = np.empty((pts.shape[0], 3, 3))
+    reason = np.empty(pts.shape[0], dtype=np.uint8)
+    covariance_kernel(pts, idx, w, use, out, reason)
+    return out, reason
+
+
+def symmetric_eigenvalues(matrices) -> np.ndarray:
+    """Eigenvalues of a batch of symmetric 3x3 matrices, largest first.
+
+    Parameters
+    ----------
+    matrices : array_like of shape (N, 3, 3)
+        Symmetric matrices (the mean of a matrix and its transpose is used).
+
+    Returns
+    -------
+    eigenvalues : ndarray of shape (N, 3), float64
+        Descending; NaN rows for non-finite matrices.
+
+    Raises
+    ------
+    ValueError
+        Wrong shape.
+
+    Notes
+    -----
+    Cyclic Jacobi rotations in a numba kernel with a relative stopping rule
+    (small eigenvalues stay relatively accurate); agrees with
+    `numpy.linalg.eigvalsh` to round-off.
+
+    Examples
+    --------
+    >>> symmetric_eigenvalues([np.diag([1.0, 3.0, 2.0])]).tolist()
+    [[3.0, 2.0, 1.0]]
+    """
+    m = np.asarray(matrices, dtype=np.float64)
+    if m.ndim != 3 or m.shape[1:] != (3, 3):
+        raise ValueError(f"matrices must have shape (N, 3, 3); got {m.shape}")
+    out = np.empty((m.shape[0], 3))
+    eigvals_batch_kernel(np.ascontiguousarray(m), out)
+    return out
+
+
+def eigen_features(eigenvalues, *, flatness=(8, 8)) -> dict[str, np.ndarray]:
+    """Eigenvalue features (Eqs. 5.6, 5.7, 6.1, 6.2) from given eigenvalues.
+
+    Parameters
+    ----------
+    eigenvalues : array_like of shape (N, 3)
+        Eigenvalues in any order (sorted descending here; negatives from round-off
+        clipped to 0).
+    flatness : tuple of int
+        Even exponents (m1, m2) of Eq. 6.1.
+
+    Returns
+    -------
+    features : dict of str to ndarray of shape (N,)
+        Every name of `FEATURE_NAMES` except ``verticality`` (which needs an
+        eigenvector); NaN where lambda_1 <= 0 or the input is non-finite.
+
+    Raises
+    ------
+    ValueError
+        Wrong shape or odd exponents.
+
+    Examples
+    --------
+    >>> f = eigen_features([[1.0, 1.0, 0.0]])
+    >>> float(f["planarity"][0]), float(f["e_dim"][0]), float(f["flatness"][0])
+    (1.0, 0.0, 0.0)
+    """
+    m1, m2 = _check_flatness(flatness)
+    ev = np.asarray(eigenvalues, dtype=np.float64)
+    if ev.ndim != 2 or ev.shape[1] != 3:
+        raise ValueError(f"eigenvalues must have shape (N, 3); got {ev.shape}")
+    ev = np.clip(-np.sort(-ev, axis=1), 0.0, None)
+    reason = np.where(np.isfinite(ev).all(axis=1), REASON_OK, REASON_NONFINITE).astype(np.uint8)
+    reason[(reason == REASON_OK) & ~(ev[:, 0] > 0)] = REASON_ZERO_EIGENSUM
+    feats = np.empty((ev.shape[0], N_FEATURES))
+    features_kernel(np.ascontiguousarray(ev), np.zeros((ev.shape[0], 3)), reason, m1, m2, feats)
+    return {
+        name: feats[:, c].copy() for c, name in enumerate(FEATURE_NAMES) if name != "verticality"
+    }
+
+
+def covariance_features(
+    points,
+    k: int = 14,
+    *,
+    normals=None,
+    a: float = math.pi,
+    b: float = math.pi,
+    neighbors=None,
+    flatness=(8, 8),
+) -> FeatureResult:
+    """Eigen-features of every point's k-neighbourhood (fixed-k mode).
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3)
+        Coordinates; rows with NaN/inf are flagged (reason 1), never fatal.
+    k : int
+        Neighbourhood size, the point itself included (thesis 6.2 uses 14).
+    normals : array_like of shape (N, 3), optional
+        Oriented normals; needed only for sigmoid weights (a < pi or b < pi).
+    a : float
+        Sigmoid start (radians, Def. 15); with ``b`` = pi, the default, weights are 1.
+    b : float
+        Sigmoid end (radians, [a, pi]).
+    neighbors : array_like of shape (N, >= k), int, optional
+        Precomputed neighbour table sorted by distance, the point itself first;
+        computed with `pointatlas.neighbors.query_knn` when omitted.
+    flatness : tuple of int
+        Even exponents (m1, m2) of Eq. 6.1.
+
+    Returns
+    -------
+    result : FeatureResult
+        Features, eigenvalues, eigenvectors, the (a, b, k) used and reason codes.
+
+    Raises
+    ------
+    ValueError
+        Bad shapes/parameters; normals missing while a or b < pi.
+    PointAtlasError
+        Fewer finite points than k.
+
+    Notes
+    -----
+    Covariance of Eq. 5.4 (weighted outer products about the unweighted
+    barycentre), eigenvalues in closed form refined by deflation (accurate for
+    double eigenvalues), features of Eqs. 5.6, 5.7, 6.1,
+    6.2. Degenerate neighbourhoods (non-finite data, all weights zero, fewer than
+    three distinct points with positive weight, eigenvalue sum zero) give NaN and a
+    reason code (docs/decisions.md).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> g = np.stack(np.meshgrid(np.arange(5.0), np.arange(5.0), [0.0]), -1).reshape(-1, 3)
+    >>> r = covariance_features(g, k=9)
+    >>> bool(np.nanmax(r.scattering) < 1e-12), int(r.reason.max())
+    (True, 0)
+    """
+    pts = _as_points_allow_nan(points)
+    k = _check_k(k)
+    a, b = _check_ab(a, b)
+    flat = _check_flatness(flatness)
+    n = pts.shape[0]
+    idx = _neighbourhoods(pts, k, neighbors)
+    weighted = not (a == math.pi and b == math.pi)
+    angles = None
+    if weighted:
+        if normals is None:
+            raise ValueError("normals are required for sigmoid weights (a < pi or b < pi)")
+        angles = normal_angles(_unit_normals_or_nan(normals, n), idx)
+    k_of = np.full(n, k, dtype=np.int64)
+    return _choice_features(pts, idx, k_of, angles, np.full(n, a), np.full(n, b), flat)

@@ -1,0 +1,359 @@
+"""Optimal neighbourhoods: the (a, b, k) search of Eq. 5.9 and Weinmann's optimal k."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._features import (
+    FEATURE_NAMES,
+    FeatureResult,
+    _as_points_allow_nan,
+    _check_flatness,
+    _check_k,
+    _choice_features,
+    _neighbourhoods,
+    _unit_normals_or_nan,
+)
+from ._kernels import REASON_OK, search_kernel
+from ._weights import normal_angles
+
+__all__ = [
+    "THESIS_ANGLE_GRID",
+    "THESIS_K_RANGE",
+    "angle_pairs",
+    "decrease_cases",
+    "optimal_k_features",
+    "optimal_neighbourhood",
+]
+
+#: A = B = {0, pi/6, ..., pi} of thesis 5.4 (7 values, 28 pairs a <= b)
+THESIS_ANGLE_GRID = tuple(i * math.pi / 6 for i in range(7))
+#: K = {6, ..., 20} of thesis 5.4, as an inclusive (min, max) range
+THESIS_K_RANGE = (6, 20)
+
+_CRITERIA = {"e_dim": 0, "eigenentropy": 1}
+
+
+def _check_grid(grid, name: str) -> np.ndarray:
+    g = np.asarray(grid, dtype=np.float64).ravel()
+    if g.size == 0:
+        raise ValueError(f"{name} must not be empty")
+    if not np.isfinite(g).all() or g.min() < 0 or g.max() > math.pi + 1e-12:
+        raise ValueError(f"{name} values must lie in [0, pi] radians; got {g.tolist()}")
+    return np.unique(np.minimum(g, math.pi))
+
+
+def _check_k_range(k_range) -> tuple[int, int]:
+    try:
+        kmin, kmax = k_range
+    except (TypeError, ValueError):
+        raise TypeError(f"k_range must be a pair (k_min, k_max); got {k_range!r}") from None
+    kmin = _check_k(kmin, "k_range[0]")
+    kmax = _check_k(kmax, "k_range[1]")
+    if kmin > kmax:
+        raise ValueError(f"k_range must have k_min <= k_max; got {k_range!r}")
+    return kmin, kmax
+
+
+def angle_pairs(a_grid=THESIS_ANGLE_GRID, b_grid=THESIS_ANGLE_GRID) -> np.ndarray:
+    """All (a, b) with a in ``a_grid``, b in ``b_grid`` and a <= b, in lexicographic order.
+
+    Parameters
+    ----------
+    a_grid, b_grid : sequence of float
+        Thresholds in radians within [0, pi].
+
+    Returns
+    -------
+    pairs : ndarray of shape (M, 2), float64
+        Sorted by a, then b (the tie order of the search).
+
+    Raises
+    ------
+    ValueError
+        Empty grids, values outside [0, pi] or no pair with a <= b.
+
+    Examples
+    --------
+    >>> angle_pairs().shape
+    (28, 2)
+    """
+    ag = _check_grid(a_grid, "a_grid")
+    bg = _check_grid(b_grid, "b_grid")
+    pairs = np.array([(a, b) for a in ag for b in bg if a <= b], dtype=np.float64)
+    if pairs.size == 0:
+        raise ValueError("no (a, b) pair with a <= b in the given grids")
+    return pairs.reshape(-1, 2)
+
+
+def optimal_neighbourhood(
+    points,
+    normals,
+    *,
+    a_grid=THESIS_ANGLE_GRID,
+    b_grid=THESIS_ANGLE_GRID,
+    k_range=THESIS_K_RANGE,
+    neighbors=None,
+    flatness=(8, 8),
+) -> FeatureResult:
+    """Per point the (a, b, k) minimising E_dim (thesis Eq. 5.9) and its features.
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3)
+        Coordinates (non-finite rows are flagged).
+    normals : array_like of shape (N, 3)
+        Oriented normals (the weights of Eq. 5.2 use their angles).
+    a_grid, b_grid : sequence of float
+        Sigmoid thresholds in radians (default: {0, pi/6, ..., pi}; 28 pairs a <= b).
+    k_range : tuple of int
+        Inclusive neighbourhood sizes (default 6..20; the point itself counts).
+    neighbors : array_like of shape (N, >= k_max), int, optional
+        Precomputed neighbour table sorted by distance, itself first.
+    flatness : tuple of int
+        Even exponents of Eq. 6.1 for the reported flatness.
+
+    Returns
+    -------
+    result : FeatureResult
+        Features at each point's optimal triple; ``a``, ``b``, ``k`` hold the
+        triple. Where every choice degenerates, ``e_dim`` is +inf, ``k`` is -1,
+        ``a``/``b`` and the other features NaN, and ``reason`` says why.
+
+    Raises
+    ------
+    ValueError
+        Bad shapes, grids or range.
+    PointAtlasError
+        Fewer finite points than k_max.
+
+    Notes
+    -----
+    Each point's neighbours are sorted once; for every (a, b) the weighted moments
+    (sum w, sum w y, sum w y y^T about the point) and the unweighted sum grow by one
+    neighbour per k, so the 420 choices cost one covariance each in O(1) plus a
+    closed-form eigenvalue solve; pairs selecting the same neighbours with 0/1
+    weights are evaluated once. Ties: smallest k, then a, then b (GUIDE C2). A
+    choice is degenerate when fewer than three distinct points carry positive
+    weight or the eigenvalue sum is 0 (5.3.2). The reported features are then
+    recomputed at the chosen triple with the accurate (deflated) solver.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> pts = rng.random((60, 3))
+    >>> r = optimal_neighbourhood(pts, np.tile([0.0, 0.0, 1.0], (60, 1)))
+    >>> bool(((r.k >= 6) & (r.k <= 20)).all())
+    True
+    """
+    pts = _as_points_allow_nan(points)
+    n = pts.shape[0]
+    pairs = angle_pairs(a_grid, b_grid)
+    kmin, kmax = _check_k_range(k_range)
+    flat = _check_flatness(flatness)
+    nrm = _unit_normals_or_nan(normals, n)
+    idx = _neighbourhoods(pts, kmax, neighbors)
+    angles = normal_angles(nrm, idx)
+    best_val, best_k, best_pair, reason = _run_search(
+        pts, idx, kmin, kmax, angles, pairs, criterion=0
+    )
+    return _finish(pts, idx, angles, pairs, best_k, best_pair, reason, flat)
+
+
+def optimal_k_features(
+    points,
+    *,
+    k_range=(10, 50),
+    criterion: str = "eigenentropy",
+    neighbors=None,
+    flatness=(8, 8),
+) -> FeatureResult:
+    """Weinmann et al.'s optimal neighbourhood size with equal weights, and its features.
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3)
+        Coordinates (non-finite rows are flagged).
+    k_range : tuple of int
+        Inclusive range of k (the point itself counts); default 10..50 as pgeof.
+    criterion : {"eigenentropy", "e_dim"}
+        Minimised quantity: eigenentropy of the normalised eigenvalues ([WJM14]) or
+        the dimensionality entropy E_dim of Eq. 5.7 (the thesis' equal-weight
+        baseline of Table 5.1 uses "e_dim" with k in 6..20).
+    neighbors : array_like of shape (N, >= k_max), int, optional
+        Precomputed neighbour table sorted by distance, itself first.
+    flatness : tuple of int
+        Even exponents of Eq. 6.1.
+
+    Returns
+    -------
+    result : FeatureResult
+        Features at each point's optimal k (``a`` = ``b`` = pi); e_dim +inf and
+        k = -1 where no k is valid.
+
+    Raises
+    ------
+    ValueError
+        Unknown criterion, bad range.
+    PointAtlasError
+        Fewer finite points than k_max.
+
+    Notes
+    -----
+    Same running-sum kernel as `optimal_neighbourhood` with one all-ones weight
+    vector. Ties: smallest k.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> r = optimal_k_features(np.random.default_rng(1).random((80, 3)), k_range=(6, 12))
+    >>> int(r.k.min()) >= 6 and int(r.k.max()) <= 12
+    True
+    """
+    if criterion not in _CRITERIA:
+        raise ValueError(f"criterion must be one of {sorted(_CRITERIA)}; got {criterion!r}")
+    pts = _as_points_allow_nan(points)
+    kmin, kmax = _check_k_range(k_range)
+    flat = _check_flatness(flatness)
+    idx = _neighbourhoods(pts, kmax, neighbors)
+    pairs = np.array([[math.pi, math.pi]])
+    best_val, best_k, best_pair, reason = _run_search(
+        pts, idx, kmin, kmax, None, pairs, criterion=_CRITERIA[criterion]
+    )
+    return _finish(pts, idx, None, pairs, best_k, best_pair, reason, flat)
+
+
+def _run_search(pts, idx, kmin, kmax, angles, pairs, *, criterion):
+    n = pts.shape[0]
+    best_val = np.empty(n)
+    best_k = np.empty(n, dtype=np.int64)
+    best_pair = np.empty(n, dtype=np.int64)
+    reason = np.empty(n, dtype=np.uint8)
+    use_normals = angles is not None
+    ang = angles if use_normals else np.empty((0, 0))
+    search_kernel(
+        pts,
+        idx,
+        kmin,
+        kmax,
+        ang,
+        use_normals,
+        np.ascontiguousarray(pairs[:, 0]),
+        np.ascontiguousarray(pairs[:, 1]),
+        criterion,
+        best_val,
+        best_k,
+        best_pair,
+        reason,
+    )
+    return best_val, best_k, best_pair, reason
+
+
+def _finish(pts, idx, angles, pairs, best_k, best_pair, reason, flat) -> FeatureResult:
+    ok = reason == REASON_OK
+    kk = idx.shape[1]
+    k_of = np.where(ok, best_k, kk).astype(np.int64)
+    pair = np.where(ok, best_pair, 0)
+    a_of = np.where(ok, pairs[pair, 0], math.pi)
+    b_of = np.where(ok, pairs[pair, 1], math.pi)
+    res = _choice_features(pts, idx, k_of, angles, a_of, b_of, flat)
+    if ok.all():
+        return res
+    bad = ~ok
+    repl = {}
+    for name in ("eigenvalues", "eigenvector_1", "eigenvector_3"):
+        arr = getattr(res, name).copy()
+        arr[bad] = np.nan
+        repl[name] = arr
+    for name in FEATURE_NAMES:
+        arr = getattr(res, name).copy()
+        arr[bad] = np.inf if name == "e_dim" else np.nan
+        repl[name] = arr
+    k_out = np.where(ok, best_k, -1)
+    a_out = np.where(ok, a_of, np.nan)
+    b_out = np.where(ok, b_of, np.nan)
+    return FeatureResult(
+        k=k_out, a=a_out, b=b_out, reason=reason, flatness_exponents=res.flatness_exponents, **repl
+    )
+
+
+def decrease_cases(
+    points,
+    normals,
+    result: FeatureResult,
+    *,
+    a_grid=THESIS_ANGLE_GRID,
+    b_grid=THESIS_ANGLE_GRID,
+    neighbors=None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Table 5.2's cases: could the chosen a or b go one grid step lower?
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3)
+        The coordinates the search ran on.
+    normals : array_like of shape (N, 3)
+        The normals the search ran on.
+    result : FeatureResult
+        Output of `optimal_neighbourhood` on these points and grids.
+    a_grid, b_grid : sequence of float
+        The grids of the search (radians).
+    neighbors : array_like of shape (N, >= k_max), int, optional
+        The neighbour table of the search.
+
+    Returns
+    -------
+    a_case : ndarray of shape (N,), int8
+        0: a* is the smallest grid value ("a = 0"); 1: a one step lower (same b*, k*)
+        gives a non-degenerate covariance ("a-"); 2: it degenerates ("not a-");
+        -1: no valid triple.
+    b_case : ndarray of shape (N,), int8
+        0: b* = a* or no grid value in [a*, b*) ("b = a"); 1: b one step lower is
+        non-degenerate ("b-"); 2: it degenerates ("not b-"); -1: no valid triple.
+
+    Raises
+    ------
+    ValueError
+        Shapes that do not match ``result``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pts = np.random.default_rng(0).random((40, 3))
+    >>> nrm = np.tile([0.0, 0.0, 1.0], (40, 1))
+    >>> r = optimal_neighbourhood(pts, nrm)
+    >>> a_case, b_case = decrease_cases(pts, nrm, r)
+    >>> sorted(set(a_case.tolist()))
+    [0]
+    """
+    pts = _as_points_allow_nan(points)
+    n = pts.shape[0]
+    if result.n_points != n:
+        raise ValueError(f"result has {result.n_points} points; points has {n}")
+    ag = _check_grid(a_grid, "a_grid")
+    bg = _check_grid(b_grid, "b_grid")
+    ok = result.reason == REASON_OK
+    kmax = int(result.k[ok].max()) if ok.any() else 1
+    idx = _neighbourhoods(pts, kmax, neighbors)
+    angles = normal_angles(_unit_normals_or_nan(normals, n), idx)
+    a_star = np.where(ok, result.a, ag[0])
+    b_star = np.where(ok, result.b, bg[-1])
+    k_of = np.where(ok, result.k, kmax).astype(np.int64)
+
+    ia = np.searchsorted(ag, a_star - 1e-12)
+    a_min = ia == 0
+    a_low = ag[np.maximum(ia - 1, 0)]
+    ra = _choice_features(pts, idx, k_of, angles, a_low, b_star, (2, 2)).reason
+    a_case = np.where(a_min, 0, np.where(ra == REASON_OK, 1, 2)).astype(np.int8)
+
+    ib = np.searchsorted(bg, b_star - 1e-12)
+    b_low = bg[np.maximum(ib - 1, 0)]
+    b_min = (ib == 0) | (b_low < a_star - 1e-12) | (np.abs(b_star - a_star) <= 1e-12)
+    rb = _choice_features(pts, idx, k_of, angles, a_star, np.maximum(b_low, a_star), (2, 2)).reason
+    b_case = np.where(b_min, 0, np.where(rb == REASON_OK, 1, 2)).astype(np.int8)
+    a_case[~ok] = -1
+    b_case[~ok] = -1
+    return a_case, b_case

@@ -1,0 +1,172 @@
+"""Cosine sigmoid weights on normal deviations (thesis 5.2, Def. 15, Eq. 5.2)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._core import PointAtlasError
+from .._core.tolerances import ANGLE_ZERO
+from ._kernels import angles_kernel
+
+__all__ = ["cosine_sigmoid", "normal_angles", "normal_weights"]
+
+
+def _check_ab(a, b) -> tuple[float, float]:
+    try:
+        a = float(a)
+        b = float(b)
+    except (TypeError, ValueError):
+        raise TypeError(f"a and b must be numbers; got {a!r}, {b!r}") from None
+    if not (0.0 <= a <= math.pi) or not math.isfinite(a):
+        raise ValueError(f"a must lie in [0, pi]; got {a}")
+    if not (a <= b <= math.pi):
+        raise ValueError(f"b must lie in [a, pi] = [{a}, {math.pi}]; got {b}")
+    return a, b
+
+
+def cosine_sigmoid(x, a: float, b: float) -> np.ndarray:
+    """The cosine sigmoid of Def. 15 evaluated at angles ``x``.
+
+    Parameters
+    ----------
+    x : array_like of float64
+        Angles in radians, in [0, pi]. Angles below ``ANGLE_ZERO`` (1e-7) count as 0.
+    a : float
+        Start of the cosine ramp, in [0, pi] (radians).
+    b : float
+        End of the ramp, in [a, pi] (radians).
+
+    Returns
+    -------
+    weights : ndarray of float64, same shape as ``x``
+        1 for x <= a, 0.5 cos(pi (x - a) / (b - a)) + 0.5 for a < x < b, 0 for x >= b;
+        NaN where ``x`` is NaN.
+
+    Raises
+    ------
+    ValueError
+        ``a`` outside [0, pi] or ``b`` outside [a, pi].
+
+    Notes
+    -----
+    Thesis Def. 15 writes 1 for x < a and the cosine on [a, b]; both agree at x = a
+    (cos 0 = 1). For a = b the printed formula divides by zero; the GUIDE (C1) reads
+    it as the sharp cut-off "weight 1 iff x <= a", so a = b = pi gives equal weights
+    and identical normals keep weight 1 at a = b = 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> cosine_sigmoid(np.array([0.0, 0.5, 1.0]), 0.0, 1.0).round(3).tolist()
+    [1.0, 0.5, 0.0]
+    >>> cosine_sigmoid(np.array([0.0, 3.0]), np.pi, np.pi).tolist()
+    [1.0, 1.0]
+    """
+    a, b = _check_ab(a, b)
+    x = np.asarray(x, dtype=np.float64)
+    x = np.where(x < ANGLE_ZERO, 0.0, x)
+    out = np.where(x <= a, 1.0, 0.0)
+    ramp = (x > a) & (x < b)
+    if ramp.any():
+        out[ramp] = 0.5 * np.cos(np.pi * (x[ramp] - a) / (b - a)) + 0.5
+    out[np.isnan(x)] = np.nan
+    return out
+
+
+def _unit_normals_or_nan(normals, n_points: int) -> np.ndarray:
+    """Unit normals; rows that are non-finite or of zero length become NaN (flagged later)."""
+    arr = np.asarray(normals, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"normals must have shape (N, 3); got {arr.shape}")
+    if arr.shape[0] != n_points:
+        raise ValueError(f"normals must have one row per point ({n_points}); got {arr.shape[0]}")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        length = np.linalg.norm(arr, axis=1)
+        out = arr / length[:, None]
+    bad = ~np.isfinite(out).all(axis=1) | (length < 1e-12)
+    out[bad] = np.nan
+    return out
+
+
+def _check_indices(neighbors, n_points: int, name: str = "neighbors") -> np.ndarray:
+    idx = np.asarray(neighbors)
+    if idx.ndim != 2 or idx.shape[0] != n_points or idx.shape[1] < 1:
+        raise ValueError(f"{name} must have shape (N, k) with N = {n_points}; got {idx.shape}")
+    if idx.dtype.kind not in "iu":
+        raise ValueError(f"{name} must be integer indices; got dtype {idx.dtype}")
+    idx = np.ascontiguousarray(idx, dtype=np.int64)
+    if idx.size and (idx.min() < 0 or idx.max() >= n_points):
+        raise PointAtlasError(
+            f"{name} must index points 0..{n_points - 1}; got range {idx.min()}..{idx.max()}"
+        )
+    return idx
+
+
+def normal_angles(normals, neighbors) -> np.ndarray:
+    """Angles between each point's normal and its neighbours' normals.
+
+    Parameters
+    ----------
+    normals : array_like of shape (N, 3)
+        Oriented normals (rescaled to unit length; non-finite or zero rows give NaN).
+    neighbors : array_like of shape (N, k), int
+        Neighbour indices (e.g. from `pointatlas.neighbors.query_knn`).
+
+    Returns
+    -------
+    angles : ndarray of shape (N, k), float64
+        Angles in [0, pi] (radians), computed as 2 atan2(|n_i - n_j|, |n_i + n_j|),
+        which stays accurate near 0 and pi where arccos of the dot product does not;
+        angles below ``ANGLE_ZERO`` are set to exactly 0.
+
+    Raises
+    ------
+    ValueError
+        Wrong shapes or indices out of range.
+
+    Examples
+    --------
+    >>> normal_angles([[0, 0, 1], [0, 1, 0]], [[0, 1], [1, 0]]).round(4).tolist()
+    [[0.0, 1.5708], [0.0, 1.5708]]
+    """
+    arr = np.asarray(normals)
+    nrm = _unit_normals_or_nan(arr, arr.shape[0] if arr.ndim == 2 else -1)
+    idx = _check_indices(neighbors, nrm.shape[0])
+    out = np.empty(idx.shape, dtype=np.float64)
+    angles_kernel(nrm, idx, out)
+    return out
+
+
+def normal_weights(normals, neighbors, a: float, b: float) -> np.ndarray:
+    """Weights w_ij = sig_{a,b}(angle(n_i, n_j)) of Eq. 5.2 for every neighbour.
+
+    Parameters
+    ----------
+    normals : array_like of shape (N, 3)
+        Oriented normals.
+    neighbors : array_like of shape (N, k), int
+        Neighbour indices.
+    a : float
+        Start of the ramp (radians, [0, pi]).
+    b : float
+        End of the ramp (radians, [a, pi]).
+
+    Returns
+    -------
+    weights : ndarray of shape (N, k), float64
+        In [0, 1]; NaN where a normal is non-finite.
+
+    Raises
+    ------
+    ValueError
+        Bad shapes, indices or thresholds.
+
+    Examples
+    --------
+    >>> normal_weights([[0, 0, 1], [0, 1, 0]], [[0, 1], [1, 0]], 0.0, 0.0).tolist()
+    [[1.0, 0.0], [1.0, 0.0]]
+    """
+    a, b = _check_ab(a, b)
+    return cosine_sigmoid(normal_angles(normals, neighbors), a, b)

@@ -1,0 +1,146 @@
+"""The compact sorted-cell grid behind the fast k-NN and radius queries.
+
+Private helpers; inputs are validated, centred float64 points.
+
+Cell size for k-NN (decision, docs/decisions.md): the *point-weighted* occupancy
+``W(h) = sum_c n_c**2 / N`` (the mean number of points sharing a query's cell)
+is driven to a target that grows with k. W, unlike the plain mean occupancy,
+bounds the total work of the 3 x 3 x 3 block search even for strongly
+inhomogeneous clouds (surfaces in 3-D, dense clusters, LiDAR strips), because
+a cell holding many points is weighted by its many queries. W is measured at h,
+h/2 and h/4 from one sort (sub-cell counts), refined by at most a few more sorts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._core.tolerances import RADIUS_QUERY_WIDEN
+from . import _kernels as K
+
+#: Largest number of grid cells (nx * ny * nz) so cell keys fit in int64.
+_MAX_CELLS = 2.0**60
+
+
+@dataclass(frozen=True, slots=True)
+class Grid:
+    """Points sorted by cell (structure of arrays) and the occupied cells."""
+
+    xs: np.ndarray
+    ys: np.ndarray
+    zs: np.ndarray
+    ids: np.ndarray
+    ukeys: np.ndarray
+    cstart: np.ndarray
+    lo: np.ndarray
+    h: float
+    nx: int
+    ny: int
+    nz: int
+
+
+def _dims(ext: np.ndarray, h: float) -> tuple[int, int, int]:
+    return tuple(int(math.floor(e / h)) + 1 for e in ext)
+
+
+def min_cell_size(ext: np.ndarray) -> float:
+    """Smallest cell size whose grid keys fit in int64."""
+    big = float(ext.max())
+    if big == 0.0:
+        return 1.0
+    lo_h, hi_h = big * 1e-300 + 1e-300, big
+    for _ in range(200):
+        mid = math.sqrt(lo_h * hi_h)
+        nx, ny, nz = _dims(ext, mid)
+        if float(nx) * ny * nz > _MAX_CELLS:
+            lo_h = mid
+        else:
+            hi_h = mid
+        if hi_h <= lo_h * (1 + 1e-9):
+            break
+    return hi_h
+
+
+def build_grid(pts: np.ndarray, h: float) -> Grid:
+    """Sort ``pts`` into cells of size ``h`` (enlarged if keys would overflow)."""
+    lo = pts.min(axis=0)
+    ext = pts.max(axis=0) - lo
+    h = max(float(h), min_cell_size(ext))
+    nx, ny, nz = _dims(ext, h)
+    keys = K.grid_keys(pts, lo, 1.0 / h, nx, ny, nz)
+    order = np.argsort(keys, kind="stable")
+    ukeys, cstart = K.cell_starts(keys[order])
+    xs, ys, zs = K.gather_sorted(pts, order)
+    return Grid(xs, ys, zs, order, ukeys, cstart, lo, h, nx, ny, nz)
+
+
+def _volume_cell_size(ext: np.ndarray, n: int, target: float) -> float:
+    """h such that the bounding box holds about n / target cells."""
+    big = float(ext.max())
+    if big == 0.0:
+        return 1.0
+    want = n / target
+    if want <= 1.0:
+        return big * 1.0001
+    lo_h, hi_h = big * 1e-12, big * 1.0001
+
+    def n_cells(h):
+        return math.prod(max(e / h, 1.0) for e in ext)
+
+    for _ in range(100):
+        mid = math.sqrt(lo_h * hi_h)
+        if n_cells(mid) > want:
+            lo_h = mid
+        else:
+            hi_h = mid
+    return hi_h
+
+
+def knn_target(k: int) -> float:
+    """Target point-weighted occupancy for k nearest neighbours."""
+    return max(2.0, 0.5 * (k - 1))
+
+
+def knn_grid_for(pts: np.ndarray, k: int, *, max_rounds: int = 4) -> Grid:
+    """A grid whose point-weighted occupancy is close to `knn_target` (k)."""
+    n = pts.shape[0]
+    target = knn_target(k)
+    lo = pts.min(axis=0)
+    ext = pts.max(axis=0) - lo
+    h_min = min_cell_size(ext)
+    h = max(_volume_cell_size(ext, n, target), h_min)
+    grid = build_grid(pts, h)
+    for _ in range(max_rounds):
+        s0, s1, s2 = K.occupancy_levels(
+            grid.xs, grid.ys, grid.zs, grid.ukeys, grid.cstart, grid.lo, grid.h, grid.ny, grid.nz
+        )
+        w = np.array([s0, s1, s2]) / n
+        hs = grid.h / np.array([1.0, 2.0, 4.0])
+        if w[0] <= 1.5 * target:
+            return grid
+        if w[2] > target:
+            # still too coarse at h/4: extrapolate along the measured slope
+            slope = math.log2(max(w[1], 1e-300) / max(w[2], 1e-300))
+            slope = min(max(slope, 0.5), 3.0)
+            h_new = hs[2] * (target / w[2]) ** (1.0 / slope)
+        else:
+            # interpolate log W linearly in log h between bracketing levels
+            a = 0 if w[1] <= target else 1
+            lw0, lw1 = math.log(w[a]), math.log(max(w[a + 1], 1e-300))
+            frac = 0.0 if lw0 == lw1 else (lw0 - math.log(target)) / (lw0 - lw1)
+            h_new = hs[a] * (hs[a + 1] / hs[a]) ** frac
+        h_new = max(h_new, h_min)
+        if h_new >= grid.h * 0.98:
+            return grid
+        grid = build_grid(pts, h_new)
+        if w[2] <= target:
+            return grid
+    return grid
+
+
+def radius_grid_for(pts: np.ndarray, radius: float) -> Grid:
+    """A grid with cells no smaller than ``radius`` (a ball fits in 3 x 3 x 3)."""
+    return build_grid(pts, radius * (1.0 + RADIUS_QUERY_WIDEN))

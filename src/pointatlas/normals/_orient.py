@@ -1,0 +1,197 @@
+"""Normal orientation: MST propagation (Hoppe et al. 1992), viewpoint, outward."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse import csgraph
+
+from .._core import as_normals, as_points
+from .._core.tolerances import MST_WEIGHT_EPS, OUTWARD_VOTE_RTOL
+from ._estimate import _check_k, _neighbor_indices
+from ._kernels import (
+    component_tops_kernel,
+    propagate_signs_kernel,
+    riemannian_graph_kernel,
+)
+
+__all__ = ["orient_normals"]
+
+_METHODS = ("outward", "mst", "viewpoint")
+
+
+def _check_viewpoint(viewpoint) -> np.ndarray:
+    if viewpoint is None:
+        raise ValueError("viewpoint is required for method='viewpoint'; got None")
+    try:
+        vp = np.asarray(viewpoint, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"viewpoint must be 3 numbers; got {viewpoint!r}: {exc}") from None
+    if vp.shape != (3,):
+        raise ValueError(f"viewpoint must have shape (3,); got {vp.shape}")
+    if not np.isfinite(vp).all():
+        raise ValueError(f"viewpoint must be finite; got {vp.tolist()}")
+    return vp
+
+
+def _spanning_forest(points, normals, idx, edge_penalty):
+    """Minimum spanning forest of the k-NN Riemannian graph; symmetric CSR + labels."""
+    n, k = idx.shape
+    indptr, cols, weights = riemannian_graph_kernel(
+        points, normals, idx, k, MST_WEIGHT_EPS, edge_penalty
+    )
+    # each undirected edge stored once (scipy reads the matrix as undirected)
+    graph = sparse.csr_array((weights, cols, indptr), shape=(n, n))
+    tree = csgraph.minimum_spanning_tree(graph, overwrite=True)
+    n_comp, labels = csgraph.connected_components(tree, directed=False)
+    sym = (tree + tree.T).tocsr()
+    return sym, int(n_comp), labels
+
+
+def _top_roots(points, normals, labels, n_comp):
+    """Per component the point with the largest z (ties: smaller index), and its sign."""
+    roots = component_tops_kernel(
+        np.ascontiguousarray(points[:, 2]), labels.astype(np.int64), n_comp
+    )
+    root_signs = np.where(normals[roots, 2] >= 0.0, 1.0, -1.0)
+    return roots, root_signs
+
+
+def _outward_flip(points, oriented, labels, n_comp, idx):
+    """Per-component sign (+1/-1) making sum_i a_i n_i . (p_i - c) >= 0 (outward).
+
+    a_i = squared distance to the k-th neighbour (local area proxy, so uneven
+    sampling does not bias the vote); 0 (undecided) when the vote is below
+    OUTWARD_VOTE_RTOL of sum_i a_i |p_i - c|.
+    """
+    far = points[idx[:, -1]] - points
+    area = np.einsum("ij,ij->i", far, far)
+    if not (area > 0).any():
+        area = np.ones_like(area)
+    wsum = np.bincount(labels, weights=area, minlength=n_comp)
+    wsum[wsum == 0] = 1.0
+    centroid = (
+        np.stack(
+            [np.bincount(labels, weights=area * points[:, c], minlength=n_comp) for c in range(3)],
+            axis=1,
+        )
+        / wsum[:, None]
+    )
+    rel = points - centroid[labels]
+    vote = np.bincount(
+        labels, weights=area * np.einsum("ij,ij->i", oriented, rel), minlength=n_comp
+    )
+    scale = np.bincount(labels, weights=area * np.linalg.norm(rel, axis=1), minlength=n_comp)
+    flip = np.zeros(n_comp)
+    decided = np.abs(vote) > OUTWARD_VOTE_RTOL * scale
+    flip[decided] = np.sign(vote[decided])
+    return flip
+
+
+def orient_normals(
+    points,
+    normals,
+    *,
+    k: int = 10,
+    method: str = "outward",
+    viewpoint=None,
+    neighbors=None,
+    edge_penalty: float = 1.0,
+):
+    """Give unoriented normals a consistent sign.
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3)
+        Coordinates.
+    normals : array_like of shape (N, 3)
+        Normals of any sign (rescaled to unit length; zero length raises).
+    k : int
+        Neighbourhood size of the k-NN Riemannian graph, the point itself
+        included (>= 2; default 10). Ignored by ``method="viewpoint"``.
+    method : {"outward", "mst", "viewpoint"}
+        ``"mst"``: minimum-spanning-tree propagation (Hoppe et al. 1992); in
+        every connected component of the k-NN graph the root is the point with
+        the largest z and its normal is made to point to +z (Hoppe's and
+        Open3D's convention; on a closed surface the topmost point's outward
+        normal is +z, but a noisy or spiky top point can invert a whole
+        component). ``"outward"`` (default): the same propagation, then every
+        component is flipped so that the area-weighted sum of n_i . (p_i - c)
+        over its points is positive (c its centroid; for a closed surface this
+        sum is 3 x its enclosed volume, divergence theorem); components where
+        the sum is negligible (open, flat patches) keep the ``"mst"`` rule.
+        ``"viewpoint"``: each normal independently faces ``viewpoint``.
+    viewpoint : array_like of shape (3,), optional
+        Sensor position, required for ``method="viewpoint"``.
+    neighbors : ndarray of shape (N, m), int, or tuple, optional
+        Precomputed neighbour indices with m >= k (the first k columns are used),
+        or the tuple returned by `pointatlas.neighbors.query_knn`; lets one k-NN
+        query serve `estimate_normals` and this function.
+    edge_penalty : float
+        Weight (>= 0) of the term penalising graph edges along the normals (see
+        Notes); 0 gives Hoppe's weight exactly.
+
+    Returns
+    -------
+    oriented : ndarray of shape (N, 3), float64
+        Unit normals, each equal to +/- the (normalised) input normal.
+
+    Raises
+    ------
+    ValueError
+        Bad points or normals, unknown method, missing/bad viewpoint, k < 2,
+        negative edge_penalty, bad neighbour indices.
+    PointAtlasError
+        k larger than the number of points.
+
+    Notes
+    -----
+    Hoppe et al. 1992 (the thesis takes point-set normals from this pipeline):
+    Riemannian graph = the symmetric k-NN graph (Hoppe and Open3D add the
+    Euclidean MST; the k-NN graph is connected wherever that matters here and
+    disconnected parts are oriented separately), edge weight
+    ``1 - |n_i . n_j| + edge_penalty * (|n_i . e| + |n_j . e|) / 2
+    + 1e-9 * (1 + |p_i - p_j| / mean edge length)`` with e the unit edge
+    direction. The penalty keeps the tree off edges that jump between two close
+    sheets (thin ears, fins), whose normals are parallel but whose edge runs
+    along them; the 1e-9 term keeps parallel normals' edges (scipy drops zero
+    weights) and prefers short edges among ties. scipy's minimum spanning
+    forest is traversed breadth-first from each root and n_j is flipped when
+    n_parent . n_j < 0. Each connected component of the k-NN graph is oriented
+    on its own. Decisions and measurements: docs/decisions.md.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pts = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
+    >>> nrm = np.array([[0.0, 0, 1], [0, 0, -1], [0, 0, 1], [0, 0, -1]])
+    >>> orient_normals(pts, nrm, k=3)[:, 2].tolist()
+    [1.0, 1.0, 1.0, 1.0]
+    >>> orient_normals(pts, nrm, method="viewpoint", viewpoint=[0, 0, -5])[:, 2].tolist()
+    [-1.0, -1.0, -1.0, -1.0]
+    """
+    if method not in _METHODS:
+        raise ValueError(f"method must be one of {_METHODS}; got {method!r}")
+    edge_penalty = float(edge_penalty)
+    if not np.isfinite(edge_penalty) or edge_penalty < 0:
+        raise ValueError(f"edge_penalty must be a finite number >= 0; got {edge_penalty}")
+    pts = as_points(points)
+    n = pts.shape[0]
+    nrm = as_normals(normals, n)
+    if method == "viewpoint":
+        vp = _check_viewpoint(viewpoint)
+        facing = np.einsum("ij,ij->i", vp - pts, nrm)
+        nrm[facing < 0] *= -1.0
+        return nrm
+    k = _check_k(k, minimum=2)
+    idx = _neighbor_indices(pts, k, neighbors)
+    sym, n_comp, labels = _spanning_forest(pts, nrm, idx, edge_penalty)
+    roots, root_signs = _top_roots(pts, nrm, labels, n_comp)
+    signs, _ = propagate_signs_kernel(
+        sym.indptr.astype(np.int64), sym.indices.astype(np.int64), nrm, roots, root_signs
+    )
+    nrm *= signs[:, None]
+    if method == "outward":
+        flip = _outward_flip(pts, nrm, labels, n_comp, idx)
+        nrm[flip[labels] < 0] *= -1.0
+    return nrm

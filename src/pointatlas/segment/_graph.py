@@ -1,0 +1,117 @@
+"""The neighbourhood graph shared by VSA and region growing, and region adjacency."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import sparse
+
+from .._core import as_labels, as_points
+from ..neighbors import query_knn
+from ._kernels import boundary_points, region_pairs, symmetric_csr
+
+__all__ = ["neighbor_graph", "region_adjacency"]
+
+
+def _check_int(value, name: str, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise TypeError(f"{name} must be an integer; got {type(value).__name__}")
+    if value < minimum:
+        raise ValueError(f"{name} must be >= {minimum}; got {value}")
+    return int(value)
+
+
+def neighbor_graph(points: np.ndarray, k: int, neighbors=None):
+    """Symmetric neighbourhood graph as CSR (indptr, indices) plus the k-NN table.
+
+    Private helper; ``points`` validated. ``neighbors`` may be None (k-NN of the
+    points, k including the point itself), an (N, c) int table of neighbour
+    indices (entries < 0 ignored; a column equal to the row is ignored), or a
+    scipy sparse (N, N) adjacency whose structure is used.
+
+    Returns (indptr, indices, knn) where ``knn`` is the (N, c) table or None when
+    a sparse adjacency was given.
+    """
+    n = points.shape[0]
+    if neighbors is None:
+        k = _check_int(k, "k", 1)
+        if n == 1:
+            knn = np.zeros((1, 1), dtype=np.int64)
+        else:
+            knn, _ = query_knn(points, min(k, n))
+        indptr, indices = symmetric_csr(np.ascontiguousarray(knn), n)
+        return indptr, indices, knn
+    if sparse.issparse(neighbors):
+        if neighbors.shape != (n, n):
+            raise ValueError(
+                f"neighbors must be an (N, N) adjacency with N = {n}; got {neighbors.shape}"
+            )
+        coo = sparse.coo_array(neighbors)
+        rows = np.asarray(coo.row, dtype=np.int64)
+        cols = np.asarray(coo.col, dtype=np.int64)
+        keep = rows != cols
+        rows, cols = rows[keep], cols[keep]
+        rows, cols = np.concatenate([rows, cols]), np.concatenate([cols, rows])
+        key = np.unique(rows * n + cols)
+        rows, cols = key // n, key % n
+        indptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
+        return indptr, cols.astype(np.int64), None
+    table = np.asarray(neighbors)
+    if table.ndim != 2 or table.shape[0] != n:
+        raise ValueError(
+            f"neighbors must be an (N, k) index table with N = {n} rows; got shape {table.shape}"
+        )
+    if not np.issubdtype(table.dtype, np.integer):
+        raise TypeError(f"neighbors must hold integer indices; got dtype {table.dtype}")
+    table = table.astype(np.int64)
+    if table.size and table.max() >= n:
+        raise ValueError(f"neighbors has indices >= N = {n}; largest is {int(table.max())}")
+    indptr, indices = symmetric_csr(np.ascontiguousarray(table), n)
+    return indptr, indices, table
+
+
+def region_adjacency(points, labels, *, k: int = 8, neighbors=None) -> np.ndarray:
+    """Pairs of neighbouring regions (thesis Remark 6).
+
+    Two regions are neighbours when a point of one has a point of the other among
+    its k nearest neighbours (the symmetric k-NN graph).
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3)
+        Coordinates.
+    labels : array_like of shape (N,), int
+        Region of every point (>= 0).
+    k : int
+        Neighbourhood size, the point itself included.
+    neighbors : ndarray of shape (N, c) or scipy sparse (N, N), optional
+        A precomputed neighbour table or adjacency instead of the k-NN query.
+
+    Returns
+    -------
+    pairs : ndarray of shape (E, 2), int64
+        Sorted region pairs (a < b).
+
+    Raises
+    ------
+    ValueError
+        Labels of the wrong shape or negative.
+
+    Notes
+    -----
+    Remark 6 collects, for every point, all points within the distance of its
+    k-th nearest neighbour; up to exact distance ties that is the k-NN set, whose
+    symmetric closure is used here (decision in docs/decisions.md).
+
+    Examples
+    --------
+    >>> pts = [[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]]
+    >>> region_adjacency(pts, [0, 0, 1, 2], k=2).tolist()
+    [[0, 1], [1, 2]]
+    """
+    pts = as_points(points)
+    lab = as_labels(labels, pts.shape[0])
+    if (lab < 0).any():
+        raise ValueError("labels must be >= 0 (every point in a region)")
+    indptr, indices, _ = neighbor_graph(pts, k, neighbors)
+    return region_pairs(indptr, indices, lab, boundary_points(indptr, indices, lab))

@@ -1,0 +1,711 @@
+"""numba kernels of the segmentation room (inputs are validated by the callers).
+
+Every kernel has a plain-numpy/Python reference in ``tests/segment/reference.py``.
+Graphs are symmetric CSR structures ``(indptr, indices)`` without self loops, rows
+sorted increasingly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, types
+from numba.typed import Dict
+
+# --------------------------------------------------------------------------- graph
+
+
+@njit(cache=True)
+def symmetric_csr(nbr, n):
+    """Symmetric CSR adjacency of a directed neighbour table.
+
+    ``nbr`` is (N, c) int64; entries < 0 or equal to the row are ignored.
+    Returns (indptr, indices) with sorted, duplicate-free rows.
+    """
+    deg = np.zeros(n, dtype=np.int64)
+    for i in range(nbr.shape[0]):
+        for t in range(nbr.shape[1]):
+            j = nbr[i, t]
+            if j >= 0 and j != i:
+                deg[i] += 1
+                deg[j] += 1
+    ptr = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n):
+        ptr[i + 1] = ptr[i] + deg[i]
+    fill = ptr[:-1].copy()
+    raw = np.empty(ptr[n], dtype=np.int64)
+    for i in range(nbr.shape[0]):
+        for t in range(nbr.shape[1]):
+            j = nbr[i, t]
+            if j >= 0 and j != i:
+                raw[fill[i]] = j
+                fill[i] += 1
+                raw[fill[j]] = i
+                fill[j] += 1
+    # sort (insertion sort: rows are short) and de-duplicate every row, compacting
+    out_ptr = np.zeros(n + 1, dtype=np.int64)
+    pos = 0
+    for i in range(n):
+        lo = ptr[i]
+        hi = ptr[i + 1]
+        for a in range(lo + 1, hi):
+            v = raw[a]
+            b = a - 1
+            while b >= lo and raw[b] > v:
+                raw[b + 1] = raw[b]
+                b -= 1
+            raw[b + 1] = v
+        last = -1
+        for t in range(lo, hi):
+            if raw[t] != last:
+                raw[pos] = raw[t]
+                pos += 1
+                last = raw[t]
+        out_ptr[i + 1] = pos
+    return out_ptr, raw[:pos].copy()
+
+
+@njit(cache=True)
+def _find(parent, i):
+    root = i
+    while parent[root] != root:
+        root = parent[root]
+    while parent[i] != root:  # path compression
+        nxt = parent[i]
+        parent[i] = root
+        i = nxt
+    return root
+
+
+@njit(cache=True)
+def canonical_labels(labels):
+    """Renumber labels 0..m-1 by first occurrence; returns (new_labels, m)."""
+    n = labels.shape[0]
+    top = 0
+    for i in range(n):
+        if labels[i] > top:
+            top = labels[i]
+    remap = np.full(top + 1, -1, dtype=np.int64)
+    out = np.empty(n, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        lab = labels[i]
+        if remap[lab] < 0:
+            remap[lab] = m
+            m += 1
+        out[i] = remap[lab]
+    return out, m
+
+
+@njit(cache=True)
+def connected_label_components(indptr, indices, labels):
+    """Split every label into its connected pieces in the graph.
+
+    Returns labels numbered 0..m-1 by smallest member index, and m.
+    """
+    n = labels.shape[0]
+    parent = np.arange(n)
+    for i in range(n):
+        for t in range(indptr[i], indptr[i + 1]):
+            j = indices[t]
+            if j > i and labels[j] == labels[i]:
+                ri = _find(parent, i)
+                rj = _find(parent, j)
+                if ri != rj:
+                    if ri < rj:
+                        parent[rj] = ri
+                    else:
+                        parent[ri] = rj
+    roots = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        roots[i] = _find(parent, i)
+    return canonical_labels(roots)
+
+
+@njit(cache=True)
+def region_pairs(indptr, indices, labels, subset):
+    """Distinct region pairs (a < b) joined by a graph edge at a point of ``subset``.
+
+    With ``subset`` the boundary points (or all points) that is the region
+    adjacency of Remark 6. Sorted by (a, b).
+    """
+    count = 0
+    for s in range(subset.shape[0]):
+        i = subset[s]
+        for t in range(indptr[i], indptr[i + 1]):
+            if labels[indices[t]] > labels[i]:
+                count += 1
+    if count == 0:
+        return np.empty((0, 2), dtype=np.int64)
+    m = 0
+    for i in range(labels.shape[0]):
+        if labels[i] + 1 > m:
+            m = labels[i] + 1
+    key = np.empty(count, dtype=np.int64)
+    c = 0
+    for s in range(subset.shape[0]):
+        i = subset[s]
+        li = labels[i]
+        for t in range(indptr[i], indptr[i + 1]):
+            lj = labels[indices[t]]
+            if lj > li:
+                key[c] = li * m + lj
+                c += 1
+    key = np.unique(key)
+    out = np.empty((key.shape[0], 2), dtype=np.int64)
+    out[:, 0] = key // m
+    out[:, 1] = key % m
+    return out
+
+
+@njit(cache=True)
+def edge_pairs(indptr, indices):
+    """All graph edges (i < j), sorted: the region pairs when every point is a region."""
+    n = indptr.shape[0] - 1
+    count = 0
+    for i in range(n):
+        for t in range(indptr[i], indptr[i + 1]):
+            if indices[t] > i:
+                count += 1
+    out = np.empty((count, 2), dtype=np.int64)
+    c = 0
+    for i in range(n):
+        for t in range(indptr[i], indptr[i + 1]):
+            if indices[t] > i:
+                out[c, 0] = i
+                out[c, 1] = indices[t]
+                c += 1
+    return out
+
+
+# --------------------------------------------------------------------------- heap
+
+
+@njit(cache=True)
+def _less(ck, ca, cb, i, j):
+    if ck[i] != ck[j]:
+        return ck[i] < ck[j]
+    if ca[i] != ca[j]:
+        return ca[i] < ca[j]
+    return cb[i] < cb[j]
+
+
+@njit(cache=True)
+def _swap(ck, ca, cb, i, j):
+    ck[i], ck[j] = ck[j], ck[i]
+    ca[i], ca[j] = ca[j], ca[i]
+    cb[i], cb[j] = cb[j], cb[i]
+
+
+@njit(cache=True)
+def _sift_up(ck, ca, cb, pos):
+    while pos > 0:
+        parent = (pos - 1) >> 1
+        if _less(ck, ca, cb, pos, parent):
+            _swap(ck, ca, cb, pos, parent)
+            pos = parent
+        else:
+            break
+
+
+@njit(cache=True)
+def _sift_down(ck, ca, cb, size, pos):
+    while True:
+        left = 2 * pos + 1
+        if left >= size:
+            break
+        best = left
+        right = left + 1
+        if right < size and _less(ck, ca, cb, right, left):
+            best = right
+        if _less(ck, ca, cb, best, pos):
+            _swap(ck, ca, cb, best, pos)
+            pos = best
+        else:
+            break
+
+
+# --------------------------------------------------------------------------- flood
+
+
+@njit(cache=True)
+def flood(indptr, indices, normals, seeds, seed_normals):
+    """Priority-queue flood of thesis 4.2.1/4.2.2 from ``seeds`` (region r = seeds[r]).
+
+    Queue key |n_j - N_r|^2; ties by smaller point index, then smaller region.
+    Points the flood cannot reach keep label -1.
+    """
+    n = normals.shape[0]
+    labels = np.full(n, -1, dtype=np.int64)
+    cap = max(16, 2 * seeds.shape[0] + 16)
+    ck = np.empty(cap, dtype=np.float64)
+    ca = np.empty(cap, dtype=np.int64)
+    cb = np.empty(cap, dtype=np.int64)
+    size = 0
+    for r in range(seeds.shape[0]):
+        labels[seeds[r]] = r
+    for r in range(seeds.shape[0]):
+        s = seeds[r]
+        for t in range(indptr[s], indptr[s + 1]):
+            j = indices[t]
+            if labels[j] < 0:
+                if size == cap:
+                    cap *= 2
+                    ck2 = np.empty(cap, dtype=np.float64)
+                    ca2 = np.empty(cap, dtype=np.int64)
+                    cb2 = np.empty(cap, dtype=np.int64)
+                    ck2[:size] = ck[:size]
+                    ca2[:size] = ca[:size]
+                    cb2[:size] = cb[:size]
+                    ck, ca, cb = ck2, ca2, cb2
+                d0 = normals[j, 0] - seed_normals[r, 0]
+                d1 = normals[j, 1] - seed_normals[r, 1]
+                d2 = normals[j, 2] - seed_normals[r, 2]
+                ck[size] = d0 * d0 + d1 * d1 + d2 * d2
+                ca[size] = j
+                cb[size] = r
+                size += 1
+                _sift_up(ck, ca, cb, size - 1)
+    while size > 0:
+        p = ca[0]
+        r = cb[0]
+        size -= 1
+        if size > 0:
+            ck[0] = ck[size]
+            ca[0] = ca[size]
+            cb[0] = cb[size]
+            _sift_down(ck, ca, cb, size, 0)
+        if labels[p] >= 0:
+            continue
+        labels[p] = r
+        for t in range(indptr[p], indptr[p + 1]):
+            j = indices[t]
+            if labels[j] < 0:
+                if size == cap:
+                    cap *= 2
+                    ck2 = np.empty(cap, dtype=np.float64)
+                    ca2 = np.empty(cap, dtype=np.int64)
+                    cb2 = np.empty(cap, dtype=np.int64)
+                    ck2[:size] = ck[:size]
+                    ca2[:size] = ca[:size]
+                    cb2[:size] = cb[:size]
+                    ck, ca, cb = ck2, ca2, cb2
+                d0 = normals[j, 0] - seed_normals[r, 0]
+                d1 = normals[j, 1] - seed_normals[r, 1]
+                d2 = normals[j, 2] - seed_normals[r, 2]
+                ck[size] = d0 * d0 + d1 * d1 + d2 * d2
+                ca[size] = j
+                cb[size] = r
+                size += 1
+                _sift_up(ck, ca, cb, size - 1)
+    return labels
+
+
+# --------------------------------------------------------------------------- switch
+
+
+@njit(cache=True)
+def boundary_points(indptr, indices, labels):
+    """Points with at least one neighbour in another region, increasing."""
+    return np.flatnonzero(foreign_counts(indptr, indices, labels) > 0)
+
+
+@njit(cache=True)
+def foreign_counts(indptr, indices, labels):
+    """Number of graph neighbours of every point that lie in another region."""
+    n = labels.shape[0]
+    out = np.zeros(n, dtype=np.int64)
+    for i in range(n):
+        li = labels[i]
+        c = 0
+        for t in range(indptr[i], indptr[i + 1]):
+            if labels[indices[t]] != li:
+                c += 1
+        out[i] = c
+    return out
+
+
+@njit(cache=True)
+def batch_switch(indptr, indices, normals, weights, labels, proxy_normals, foreign, min_gain):
+    """Every boundary point moves to the neighbouring region whose proxy fits best.
+
+    With the proxy normals fixed the energy is a sum of per-point terms
+    w_i |n_i - N_l|^2 = 2 w_i (1 - n_i . N_l), so all strictly improving moves can
+    be applied at once (GUIDE B2). Only points with ``foreign[i] > 0`` (a
+    neighbour in another region) can move. Ties go to the smaller region label.
+    Returns the moved points (increasing) and their new labels; ``labels`` is
+    not changed.
+    """
+    n = labels.shape[0]
+    moved = np.empty(64, dtype=np.int64)
+    new = np.empty(64, dtype=np.int64)
+    count = 0
+    for i in range(n):
+        if foreign[i] == 0:
+            continue
+        li = labels[i]
+        cur = (
+            normals[i, 0] * proxy_normals[li, 0]
+            + normals[i, 1] * proxy_normals[li, 1]
+            + normals[i, 2] * proxy_normals[li, 2]
+        )
+        best = cur
+        best_label = li
+        for t in range(indptr[i], indptr[i + 1]):
+            h = labels[indices[t]]
+            if h == li:
+                continue
+            d = (
+                normals[i, 0] * proxy_normals[h, 0]
+                + normals[i, 1] * proxy_normals[h, 1]
+                + normals[i, 2] * proxy_normals[h, 2]
+            )
+            if d > best or (d == best and best_label != li and h < best_label):
+                best = d
+                best_label = h
+        if best_label != li and 2.0 * weights[i] * (best - cur) > min_gain:
+            if count == moved.shape[0]:
+                moved2 = np.empty(2 * count, dtype=np.int64)
+                new2 = np.empty(2 * count, dtype=np.int64)
+                moved2[:count] = moved
+                new2[:count] = new
+                moved, new = moved2, new2
+            moved[count] = i
+            new[count] = best_label
+            count += 1
+    return moved[:count].copy(), new[:count].copy()
+
+
+@njit(cache=True)
+def best_single_move(indptr, indices, normals, weights, labels, proxy_normals, foreign):
+    """The thesis' switch (4.3.2): the one reassignment that lowers the energy most.
+
+    Scans the boundary points (``foreign[i] > 0``). Returns (point, new_label,
+    gain); gain <= 0 means no improving move. Ties go to the smaller point index,
+    then the smaller label.
+    """
+    best_gain = 0.0
+    best_point = -1
+    best_label = -1
+    for i in range(labels.shape[0]):
+        if foreign[i] == 0:
+            continue
+        li = labels[i]
+        cur = (
+            normals[i, 0] * proxy_normals[li, 0]
+            + normals[i, 1] * proxy_normals[li, 1]
+            + normals[i, 2] * proxy_normals[li, 2]
+        )
+        for t in range(indptr[i], indptr[i + 1]):
+            h = labels[indices[t]]
+            if h == li:
+                continue
+            d = (
+                normals[i, 0] * proxy_normals[h, 0]
+                + normals[i, 1] * proxy_normals[h, 1]
+                + normals[i, 2] * proxy_normals[h, 2]
+            )
+            gain = 2.0 * weights[i] * (d - cur)
+            if gain > best_gain or (
+                gain == best_gain and gain > 0.0 and best_point == i and h < best_label
+            ):
+                best_gain = gain
+                best_point = i
+                best_label = h
+    return best_point, best_label, best_gain
+
+
+@njit(cache=True)
+def apply_moves(indptr, indices, labels, wsum, ssum, counts, foreign, weights, wn, moved, new):
+    """Move points to new regions, updating W, S, counts and the foreign-neighbour
+    counts incrementally (all in place)."""
+    for t in range(moved.shape[0]):
+        p = moved[t]
+        a = labels[p]
+        b = new[t]
+        if a == b:
+            continue
+        wsum[a] -= weights[p]
+        wsum[b] += weights[p]
+        counts[a] -= 1
+        counts[b] += 1
+        for d in range(3):
+            ssum[a, d] -= wn[p, d]
+            ssum[b, d] += wn[p, d]
+        c = 0
+        for u in range(indptr[p], indptr[p + 1]):
+            q = indices[u]
+            lq = labels[q]
+            if lq == a:
+                foreign[q] += 1
+            elif lq == b:
+                foreign[q] -= 1
+            if lq != b:
+                c += 1
+        foreign[p] = c
+        labels[p] = b
+
+
+@njit(cache=True)
+def best_points(labels, m, normals, proxy_normals):
+    """Point of every region with least |n_j - N_i|^2 (ties: smaller index)."""
+    best = np.full(m, -1, dtype=np.int64)
+    best_dev = np.full(m, np.inf)
+    for i in range(labels.shape[0]):
+        r = labels[i]
+        d0 = normals[i, 0] - proxy_normals[r, 0]
+        d1 = normals[i, 1] - proxy_normals[r, 1]
+        d2 = normals[i, 2] - proxy_normals[r, 2]
+        dev = d0 * d0 + d1 * d1 + d2 * d2
+        if dev < best_dev[r]:
+            best_dev[r] = dev
+            best[r] = i
+    return best
+
+
+# --------------------------------------------------------------------------- merge
+
+
+@njit(cache=True)
+def _union_cost(wsum, ssum, a, b):
+    sx = ssum[a, 0] + ssum[b, 0]
+    sy = ssum[a, 1] + ssum[b, 1]
+    sz = ssum[a, 2] + ssum[b, 2]
+    w = wsum[a] + wsum[b]
+    s = np.sqrt(sx * sx + sy * sy + sz * sz)
+    cost = 2.0 * (w - s)
+    if cost < 0.0:
+        cost = 0.0
+    return cost, w, s
+
+
+@njit(cache=True)
+def _sift_up2(ck, cp, pos):
+    key = ck[pos]
+    pair = cp[pos]
+    while pos > 0:
+        parent = (pos - 1) >> 2
+        if key < ck[parent] or (key == ck[parent] and pair < cp[parent]):
+            ck[pos] = ck[parent]
+            cp[pos] = cp[parent]
+            pos = parent
+        else:
+            break
+    ck[pos] = key
+    cp[pos] = pair
+
+
+@njit(cache=True)
+def _sift_down2(ck, cp, size, pos):
+    """4-ary heap: children of pos are 4 pos + 1 .. 4 pos + 4 (shallower, cache friendlier)."""
+    key = ck[pos]
+    pair = cp[pos]
+    while True:
+        first = 4 * pos + 1
+        if first >= size:
+            break
+        child = first
+        last = min(first + 4, size)
+        for c in range(first + 1, last):
+            if ck[c] < ck[child] or (ck[c] == ck[child] and cp[c] < cp[child]):
+                child = c
+        if ck[child] < key or (ck[child] == key and cp[child] < pair):
+            ck[pos] = ck[child]
+            cp[pos] = cp[child]
+            pos = child
+        else:
+            break
+    ck[pos] = key
+    cp[pos] = pair
+
+
+@njit(cache=True)
+def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
+    """Cheapest-union-first merging on the region adjacency graph (4.3.3 b).
+
+    ``pairs`` (E, 2) are adjacent regions; ``wsum`` (m,) and ``ssum`` (m, 3) the
+    per-region sums W = sum w_j and S = sum w_j n_j, so the L21 of a union is
+    2 (W_a + W_b - |S_a + S_b|) in O(1) (GUIDE B2). Key: that L21, ties by
+    (a, b). A union is accepted when its L21 < eta, or, with ``use_angle``, when
+    its mean normal cosine |S|/W >= ``min_cos``.
+
+    Entries are evaluated lazily: L21 only grows with the point set, so a key
+    pushed earlier is a lower bound of the pair's current cost; a popped pair
+    whose current cost exceeds its key (and the next key) is pushed back with the
+    current cost, otherwise it is the cheapest and is merged, so in eta mode the
+    order is exactly cheapest-first. Keys never drop below the last popped one,
+    which allows a two-level queue: a small 4-ary heap ("hot") holds the keys up
+    to a threshold T, the rest wait unsorted ("cold"); when the heap runs empty T
+    is raised to the HOT-th smallest cold key and those entries move over. Every
+    cold key exceeds T, so the heap top is always the global minimum. Returns the
+    root of every region (union-find, the smaller id survives) and the number of
+    merges.
+    """
+    m = wsum.shape[0]
+    wsum = wsum.copy()
+    ssum = ssum.copy()
+    parent = np.arange(m)
+    cold_cap = pairs.shape[0] + 16
+    kc = np.empty(cold_cap, dtype=np.float64)
+    pc = np.empty(cold_cap, dtype=np.int64)
+    nc = 0
+    for e in range(pairs.shape[0]):
+        a = pairs[e, 0]
+        b = pairs[e, 1]
+        cost, w, s = _union_cost(wsum, ssum, a, b)
+        ok = (s >= min_cos * w) if use_angle else (cost < eta)
+        if ok:
+            kc[nc] = cost
+            pc[nc] = min(a, b) * m + max(a, b)
+            nc += 1
+    hot_target = 65536
+    hot_cap = hot_target + 16
+    ck = np.empty(hot_cap, dtype=np.float64)
+    cp = np.empty(hot_cap, dtype=np.int64)
+    size = 0
+    threshold = -1.0
+    n_merges = 0
+    # duplicates: many point edges map to the same region pair; remember the
+    # region versions each pair was last pushed with and drop stale copies
+    version = np.zeros(m, dtype=np.int64)
+    last_push = Dict.empty(key_type=types.int64, value_type=types.int64)
+    while True:
+        if size == 0:
+            if nc == 0:
+                break
+            # raise the threshold: move the smallest cold keys into the heap
+            if nc > hot_target:
+                threshold = np.partition(kc[:nc], hot_target - 1)[hot_target - 1]
+            else:
+                threshold = kc[:nc].max()
+            keep = 0
+            for t in range(nc):
+                if kc[t] <= threshold:
+                    if size == hot_cap:
+                        hot_cap *= 2
+                        ck2 = np.empty(hot_cap, dtype=np.float64)
+                        cp2 = np.empty(hot_cap, dtype=np.int64)
+                        ck2[:size] = ck[:size]
+                        cp2[:size] = cp[:size]
+                        ck, cp = ck2, cp2
+                    ck[size] = kc[t]
+                    cp[size] = pc[t]
+                    size += 1
+                else:
+                    kc[keep] = kc[t]
+                    pc[keep] = pc[t]
+                    keep += 1
+            nc = keep
+            for pos in range((size - 2) // 4, -1, -1):
+                _sift_down2(ck, cp, size, pos)
+        key = ck[0]
+        pair = cp[0]
+        size -= 1
+        if size > 0:
+            ck[0] = ck[size]
+            cp[0] = cp[size]
+            _sift_down2(ck, cp, size, 0)
+        ra = _find(parent, pair // m)
+        rb = _find(parent, pair % m)
+        if ra == rb:
+            continue
+        cost, w, s = _union_cost(wsum, ssum, ra, rb)
+        ok = (s >= min_cos * w) if use_angle else (cost < eta)
+        if not ok:
+            continue
+        lo = min(ra, rb)
+        hi = max(ra, rb)
+        code = lo * m + hi
+        if cost > key:
+            still_min = cost <= threshold and (
+                size == 0 or cost < ck[0] or (cost == ck[0] and code < cp[0])
+            )
+            if not still_min:
+                # stale lower bound: push back with the current cost, unless an
+                # entry computed from the same regions is already queued
+                stamp = (version[lo] << 32) | version[hi]
+                if last_push.get(code, -1) == stamp:
+                    continue
+                last_push[code] = stamp
+                if cost <= threshold:
+                    if size == hot_cap:
+                        hot_cap *= 2
+                        ck2 = np.empty(hot_cap, dtype=np.float64)
+                        cp2 = np.empty(hot_cap, dtype=np.int64)
+                        ck2[:size] = ck[:size]
+                        cp2[:size] = cp[:size]
+                        ck, cp = ck2, cp2
+                    ck[size] = cost
+                    cp[size] = code
+                    size += 1
+                    _sift_up2(ck, cp, size - 1)
+                else:
+                    if nc == cold_cap:
+                        cold_cap *= 2
+                        kc2 = np.empty(cold_cap, dtype=np.float64)
+                        pc2 = np.empty(cold_cap, dtype=np.int64)
+                        kc2[:nc] = kc[:nc]
+                        pc2[:nc] = pc[:nc]
+                        kc, pc = kc2, pc2
+                    kc[nc] = cost
+                    pc[nc] = code
+                    nc += 1
+                continue
+        parent[hi] = lo
+        version[lo] += 1
+        wsum[lo] = w
+        ssum[lo, 0] += ssum[hi, 0]
+        ssum[lo, 1] += ssum[hi, 1]
+        ssum[lo, 2] += ssum[hi, 2]
+        n_merges += 1
+    roots = np.empty(m, dtype=np.int64)
+    for i in range(m):
+        roots[i] = _find(parent, i)
+    return roots, n_merges
+
+
+# --------------------------------------------------------------------------- region growing
+
+
+@njit(cache=True)
+def region_growing(nbr, normals, curvature, order, cos_threshold, curvature_threshold):
+    """Rabbani et al. (2006) smooth region growing as PCL's ``RegionGrowing``.
+
+    ``nbr`` (N, k) directed k-NN table (column 0 the point itself), ``order`` the
+    points sorted by increasing curvature (ties by index). A neighbour joins when
+    |n_current . n_neighbour| >= cos_threshold; it becomes a further seed when its
+    curvature is <= curvature_threshold. Returns raw region labels (every point
+    labelled) in growth order.
+    """
+    n = normals.shape[0]
+    labels = np.full(n, -1, dtype=np.int64)
+    queue = np.empty(n, dtype=np.int64)
+    region = 0
+    for s in range(order.shape[0]):
+        start = order[s]
+        if labels[start] >= 0:
+            continue
+        labels[start] = region
+        head = 0
+        tail = 0
+        queue[tail] = start
+        tail += 1
+        while head < tail:
+            cur = queue[head]
+            head += 1
+            for t in range(nbr.shape[1]):
+                j = nbr[cur, t]
+                if j < 0 or labels[j] >= 0:
+                    continue
+                d = (
+                    normals[cur, 0] * normals[j, 0]
+                    + normals[cur, 1] * normals[j, 1]
+                    + normals[cur, 2] * normals[j, 2]
+                )
+                if abs(d) < cos_threshold:
+                    continue
+                labels[j] = region
+                if curvature[j] <= curvature_threshold:
+                    queue[tail] = j
+                    tail += 1
+        region += 1
+    return labels

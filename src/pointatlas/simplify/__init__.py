@@ -1,0 +1,19 @@
+"""Simplified polygon meshes from segmented point sets (thesis 4.4, GUIDE B3)."""
+
+from ._mesh import SimplifiedMesh, mesh_checks, point_mesh_distance, simplify_segmentation
+from ._pipeline import PointSimplification, simplify_points
+from ._proxies import RegionProxies, region_proxies
+from ._vertices import MeshVertices, SimplifyWarning
+
+__all__ = [
+    "MeshVertices",
+    "PointSimplification",
+    "RegionProxies",
+    "SimplifiedMesh",
+    "SimplifyWarning",
+    "mesh_checks",
+    "point_mesh_distance",
+    "region_proxies",
+    "simplify_points",
+    "simplify_segmentation",
+]

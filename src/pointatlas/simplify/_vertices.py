@@ -1,0 +1,306 @@
+"""Mesh vertices from proxy planes: guarded least squares and Eq. 4.12 (thesis 4.4.1)."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import sparse
+from scipy.optimize import NonlinearConstraint, minimize
+
+from .._core import readonly
+from .._core.tolerances import (
+    SIMPLIFY_CONSTRAINT_TOL,
+    SIMPLIFY_PLANE_SV_RTOL,
+    SIMPLIFY_VERTEX_BOUND,
+)
+
+__all__ = ["MeshVertices", "SimplifyWarning"]
+
+
+class SimplifyWarning(UserWarning):
+    """The Eq. 4.12 optimisation failed and plane intersection was used instead."""
+
+
+@dataclass(frozen=True, slots=True)
+class MeshVertices:
+    """Positions of the complex's vertices and how they were obtained.
+
+    Attributes
+    ----------
+    positions : ndarray of shape (V, 3), float64
+        One position per vertex of the surface-like complex.
+    plane_normals : ndarray of shape (R, 3), float64
+        Plane normals the faces lie in: the proxy normals (least squares) or the
+        corrected normals n~_i of Eq. 4.12 (optimisation).
+    plane_offsets : ndarray of shape (R,), float64
+        d_i with plane_normals[i] . x = d_i.
+    rank : ndarray of shape (V,), int64
+        Number of plane directions used per vertex (least squares; 3 = a point
+        fixed by its planes, less = guarded or a two-region vertex).
+    guarded : ndarray of shape (V,), bool
+        True where near-parallel planes or the distance bound reduced the rank.
+    plane_residual : ndarray of shape (V,), float64
+        max_i |n_i . x_j - d_i| over the vertex's regions (input units).
+    method : str
+        ``"lsq"`` or ``"optimize"`` (the method actually used).
+    fallback : bool
+        True when ``"optimize"`` was asked for but failed and least squares was used.
+    constraint_violation : float
+        Largest violation of the Eq. 4.12 constraints (scaled units; NaN for lsq).
+    n_iter : int
+        Optimiser iterations (0 for lsq).
+    message : str
+        Optimiser status message (empty for lsq).
+    """
+
+    positions: np.ndarray
+    plane_normals: np.ndarray
+    plane_offsets: np.ndarray
+    rank: np.ndarray
+    guarded: np.ndarray
+    plane_residual: np.ndarray
+    method: str
+    fallback: bool
+    constraint_violation: float
+    n_iter: int
+    message: str
+
+    def __post_init__(self):
+        for name in (
+            "positions",
+            "plane_normals",
+            "plane_offsets",
+            "rank",
+            "guarded",
+            "plane_residual",
+        ):
+            readonly(getattr(self, name))
+
+
+def _residuals(positions, vregions, normals, offsets):
+    out = np.zeros(len(vregions))
+    for j, regs in enumerate(vregions):
+        r = np.asarray(regs)
+        out[j] = np.max(np.abs(normals[r] @ positions[j] - offsets[r])) if r.size else 0.0
+    return out
+
+
+def lsq_vertices(cplx, points, normals, centers, *, max_distance=None) -> MeshVertices:
+    """Guarded least-squares intersection of each vertex's proxy planes (private).
+
+    ``normals``/``centers`` are validated (R, 3) arrays. The solution is a truncated
+    SVD about the vertex's witness anchor p0: directions with singular value below
+    ``SIMPLIFY_PLANE_SV_RTOL * s_max`` are taken from p0; when the solution lies
+    farther than the bound from p0, the weakest remaining direction is dropped.
+    """
+    nv = cplx.n_vertices
+    offsets = np.einsum("ij,ij->i", normals, centers)
+    pos = np.zeros((nv, 3))
+    rank = np.zeros(nv, dtype=np.int64)
+    guarded = np.zeros(nv, dtype=bool)
+    for j, regs in enumerate(cplx.vertex_regions):
+        r = np.asarray(regs, dtype=np.int64)
+        p0 = cplx.vertex_anchor[j]
+        a = normals[r]
+        b = offsets[r] - a @ p0
+        u, s, vt = np.linalg.svd(a, full_matrices=False)
+        full = int(np.sum(s > SIMPLIFY_PLANE_SV_RTOL * s[0])) if s.size else 0
+        if max_distance is None:
+            wit = cplx.vertex_points[j]
+            spread = 0.0
+            if wit.size > 1:
+                spread = float(np.max(np.linalg.norm(points[wit] - p0, axis=1)))
+            bound = max(
+                SIMPLIFY_VERTEX_BOUND * float(np.min(np.linalg.norm(centers[r] - p0, axis=1))),
+                2.0 * spread,
+            )
+        else:
+            bound = float(max_distance)
+        best = 0
+        x = p0.copy()
+        for kk in range(full, -1, -1):
+            coef = (u[:, :kk].T @ b) / s[:kk]
+            cand = p0 + vt[:kk].T @ coef
+            if np.linalg.norm(cand - p0) <= bound or kk == 0:
+                x, best = cand, kk
+                break
+        pos[j] = x
+        rank[j] = best
+        guarded[j] = best < min(3, r.size)
+    return MeshVertices(
+        positions=pos,
+        plane_normals=np.array(normals, dtype=np.float64),
+        plane_offsets=offsets,
+        rank=rank,
+        guarded=guarded,
+        plane_residual=_residuals(pos, cplx.vertex_regions, normals, offsets),
+        method="lsq",
+        fallback=False,
+        constraint_violation=float("nan"),
+        n_iter=0,
+        message="",
+    )
+
+
+def _incidences(cplx, centers):
+    """Incidence arrays (vertex J, region I) and targets T of Eq. 4.11."""
+    jj, ii, tt = [], [], []
+    for j, regs in enumerate(cplx.vertex_regions):
+        for i in regs:
+            jj.append(j)
+            ii.append(i)
+            # inserted (two-region) vertices are pulled to their witness point, not
+            # to the centroids (several of them share the same two regions)
+            tt.append(cplx.vertex_anchor[j] if cplx.vertex_is_inserted[j] else centers[i])
+    return (
+        np.asarray(jj, dtype=np.int64),
+        np.asarray(ii, dtype=np.int64),
+        np.asarray(tt, dtype=np.float64).reshape(-1, 3),
+    )
+
+
+def optimize_vertices(
+    cplx, points, normals, centers, *, weight=1.0, max_iter=3000, lsq=None
+) -> MeshVertices:
+    """Eq. 4.12 by ``scipy.optimize.minimize(method="trust-constr")`` (private).
+
+    Variables: the vertex positions x_j and corrected normals n~_i. Objective (4.11)
+    sum_j sum_{i in I_j} |x_j - C_i|^2 / s^2 + w sum_i |N_i - n~_i|^2 with s the RMS
+    radius of the points (so ``weight`` is scale free; s = 1 for the unit sphere of
+    the thesis). Constraints n~_i . (x_j - C_i) = 0 and |n~_i|^2 = 1. Analytic sparse
+    Jacobian and Hessians. Start: n~_i = N_i, x_j = barycentre of its C_i (thesis
+    4.4.3). On failure: least squares (``lsq``) with ``fallback=True`` and a
+    `SimplifyWarning`.
+    """
+    nv = cplx.n_vertices
+    n_reg = normals.shape[0]
+    mu = points.mean(axis=0)
+    scale = float(np.sqrt(np.mean(np.sum((points - mu) ** 2, axis=1))))
+    scale = scale if scale > 0 else 1.0
+    c_s = (centers - mu) / scale
+    jj, ii, tt = _incidences(cplx, centers)
+    t_s = (tt - mu) / scale
+    m = jj.size
+    q = np.bincount(jj, minlength=nv).astype(np.float64)
+    nx = 3 * nv
+    w = float(weight)
+
+    x0 = np.zeros((nv, 3))
+    np.add.at(x0, jj, t_s)
+    x0 /= np.maximum(q, 1.0)[:, None]
+    z0 = np.concatenate([x0.ravel(), normals.ravel()])
+    n_target = normals.ravel()
+
+    def split(z):
+        return z[:nx].reshape(nv, 3), z[nx:].reshape(n_reg, 3)
+
+    def fun(z):
+        x, nn = split(z)
+        dx = x[jj] - t_s
+        dn = z[nx:] - n_target
+        f = float(np.sum(dx * dx) + w * np.dot(dn, dn))
+        gx = np.zeros((nv, 3))
+        np.add.at(gx, jj, 2.0 * dx)
+        return f, np.concatenate([gx.ravel(), 2.0 * w * dn])
+
+    hess_obj = sparse.diags(np.concatenate([np.repeat(2.0 * q, 3), np.full(3 * n_reg, 2.0 * w)]))
+
+    def hess(z):
+        return hess_obj
+
+    def cons(z):
+        x, nn = split(z)
+        g = np.einsum("ij,ij->i", nn[ii], x[jj] - c_s[ii])
+        h = np.einsum("ij,ij->i", nn, nn) - 1.0
+        return np.concatenate([g, h])
+
+    cols_g = np.stack(
+        [(3 * jj[:, None] + np.arange(3)).ravel(), (nx + 3 * ii[:, None] + np.arange(3)).ravel()],
+        axis=1,
+    )
+
+    def cjac(z):
+        x, nn = split(z)
+        vals_x = nn[ii]  # d g / d x_j
+        vals_n = x[jj] - c_s[ii]  # d g / d n_i
+        r = np.concatenate([np.repeat(np.arange(m), 3), np.repeat(np.arange(m), 3)])
+        c = np.concatenate([cols_g[:, 0], cols_g[:, 1]])
+        v = np.concatenate([vals_x.ravel(), vals_n.ravel()])
+        r2 = m + np.repeat(np.arange(n_reg), 3)
+        c2 = nx + np.arange(3 * n_reg)
+        v2 = 2.0 * z[nx:]
+        return sparse.csr_array(
+            (np.concatenate([v, v2]), (np.concatenate([r, r2]), np.concatenate([c, c2]))),
+            shape=(m + n_reg, nx + 3 * n_reg),
+        )
+
+    size = nx + 3 * n_reg
+
+    def chess(z, lam):
+        v = np.repeat(lam[:m], 3)
+        r = np.concatenate([cols_g[:, 0], cols_g[:, 1], nx + np.arange(3 * n_reg)])
+        c = np.concatenate([cols_g[:, 1], cols_g[:, 0], nx + np.arange(3 * n_reg)])
+        vals = np.concatenate([v, v, np.repeat(2.0 * lam[m:], 3)])
+        return sparse.csr_array((vals, (r, c)), shape=(size, size))
+
+    constraint = NonlinearConstraint(cons, 0.0, 0.0, jac=cjac, hess=chess)
+    message, n_iter, violation, ok = "", 0, float("inf"), False
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # scipy's own progress warnings
+            res = minimize(
+                fun,
+                z0,
+                jac=True,
+                hess=hess,
+                method="trust-constr",
+                constraints=[constraint],
+                options={"maxiter": int(max_iter), "gtol": 1e-12, "xtol": 1e-14},
+            )
+        z = res.x
+        violation = float(np.max(np.abs(cons(z)))) if m + n_reg else 0.0
+        n_iter = int(res.nit)
+        message = str(res.message)
+        ok = bool(np.all(np.isfinite(z))) and violation <= SIMPLIFY_CONSTRAINT_TOL
+    except (ValueError, np.linalg.LinAlgError, ArithmeticError) as exc:
+        message = f"optimizer error: {exc}"
+    if not ok:
+        warnings.warn(
+            f"Eq. 4.12 optimisation failed (constraint violation {violation:.2e}, "
+            f"{message}); using plane intersection instead",
+            SimplifyWarning,
+            stacklevel=3,
+        )
+        base = lsq if lsq is not None else lsq_vertices(cplx, points, normals, centers)
+        return MeshVertices(
+            positions=np.array(base.positions),
+            plane_normals=np.array(base.plane_normals),
+            plane_offsets=np.array(base.plane_offsets),
+            rank=np.array(base.rank),
+            guarded=np.array(base.guarded),
+            plane_residual=np.array(base.plane_residual),
+            method="lsq",
+            fallback=True,
+            constraint_violation=violation,
+            n_iter=n_iter,
+            message=message,
+        )
+    x, nn = split(z)
+    nn = nn / np.linalg.norm(nn, axis=1, keepdims=True)
+    pos = x * scale + mu
+    offsets = np.einsum("ij,ij->i", nn, centers)
+    return MeshVertices(
+        positions=pos,
+        plane_normals=nn,
+        plane_offsets=offsets,
+        rank=np.full(nv, 3, dtype=np.int64),
+        guarded=np.zeros(nv, dtype=bool),
+        plane_residual=_residuals(pos, cplx.vertex_regions, nn, offsets),
+        method="optimize",
+        fallback=False,
+        constraint_violation=violation,
+        n_iter=n_iter,
+        message=message,
+    )

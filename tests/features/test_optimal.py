@@ -1,0 +1,143 @@
+"""Optimal neighbourhood search (Eq. 5.9) against a brute-force loop over all choices."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pointatlas.features import (
+    THESIS_ANGLE_GRID,
+    angle_pairs,
+    covariance_features,
+    decrease_cases,
+    optimal_k_features,
+    optimal_neighbourhood,
+)
+from pointatlas.neighbors import query_knn
+from pointatlas.synth import cube
+
+from . import reference as ref
+
+
+def _noisy_surface(seed, n=40):
+    rng = np.random.default_rng(seed)
+    uv = rng.random((n, 2)) * 2 - 1
+    z = 0.3 * np.sin(2 * uv[:, 0]) + 0.2 * np.abs(uv[:, 1]) + rng.normal(scale=0.02, size=n)
+    pts = np.column_stack([uv, z])
+    nrm = np.column_stack([-0.6 * np.cos(2 * uv[:, 0]), -0.2 * np.sign(uv[:, 1]), np.ones(n)])
+    nrm += rng.normal(scale=0.3, size=(n, 3))
+    return pts, nrm / np.linalg.norm(nrm, axis=1)[:, None]
+
+
+def _check_against_brute_force(pts, nrm, pairs, kmin, kmax, res_k, res_pair, res_e):
+    idx = query_knn(pts, kmax)[0]
+    best, bk, bp = ref.brute_force_search(pts, nrm, idx, pairs, kmin, kmax)
+    for i in range(pts.shape[0]):
+        if bk[i] < 0:
+            assert res_k[i] == -1 and math.isinf(res_e[i])
+            continue
+        assert res_e[i] == pytest.approx(best[i], abs=1e-7)
+        # same triple unless another choice is within round-off of the minimum
+        code, lam, f = ref.point_features(pts, nrm, idx[i], res_k[i], *pairs[res_pair[i]])
+        assert code == 0 and f["e_dim"] == pytest.approx(best[i], abs=1e-7)
+        if (res_k[i], res_pair[i]) != (bk[i], bp[i]):
+            assert abs(f["e_dim"] - best[i]) < 1e-7
+
+
+def test_search_agrees_with_brute_force_over_all_420_choices():
+    pts, nrm = _noisy_surface(0, n=21)
+    pairs = angle_pairs()
+    res = optimal_neighbourhood(pts, nrm)
+    pair_index = {tuple(p): j for j, p in enumerate(pairs.tolist())}
+    res_pair = np.array(
+        [
+            pair_index.get((a, b), -1) if k > 0 else -1
+            for a, b, k in zip(res.a, res.b, res.k, strict=True)
+        ]
+    )
+    assert len(pairs) == 28
+    _check_against_brute_force(pts, nrm, pairs, 6, 20, res.k, res_pair, res.e_dim)
+    assert (res.reason == 0).all()
+    # the reported features are those of the chosen triple, recomputed
+    for i in range(0, 21, 5):
+        one = covariance_features(pts, int(res.k[i]), normals=nrm, a=res.a[i], b=res.b[i])
+        assert one.e_dim[i] == pytest.approx(res.e_dim[i], abs=1e-12)
+
+
+def test_search_small_grid_exact_ties_and_degenerate():
+    # a flat grid: every choice with >= 3 weighted points is planar-ish; exact
+    # duplicate weight vectors must resolve to smallest k, then a, then b
+    g = np.stack(np.meshgrid(np.arange(6.0), np.arange(6.0), [0.0]), -1).reshape(-1, 3)
+    nrm = np.tile([0.0, 0.0, 1.0], (36, 1))
+    res = optimal_neighbourhood(g, nrm, k_range=(6, 9))
+    full = optimal_neighbourhood(g, nrm, a_grid=[0.0], b_grid=[0.0], k_range=(6, 9))
+    np.testing.assert_array_equal(res.k, full.k)
+    assert (res.a == 0).all() and (res.b == 0).all()  # identical weights: smallest a, b win
+    # flipped normals with a sharp cut-off at 0: only the point itself -> all degenerate
+    alt = nrm.copy()
+    alt[::2] *= -1
+    rng = np.random.default_rng(1)
+    pts = rng.random((36, 3))
+    only_zero = optimal_neighbourhood(pts, alt, a_grid=[0.0], b_grid=[0.0], k_range=(2, 3))
+    idx = query_knn(pts, 3)[0]
+    opposite = (alt[idx[:, 1:], 2] != alt[:, None, 2]).all(axis=1)
+    assert np.isinf(only_zero.e_dim[opposite]).all()
+    assert (only_zero.k[opposite] == -1).all() and (only_zero.reason[opposite] == 3).all()
+    assert np.isnan(only_zero.planarity[opposite]).all()
+
+
+def test_weinmann_optimal_k_matches_brute_force():
+    pts, _ = _noisy_surface(2, n=60)
+    for criterion in ("eigenentropy", "e_dim"):
+        res = optimal_k_features(pts, k_range=(5, 25), criterion=criterion)
+        idx = query_knn(pts, 25)[0]
+        best, bk, _ = ref.brute_force_search(
+            pts, None, idx, [(math.pi, math.pi)], 5, 25, criterion=criterion
+        )
+        np.testing.assert_array_equal(res.k, bk)
+        np.testing.assert_allclose(getattr(res, criterion), best, atol=1e-7)
+        assert (res.a == math.pi).all()
+
+
+def test_decrease_cases_match_direct_checks():
+    pts, nrm = _noisy_surface(3, n=40)
+    res = optimal_neighbourhood(pts, nrm)
+    a_case, b_case = decrease_cases(pts, nrm, res)
+    grid = np.array(THESIS_ANGLE_GRID)
+    idx = query_knn(pts, 20)[0]
+    for i in range(40):
+        a, b, k = res.a[i], res.b[i], int(res.k[i])
+        ia = int(np.argmin(np.abs(grid - a)))
+        if ia == 0:
+            assert a_case[i] == 0
+        else:
+            code = ref.point_features(pts, nrm, idx[i], k, grid[ia - 1], b)[0]
+            assert a_case[i] == (1 if code == 0 else 2)
+        ib = int(np.argmin(np.abs(grid - b)))
+        if b == a:
+            assert b_case[i] == 0
+        else:
+            code = ref.point_features(pts, nrm, idx[i], k, a, grid[ib - 1])[0]
+            assert b_case[i] == (1 if code == 0 else 2)
+
+
+def test_cube_optimal_weights_sharpen_edges():
+    m = cube(8)
+    eq = optimal_k_features(m.points, k_range=(6, 20), criterion="e_dim")
+    opt = optimal_neighbourhood(m.points, m.normals)
+    assert (opt.reason == 0).all()
+    assert opt.e_dim.mean() < eq.e_dim.mean()  # Table 5.1's direction
+
+
+def test_search_validation():
+    pts, nrm = _noisy_surface(4, n=30)
+    with pytest.raises(ValueError, match="k_min <= k_max"):
+        optimal_neighbourhood(pts, nrm, k_range=(10, 6))
+    with pytest.raises(ValueError, match=r"a_grid values must lie in \[0, pi\]"):
+        optimal_neighbourhood(pts, nrm, a_grid=[0.0, 4.0])
+    with pytest.raises(ValueError, match="no \\(a, b\\) pair"):
+        optimal_neighbourhood(pts, nrm, a_grid=[2.0], b_grid=[1.0])
+    with pytest.raises(ValueError, match="criterion must be one of"):
+        optimal_k_features(pts, criterion="entropy")
+    with pytest.raises(ValueError, match="normals must have one row per point"):
+        optimal_neighbourhood(pts, nrm[:5])

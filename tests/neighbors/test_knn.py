@@ -1,0 +1,196 @@
+"""query_knn / NeighborIndex.knn against the brute-force reference."""
+
+from __future__ import annotations
+
+from functools import cache
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pointatlas._core import PointAtlasError
+from pointatlas.neighbors import NeighborIndex, query_knn
+
+from ..strategies import random_clouds, seeds
+from .reference import knn_reference
+
+BACKENDS = ["auto", "grid", "kdtree"]
+
+
+def _cloud(name: str) -> np.ndarray:
+    rng = np.random.default_rng(7)
+    if name == "random":
+        return rng.random((400, 3))
+    if name == "grid":
+        # integer lattice: massive exact ties (6 at distance 1, 12 at sqrt 2, ...)
+        g = np.arange(7.0)
+        return np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    if name == "duplicates":
+        # 12 sites with 30 exact copies each (more copies than k), shuffled
+        sites = rng.random((12, 3))
+        return np.repeat(sites, 30, axis=0)[rng.permutation(360)]
+    if name == "plane":
+        # a 2-manifold: most cells of a 3-D grid are empty
+        return np.c_[rng.random((300, 2)), np.zeros(300)]
+    if name == "line":
+        # extreme anisotropy: 1e6 long, 1e-3 thick
+        return np.c_[rng.random(200) * 1e6, rng.random((200, 2)) * 1e-3]
+    if name == "clusters":
+        # a dense cluster, a sparse halo and far outliers
+        return np.concatenate(
+            [rng.normal(scale=1e-3, size=(250, 3)), rng.random((100, 3)), [[50, 0, 0], [0, 80, 1]]]
+        )
+    raise KeyError(name)
+
+
+CLOUDS = ["random", "grid", "duplicates", "plane", "line", "clusters"]
+
+
+@cache
+def _reference(name: str, k: int):
+    return knn_reference(_cloud(name), k)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("name", CLOUDS)
+@pytest.mark.parametrize("k", [1, 2, 7, 20])
+def test_knn_matches_reference(name, k, backend):
+    pts = _cloud(name)
+    ref_idx, ref_dist = _reference(name, k)
+    idx, dist = query_knn(pts, k, backend=backend)
+    assert idx.dtype == np.int64 and idx.shape == (len(pts), k)
+    assert dist.dtype == np.float64 and dist.shape == (len(pts), k)
+    np.testing.assert_array_equal(idx, ref_idx)
+    np.testing.assert_array_equal(dist, ref_dist)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_k_equals_n(backend):
+    pts = _cloud("random")[:60]
+    ref_idx, ref_dist = knn_reference(pts, 60)
+    idx, dist = query_knn(pts, 60, backend=backend)
+    np.testing.assert_array_equal(idx, ref_idx)
+    np.testing.assert_array_equal(dist, ref_dist)
+    # every row is a permutation of all points
+    np.testing.assert_array_equal(np.sort(idx, axis=1), np.broadcast_to(np.arange(60), (60, 60)))
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_self_first_even_with_duplicates(backend):
+    pts = np.zeros((25, 3))
+    idx, dist = query_knn(pts, 5, backend=backend)
+    assert (idx[:, 0] == np.arange(25)).all()
+    assert (dist == 0).all()
+    # the others are the smallest indices except itself
+    assert idx[0, 1:].tolist() == [1, 2, 3, 4]
+    assert idx[3, 1:].tolist() == [0, 1, 2, 4]
+    assert idx[24, 1:].tolist() == [0, 1, 2, 3]
+
+
+def test_grid_ties_smaller_index_wins():
+    pts = _cloud("grid")
+    idx, dist = query_knn(pts, 7)
+    centre = 3 * 49 + 3 * 7 + 3  # (3, 3, 3): six neighbours at distance 1
+    expected = sorted(centre + d for d in (-49, -7, -1, 1, 7, 49))
+    assert idx[centre].tolist() == [centre, *expected]
+    assert dist[centre].tolist() == [0.0] + [1.0] * 6
+    # corner (0,0,0): 3 at distance 1, then the 3 at sqrt(2) by index: (0,1,1), (1,0,1), (1,1,0)
+    assert idx[0].tolist() == [0, 1, 7, 49, 8, 50, 56]
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_too_few_points(backend):
+    with pytest.raises(PointAtlasError, match="too few points for k"):
+        query_knn(np.zeros((3, 3)), 4, backend=backend)
+
+
+def test_single_point():
+    idx, dist = query_knn([[1.0, 2.0, 3.0]], 1)
+    assert idx.tolist() == [[0]] and dist.tolist() == [[0.0]]
+    with pytest.raises(PointAtlasError, match="too few points for k"):
+        query_knn([[1.0, 2.0, 3.0]], 2)
+
+
+def test_nan_raises_value_error():
+    pts = np.random.default_rng(0).random((20, 3))
+    pts[4, 1] = np.nan
+    with pytest.raises(ValueError, match="non-finite"):
+        query_knn(pts, 3)
+
+
+@pytest.mark.parametrize(
+    ("k", "exc", "match"),
+    [(0, ValueError, "k must be >= 1"), (2.5, TypeError, "k must be an integer"),
+     (True, TypeError, "k must be an integer")],
+)  # fmt: skip
+def test_bad_k(k, exc, match):
+    with pytest.raises(exc, match=match):
+        query_knn(np.zeros((5, 3)), k)
+
+
+def test_bad_backend():
+    with pytest.raises(ValueError, match="backend must be one of"):
+        query_knn(np.zeros((5, 3)), 2, backend="octree")
+
+
+def test_bad_shape():
+    with pytest.raises(ValueError, match=r"shape \(N, 3\)"):
+        query_knn(np.zeros((5, 2)), 2)
+
+
+def test_input_not_modified():
+    pts = np.random.default_rng(3).random((50, 3)) + 10.0
+    before = pts.copy()
+    query_knn(pts, 5)
+    np.testing.assert_array_equal(pts, before)
+
+
+def test_auto_hands_far_outliers_to_kdtree(monkeypatch):
+    pts = _cloud("clusters")
+    calls = []
+    original = NeighborIndex._knn_kdtree
+
+    def spy(self, rows, k):
+        calls.append(rows.copy())
+        return original(self, rows, k)
+
+    monkeypatch.setattr(NeighborIndex, "_knn_kdtree", spy)
+    idx, dist = query_knn(pts, 12)
+    ref_idx, ref_dist = _reference("clusters", 12)
+    np.testing.assert_array_equal(idx, ref_idx)
+    np.testing.assert_array_equal(dist, ref_dist)
+    assert len(calls) == 1
+    assert {350, 351} <= set(calls[0].tolist())  # the far outliers went to the tree
+    assert calls[0].size < len(pts) // 2  # the bulk stayed on the grid
+
+
+def test_index_reused_for_several_k():
+    pts = _cloud("random")
+    index = NeighborIndex(pts)
+    assert index.n_points == len(pts)
+    idx5, _ = index.knn(5)
+    idx9, _ = index.knn(9)
+    np.testing.assert_array_equal(idx9[:, :5], idx5)
+
+
+@settings(max_examples=15, deadline=None)
+@given(random_clouds(min_points=20, max_points=150), seeds(), st.integers(2, 15))
+def test_permutation_equivariance(pts, seed, k):
+    perm = np.random.default_rng(seed).permutation(len(pts))
+    idx, dist = query_knn(pts, k)
+    idx_p, dist_p = query_knn(pts[perm], k)
+    # row r of the permuted query is the original point perm[r]
+    assert (perm[idx_p[:, 0]] == perm).all()
+    for r in range(len(pts)):
+        assert set(perm[idx_p[r]].tolist()) == set(idx[perm[r]].tolist())
+    np.testing.assert_array_equal(dist_p, dist[perm])
+
+
+@settings(max_examples=15, deadline=None)
+@given(random_clouds(min_points=20, max_points=150), st.integers(2, 15))
+def test_translation_invariance(pts, k):
+    idx, dist = query_knn(pts, k)
+    idx_s, dist_s = query_knn(pts + np.array([1e6, -2e6, 5e5]), k)
+    np.testing.assert_array_equal(idx_s, idx)
+    np.testing.assert_allclose(dist_s, dist, atol=1e-9)

@@ -1,0 +1,162 @@
+"""orient_normals: MST propagation, outward and viewpoint rules, components, errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+
+from pointatlas._core import PointAtlasError
+from pointatlas.neighbors import query_knn
+from pointatlas.normals import estimate_normals, flipped_fraction, orient_normals
+
+from ..strategies import rigid_motions, seeds
+from .shapes import cube, random_flips, sphere, torus
+
+
+def _shapes():
+    return {
+        "sphere": sphere(2000),
+        "torus": torus(90, 30, rng=0),
+        "noisy_cube": cube(18, noise=0.15, rng=1),
+    }
+
+
+@pytest.mark.parametrize("name", ["sphere", "torus", "noisy_cube"])
+@pytest.mark.parametrize("method", ["mst", "outward"])
+def test_closed_shapes_oriented_outward(name, method):
+    pts, exact = _shapes()[name]
+    est = random_flips(estimate_normals(pts, 15), 3)
+    assert 0.3 < flipped_fraction(est, exact) < 0.7
+    oriented = orient_normals(pts, est, k=10, method=method)
+    assert flipped_fraction(oriented, exact) == 0.0
+    # only signs change
+    assert np.allclose(np.abs(np.sum(oriented * est, axis=1)), 1.0)
+
+
+def test_orientation_independent_of_input_signs():
+    pts, exact = torus(60, 20, rng=2)
+    est = estimate_normals(pts, 12)
+    a = orient_normals(pts, random_flips(est, 0))
+    b = orient_normals(pts, random_flips(est, 1))
+    assert np.array_equal(a, b)
+
+
+def test_outward_vote_per_component():
+    # the vote behind method="outward" (private helper): inward-oriented closed
+    # components are flipped (-1), outward ones kept (+1), a flat patch undecided (0)
+    from pointatlas.normals._orient import _outward_flip
+
+    a, na = sphere(800)
+    b, nb = torus(40, 16, rng=0)
+    b = b + [20.0, 0.0, 0.0]
+    rng = np.random.default_rng(0)
+    c = np.column_stack([rng.random((300, 2)) - [0.0, 20.0], np.zeros(300)])
+    nc = np.tile([0.0, 0.0, 1.0], (300, 1))
+    pts = np.vstack([a, b, c])
+    labels = np.repeat([0, 1, 2], [800, b.shape[0], 300])
+    idx, _ = query_knn(pts, 10)
+    inward = np.vstack([-na, nb, nc])
+    assert _outward_flip(pts, inward, labels, 3, idx).tolist() == [-1.0, 1.0, 0.0]
+    outward_res = orient_normals(pts, random_flips(inward, 4), method="outward")
+    assert flipped_fraction(outward_res[:800], na) == 0.0
+    assert flipped_fraction(outward_res[800:-300], nb) == 0.0
+
+
+def test_open_patch_uses_top_rule():
+    rng = np.random.default_rng(0)
+    pts = np.column_stack([rng.random((400, 2)), 0.01 * rng.random(400)])
+    est = random_flips(estimate_normals(pts, 10), 1)
+    for method in ("mst", "outward"):
+        assert (orient_normals(pts, est, method=method)[:, 2] > 0).all()
+
+
+def test_disconnected_spheres_each_oriented():
+    a, na = sphere(800, radius=1.0)
+    b, nb = sphere(500, radius=0.3, center=(50.0, 0.0, -20.0))
+    pts = np.vstack([a, b])
+    exact = np.vstack([na, nb])
+    est = random_flips(estimate_normals(pts, 12), 5)
+    for method in ("mst", "outward"):
+        assert flipped_fraction(orient_normals(pts, est, method=method), exact) == 0.0
+
+
+def test_viewpoint():
+    pts, exact = sphere(500)
+    est = random_flips(exact, 0)
+    inward = orient_normals(pts, est, method="viewpoint", viewpoint=[0.0, 0.0, 0.0])
+    assert flipped_fraction(inward, exact) == 1.0
+    far = orient_normals(pts, est, method="viewpoint", viewpoint=(0.0, 0.0, 100.0))
+    assert (np.sum(([0.0, 0.0, 100.0] - pts) * far, axis=1) >= 0).all()
+    assert np.allclose(np.abs(np.sum(far * est, axis=1)), 1.0)
+    assert (far[pts[:, 2] > 0.2, 2] > 0).all()
+
+
+def test_duplicates_and_shared_neighbors():
+    pts, exact = sphere(600)
+    dup = np.vstack([pts, pts[::3]])
+    exact_dup = np.vstack([exact, exact[::3]])
+    idx, dist = query_knn(dup, 15)
+    est = random_flips(estimate_normals(dup, 15, neighbors=idx), 2)
+    oriented = orient_normals(dup, est, k=10, neighbors=(idx, dist))
+    assert flipped_fraction(oriented, exact_dup) == 0.0
+    assert np.array_equal(oriented, orient_normals(dup, est, k=10))
+
+
+def test_unnormalised_input_and_dtype():
+    pts, exact = sphere(300)
+    out = orient_normals(pts.tolist(), (3.0 * exact).tolist())
+    assert out.dtype == np.float64 and out.shape == (300, 3)
+    assert np.allclose(np.linalg.norm(out, axis=1), 1.0)
+
+
+def test_inputs_not_modified():
+    pts, exact = sphere(300)
+    est = random_flips(exact, 0)
+    pts.flags.writeable = False
+    est.flags.writeable = False
+    before = est.copy()
+    for method in ("mst", "outward"):
+        orient_normals(pts, est, method=method)
+    orient_normals(pts, est, method="viewpoint", viewpoint=[0, 0, 0])
+    assert np.array_equal(est, before)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"method": "towards"}, ValueError, "method must be one of"),
+        ({"method": "viewpoint"}, ValueError, "viewpoint is required"),
+        ({"method": "viewpoint", "viewpoint": [0, 0]}, ValueError, r"shape \(3,\)"),
+        ({"method": "viewpoint", "viewpoint": [0, 0, np.inf]}, ValueError, "finite"),
+        ({"k": 1}, ValueError, "k must be >= 2"),
+        ({"edge_penalty": -1.0}, ValueError, "edge_penalty must be"),
+        ({"k": 1000}, PointAtlasError, "too few points"),
+        ({"neighbors": np.zeros((50, 3), dtype=np.int64)}, ValueError, "m >= k"),
+    ],
+)
+def test_bad_input(kwargs, error, match):
+    pts, exact = sphere(50)
+    with pytest.raises(error, match=match):
+        orient_normals(pts, exact, **kwargs)
+
+
+def test_bad_normals():
+    pts, exact = sphere(50)
+    with pytest.raises(ValueError, match="one row per point"):
+        orient_normals(pts, exact[:40])
+    zero = exact.copy()
+    zero[7] = 0.0
+    with pytest.raises(ValueError, match="zero-length"):
+        orient_normals(pts, zero)
+
+
+@settings(deadline=None, max_examples=10)
+@given(motion=rigid_motions(), seed=seeds())
+def test_outward_orientation_invariant_under_rigid_motion(motion, seed):
+    rot, shift = motion
+    pts, exact = torus(40, 14, rng=seed)
+    moved = pts @ rot.T + shift
+    est = random_flips(estimate_normals(moved, 12), seed)
+    oriented = orient_normals(moved, est, k=10)
+    assert flipped_fraction(oriented, exact @ rot.T) == 0.0

@@ -1,0 +1,163 @@
+"""Slow, obvious references for the segment kernels (plain Python / numpy)."""
+
+from __future__ import annotations
+
+import heapq
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse import csgraph
+
+
+def symmetric_lists(table: np.ndarray, n: int) -> list[list[int]]:
+    """Sorted, symmetric, duplicate-free neighbour lists of a directed table."""
+    sets = [set() for _ in range(n)]
+    for i in range(table.shape[0]):
+        for j in table[i]:
+            j = int(j)
+            if j >= 0 and j != i:
+                sets[i].add(j)
+                sets[j].add(i)
+    return [sorted(s) for s in sets]
+
+
+def flood_reference(lists, normals, seeds, seed_normals):
+    """Thesis 4.2.2 flood with heapq; ties by (cost, point, region)."""
+    n = len(lists)
+    labels = np.full(n, -1, dtype=np.int64)
+    heap = []
+    for r, s in enumerate(seeds):
+        labels[s] = r
+    for r, s in enumerate(seeds):
+        for j in lists[s]:
+            if labels[j] < 0:
+                heapq.heappush(heap, (float(np.sum((normals[j] - seed_normals[r]) ** 2)), j, r))
+    while heap:
+        _, p, r = heapq.heappop(heap)
+        if labels[p] >= 0:
+            continue
+        labels[p] = r
+        for j in lists[p]:
+            if labels[j] < 0:
+                heapq.heappush(heap, (float(np.sum((normals[j] - seed_normals[r]) ** 2)), j, r))
+    return labels
+
+
+def batch_switch_reference(lists, normals, weights, labels, prox, min_gain):
+    out = labels.copy()
+    for i in range(len(lists)):
+        li = labels[i]
+        cur = float(normals[i] @ prox[li])
+        cands = sorted({int(labels[j]) for j in lists[i]} - {int(li)})
+        best, best_label = cur, li
+        for h in cands:
+            d = float(normals[i] @ prox[h])
+            if d > best:
+                best, best_label = d, h
+        if best_label != li and 2 * weights[i] * (best - cur) > min_gain:
+            out[i] = best_label
+    return out
+
+
+def best_single_move_reference(lists, normals, weights, labels, prox):
+    best = (0.0, -1, -1)
+    for i in range(len(lists)):
+        li = labels[i]
+        for h in sorted({int(labels[j]) for j in lists[i]} - {int(li)}):
+            gain = 2 * weights[i] * float(normals[i] @ prox[h] - normals[i] @ prox[li])
+            if gain > best[0]:
+                best = (gain, i, h)
+    return best[1], best[2], best[0]
+
+
+def greedy_merge_reference(pairs, wsum, ssum, eta):
+    """Repeatedly merge the adjacent pair with the cheapest union L21 < eta."""
+    m = len(wsum)
+    wsum = list(map(float, wsum))
+    ssum = [np.array(s, dtype=float) for s in ssum]
+    root = list(range(m))
+    adj = {tuple(sorted(map(int, p))) for p in pairs}
+
+    def find(i):
+        while root[i] != i:
+            i = root[i]
+        return i
+
+    while True:
+        cur = {tuple(sorted((find(a), find(b)))) for a, b in adj}
+        cur = {p for p in cur if p[0] != p[1]}
+        best = None
+        for a, b in sorted(cur):
+            cost = 2 * (wsum[a] + wsum[b] - np.linalg.norm(ssum[a] + ssum[b]))
+            if cost < eta and (best is None or cost < best[0]):
+                best = (cost, a, b)
+        if best is None:
+            break
+        _, a, b = best
+        root[b] = a
+        wsum[a] += wsum[b]
+        ssum[a] = ssum[a] + ssum[b]
+    return np.array([find(i) for i in range(m)])
+
+
+def region_growing_reference(table, normals, curvature, cos_threshold, curvature_threshold):
+    n = len(normals)
+    order = sorted(range(n), key=lambda i: (curvature[i], i))
+    labels = np.full(n, -1, dtype=np.int64)
+    region = 0
+    for start in order:
+        if labels[start] >= 0:
+            continue
+        labels[start] = region
+        queue = [start]
+        while queue:
+            cur = queue.pop(0)
+            for j in table[cur]:
+                if j < 0 or labels[j] >= 0:
+                    continue
+                if abs(float(normals[cur] @ normals[j])) < cos_threshold:
+                    continue
+                labels[j] = region
+                if curvature[j] <= curvature_threshold:
+                    queue.append(int(j))
+        region += 1
+    return labels
+
+
+def curvature_reference(points, table):
+    out = np.empty(len(points))
+    for i, row in enumerate(table):
+        q = points[row] - points[row].mean(axis=0)
+        ev = np.linalg.eigvalsh(q.T @ q)
+        out[i] = ev[0] / ev.sum() if ev.sum() > 0 else 0.0
+    return out
+
+
+def n_pieces(lists, labels, region):
+    """Connected pieces of one region in the graph."""
+    members = np.flatnonzero(labels == region)
+    pos = {int(p): t for t, p in enumerate(members)}
+    rows, cols = [], []
+    for p in members:
+        for j in lists[p]:
+            if j in pos:
+                rows.append(pos[int(p)])
+                cols.append(pos[j])
+    g = sparse.csr_array((np.ones(len(rows)), (rows, cols)), shape=(members.size, members.size))
+    return csgraph.connected_components(g, directed=False)[0]
+
+
+def eta_reference(mean_curvature, n_points, split=0.5):
+    """Eq. 4.9 by summing |n(u, v) - (0, 0, 1)|^2 over the paraboloid grid directly."""
+    nu = int(np.ceil(np.sqrt(n_points - 1) / 2))
+    if nu == 0:
+        return 0.0
+    inv_a2, inv_b2 = split * mean_curvature, (1 - split) * mean_curvature
+    total = 0.0
+    for j in range(-nu, nu + 1):
+        for m in range(-nu, nu + 1):
+            u, v = j / nu, m / nu
+            nrm = np.array([-2 * u * inv_a2, -2 * v * inv_b2, 1.0])
+            nrm /= np.linalg.norm(nrm)
+            total += np.sum((nrm - [0, 0, 1]) ** 2)
+    return total

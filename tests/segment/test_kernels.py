@@ -1,0 +1,196 @@
+"""numba kernels against the plain references (and once with the JIT off)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pointatlas.neighbors import query_knn
+from pointatlas.segment import _kernels as K
+
+from . import reference
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _cloud(seed, n=80, k=6):
+    rng = np.random.default_rng(seed)
+    points = rng.random((n, 3))
+    normals = rng.normal(size=(n, 3)) + [0, 0, 2.0]
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    table, _ = query_knn(points, k)
+    return points, normals, table
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_symmetric_csr(seed):
+    _, _, table = _cloud(seed)
+    table = table.copy()
+    table[3, 2] = -1  # ignored entry
+    indptr, indices = K.symmetric_csr(table, table.shape[0])
+    lists = reference.symmetric_lists(table, table.shape[0])
+    for i, row in enumerate(lists):
+        assert indices[indptr[i] : indptr[i + 1]].tolist() == row
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_flood_matches_reference(seed):
+    _, normals, table = _cloud(seed)
+    n = normals.shape[0]
+    indptr, indices = K.symmetric_csr(table, n)
+    lists = reference.symmetric_lists(table, n)
+    seeds = np.random.default_rng(seed).choice(n, size=5, replace=False)
+    seed_normals = normals[seeds]
+    ours = K.flood(indptr, indices, normals, seeds, seed_normals)
+    ref = reference.flood_reference(lists, normals, seeds, seed_normals)
+    np.testing.assert_array_equal(ours, ref)
+
+
+def test_flood_edge_cases():
+    # one point; an unreachable point keeps -1
+    normals = np.array([[0.0, 0.0, 1.0]])
+    indptr, indices = K.symmetric_csr(np.zeros((1, 1), dtype=np.int64), 1)
+    assert K.flood(indptr, indices, normals, np.array([0]), normals).tolist() == [0]
+    normals = np.tile([0.0, 0.0, 1.0], (3, 1))
+    table = np.array([[0, 1], [1, 0], [2, -1]])
+    indptr, indices = K.symmetric_csr(table, 3)
+    assert K.flood(indptr, indices, normals, np.array([0]), normals[:1]).tolist() == [0, 0, -1]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_switch_kernels_match_reference(seed):
+    _, normals, table = _cloud(seed)
+    n = normals.shape[0]
+    indptr, indices = K.symmetric_csr(table, n)
+    lists = reference.symmetric_lists(table, n)
+    rng = np.random.default_rng(seed)
+    labels = rng.integers(0, 4, size=n)
+    prox = rng.normal(size=(4, 3))
+    prox /= np.linalg.norm(prox, axis=1, keepdims=True)
+    weights = rng.random(n)
+    everyone = np.ones(n, dtype=np.int64)  # every point treated as a border point
+    moved, new = K.batch_switch(indptr, indices, normals, weights, labels, prox, everyone, 1e-12)
+    ours = labels.copy()
+    ours[moved] = new
+    ref = reference.batch_switch_reference(lists, normals, weights, labels, prox, 1e-12)
+    np.testing.assert_array_equal(ours, ref)
+    assert moved.size == int((ours != labels).sum())
+    # the border suffices
+    foreign = K.foreign_counts(indptr, indices, labels)
+    for i in range(n):
+        assert foreign[i] == sum(labels[j] != labels[i] for j in lists[i])
+    moved_b, new_b = K.batch_switch(indptr, indices, normals, weights, labels, prox, foreign, 1e-12)
+    np.testing.assert_array_equal(moved_b, moved)
+    np.testing.assert_array_equal(new_b, new)
+    # incremental sums and foreign counts agree with recomputation
+    wsum = np.bincount(labels, weights, minlength=4)
+    ssum = np.stack(
+        [np.bincount(labels, weights * normals[:, d], minlength=4) for d in range(3)], 1
+    )
+    counts = np.bincount(labels, minlength=4)
+    lab2 = labels.copy()
+    wn = weights[:, None] * normals
+    K.apply_moves(indptr, indices, lab2, wsum, ssum, counts, foreign, weights, wn, moved, new)
+    np.testing.assert_array_equal(lab2, ref)
+    np.testing.assert_allclose(wsum, np.bincount(ref, weights, minlength=4), atol=1e-12)
+    np.testing.assert_array_equal(counts, np.bincount(ref, minlength=4))
+    np.testing.assert_array_equal(foreign, K.foreign_counts(indptr, indices, lab2))
+    np.testing.assert_array_equal(K.boundary_points(indptr, indices, lab2), np.flatnonzero(foreign))
+    foreign = K.foreign_counts(indptr, indices, labels)
+    p, h, gain = K.best_single_move(indptr, indices, normals, weights, labels, prox, foreign)
+    rp, rh, rgain = reference.best_single_move_reference(lists, normals, weights, labels, prox)
+    assert (p, h) == (rp, rh) and gain == pytest.approx(rgain)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_greedy_merge_matches_reference(seed):
+    _, normals, table = _cloud(seed, n=60)
+    n = normals.shape[0]
+    indptr, indices = K.symmetric_csr(table, n)
+    labels = np.arange(n)
+    pairs = K.region_pairs(indptr, indices, labels, labels)
+    np.testing.assert_array_equal(pairs, K.edge_pairs(indptr, indices))
+    wsum = np.ones(n)
+    ssum = normals.copy()
+    for eta in (0.05, 0.5, 3.0):
+        roots, n_merges = K.greedy_merge(pairs, wsum, ssum, eta, 0.0, False)
+        ref = reference.greedy_merge_reference(pairs, wsum, ssum, eta)
+        np.testing.assert_array_equal(K.canonical_labels(roots)[0], K.canonical_labels(ref)[0])
+        assert n_merges == n - np.unique(roots).size
+
+
+def test_merge_angle_mode_respects_bound():
+    _, normals, table = _cloud(7, n=60)
+    n = normals.shape[0]
+    indptr, indices = K.symmetric_csr(table, n)
+    pairs = K.edge_pairs(indptr, indices)
+    min_cos = np.cos(0.3)
+    roots, _ = K.greedy_merge(pairs, np.ones(n), normals.copy(), 0.0, min_cos, True)
+    for r in np.unique(roots):
+        s = normals[roots == r].sum(axis=0)
+        assert np.linalg.norm(s) >= min_cos * (roots == r).sum() - 1e-12
+
+
+def test_components_and_pairs():
+    table = np.array([[0, 1], [1, 2], [2, 1], [3, 4], [4, 3]])
+    indptr, indices = K.symmetric_csr(table, 5)
+    labels = np.array([7, 7, 7, 7, 2])
+    pieces, m = K.connected_label_components(indptr, indices, labels)
+    assert pieces.tolist() == [0, 0, 0, 1, 2] and m == 3
+    assert K.region_pairs(indptr, indices, pieces, np.arange(5)).tolist() == [[1, 2]]
+    assert K.canonical_labels(np.array([5, 2, 5, 0]))[0].tolist() == [0, 1, 0, 2]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_region_growing_kernel_matches_reference(seed):
+    points, normals, table = _cloud(seed, k=8)
+    curv = reference.curvature_reference(points, table)
+    order = np.lexsort((np.arange(points.shape[0]), curv))
+    thr = float(np.median(curv))
+    cos_t = np.cos(0.6)
+    ours = K.region_growing(table, normals, curv, order, cos_t, thr)
+    ref = reference.region_growing_reference(table, normals, curv, cos_t, thr)
+    np.testing.assert_array_equal(ours, ref)
+
+
+_JIT_OFF_SCRIPT = textwrap.dedent(
+    """
+    import numpy as np
+    from tests.segment import test_kernels as t
+    from tests.segment.examples import figure_4_1
+    from pointatlas.segment import vsa_segment
+    t.test_symmetric_csr(0)
+    t.test_flood_matches_reference(0)
+    t.test_flood_edge_cases()
+    t.test_switch_kernels_match_reference(0)
+    t.test_greedy_merge_matches_reference(0)
+    t.test_merge_angle_mode_respects_bound()
+    t.test_components_and_pairs()
+    t.test_region_growing_kernel_matches_reference(0)
+    p, n, adj, s = figure_4_1(20)
+    assert vsa_segment(p, n, seeds=s, classic=True, neighbors=adj).converged
+    print("ok")
+    """
+)
+
+
+def test_kernels_without_jit():
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
+    env["PYTHONPATH"] = os.pathsep.join([str(REPO), env.get("PYTHONPATH", "")])
+    out = subprocess.run(
+        [sys.executable, "-c", _JIT_OFF_SCRIPT],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ok"

@@ -1,0 +1,44 @@
+"""Plain numpy references for the simplify kernels."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _segment_distance(p, a, b):
+    ab = b - a
+    t = np.clip(np.dot(p - a, ab) / max(np.dot(ab, ab), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(p - (a + t * ab))
+
+
+def point_triangle_distance_reference(points, vertices, triangles):
+    """Distance to the nearest triangle: the plane distance when the projection falls
+    inside the triangle, else the nearest of its three edges."""
+    out = np.empty(len(points))
+    for i, p in enumerate(points):
+        best = np.inf
+        for tri in triangles:
+            a, b, c = vertices[tri]
+            n = np.cross(b - a, c - a)
+            nn = np.dot(n, n)
+            d = np.inf
+            if nn > 0:
+                q = p - np.dot(p - a, n) / nn * n
+                # barycentric inside test
+                v0, v1, v2 = b - a, c - a, q - a
+                d00, d01, d11 = v0 @ v0, v0 @ v1, v1 @ v1
+                d20, d21 = v2 @ v0, v2 @ v1
+                den = d00 * d11 - d01 * d01
+                v = (d11 * d20 - d01 * d21) / den
+                w = (d00 * d21 - d01 * d20) / den
+                if v >= 0 and w >= 0 and v + w <= 1:
+                    d = abs(np.dot(p - a, n)) / np.sqrt(nn)
+            d = min(
+                d,
+                _segment_distance(p, a, b),
+                _segment_distance(p, b, c),
+                _segment_distance(p, c, a),
+            )
+            best = min(best, d)
+        out[i] = best
+    return out

@@ -1,0 +1,93 @@
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from pointatlas.cli import app
+from pointatlas.io import read_mesh, write_mesh
+from pointatlas.synth import cube, plane_patch
+
+runner = CliRunner()
+
+
+@pytest.fixture
+def cube_file(tmp_path):
+    m = cube(8, size=2.0)
+    return write_mesh(tmp_path / "cube.obj", m.vertices, m.faces)
+
+
+def test_simplify_cube_writes_closed_polygon_mesh(cube_file, tmp_path):
+    out = tmp_path / "cube_simple.obj"
+    tri = tmp_path / "cube_tri.ply"
+    rep = tmp_path / "report.json"
+    res = runner.invoke(
+        app,
+        [
+            "simplify",
+            str(cube_file),
+            str(out),
+            "--triangles",
+            str(tri),
+            "--report",
+            str(rep),
+            "--vertices",
+            "optimize",
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    mesh = read_mesh(out)
+    assert mesh.n_vertices == 8 and mesh.n_faces == 6
+    assert mesh.face_sizes.tolist() == [4] * 6
+    assert read_mesh(tri).n_faces == 12
+    report = json.loads(rep.read_text())
+    assert report["is_closed"] and report["is_oriented"] and report["n_faces"] == 6
+    assert report["complex"]["conjecture4"]["holds"]
+
+
+def test_simplify_star_faces(cube_file, tmp_path):
+    # (--render is exercised by the demo step test below)
+    out = tmp_path / "c.ply"
+    res = runner.invoke(app, ["simplify", str(cube_file), str(out), "--faces", "star"])
+    assert res.exit_code == 0, res.output
+    assert read_mesh(out).n_faces == 6
+
+
+def test_degenerate_input_gives_one_line_and_no_file(tmp_path):
+    m = plane_patch()
+    flat = write_mesh(tmp_path / "flat.obj", m.vertices, m.faces)
+    out = tmp_path / "flat_simple.obj"
+    res = runner.invoke(app, ["simplify", str(flat), str(out)])
+    assert res.exit_code == 1
+    assert "error:" in res.output and "regions" in res.output
+    assert not out.exists()
+
+
+def test_bad_output_extension(cube_file, tmp_path):
+    res = runner.invoke(app, ["simplify", str(cube_file), str(tmp_path / "x.png")])
+    assert res.exit_code == 1 and "OUT must end in" in res.output
+    res = runner.invoke(
+        app,
+        [
+            "simplify",
+            str(cube_file),
+            str(tmp_path / "x.obj"),
+            "--eta",
+            "5",
+            "--max-angle-deg",
+            "10",
+        ],
+    )
+    assert res.exit_code == 1 and "not both" in res.output
+
+
+@pytest.mark.slow
+def test_demo_step_segments_and_simplifies_fandisk(tmp_path):
+    from pointatlas.cli._cmd_core import run_demo
+    from pointatlas.cli._cmd_simplify import demo_simplify
+
+    written = run_demo(tmp_path, steps=[demo_simplify])
+    names = {p.name for p in written}
+    assert {"fandisk_simplified.obj", "fandisk_simplified.png"} <= names
+    assert (tmp_path / "fandisk_simplified.png").stat().st_size > 10_000
+    summary = json.loads((tmp_path / "fandisk_simplified.json").read_text())
+    assert summary["is_closed"] and summary["n_faces"] >= 15
