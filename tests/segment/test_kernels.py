@@ -75,7 +75,10 @@ def test_switch_kernels_match_reference(seed):
     prox /= np.linalg.norm(prox, axis=1, keepdims=True)
     weights = rng.random(n)
     everyone = np.ones(n, dtype=np.int64)  # every point treated as a border point
-    moved, new = K.batch_switch(indptr, indices, normals, weights, labels, prox, everyone, 1e-12)
+    allpts = np.arange(n)
+    moved, new = K.batch_switch(
+        indptr, indices, normals, weights, labels, prox, everyone, 1e-12, allpts
+    )
     ours = labels.copy()
     ours[moved] = new
     ref = reference.batch_switch_reference(lists, normals, weights, labels, prox, 1e-12)
@@ -85,7 +88,9 @@ def test_switch_kernels_match_reference(seed):
     foreign = K.foreign_counts(indptr, indices, labels)
     for i in range(n):
         assert foreign[i] == sum(labels[j] != labels[i] for j in lists[i])
-    moved_b, new_b = K.batch_switch(indptr, indices, normals, weights, labels, prox, foreign, 1e-12)
+    moved_b, new_b = K.batch_switch(
+        indptr, indices, normals, weights, labels, prox, foreign, 1e-12, allpts
+    )
     np.testing.assert_array_equal(moved_b, moved)
     np.testing.assert_array_equal(new_b, new)
     # incremental sums and foreign counts agree with recomputation
@@ -194,3 +199,34 @@ def test_kernels_without_jit():
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_touched_points_switch_is_exact(seed):
+    """After moves, re-examining only points next to changed regions finds the
+    same moves as scanning every point."""
+    _, normals, table = _cloud(seed)
+    n = normals.shape[0]
+    indptr, indices = K.symmetric_csr(table, n)
+    rng = np.random.default_rng(seed)
+    m = 12
+    labels = rng.integers(0, m, size=n)
+    weights = np.ones(n)
+    wn = normals.copy()
+    wsum = np.bincount(labels, weights, minlength=m)
+    ssum = np.stack([np.bincount(labels, normals[:, d], minlength=m) for d in range(3)], 1)
+    counts = np.bincount(labels, minlength=m)
+    foreign = K.foreign_counts(indptr, indices, labels)
+    allpts = np.arange(n)
+    dirty = np.ones(m, dtype=bool)
+    for _ in range(6):
+        prox = ssum / np.maximum(np.linalg.norm(ssum, axis=1, keepdims=True), 1e-300)
+        cand = K.touched_points(indptr, indices, labels, foreign, dirty)
+        full = K.batch_switch(indptr, indices, normals, weights, labels, prox, foreign, 0.0, allpts)
+        part = K.batch_switch(indptr, indices, normals, weights, labels, prox, foreign, 0.0, cand)
+        np.testing.assert_array_equal(full[0], part[0])
+        np.testing.assert_array_equal(full[1], part[1])
+        dirty[:] = False
+        dirty[labels[full[0]]] = True
+        dirty[full[1]] = True
+        K.apply_moves(indptr, indices, labels, wsum, ssum, counts, foreign, weights, wn, *full)

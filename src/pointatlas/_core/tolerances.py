@@ -75,7 +75,7 @@ SIMPLIFY_PARALLEL_ANGLE = 0.08726646259971647
 #: ever; after this many rounds only split, switch and update run, which never
 #: raise the energy, so the loop terminates (Theorem 1). Region counts settle
 #: within 2-4 rounds on the bundled models.
-VSA_MERGE_ROUNDS = 8
+VSA_MERGE_ROUNDS = 50
 
 #: Safety margin of the k-NN grid (pointatlas.neighbors), relative to the cell
 #: size: cell faces computed as lo + i * h and the floor() that assigns points to

@@ -14,6 +14,7 @@ from ._features import (
     _check_k,
     _choice_features,
     _neighbourhoods,
+    _spatial_order,
     _unit_normals_or_nan,
 )
 from ._kernels import REASON_OK, search_kernel
@@ -237,6 +238,7 @@ def _run_search(pts, idx, kmin, kmax, angles, pairs, *, criterion):
     search_kernel(
         pts,
         idx,
+        _spatial_order(pts),
         kmin,
         kmax,
         ang,

@@ -316,9 +316,10 @@ def knn_grid(
     Every query of the cell scans its own cell first (in index order, stopping
     once k - 1 exact duplicates are found), then the other block cells sorted by
     their box distance, stopping at the first box farther than its current
-    k-th candidate, then further rings until certified. Rows are written at the points' original indices. A query whose
-    k-th neighbour is not certified after ``max_ring`` rings sets ``failed`` (the
-    caller answers those rows with the k-d tree path).
+    k-th candidate, then further rings until certified. Rows are written at the
+    points' original indices. A query whose k-th neighbour is not certified after
+    ``max_ring`` rings sets ``failed`` (the caller answers those rows with the
+    k-d tree path).
     """
     m = k - 1
     n_cells = ukeys.shape[0]

@@ -8,8 +8,7 @@ sorted increasingly.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, types
-from numba.typed import Dict
+from numba import njit
 
 # --------------------------------------------------------------------------- graph
 
@@ -325,7 +324,34 @@ def foreign_counts(indptr, indices, labels):
 
 
 @njit(cache=True)
-def batch_switch(indptr, indices, normals, weights, labels, proxy_normals, foreign, min_gain):
+def touched_points(indptr, indices, labels, foreign, dirty):
+    """Boundary points next to a region flagged in ``dirty`` (increasing).
+
+    A boundary point (``foreign[i] > 0``) is returned when its own region or the
+    region of one of its graph neighbours is dirty. With ``dirty`` the regions
+    whose W, S changed since a step last looked at every point, the points not
+    returned see the same proxies and the same neighbouring labels as then, so a
+    switch or merge step restricted to the returned points decides exactly as a
+    full scan would.
+    """
+    n = labels.shape[0]
+    mark = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        if foreign[i] == 0 or not dirty[labels[i]]:
+            continue
+        mark[i] = True
+        li = labels[i]
+        for t in range(indptr[i], indptr[i + 1]):
+            j = indices[t]
+            if labels[j] != li:
+                mark[j] = True
+    return np.flatnonzero(mark)
+
+
+@njit(cache=True)
+def batch_switch(
+    indptr, indices, normals, weights, labels, proxy_normals, foreign, min_gain, candidates
+):
     """Every boundary point moves to the neighbouring region whose proxy fits best.
 
     With the proxy normals fixed the energy is a sum of per-point terms
@@ -335,11 +361,11 @@ def batch_switch(indptr, indices, normals, weights, labels, proxy_normals, forei
     Returns the moved points (increasing) and their new labels; ``labels`` is
     not changed.
     """
-    n = labels.shape[0]
     moved = np.empty(64, dtype=np.int64)
     new = np.empty(64, dtype=np.int64)
     count = 0
-    for i in range(n):
+    for s in range(candidates.shape[0]):
+        i = candidates[s]
         if foreign[i] == 0:
             continue
         li = labels[i]
@@ -519,6 +545,11 @@ def _sift_down2(ck, cp, size, pos):
 
 
 @njit(cache=True)
+def _less_entry(ka, pa, kb, pb):
+    return ka < kb or (ka == kb and pa < pb)
+
+
+@njit(cache=True)
 def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
     """Cheapest-union-first merging on the region adjacency graph (4.3.3 b).
 
@@ -530,80 +561,76 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
 
     Entries are evaluated lazily: L21 only grows with the point set, so a key
     pushed earlier is a lower bound of the pair's current cost; a popped pair
-    whose current cost exceeds its key (and the next key) is pushed back with the
-    current cost, otherwise it is the cheapest and is merged, so in eta mode the
-    order is exactly cheapest-first. Keys never drop below the last popped one,
-    which allows a two-level queue: a small 4-ary heap ("hot") holds the keys up
-    to a threshold T, the rest wait unsorted ("cold"); when the heap runs empty T
-    is raised to the HOT-th smallest cold key and those entries move over. Every
-    cold key exceeds T, so the heap top is always the global minimum. Returns the
-    root of every region (union-find, the smaller id survives) and the number of
+    whose current cost exceeds the next key is pushed back with the current
+    cost, otherwise it is the cheapest and is merged, so in eta mode the order is
+    exactly cheapest-first. The initial entries are sorted once by (key, pair)
+    and read as a stream; pushed-back entries go to a 4-ary heap, and every pop
+    takes the smaller of the stream's head and the heap's top. Returns the root
+    of every region (union-find, the smaller id survives) and the number of
     merges.
     """
     m = wsum.shape[0]
     wsum = wsum.copy()
     ssum = ssum.copy()
     parent = np.arange(m)
-    cold_cap = pairs.shape[0] + 16
-    kc = np.empty(cold_cap, dtype=np.float64)
-    pc = np.empty(cold_cap, dtype=np.int64)
-    nc = 0
+    n_init = 0
+    k0 = np.empty(pairs.shape[0], dtype=np.float64)
+    p0 = np.empty(pairs.shape[0], dtype=np.int64)
     for e in range(pairs.shape[0]):
         a = pairs[e, 0]
         b = pairs[e, 1]
         cost, w, s = _union_cost(wsum, ssum, a, b)
         ok = (s >= min_cos * w) if use_angle else (cost < eta)
         if ok:
-            kc[nc] = cost
-            pc[nc] = min(a, b) * m + max(a, b)
-            nc += 1
-    hot_target = 65536
-    hot_cap = hot_target + 16
+            k0[n_init] = cost
+            p0[n_init] = min(a, b) * m + max(a, b)
+            n_init += 1
+    k0 = k0[:n_init]
+    p0 = p0[:n_init]
+    increasing = True
+    for e in range(1, n_init):
+        if p0[e] <= p0[e - 1]:
+            increasing = False
+            break
+    if not increasing:
+        by_pair = np.argsort(p0, kind="mergesort")
+        k0 = k0[by_pair]
+        p0 = p0[by_pair]
+    order = np.argsort(k0, kind="mergesort")  # stable: ties stay sorted by pair
+    ks = k0[order]
+    ps = p0[order]
+    head = 0
+    hot_cap = 4096
     ck = np.empty(hot_cap, dtype=np.float64)
     cp = np.empty(hot_cap, dtype=np.int64)
     size = 0
-    threshold = -1.0
     n_merges = 0
     # duplicates: many point edges map to the same region pair; remember the
     # region versions each pair was last pushed with and drop stale copies
     version = np.zeros(m, dtype=np.int64)
-    last_push = Dict.empty(key_type=types.int64, value_type=types.int64)
+    # direct-mapped table code -> stamp of the last push (a collision only costs
+    # an extra push, never a wrong drop: the code is compared too)
+    n_slots = 1024
+    while n_slots < pairs.shape[0]:
+        n_slots *= 2
+    mask = n_slots - 1
+    slot_code = np.full(n_slots, -1, dtype=np.int64)
+    slot_stamp = np.zeros(n_slots, dtype=np.int64)
     while True:
-        if size == 0:
-            if nc == 0:
-                break
-            # raise the threshold: move the smallest cold keys into the heap
-            if nc > hot_target:
-                threshold = np.partition(kc[:nc], hot_target - 1)[hot_target - 1]
-            else:
-                threshold = kc[:nc].max()
-            keep = 0
-            for t in range(nc):
-                if kc[t] <= threshold:
-                    if size == hot_cap:
-                        hot_cap *= 2
-                        ck2 = np.empty(hot_cap, dtype=np.float64)
-                        cp2 = np.empty(hot_cap, dtype=np.int64)
-                        ck2[:size] = ck[:size]
-                        cp2[:size] = cp[:size]
-                        ck, cp = ck2, cp2
-                    ck[size] = kc[t]
-                    cp[size] = pc[t]
-                    size += 1
-                else:
-                    kc[keep] = kc[t]
-                    pc[keep] = pc[t]
-                    keep += 1
-            nc = keep
-            for pos in range((size - 2) // 4, -1, -1):
-                _sift_down2(ck, cp, size, pos)
-        key = ck[0]
-        pair = cp[0]
-        size -= 1
-        if size > 0:
-            ck[0] = ck[size]
-            cp[0] = cp[size]
-            _sift_down2(ck, cp, size, 0)
+        if size == 0 and head == n_init:
+            break
+        if size > 0 and (head == n_init or _less_entry(ck[0], cp[0], ks[head], ps[head])):
+            key = ck[0]
+            pair = cp[0]
+            size -= 1
+            if size > 0:
+                ck[0] = ck[size]
+                cp[0] = cp[size]
+                _sift_down2(ck, cp, size, 0)
+        else:
+            key = ks[head]
+            pair = ps[head]
+            head += 1
         ra = _find(parent, pair // m)
         rb = _find(parent, pair % m)
         if ra == rb:
@@ -616,39 +643,31 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
         hi = max(ra, rb)
         code = lo * m + hi
         if cost > key:
-            still_min = cost <= threshold and (
-                size == 0 or cost < ck[0] or (cost == ck[0] and code < cp[0])
-            )
+            still_min = True
+            if size > 0 and not _less_entry(cost, code, ck[0], cp[0]):
+                still_min = False
+            if head < n_init and not _less_entry(cost, code, ks[head], ps[head]):
+                still_min = False
             if not still_min:
                 # stale lower bound: push back with the current cost, unless an
                 # entry computed from the same regions is already queued
                 stamp = (version[lo] << 32) | version[hi]
-                if last_push.get(code, -1) == stamp:
+                slot = ((code * 0x5851F42D4C957F2D) >> 20) & mask
+                if slot_code[slot] == code and slot_stamp[slot] == stamp:
                     continue
-                last_push[code] = stamp
-                if cost <= threshold:
-                    if size == hot_cap:
-                        hot_cap *= 2
-                        ck2 = np.empty(hot_cap, dtype=np.float64)
-                        cp2 = np.empty(hot_cap, dtype=np.int64)
-                        ck2[:size] = ck[:size]
-                        cp2[:size] = cp[:size]
-                        ck, cp = ck2, cp2
-                    ck[size] = cost
-                    cp[size] = code
-                    size += 1
-                    _sift_up2(ck, cp, size - 1)
-                else:
-                    if nc == cold_cap:
-                        cold_cap *= 2
-                        kc2 = np.empty(cold_cap, dtype=np.float64)
-                        pc2 = np.empty(cold_cap, dtype=np.int64)
-                        kc2[:nc] = kc[:nc]
-                        pc2[:nc] = pc[:nc]
-                        kc, pc = kc2, pc2
-                    kc[nc] = cost
-                    pc[nc] = code
-                    nc += 1
+                slot_code[slot] = code
+                slot_stamp[slot] = stamp
+                if size == hot_cap:
+                    hot_cap *= 2
+                    ck2 = np.empty(hot_cap, dtype=np.float64)
+                    cp2 = np.empty(hot_cap, dtype=np.int64)
+                    ck2[:size] = ck[:size]
+                    cp2[:size] = cp[:size]
+                    ck, cp = ck2, cp2
+                ck[size] = cost
+                cp[size] = code
+                size += 1
+                _sift_up2(ck, cp, size - 1)
                 continue
         parent[hi] = lo
         version[lo] += 1

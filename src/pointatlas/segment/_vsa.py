@@ -32,6 +32,7 @@ from ._kernels import (
     foreign_counts,
     greedy_merge,
     region_pairs,
+    touched_points,
 )
 
 __all__ = ["VSAResult", "area_weights", "estimate_eta", "vsa_segment"]
@@ -220,23 +221,27 @@ def _split(points, w, labels, m, over):
     return idx[move], new_id[lab[move]], n_new
 
 
-def _merge(indptr, indices, labels, wsum, ssum, counts, boundary, singletons, eta, min_cos):
+def _merge(indptr, indices, labels, wsum, ssum, counts, subset, eta, min_cos):
     """Greedy cheapest-first merging on the region adjacency graph (4.3.3 b).
 
-    In eta mode one heap pass is exhaustive (a rejected union stays rejected as
-    regions grow). In max_angle mode a rejected union may become acceptable after
-    a neighbour absorbed well-aligned points, so passes repeat until none merges.
-    Returns labels (compacted when something merged), W, S, counts, n_merges.
+    ``subset`` holds the points whose edges give the candidate region pairs
+    (None: every graph edge, i.e. every point is its own region). In eta mode
+    one heap pass is exhaustive (a rejected union stays rejected as regions grow,
+    since L21 only grows with the point set). In max_angle mode a rejected union
+    may become acceptable after a neighbour absorbed well-aligned points, so
+    passes repeat (over ``subset``, a superset of the boundary) until none merges.
+    Returns labels, W, S, counts, the number of merges and the map from old to
+    new region ids (None when nothing merged).
     """
     use_angle = eta is None
     total = 0
+    remap_total = None
     while True:
-        if singletons:  # every point its own region: the pairs are the graph edges
+        if subset is None:  # every point its own region: the pairs are the graph edges
             pairs = edge_pairs(indptr, indices)
-            singletons = False
+            subset = np.arange(labels.shape[0], dtype=np.int64)
         else:
-            # the old boundary is a superset of the current one: fine for the pairs
-            pairs = region_pairs(indptr, indices, labels, boundary)
+            pairs = region_pairs(indptr, indices, labels, subset)
         roots, n_merges = greedy_merge(
             pairs,
             wsum,
@@ -246,15 +251,16 @@ def _merge(indptr, indices, labels, wsum, ssum, counts, boundary, singletons, et
             use_angle,
         )
         if n_merges == 0:
-            return labels, wsum, ssum, counts, total
+            return labels, wsum, ssum, counts, total, remap_total
         total += int(n_merges)
         remap, m = canonical_labels(roots)
+        remap_total = remap if remap_total is None else remap[remap_total]
         labels = remap[labels]
         wsum = np.bincount(remap, weights=wsum, minlength=m)
         ssum = np.stack([np.bincount(remap, weights=ssum[:, d], minlength=m) for d in range(3)], 1)
         counts = np.bincount(remap, weights=counts, minlength=m).astype(np.int64)
         if not use_angle:
-            return labels, wsum, ssum, counts, total
+            return labels, wsum, ssum, counts, total, remap_total
 
 
 def area_weights(points, *, k: int = 8, neighbors=None) -> np.ndarray:
@@ -424,7 +430,7 @@ def vsa_segment(
     merge: bool = True,
     switch: str = "batch",
     classic: bool = False,
-    max_iter: int = 100,
+    max_iter: int = 1000,
     rng=None,
     neighbors=None,
 ) -> VSAResult:
@@ -588,8 +594,15 @@ def vsa_segment(
     else:
         foreign = foreign_counts(indptr, indices, labels)
         singletons = all_seeds
+        # regions whose W, S changed since the switch (resp. merge) step last
+        # looked at them; only boundary points next to them are re-examined
+        dirty_switch = np.ones(m, dtype=np.bool_)
+        dirty_merge = np.ones(m, dtype=np.bool_)
+        merging = merge
+        merge_rounds = 0
         for it in range(max_iter):
             changed = False
+            n_split = n_merge = 0
             t0 = time.perf_counter()
             if split:
                 over = _over_threshold(wsum, ssum, eta, min_cos)
@@ -601,38 +614,48 @@ def vsa_segment(
                         wsum = np.concatenate([wsum, np.zeros(n_split)])
                         ssum = np.concatenate([ssum, np.zeros((n_split, 3))])
                         counts = np.concatenate([counts, np.zeros(n_split, dtype=np.int64)])
+                        grow = np.ones(n_split, dtype=np.bool_)
+                        dirty_switch = np.concatenate([dirty_switch, grow])
+                        dirty_merge = np.concatenate([dirty_merge, grow])
+                        dirty_switch[labels[moved]] = True
+                        dirty_merge[labels[moved]] = True
                         apply_moves(
                             indptr, indices, labels, wsum, ssum, counts, foreign, w, wn, moved, new
                         )
                         record("split", _energy_opt(wsum, ssum))
             t_loop["split"] += time.perf_counter() - t0
             t0 = time.perf_counter()
-            if merge and it < VSA_MERGE_ROUNDS:
-                labels, wsum, ssum, counts, n_merge = _merge(
-                    indptr,
-                    indices,
-                    labels,
-                    wsum,
-                    ssum,
-                    counts,
-                    np.flatnonzero(foreign),
-                    singletons,
-                    eta,
-                    min_cos,
+            if merging:
+                merge_rounds += 1
+                if singletons:
+                    subset = None
+                elif eta is not None:
+                    subset = touched_points(indptr, indices, labels, foreign, dirty_merge)
+                else:
+                    subset = np.flatnonzero(foreign)
+                labels, wsum, ssum, counts, n_merge, remap = _merge(
+                    indptr, indices, labels, wsum, ssum, counts, subset, eta, min_cos
                 )
                 singletons = False
                 if n_merge:
                     changed = True
                     m = wsum.shape[0]
+                    joined = np.bincount(remap, minlength=m) > 1
+                    dirty_switch = joined | (
+                        np.bincount(remap, dirty_switch.astype(np.float64), minlength=m) > 0
+                    )
                     foreign = foreign_counts(indptr, indices, labels)
                     record("merge", _energy_opt(wsum, ssum))
+                # after a pass every neighbouring pair was (re)evaluated
+                dirty_merge = np.zeros(m, dtype=np.bool_)
             t_loop["merge"] += time.perf_counter() - t0
             if switch != "none":
                 t0 = time.perf_counter()
                 prox = _proxies(labels, wsum, ssum, counts, nrm)
                 if switch == "batch":
+                    cand = touched_points(indptr, indices, labels, foreign, dirty_switch)
                     moved, new = batch_switch(
-                        indptr, indices, nrm, w, labels, prox, foreign, VSA_SWITCH_MIN_GAIN
+                        indptr, indices, nrm, w, labels, prox, foreign, VSA_SWITCH_MIN_GAIN, cand
                     )
                 else:
                     point, target, gain = best_single_move(
@@ -642,10 +665,14 @@ def vsa_segment(
                     if point >= 0 and gain > VSA_SWITCH_MIN_GAIN:
                         moved = np.array([point], dtype=np.int64)
                         new = np.array([target], dtype=np.int64)
+                dirty_switch[:] = False
                 t_loop["switch"] += time.perf_counter() - t0
                 if moved.size:
                     changed = True
                     t0 = time.perf_counter()
+                    for flags in (dirty_switch, dirty_merge):
+                        flags[labels[moved]] = True
+                        flags[new] = True
                     apply_moves(
                         indptr, indices, labels, wsum, ssum, counts, foreign, w, wn, moved, new
                     )
@@ -656,7 +683,7 @@ def vsa_segment(
             if not changed:
                 converged, stop_reason = True, "converged"
                 break
-            if merge and it < VSA_MERGE_ROUNDS:
+            if merging:
                 # only merges can raise the energy, so only while they run can a
                 # labelling repeat; afterwards the energy strictly decreases
                 key = _labels_key(labels)
@@ -664,6 +691,10 @@ def vsa_segment(
                     stop_reason = "cycle"
                     break
                 seen[key] = n_iter
+                if (n_split == 0 and n_merge == 0) or merge_rounds >= VSA_MERGE_ROUNDS:
+                    # a round in which split and merge changed nothing (or the
+                    # safety cap): from now on only split, switch and update run
+                    merging = False
     for key_name, value in t_loop.items():
         timings[key_name] = timings.get(key_name, 0.0) + value
 
