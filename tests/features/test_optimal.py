@@ -141,3 +141,55 @@ def test_search_validation():
         optimal_k_features(pts, criterion="entropy")
     with pytest.raises(ValueError, match="normals must have one row per point"):
         optimal_neighbourhood(pts, nrm[:5])
+
+
+def _smooth_patch(seed, n=36):
+    # a gently curved patch with exact normals: the a = 0 pairs get cosine weights
+    # within a fraction of a percent of each other, which the search's perturbation
+    # bounds (Loewner factor and Weyl) must prune without changing the answer
+    rng = np.random.default_rng(seed)
+    uv = rng.random((n, 2)) * 2 - 1
+    z = 0.15 * uv[:, 0] ** 2 - 0.1 * uv[:, 1] ** 2 + 0.05 * uv[:, 0] * uv[:, 1]
+    nrm = np.column_stack([-0.3 * uv[:, 0] - 0.05 * uv[:, 1], 0.2 * uv[:, 1] - 0.05 * uv[:, 0]])
+    nrm = np.column_stack([nrm, np.ones(n)])
+    return np.column_stack([uv, z]), nrm / np.linalg.norm(nrm, axis=1)[:, None]
+
+
+def test_search_with_pruning_agrees_with_brute_force_on_smooth_patch():
+    pts, nrm = _smooth_patch(5)
+    pairs = angle_pairs()
+    res = optimal_neighbourhood(pts, nrm, k_range=(6, 14))
+    pair_index = {tuple(p): j for j, p in enumerate(pairs.tolist())}
+    res_pair = np.array([pair_index[(a, b)] for a, b in zip(res.a, res.b, strict=True)])
+    idx = query_knn(pts, 14)[0]
+    best, bk, bp = ref.brute_force_search(pts, nrm, idx, pairs, 6, 14)
+    np.testing.assert_allclose(res.e_dim, best, atol=1e-9)
+    np.testing.assert_array_equal(res.k, bk)
+    np.testing.assert_array_equal(res_pair, bp)
+
+
+@pytest.mark.parametrize("kind", ["random", "collinear", "coplanar", "disc", "duplicate"])
+def test_fast_closed_form_eigenvalues_match_eigvalsh(kind):
+    from pointatlas.features._kernels import eig3_fast
+
+    rng = np.random.default_rng(7)
+    y = rng.normal(size=(200, 12, 3))
+    if kind == "collinear":
+        y = y[:, :, :1] * np.array([1.0, 2.0, 3.0]) + 1e-9 * y
+    elif kind == "coplanar":
+        y[:, :, 2] *= 1e-6
+    elif kind == "disc":
+        t = rng.random((200, 12)) * 2 * np.pi
+        y = np.stack([np.cos(t), np.sin(t), 1e-4 * rng.normal(size=(200, 12))], -1)
+    elif kind == "duplicate":
+        y[:, 1:5] = y[:, :1]
+    y = y @ np.linalg.qr(rng.normal(size=(200, 3, 3)))[0]
+    z = y - y.mean(axis=1, keepdims=True)
+    cov = np.einsum("nki,nkj->nij", z, z)
+    want = np.linalg.eigvalsh(cov)[:, ::-1]
+    got = np.array([eig3_fast(c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2]) for c in cov])
+    # relative to lambda_1; near double roots (collinear: lambda_2 = lambda_3) the
+    # closed form is good to ~1e-8 lambda_1, elsewhere to ~1e-13
+    tol = 1e-7 if kind == "collinear" else 1e-12
+    np.testing.assert_array_less(np.abs(got - want) / want[:, :1], tol)
+    assert (got[:, 0] >= got[:, 1]).all() and (got[:, 1] >= got[:, 2]).all()

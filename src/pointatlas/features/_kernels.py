@@ -215,10 +215,14 @@ def eigvals_batch_kernel(mats, out):
 
 
 @njit(parallel=True, cache=True)
-def angles_kernel(normals, idx, out):
-    """Angle between each point's normal and its neighbours' (atan2 form, accurate at 0)."""
+def angles_kernel(normals, idx, order, out):
+    """Angle between each point's normal and its neighbours' (atan2 form, accurate at 0).
+
+    Rows are visited in ``order`` (a permutation; see `spatial_order_kernel`).
+    """
     n, kk = idx.shape
-    for i in prange(n):
+    for t in prange(n):
+        i = order[t]
         nx = normals[i, 0]
         ny = normals[i, 1]
         nz = normals[i, 2]
@@ -468,15 +472,15 @@ def eig3_fast(c00, c01, c02, c11, c12, c22):
 
 
 @njit(cache=True, inline="always")
-def _entropy_term_bound(t, log_t, delta):
+def _entropy_term_bound(t, log_t, inv_t, delta):
     """Lower bound of -s ln s over s in [t - delta, t + delta] (0 when delta >= t / 2).
 
-    -s ln s is concave and >= 0 on [0, 1]; for delta < t / 2 its slope there is at
-    most |ln t| + 1 + 2 delta / t in magnitude.
+    -s ln s is >= 0 on [0, 1]; for delta < t / 2 its slope |ln s + 1| there is at
+    most |ln t| + 1 + 2 delta / t in magnitude (``inv_t`` = 1 / t).
     """
     if not delta < 0.5 * t:
         return 0.0
-    return -t * log_t - delta * (abs(log_t) + 1.0 + 2.0 * delta / t)
+    return -t * log_t - delta * (abs(log_t) + 1.0 + 2.0 * delta * inv_t)
 
 
 #: absolute margin (in E_dim units) a pruning bound must clear
@@ -662,7 +666,8 @@ def search_kernel(
                 have_ref = False
                 chain = 1.0
                 r00 = r01 = r02 = r11 = r12 = r22 = 0.0
-                rl1 = rlin = rpla = rsca = lnl = lnp = lns = 0.0
+                rl1 = rlin = rpla = rsca = lnl = lnp = lns = rval = 0.0
+                inl = inp = ins = 0.0
                 for s in range(n_act):
                     if have_ref:
                         chain *= rho[s, j]
@@ -692,37 +697,47 @@ def search_kernel(
                             )
                             if tr > 0.0 and fro > 0.0 and -math.log(fro / (tr * tr)) - 1e-12 >= bv:
                                 continue
-                    elif have_ref:
-                        e00 = c00 - r00
-                        e11 = c11 - r11
-                        e22 = c22 - r22
-                        e01 = c01 - r01
-                        e02 = c02 - r02
-                        e12 = c12 - r12
-                        eps = math.sqrt(
-                            e00 * e00
-                            + e11 * e11
-                            + e22 * e22
-                            + 2.0 * (e01 * e01 + e02 * e02 + e12 * e12)
-                        )
-                        eps += _EIG_SLACK * rl1
-                        # Weyl: |d lambda_i| <= eps, so L, S move by <= dw and P by 2 dw
-                        dw = 2.0 * eps / (rl1 - eps) if eps < 0.5 * rl1 else np.inf
-                        # weights within a factor F of the reference's (same unweighted
-                        # barycentre): C / F <= C' <= F C, each lambda_i within that
-                        # factor, so x = l2 / l1 and y = l3 / l1 by F^2
+                    elif have_ref and rval > bv + _PRUNE_MARGIN:
+                        # (the bound never exceeds the reference's own value)
                         g = chain * chain - 1.0
-                        xr = 1.0 - rlin
-                        d_l = min(dw, xr * g + 2.0 * _EIG_SLACK)
-                        d_p = min(2.0 * dw, (xr + rsca) * g + 4.0 * _EIG_SLACK)
-                        d_s = min(dw, rsca * g + 2.0 * _EIG_SLACK)
-                        lb = (
-                            _entropy_term_bound(rlin, lnl, d_l)
-                            + _entropy_term_bound(rpla, lnp, d_p)
-                            + _entropy_term_bound(rsca, lns, d_s)
-                        )
-                        if lb > bv + _PRUNE_MARGIN:
-                            continue
+                        if g < 0.25:
+                            # weights within a factor F of the reference's (same
+                            # unweighted barycentre): C / F <= C' <= F C, each lambda_i
+                            # within that factor, so x = l2 / l1 and y = l3 / l1 by F^2
+                            xr = 1.0 - rlin
+                            d_l = xr * g + 2.0 * _EIG_SLACK
+                            d_p = (xr + rsca) * g + 4.0 * _EIG_SLACK
+                            d_s = rsca * g + 2.0 * _EIG_SLACK
+                            lb = (
+                                _entropy_term_bound(rlin, lnl, inl, d_l)
+                                + _entropy_term_bound(rpla, lnp, inp, d_p)
+                                + _entropy_term_bound(rsca, lns, ins, d_s)
+                            )
+                            if lb > bv + _PRUNE_MARGIN:
+                                continue
+                        else:
+                            e00 = c00 - r00
+                            e11 = c11 - r11
+                            e22 = c22 - r22
+                            e01 = c01 - r01
+                            e02 = c02 - r02
+                            e12 = c12 - r12
+                            eps = math.sqrt(
+                                e00 * e00
+                                + e11 * e11
+                                + e22 * e22
+                                + 2.0 * (e01 * e01 + e02 * e02 + e12 * e12)
+                            )
+                            eps += _EIG_SLACK * rl1
+                            # Weyl: |d lambda_i| <= eps, so L, S move by <= dw and P by 2 dw
+                            dw = 2.0 * eps / (rl1 - eps) if eps < 0.5 * rl1 else np.inf
+                            lb = (
+                                _entropy_term_bound(rlin, lnl, inl, dw)
+                                + _entropy_term_bound(rpla, lnp, inp, 2.0 * dw)
+                                + _entropy_term_bound(rsca, lns, ins, dw)
+                            )
+                            if lb > bv + _PRUNE_MARGIN:
+                                continue
                     l1, l2, l3 = eig3_fast(c00, c01, c02, c11, c12, c22)
                     if not l1 > 0.0:
                         if code == REASON_FEW_DISTINCT:
@@ -741,7 +756,10 @@ def search_kernel(
                         val = -(lin * lnl + pla * lnp + sca * lns)
                         have_ref = True
                         r00, r01, r02, r11, r12, r22 = c00, c01, c02, c11, c12, c22
-                        rl1, rlin, rpla, rsca = l1, lin, pla, sca
+                        rl1, rlin, rpla, rsca, rval = l1, lin, pla, sca, val
+                        inl = 1.0 / lin if lin > 0.0 else 0.0
+                        inp = 1.0 / pla if pla > 0.0 else 0.0
+                        ins = 1.0 / sca if sca > 0.0 else 0.0
                         chain = 1.0
                     if val < bv or (val == bv and (k < bk or (k == bk and pr < bp))):
                         bv = val

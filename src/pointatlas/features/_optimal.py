@@ -17,7 +17,7 @@ from ._features import (
     _spatial_order,
     _unit_normals_or_nan,
 )
-from ._kernels import REASON_OK, search_kernel
+from ._kernels import REASON_OK, angles_kernel, search_kernel
 from ._weights import normal_angles
 
 __all__ = [
@@ -157,9 +157,11 @@ def optimal_neighbourhood(
     flat = _check_flatness(flatness)
     nrm = _unit_normals_or_nan(normals, n)
     idx = _neighbourhoods(pts, kmax, neighbors)
-    angles = normal_angles(nrm, idx)
+    order = _spatial_order(pts)
+    angles = np.empty(idx.shape)
+    angles_kernel(nrm, idx, order, angles)
     best_val, best_k, best_pair, reason = _run_search(
-        pts, idx, kmin, kmax, angles, pairs, criterion=0
+        pts, idx, kmin, kmax, angles, pairs, criterion=0, order=order
     )
     return _finish(pts, idx, angles, pairs, best_k, best_pair, reason, flat)
 
@@ -227,7 +229,7 @@ def optimal_k_features(
     return _finish(pts, idx, None, pairs, best_k, best_pair, reason, flat)
 
 
-def _run_search(pts, idx, kmin, kmax, angles, pairs, *, criterion):
+def _run_search(pts, idx, kmin, kmax, angles, pairs, *, criterion, order=None):
     n = pts.shape[0]
     best_val = np.empty(n)
     best_k = np.empty(n, dtype=np.int64)
@@ -238,7 +240,7 @@ def _run_search(pts, idx, kmin, kmax, angles, pairs, *, criterion):
     search_kernel(
         pts,
         idx,
-        _spatial_order(pts),
+        _spatial_order(pts) if order is None else order,
         kmin,
         kmax,
         ang,

@@ -135,7 +135,7 @@ def normal_angles(normals, neighbors) -> np.ndarray:
     nrm = _unit_normals_or_nan(arr, arr.shape[0] if arr.ndim == 2 else -1)
     idx = _check_indices(neighbors, nrm.shape[0])
     out = np.empty(idx.shape, dtype=np.float64)
-    angles_kernel(nrm, idx, out)
+    angles_kernel(nrm, idx, np.arange(idx.shape[0]), out)
     return out
 
 
