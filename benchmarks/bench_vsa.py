@@ -89,7 +89,7 @@ def run_ours(points, threshold):
     t = time.perf_counter()
     res = vsa_segment(points, nrm, neighbors=np.ascontiguousarray(idx[:, :8]), **threshold)
     stages["vsa"] = time.perf_counter() - t
-    for key in ("graph", "split", "merge", "switch", "update", "finalize"):
+    for key in ("graph", "flood", "split", "merge", "switch", "update", "finalize"):
         stages[f"vsa.{key}"] = res.timings.get(key, 0.0)
     out = {"stages": stages, "total": stages["knn"] + stages["normals"] + stages["orient"]}
     out["total"] += stages["vsa"]
@@ -99,6 +99,7 @@ def run_ours(points, threshold):
             "eq47_mse": res.mse,
             "energy": res.energy,
             "n_iter": res.n_iter,
+            "converged": res.converged,
             "stop_reason": res.stop_reason,
         }
     )

@@ -184,7 +184,7 @@ def test_bad_options():
 def test_noisy_dodecahedron_gives_one_planar_face_per_side():
     # thesis 4.4.3 / Fig. 4.14: 962 points, 25 % normal noise, k = 12, 12 random seeds,
     # split and merge; eta = 30 here (eta = 50 merges neighbouring sides with this noise
-    # model, see docs/parts/simplify-reproduction.md)
+    # model, see docs/reproduction.md)
     from pointatlas.simplify import simplify_points
     from pointatlas.synth import add_normal_noise, vertex_normals
 

@@ -70,12 +70,18 @@ SIMPLIFY_CONSTRAINT_TOL = 1e-9
 #: (up to sign) means all proxy planes are parallel and no vertex is defined.
 SIMPLIFY_PARALLEL_ANGLE = 0.08726646259971647
 
-#: VSA (segment): iterations of the main loop in which merges are allowed. Merges
-#: may raise the energy (thesis 4.3.3 b), so split/merge/switch can ping-pong for
-#: ever; after this many rounds only split, switch and update run, which never
-#: raise the energy, so the loop terminates (Theorem 1). Region counts settle
-#: within 2-4 rounds on the bundled models.
+#: VSA (segment): safety cap on the iterations of the main loop in which merges
+#: are allowed. Merges may raise the energy (thesis 4.3.3 b); they stop at the
+#: first round in which split and merge do not reduce the number of regions (see
+#: docs/decisions.md), which on the benchmark scene happens after
+#: 3-10 rounds; afterwards only split, switch and update run, which never raise
+#: the energy, so the loop terminates (Theorem 1).
 VSA_MERGE_ROUNDS = 50
+
+#: VSA (segment): when more than this share of the regions changed since the last
+#: switch, the switch scans every boundary point instead of first collecting the
+#: boundary points next to a changed region (same moves, cheaper bookkeeping).
+VSA_SWITCH_FULL_SCAN = 0.5
 
 #: Safety margin of the k-NN grid (pointatlas.neighbors), relative to the cell
 #: size: cell faces computed as lo + i * h and the floor() that assigns points to

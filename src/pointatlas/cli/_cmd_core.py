@@ -1,6 +1,6 @@
 """Core commands: ``info``, ``normals``, ``render``, ``data list/export`` and ``demo``.
 
-Conventions (docs/parts/cli-decisions.md): user errors print one red line and exit
+Conventions (docs/decisions.md): user errors print one red line and exit
 1, usage errors exit 2 (typer); outputs are written atomically; angles on the
 command line are degrees (``--*-deg``); long steps show a progress bar on a
 terminal.

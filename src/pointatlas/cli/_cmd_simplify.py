@@ -133,7 +133,7 @@ def simplify_command(
     weights: Annotated[str, typer.Option("--weights", help="uniform or area (Eq. 4.6).")] = (
         "uniform"
     ),
-    max_iter: Annotated[int, typer.Option("--max-iter", help="VSA iterations.")] = 100,
+    max_iter: Annotated[int, typer.Option("--max-iter", help="VSA iterations.")] = 1000,
     seed: Annotated[int, typer.Option("--seed", help="Seed for random VSA seeds.")] = 0,
     vertices: Annotated[
         str, typer.Option("--vertices", help="lsq (plane intersection) or optimize (Eq. 4.12).")

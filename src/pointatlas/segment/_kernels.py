@@ -8,7 +8,7 @@ sorted increasingly.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 # --------------------------------------------------------------------------- graph
 
@@ -148,6 +148,55 @@ def region_pairs(indptr, indices, labels, subset):
             lj = labels[indices[t]]
             if lj > li:
                 key[c] = li * m + lj
+                c += 1
+    key = np.unique(key)
+    out = np.empty((key.shape[0], 2), dtype=np.int64)
+    out[:, 0] = key // m
+    out[:, 1] = key % m
+    return out
+
+
+@njit(cache=True, parallel=True)
+def merge_candidate_pairs(indptr, indices, labels, foreign, dirty, cost, limit):
+    """Neighbouring region pairs (a < b, sorted) that a merge pass must look at.
+
+    L21 is superadditive (the optimum over a union is at least the sum of the
+    optima over its parts), so a union can only stay below ``limit`` when
+    cost[a] + cost[b] < limit; at least one of the two then has cost < limit / 2,
+    and the pairs are found from the boundary points of such regions. Pairs of
+    which neither region is ``dirty`` (W, S unchanged since the last pass) are
+    left out: that pass rejected them, and with unchanged sums it would again.
+    """
+    limit = limit + 1e-9 * (1.0 + abs(limit))  # round-off slack: never drop a candidate
+    half = 0.5 * limit
+    n = labels.shape[0]
+    m = cost.shape[0]
+    per_point = np.zeros(n + 1, dtype=np.int64)
+    for i in prange(n):
+        if foreign[i] == 0:
+            continue
+        li = labels[i]
+        if cost[li] >= half:
+            continue
+        c = 0
+        for t in range(indptr[i], indptr[i + 1]):
+            lj = labels[indices[t]]
+            if lj != li and (dirty[li] or dirty[lj]) and cost[li] + cost[lj] < limit:
+                c += 1
+        per_point[i + 1] = c
+    start = np.cumsum(per_point)
+    if start[n] == 0:
+        return np.empty((0, 2), dtype=np.int64)
+    key = np.empty(start[n], dtype=np.int64)
+    for i in prange(n):
+        if per_point[i + 1] == 0:
+            continue
+        li = labels[i]
+        c = start[i]
+        for t in range(indptr[i], indptr[i + 1]):
+            lj = labels[indices[t]]
+            if lj != li and (dirty[li] or dirty[lj]) and cost[li] + cost[lj] < limit:
+                key[c] = min(li, lj) * m + max(li, lj)
                 c += 1
     key = np.unique(key)
     out = np.empty((key.shape[0], 2), dtype=np.int64)
@@ -308,12 +357,12 @@ def boundary_points(indptr, indices, labels):
     return np.flatnonzero(foreign_counts(indptr, indices, labels) > 0)
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def foreign_counts(indptr, indices, labels):
     """Number of graph neighbours of every point that lie in another region."""
     n = labels.shape[0]
     out = np.zeros(n, dtype=np.int64)
-    for i in range(n):
+    for i in prange(n):
         li = labels[i]
         c = 0
         for t in range(indptr[i], indptr[i + 1]):
@@ -323,7 +372,7 @@ def foreign_counts(indptr, indices, labels):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def touched_points(indptr, indices, labels, foreign, dirty):
     """Boundary points next to a region flagged in ``dirty`` (increasing).
 
@@ -332,23 +381,24 @@ def touched_points(indptr, indices, labels, foreign, dirty):
     whose W, S changed since a step last looked at every point, the points not
     returned see the same proxies and the same neighbouring labels as then, so a
     switch or merge step restricted to the returned points decides exactly as a
-    full scan would.
+    full scan would. (Parallel: threads may store the same 1 into a flag twice,
+    which is harmless.)
     """
     n = labels.shape[0]
-    mark = np.zeros(n, dtype=np.bool_)
-    for i in range(n):
+    mark = np.zeros(n, dtype=np.uint8)
+    for i in prange(n):
         if foreign[i] == 0 or not dirty[labels[i]]:
             continue
-        mark[i] = True
+        mark[i] = 1
         li = labels[i]
         for t in range(indptr[i], indptr[i + 1]):
             j = indices[t]
             if labels[j] != li:
-                mark[j] = True
+                mark[j] = 1
     return np.flatnonzero(mark)
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def batch_switch(
     indptr, indices, normals, weights, labels, proxy_normals, foreign, min_gain, candidates
 ):
@@ -356,15 +406,15 @@ def batch_switch(
 
     With the proxy normals fixed the energy is a sum of per-point terms
     w_i |n_i - N_l|^2 = 2 w_i (1 - n_i . N_l), so all strictly improving moves can
-    be applied at once (GUIDE B2). Only points with ``foreign[i] > 0`` (a
-    neighbour in another region) can move. Ties go to the smaller region label.
-    Returns the moved points (increasing) and their new labels; ``labels`` is
-    not changed.
+    be applied at once (GUIDE B2). Only the ``candidates`` (increasing point
+    indices) with ``foreign[i] > 0`` (a neighbour in another region) are looked
+    at; the decisions are independent, so they run in parallel. Ties go to the
+    smaller region label. Returns the moved points (increasing) and their new
+    labels; ``labels`` is not changed.
     """
-    moved = np.empty(64, dtype=np.int64)
-    new = np.empty(64, dtype=np.int64)
-    count = 0
-    for s in range(candidates.shape[0]):
+    nc = candidates.shape[0]
+    target = np.full(nc, -1, dtype=np.int64)
+    for s in prange(nc):
         i = candidates[s]
         if foreign[i] == 0:
             continue
@@ -389,16 +439,20 @@ def batch_switch(
                 best = d
                 best_label = h
         if best_label != li and 2.0 * weights[i] * (best - cur) > min_gain:
-            if count == moved.shape[0]:
-                moved2 = np.empty(2 * count, dtype=np.int64)
-                new2 = np.empty(2 * count, dtype=np.int64)
-                moved2[:count] = moved
-                new2[:count] = new
-                moved, new = moved2, new2
-            moved[count] = i
-            new[count] = best_label
+            target[s] = best_label
+    count = 0
+    for s in range(nc):
+        if target[s] >= 0:
             count += 1
-    return moved[:count].copy(), new[:count].copy()
+    moved = np.empty(count, dtype=np.int64)
+    new = np.empty(count, dtype=np.int64)
+    c = 0
+    for s in range(nc):
+        if target[s] >= 0:
+            moved[c] = candidates[s]
+            new[c] = target[s]
+            c += 1
+    return moved, new
 
 
 @njit(cache=True)

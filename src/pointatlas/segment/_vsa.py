@@ -16,6 +16,7 @@ from .._core.tolerances import (
     NORMAL_ZERO_LENGTH,
     VSA_DEFAULT_MAX_ANGLE,
     VSA_MERGE_ROUNDS,
+    VSA_SWITCH_FULL_SCAN,
     VSA_SWITCH_MIN_GAIN,
 )
 from ._graph import _check_int, neighbor_graph
@@ -31,6 +32,7 @@ from ._kernels import (
     flood,
     foreign_counts,
     greedy_merge,
+    merge_candidate_pairs,
     region_pairs,
     touched_points,
 )
@@ -221,7 +223,7 @@ def _split(points, w, labels, m, over):
     return idx[move], new_id[lab[move]], n_new
 
 
-def _merge(indptr, indices, labels, wsum, ssum, counts, subset, eta, min_cos):
+def _merge(indptr, indices, labels, wsum, ssum, counts, subset, eta, min_cos, pairs=None):
     """Greedy cheapest-first merging on the region adjacency graph (4.3.3 b).
 
     ``subset`` holds the points whose edges give the candidate region pairs
@@ -237,7 +239,9 @@ def _merge(indptr, indices, labels, wsum, ssum, counts, subset, eta, min_cos):
     total = 0
     remap_total = None
     while True:
-        if subset is None:  # every point its own region: the pairs are the graph edges
+        if pairs is not None:  # candidate pairs given (eta mode: one pass)
+            pass
+        elif subset is None:  # every point its own region: the pairs are the graph edges
             pairs = edge_pairs(indptr, indices)
             subset = np.arange(labels.shape[0], dtype=np.int64)
         else:
@@ -261,6 +265,7 @@ def _merge(indptr, indices, labels, wsum, ssum, counts, subset, eta, min_cos):
         counts = np.bincount(remap, weights=counts, minlength=m).astype(np.int64)
         if not use_angle:
             return labels, wsum, ssum, counts, total, remap_total
+        pairs = None
 
 
 def area_weights(points, *, k: int = 8, neighbors=None) -> np.ndarray:
@@ -496,10 +501,12 @@ def vsa_segment(
     S = sum w_j n_j, so L21 = 2 (W - |S|) and merges cost O(1) (GUIDE B2). The
     merged normal is the optimal (S_i + S_j)/|S_i + S_j| rather than the thesis'
     size-weighted one. The graph is the symmetric k-NN graph, so every point of a
-    seeded component is reached. Merges may raise the energy, so they run only in
-    the first ``VSA_MERGE_ROUNDS`` iterations; from then on split, switch and
-    update never raise it and the loop terminates. Disconnected regions are split
-    into their connected pieces at the end (end of 4.3.2). Decisions in
+    seeded component is reached. Merges may raise the energy, so they run only
+    while a round of split + merge reduces the number of regions (at most
+    ``VSA_MERGE_ROUNDS`` rounds); from then on split, switch and update never
+    raise it and the loop ends with "converged". The batch switch re-examines
+    only boundary points next to a region that changed. Disconnected regions are
+    split into their connected pieces at the end (end of 4.3.2). Decisions in
     docs/decisions.md.
 
     Examples
@@ -627,14 +634,18 @@ def vsa_segment(
             t0 = time.perf_counter()
             if merging:
                 merge_rounds += 1
+                subset = pairs = None
                 if singletons:
-                    subset = None
+                    pass
                 elif eta is not None:
-                    subset = touched_points(indptr, indices, labels, foreign, dirty_merge)
+                    cost = 2.0 * (wsum - np.linalg.norm(ssum, axis=1))
+                    pairs = merge_candidate_pairs(
+                        indptr, indices, labels, foreign, dirty_merge, cost, eta
+                    )
                 else:
                     subset = np.flatnonzero(foreign)
                 labels, wsum, ssum, counts, n_merge, remap = _merge(
-                    indptr, indices, labels, wsum, ssum, counts, subset, eta, min_cos
+                    indptr, indices, labels, wsum, ssum, counts, subset, eta, min_cos, pairs
                 )
                 singletons = False
                 if n_merge:
@@ -653,7 +664,12 @@ def vsa_segment(
                 t0 = time.perf_counter()
                 prox = _proxies(labels, wsum, ssum, counts, nrm)
                 if switch == "batch":
-                    cand = touched_points(indptr, indices, labels, foreign, dirty_switch)
+                    if np.count_nonzero(dirty_switch) > VSA_SWITCH_FULL_SCAN * m:
+                        # nearly every region changed: the filter would cost as
+                        # much as the switch itself, so scan every boundary point
+                        cand = np.flatnonzero(foreign)
+                    else:
+                        cand = touched_points(indptr, indices, labels, foreign, dirty_switch)
                     moved, new = batch_switch(
                         indptr, indices, nrm, w, labels, prox, foreign, VSA_SWITCH_MIN_GAIN, cand
                     )
@@ -691,9 +707,10 @@ def vsa_segment(
                     stop_reason = "cycle"
                     break
                 seen[key] = n_iter
-                if (n_split == 0 and n_merge == 0) or merge_rounds >= VSA_MERGE_ROUNDS:
-                    # a round in which split and merge changed nothing (or the
-                    # safety cap): from now on only split, switch and update run
+                if n_merge <= n_split or merge_rounds >= VSA_MERGE_ROUNDS:
+                    # split and merge no longer shrink the region count (they only
+                    # trade regions, or changed nothing): from now on only split,
+                    # switch and update run, which never raise the energy
                     merging = False
     for key_name, value in t_loop.items():
         timings[key_name] = timings.get(key_name, 0.0) + value

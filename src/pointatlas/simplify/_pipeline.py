@@ -36,7 +36,7 @@ def simplify_points(
     switch: str = "batch",
     classic: bool = False,
     weights="uniform",
-    max_iter: int = 100,
+    max_iter: int = 1000,
     rng=None,
     vertices: str = "lsq",
     faces: str = "general",
