@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -231,6 +232,12 @@ def test_demo_all_steps(tmp_path):
     assert result.exit_code == 0, result.output
     assert (tmp_path / "fandisk.png").exists()
     assert result.stdout.count(f"/{len(DEMO_STEPS)}  ") == len(DEMO_STEPS)
+    # the HTML report shows every step's output and every picture written, once
+    report = (tmp_path / "report.html").read_text()
+    assert report.count("<h2>") == len(DEMO_STEPS)
+    pngs = sorted(p.name for p in tmp_path.glob("*.png"))
+    assert pngs and sorted(re.findall(r"<img src='([^']+)'", report)) == pngs
+    assert "12,494" in report  # the info table's point count
 
 
 def test_demo_only_unknown_step(tmp_path):

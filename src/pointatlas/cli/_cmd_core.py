@@ -8,6 +8,7 @@ terminal.
 
 from __future__ import annotations
 
+import html
 import json
 import math
 import time
@@ -20,7 +21,14 @@ from rich.markup import escape
 from rich.table import Table
 
 from .._core import PointAtlasError, PointSet
-from ..io import MESH_EXTENSIONS, read_mesh, read_point_set, write_mesh, write_point_set
+from ..io import (
+    MESH_EXTENSIONS,
+    atomic_write,
+    read_mesh,
+    read_point_set,
+    write_mesh,
+    write_point_set,
+)
 from ..neighbors import mean_spacing, query_knn
 from ..normals import angle_error, estimate_normals, flipped_fraction, orient_normals
 from ._app import DEMO_STEPS, app, console, data_app, demo_step, guarded, progress_bar
@@ -709,13 +717,61 @@ def run_demo(out_dir: Path, *, model: str = DEMO_MODEL, steps=None) -> list[Path
     ps = data.load(model)
     start = time.time() - 1.0
     steps = list(DEMO_STEPS if steps is None else steps)
-    for i, step in enumerate(steps, 1):
-        heading = (step.__doc__ or step.__name__).strip().splitlines()[0]
-        console.rule(f"[bold]{i}/{len(steps)}  {heading}", align="left")
-        result = step(ps, out_dir, console)
-        if isinstance(result, PointSet):
-            ps = result
+    sections = []
+    seen: set[str] = set()
+    was_recording = console.record
+    console.record = True
+    console.export_text(clear=True)  # drop anything recorded before the demo
+    try:
+        for i, step in enumerate(steps, 1):
+            heading = (step.__doc__ or step.__name__).strip().splitlines()[0]
+            step_start = time.time() - 1.0
+            console.rule(f"[bold]{i}/{len(steps)}  {heading}", align="left")
+            result = step(ps, out_dir, console)
+            if isinstance(result, PointSet):
+                ps = result
+            text = console.export_html(
+                clear=True, inline_styles=True, code_format="<pre class='log'>{code}</pre>"
+            )
+            files = sorted(
+                p.name
+                for p in out_dir.iterdir()
+                if p.is_file() and p.stat().st_mtime >= step_start and p.name not in seen
+            )
+            seen.update(files)
+            sections.append((f"{i}/{len(steps)} {heading}", text, files))
+    finally:
+        console.record = was_recording
+    write_demo_report(out_dir / "report.html", model, sections)
     return sorted(p for p in out_dir.iterdir() if p.is_file() and p.stat().st_mtime >= start)
+
+
+def write_demo_report(path: Path, model: str, sections) -> Path:
+    """Write the demo's HTML report: each step's console output, pictures and files.
+
+    ``sections`` is a list of ``(heading, html_of_console_output, file_names)``; PNGs
+    are shown inline, other files linked (paths relative to the report's folder).
+    """
+    parts = [
+        "<!DOCTYPE html><html><head><meta charset='utf-8'>",
+        f"<title>pointatlas demo: {html.escape(model)}</title>",
+        "<style>body{font-family:sans-serif;max-width:1400px;margin:2em auto;padding:0 1em}"
+        "pre.log{background:#f6f6f6;padding:.6em;overflow-x:auto;font-size:12px}"
+        "img{max-width:100%;border:1px solid #ddd;margin:.4em 0}</style></head><body>",
+        f"<h1>pointatlas demo on the bundled model <code>{html.escape(model)}</code></h1>",
+    ]
+    for heading, text, files in sections:
+        parts.append(f"<h2>{html.escape(heading)}</h2>{text}")
+        for name in files:
+            ref = html.escape(name, quote=True)
+            if name.endswith(".png"):
+                parts.append(f"<p><img src='{ref}' alt='{ref}'></p>")
+            elif name != path.name:
+                parts.append(f"<p>file: <a href='{ref}'>{ref}</a></p>")
+    parts.append("</body></html>")
+    with atomic_write(path, "w") as fh:
+        fh.write("\n".join(parts))
+    return path
 
 
 @app.command("demo")

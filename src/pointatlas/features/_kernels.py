@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit, prange
 
 from .._core.tolerances import ANGLE_ZERO
+from ..normals._kernels import _rotate  # the same Jacobi rotation as the normals room
 
 __all__ = [
     "N_FEATURES",
@@ -107,46 +108,6 @@ def eig3_closed(c00, c01, c02, c11, c12, c22):
     if l2 < l3:
         l2 = l3
     return max(l1, 0.0), max(l2, 0.0), max(l3, 0.0)
-
-
-@njit(cache=True)
-def _rotate(a, v, p, q):
-    """One Jacobi rotation zeroing a[p, q]; returns False when it was negligible."""
-    apq = a[p, q]
-    if apq == 0.0:
-        return False
-    app = a[p, p]
-    aqq = a[q, q]
-    if abs(apq) <= _EPS * math.sqrt(abs(app * aqq)) or abs(apq) < 1e-300:
-        a[p, q] = 0.0
-        a[q, p] = 0.0
-        return False
-    theta = (aqq - app) / (2.0 * apq)
-    if abs(theta) > 1e150:
-        t = 0.5 / theta
-    else:
-        t = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
-        if theta < 0.0:
-            t = -t
-    c = 1.0 / math.sqrt(t * t + 1.0)
-    s = t * c
-    a[p, p] = app - t * apq
-    a[q, q] = aqq + t * apq
-    a[p, q] = 0.0
-    a[q, p] = 0.0
-    r = 3 - p - q
-    arp = a[r, p]
-    arq = a[r, q]
-    a[r, p] = c * arp - s * arq
-    a[p, r] = a[r, p]
-    a[r, q] = s * arp + c * arq
-    a[q, r] = a[r, q]
-    for m in range(3):
-        vmp = v[m, p]
-        vmq = v[m, q]
-        v[m, p] = c * vmp - s * vmq
-        v[m, q] = s * vmp + c * vmq
-    return True
 
 
 @njit(cache=True)
