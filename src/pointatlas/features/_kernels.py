@@ -29,7 +29,6 @@ __all__ = [
     "N_FEATURES",
     "angles_kernel",
     "covariance_kernel",
-    "eig3_closed",
     "eig3_fast",
     "eig3_jacobi",
     "eigh3_accurate",
@@ -52,7 +51,6 @@ N_FEATURES = 11
 _BLOCK = 1024
 _MAX_SWEEPS = 12
 _EPS = 2.220446049250313e-16
-_TWO_PI_3 = 2.0943951023931957
 
 
 @njit(cache=True)
@@ -63,51 +61,6 @@ def cosine_sigmoid_scalar(x, a, b):
     if x >= b:
         return 0.0
     return 0.5 * math.cos(math.pi * (x - a) / (b - a)) + 0.5
-
-
-@njit(cache=True)
-def eig3_closed(c00, c01, c02, c11, c12, c22):
-    """Eigenvalues (descending, clipped at 0) of a symmetric PSD 3x3 by the trig formula.
-
-    Fast; absolute error up to ~1e-8 * lambda_1 near double roots (used only to
-    compare E_dim values inside the neighbourhood search).
-    """
-    q = (c00 + c11 + c22) / 3.0
-    b00 = c00 - q
-    b11 = c11 - q
-    b22 = c22 - q
-    p2 = b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * (c01 * c01 + c02 * c02 + c12 * c12)
-    if p2 <= 0.0:
-        v = max(q, 0.0)
-        return v, v, v
-    p = math.sqrt(p2 / 6.0)
-    inv = 1.0 / p
-    d00 = b00 * inv
-    d11 = b11 * inv
-    d22 = b22 * inv
-    d01 = c01 * inv
-    d02 = c02 * inv
-    d12 = c12 * inv
-    det = (
-        d00 * (d11 * d22 - d12 * d12)
-        - d01 * (d01 * d22 - d12 * d02)
-        + d02 * (d01 * d12 - d11 * d02)
-    )
-    r = 0.5 * det
-    if r <= -1.0:
-        phi = math.pi / 3.0
-    elif r >= 1.0:
-        phi = 0.0
-    else:
-        phi = math.acos(r) / 3.0
-    l1 = q + 2.0 * p * math.cos(phi)
-    l3 = q + 2.0 * p * math.cos(phi + _TWO_PI_3)
-    l2 = 3.0 * q - l1 - l3
-    if l2 > l1:
-        l2 = l1
-    if l2 < l3:
-        l2 = l3
-    return max(l1, 0.0), max(l2, 0.0), max(l3, 0.0)
 
 
 @njit(cache=True)
@@ -394,11 +347,11 @@ def _cos_third(v):
 def eig3_fast(c00, c01, c02, c11, c12, c22):
     """Eigenvalues (descending, clipped at 0) of a symmetric PSD 3x3, no trig calls.
 
-    Same trace-shifted, scaled closed form as `eig3_closed` (B = (C - qI)/p,
-    r = det(B)/2 clamped to [-1, 1]), but cos(acos(r)/3) and cos(acos(r)/3 + 2pi/3)
-    come from `_cos_third` of sqrt(1 + r) and sqrt(1 - r) (the smallest root is
-    minus the largest root for -r), which is about 1.5x faster than acos + 2 cos
-    and as accurate (both resolve double roots to ~1e-8 lambda_1).
+    The trace-shifted, scaled trigonometric closed form (B = (C - qI)/p,
+    r = det(B)/2 clamped to [-1, 1]), with cos(acos(r)/3) and cos(acos(r)/3 + 2pi/3)
+    from `_cos_third` of sqrt(1 + r) and sqrt(1 - r) (the smallest root is minus the
+    largest root for -r): about 1.5x faster than acos + 2 cos and as accurate
+    (double roots resolved to ~1e-8 lambda_1; `eigh3_accurate` refines).
     """
     q = (c00 + c11 + c22) / 3.0
     b00 = c00 - q
@@ -773,7 +726,7 @@ def eigh3_accurate(c00, c01, c02, c11, c12, c22):
     in the orthogonal plane with the stable hypot formula. Absolute errors are a
     few ulps of lambda_1 even for (near) double eigenvalues.
     """
-    l1t, l2t, l3t = eig3_closed(c00, c01, c02, c11, c12, c22)
+    l1t, l2t, l3t = eig3_fast(c00, c01, c02, c11, c12, c22)
     top = (l1t - l2t) >= (l2t - l3t)
     lam = l1t if top else l3t
     vx, vy, vz, ok = _null_vector(c00, c01, c02, c11, c12, c22, lam)
