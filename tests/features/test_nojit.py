@@ -1,12 +1,8 @@
 """Kernel-vs-reference checks once more with NUMBA_DISABLE_JIT=1 (coverage of kernel bodies)."""
 
-import os
-import subprocess
-import sys
 import textwrap
-from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[2]
+from tests.jit_off import run_without_jit
 
 _SCRIPT = textwrap.dedent(
     """
@@ -47,16 +43,4 @@ _SCRIPT = textwrap.dedent(
 
 
 def test_kernels_without_jit():
-    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
-    env["PYTHONPATH"] = os.pathsep.join([str(REPO), env.get("PYTHONPATH", "")])
-    out = subprocess.run(
-        [sys.executable, "-c", _SCRIPT],
-        cwd=REPO,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
-    assert out.returncode == 0, out.stderr[-3000:]
-    assert out.stdout.strip() == "ok"
+    assert run_without_jit(_SCRIPT).strip() == "ok"

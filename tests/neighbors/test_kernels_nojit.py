@@ -6,10 +6,7 @@ tiny. The script runs in a subprocess because the JIT switch is read at import.
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-from pathlib import Path
+from tests.jit_off import run_without_jit
 
 SCRIPT = r"""
 import numpy as np
@@ -17,6 +14,7 @@ import numba
 assert numba.config.DISABLE_JIT
 from pointatlas.neighbors import knn_components, knn_graph, query_knn, query_radius
 from tests.neighbors.reference import (
+
     components_reference, graph_reference, knn_reference, radius_reference,
 )
 
@@ -58,11 +56,4 @@ print("ok")
 
 
 def test_kernels_without_jit():
-    root = Path(__file__).resolve().parents[2]
-    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
-    done = subprocess.run(
-        [sys.executable, "-c", SCRIPT], cwd=root, env=env, capture_output=True, text=True,
-        timeout=300,
-    )  # fmt: skip
-    assert done.returncode == 0, done.stderr[-3000:]
-    assert done.stdout.strip().endswith("ok")
+    assert run_without_jit(SCRIPT).strip().endswith("ok")

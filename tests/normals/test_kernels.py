@@ -2,11 +2,7 @@
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,11 +17,10 @@ from pointatlas.normals._kernels import (
     riemannian_graph_kernel,
     sym3_eigen,
 )
+from tests.jit_off import run_without_jit
 
 from . import reference
 from .shapes import random_flips, sphere, torus
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 def _eigen(a):
@@ -210,16 +205,4 @@ _JIT_OFF_SCRIPT = textwrap.dedent(
 
 
 def test_kernels_without_jit():
-    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
-    env["PYTHONPATH"] = os.pathsep.join([str(REPO), env.get("PYTHONPATH", "")])
-    out = subprocess.run(
-        [sys.executable, "-c", _JIT_OFF_SCRIPT],
-        cwd=REPO,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "ok"
+    assert run_without_jit(_JIT_OFF_SCRIPT).strip() == "ok"

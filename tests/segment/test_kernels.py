@@ -2,21 +2,16 @@
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from pointatlas.neighbors import query_knn
 from pointatlas.segment import _kernels as K
+from tests.jit_off import run_without_jit
 
 from . import reference
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 def _cloud(seed, n=80, k=6):
@@ -186,19 +181,7 @@ _JIT_OFF_SCRIPT = textwrap.dedent(
 
 
 def test_kernels_without_jit():
-    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
-    env["PYTHONPATH"] = os.pathsep.join([str(REPO), env.get("PYTHONPATH", "")])
-    out = subprocess.run(
-        [sys.executable, "-c", _JIT_OFF_SCRIPT],
-        cwd=REPO,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "ok"
+    assert run_without_jit(_JIT_OFF_SCRIPT).strip() == "ok"
 
 
 @pytest.mark.parametrize("seed", range(4))

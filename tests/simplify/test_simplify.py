@@ -224,9 +224,7 @@ def test_given_proxies_without_normals_are_used_as_they_are():
 
 def test_distance_kernel_without_jit_matches_reference():
     # STYLE 7: the kernel bodies also run once as plain Python (coverage)
-    import os
-    import subprocess
-    import sys
+    from tests.jit_off import run_without_jit
 
     code = (
         "import numpy as np\n"
@@ -237,9 +235,4 @@ def test_distance_kernel_without_jit_matches_reference():
         "p = rng.normal(size=(25, 3))\n"
         "assert np.allclose(f(p, v, t), ref(p, v, t), rtol=1e-10, atol=1e-12)\n"
     )
-    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    res = subprocess.run(
-        [sys.executable, "-c", code], env=env, cwd=root, capture_output=True, text=True
-    )
-    assert res.returncode == 0, res.stderr
+    run_without_jit(code)
