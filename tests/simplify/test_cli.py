@@ -44,6 +44,22 @@ def test_simplify_cube_writes_closed_polygon_mesh(cube_file, tmp_path):
     assert report["complex"]["conjecture4"]["holds"]
 
 
+def test_simplify_default_gives_planar_faces(cube_file, tmp_path):
+    rep = tmp_path / "report.json"
+    res = runner.invoke(
+        app, ["simplify", str(cube_file), str(tmp_path / "c.obj"), "--report", str(rep)]
+    )
+    assert res.exit_code == 0, res.output
+    report = json.loads(rep.read_text())
+    assert report["vertex_method"] == "fit" and not report["fallback"]
+    assert report["is_closed"] and report["is_manifold"] and report["is_oriented"]
+    assert report["max_planarity_error"] < 1e-9 and report["faces_not_ok"] == []
+    res = runner.invoke(
+        app, ["simplify", str(cube_file), str(tmp_path / "d.obj"), "--anchor-weight", "0"]
+    )
+    assert res.exit_code == 1 and "anchor_weight" in res.output
+
+
 def test_simplify_star_faces(cube_file, tmp_path):
     # (--render is exercised by the demo step test below)
     out = tmp_path / "c.ply"
@@ -91,3 +107,5 @@ def test_demo_step_segments_and_simplifies_fandisk(tmp_path):
     assert (tmp_path / "fandisk_simplified.png").stat().st_size > 10_000
     summary = json.loads((tmp_path / "fandisk_simplified.json").read_text())
     assert summary["is_closed"] and summary["n_faces"] >= 15
+    assert summary["is_manifold"] and summary["is_oriented"] and summary["faces_not_ok"] == []
+    assert summary["vertex_method"] == "fit" and summary["max_planarity_error"] < 1e-9

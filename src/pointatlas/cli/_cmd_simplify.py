@@ -136,15 +136,30 @@ def simplify_command(
     max_iter: Annotated[int, typer.Option("--max-iter", help="VSA iterations.")] = 1000,
     seed: Annotated[int, typer.Option("--seed", help="Seed for random VSA seeds.")] = 0,
     vertices: Annotated[
-        str, typer.Option("--vertices", help="lsq (plane intersection) or optimize (Eq. 4.12).")
-    ] = "lsq",
+        str,
+        typer.Option(
+            "--vertices",
+            help="fit (planes refitted through common vertices: planar faces), "
+            "lsq (plane intersection) or optimize (Eq. 4.12).",
+        ),
+    ] = "fit",
     faces: Annotated[
         str, typer.Option("--faces", help="general (cycles, holes) or star ([SZP20]).")
     ] = "general",
     centers: Annotated[
         str, typer.Option("--centers", help="Proxy plane point: centroid or seed (C_i).")
     ] = "centroid",
-    weight: Annotated[float, typer.Option("--weight", help="w~ of Eq. 4.11.")] = 1.0,
+    weight: Annotated[
+        float, typer.Option("--weight", help="w~ of Eq. 4.11 (--vertices optimize).")
+    ] = 1.0,
+    anchor_weight: Annotated[
+        float | None,
+        typer.Option(
+            "--anchor-weight",
+            help="Pull of the vertices to plane intersection (--vertices fit; default: "
+            "the loosest of 0.01, 0.1, 1, 10 with valid faces).",
+        ),
+    ] = None,
     min_region_size: Annotated[
         int | None, typer.Option("--min-region-size", help="Merge smaller regions (default k).")
     ] = None,
@@ -204,6 +219,7 @@ def simplify_command(
         faces=faces,
         centers=centers,
         weight=weight,
+        anchor_weight=anchor_weight,
         min_region_size=min_region_size,
         repair=repair,
         smooth=smooth,

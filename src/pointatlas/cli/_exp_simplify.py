@@ -5,7 +5,8 @@ from the same six random seeds, both vertex methods; the Fandisk (36 seeds, eta 
 75, no split/merge; star and general faces); the torus with 11 seeds whose top face
 has a hole; a genus-2 shape; the noisy dodecahedron (962 points, 25 % noise, k = 12,
 eta = 50, 12 random seeds, split and merge). Each case writes a picture
-(segmentation | mesh by plane intersection | mesh by optimisation) and its numbers.
+(segmentation | mesh by plane intersection | mesh by optimisation | mesh by the
+default constrained plane fit, ``vertices="fit"``) and its numbers.
 """
 
 from __future__ import annotations
@@ -115,6 +116,9 @@ def _picture(path, title, points, normals, seg_labels, meshes):
     )
 
 
+_METHOD_LABEL = {"lsq": "plane intersection", "optimize": "optimisation", "fit": "plane fit"}
+
+
 def _case_sphere(out: Path, seed: int) -> list[dict]:
     pts, nrm, name = _sphere_points()
     seeds = np.random.default_rng(seed).choice(pts.shape[0], 6, replace=False)
@@ -122,12 +126,14 @@ def _case_sphere(out: Path, seed: int) -> list[dict]:
     for eta in (500.0, 200.0, 100.0, 50.0, 25.0):
         seg = vsa_segment(pts, nrm, k=8, seeds=seeds, eta=eta, split=True, merge=True)
         meshes = []
-        for method in ("lsq", "optimize"):
+        for method in ("lsq", "optimize", "fit"):
             w = 3.0 if (method == "optimize" and eta == 500.0) else 1.0
             mesh, row = _simplify(pts, nrm, seg, k=8, vertices=method, weight=w)
-            row.update(case="sphere", eta=eta, vsa_regions=seg.n_regions, weight=w)
+            row.update(case="sphere", eta=eta, vsa_regions=seg.n_regions)
+            if method == "optimize":
+                row["weight"] = w
             rows.append(row)
-            meshes.append(("plane intersection" if method == "lsq" else "optimisation", mesh))
+            meshes.append((_METHOD_LABEL[method], mesh))
         _picture(
             out / f"sphere_eta{int(eta)}.png",
             f"{name}, eta = {eta:g}",
@@ -144,11 +150,11 @@ def _case_fandisk(out: Path, seed: int) -> list[dict]:
     seeds = np.random.default_rng(seed).choice(pts.shape[0], 36, replace=False)
     seg = vsa_segment(pts, nrm, k=8, seeds=seeds, eta=75.0, split=False, merge=False)
     rows, meshes = [], []
-    for faces in ("star", "general"):
-        mesh, row = _simplify(pts, nrm, seg, k=8, vertices="lsq", faces=faces)
+    for faces, method in (("star", "lsq"), ("general", "lsq"), ("general", "fit")):
+        mesh, row = _simplify(pts, nrm, seg, k=8, vertices=method, faces=faces)
         row.update(case="fandisk", faces=faces, vsa_regions=seg.n_regions)
         rows.append(row)
-        meshes.append((f"{faces} faces", mesh))
+        meshes.append((f"{faces} faces, {_METHOD_LABEL[method]}", mesh))
     _picture(
         out / "fandisk.png",
         f"{name}: 36 seeds, eta = 75, no split/merge",
@@ -166,12 +172,14 @@ def _case_torus(out: Path, seed: int) -> list[dict]:
     seg = vsa_segment(pts, nrm, k=8, seeds=seeds, split=False, merge=False)
     rows, meshes = [], []
     # w~ = 1 (thesis default) shrinks the torus; w~ = 10 keeps it (see the docs)
-    for method, w in (("lsq", 1.0), ("optimize", 1.0), ("optimize", 10.0)):
+    for method, w in (("lsq", 1.0), ("optimize", 1.0), ("optimize", 10.0), ("fit", 1.0)):
         mesh, row = _simplify(pts, nrm, seg, k=8, vertices=method, weight=w)
-        row.update(case="torus", vsa_regions=seg.n_regions, n_seeds=int(seeds.size), weight=w)
+        row.update(case="torus", vsa_regions=seg.n_regions, n_seeds=int(seeds.size))
+        if method == "optimize":
+            row["weight"] = w
         rows.append(row)
-        if method == "lsq" or w > 1.0:
-            label = "plane intersection" if method == "lsq" else f"optimisation (w = {w:g})"
+        if method != "optimize" or w > 1.0:
+            label = _METHOD_LABEL[method] + (f" (w = {w:g})" if method == "optimize" else "")
             meshes.append((label, mesh))
     _picture(
         out / "torus.png",
@@ -214,7 +222,7 @@ def _case_two_torus(out: Path, seed: int) -> list[dict]:
     # manually selected regions, as in the thesis (Fig. 4.13)
     manual = _manual_regions(pts, nrm)
     meshes = []
-    for method, w in (("lsq", 1.0), ("optimize", 10.0)):
+    for method, w in (("lsq", 1.0), ("optimize", 10.0), ("fit", 1.0)):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", SimplifyWarning)
             mesh = simplify_segmentation(pts, nrm, manual, k=8, vertices=method, weight=w)
@@ -223,11 +231,12 @@ def _case_two_torus(out: Path, seed: int) -> list[dict]:
             case="two_torus",
             regions="manual",
             vsa_regions=int(manual.max()) + 1,
-            weight=w,
             warnings=[str(x.message) for x in caught],
         )
+        if method == "optimize":
+            row["weight"] = w
         rows.append(row)
-        label = "plane intersection" if method == "lsq" else f"optimisation (w = {w:g})"
+        label = _METHOD_LABEL[method] + (f" (w = {w:g})" if method == "optimize" else "")
         meshes.append((label, mesh))
     _picture(
         out / "two_torus.png",
@@ -241,24 +250,27 @@ def _case_two_torus(out: Path, seed: int) -> list[dict]:
     shown = None
     for rng in range(seed, seed + 4):
         seg = vsa_segment(pts, nrm, k=8, seeds=12, rng=rng, split=False, merge=False)
-        try:
-            mesh, row = _simplify(pts, nrm, seg, k=8, vertices="lsq")
-        except PointAtlasError as exc:  # degenerate segmentation: recorded, not fatal
-            rows.append({"case": "two_torus", "rng": rng, "error": str(exc)})
-            continue
-        row.update(case="two_torus", regions="VSA", vsa_regions=seg.n_regions, rng=rng)
-        rows.append(row)
-        if shown is None or (mesh.is_closed and not shown[2].is_closed):
-            shown = (rng, seg, mesh)
+        pair = []
+        for method in ("lsq", "fit"):
+            try:
+                mesh, row = _simplify(pts, nrm, seg, k=8, vertices=method)
+            except PointAtlasError as exc:  # degenerate segmentation: recorded, not fatal
+                rows.append({"case": "two_torus", "rng": rng, "error": str(exc)})
+                break
+            row.update(case="two_torus", regions="VSA", vsa_regions=seg.n_regions, rng=rng)
+            rows.append(row)
+            pair.append((_METHOD_LABEL[method], mesh))
+        if len(pair) == 2 and (shown is None or (pair[0][1].is_closed and not shown[2].is_closed)):
+            shown = (rng, seg, pair[0][1], pair)
     if shown is not None:
-        rng, seg, mesh = shown
+        rng, seg, _, pair = shown
         _picture(
             out / "two_torus_vsa.png",
             f"{name}: 12 random seeds (rng {rng}), no split/merge",
             pts,
             nrm,
             seg.labels,
-            [("plane intersection", mesh)],
+            pair,
         )
     return rows
 
@@ -269,13 +281,13 @@ def _case_dodecahedron(out: Path, seed: int) -> list[dict]:
     for eta in (50.0, 30.0):
         seg = vsa_segment(pts, nrm, k=12, seeds=12, eta=eta, split=True, merge=True, rng=seed)
         meshes = []
-        for method in ("lsq", "optimize"):
+        for method in ("lsq", "optimize", "fit"):
             mesh, row = _simplify(pts, nrm, seg, k=12, vertices=method)
             row.update(
                 case="dodecahedron", eta=eta, vsa_regions=seg.n_regions, vsa_iterations=seg.n_iter
             )
             rows.append(row)
-            meshes.append(("plane intersection" if method == "lsq" else "optimisation", mesh))
+            meshes.append((_METHOD_LABEL[method], mesh))
         _picture(
             out / f"dodecahedron_eta{int(eta)}.png",
             f"{name}: k = 12, eta = {eta:g}, 12 seeds, split+merge",
@@ -311,7 +323,9 @@ def _markdown(rows: list[dict]) -> str:
     lines = [head, "|" + "---|" * 12]
     for r in rows:
         setting = ", ".join(
-            f"{key}={r[key]}" for key in ("regions", "eta", "faces", "weight", "rng") if key in r
+            f"{key}={r[key]}"
+            for key in ("regions", "eta", "faces", "weight", "anchor_weight", "rng")
+            if r.get(key) is not None
         )
         if "error" in r:
             lines.append(f"| {r['case']} | {setting} | - | - | - | - | - | error: {r['error']} |")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,7 +15,13 @@ from ._faces import general_faces, star_faces
 from ._kernels import point_triangle_distances
 from ._proxies import region_proxies
 from ._repair import absorb_regions, smooth_labels
-from ._vertices import MeshVertices, lsq_vertices, optimize_vertices
+from ._vertices import (
+    MeshVertices,
+    SimplifyWarning,
+    fit_vertices,
+    lsq_vertices,
+    optimize_vertices,
+)
 
 __all__ = [
     "SimplifiedMesh",
@@ -23,7 +30,7 @@ __all__ = [
     "simplify_segmentation",
 ]
 
-_VERTEX_METHODS = ("lsq", "optimize")
+_VERTEX_METHODS = ("fit", "lsq", "optimize")
 _FACE_METHODS = ("general", "star")
 
 
@@ -84,6 +91,8 @@ class SimplifiedMesh:
         map together when merged).
     complex : SurfaceComplex
         The surface-like complex the mesh was built from.
+    anchor_weight : float
+        Anchor weight ``vertices="fit"`` used (NaN for the other methods).
     """
 
     vertices: np.ndarray
@@ -113,6 +122,7 @@ class SimplifiedMesh:
     labels: np.ndarray
     region_map: np.ndarray
     complex: SurfaceComplex
+    anchor_weight: float = float("nan")
 
     def __post_init__(self):
         for name in (
@@ -172,6 +182,7 @@ class SimplifiedMesh:
             "mean_distance": self.mean_distance,
             "max_distance": self.max_distance,
             "regions_without_face": [int(x) for x in self.regions_without_face],
+            "anchor_weight": None if np.isnan(self.anchor_weight) else self.anchor_weight,
             "n_input_regions": int(self.region_map.shape[0]),
             "n_regions": int(self.labels.max()) + 1 if self.labels.size else 0,
         }
@@ -321,6 +332,38 @@ def _check_not_parallel(normals):
         )
 
 
+#: anchor weights tried by ``vertices="fit"`` with ``anchor_weight=None``, loosest first
+FIT_ANCHOR_WEIGHTS = (0.01, 0.1, 1.0, 10.0)
+
+
+def _fit_with_valid_faces(
+    cplx, points, labels, pn, ctr, lsq, anchor_weight, max_iter, builder, centroids
+):
+    """``fit_vertices`` and faces; with ``anchor_weight=None`` the loosest weight of
+    `FIT_ANCHOR_WEIGHTS` whose faces are all valid and whose mesh is closed, manifold
+    and oriented (else the best by: no fallback, closed/manifold/oriented, fewest
+    invalid faces, looser weight). Returns (MeshVertices, faces, weight used)."""
+    schedule = FIT_ANCHOR_WEIGHTS if anchor_weight is None else (float(anchor_weight),)
+    best = None
+    caught_best: list = []
+    for aw in schedule:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", SimplifyWarning)
+            mv = fit_vertices(cplx, points, labels, pn, ctr, lsq=lsq, weight=aw, max_iter=max_iter)
+        face_list = builder(cplx, np.asarray(mv.positions), np.asarray(mv.plane_normals), centroids)
+        tris = [f.triangles for f in face_list if f.triangles.size]
+        good = bool(tris) and all(mesh_checks(cplx.n_vertices, np.concatenate(tris)))
+        key = (mv.fallback, not good, sum(not f.ok for f in face_list))
+        if best is None or key < best[0]:
+            best, caught_best = (key, mv, face_list, aw), caught
+        if key == (False, False, 0):
+            break
+    for w in caught_best:  # the chosen solve's warnings (a fallback to plane intersection)
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    _, mv, face_list, aw = best
+    return mv, face_list, (float("nan") if mv.fallback else aw)
+
+
 def _proxies_for(points, normals, labels, region_map, pn0, ctr0, base_valid):
     """Proxy normals/centers for the current labels: the given ones for regions that
     are one unchanged input region, recomputed from the points otherwise."""
@@ -341,11 +384,12 @@ def simplify_segmentation(
     labels,
     *,
     k: int = 8,
-    vertices: str = "lsq",
+    vertices: str = "fit",
     faces: str = "general",
     centers="centroid",
     proxy_normals=None,
     weight: float = 1.0,
+    anchor_weight: float | None = None,
     max_distance: float | None = None,
     min_region_size: int | None = None,
     repair: bool = True,
@@ -368,8 +412,11 @@ def simplify_segmentation(
         Region of every point, consecutive 0..R-1 (e.g. ``VSAResult.labels``).
     k : int
         Neighbourhood size for the region adjacency (Remark 6).
-    vertices : {"lsq", "optimize"}
-        Plane intersection by guarded least squares, or Eq. 4.12.
+    vertices : {"fit", "lsq", "optimize"}
+        ``"fit"`` (default, beyond the thesis): planes refitted to their points under
+        the constraint that every vertex lies on all its planes, so every face is
+        planar; ``"lsq"``: plane intersection by guarded least squares (faces where
+        more than three planes meet are not planar); ``"optimize"``: Eq. 4.12.
     faces : {"general", "star"}
         Faces from the boundary cycles (holes allowed), or star-convex ordering.
     centers : {"centroid", "seed"} or array_like of shape (R, 3)
@@ -378,7 +425,15 @@ def simplify_segmentation(
     proxy_normals : array_like of shape (R, 3), optional
         Proxy normals N_i; by default the normalised sum of each region's normals.
     weight : float
-        w~_i of Eq. 4.11 (>= 0; 1 in the thesis, 3 for its coarsest sphere).
+        w~_i of Eq. 4.11 (>= 0; 1 in the thesis, 3 for its coarsest sphere); only
+        for ``vertices="optimize"``.
+    anchor_weight : float, optional
+        ``vertices="fit"`` only (> 0): weight of the vertices' mean squared
+        displacement from the least-squares vertices against the mean squared
+        point-to-plane distance (both in units of the points' RMS radius). By
+        default the loosest of 0.01, 0.1, 1, 10 whose faces are all valid and
+        whose mesh is closed, manifold and oriented (`FIT_ANCHOR_WEIGHTS`; else the
+        best of them, see ``docs/decisions.md``).
     max_distance : float, optional
         Bound on the distance of a least-squares vertex from its witness points
         (input units); by default half the distance to the nearest contributing
@@ -421,15 +476,19 @@ def simplify_segmentation(
     Warns
     -----
     SimplifyWarning
-        ``vertices="optimize"`` failed; plane intersection was used instead
-        (``fallback`` is True in the result).
+        ``vertices="optimize"`` or ``"fit"`` failed; plane intersection was used
+        instead (``fallback`` is True in the result).
 
     Notes
     -----
     Vertices one per vertex of the surface-like complex (section 3, GUIDE B1);
     (a) least squares over all q planes with near-parallel guard and distance bound
     (Fig. 4.11's outliers), (b) Eq. 4.12 with ``scipy.optimize.minimize(method=
-    "trust-constr")`` started from N_i and the barycentre of the C_i. Faces:
+    "trust-constr")`` started from N_i and the barycentre of the C_i, (c) beyond
+    the thesis, ``"fit"``: Eq. 4.12's incidence constraints n_i . x_j = d_i,
+    |n_i| = 1 with free offsets d_i, minimising the points' mean squared distance
+    to their planes plus ``anchor_weight`` times the vertices' mean squared
+    displacement from (a); started from (a) and the proxy planes. Faces:
     [SZP20]'s star-convex ordering or the general method of 4.4.2. Decisions in
     docs/decisions.md (simplify).
 
@@ -449,6 +508,10 @@ def simplify_segmentation(
     weight = float(weight)
     if not np.isfinite(weight) or weight < 0:
         raise ValueError(f"weight must be finite and >= 0; got {weight}")
+    if anchor_weight is not None:
+        anchor_weight = float(anchor_weight)
+        if not np.isfinite(anchor_weight) or anchor_weight <= 0:
+            raise ValueError(f"anchor_weight must be finite and > 0; got {anchor_weight}")
     if max_distance is not None and not (np.isfinite(max_distance) and max_distance > 0):
         raise ValueError(f"max_distance must be positive; got {max_distance}")
     if (lab < 0).any():
@@ -490,6 +553,9 @@ def simplify_segmentation(
 
     cur = lab
     base_valid = np.ones(n_regions, dtype=bool)
+    # points the majority filter relabelled to another input region stay out of the
+    # plane fit of vertices="fit"
+    fit_mask = np.ones(n, dtype=bool)
     if smooth:
         cur = smooth_labels(lab, indices, smooth)
         # a piece keeps its input region's proxy unless the region was split
@@ -498,6 +564,7 @@ def simplify_segmentation(
         owner = pair_counts.argmax(axis=1)
         base_valid = np.bincount(owner, minlength=n_regions)[owner] == 1
         pn0, ctr0 = pn0[owner], ctr0[owner]
+        fit_mask = owner[cur] == lab
     region_map = np.arange(int(cur.max()) + 1)  # base piece -> current region
     n_cur0 = int(cur.max()) + 1
     bad = np.bincount(cur, minlength=n_cur0) < int(min_region_size)
@@ -564,10 +631,26 @@ def simplify_segmentation(
         )
     else:
         mv = lsq
+    builder = general_faces if faces == "general" else star_faces
+    centroids = np.asarray(proxies.centroids)
+    if vertices == "fit":
+        mv, face_list, used_weight = _fit_with_valid_faces(
+            cplx,
+            pts[fit_mask],
+            lab[fit_mask],
+            pn,
+            ctr,
+            lsq,
+            anchor_weight,
+            max_iter,
+            builder,
+            centroids,
+        )
+    else:
+        face_list = builder(cplx, np.asarray(mv.positions), np.asarray(mv.plane_normals), centroids)
+        used_weight = float("nan")
     positions = np.asarray(mv.positions)
     plane_n = np.asarray(mv.plane_normals)
-    builder = general_faces if faces == "general" else star_faces
-    face_list = builder(cplx, positions, plane_n, np.asarray(proxies.centroids))
     if not face_list:
         raise PointAtlasError(
             "no region has a closed boundary cycle; cannot build faces "
@@ -629,4 +712,5 @@ def simplify_segmentation(
         labels=lab,
         region_map=input_map,
         complex=cplx,
+        anchor_weight=used_weight,
     )

@@ -38,10 +38,11 @@ def simplify_points(
     weights="uniform",
     max_iter: int = 1000,
     rng=None,
-    vertices: str = "lsq",
+    vertices: str = "fit",
     faces: str = "general",
     centers: str = "centroid",
     weight: float = 1.0,
+    anchor_weight: float | None = None,
     min_region_size: int | None = None,
     repair: bool = True,
     smooth: int = 2,
@@ -59,7 +60,8 @@ def simplify_points(
         Neighbourhood size of segmentation and complex (thesis: 8; 12 with noise).
     seeds, eta, max_angle, split, merge, switch, classic, weights, max_iter, rng
         Passed to `pointatlas.segment.vsa_segment`.
-    vertices, faces, centers, weight, min_region_size, repair, smooth, max_boundary_fraction
+    vertices, faces, centers, weight, anchor_weight, min_region_size, repair, smooth,
+    max_boundary_fraction
         Passed to `simplify_segmentation`; ``centers="seed"`` uses the VSA seed
         points C_i.
 
@@ -126,6 +128,7 @@ def simplify_points(
         centers=ctr,
         proxy_normals=seg.proxy_normals,
         weight=weight,
+        anchor_weight=anchor_weight,
         min_region_size=min_region_size,
         repair=repair,
         smooth=smooth,

@@ -20,7 +20,8 @@ __all__ = ["MeshVertices", "SimplifyWarning"]
 
 
 class SimplifyWarning(UserWarning):
-    """The Eq. 4.12 optimisation failed and plane intersection was used instead."""
+    """The Eq. 4.12 optimisation (or the constrained plane fit) failed and plane
+    intersection was used instead."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -32,23 +33,26 @@ class MeshVertices:
     positions : ndarray of shape (V, 3), float64
         One position per vertex of the surface-like complex.
     plane_normals : ndarray of shape (R, 3), float64
-        Plane normals the faces lie in: the proxy normals (least squares) or the
-        corrected normals n~_i of Eq. 4.12 (optimisation).
+        Plane normals the faces lie in: the proxy normals (least squares), the
+        corrected normals n~_i of Eq. 4.12 (optimisation) or the refitted normals.
     plane_offsets : ndarray of shape (R,), float64
         d_i with plane_normals[i] . x = d_i.
     rank : ndarray of shape (V,), int64
         Number of plane directions used per vertex (least squares; 3 = a point
-        fixed by its planes, less = guarded or a two-region vertex).
+        fixed by its planes, less = guarded or a two-region vertex; ``"fit"``:
+        min(3, number of regions); ``"optimize"``: 3).
     guarded : ndarray of shape (V,), bool
         True where near-parallel planes or the distance bound reduced the rank.
     plane_residual : ndarray of shape (V,), float64
         max_i |n_i . x_j - d_i| over the vertex's regions (input units).
     method : str
-        ``"lsq"`` or ``"optimize"`` (the method actually used).
+        ``"lsq"``, ``"optimize"`` or ``"fit"`` (the method actually used).
     fallback : bool
-        True when ``"optimize"`` was asked for but failed and least squares was used.
+        True when ``"optimize"`` or ``"fit"`` was asked for but failed and least
+        squares was used.
     constraint_violation : float
-        Largest violation of the Eq. 4.12 constraints (scaled units; NaN for lsq).
+        Largest violation of the Eq. 4.12 (or fit) constraints (scaled units; NaN
+        for lsq).
     n_iter : int
         Optimiser iterations (0 for lsq).
     message : str
@@ -299,6 +303,193 @@ def optimize_vertices(
         guarded=np.zeros(nv, dtype=bool),
         plane_residual=_residuals(pos, cplx.vertex_regions, nn, offsets),
         method="optimize",
+        fallback=False,
+        constraint_violation=violation,
+        n_iter=n_iter,
+        message=message,
+    )
+
+
+_FIT_GTOL = 1e-12
+_FIT_XTOL = 1e-14
+_FIT_MIN_ENERGY = 1e-6
+
+
+def _project_constraints(z, cons, cjac, n_steps=8, tol=1e-15):
+    """Gauss-Newton min-norm steps z <- z - J^+ c(z) onto {c = 0} (a feasibility polish)."""
+    for _ in range(n_steps):
+        c = cons(z)
+        if not c.size or np.max(np.abs(c)) <= tol:
+            break
+        jac = cjac(z)
+        if jac.shape[1] <= 1500:
+            step = np.linalg.lstsq(jac.toarray(), c, rcond=None)[0]
+        else:  # pragma: no cover - large complexes only
+            from scipy.sparse.linalg import lsqr
+
+            step = lsqr(jac, c, atol=1e-16, btol=1e-16, iter_lim=10 * jac.shape[1])[0]
+        z_new = z - step
+        if not np.all(np.isfinite(z_new)):
+            break
+        if np.max(np.abs(cons(z_new))) >= np.max(np.abs(c)):
+            break
+        z = z_new
+    return z
+
+
+def fit_vertices(
+    cplx, points, labels, normals, centers, *, lsq, weight=1.0, max_iter=3000
+) -> MeshVertices:
+    """Planes fitted to their points through common vertices (private; beyond the thesis).
+
+    Variables: vertex positions x_j and planes (n_i, d_i). Objective: the mean squared
+    distance of the points to their region's plane, (1/N) sum_i sum_{p in P_i}
+    (n_i . p - d_i)^2, plus ``weight`` times the mean squared displacement of the
+    vertices from the least-squares vertices ``lsq`` (which pins the vertices of two
+    regions along their line). Constraints: n_i . x_j = d_i for every vertex j of
+    region i and |n_i|^2 = 1 - Eq. 4.12's constraints with free plane offsets, so
+    every face is planar. Coordinates are centred and divided by the RMS radius s.
+    Start: the proxy planes and ``lsq``; trust-constr, then Gauss-Newton steps onto
+    the constraints. On failure: ``lsq`` with ``fallback=True`` and a warning.
+    """
+    nv = cplx.n_vertices
+    n_reg = normals.shape[0]
+    n_pts = points.shape[0]
+    mu = points.mean(axis=0)
+    scale = float(np.sqrt(np.mean(np.sum((points - mu) ** 2, axis=1))))
+    scale = scale if scale > 0 else 1.0
+    q = (points - mu) / scale
+    # per-region moments of (q, -1): the plane energy is y_i^T M_i y_i, y_i = (n_i, d_i)
+    qh = np.concatenate([q, -np.ones((n_pts, 1))], axis=1)
+    mom = np.zeros((n_reg, 4, 4))
+    for a in range(4):
+        for b in range(a, 4):
+            col = np.bincount(labels, weights=qh[:, a] * qh[:, b], minlength=n_reg) / n_pts
+            mom[:, a, b] = mom[:, b, a] = col
+    jj, ii, _ = _incidences(cplx, centers)
+    m = jj.size
+    nx = 3 * nv
+    nn_off = nx
+    d_off = nx + 3 * n_reg
+    size = d_off + n_reg
+    alpha = float(weight) / max(nv, 1)
+    x_ref = (np.asarray(lsq.positions) - mu) / scale
+    d0 = np.einsum("ij,ij->i", normals, (centers - mu) / scale)
+    z0 = np.concatenate([x_ref.ravel(), normals.ravel(), d0])
+    # y_i = (n_i, d_i) as positions in z
+    y_idx = np.concatenate(
+        [nn_off + 3 * np.arange(n_reg)[:, None] + np.arange(3), d_off + np.arange(n_reg)[:, None]],
+        axis=1,
+    )
+
+    # scale the objective to O(1) at the start (trust-constr's merit function and
+    # tolerances are absolute; the plane energy is a tiny mean squared distance)
+    y0 = z0[y_idx]
+    e0 = float(np.einsum("ra,rab,rb->", y0, mom, y0))
+    c_obj = 1.0 / max(e0, _FIT_MIN_ENERGY)
+    mom = mom * c_obj
+    alpha = alpha * c_obj
+
+    def fun(z):
+        y = z[y_idx]
+        my = np.einsum("rab,rb->ra", mom, y)
+        dx = z[:nx] - x_ref.ravel()
+        f = float(np.einsum("ra,ra->", y, my) + alpha * np.dot(dx, dx))
+        g = np.zeros(size)
+        g[:nx] = 2.0 * alpha * dx
+        g[y_idx.ravel()] = 2.0 * my.ravel()
+        return f, g
+
+    rows_h = np.concatenate([np.arange(nx), np.repeat(y_idx, 4, axis=1).ravel()])
+    cols_h = np.concatenate([np.arange(nx), np.tile(y_idx, (1, 4)).ravel()])
+    vals_h = np.concatenate([np.full(nx, 2.0 * alpha), 2.0 * mom.ravel()])
+    hess_obj = sparse.csr_array((vals_h, (rows_h, cols_h)), shape=(size, size))
+
+    def hess(z):
+        return hess_obj
+
+    def cons(z):
+        x = z[:nx].reshape(nv, 3)
+        nn = z[nn_off:d_off].reshape(n_reg, 3)
+        d = z[d_off:]
+        g = np.einsum("ij,ij->i", nn[ii], x[jj]) - d[ii]
+        h = np.einsum("ij,ij->i", nn, nn) - 1.0
+        return np.concatenate([g, h])
+
+    col_x = (3 * jj[:, None] + np.arange(3)).ravel()
+    col_n = (nn_off + 3 * ii[:, None] + np.arange(3)).ravel()
+    r3 = np.repeat(np.arange(m), 3)
+    jac_rows = np.concatenate([r3, r3, np.arange(m), m + np.repeat(np.arange(n_reg), 3)])
+    jac_cols = np.concatenate([col_x, col_n, d_off + ii, nn_off + np.arange(3 * n_reg)])
+
+    def cjac(z):
+        x = z[:nx].reshape(nv, 3)
+        nn = z[nn_off:d_off].reshape(n_reg, 3)
+        v = np.concatenate([nn[ii].ravel(), x[jj].ravel(), -np.ones(m), 2.0 * z[nn_off:d_off]])
+        return sparse.csr_array((v, (jac_rows, jac_cols)), shape=(m + n_reg, size))
+
+    def chess(z, lam):
+        v = np.repeat(lam[:m], 3)
+        r = np.concatenate([col_x, col_n, nn_off + np.arange(3 * n_reg)])
+        c = np.concatenate([col_n, col_x, nn_off + np.arange(3 * n_reg)])
+        vals = np.concatenate([v, v, np.repeat(2.0 * lam[m:], 3)])
+        return sparse.csr_array((vals, (r, c)), shape=(size, size))
+
+    constraint = NonlinearConstraint(cons, 0.0, 0.0, jac=cjac, hess=chess)
+    message, n_iter, violation, ok = "", 0, float("inf"), False
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # scipy's own progress warnings
+            res = minimize(
+                fun,
+                z0,
+                jac=True,
+                hess=hess,
+                method="trust-constr",
+                constraints=[constraint],
+                options={"maxiter": int(max_iter), "gtol": _FIT_GTOL, "xtol": _FIT_XTOL},
+            )
+        z = _project_constraints(res.x, cons, cjac)
+        violation = float(np.max(np.abs(cons(z))))
+        n_iter = int(res.nit)
+        message = str(res.message)
+        ok = bool(np.all(np.isfinite(z))) and violation <= SIMPLIFY_CONSTRAINT_TOL
+    except (ValueError, np.linalg.LinAlgError, ArithmeticError) as exc:
+        message = f"optimizer error: {exc}"
+    if not ok:
+        warnings.warn(
+            f"plane fit through common vertices failed (constraint violation "
+            f"{violation:.2e}, {message}); using plane intersection instead",
+            SimplifyWarning,
+            stacklevel=3,
+        )
+        return MeshVertices(
+            positions=np.array(lsq.positions),
+            plane_normals=np.array(lsq.plane_normals),
+            plane_offsets=np.array(lsq.plane_offsets),
+            rank=np.array(lsq.rank),
+            guarded=np.array(lsq.guarded),
+            plane_residual=np.array(lsq.plane_residual),
+            method="lsq",
+            fallback=True,
+            constraint_violation=violation,
+            n_iter=n_iter,
+            message=message,
+        )
+    x = z[:nx].reshape(nv, 3)
+    nn = z[nn_off:d_off].reshape(n_reg, 3)
+    norm = np.linalg.norm(nn, axis=1)
+    nn = nn / norm[:, None]
+    pos = x * scale + mu
+    offsets = z[d_off:] / norm * scale + nn @ mu
+    return MeshVertices(
+        positions=pos,
+        plane_normals=nn,
+        plane_offsets=offsets,
+        rank=np.minimum(np.bincount(jj, minlength=nv), 3).astype(np.int64),
+        guarded=np.zeros(nv, dtype=bool),
+        plane_residual=_residuals(pos, cplx.vertex_regions, nn, offsets),
+        method="fit",
         fallback=False,
         constraint_violation=violation,
         n_iter=n_iter,
