@@ -8,8 +8,9 @@
    count, the share of points assigned and the MSE of the points to the
    least-squares plane of their region (over the assigned points):
    - ours: k-NN (k = 12), PCA normals, MST orientation, VSA from every point with
-     split and merge (k = 8), once with the thesis' global eta = 25 and once with
-     a mean-deviation bound of 10 degrees (independent of N);
+     split and merge (k = 8), with the thesis' global eta = 25, with a
+     mean-deviation bound of 10 degrees (independent of N), and with an eta from
+     Eq. 4.9 for regions of N / 100 points (`eq49_eta`);
    - CGAL (``pip install cgal``): pca_estimate_normals (k = 12) + region_growing;
    - Open3D: estimate_normals (k = 12) + repeated segment_plane, and
      detect_planar_patches;
@@ -29,6 +30,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import shutil
 import subprocess
 import sys
@@ -43,7 +45,12 @@ from scene import cad_scene  # noqa: E402
 
 from pointatlas.neighbors import query_knn  # noqa: E402
 from pointatlas.normals import estimate_normals, orient_normals  # noqa: E402
-from pointatlas.segment import region_growing, surface_curvature, vsa_segment  # noqa: E402
+from pointatlas.segment import (  # noqa: E402
+    estimate_eta,
+    region_growing,
+    surface_curvature,
+    vsa_segment,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -75,6 +82,32 @@ def quality(points, labels):
     }
 
 
+def eq49_eta(normals, idx, n_target, k=8):
+    """Eta from Eq. 4.9 (`estimate_eta`) for regions of ``n_target`` points.
+
+    The scene is piecewise flat, so the paraboloid's curvature H stands for the
+    normal noise: H is chosen (bisection) so that the model's mean per-point
+    L21, estimate_eta(H, n_target) / n_target, equals the cloud's mean local
+    normal scatter 2 (1 - n_i . nbar_i), nbar_i the mean of the oriented normals
+    of the k nearest neighbours (measured on our own normals, no ground truth).
+    Returns (eta, H, scatter).
+    """
+    mean = np.zeros_like(normals)
+    for c in range(k):  # column by column: no (N, k, 3) temporary
+        mean += normals[idx[:, c]]
+    mean /= np.linalg.norm(mean, axis=1, keepdims=True)
+    scatter = float(np.mean(2.0 * (1.0 - np.einsum("ij,ij->i", normals, mean))))
+    lo, hi = 0.0, 4.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if estimate_eta(mid, n_target) / n_target < scatter:
+            lo = mid
+        else:
+            hi = mid
+    h = 0.5 * (lo + hi)
+    return estimate_eta(h, n_target), h, scatter
+
+
 def run_ours(points, threshold):
     stages = {}
     t = time.perf_counter()
@@ -86,14 +119,25 @@ def run_ours(points, threshold):
     t = time.perf_counter()
     nrm = orient_normals(points, nrm, k=12, neighbors=idx)
     stages["orient"] = time.perf_counter() - t
+    extra = {}
+    if "eq49_target" in threshold:
+        t = time.perf_counter()
+        eta, h, scatter = eq49_eta(nrm, idx, threshold["eq49_target"])
+        stages["eq49"] = time.perf_counter() - t
+        extra = {"eta": eta, "eq49_H": h, "normal_scatter": scatter, **threshold}
+        threshold = {"eta": eta}
     t = time.perf_counter()
     res = vsa_segment(points, nrm, neighbors=np.ascontiguousarray(idx[:, :8]), **threshold)
     stages["vsa"] = time.perf_counter() - t
-    for key in ("graph", "flood", "split", "merge", "switch", "update", "finalize"):
+    for key in ("graph", "flood", "split", "merge", "switch", "update", "final_merge", "finalize"):
         stages[f"vsa.{key}"] = res.timings.get(key, 0.0)
     out = {"stages": stages, "total": stages["knn"] + stages["normals"] + stages["orient"]}
-    out["total"] += stages["vsa"]
+    out["total"] += stages["vsa"] + stages.get("eq49", 0.0)
+    out.update(extra)
     out.update(quality(points, res.labels))
+    counts = np.sort(res.region_counts)[::-1]
+    out["region_size_quantiles"] = np.quantile(res.region_counts, [0.1, 0.5, 0.9]).tolist()
+    out["points_in_largest_100"] = float(counts[:100].sum() / points.shape[0])
     out.update(
         {
             "eq47_mse": res.mse,
@@ -296,6 +340,7 @@ def main(argv=None):
     args.out.mkdir(parents=True, exist_ok=True)
     points, exact, _ = cad_scene(args.n, rng=0)
     report = {"n_points": int(points.shape[0]), "scene": "benchmarks/scene.py cad_scene(n, rng=0)"}
+    report["loadavg_start"] = list(os.getloadavg())
     with tempfile.TemporaryDirectory() as tmpdir:
         tmp = Path(tmpdir)
         if "ours" not in skip:
@@ -303,6 +348,9 @@ def main(argv=None):
             print("ours eta=25", report["ours_eta25"], flush=True)
             report["ours_angle10"] = run_ours(points, {"max_angle": math.radians(10)})
             print("ours max_angle=10", report["ours_angle10"], flush=True)
+            target = max(points.shape[0] // 100, 1)
+            report["ours_eq49"] = run_ours(points, {"eq49_target": target})
+            print("ours Eq. 4.9 eta", report["ours_eq49"], flush=True)
         if "cgal" not in skip:
             report["cgal"] = run_cgal(points, tmp)
             print("cgal", report["cgal"], flush=True)
@@ -326,6 +374,7 @@ def main(argv=None):
             nrm = orient_normals(pool[sub], estimate_normals(pool[sub], 12, neighbors=idx))
             report["switch"] = compare_switch(pool[sub], nrm)
             print("switch", report["switch"], flush=True)
+    report["loadavg_end"] = list(os.getloadavg())
     (args.out / "bench_vsa.json").write_text(json.dumps(report, indent=1))
     print(f"wrote {args.out / 'bench_vsa.json'}")
 

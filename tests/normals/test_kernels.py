@@ -206,3 +206,32 @@ _JIT_OFF_SCRIPT = textwrap.dedent(
 
 def test_kernels_without_jit():
     assert run_without_jit(_JIT_OFF_SCRIPT).strip() == "ok"
+
+
+def test_kruskal_forest_keeps_scipys_edges():
+    """Kruskal in stable weight order keeps exactly scipy's minimum spanning
+    forest, also with tied weights (a regular grid, two components)."""
+    from scipy.sparse import csgraph
+
+    from pointatlas._core._sort import stable_argsort
+    from pointatlas.normals._kernels import kruskal_forest_kernel
+
+    g = np.arange(12.0)
+    grid = np.array([[x, y, 0.0] for x in g for y in g])
+    pts = np.vstack([grid, grid + [100.0, 0, 0]])
+    nrm = np.tile([0.0, 0.0, 1.0], (pts.shape[0], 1))
+    nrm[::7] = [0.0, 0.6, 0.8]
+    n = pts.shape[0]
+    idx, _ = query_knn(pts, 9)
+    indptr, cols, w = riemannian_graph_kernel(pts, nrm, idx, 9, 1e-9, 1.0)
+    assert np.unique(w).size < w.size  # ties present
+    order = stable_argsort(w)
+    np.testing.assert_array_equal(order, np.argsort(w, kind="stable"))
+    tree_ptr, tree_adj, labels, n_comp = kruskal_forest_kernel(indptr, cols, order)
+    ours = sparse.csr_array((np.ones(tree_adj.size), tree_adj, tree_ptr), shape=(n, n))
+    ref = csgraph.minimum_spanning_tree(sparse.csr_array((w, cols, indptr), shape=(n, n)))
+    ref = ((ref + ref.T) != 0).astype(np.float64)
+    assert (ours != ref).nnz == 0
+    assert n_comp == 2 and labels[0] == 0 and labels[-1] == 1
+    ref_comp = csgraph.connected_components(ref, directed=False)[1]
+    np.testing.assert_array_equal(labels, ref_comp)

@@ -173,6 +173,8 @@ _JIT_OFF_SCRIPT = textwrap.dedent(
     t.test_merge_angle_mode_respects_bound()
     t.test_components_and_pairs()
     t.test_region_growing_kernel_matches_reference(0)
+    assert t._bounded_switch_run(0, n=60, iters=4) >= 0
+    t.test_stable_argsort_matches_numpy()
     p, n, adj, s = figure_4_1(20)
     assert vsa_segment(p, n, seeds=s, classic=True, neighbors=adj).converged
     print("ok")
@@ -213,3 +215,80 @@ def test_touched_points_switch_is_exact(seed):
         dirty[labels[full[0]]] = True
         dirty[full[1]] = True
         K.apply_moves(indptr, indices, labels, wsum, ssum, counts, foreign, weights, wn, *full)
+
+
+def _bounded_switch_run(seed, n=300, m=6, iters=8):
+    """Drive `batch_switch_bounded` as `vsa_segment` does (memo, drift, a merge
+    renumbering half-way) and check every step against the full `batch_switch`."""
+    points, normals, table = _cloud(seed, n=n, k=8)
+    indptr, indices = K.symmetric_csr(table, n)
+    # a sensible start: regions by x-slab, proxies close to each other
+    labels = np.minimum((points[:, 0] * m).astype(np.int64), m - 1)
+    weights = np.random.default_rng(seed).uniform(0.0, 2.0, n)
+    weights[:5] = 0.0
+    wn = weights[:, None] * normals
+    wsum = np.bincount(labels, weights, minlength=m)
+    ssum = np.stack([np.bincount(labels, wn[:, d], minlength=m) for d in range(3)], 1)
+    counts = np.bincount(labels, minlength=m)
+    foreign = K.foreign_counts(indptr, indices, labels)
+    allpts = np.arange(n)
+    memo = np.full((n, 6), np.nan)
+    drift = np.zeros(m)
+    prev = None
+    skipped = 0
+    for it in range(iters):
+        if it == iters // 2:  # merge regions 0 and 1 (ids renumbered)
+            roots = np.arange(wsum.shape[0])
+            roots[1] = 0
+            remap, m2 = K.canonical_labels(roots)
+            labels = remap[labels]
+            wsum = np.bincount(remap, wsum, minlength=m2)
+            ssum = np.stack([np.bincount(remap, ssum[:, d], minlength=m2) for d in range(3)], 1)
+            counts = np.bincount(remap, counts, minlength=m2).astype(np.int64)
+            foreign = K.foreign_counts(indptr, indices, labels)
+            joined = np.bincount(remap, minlength=m2) > 1
+            memo[K.touched_points(indptr, indices, labels, foreign, joined), 0] = np.nan
+            K.renumber_memo(memo, remap)
+            drift = np.bincount(remap, drift, minlength=m2)
+            moved_prox = np.zeros((m2, 3))
+            moved_prox[remap[: prev.shape[0]]] = prev
+            prev = moved_prox
+        prox = ssum / np.maximum(np.linalg.norm(ssum, axis=1, keepdims=True), 1e-300)
+        if prev is not None:
+            drift += np.linalg.norm(prox - prev, axis=1)
+        prev = prox
+        full = K.batch_switch(
+            indptr, indices, normals, weights, labels, prox, foreign, 1e-12, allpts
+        )
+        known = ~np.isnan(memo[:, 0]) & (foreign > 0) & (weights > 0)
+        ids = np.where(known[:, None], memo[:, 2:5], -1).astype(np.int64)
+        total = drift[labels] + np.where(ids >= 0, drift[np.maximum(ids, 0)], 0).sum(1)
+        before = memo[:, 1].copy()
+        got = K.batch_switch_bounded(
+            indptr, indices, normals, weights, labels, prox, foreign, 1e-12, drift, memo
+        )
+        np.testing.assert_array_equal(full[0], got[0])
+        np.testing.assert_array_equal(full[1], got[1])
+        # a point whose regions drifted but whose snapshot was kept was skipped
+        skipped += int((known & (total > before) & (memo[:, 1] == before)).sum())
+        K.forget_around(indptr, indices, got[0], memo)
+        K.apply_moves(indptr, indices, labels, wsum, ssum, counts, foreign, weights, wn, *got)
+    return skipped
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_bounded_switch_is_exact(seed):
+    """Skipping points by the proxy-drift bound finds exactly the moves of a full
+    scan, across proxy updates and a merge renumbering, and does skip points."""
+    assert _bounded_switch_run(seed) > 0
+
+
+def test_stable_argsort_matches_numpy():
+    rng = np.random.default_rng(0)
+    for values in (
+        rng.random(5000) * 4,
+        np.round(rng.normal(size=3000), 2),  # many ties, negatives
+        np.array([0.0, -0.0, 1.0, -0.0, 0.0, -1.5, 2.0**-1074, np.inf, -np.inf]),
+        np.empty(0),
+    ):
+        np.testing.assert_array_equal(K.stable_argsort(values), np.argsort(values, kind="stable"))

@@ -24,7 +24,8 @@ NORMAL_DEGENERATE_RATIO = 1e-10
 
 #: normals room: added to the MST edge weights 1 - |n_i . n_j| (scaled by
 #: 1 + |p_i - p_j| / mean edge length) so parallel normals (weight exactly 0) are
-#: not dropped as "no edge" by scipy and ties prefer shorter edges; far below the
+#: not lost where a sparse graph reads weight 0 as "no edge" (scipy, and the
+#: reference tests) and ties prefer shorter edges; far below the
 #: angular term of any non-parallel pair (1 degree -> 1.5e-4).
 MST_WEIGHT_EPS = 1e-9
 
@@ -79,8 +80,9 @@ SIMPLIFY_PARALLEL_ANGLE = 0.08726646259971647
 VSA_MERGE_ROUNDS = 50
 
 #: VSA (segment): when more than this share of the regions changed since the last
-#: switch, the switch scans every boundary point instead of first collecting the
-#: boundary points next to a changed region (same moves, cheaper bookkeeping).
+#: merge round, the merge scans every boundary point for candidate pairs instead of
+#: first collecting the boundary points next to a changed region (same pairs, cheaper
+#: bookkeeping). The switch has its own exact skip rule (batch_switch_bounded).
 VSA_SWITCH_FULL_SCAN = 0.5
 
 #: Safety margin of the k-NN grid (pointatlas.neighbors), relative to the cell

@@ -384,3 +384,89 @@ def component_tops_kernel(z, labels, n_comp):
         if r < 0 or z[i] > z[r]:
             roots[c] = i
     return roots
+
+
+@njit(cache=True)
+def _uf_find(parent, i):
+    while parent[i] != i:  # path halving
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@njit(cache=True)
+def kruskal_forest_kernel(indptr, cols, order):
+    """Minimum spanning forest by Kruskal's algorithm with a union-find.
+
+    Parameters
+    ----------
+    indptr, cols : ndarray of int64
+        CSR graph, each undirected edge stored once (as `riemannian_graph_kernel`).
+    order : ndarray of shape (E,), int64
+        Edge positions (into ``cols``) by increasing weight; with a stable sort of
+        the weights this is the order scipy's ``minimum_spanning_tree`` uses, so
+        the same edges are kept (an edge is kept iff its ends are in different
+        trees when it comes up, whatever the union rule).
+
+    Returns
+    -------
+    tree_indptr, tree_adj : ndarray of int64
+        Symmetric CSR adjacency of the forest.
+    labels : ndarray of shape (N,), int64
+        Component (tree) of every node, numbered by smallest member index.
+    n_comp : int
+        Number of trees.
+    """
+    n = indptr.shape[0] - 1
+    m = cols.shape[0]
+    row = np.empty(m, dtype=np.int64)
+    for i in range(n):
+        for e in range(indptr[i], indptr[i + 1]):
+            row[e] = i
+    parent = np.arange(n)
+    size = np.ones(n, dtype=np.int64)
+    kept_a = np.empty(max(n - 1, 0), dtype=np.int64)
+    kept_b = np.empty(max(n - 1, 0), dtype=np.int64)
+    n_kept = 0
+    for s in range(m):
+        if n_kept == n - 1:
+            break
+        e = order[s]
+        a = row[e]
+        b = cols[e]
+        ra = _uf_find(parent, a)
+        rb = _uf_find(parent, b)
+        if ra == rb:
+            continue
+        if size[ra] < size[rb]:
+            ra, rb = rb, ra
+        parent[rb] = ra
+        size[ra] += size[rb]
+        kept_a[n_kept] = a
+        kept_b[n_kept] = b
+        n_kept += 1
+    deg = np.zeros(n + 1, dtype=np.int64)
+    for t in range(n_kept):
+        deg[kept_a[t] + 1] += 1
+        deg[kept_b[t] + 1] += 1
+    for i in range(n):
+        deg[i + 1] += deg[i]
+    fill = deg[:-1].copy()
+    adj = np.empty(2 * n_kept, dtype=np.int64)
+    for t in range(n_kept):
+        a = kept_a[t]
+        b = kept_b[t]
+        adj[fill[a]] = b
+        fill[a] += 1
+        adj[fill[b]] = a
+        fill[b] += 1
+    labels = np.empty(n, dtype=np.int64)
+    comp_of_root = np.full(n, -1, dtype=np.int64)
+    n_comp = 0
+    for i in range(n):
+        r = _uf_find(parent, i)
+        if comp_of_root[r] < 0:
+            comp_of_root[r] = n_comp
+            n_comp += 1
+        labels[i] = comp_of_root[r]
+    return deg, adj, labels, n_comp

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy import sparse
-from scipy.sparse import csgraph
 
 from .._core import as_normals, as_points
+from .._core._sort import stable_argsort
 from .._core.tolerances import MST_WEIGHT_EPS, OUTWARD_VOTE_RTOL
 from ._estimate import _check_k, _neighbor_indices
 from ._kernels import (
     component_tops_kernel,
+    kruskal_forest_kernel,
     propagate_signs_kernel,
     riemannian_graph_kernel,
 )
@@ -35,17 +35,21 @@ def _check_viewpoint(viewpoint) -> np.ndarray:
 
 
 def _spanning_forest(points, normals, idx, edge_penalty):
-    """Minimum spanning forest of the k-NN Riemannian graph; symmetric CSR + labels."""
-    n, k = idx.shape
+    """Minimum spanning forest of the k-NN Riemannian graph.
+
+    Kruskal over the edges in stable order of weight (each undirected edge
+    stored once), as scipy's ``minimum_spanning_tree`` does, so it keeps the
+    same edges; about twice as fast (radix sort, no sparse-matrix round trips).
+    Returns the forest's symmetric CSR (indptr, adjacency), the number of trees
+    and the tree of every point.
+    """
+    k = idx.shape[1]
     indptr, cols, weights = riemannian_graph_kernel(
         points, normals, idx, k, MST_WEIGHT_EPS, edge_penalty
     )
-    # each undirected edge stored once (scipy reads the matrix as undirected)
-    graph = sparse.csr_array((weights, cols, indptr), shape=(n, n))
-    tree = csgraph.minimum_spanning_tree(graph, overwrite=True)
-    n_comp, labels = csgraph.connected_components(tree, directed=False)
-    sym = (tree + tree.T).tocsr()
-    return sym, int(n_comp), labels
+    order = stable_argsort(weights)
+    tree_ptr, tree_adj, labels, n_comp = kruskal_forest_kernel(indptr, cols, order)
+    return (tree_ptr, tree_adj), int(n_comp), labels
 
 
 def _top_roots(points, normals, labels, n_comp):
@@ -155,10 +159,11 @@ def orient_normals(
     direction. The penalty keeps the tree off edges that jump between two close
     sheets (thin ears, fins), whose normals are parallel but whose edge runs
     along them; the 1e-9 term keeps parallel normals' edges (scipy drops zero
-    weights) and prefers short edges among ties. scipy's minimum spanning
-    forest is traversed breadth-first from each root and n_j is flipped when
-    n_parent . n_j < 0. Each connected component of the k-NN graph is oriented
-    on its own. Decisions and measurements: docs/decisions.md.
+    weights) and prefers short edges among ties. The minimum spanning forest
+    (Kruskal, edges in stable weight order: the edges scipy's
+    ``minimum_spanning_tree`` keeps) is traversed breadth-first from each root
+    and n_j is flipped when n_parent . n_j < 0. Each connected component of the
+    k-NN graph is oriented on its own. Decisions and measurements: docs/decisions.md.
 
     Examples
     --------
@@ -185,11 +190,9 @@ def orient_normals(
         return nrm
     k = _check_k(k, minimum=2)
     idx = _neighbor_indices(pts, k, neighbors)
-    sym, n_comp, labels = _spanning_forest(pts, nrm, idx, edge_penalty)
+    (tree_ptr, tree_adj), n_comp, labels = _spanning_forest(pts, nrm, idx, edge_penalty)
     roots, root_signs = _top_roots(pts, nrm, labels, n_comp)
-    signs, _ = propagate_signs_kernel(
-        sym.indptr.astype(np.int64), sym.indices.astype(np.int64), nrm, roots, root_signs
-    )
+    signs, _ = propagate_signs_kernel(tree_ptr, tree_adj, nrm, roots, root_signs)
     nrm *= signs[:, None]
     if method == "outward":
         flip = _outward_flip(pts, nrm, labels, n_comp, idx)

@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from .._core._sort import stable_argsort
+
 # --------------------------------------------------------------------------- graph
 
 
@@ -157,7 +159,7 @@ def region_pairs(indptr, indices, labels, subset):
 
 
 @njit(cache=True, parallel=True)
-def merge_candidate_pairs(indptr, indices, labels, foreign, dirty, cost, limit):
+def merge_candidate_pairs(indptr, indices, labels, foreign, dirty, cost, limit, points):
     """Neighbouring region pairs (a < b, sorted) that a merge pass must look at.
 
     L21 is superadditive (the optimum over a union is at least the sum of the
@@ -166,13 +168,17 @@ def merge_candidate_pairs(indptr, indices, labels, foreign, dirty, cost, limit):
     and the pairs are found from the boundary points of such regions. Pairs of
     which neither region is ``dirty`` (W, S unchanged since the last pass) are
     left out: that pass rejected them, and with unchanged sums it would again.
+    Only the points in ``points`` (increasing; e.g. `touched_points` of the
+    dirty regions, which holds every boundary point with a dirty region on
+    either side of an edge) are scanned.
     """
     limit = limit + 1e-9 * (1.0 + abs(limit))  # round-off slack: never drop a candidate
     half = 0.5 * limit
-    n = labels.shape[0]
+    n = points.shape[0]
     m = cost.shape[0]
     per_point = np.zeros(n + 1, dtype=np.int64)
-    for i in prange(n):
+    for s in prange(n):
+        i = points[s]
         if foreign[i] == 0:
             continue
         li = labels[i]
@@ -183,16 +189,17 @@ def merge_candidate_pairs(indptr, indices, labels, foreign, dirty, cost, limit):
             lj = labels[indices[t]]
             if lj != li and (dirty[li] or dirty[lj]) and cost[li] + cost[lj] < limit:
                 c += 1
-        per_point[i + 1] = c
+        per_point[s + 1] = c
     start = np.cumsum(per_point)
     if start[n] == 0:
         return np.empty((0, 2), dtype=np.int64)
     key = np.empty(start[n], dtype=np.int64)
-    for i in prange(n):
-        if per_point[i + 1] == 0:
+    for s in prange(n):
+        if per_point[s + 1] == 0:
             continue
+        i = points[s]
         li = labels[i]
-        c = start[i]
+        c = start[s]
         for t in range(indptr[i], indptr[i + 1]):
             lj = labels[indices[t]]
             if lj != li and (dirty[li] or dirty[lj]) and cost[li] + cost[lj] < limit:
@@ -373,6 +380,19 @@ def foreign_counts(indptr, indices, labels):
 
 
 @njit(cache=True, parallel=True)
+def recount_foreign(indptr, indices, labels, foreign, points):
+    """`foreign_counts` recomputed in place for ``points`` only."""
+    for s in prange(points.shape[0]):
+        i = points[s]
+        li = labels[i]
+        c = 0
+        for t in range(indptr[i], indptr[i + 1]):
+            if labels[indices[t]] != li:
+                c += 1
+        foreign[i] = c
+
+
+@njit(cache=True, parallel=True)
 def touched_points(indptr, indices, labels, foreign, dirty):
     """Boundary points next to a region flagged in ``dirty`` (increasing).
 
@@ -396,6 +416,24 @@ def touched_points(indptr, indices, labels, foreign, dirty):
             if labels[j] != li:
                 mark[j] = 1
     return np.flatnonzero(mark)
+
+
+@njit(cache=True)
+def _compact_moves(target):
+    """Positions with target >= 0 (increasing) and their targets."""
+    count = 0
+    for s in range(target.shape[0]):
+        if target[s] >= 0:
+            count += 1
+    pos = np.empty(count, dtype=np.int64)
+    new = np.empty(count, dtype=np.int64)
+    c = 0
+    for s in range(target.shape[0]):
+        if target[s] >= 0:
+            pos[c] = s
+            new[c] = target[s]
+            c += 1
+    return pos, new
 
 
 @njit(cache=True, parallel=True)
@@ -440,19 +478,135 @@ def batch_switch(
                 best_label = h
         if best_label != li and 2.0 * weights[i] * (best - cur) > min_gain:
             target[s] = best_label
-    count = 0
-    for s in range(nc):
-        if target[s] >= 0:
-            count += 1
-    moved = np.empty(count, dtype=np.int64)
-    new = np.empty(count, dtype=np.int64)
-    c = 0
-    for s in range(nc):
-        if target[s] >= 0:
-            moved[c] = candidates[s]
-            new[c] = target[s]
-            c += 1
-    return moved, new
+    pos, new = _compact_moves(target)
+    return candidates[pos], new
+
+
+@njit(cache=True, parallel=True)
+def batch_switch_bounded(
+    indptr, indices, normals, weights, labels, proxy_normals, foreign, min_gain, drift, memo
+):
+    """`batch_switch` over every boundary point, skipping points proven to stay.
+
+    Gives exactly the moves of `batch_switch` over all boundary points. A point
+    that was examined and stayed keeps, in ``memo``, the margin by which it
+    stayed: with cur = n_i . N_own and best = max over neighbouring regions of
+    n_i . N_h, margin = cur - best. ``drift`` (m,) holds, per region, the summed
+    proxy movement sum_t |N_l(t) - N_l(t - 1)| since a reference time; as
+    |n . (N(t) - N(t0))| <= that sum's increase, cur can drop and every
+    n_i . N_h grow by at most the drift of their regions, so while no label in
+    the point's neighbourhood changed and
+
+        margin(t0) - (drift growth of its own region + of its foreign regions) > tol
+
+    the point still stays (it would need best - cur > min_gain / (2 w) >= 0 to
+    move) and is skipped. Tighter, as proxies are unit vectors: with
+    r = n - N(t0), n . (N(t) - N(t0)) = -|N(t) - N(t0)|^2 / 2 + r . (N(t) - N(t0)),
+    so a region whose drift grew by D moves the point's dot product by at most
+    rho D + D^2 / 2, rho = max |n - N(t0)| over its own and foreign regions; the
+    test is margin - (rho G + G^2 / 2) > tol with G the summed drift growth.
+    ``memo`` (N, 6) float64 stores per point: the margin (NaN: must be examined,
+    e.g. a neighbour's label changed), the drift sum at t0, the ids of up to 3
+    foreign regions (as floats; -1 none; a point next to more regions is always
+    examined) and rho. The caller sets column 0 to NaN for moved points and
+    their neighbours and for all points after region ids change (merge).
+    Returns moved points (increasing) and new labels.
+    """
+    n = labels.shape[0]
+    target = np.full(n, -1, dtype=np.int64)
+    for i in prange(n):
+        if foreign[i] == 0 or weights[i] <= 0.0:
+            continue
+        li = labels[i]
+        margin = memo[i, 0]
+        if margin == margin:  # not NaN: try the bound
+            total = drift[li]
+            for c in range(2, 5):
+                h = np.int64(memo[i, c])
+                if h >= 0:
+                    total += drift[h]
+            grow = total - memo[i, 1]
+            if margin - (memo[i, 5] * grow + 0.5 * grow * grow) > 1e-12 * (1.0 + total):
+                continue
+        cur = (
+            normals[i, 0] * proxy_normals[li, 0]
+            + normals[i, 1] * proxy_normals[li, 1]
+            + normals[i, 2] * proxy_normals[li, 2]
+        )
+        best = cur
+        best_label = li
+        f0 = -1
+        f1 = -1
+        f2 = -1
+        many = False
+        top = -np.inf
+        low = cur
+        for t in range(indptr[i], indptr[i + 1]):
+            h = labels[indices[t]]
+            if h == li:
+                continue
+            if h != f0 and h != f1 and h != f2:
+                if f0 < 0:
+                    f0 = h
+                elif f1 < 0:
+                    f1 = h
+                elif f2 < 0:
+                    f2 = h
+                else:
+                    many = True
+            d = (
+                normals[i, 0] * proxy_normals[h, 0]
+                + normals[i, 1] * proxy_normals[h, 1]
+                + normals[i, 2] * proxy_normals[h, 2]
+            )
+            if d > top:
+                top = d
+            if d < low:
+                low = d
+            if d > best or (d == best and best_label != li and h < best_label):
+                best = d
+                best_label = h
+        if best_label != li and 2.0 * weights[i] * (best - cur) > min_gain:
+            target[i] = best_label
+            memo[i, 0] = np.nan
+        elif many:
+            memo[i, 0] = np.nan
+        else:
+            total = drift[li]
+            if f0 >= 0:
+                total += drift[f0]
+            if f1 >= 0:
+                total += drift[f1]
+            if f2 >= 0:
+                total += drift[f2]
+            memo[i, 0] = cur - top
+            memo[i, 1] = total
+            memo[i, 2] = f0
+            memo[i, 3] = f1
+            memo[i, 4] = f2
+            memo[i, 5] = np.sqrt(max(2.0 - 2.0 * low, 0.0)) + 1e-12
+    return _compact_moves(target)
+
+
+@njit(cache=True)
+def renumber_memo(memo, remap):
+    """Renumber the foreign-region ids of the examined points after a merge."""
+    for i in range(memo.shape[0]):
+        if memo[i, 0] == memo[i, 0]:
+            for c in range(2, 5):
+                h = np.int64(memo[i, c])
+                if h >= 0:
+                    memo[i, c] = remap[h]
+
+
+@njit(cache=True)
+def forget_around(indptr, indices, points, memo):
+    """Mark ``points`` and their graph neighbours for re-examination (memo NaN)."""
+    for s in range(points.shape[0]):
+        p = points[s]
+        memo[p, 0] = np.nan
+        for t in range(indptr[p], indptr[p + 1]):
+            memo[indices[t], 0] = np.nan
 
 
 @njit(cache=True)
@@ -546,11 +700,13 @@ def best_points(labels, m, normals, proxy_normals):
 
 
 @njit(cache=True)
-def _union_cost(wsum, ssum, a, b):
-    sx = ssum[a, 0] + ssum[b, 0]
-    sy = ssum[a, 1] + ssum[b, 1]
-    sz = ssum[a, 2] + ssum[b, 2]
-    w = wsum[a] + wsum[b]
+def _union_cost(ws, a, b):
+    """L21 (cost), W and |S| of the union of regions a, b; rows of ``ws`` are
+    (W, Sx, Sy, Sz), so a region's sums share one cache line."""
+    sx = ws[a, 1] + ws[b, 1]
+    sy = ws[a, 2] + ws[b, 2]
+    sz = ws[a, 3] + ws[b, 3]
+    w = ws[a, 0] + ws[b, 0]
     s = np.sqrt(sx * sx + sy * sy + sz * sz)
     cost = 2.0 * (w - s)
     if cost < 0.0:
@@ -624,8 +780,9 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
     merges.
     """
     m = wsum.shape[0]
-    wsum = wsum.copy()
-    ssum = ssum.copy()
+    ws = np.empty((m, 4))
+    ws[:, 0] = wsum
+    ws[:, 1:] = ssum
     parent = np.arange(m)
     n_init = 0
     k0 = np.empty(pairs.shape[0], dtype=np.float64)
@@ -633,7 +790,7 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
     for e in range(pairs.shape[0]):
         a = pairs[e, 0]
         b = pairs[e, 1]
-        cost, w, s = _union_cost(wsum, ssum, a, b)
+        cost, w, s = _union_cost(ws, a, b)
         ok = (s >= min_cos * w) if use_angle else (cost < eta)
         if ok:
             k0[n_init] = cost
@@ -650,7 +807,7 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
         by_pair = np.argsort(p0, kind="mergesort")
         k0 = k0[by_pair]
         p0 = p0[by_pair]
-    order = np.argsort(k0, kind="mergesort")  # stable: ties stay sorted by pair
+    order = stable_argsort(k0)  # stable: ties stay sorted by pair
     ks = k0[order]
     ps = p0[order]
     head = 0
@@ -689,7 +846,7 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
         rb = _find(parent, pair % m)
         if ra == rb:
             continue
-        cost, w, s = _union_cost(wsum, ssum, ra, rb)
+        cost, w, s = _union_cost(ws, ra, rb)
         ok = (s >= min_cos * w) if use_angle else (cost < eta)
         if not ok:
             continue
@@ -725,10 +882,10 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
                 continue
         parent[hi] = lo
         version[lo] += 1
-        wsum[lo] = w
-        ssum[lo, 0] += ssum[hi, 0]
-        ssum[lo, 1] += ssum[hi, 1]
-        ssum[lo, 2] += ssum[hi, 2]
+        ws[lo, 0] = w
+        ws[lo, 1] += ws[hi, 1]
+        ws[lo, 2] += ws[hi, 2]
+        ws[lo, 3] += ws[hi, 3]
         n_merges += 1
     roots = np.empty(m, dtype=np.int64)
     for i in range(m):

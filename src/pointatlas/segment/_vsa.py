@@ -22,7 +22,7 @@ from .._core.tolerances import (
 from ._graph import _check_int, neighbor_graph
 from ._kernels import (
     apply_moves,
-    batch_switch,
+    batch_switch_bounded,
     best_points,
     best_single_move,
     boundary_points,
@@ -31,9 +31,12 @@ from ._kernels import (
     edge_pairs,
     flood,
     foreign_counts,
+    forget_around,
     greedy_merge,
     merge_candidate_pairs,
+    recount_foreign,
     region_pairs,
+    renumber_memo,
     touched_points,
 )
 
@@ -72,7 +75,8 @@ class VSAResult:
     energy_history : ndarray of shape (n_steps,), float64
         Energy after every step; ``step_names`` says which step. After "flood"
         and "switch" it is taken with the proxy normals that drove the step,
-        after "update", "split", "merge" and "relabel" with optimal normals.
+        after "update", "split", "merge", "relabel" and "final_merge" with
+        optimal normals.
     step_names : tuple of str
         Name of every recorded step.
     n_iter : int
@@ -504,10 +508,12 @@ def vsa_segment(
     seeded component is reached. Merges may raise the energy, so they run only
     while a round of split + merge reduces the number of regions (at most
     ``VSA_MERGE_ROUNDS`` rounds); from then on split, switch and update never
-    raise it and the loop ends with "converged". The batch switch re-examines
-    only boundary points next to a region that changed. Disconnected regions are
-    split into their connected pieces at the end (end of 4.3.2). Decisions in
-    docs/decisions.md.
+    raise it and the loop ends with "converged". The batch switch skips boundary
+    points whose last margin provably still holds (proxy drift bound) and is
+    otherwise exact. Disconnected regions are split into their connected pieces
+    at the end (end of 4.3.2); with ``merge`` and ``eta`` a last merge pass
+    ("final_merge") then joins every pair of neighbouring regions whose union
+    has L21 < eta, so none is left. Decisions in docs/decisions.md.
 
     Examples
     --------
@@ -601,10 +607,13 @@ def vsa_segment(
     else:
         foreign = foreign_counts(indptr, indices, labels)
         singletons = all_seeds
-        # regions whose W, S changed since the switch (resp. merge) step last
-        # looked at them; only boundary points next to them are re-examined
-        dirty_switch = np.ones(m, dtype=np.bool_)
+        # regions whose W, S changed since the merge step last looked at them
         dirty_merge = np.ones(m, dtype=np.bool_)
+        # batch switch bookkeeping (see batch_switch_bounded): per point the
+        # margin by which it last stayed, per region the summed proxy movement
+        memo = np.full((n, 6), np.nan)
+        drift = np.zeros(m)
+        prev_prox = None
         merging = merge
         merge_rounds = 0
         for it in range(max_iter):
@@ -622,10 +631,10 @@ def vsa_segment(
                         ssum = np.concatenate([ssum, np.zeros((n_split, 3))])
                         counts = np.concatenate([counts, np.zeros(n_split, dtype=np.int64)])
                         grow = np.ones(n_split, dtype=np.bool_)
-                        dirty_switch = np.concatenate([dirty_switch, grow])
                         dirty_merge = np.concatenate([dirty_merge, grow])
-                        dirty_switch[labels[moved]] = True
                         dirty_merge[labels[moved]] = True
+                        drift = np.concatenate([drift, np.zeros(n_split)])
+                        forget_around(indptr, indices, moved, memo)
                         apply_moves(
                             indptr, indices, labels, wsum, ssum, counts, foreign, w, wn, moved, new
                         )
@@ -639,8 +648,14 @@ def vsa_segment(
                     pass
                 elif eta is not None:
                     cost = 2.0 * (wsum - np.linalg.norm(ssum, axis=1))
+                    if np.count_nonzero(dirty_merge) > VSA_SWITCH_FULL_SCAN * m:
+                        # most regions changed: scanning every boundary point
+                        # is cheaper than filtering them
+                        near = np.flatnonzero(foreign)
+                    else:
+                        near = touched_points(indptr, indices, labels, foreign, dirty_merge)
                     pairs = merge_candidate_pairs(
-                        indptr, indices, labels, foreign, dirty_merge, cost, eta
+                        indptr, indices, labels, foreign, dirty_merge, cost, eta, near
                     )
                 else:
                     subset = np.flatnonzero(foreign)
@@ -651,11 +666,21 @@ def vsa_segment(
                 if n_merge:
                     changed = True
                     m = wsum.shape[0]
+                    # only boundary points next to a union change their count of
+                    # foreign neighbours; they (and only they) are examined
+                    # again by the switch, the others keep their memo with the
+                    # regions renumbered
                     joined = np.bincount(remap, minlength=m) > 1
-                    dirty_switch = joined | (
-                        np.bincount(remap, dirty_switch.astype(np.float64), minlength=m) > 0
-                    )
-                    foreign = foreign_counts(indptr, indices, labels)
+                    near = touched_points(indptr, indices, labels, foreign, joined)
+                    recount_foreign(indptr, indices, labels, foreign, near)
+                    memo[near, 0] = np.nan
+                    renumber_memo(memo, remap)
+                    drift = np.bincount(remap, weights=drift, minlength=m)
+                    if prev_prox is not None:
+                        mp = prev_prox.shape[0]
+                        moved_prox = np.zeros((m, 3))
+                        moved_prox[remap[:mp]] = prev_prox
+                        prev_prox = moved_prox
                     record("merge", _energy_opt(wsum, ssum))
                 # after a pass every neighbouring pair was (re)evaluated
                 dirty_merge = np.zeros(m, dtype=np.bool_)
@@ -664,14 +689,21 @@ def vsa_segment(
                 t0 = time.perf_counter()
                 prox = _proxies(labels, wsum, ssum, counts, nrm)
                 if switch == "batch":
-                    if np.count_nonzero(dirty_switch) > VSA_SWITCH_FULL_SCAN * m:
-                        # nearly every region changed: the filter would cost as
-                        # much as the switch itself, so scan every boundary point
-                        cand = np.flatnonzero(foreign)
-                    else:
-                        cand = touched_points(indptr, indices, labels, foreign, dirty_switch)
-                    moved, new = batch_switch(
-                        indptr, indices, nrm, w, labels, prox, foreign, VSA_SWITCH_MIN_GAIN, cand
+                    if prev_prox is not None:
+                        mp = prev_prox.shape[0]
+                        drift[:mp] += np.linalg.norm(prox[:mp] - prev_prox, axis=1)
+                    prev_prox = prox
+                    moved, new = batch_switch_bounded(
+                        indptr,
+                        indices,
+                        nrm,
+                        w,
+                        labels,
+                        prox,
+                        foreign,
+                        VSA_SWITCH_MIN_GAIN,
+                        drift,
+                        memo,
                     )
                 else:
                     point, target, gain = best_single_move(
@@ -681,14 +713,13 @@ def vsa_segment(
                     if point >= 0 and gain > VSA_SWITCH_MIN_GAIN:
                         moved = np.array([point], dtype=np.int64)
                         new = np.array([target], dtype=np.int64)
-                dirty_switch[:] = False
                 t_loop["switch"] += time.perf_counter() - t0
                 if moved.size:
                     changed = True
                     t0 = time.perf_counter()
-                    for flags in (dirty_switch, dirty_merge):
-                        flags[labels[moved]] = True
-                        flags[new] = True
+                    dirty_merge[labels[moved]] = True
+                    dirty_merge[new] = True
+                    forget_around(indptr, indices, moved, memo)
                     apply_moves(
                         indptr, indices, labels, wsum, ssum, counts, foreign, w, wn, moved, new
                     )
@@ -723,6 +754,24 @@ def vsa_segment(
     if m_final != n_before:
         record("relabel", _energy_opt(wsum, ssum))
     labels, m = pieces, m_final
+    t1 = time.perf_counter()
+    if merge and not classic and eta is not None:
+        # the switch moved points after the last merge round, and pieces cut off
+        # by the relabelling are regions of their own: merge (cheapest first)
+        # every neighbouring pair whose union has L21 < eta, so no such pair
+        # remains; unions of adjacent connected regions stay connected. Not in
+        # max_angle mode: the mean-deviation test lets a large region absorb a
+        # small perpendicular one, which no later split would undo.
+        subset = boundary_points(indptr, indices, labels)
+        pairs = region_pairs(indptr, indices, labels, subset)
+        labels, wsum, ssum, counts, n_final, _ = _merge(
+            indptr, indices, labels, wsum, ssum, counts, subset, eta, min_cos, pairs
+        )
+        if n_final:
+            labels, m = canonical_labels(labels)
+            wsum, ssum, counts = _sums(labels, m, w, wn)
+            record("final_merge", _energy_opt(wsum, ssum))
+    timings["final_merge"] = time.perf_counter() - t1
     prox = _proxies(labels, wsum, ssum, counts, nrm)
     diff = nrm - prox[labels]
     region_l21 = np.bincount(labels, weights=w * np.einsum("ij,ij->i", diff, diff), minlength=m)
