@@ -224,6 +224,34 @@ def test_validation_messages():
         covariance_features(pts, 5.5)
     with pytest.raises(ValueError, match="neighbors must have at least 9"):
         covariance_features(pts, 9, neighbors=query_knn(pts, 5)[0])
+    # the fixed-k path checks the index range inside the kernel (no separate pass)
+    bad = query_knn(pts, 5)[0]
+    bad[7, 3] = 20
+    with pytest.raises(PointAtlasError, match=r"must index points 0\.\.19; got range 0\.\.20"):
+        covariance_features(pts, 5, neighbors=bad)
+    bad[7, 3] = -1
+    with pytest.raises(PointAtlasError, match=r"got range -1\.\.19"):
+        covariance_features(pts, 4, neighbors=bad)
+    bad[7, 3] = 3
+    bad[2, 4] = 99  # outside the first k columns: not used, so not an error
+    assert (covariance_features(pts, 4, neighbors=bad).reason == 0).all()
+
+
+def test_spatial_order_is_the_stable_morton_bucket_sort():
+    from pointatlas.features._features import _spatial_order
+
+    rng = np.random.default_rng(3)
+    pts = rng.random((5000, 3)) * [3.0, 1.0, 0.2] - 7.0
+    pts[[5, 77]] = np.nan
+    order = _spatial_order(pts)
+    bits = int(np.clip(np.ceil(np.log2(5000 / 16) / 3), 1, 7))
+    ok = np.isfinite(pts).all(axis=1)
+    lo, hi = pts[ok].min(axis=0), pts[ok].max(axis=0)
+    q = np.clip(((pts[ok] - lo) * ((1 << bits) / (hi - lo))).astype(np.int64), 0, (1 << bits) - 1)
+    key = np.full(5000, 1 << (3 * bits), dtype=np.int64)
+    key[ok] = sum(((q[:, d] >> b) & 1) << (3 * b + d) for b in range(bits) for d in range(3))
+    np.testing.assert_array_equal(order, np.argsort(key, kind="stable"))
+    assert set(order[-2:].tolist()) == {5, 77}
 
 
 def test_neighbors_given_equals_computed():

@@ -69,3 +69,17 @@ def test_indices_validated():
         normal_angles(np.eye(3), [[0, 1]])
     with pytest.raises(ValueError, match="must index points"):
         normal_angles(np.eye(3), [[0, 5]] * 3)
+
+
+def test_polynomial_ramp_matches_cosine_to_round_off():
+    from pointatlas.features._kernels import _sigmoid_ramp, cosine_sigmoid_scalar
+
+    u = np.linspace(0.0, 1.0, 100001)
+    got = np.array([_sigmoid_ramp(v) for v in u])
+    np.testing.assert_allclose(got, 0.5 * np.cos(np.pi * u) + 0.5, rtol=0, atol=4e-16)
+    assert (got >= 0).all() and _sigmoid_ramp(0.0) == pytest.approx(1.0, abs=1e-16)
+    # the scalar sigmoid: exact 1 at and below a, exact 0 at and beyond b, a = b sharp
+    assert cosine_sigmoid_scalar(0.3, 0.3, 1.0) == 1.0
+    assert cosine_sigmoid_scalar(1.0, 0.3, 1.0) == 0.0
+    assert cosine_sigmoid_scalar(0.5, 0.5, 0.5) == 1.0
+    assert cosine_sigmoid_scalar(0.6, 0.5, 0.5) == 0.0

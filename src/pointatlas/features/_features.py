@@ -11,6 +11,8 @@ from .._core import PointAtlasError, readonly
 from ..neighbors import query_knn
 from ._kernels import (
     N_FEATURES,
+    N_OUT,
+    REASON_BAD_INDEX,
     REASON_FEW_DISTINCT,
     REASON_NONFINITE,
     REASON_OK,
@@ -172,16 +174,19 @@ def _check_flatness(flatness) -> tuple[int, int]:
     return m1, m2
 
 
-def _neighbourhoods(points: np.ndarray, kmax: int, neighbors) -> np.ndarray:
+def _neighbourhoods(
+    points: np.ndarray, kmax: int, neighbors, *, check_range: bool = True
+) -> np.ndarray:
     """(N, kmax) neighbour table, self first, sorted by distance.
 
     Computed with `query_knn` among the finite points when ``neighbors`` is None
     (non-finite points get a row of themselves and are flagged by the kernels);
-    otherwise the first ``kmax`` columns of the given table.
+    otherwise the first ``kmax`` columns of the given table (index range checked
+    here unless ``check_range`` is False: `_choice_features` checks it then).
     """
     n = points.shape[0]
     if neighbors is not None:
-        idx = _check_indices(neighbors, n)
+        idx = _check_indices(neighbors, n, check_range=check_range)
         if idx.shape[1] < kmax:
             raise ValueError(f"neighbors must have at least {kmax} columns; got {idx.shape[1]}")
         return np.ascontiguousarray(idx[:, :kmax])
@@ -208,29 +213,35 @@ def _spatial_order(points: np.ndarray) -> np.ndarray:
     return spatial_order_kernel(points, bits)
 
 
-def _choice_features(points, idx, k_of, angles, a_of, b_of, flatness) -> FeatureResult:
+def _choice_features(points, idx, k_of, angles, a_of, b_of, flatness, order=None) -> FeatureResult:
+    """Features at one (a, b, k) per point; ``k_of``, ``a_of``, ``b_of`` of length N or 1.
+
+    ``order``: the visiting order when the caller has it (`_spatial_order`).
+    """
     n = points.shape[0]
-    eig = np.empty((n, 3))
-    vec1 = np.empty((n, 3))
-    vec3 = np.empty((n, 3))
-    feats = np.empty((n, N_FEATURES))
+    out = np.empty((n, N_OUT))
     reason = np.empty(n, dtype=np.uint8)
     use_normals = angles is not None
     ang = angles if use_normals else np.empty((0, 0))
     m1, m2 = flatness
-    order = _spatial_order(points)
-    fused_kernel(
-        points, idx, order, k_of, ang, use_normals, a_of, b_of, m1, m2, eig, vec1, vec3, feats,
-        reason,
-    )  # fmt: skip
+    if order is None:
+        order = _spatial_order(points)
+    fused_kernel(points, idx, order, k_of, ang, use_normals, a_of, b_of, m1, m2, out, reason)
+    if (reason == REASON_BAD_INDEX).any():
+        _check_indices(idx, n)  # raises with the index range
+    # one packed (N, 20) array; the result's arrays are views of its columns
+    eig = out[:, 0:3]
+    vec1 = out[:, 3:6]
+    vec3 = out[:, 6:9]
+    feats = out[:, 9:]
     cols = {name: feats[:, c] for c, name in enumerate(FEATURE_NAMES)}
     return FeatureResult(
         eigenvalues=eig,
         eigenvector_1=vec1,
         eigenvector_3=vec3,
-        k=np.asarray(k_of, dtype=np.int64),
-        a=np.asarray(a_of, dtype=np.float64),
-        b=np.asarray(b_of, dtype=np.float64),
+        k=np.broadcast_to(np.asarray(k_of, dtype=np.int64), (n,)).copy(),
+        a=np.broadcast_to(np.asarray(a_of, dtype=np.float64), (n,)).copy(),
+        b=np.broadcast_to(np.asarray(b_of, dtype=np.float64), (n,)).copy(),
         reason=reason,
         flatness_exponents=(m1, m2),
         **cols,
@@ -435,12 +446,12 @@ def covariance_features(
     a, b = _check_ab(a, b)
     flat = _check_flatness(flatness)
     n = pts.shape[0]
-    idx = _neighbourhoods(pts, k, neighbors)
+    idx = _neighbourhoods(pts, k, neighbors, check_range=False)
     weighted = not (a == math.pi and b == math.pi)
     angles = None
     if weighted:
         if normals is None:
             raise ValueError("normals are required for sigmoid weights (a < pi or b < pi)")
         angles = normal_angles(_unit_normals_or_nan(normals, n), idx)
-    k_of = np.full(n, k, dtype=np.int64)
-    return _choice_features(pts, idx, k_of, angles, np.full(n, a), np.full(n, b), flat)
+    k_of = np.array([k], dtype=np.int64)
+    return _choice_features(pts, idx, k_of, angles, np.array([a]), np.array([b]), flat)

@@ -163,7 +163,7 @@ def optimal_neighbourhood(
     best_val, best_k, best_pair, reason = _run_search(
         pts, idx, kmin, kmax, angles, pairs, criterion=0, order=order
     )
-    return _finish(pts, idx, angles, pairs, best_k, best_pair, reason, flat)
+    return _finish(pts, idx, angles, pairs, best_k, best_pair, reason, flat, order)
 
 
 def optimal_k_features(
@@ -223,10 +223,11 @@ def optimal_k_features(
     flat = _check_flatness(flatness)
     idx = _neighbourhoods(pts, kmax, neighbors)
     pairs = np.array([[math.pi, math.pi]])
+    order = _spatial_order(pts)
     best_val, best_k, best_pair, reason = _run_search(
-        pts, idx, kmin, kmax, None, pairs, criterion=_CRITERIA[criterion]
+        pts, idx, kmin, kmax, None, pairs, criterion=_CRITERIA[criterion], order=order
     )
-    return _finish(pts, idx, None, pairs, best_k, best_pair, reason, flat)
+    return _finish(pts, idx, None, pairs, best_k, best_pair, reason, flat, order)
 
 
 def _run_search(pts, idx, kmin, kmax, angles, pairs, *, criterion, order=None):
@@ -256,14 +257,14 @@ def _run_search(pts, idx, kmin, kmax, angles, pairs, *, criterion, order=None):
     return best_val, best_k, best_pair, reason
 
 
-def _finish(pts, idx, angles, pairs, best_k, best_pair, reason, flat) -> FeatureResult:
+def _finish(pts, idx, angles, pairs, best_k, best_pair, reason, flat, order=None) -> FeatureResult:
     ok = reason == REASON_OK
     kk = idx.shape[1]
     k_of = np.where(ok, best_k, kk).astype(np.int64)
     pair = np.where(ok, best_pair, 0)
     a_of = np.where(ok, pairs[pair, 0], math.pi)
     b_of = np.where(ok, pairs[pair, 1], math.pi)
-    res = _choice_features(pts, idx, k_of, angles, a_of, b_of, flat)
+    res = _choice_features(pts, idx, k_of, angles, a_of, b_of, flat, order)
     if ok.all():
         return res
     bad = ~ok

@@ -8,7 +8,7 @@ import numpy as np
 
 from .._core import PointAtlasError
 from .._core.tolerances import ANGLE_ZERO
-from ._kernels import angles_kernel
+from ._kernels import angles_kernel, index_range_kernel
 
 __all__ = ["cosine_sigmoid", "normal_angles", "normal_weights"]
 
@@ -90,17 +90,23 @@ def _unit_normals_or_nan(normals, n_points: int) -> np.ndarray:
     return out
 
 
-def _check_indices(neighbors, n_points: int, name: str = "neighbors") -> np.ndarray:
+def _check_indices(
+    neighbors, n_points: int, name: str = "neighbors", *, check_range: bool = True
+) -> np.ndarray:
+    """(N, k) int64 contiguous table; ``check_range=False`` leaves the index range to
+    a kernel that checks it itself (`fused_kernel`)."""
     idx = np.asarray(neighbors)
     if idx.ndim != 2 or idx.shape[0] != n_points or idx.shape[1] < 1:
         raise ValueError(f"{name} must have shape (N, k) with N = {n_points}; got {idx.shape}")
     if idx.dtype.kind not in "iu":
         raise ValueError(f"{name} must be integer indices; got dtype {idx.dtype}")
     idx = np.ascontiguousarray(idx, dtype=np.int64)
-    if idx.size and (idx.min() < 0 or idx.max() >= n_points):
-        raise PointAtlasError(
-            f"{name} must index points 0..{n_points - 1}; got range {idx.min()}..{idx.max()}"
-        )
+    if check_range and idx.size:
+        lo, hi = index_range_kernel(idx)
+        if lo < 0 or hi >= n_points:
+            raise PointAtlasError(
+                f"{name} must index points 0..{n_points - 1}; got range {lo}..{hi}"
+            )
     return idx
 
 
