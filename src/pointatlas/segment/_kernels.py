@@ -283,6 +283,34 @@ def _sift_down(ck, ca, cb, size, pos):
 
 
 @njit(cache=True)
+def _push_neighbours(indptr, indices, normals, seed_normals, labels, p, r, ck, ca, cb, size):
+    """Queue every unlabelled neighbour j of point p for region r (key |n_j - N_r|^2);
+    the queue arrays double when full. Returns the (possibly new) arrays and size."""
+    for t in range(indptr[p], indptr[p + 1]):
+        j = indices[t]
+        if labels[j] >= 0:
+            continue
+        if size == ck.shape[0]:
+            cap = 2 * size
+            ck2 = np.empty(cap, dtype=np.float64)
+            ca2 = np.empty(cap, dtype=np.int64)
+            cb2 = np.empty(cap, dtype=np.int64)
+            ck2[:size] = ck[:size]
+            ca2[:size] = ca[:size]
+            cb2[:size] = cb[:size]
+            ck, ca, cb = ck2, ca2, cb2
+        d0 = normals[j, 0] - seed_normals[r, 0]
+        d1 = normals[j, 1] - seed_normals[r, 1]
+        d2 = normals[j, 2] - seed_normals[r, 2]
+        ck[size] = d0 * d0 + d1 * d1 + d2 * d2
+        ca[size] = j
+        cb[size] = r
+        size += 1
+        _sift_up(ck, ca, cb, size - 1)
+    return ck, ca, cb, size
+
+
+@njit(cache=True)
 def flood(indptr, indices, normals, seeds, seed_normals):
     """Priority-queue flood of thesis 4.2.1/4.2.2 from ``seeds`` (region r = seeds[r]).
 
@@ -299,27 +327,9 @@ def flood(indptr, indices, normals, seeds, seed_normals):
     for r in range(seeds.shape[0]):
         labels[seeds[r]] = r
     for r in range(seeds.shape[0]):
-        s = seeds[r]
-        for t in range(indptr[s], indptr[s + 1]):
-            j = indices[t]
-            if labels[j] < 0:
-                if size == cap:
-                    cap *= 2
-                    ck2 = np.empty(cap, dtype=np.float64)
-                    ca2 = np.empty(cap, dtype=np.int64)
-                    cb2 = np.empty(cap, dtype=np.int64)
-                    ck2[:size] = ck[:size]
-                    ca2[:size] = ca[:size]
-                    cb2[:size] = cb[:size]
-                    ck, ca, cb = ck2, ca2, cb2
-                d0 = normals[j, 0] - seed_normals[r, 0]
-                d1 = normals[j, 1] - seed_normals[r, 1]
-                d2 = normals[j, 2] - seed_normals[r, 2]
-                ck[size] = d0 * d0 + d1 * d1 + d2 * d2
-                ca[size] = j
-                cb[size] = r
-                size += 1
-                _sift_up(ck, ca, cb, size - 1)
+        ck, ca, cb, size = _push_neighbours(
+            indptr, indices, normals, seed_normals, labels, seeds[r], r, ck, ca, cb, size
+        )
     while size > 0:
         p = ca[0]
         r = cb[0]
@@ -332,26 +342,9 @@ def flood(indptr, indices, normals, seeds, seed_normals):
         if labels[p] >= 0:
             continue
         labels[p] = r
-        for t in range(indptr[p], indptr[p + 1]):
-            j = indices[t]
-            if labels[j] < 0:
-                if size == cap:
-                    cap *= 2
-                    ck2 = np.empty(cap, dtype=np.float64)
-                    ca2 = np.empty(cap, dtype=np.int64)
-                    cb2 = np.empty(cap, dtype=np.int64)
-                    ck2[:size] = ck[:size]
-                    ca2[:size] = ca[:size]
-                    cb2[:size] = cb[:size]
-                    ck, ca, cb = ck2, ca2, cb2
-                d0 = normals[j, 0] - seed_normals[r, 0]
-                d1 = normals[j, 1] - seed_normals[r, 1]
-                d2 = normals[j, 2] - seed_normals[r, 2]
-                ck[size] = d0 * d0 + d1 * d1 + d2 * d2
-                ca[size] = j
-                cb[size] = r
-                size += 1
-                _sift_up(ck, ca, cb, size - 1)
+        ck, ca, cb, size = _push_neighbours(
+            indptr, indices, normals, seed_normals, labels, p, r, ck, ca, cb, size
+        )
     return labels
 
 

@@ -165,6 +165,56 @@ def _incidences(cplx, centers):
     )
 
 
+def _solve_constrained(fun, z0, hess, constraint, cons, max_iter, *, gtol, xtol, polish=None):
+    """trust-constr on ``fun`` (value, gradient) under ``constraint`` (= 0), then the
+    optional ``polish``; returns (z, ok, constraint violation, iterations, message)."""
+    z, message, n_iter, violation, ok = z0, "", 0, float("inf"), False
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # scipy's own progress warnings
+            res = minimize(
+                fun,
+                z0,
+                jac=True,
+                hess=hess,
+                method="trust-constr",
+                constraints=[constraint],
+                options={"maxiter": int(max_iter), "gtol": gtol, "xtol": xtol},
+            )
+        z = res.x if polish is None else polish(res.x)
+        c = cons(z)
+        violation = float(np.max(np.abs(c))) if c.size else 0.0
+        n_iter = int(res.nit)
+        message = str(res.message)
+        ok = bool(np.all(np.isfinite(z))) and violation <= SIMPLIFY_CONSTRAINT_TOL
+    except (ValueError, np.linalg.LinAlgError, ArithmeticError) as exc:
+        message = f"optimizer error: {exc}"
+    return z, ok, violation, n_iter, message
+
+
+def _fallback(base, what, violation, n_iter, message) -> MeshVertices:
+    """Warn that ``what`` failed and return the plane-intersection vertices ``base``."""
+    warnings.warn(
+        f"{what} failed (constraint violation {violation:.2e}, {message}); "
+        "using plane intersection instead",
+        SimplifyWarning,
+        stacklevel=4,
+    )
+    return MeshVertices(
+        positions=np.array(base.positions),
+        plane_normals=np.array(base.plane_normals),
+        plane_offsets=np.array(base.plane_offsets),
+        rank=np.array(base.rank),
+        guarded=np.array(base.guarded),
+        plane_residual=np.array(base.plane_residual),
+        method="lsq",
+        fallback=True,
+        constraint_violation=violation,
+        n_iter=n_iter,
+        message=message,
+    )
+
+
 def optimize_vertices(
     cplx, points, normals, centers, *, weight=1.0, max_iter=3000, lsq=None
 ) -> MeshVertices:
@@ -250,47 +300,12 @@ def optimize_vertices(
         return sparse.csr_array((vals, (r, c)), shape=(size, size))
 
     constraint = NonlinearConstraint(cons, 0.0, 0.0, jac=cjac, hess=chess)
-    message, n_iter, violation, ok = "", 0, float("inf"), False
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # scipy's own progress warnings
-            res = minimize(
-                fun,
-                z0,
-                jac=True,
-                hess=hess,
-                method="trust-constr",
-                constraints=[constraint],
-                options={"maxiter": int(max_iter), "gtol": 1e-12, "xtol": 1e-14},
-            )
-        z = res.x
-        violation = float(np.max(np.abs(cons(z)))) if m + n_reg else 0.0
-        n_iter = int(res.nit)
-        message = str(res.message)
-        ok = bool(np.all(np.isfinite(z))) and violation <= SIMPLIFY_CONSTRAINT_TOL
-    except (ValueError, np.linalg.LinAlgError, ArithmeticError) as exc:
-        message = f"optimizer error: {exc}"
+    z, ok, violation, n_iter, message = _solve_constrained(
+        fun, z0, hess, constraint, cons, max_iter, gtol=1e-12, xtol=1e-14
+    )
     if not ok:
-        warnings.warn(
-            f"Eq. 4.12 optimisation failed (constraint violation {violation:.2e}, "
-            f"{message}); using plane intersection instead",
-            SimplifyWarning,
-            stacklevel=3,
-        )
         base = lsq if lsq is not None else lsq_vertices(cplx, points, normals, centers)
-        return MeshVertices(
-            positions=np.array(base.positions),
-            plane_normals=np.array(base.plane_normals),
-            plane_offsets=np.array(base.plane_offsets),
-            rank=np.array(base.rank),
-            guarded=np.array(base.guarded),
-            plane_residual=np.array(base.plane_residual),
-            method="lsq",
-            fallback=True,
-            constraint_violation=violation,
-            n_iter=n_iter,
-            message=message,
-        )
+        return _fallback(base, "Eq. 4.12 optimisation", violation, n_iter, message)
     x, nn = split(z)
     nn = nn / np.linalg.norm(nn, axis=1, keepdims=True)
     pos = x * scale + mu
@@ -436,46 +451,19 @@ def fit_vertices(
         return sparse.csr_array((vals, (r, c)), shape=(size, size))
 
     constraint = NonlinearConstraint(cons, 0.0, 0.0, jac=cjac, hess=chess)
-    message, n_iter, violation, ok = "", 0, float("inf"), False
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # scipy's own progress warnings
-            res = minimize(
-                fun,
-                z0,
-                jac=True,
-                hess=hess,
-                method="trust-constr",
-                constraints=[constraint],
-                options={"maxiter": int(max_iter), "gtol": _FIT_GTOL, "xtol": _FIT_XTOL},
-            )
-        z = _project_constraints(res.x, cons, cjac)
-        violation = float(np.max(np.abs(cons(z))))
-        n_iter = int(res.nit)
-        message = str(res.message)
-        ok = bool(np.all(np.isfinite(z))) and violation <= SIMPLIFY_CONSTRAINT_TOL
-    except (ValueError, np.linalg.LinAlgError, ArithmeticError) as exc:
-        message = f"optimizer error: {exc}"
+    z, ok, violation, n_iter, message = _solve_constrained(
+        fun,
+        z0,
+        hess,
+        constraint,
+        cons,
+        max_iter,
+        gtol=_FIT_GTOL,
+        xtol=_FIT_XTOL,
+        polish=lambda z: _project_constraints(z, cons, cjac),
+    )
     if not ok:
-        warnings.warn(
-            f"plane fit through common vertices failed (constraint violation "
-            f"{violation:.2e}, {message}); using plane intersection instead",
-            SimplifyWarning,
-            stacklevel=3,
-        )
-        return MeshVertices(
-            positions=np.array(lsq.positions),
-            plane_normals=np.array(lsq.plane_normals),
-            plane_offsets=np.array(lsq.plane_offsets),
-            rank=np.array(lsq.rank),
-            guarded=np.array(lsq.guarded),
-            plane_residual=np.array(lsq.plane_residual),
-            method="lsq",
-            fallback=True,
-            constraint_violation=violation,
-            n_iter=n_iter,
-            message=message,
-        )
+        return _fallback(lsq, "plane fit through common vertices", violation, n_iter, message)
     x = z[:nx].reshape(nv, 3)
     nn = z[nn_off:d_off].reshape(n_reg, 3)
     norm = np.linalg.norm(nn, axis=1)
