@@ -208,6 +208,20 @@ def test_data_export(tmp_path):
     assert_user_error(run("data", "export", "no-such-model", out), "no-such-model")
 
 
+def test_commands_take_bundled_model_names(tmp_path, monkeypatch):
+    """IN may name a bundled model; the result equals running on its exported file."""
+    monkeypatch.chdir(tmp_path)  # no file called "synth:cube" here
+    exported = tmp_path / "cube.ply"
+    assert run("data", "export", "synth:cube", exported, "--points").exit_code == 0
+    by_name, by_file = tmp_path / "a.ply", tmp_path / "b.ply"
+    assert run("segment", "synth:cube", by_name, "--eta", "25").exit_code == 0
+    assert run("segment", exported, by_file, "--eta", "25").exit_code == 0
+    a, b = read_point_set(by_name), read_point_set(by_file)
+    np.testing.assert_array_equal(a.attributes["label"], b.attributes["label"])
+    assert a.attributes["label"].max() == 5  # the six sides
+    assert_user_error(run("segment", "no-such-model", by_name), "no-such-model", "bundled")
+
+
 # --------------------------------------------------------------------------- demo
 
 

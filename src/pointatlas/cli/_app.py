@@ -35,6 +35,7 @@ __all__ = [
     "experiment_app",
     "guarded",
     "progress_bar",
+    "read_input",
 ]
 
 app = typer.Typer(
@@ -128,3 +129,24 @@ def demo_step(func: Callable) -> Callable:
     """Decorator: append ``func`` to :data:`DEMO_STEPS` and return it unchanged."""
     DEMO_STEPS.append(func)
     return func
+
+
+def read_input(path, *, with_normals: bool = True, zero_normals: str = "raise"):
+    """Read IN: a point set or mesh file, or, where no such file exists, a bundled
+    model name (``pointatlas data list``: ``fandisk``, ``synth:cube``, ...)."""
+    from pathlib import Path
+
+    from ..io import read_point_set
+
+    p = Path(path)
+    if not p.exists():
+        from .. import data
+
+        if str(path) in data.names():
+            ps = data.load(str(path))
+            return ps if with_normals else ps.replace(normals=None)
+        if not p.suffix:
+            raise PointAtlasError(
+                f"{path}: no such file and not a bundled model; bundled: {', '.join(data.names())}"
+            )
+    return read_point_set(p, with_normals=with_normals, zero_normals=zero_normals)

@@ -24,7 +24,7 @@ from ..features import (
     optimal_k_features,
     optimal_neighbourhood,
 )
-from ._app import app, console, demo_step, guarded
+from ._app import app, console, demo_step, guarded, read_input
 
 __all__ = [
     "classify_dimension",
@@ -184,7 +184,9 @@ def render_feature_pictures(
 @app.command("features")
 @guarded
 def features_command(
-    input_path: Annotated[Path, typer.Argument(metavar="IN", help="Point set or mesh file.")],
+    input_path: Annotated[
+        Path, typer.Argument(metavar="IN", help="Point set or mesh file, or a bundled model name.")
+    ],
     output: Annotated[Path, typer.Argument(metavar="OUT.ply", help="Output point file.")],
     k: Annotated[
         int | None, typer.Option("--k", help="Fixed neighbourhood size (default 14).", min=3)
@@ -224,17 +226,17 @@ def features_command(
     ] = 800,
 ) -> None:
     """Eigen-features per point (linearity ... flatness) with the optimal neighbourhood."""
-    from ..io import read_point_set, write_point_set
+    from ..io import write_point_set
 
     if output.suffix.lower() not in (".ply", ".las", ".laz"):
         raise PointAtlasError(f"OUT must be a .ply (or .las/.laz) file; got {output.name!r}")
     try:
-        ps = read_point_set(input_path)
+        ps = read_input(input_path)
     except PointAtlasError as exc:
         if "zero_normals" not in str(exc):
             raise
         # vertices without a usable normal (unreferenced, zero-area faces) are left out
-        ps = read_point_set(input_path, zero_normals="drop")
+        ps = read_input(input_path, zero_normals="drop")
         console.print(f"  note: {str(exc).split(':', 2)[-1].strip().split(';')[0]}; left out")
     a_vals = _parse_grid_deg(a_grid, "--a-grid-deg")
     b_vals = _parse_grid_deg(b_grid, "--b-grid-deg") if b_grid is not None else a_vals

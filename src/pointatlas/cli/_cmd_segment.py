@@ -19,7 +19,7 @@ import typer
 
 from .._core import PointAtlasError
 from ..segment import region_growing, vsa_segment
-from ._app import app, console, demo_step, guarded
+from ._app import app, console, demo_step, guarded, read_input
 
 __all__ = ["region_table", "segment_command", "segment_point_set", "table_paths"]
 
@@ -162,7 +162,9 @@ def _write_tables(output: Path, rows: list[dict], summary: dict) -> tuple[Path, 
 @app.command("segment")
 @guarded
 def segment_command(
-    input_path: Annotated[Path, typer.Argument(metavar="IN", help="Point set or mesh.")],
+    input_path: Annotated[
+        Path, typer.Argument(metavar="IN", help="Point set or mesh file, or a bundled model name.")
+    ],
     output: Annotated[Path, typer.Argument(metavar="OUT.ply", help="Labelled point set.")],
     eta: Annotated[
         float | None, typer.Option("--eta", help="L21 threshold for split/merge (thesis: 25).")
@@ -206,7 +208,7 @@ def segment_command(
     seed: Annotated[int, typer.Option("--seed", help="Seed for random seeds.")] = 0,
 ):
     """Segment a point set into flat regions (VSA, thesis 4.2-4.3) or by region growing."""
-    from ..io import read_point_set, write_point_set
+    from ..io import write_point_set
 
     if output.suffix.lower() != ".ply":
         raise PointAtlasError(f"OUT must be a .ply file; got {str(output)!r}")
@@ -214,7 +216,7 @@ def segment_command(
         raise PointAtlasError(f"--switch must be batch, single or none; got {switch!r}")
     seeds_value = _parse_seeds(seeds)
     t0 = time.perf_counter()
-    ps = read_point_set(input_path, with_normals=not estimate, zero_normals="drop")
+    ps = read_input(input_path, with_normals=not estimate, zero_normals="drop")
     extra = {}
     if "source_index" in ps.attributes:
         kept = np.asarray(ps.attributes["source_index"])

@@ -17,10 +17,10 @@ import typer
 from rich.table import Table
 
 from .._core import PointAtlasError, PointSet
-from ..io import read_point_set, write_mesh
+from ..io import write_mesh
 from ..simplify import SimplifyWarning, simplify_points
 from . import _exp_simplify  # noqa: F401  (registers ``experiment simplify``)
-from ._app import app, console, demo_step, err_console, guarded, progress_bar
+from ._app import app, console, demo_step, err_console, guarded, progress_bar, read_input
 
 __all__ = ["parse_seeds", "render_simplification", "simplification_table"]
 
@@ -109,7 +109,10 @@ def _run(points, normals, **kw):
 @app.command("simplify")
 @guarded
 def simplify_command(
-    infile: Annotated[Path, typer.Argument(help="Point set or mesh (PLY, OBJ, OFF, ...).")],
+    infile: Annotated[
+        Path,
+        typer.Argument(help="Point set or mesh (PLY, OBJ, OFF, ...), or a bundled model name."),
+    ],
     out: Annotated[Path, typer.Argument(help="Simplified polygon mesh (.obj, .ply, .off).")],
     k: Annotated[int, typer.Option("--k", help="Neighbourhood size (thesis: 8).")] = 8,
     eta: Annotated[
@@ -191,7 +194,7 @@ def simplify_command(
             raise PointAtlasError(f"--max-angle-deg must lie in [0, 180]; got {max_angle_deg}")
         max_angle = math.radians(max_angle_deg)
     seed_spec = parse_seeds(seeds)
-    ps = read_point_set(infile)
+    ps = read_input(infile)
     normals = ps.normals
     if normals is None:
         from ._cmd_core import _compute_normals
