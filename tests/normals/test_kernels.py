@@ -235,3 +235,24 @@ def test_kruskal_forest_keeps_scipys_edges():
     assert n_comp == 2 and labels[0] == 0 and labels[-1] == 1
     ref_comp = csgraph.connected_components(ref, directed=False)[1]
     np.testing.assert_array_equal(labels, ref_comp)
+
+
+def test_kruskal_core_id_width_does_not_matter():
+    """The 32-bit union-find (used below 2**31 nodes) keeps the same edges and
+    labels as the 64-bit one."""
+    from pointatlas._core._sort import stable_argsort
+    from pointatlas.normals._kernels import _kruskal_core
+
+    rng = np.random.default_rng(3)
+    pts = np.round(rng.random((400, 3)) * 8)  # clumps: several components
+    pts += rng.random((400, 3)) * 1e-3
+    nrm = np.tile([0.0, 0.0, 1.0], (400, 1))
+    idx, _ = query_knn(pts, 7)
+    indptr, cols, w = riemannian_graph_kernel(pts, nrm, idx, 7, 1e-9, 1.0)
+    order = stable_argsort(w)
+    narrow = _kruskal_core(indptr, cols, order, np.arange(400).astype(np.int32))
+    wide = _kruskal_core(indptr, cols, order, np.arange(400))
+    assert narrow[2] == wide[2] and narrow[4] == wide[4]
+    np.testing.assert_array_equal(narrow[0][: narrow[2]], wide[0][: wide[2]])
+    np.testing.assert_array_equal(narrow[1][: narrow[2]], wide[1][: wide[2]])
+    np.testing.assert_array_equal(narrow[3], wide[3])

@@ -125,6 +125,23 @@ def test_greedy_merge_matches_reference(seed):
         assert n_merges == n - np.unique(roots).size
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_greedy_merge_ties_follow_pair_order(seed):
+    """Axis-aligned normals make many unions cost exactly the same: the merges
+    still follow (cost, a, b) order exactly, so the roots equal the reference's
+    (the smaller id survives), not only the partition."""
+    rng = np.random.default_rng(seed)
+    n = 150
+    table, _ = query_knn(rng.random((n, 3)), 6)
+    normals = np.eye(3)[rng.choice(3, size=n, p=[0.15, 0.15, 0.7])]
+    indptr, indices = K.symmetric_csr(table, n)
+    pairs = K.edge_pairs(indptr, indices)
+    for eta in (0.5, 2.5, 12.0):
+        roots, _ = K.greedy_merge(pairs, np.ones(n), normals.copy(), eta, 0.0, False)
+        ref = reference.greedy_merge_reference(pairs, np.ones(n), normals, eta)
+        np.testing.assert_array_equal(roots, ref)
+
+
 def test_merge_angle_mode_respects_bound():
     _, normals, table = _cloud(7, n=60)
     n = normals.shape[0]
@@ -290,5 +307,14 @@ def test_stable_argsort_matches_numpy():
         np.round(rng.normal(size=3000), 2),  # many ties, negatives
         np.array([0.0, -0.0, 1.0, -0.0, 0.0, -1.5, 2.0**-1074, np.inf, -np.inf]),
         np.empty(0),
+        # every 8-bit digit varies: random bit patterns (finite), with repeats
+        np.repeat(_random_doubles(rng, 20_000), 2)[rng.permutation(40_000)],
+        1.0 + rng.integers(0, 300, size=20_000) * 2.0**-52,  # only the low digits vary
     ):
         np.testing.assert_array_equal(K.stable_argsort(values), np.argsort(values, kind="stable"))
+
+
+def _random_doubles(rng, n):
+    bits = rng.integers(0, 2**63 - 1, size=n, dtype=np.int64, endpoint=True).view(np.float64)
+    bits = np.where(np.isfinite(bits), bits, 1.0)
+    return bits * np.where(rng.random(n) < 0.5, -1.0, 1.0)

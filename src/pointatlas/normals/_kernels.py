@@ -395,6 +395,58 @@ def _uf_find(parent, i):
 
 
 @njit(cache=True)
+def _kruskal_core(indptr, cols, order, parent):
+    """Kruskal's loop and the tree labels; ``parent`` (int32 or int64, the
+    identity) sets the id width.
+
+    The edge ends are first gathered in weight order into two plain arrays, so
+    the loop reads them as a stream; ties by union size, path halving.
+    """
+    n = indptr.shape[0] - 1
+    m = cols.shape[0]
+    row = np.empty(m, dtype=parent.dtype)
+    for i in range(n):
+        for e in range(indptr[i], indptr[i + 1]):
+            row[e] = i
+    ea = np.empty(m, dtype=parent.dtype)
+    eb = np.empty(m, dtype=parent.dtype)
+    for s in range(m):
+        e = order[s]
+        ea[s] = row[e]
+        eb[s] = cols[e]
+    size = np.ones(n, dtype=parent.dtype)
+    kept_a = np.empty(max(n - 1, 0), dtype=np.int64)
+    kept_b = np.empty(max(n - 1, 0), dtype=np.int64)
+    n_kept = 0
+    for s in range(m):
+        if n_kept == n - 1:
+            break
+        a = ea[s]
+        b = eb[s]
+        ra = _uf_find(parent, a)
+        rb = _uf_find(parent, b)
+        if ra == rb:
+            continue
+        if size[ra] < size[rb]:
+            ra, rb = rb, ra
+        parent[rb] = ra
+        size[ra] += size[rb]
+        kept_a[n_kept] = a
+        kept_b[n_kept] = b
+        n_kept += 1
+    labels = np.empty(n, dtype=np.int64)
+    comp_of_root = np.full(n, -1, dtype=np.int64)
+    n_comp = 0
+    for i in range(n):
+        r = _uf_find(parent, i)
+        if comp_of_root[r] < 0:
+            comp_of_root[r] = n_comp
+            n_comp += 1
+        labels[i] = comp_of_root[r]
+    return kept_a, kept_b, n_kept, labels, n_comp
+
+
+@njit(cache=True)
 def kruskal_forest_kernel(indptr, cols, order):
     """Minimum spanning forest by Kruskal's algorithm with a union-find.
 
@@ -418,33 +470,13 @@ def kruskal_forest_kernel(indptr, cols, order):
         Number of trees.
     """
     n = indptr.shape[0] - 1
-    m = cols.shape[0]
-    row = np.empty(m, dtype=np.int64)
-    for i in range(n):
-        for e in range(indptr[i], indptr[i + 1]):
-            row[e] = i
-    parent = np.arange(n)
-    size = np.ones(n, dtype=np.int64)
-    kept_a = np.empty(max(n - 1, 0), dtype=np.int64)
-    kept_b = np.empty(max(n - 1, 0), dtype=np.int64)
-    n_kept = 0
-    for s in range(m):
-        if n_kept == n - 1:
-            break
-        e = order[s]
-        a = row[e]
-        b = cols[e]
-        ra = _uf_find(parent, a)
-        rb = _uf_find(parent, b)
-        if ra == rb:
-            continue
-        if size[ra] < size[rb]:
-            ra, rb = rb, ra
-        parent[rb] = ra
-        size[ra] += size[rb]
-        kept_a[n_kept] = a
-        kept_b[n_kept] = b
-        n_kept += 1
+    # 32-bit node ids halve the union-find's and the edge stream's memory traffic
+    if n < 2**31 - 1:
+        kept_a, kept_b, n_kept, labels, n_comp = _kruskal_core(
+            indptr, cols, order, np.arange(n).astype(np.int32)
+        )
+    else:
+        kept_a, kept_b, n_kept, labels, n_comp = _kruskal_core(indptr, cols, order, np.arange(n))
     deg = np.zeros(n + 1, dtype=np.int64)
     for t in range(n_kept):
         deg[kept_a[t] + 1] += 1
@@ -460,13 +492,4 @@ def kruskal_forest_kernel(indptr, cols, order):
         fill[a] += 1
         adj[fill[b]] = a
         fill[b] += 1
-    labels = np.empty(n, dtype=np.int64)
-    comp_of_root = np.full(n, -1, dtype=np.int64)
-    n_comp = 0
-    for i in range(n):
-        r = _uf_find(parent, i)
-        if comp_of_root[r] < 0:
-            comp_of_root[r] = n_comp
-            n_comp += 1
-        labels[i] = comp_of_root[r]
     return deg, adj, labels, n_comp

@@ -707,49 +707,81 @@ def _union_cost(ws, a, b):
     return cost, w, s
 
 
+#: arity of the merge heap; its entries are 16 bytes, so one node's children
+#: fill one 64-byte cache line when the array is aligned (see `_heap_base`)
+_ARITY = 4
+
+
 @njit(cache=True)
-def _sift_up2(ck, cp, pos):
-    key = ck[pos]
-    pair = cp[pos]
+def _sift_up2(heap, base, pos):
+    """Heap entries are rows (key bits, pair code) of one int64 array: a key is a
+    non-negative double, whose IEEE bits order as int64 as the values do, so an
+    entry is one 16-byte record compared lexicographically. Logical node ``pos``
+    is row ``base + pos``."""
+    key = heap[base + pos, 0]
+    pair = heap[base + pos, 1]
     while pos > 0:
-        parent = (pos - 1) >> 2
-        if key < ck[parent] or (key == ck[parent] and pair < cp[parent]):
-            ck[pos] = ck[parent]
-            cp[pos] = cp[parent]
+        parent = (pos - 1) // _ARITY
+        pk = heap[base + parent, 0]
+        if key < pk or (key == pk and pair < heap[base + parent, 1]):
+            heap[base + pos, 0] = pk
+            heap[base + pos, 1] = heap[base + parent, 1]
             pos = parent
         else:
             break
-    ck[pos] = key
-    cp[pos] = pair
+    heap[base + pos, 0] = key
+    heap[base + pos, 1] = pair
 
 
 @njit(cache=True)
-def _sift_down2(ck, cp, size, pos):
-    """4-ary heap: children of pos are 4 pos + 1 .. 4 pos + 4 (shallower, cache friendlier)."""
-    key = ck[pos]
-    pair = cp[pos]
+def _sift_down2(heap, base, size, pos):
+    """d-ary heap: children of pos are d pos + 1 .. d pos + d (shallow, and one
+    cache line holds them all)."""
+    key = heap[base + pos, 0]
+    pair = heap[base + pos, 1]
     while True:
-        first = 4 * pos + 1
+        first = _ARITY * pos + 1
         if first >= size:
             break
         child = first
-        last = min(first + 4, size)
+        ckey = heap[base + first, 0]
+        cpair = heap[base + first, 1]
+        last = min(first + _ARITY, size)
         for c in range(first + 1, last):
-            if ck[c] < ck[child] or (ck[c] == ck[child] and cp[c] < cp[child]):
+            k = heap[base + c, 0]
+            if k < ckey or (k == ckey and heap[base + c, 1] < cpair):
                 child = c
-        if ck[child] < key or (ck[child] == key and cp[child] < pair):
-            ck[pos] = ck[child]
-            cp[pos] = cp[child]
+                ckey = k
+                cpair = heap[base + c, 1]
+        if ckey < key or (ckey == key and cpair < pair):
+            heap[base + pos, 0] = ckey
+            heap[base + pos, 1] = cpair
             pos = child
         else:
             break
-    ck[pos] = key
-    cp[pos] = pair
+    heap[base + pos, 0] = key
+    heap[base + pos, 1] = pair
+
+
+@njit(cache=True)
+def _heap_base(heap):
+    """Row of logical node 0 such that the children d i + 1 .. d i + d of every
+    node start on a 64-byte boundary (rows are 16 bytes)."""
+    lead = (heap.ctypes.data // 16) % 4  # rows before the first aligned row
+    return (4 - lead) % 4 + (_ARITY - 1)
 
 
 @njit(cache=True)
 def _less_entry(ka, pa, kb, pb):
     return ka < kb or (ka == kb and pa < pb)
+
+
+@njit(cache=True)
+def _find32(parent, i):
+    while parent[i] != i:  # path halving
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
 
 
 @njit(cache=True)
@@ -771,12 +803,19 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
     takes the smaller of the stream's head and the heap's top. Returns the root
     of every region (union-find, the smaller id survives) and the number of
     merges.
+
+    Internally a pair (a < b) is coded (a << 32) | b (same order as (a, b)) and
+    a key by the int64 bits of the (non-negative) double, so an entry is two
+    int64 compared lexicographically; fewer than 2**31 regions.
     """
     m = wsum.shape[0]
+    if m >= 2**31 - 1:
+        raise ValueError("greedy_merge: at most 2**31 - 2 regions")
     ws = np.empty((m, 4))
     ws[:, 0] = wsum
     ws[:, 1:] = ssum
-    parent = np.arange(m)
+    parent = np.arange(m).astype(np.int32)
+    low = np.int64(0xFFFFFFFF)
     n_init = 0
     k0 = np.empty(pairs.shape[0], dtype=np.float64)
     p0 = np.empty(pairs.shape[0], dtype=np.int64)
@@ -786,8 +825,8 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
         cost, w, s = _union_cost(ws, a, b)
         ok = (s >= min_cos * w) if use_angle else (cost < eta)
         if ok:
-            k0[n_init] = cost
-            p0[n_init] = min(a, b) * m + max(a, b)
+            k0[n_init] = cost + 0.0  # -0.0 -> +0.0: keys compare by their bits
+            p0[n_init] = (min(a, b) << 32) | max(a, b)
             n_init += 1
     k0 = k0[:n_init]
     p0 = p0[:n_init]
@@ -801,77 +840,83 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
         k0 = k0[by_pair]
         p0 = p0[by_pair]
     order = stable_argsort(k0)  # stable: ties stay sorted by pair
-    ks = k0[order]
+    ks = k0[order].view(np.int64)
     ps = p0[order]
     head = 0
     hot_cap = 4096
-    ck = np.empty(hot_cap, dtype=np.float64)
-    cp = np.empty(hot_cap, dtype=np.int64)
+    heap = np.empty((hot_cap + 8, 2), dtype=np.int64)
+    base = _heap_base(heap)
     size = 0
     n_merges = 0
+    bits = np.empty(1, dtype=np.float64)
+    bits_i = bits.view(np.int64)
     # duplicates: many point edges map to the same region pair; remember the
     # region versions each pair was last pushed with and drop stale copies
     version = np.zeros(m, dtype=np.int64)
     # direct-mapped table code -> stamp of the last push (a collision only costs
-    # an extra push, never a wrong drop: the code is compared too)
+    # an extra push, never a wrong drop: the code is compared too); a slot's
+    # code and stamp share a row
     n_slots = 1024
     while n_slots < pairs.shape[0]:
         n_slots *= 2
     mask = n_slots - 1
-    slot_code = np.full(n_slots, -1, dtype=np.int64)
-    slot_stamp = np.zeros(n_slots, dtype=np.int64)
+    slots = np.full((n_slots, 2), -1, dtype=np.int64)
     while True:
         if size == 0 and head == n_init:
             break
-        if size > 0 and (head == n_init or _less_entry(ck[0], cp[0], ks[head], ps[head])):
-            key = ck[0]
-            pair = cp[0]
+        if size > 0 and (
+            head == n_init or _less_entry(heap[base, 0], heap[base, 1], ks[head], ps[head])
+        ):
+            key = heap[base, 0]
+            pair = heap[base, 1]
             size -= 1
             if size > 0:
-                ck[0] = ck[size]
-                cp[0] = cp[size]
-                _sift_down2(ck, cp, size, 0)
+                heap[base, 0] = heap[base + size, 0]
+                heap[base, 1] = heap[base + size, 1]
+                _sift_down2(heap, base, size, 0)
         else:
             key = ks[head]
             pair = ps[head]
             head += 1
-        ra = _find(parent, pair // m)
-        rb = _find(parent, pair % m)
+        ra = _find32(parent, pair >> 32)
+        rb = _find32(parent, pair & low)
         if ra == rb:
             continue
         cost, w, s = _union_cost(ws, ra, rb)
         ok = (s >= min_cos * w) if use_angle else (cost < eta)
         if not ok:
             continue
-        lo = min(ra, rb)
-        hi = max(ra, rb)
-        code = lo * m + hi
-        if cost > key:
+        lo = np.int64(min(ra, rb))
+        hi = np.int64(max(ra, rb))
+        code = (lo << 32) | hi
+        bits[0] = cost + 0.0
+        ckey = bits_i[0]
+        if ckey > key:
             still_min = True
-            if size > 0 and not _less_entry(cost, code, ck[0], cp[0]):
+            if size > 0 and not _less_entry(ckey, code, heap[base, 0], heap[base, 1]):
                 still_min = False
-            if head < n_init and not _less_entry(cost, code, ks[head], ps[head]):
+            if head < n_init and not _less_entry(ckey, code, ks[head], ps[head]):
                 still_min = False
             if not still_min:
                 # stale lower bound: push back with the current cost, unless an
                 # entry computed from the same regions is already queued
                 stamp = (version[lo] << 32) | version[hi]
                 slot = ((code * 0x5851F42D4C957F2D) >> 20) & mask
-                if slot_code[slot] == code and slot_stamp[slot] == stamp:
+                if slots[slot, 0] == code and slots[slot, 1] == stamp:
                     continue
-                slot_code[slot] = code
-                slot_stamp[slot] = stamp
+                slots[slot, 0] = code
+                slots[slot, 1] = stamp
                 if size == hot_cap:
                     hot_cap *= 2
-                    ck2 = np.empty(hot_cap, dtype=np.float64)
-                    cp2 = np.empty(hot_cap, dtype=np.int64)
-                    ck2[:size] = ck[:size]
-                    cp2[:size] = cp[:size]
-                    ck, cp = ck2, cp2
-                ck[size] = cost
-                cp[size] = code
+                    heap2 = np.empty((hot_cap + 8, 2), dtype=np.int64)
+                    base2 = _heap_base(heap2)
+                    heap2[base2 : base2 + size] = heap[base : base + size]
+                    heap = heap2
+                    base = base2
+                heap[base + size, 0] = ckey
+                heap[base + size, 1] = code
                 size += 1
-                _sift_up2(ck, cp, size - 1)
+                _sift_up2(heap, base, size - 1)
                 continue
         parent[hi] = lo
         version[lo] += 1
@@ -882,7 +927,7 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
         n_merges += 1
     roots = np.empty(m, dtype=np.int64)
     for i in range(m):
-        roots[i] = _find(parent, i)
+        roots[i] = _find32(parent, i)
     return roots, n_merges
 
 
