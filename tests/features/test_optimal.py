@@ -193,3 +193,30 @@ def test_fast_closed_form_eigenvalues_match_eigvalsh(kind):
     tol = 1e-7 if kind == "collinear" else 1e-12
     np.testing.assert_array_less(np.abs(got - want) / want[:, :1], tol)
     assert (got[:, 0] >= got[:, 1]).all() and (got[:, 1] >= got[:, 2]).all()
+
+
+def test_branch_free_eigenvalues_equal_closed_form_bit_for_bit():
+    # the search ranks choices by E_dim of eig3_fast's eigenvalues; its vectorised
+    # copy must give the very same numbers (also for C = 0 and C = c I)
+    from pointatlas.features._kernels import _eig3_lanes, eig3_fast
+
+    rng = np.random.default_rng(11)
+    y = rng.normal(size=(300, 8, 3))
+    y[:50, :, 2] *= 1e-7
+    y[50:80] = y[50:80, :, :1] * np.array([1.0, -2.0, 0.5])
+    z = y - y.mean(axis=1, keepdims=True)
+    cov = list(np.einsum("nki,nkj->nij", z, z)) + [np.zeros((3, 3)), 2.5 * np.eye(3)]
+    for c in cov:
+        args = (c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2])
+        assert _eig3_lanes(*args) == eig3_fast(*args)
+
+
+def test_chord_bound_is_below_minus_t_log_t():
+    from pointatlas.features._kernels import _chord_bound
+
+    t = np.concatenate([np.linspace(0.0, 1.0, 20001), np.geomspace(1e-300, 1e-2, 2000)])
+    t = np.concatenate([t, [np.nextafter(1.0, 2.0), 1.0 + 4e-16]])
+    f = -t * np.log(np.where(t > 0, t, 1.0))
+    lb = np.array([_chord_bound(x) for x in t])
+    assert (lb <= f + 1e-15).all()
+    assert (f - lb).max() < 1e-3  # tight enough to rule out most choices

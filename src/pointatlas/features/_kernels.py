@@ -512,21 +512,76 @@ def eig3_fast(c00, c01, c02, c11, c12, c22):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _entropy_term_bound(t, log_t, inv_t, delta):
-    """Lower bound of -s ln s over s in [t - delta, t + delta] (0 when delta >= t / 2).
+def _eig3_lanes(c00, c01, c02, c11, c12, c22):
+    """`eig3_fast` written without branches (selects only), bit for bit the same values.
 
-    -s ln s is >= 0 on [0, 1]; for delta < t / 2 its slope |ln s + 1| there is at
-    most |ln t| + 1 + 2 delta / t in magnitude (``inv_t`` = 1 / t).
+    Inlined into loops over many covariances, which the compiler then vectorises.
     """
-    if not delta < 0.5 * t:
-        return 0.0
-    return -t * log_t - delta * (abs(log_t) + 1.0 + 2.0 * delta * inv_t)
+    q = (c00 + c11 + c22) / 3.0
+    b00 = c00 - q
+    b11 = c11 - q
+    b22 = c22 - q
+    p2 = b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * (c01 * c01 + c02 * c02 + c12 * c12)
+    p = math.sqrt(p2 / 6.0)
+    inv = 1.0 / p
+    d00 = b00 * inv
+    d11 = b11 * inv
+    d22 = b22 * inv
+    d01 = c01 * inv
+    d02 = c02 * inv
+    d12 = c12 * inv
+    det = (
+        d00 * (d11 * d22 - d12 * d12)
+        - d01 * (d01 * d22 - d12 * d02)
+        + d02 * (d01 * d12 - d11 * d02)
+    )
+    r = 0.5 * det
+    r = -1.0 if r < -1.0 else r
+    r = 1.0 if r > 1.0 else r
+    l1 = q + 2.0 * p * _cos_third(math.sqrt(1.0 + r))
+    l3 = q - 2.0 * p * _cos_third(math.sqrt(1.0 - r))
+    l2 = 3.0 * q - l1 - l3
+    l2 = l1 if l2 > l1 else l2
+    l2 = l3 if l2 < l3 else l2
+    flat = p2 <= 0.0
+    v = q if q > 0.0 else 0.0
+    l1 = v if flat else (l1 if l1 > 0.0 else 0.0)
+    l2 = v if flat else (l2 if l2 > 0.0 else 0.0)
+    l3 = v if flat else (l3 if l3 > 0.0 else 0.0)
+    return l1, l2, l3
 
 
-#: absolute margin (in E_dim units) a pruning bound must clear
+#: intervals of the chord table of -t ln t on [0, 1]
+_CHORD_N = 1024
+
+
+def _chord_table(n):
+    """Intercepts and slopes of the chords of the concave -t ln t on [j/n, (j+1)/n].
+
+    A chord lies below a concave function on its interval, so A[j] + B[j] t is a
+    lower bound of -t ln t for t in [j/n, (j+1)/n] (error at most 1/(e n) on the
+    first interval, 1/(8 n) elsewhere); the last chord serves t slightly above 1.
+    """
+    t = np.arange(n + 1, dtype=np.float64) / n
+    f = np.zeros(n + 1)
+    f[1:] = -t[1:] * np.log(t[1:])
+    f[n] = 0.0
+    slope = (f[1:] - f[:-1]) * n
+    return np.ascontiguousarray(f[:-1] - slope * t[:-1]), np.ascontiguousarray(slope)
+
+
+_CHORD_A, _CHORD_B = _chord_table(_CHORD_N)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _chord_bound(t):
+    """Lower bound of -t ln t for t in [0, 1 + a few ulps] (a table chord, no log)."""
+    j = min(int(t * _CHORD_N), _CHORD_N - 1)
+    return _CHORD_A[j] + _CHORD_B[j] * t
+
+
+#: absolute margin (in criterion units) a lower bound must clear to skip a choice
 _PRUNE_MARGIN = 1e-9
-#: allowance for the closed-form eigenvalue error of a reference, relative to lambda_1
-_EIG_SLACK = 1e-7
 
 
 @njit(parallel=True, cache=True, error_model="numpy")
@@ -554,27 +609,34 @@ def search_kernel(
     earlier pair wins the tie). k then grows by one neighbour at a time while the
     weighted moments (sum w, sum w y, sum w y y^T about the point itself) of all
     remaining pairs and the unweighted sum of y are updated, so each covariance
-    costs O(1). At each k the first valid pair is solved exactly; for the next
-    pairs a certified lower bound of E_dim from the last solved covariance (Weyl:
-    eigenvalues move by at most the Frobenius norm of the difference; slope bound
-    of -t ln t) skips the solve when it cannot beat the best value so far
-    (criterion E_dim); with the eigenentropy criterion the collision-entropy bound
-    is used instead. Ties: smallest k, then a, then b. Without normals there is
-    one pair with all weights 1. Points are visited in ``order``.
+    costs O(1); the covariances of all choices are stored. Their eigenvalues
+    (`eig3_fast`'s values, from a branch-free copy the compiler vectorises) and a
+    logarithm-free lower bound of the criterion (chords of -t ln t, `_chord_bound`)
+    follow in two flat loops. Only choices whose bound does not exceed the best
+    value found so far by `_PRUNE_MARGIN` get the criterion with its three
+    logarithms, the smallest bound first. Every choice skipped is certified worse,
+    so the result is the exact argmin of the criterion over all choices. Ties:
+    smallest k, then a, then b. Criterion 0: E_dim; 1: eigenentropy. Without
+    normals there is one pair with all weights 1. Points are visited in ``order``.
     """
     n = idx.shape[0]
     n_pairs = pair_a.shape[0] if use_normals else 1
     dedupe = use_normals and kmax <= 64
+    nk = kmax - kmin + 1
     nblocks = (n + _BLOCK - 1) // _BLOCK
     for blk in prange(nblocks):
         ys = np.empty((kmax, 3))
         ws = np.ones((n_pairs, kmax))
         act = np.empty(n_pairs, dtype=np.int64)
-        mom = np.empty((10, n_pairs))
-        wa = np.empty((kmax, n_pairs))
-        dist = np.empty((n_pairs, 3), dtype=np.int64)
         masks = np.empty(n_pairs, dtype=np.uint64)
-        rho = np.empty((n_pairs, kmax))
+        pm = np.empty((10, nk * n_pairs))
+        mq = np.empty((3, nk * n_pairs))
+        lam = np.empty((3, nk * n_pairs))
+        rt = np.empty((3, nk * n_pairs))
+        lbv = np.empty(nk * n_pairs)
+        mk = np.empty((3, nk))
+        qk = np.empty(nk * n_pairs, dtype=np.int64)
+        qp = np.empty(nk * n_pairs, dtype=np.int64)
         t_end = min(n, (blk + 1) * _BLOCK)
         for t in range(blk * _BLOCK, t_end):
             if t + _AHEAD < t_end:
@@ -652,173 +714,136 @@ def search_kernel(
                         n_masks += 1
                 act[n_act] = pr
                 n_act += 1
-            # rho[s, j]: max over neighbours <= j of the weight ratio of pair s to the
-            # previous active pair (>= 1; inf when exactly one of them is zero)
-            for s in range(1, n_act):
-                p0 = act[s - 1]
-                p1 = act[s]
-                run = 1.0
-                for j in range(kmax):
-                    w0 = ws[p0, j]
-                    w1 = ws[p1, j]
-                    if w0 > 0.0 and w1 > 0.0:
-                        run = max(run, max(w0, w1) / min(w0, w1))
-                    elif w0 > 0.0 or w1 > 0.0:
-                        run = np.inf
-                    rho[s, j] = run
-            for s in range(n_act):
-                dist[s, 0] = 0
-                dist[s, 1] = -1
-                dist[s, 2] = -1
-                for c in range(10):
-                    mom[c, s] = 0.0
-                for j in range(kmax):
-                    wa[j, s] = ws[act[s], j]
-            code = REASON_FEW_DISTINCT
-            bv = np.inf
-            bk = -1
-            bp = -1
+            # unweighted barycentres of the k nearest neighbours
             ux = 0.0
             uy = 0.0
             uz = 0.0
             for j in range(kmax):
-                yx = ys[j, 0]
-                yy = ys[j, 1]
-                yz = ys[j, 2]
-                ux += yx
-                uy += yy
-                uz += yz
-                # zero weights add exact zeros: branch-free, vectorisable over pairs
-                for s in range(n_act):
-                    w = wa[j, s]
-                    mom[0, s] += w
-                    mom[1, s] += w * yx
-                    mom[2, s] += w * yy
-                    mom[3, s] += w * yz
-                    mom[4, s] += w * yx * yx
-                    mom[5, s] += w * yx * yy
-                    mom[6, s] += w * yx * yz
-                    mom[7, s] += w * yy * yy
-                    mom[8, s] += w * yy * yz
-                    mom[9, s] += w * yz * yz
-                for s in range(n_act):
-                    if dist[s, 0] < 3 and wa[j, s] > 0.0:
-                        nd = dist[s, 0]
-                        if nd == 0:
-                            dist[s, 1] = j
-                            dist[s, 0] = 1
-                        elif nd == 1:
-                            if not _same(ys, j, dist[s, 1]):
-                                dist[s, 2] = j
-                                dist[s, 0] = 2
-                        elif nd == 2:
-                            if not _same(ys, j, dist[s, 1]) and not _same(ys, j, dist[s, 2]):
-                                dist[s, 0] = 3
+                ux += ys[j, 0]
+                uy += ys[j, 1]
+                uz += ys[j, 2]
                 k = j + 1
-                if k < kmin:
-                    continue
-                mx = ux / k
-                my = uy / k
-                mz = uz / k
-                have_ref = False
-                chain = 1.0
-                r00 = r01 = r02 = r11 = r12 = r22 = 0.0
-                rl1 = rlin = rpla = rsca = lnl = lnp = lns = rval = 0.0
-                inl = inp = ins = 0.0
-                for s in range(n_act):
-                    if have_ref:
-                        chain *= rho[s, j]
-                    if dist[s, 0] < 3:
+                if k >= kmin:
+                    mk[0, k - kmin] = ux / k
+                    mk[1, k - kmin] = uy / k
+                    mk[2, k - kmin] = uz / k
+            # prefix moments of every active pair at every k >= kmin, pair by pair
+            # with the ten sums in registers (the same additions in the same order
+            # as one running update per neighbour); only the choices with at least
+            # three distinct weighted points are kept, as candidates q
+            n_q = 0
+            for s in range(n_act):
+                pr = act[s]
+                nd = 0
+                d1 = -1
+                d2 = -1
+                m0 = m1 = m2 = m3 = m4 = m5 = m6 = m7 = m8 = m9 = 0.0
+                for j in range(kmax):
+                    w = ws[pr, j]
+                    yx = ys[j, 0]
+                    yy = ys[j, 1]
+                    yz = ys[j, 2]
+                    m0 += w
+                    m1 += w * yx
+                    m2 += w * yy
+                    m3 += w * yz
+                    m4 += w * yx * yx
+                    m5 += w * yx * yy
+                    m6 += w * yx * yz
+                    m7 += w * yy * yy
+                    m8 += w * yy * yz
+                    m9 += w * yz * yz
+                    if nd < 3 and w > 0.0:
+                        if nd == 0:
+                            d1 = j
+                            nd = 1
+                        elif nd == 1:
+                            if not _same(ys, j, d1):
+                                d2 = j
+                                nd = 2
+                        elif not _same(ys, j, d1) and not _same(ys, j, d2):
+                            nd = 3
+                    if j + 1 >= kmin and nd >= 3:
+                        q = n_q
+                        n_q += 1
+                        pm[0, q] = m0
+                        pm[1, q] = m1
+                        pm[2, q] = m2
+                        pm[3, q] = m3
+                        pm[4, q] = m4
+                        pm[5, q] = m5
+                        pm[6, q] = m6
+                        pm[7, q] = m7
+                        pm[8, q] = m8
+                        pm[9, q] = m9
+                        mq[0, q] = mk[0, j + 1 - kmin]
+                        mq[1, q] = mk[1, j + 1 - kmin]
+                        mq[2, q] = mk[2, j + 1 - kmin]
+                        qk[q] = j + 1
+                        qp[q] = pr
+            # C = Syy - Sy m^T - m Sy^T + W m m^T (m the unweighted mean), eigenvalues
+            for q in range(n_q):
+                sw = pm[0, q]
+                sx = pm[1, q]
+                sy = pm[2, q]
+                sz = pm[3, q]
+                mx = mq[0, q]
+                my = mq[1, q]
+                mz = mq[2, q]
+                c00 = pm[4, q] - 2.0 * sx * mx + sw * mx * mx
+                c01 = pm[5, q] - sx * my - mx * sy + sw * mx * my
+                c02 = pm[6, q] - sx * mz - mx * sz + sw * mx * mz
+                c11 = pm[7, q] - 2.0 * sy * my + sw * my * my
+                c12 = pm[8, q] - sy * mz - my * sz + sw * my * mz
+                c22 = pm[9, q] - 2.0 * sz * mz + sw * mz * mz
+                l1, l2, l3 = _eig3_lanes(c00, c01, c02, c11, c12, c22)
+                lam[0, q] = l1
+                lam[1, q] = l2
+                lam[2, q] = l3
+                # the arguments of -t ln t in the criterion (as it computes them)
+                if criterion == 1:
+                    sm = l1 + l2 + l3
+                    rt[0, q] = l1 / sm
+                    rt[1, q] = l2 / sm
+                    rt[2, q] = l3 / sm
+                else:
+                    il1 = 1.0 / l1
+                    rt[0, q] = (l1 - l2) * il1
+                    rt[1, q] = (l2 - l3) * il1
+                    rt[2, q] = l3 * il1
+            for q in range(n_q):
+                lb = _chord_bound(rt[0, q]) + _chord_bound(rt[1, q]) + _chord_bound(rt[2, q])
+                lbv[q] = lb if lam[0, q] > 0.0 else np.inf  # lambda_1 = 0: no choice
+            # the smallest bound first, then every choice it does not rule out
+            code = REASON_FEW_DISTINCT
+            q0 = -1
+            lb0 = np.inf
+            for q in range(n_q):
+                if lbv[q] < lb0:
+                    lb0 = lbv[q]
+                    q0 = q
+                elif lbv[q] == np.inf:
+                    code = REASON_ZERO_EIGENSUM
+            bv = np.inf
+            bk = -1
+            bp = -1
+            if q0 >= 0:
+                for step in range(n_q + 1):
+                    q = q0 if step == 0 else step - 1
+                    if step > 0 and (q == q0 or not lbv[q] <= bv + _PRUNE_MARGIN):
                         continue
-                    pr = act[s]
-                    sw = mom[0, s]
-                    sx = mom[1, s]
-                    sy = mom[2, s]
-                    sz = mom[3, s]
-                    # C = Syy - Sy m^T - m Sy^T + W m m^T, m = unweighted mean of y
-                    c00 = mom[4, s] - 2.0 * sx * mx + sw * mx * mx
-                    c11 = mom[7, s] - 2.0 * sy * my + sw * my * my
-                    c22 = mom[9, s] - 2.0 * sz * mz + sw * mz * mz
-                    c01 = mom[5, s] - sx * my - mx * sy + sw * mx * my
-                    c02 = mom[6, s] - sx * mz - mx * sz + sw * mx * mz
-                    c12 = mom[8, s] - sy * mz - my * sz + sw * my * mz
                     if criterion == 1:
-                        if bk >= 0:
-                            # Shannon entropy >= collision entropy -ln(|C|_F^2 / tr^2)
-                            tr = c00 + c11 + c22
-                            fro = (
-                                c00 * c00
-                                + c11 * c11
-                                + c22 * c22
-                                + 2.0 * (c01 * c01 + c02 * c02 + c12 * c12)
-                            )
-                            if tr > 0.0 and fro > 0.0 and -math.log(fro / (tr * tr)) - 1e-12 >= bv:
-                                continue
-                    elif have_ref and rval > bv + _PRUNE_MARGIN:
-                        # (the bound never exceeds the reference's own value)
-                        g = chain * chain - 1.0
-                        if g < 0.25:
-                            # weights within a factor F of the reference's (same
-                            # unweighted barycentre): C / F <= C' <= F C, each lambda_i
-                            # within that factor, so x = l2 / l1 and y = l3 / l1 by F^2
-                            xr = 1.0 - rlin
-                            d_l = xr * g + 2.0 * _EIG_SLACK
-                            d_p = (xr + rsca) * g + 4.0 * _EIG_SLACK
-                            d_s = rsca * g + 2.0 * _EIG_SLACK
-                            lb = (
-                                _entropy_term_bound(rlin, lnl, inl, d_l)
-                                + _entropy_term_bound(rpla, lnp, inp, d_p)
-                                + _entropy_term_bound(rsca, lns, ins, d_s)
-                            )
-                            if lb > bv + _PRUNE_MARGIN:
-                                continue
-                        else:
-                            e00 = c00 - r00
-                            e11 = c11 - r11
-                            e22 = c22 - r22
-                            e01 = c01 - r01
-                            e02 = c02 - r02
-                            e12 = c12 - r12
-                            eps = math.sqrt(
-                                e00 * e00
-                                + e11 * e11
-                                + e22 * e22
-                                + 2.0 * (e01 * e01 + e02 * e02 + e12 * e12)
-                            )
-                            eps += _EIG_SLACK * rl1
-                            # Weyl: |d lambda_i| <= eps, so L, S move by <= dw and P by 2 dw
-                            dw = 2.0 * eps / (rl1 - eps) if eps < 0.5 * rl1 else np.inf
-                            lb = (
-                                _entropy_term_bound(rlin, lnl, inl, dw)
-                                + _entropy_term_bound(rpla, lnp, inp, 2.0 * dw)
-                                + _entropy_term_bound(rsca, lns, ins, dw)
-                            )
-                            if lb > bv + _PRUNE_MARGIN:
-                                continue
-                    l1, l2, l3 = eig3_fast(c00, c01, c02, c11, c12, c22)
-                    if not l1 > 0.0:
-                        if code == REASON_FEW_DISTINCT:
-                            code = REASON_ZERO_EIGENSUM
-                        continue
-                    if criterion == 1:
-                        sm = l1 + l2 + l3
-                        val = -(_xlogx(l1 / sm) + _xlogx(l2 / sm) + _xlogx(l3 / sm))
+                        val = -(_xlogx(rt[0, q]) + _xlogx(rt[1, q]) + _xlogx(rt[2, q]))
                     else:
-                        il1 = 1.0 / l1
-                        lin = (l1 - l2) * il1
-                        pla = (l2 - l3) * il1
-                        sca = l3 * il1
+                        lin = rt[0, q]
+                        pla = rt[1, q]
+                        sca = rt[2, q]
                         lnl = math.log(lin) if lin > 0.0 else 0.0
                         lnp = math.log(pla) if pla > 0.0 else 0.0
                         lns = math.log(sca) if sca > 0.0 else 0.0
                         val = -(lin * lnl + pla * lnp + sca * lns)
-                        have_ref = True
-                        r00, r01, r02, r11, r12, r22 = c00, c01, c02, c11, c12, c22
-                        rl1, rlin, rpla, rsca, rval = l1, lin, pla, sca, val
-                        inl = 1.0 / lin if lin > 0.0 else 0.0
-                        inp = 1.0 / pla if pla > 0.0 else 0.0
-                        ins = 1.0 / sca if sca > 0.0 else 0.0
-                        chain = 1.0
+                    k = qk[q]
+                    pr = qp[q]
                     if val < bv or (val == bv and (k < bk or (k == bk and pr < bp))):
                         bv = val
                         bk = k
