@@ -41,7 +41,7 @@ __all__ = [
     "features_kernel",
     "fused_kernel",
     "index_range_kernel",
-    "search_kernel",
+    "optimal_kernel",
     "spatial_order_kernel",
 ]
 
@@ -584,40 +584,111 @@ def _chord_bound(t):
 _PRUNE_MARGIN = 1e-9
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _eig_features_row(out, i, c00, c01, c02, c11, c12, c22, m1, m2):
+    """Eigen-decomposition (`eigh3_accurate`) and features of one covariance into row
+    ``i`` of the packed output (`N_OUT` columns); False (row NaN) when lambda_1 = 0."""
+    l1, l2, l3, e1x, e1y, e1z, e3x, e3y, e3z = eigh3_accurate(c00, c01, c02, c11, c12, c22)
+    if not l1 > 0.0:
+        for c in range(N_OUT):
+            out[i, c] = np.nan
+        return False
+    s = l1 + l2 + l3
+    lin = (l1 - l2) / l1
+    pla = (l2 - l3) / l1
+    sca = l3 / l1
+    e1 = l1 / s
+    e2 = l2 / s
+    e3 = l3 / s
+    out[i, 0] = l1
+    out[i, 1] = l2
+    out[i, 2] = l3
+    out[i, 3] = e1x
+    out[i, 4] = e1y
+    out[i, 5] = e1z
+    out[i, 6] = e3x
+    out[i, 7] = e3y
+    out[i, 8] = e3z
+    out[i, 9] = lin
+    out[i, 10] = pla
+    out[i, 11] = sca
+    out[i, 12] = 0.0 - (_xlogx(lin) + _xlogx(pla) + _xlogx(sca))
+    out[i, 13] = np.cbrt(e1 * e2 * e3)
+    out[i, 14] = 1.0 - (e1 - e3) / e1
+    out[i, 15] = e3 / (e1 + e2 + e3)
+    out[i, 16] = 0.0 - (_xlogx(e1) + _xlogx(e2) + _xlogx(e3))
+    out[i, 17] = s
+    out[i, 18] = 1.0 - abs(e3z)
+    out[i, 19] = _pow_even(1.0 - l2 / l1, m1) + 1.0 - _pow_even(1.0 - l3 / l1, m2)
+    return True
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _normal_angle(nx, ny, nz, mx, my, mz):
+    """Angle between unit normals n and m: 2 atan2(|n - m|, |n + m|), below
+    ``ANGLE_ZERO`` exactly 0 (NaN stays NaN)."""
+    dx = nx - mx
+    dy = ny - my
+    dz = nz - mz
+    sx = nx + mx
+    sy = ny + my
+    sz = nz + mz
+    x = 2.0 * math.atan2(
+        math.sqrt(dx * dx + dy * dy + dz * dz), math.sqrt(sx * sx + sy * sy + sz * sz)
+    )
+    if x < ANGLE_ZERO:
+        x = 0.0
+    return x
+
+
 @njit(parallel=True, cache=True, error_model="numpy")
-def search_kernel(
+def optimal_kernel(
     points,
+    normals,
     idx,
     order,
     kmin,
     kmax,
-    ang,
     use_normals,
     pair_a,
     pair_b,
     criterion,
-    best_val,
+    m1,
+    m2,
+    out,
+    reason,
     best_k,
     best_pair,
-    reason,
 ):
-    """Optimal (a, b, k) per point (Eq. 5.9) by running moment sums over k.
+    """Optimal (a, b, k) per point (Eq. 5.9) by running moment sums over k, and its features.
 
-    Per point the weights of the kmax sorted neighbours are computed once for each
-    (a, b) pair (given in lexicographic order); pairs whose weights are all 0/1 and
-    select the same neighbours as an earlier pair are dropped (identical values; the
-    earlier pair wins the tie). k then grows by one neighbour at a time while the
-    weighted moments (sum w, sum w y, sum w y y^T about the point itself) of all
-    remaining pairs and the unweighted sum of y are updated, so each covariance
-    costs O(1); the covariances of all choices are stored. Their eigenvalues
-    (`eig3_fast`'s values, from a branch-free copy the compiler vectorises) and a
-    logarithm-free lower bound of the criterion (chords of -t ln t, `_chord_bound`)
-    follow in two flat loops. Only choices whose bound does not exceed the best
-    value found so far by `_PRUNE_MARGIN` get the criterion with its three
-    logarithms, the smallest bound first. Every choice skipped is certified worse,
-    so the result is the exact argmin of the criterion over all choices. Ties:
-    smallest k, then a, then b. Criterion 0: E_dim; 1: eigenentropy. Without
-    normals there is one pair with all weights 1. Points are visited in ``order``.
+    Per point the angles to the kmax sorted neighbours' normals are computed once
+    (`_normal_angle`, as `angles_kernel`). For every distinct a the neighbours with
+    angle <= a (a bit mask) and the smallest angle above a are found; a pair (a, b)
+    whose weights are then all 0/1 and select the same neighbours as an earlier
+    pair is dropped (identical values; the earlier pair wins the tie); only the
+    remaining pairs get their weights (the cosine ramp only where an angle lies in
+    (a, b)). k then grows by one neighbour at a time while the weighted moments
+    (sum w, sum w y, sum w y y^T about the point itself) of every pair and the
+    unweighted sum of y are updated, so each covariance costs O(1); the
+    covariances of all choices are stored. Their eigenvalues (`eig3_fast`'s
+    values, from a branch-free copy the compiler vectorises) and a logarithm-free
+    lower bound of the criterion (chords of -t ln t, `_chord_bound`) follow in two
+    flat loops. Only choices whose bound does not exceed the best value found so
+    far by `_PRUNE_MARGIN` get the criterion with its three logarithms, the
+    smallest bound first. Every choice skipped is certified worse, so the result
+    is the exact argmin of the criterion over all choices. Ties: smallest k, then
+    a, then b. Criterion 0: E_dim; 1: eigenentropy. Without normals there is one
+    pair with all weights 1.
+
+    The winner's covariance is then rebuilt exactly as `fused_kernel` builds it
+    (weights `cosine_sigmoid_scalar`, the same sums in the same order) and row i
+    of ``out`` (N, `N_OUT`) receives its eigen-decomposition and features
+    (`_eig_features_row`), so the result equals the search followed by
+    `fused_kernel` at the chosen triple bit for bit, without the angle table and
+    the second pass. ``reason``, ``best_k`` (-1: none) and ``best_pair`` (-1) per
+    point; rows without a valid choice are NaN. Points are visited in ``order``
+    (see `spatial_order_kernel`); indices must lie in [0, N).
     """
     n = idx.shape[0]
     n_pairs = pair_a.shape[0] if use_normals else 1
@@ -626,6 +697,7 @@ def search_kernel(
     nblocks = (n + _BLOCK - 1) // _BLOCK
     for blk in prange(nblocks):
         ys = np.empty((kmax, 3))
+        angrow = np.zeros(kmax)
         ws = np.ones((n_pairs, kmax))
         act = np.empty(n_pairs, dtype=np.int64)
         masks = np.empty(n_pairs, dtype=np.uint64)
@@ -644,74 +716,78 @@ def search_kernel(
                 for c in range(0, kmax, 8):
                     prefetch_read(idx, ia, c)
                 prefetch_read(idx, ia, kmax - 1)
-                if use_normals:
-                    for c in range(0, kmax, 8):
-                        prefetch_read(ang, ia, c)
-                    prefetch_read(ang, ia, kmax - 1)
+                prefetch_write(out, ia, 0)
+                prefetch_write(out, ia, N_OUT - 1)
             if t + _AHEAD // 2 < t_end:
                 ib = order[t + _AHEAD // 2]
                 for j in range(kmax):
                     prefetch_read(points, idx[ib, j], 0)
+                    if use_normals:
+                        prefetch_read(normals, idx[ib, j], 0)
             i = order[t]
-            best_val[i] = np.inf
             best_k[i] = -1
             best_pair[i] = -1
             ok = _gather(points, idx, i, kmax, ys)
             if use_normals:
+                nx = normals[i, 0]
+                ny = normals[i, 1]
+                nz = normals[i, 2]
                 for j in range(kmax):
-                    if not math.isfinite(ang[i, j]):
+                    m = idx[i, j]
+                    x = _normal_angle(nx, ny, nz, normals[m, 0], normals[m, 1], normals[m, 2])
+                    angrow[j] = x
+                    if not math.isfinite(x):
                         ok = False
             if not ok:
                 reason[i] = REASON_NONFINITE
+                for c in range(N_OUT):
+                    out[i, c] = np.nan
+                out[i, 12] = np.inf
                 continue
             n_act = 0
             n_masks = 0
-            x_max = 0.0
-            if use_normals:
-                for j in range(kmax):
-                    x_max = max(x_max, ang[i, j])
+            a_prev = np.nan
+            mask = np.uint64(0)
+            x_next = np.inf
             for pr in range(n_pairs):
                 if use_normals:
                     a = pair_a[pr]
                     b = pair_b[pr]
-                    binary = True
-                    mask = np.uint64(0)
-                    if dedupe and a >= x_max:
-                        # all weights 1: the full mask; skip the loop if seen
-                        mask = ~np.uint64(0) >> np.uint64(64 - kmax)
-                        seen = False
-                        for m in range(n_masks):
-                            if masks[m] == mask:
-                                seen = True
-                                break
-                        if seen:
-                            continue
+                    if a != a_prev:
+                        # neighbours with weight 1 (angle <= a) and the next angle
+                        a_prev = a
                         mask = np.uint64(0)
-                    inv = 1.0 / (b - a) if b > a else 0.0
-                    # branch-free over the neighbours (selects): vectorisable
-                    for j in range(kmax):
-                        x = ang[i, j]
-                        w = _sigmoid_ramp((x - a) * inv)
-                        w = 0.0 if x >= b else w
-                        w = 1.0 if x <= a else w
-                        ws[pr, j] = w
-                    for j in range(kmax):
-                        x = ang[i, j]
-                        if x <= a:
-                            if j < 64:
-                                mask |= np.uint64(1) << np.uint64(j)
-                        elif x < b:
-                            binary = False
+                        x_next = np.inf
+                        for j in range(kmax):
+                            x = angrow[j]
+                            if x <= a:
+                                if j < 64:
+                                    mask |= np.uint64(1) << np.uint64(j)
+                            elif x < x_next:
+                                x_next = x
+                    binary = x_next >= b  # no angle in (a, b): weights 0/1
                     if dedupe and binary:
                         seen = False
-                        for m in range(n_masks):
-                            if masks[m] == mask:
+                        for mm in range(n_masks):
+                            if masks[mm] == mask:
                                 seen = True
                                 break
                         if seen:
                             continue
                         masks[n_masks] = mask
                         n_masks += 1
+                    if binary:
+                        for j in range(kmax):
+                            ws[pr, j] = 1.0 if angrow[j] <= a else 0.0
+                    else:
+                        inv = 1.0 / (b - a)
+                        # branch-free over the neighbours (selects): vectorisable
+                        for j in range(kmax):
+                            x = angrow[j]
+                            w = _sigmoid_ramp((x - a) * inv)
+                            w = 0.0 if x >= b else w
+                            w = 1.0 if x <= a else w
+                            ws[pr, j] = w
                 act[n_act] = pr
                 n_act += 1
             # unweighted barycentres of the k nearest neighbours
@@ -737,22 +813,22 @@ def search_kernel(
                 nd = 0
                 d1 = -1
                 d2 = -1
-                m0 = m1 = m2 = m3 = m4 = m5 = m6 = m7 = m8 = m9 = 0.0
+                s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = s8 = s9 = 0.0
                 for j in range(kmax):
                     w = ws[pr, j]
                     yx = ys[j, 0]
                     yy = ys[j, 1]
                     yz = ys[j, 2]
-                    m0 += w
-                    m1 += w * yx
-                    m2 += w * yy
-                    m3 += w * yz
-                    m4 += w * yx * yx
-                    m5 += w * yx * yy
-                    m6 += w * yx * yz
-                    m7 += w * yy * yy
-                    m8 += w * yy * yz
-                    m9 += w * yz * yz
+                    s0 += w
+                    s1 += w * yx
+                    s2 += w * yy
+                    s3 += w * yz
+                    s4 += w * yx * yx
+                    s5 += w * yx * yy
+                    s6 += w * yx * yz
+                    s7 += w * yy * yy
+                    s8 += w * yy * yz
+                    s9 += w * yz * yz
                     if nd < 3 and w > 0.0:
                         if nd == 0:
                             d1 = j
@@ -766,16 +842,16 @@ def search_kernel(
                     if j + 1 >= kmin and nd >= 3:
                         q = n_q
                         n_q += 1
-                        pm[0, q] = m0
-                        pm[1, q] = m1
-                        pm[2, q] = m2
-                        pm[3, q] = m3
-                        pm[4, q] = m4
-                        pm[5, q] = m5
-                        pm[6, q] = m6
-                        pm[7, q] = m7
-                        pm[8, q] = m8
-                        pm[9, q] = m9
+                        pm[0, q] = s0
+                        pm[1, q] = s1
+                        pm[2, q] = s2
+                        pm[3, q] = s3
+                        pm[4, q] = s4
+                        pm[5, q] = s5
+                        pm[6, q] = s6
+                        pm[7, q] = s7
+                        pm[8, q] = s8
+                        pm[9, q] = s9
                         mq[0, q] = mk[0, j + 1 - kmin]
                         mq[1, q] = mk[1, j + 1 - kmin]
                         mq[2, q] = mk[2, j + 1 - kmin]
@@ -848,10 +924,99 @@ def search_kernel(
                         bv = val
                         bk = k
                         bp = pr
-            best_val[i] = bv
-            best_k[i] = bk
-            best_pair[i] = bp
-            reason[i] = REASON_OK if bk >= 0 else code
+            if bk < 0:
+                reason[i] = code
+                for c in range(N_OUT):
+                    out[i, c] = np.nan
+                out[i, 12] = np.inf
+                continue
+            # the winner's covariance as `fused_kernel` builds it, and its features
+            a = pair_a[bp] if use_normals else 0.0
+            b = pair_b[bp] if use_normals else 0.0
+            ux = 0.0
+            uy = 0.0
+            uz = 0.0
+            sw = 0.0
+            sx = 0.0
+            sy = 0.0
+            sz = 0.0
+            sxx = 0.0
+            sxy = 0.0
+            sxz = 0.0
+            syy = 0.0
+            syz = 0.0
+            szz = 0.0
+            n_distinct = 0
+            first = -1
+            second = -1
+            for j in range(bk):
+                m = idx[i, j]
+                yx = ys[j, 0]
+                yy = ys[j, 1]
+                yz = ys[j, 2]
+                ux += yx
+                uy += yy
+                uz += yz
+                w = cosine_sigmoid_scalar(angrow[j], a, b) if use_normals else 1.0
+                if w > 0.0:
+                    sw += w
+                    sx += w * yx
+                    sy += w * yy
+                    sz += w * yz
+                    sxx += w * yx * yx
+                    sxy += w * yx * yy
+                    sxz += w * yx * yz
+                    syy += w * yy * yy
+                    syz += w * yy * yz
+                    szz += w * yz * yz
+                    if n_distinct < 3:
+                        if n_distinct == 0:
+                            first = m
+                            n_distinct = 1
+                        elif not (
+                            points[m, 0] == points[first, 0]
+                            and points[m, 1] == points[first, 1]
+                            and points[m, 2] == points[first, 2]
+                        ):
+                            if n_distinct == 1:
+                                second = m
+                                n_distinct = 2
+                            elif not (
+                                points[m, 0] == points[second, 0]
+                                and points[m, 1] == points[second, 1]
+                                and points[m, 2] == points[second, 2]
+                            ):
+                                n_distinct = 3
+            if sw <= 0.0:
+                code = REASON_ZERO_WEIGHTS
+            elif n_distinct < 3:
+                code = REASON_FEW_DISTINCT
+            else:
+                mx = ux / bk
+                my = uy / bk
+                mz = uz / bk
+                code = REASON_OK
+                if not _eig_features_row(
+                    out,
+                    i,
+                    sxx - 2.0 * sx * mx + sw * mx * mx,
+                    sxy - sx * my - mx * sy + sw * mx * my,
+                    sxz - sx * mz - mx * sz + sw * mx * mz,
+                    syy - 2.0 * sy * my + sw * my * my,
+                    syz - sy * mz - my * sz + sw * my * mz,
+                    szz - 2.0 * sz * mz + sw * mz * mz,
+                    m1,
+                    m2,
+                ):
+                    code = REASON_ZERO_EIGENSUM
+            reason[i] = code
+            if code == REASON_OK:
+                best_k[i] = bk
+                best_pair[i] = bp
+            else:
+                for c in range(N_OUT):
+                    out[i, c] = np.nan
+                out[i, 12] = np.inf
 
 
 @njit(cache=True, error_model="numpy")
@@ -1152,47 +1317,14 @@ def fused_kernel(points, idx, order, k_of, ang, use_normals, a_of, b_of, m1, m2,
             i = order[t]
             r = t - t0
             code = codes[r]
-            l1 = 0.0
-            l2 = 0.0
-            l3 = 0.0
-            if code == REASON_OK:
-                l1, l2, l3, e1x, e1y, e1z, e3x, e3y, e3z = eigh3_accurate(
-                    cov[r, 0], cov[r, 1], cov[r, 2], cov[r, 3], cov[r, 4], cov[r, 5]
-                )
-                if not l1 > 0.0:
-                    code = REASON_ZERO_EIGENSUM
+            if code == REASON_OK and not _eig_features_row(
+                out, i, cov[r, 0], cov[r, 1], cov[r, 2], cov[r, 3], cov[r, 4], cov[r, 5], m1, m2
+            ):
+                code = REASON_ZERO_EIGENSUM
             reason[i] = code
             if code != REASON_OK:
                 for c in range(N_OUT):
                     out[i, c] = np.nan
-                continue
-            s = l1 + l2 + l3
-            lin = (l1 - l2) / l1
-            pla = (l2 - l3) / l1
-            sca = l3 / l1
-            e1 = l1 / s
-            e2 = l2 / s
-            e3 = l3 / s
-            out[i, 0] = l1
-            out[i, 1] = l2
-            out[i, 2] = l3
-            out[i, 3] = e1x
-            out[i, 4] = e1y
-            out[i, 5] = e1z
-            out[i, 6] = e3x
-            out[i, 7] = e3y
-            out[i, 8] = e3z
-            out[i, 9] = lin
-            out[i, 10] = pla
-            out[i, 11] = sca
-            out[i, 12] = 0.0 - (_xlogx(lin) + _xlogx(pla) + _xlogx(sca))
-            out[i, 13] = np.cbrt(e1 * e2 * e3)
-            out[i, 14] = 1.0 - (e1 - e3) / e1
-            out[i, 15] = e3 / (e1 + e2 + e3)
-            out[i, 16] = 0.0 - (_xlogx(e1) + _xlogx(e2) + _xlogx(e3))
-            out[i, 17] = s
-            out[i, 18] = 1.0 - abs(e3z)
-            out[i, 19] = _pow_even(1.0 - l2 / l1, m1) + 1.0 - _pow_even(1.0 - l3 / l1, m2)
 
 
 @njit(cache=True, inline="always", error_model="numpy")

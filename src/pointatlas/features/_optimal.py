@@ -17,7 +17,7 @@ from ._features import (
     _spatial_order,
     _unit_normals_or_nan,
 )
-from ._kernels import REASON_OK, angles_kernel, search_kernel
+from ._kernels import N_OUT, REASON_OK, optimal_kernel
 from ._weights import normal_angles
 
 __all__ = [
@@ -157,13 +157,7 @@ def optimal_neighbourhood(
     flat = _check_flatness(flatness)
     nrm = _unit_normals_or_nan(normals, n)
     idx = _neighbourhoods(pts, kmax, neighbors)
-    order = _spatial_order(pts)
-    angles = np.empty(idx.shape)
-    angles_kernel(nrm, idx, order, angles)
-    best_val, best_k, best_pair, reason = _run_search(
-        pts, idx, kmin, kmax, angles, pairs, criterion=0, order=order
-    )
-    return _finish(pts, idx, angles, pairs, best_k, best_pair, reason, flat, order)
+    return _run_optimal(pts, nrm, idx, kmin, kmax, pairs, criterion=0, flatness=flat)
 
 
 def optimal_k_features(
@@ -223,65 +217,53 @@ def optimal_k_features(
     flat = _check_flatness(flatness)
     idx = _neighbourhoods(pts, kmax, neighbors)
     pairs = np.array([[math.pi, math.pi]])
-    order = _spatial_order(pts)
-    best_val, best_k, best_pair, reason = _run_search(
-        pts, idx, kmin, kmax, None, pairs, criterion=_CRITERIA[criterion], order=order
+    return _run_optimal(
+        pts, None, idx, kmin, kmax, pairs, criterion=_CRITERIA[criterion], flatness=flat
     )
-    return _finish(pts, idx, None, pairs, best_k, best_pair, reason, flat, order)
 
 
-def _run_search(pts, idx, kmin, kmax, angles, pairs, *, criterion, order=None):
+def _run_optimal(pts, nrm, idx, kmin, kmax, pairs, *, criterion, flatness) -> FeatureResult:
+    """One `optimal_kernel` pass: the argmin per point and the features there."""
     n = pts.shape[0]
-    best_val = np.empty(n)
+    out = np.empty((n, N_OUT))
+    reason = np.empty(n, dtype=np.uint8)
     best_k = np.empty(n, dtype=np.int64)
     best_pair = np.empty(n, dtype=np.int64)
-    reason = np.empty(n, dtype=np.uint8)
-    use_normals = angles is not None
-    ang = angles if use_normals else np.empty((0, 0))
-    search_kernel(
+    use_normals = nrm is not None
+    m1, m2 = flatness
+    optimal_kernel(
         pts,
+        nrm if use_normals else np.empty((0, 3)),
         idx,
-        _spatial_order(pts) if order is None else order,
+        _spatial_order(pts),
         kmin,
         kmax,
-        ang,
         use_normals,
         np.ascontiguousarray(pairs[:, 0]),
         np.ascontiguousarray(pairs[:, 1]),
         criterion,
-        best_val,
+        m1,
+        m2,
+        out,
+        reason,
         best_k,
         best_pair,
-        reason,
     )
-    return best_val, best_k, best_pair, reason
-
-
-def _finish(pts, idx, angles, pairs, best_k, best_pair, reason, flat, order=None) -> FeatureResult:
     ok = reason == REASON_OK
-    kk = idx.shape[1]
-    k_of = np.where(ok, best_k, kk).astype(np.int64)
     pair = np.where(ok, best_pair, 0)
-    a_of = np.where(ok, pairs[pair, 0], math.pi)
-    b_of = np.where(ok, pairs[pair, 1], math.pi)
-    res = _choice_features(pts, idx, k_of, angles, a_of, b_of, flat, order)
-    if ok.all():
-        return res
-    bad = ~ok
-    repl = {}
-    for name in ("eigenvalues", "eigenvector_1", "eigenvector_3"):
-        arr = getattr(res, name).copy()
-        arr[bad] = np.nan
-        repl[name] = arr
-    for name in FEATURE_NAMES:
-        arr = getattr(res, name).copy()
-        arr[bad] = np.inf if name == "e_dim" else np.nan
-        repl[name] = arr
-    k_out = np.where(ok, best_k, -1)
-    a_out = np.where(ok, a_of, np.nan)
-    b_out = np.where(ok, b_of, np.nan)
+    nan = np.nan
+    # one packed (N, 20) array; the result's arrays are views of its columns
+    feats = out[:, 9:]
     return FeatureResult(
-        k=k_out, a=a_out, b=b_out, reason=reason, flatness_exponents=res.flatness_exponents, **repl
+        eigenvalues=out[:, 0:3],
+        eigenvector_1=out[:, 3:6],
+        eigenvector_3=out[:, 6:9],
+        k=best_k,
+        a=np.where(ok, pairs[pair, 0], nan),
+        b=np.where(ok, pairs[pair, 1], nan),
+        reason=reason,
+        flatness_exponents=(m1, m2),
+        **{name: feats[:, c] for c, name in enumerate(FEATURE_NAMES)},
     )
 
 
