@@ -462,11 +462,20 @@ def _cos_third(v):
     2 h^2 (3 + 2 v h) = 1 with h in [0.353, 0.409]; a cubic fit (error < 7e-5)
     and two Newton steps (derivative 12 h (1 + v h) >= 4.2) give h to rounding.
     """
-    h = ((-0.0028269 * v + 0.01523889) * v - 0.05456088) * v + 0.40818365
-    for _ in range(2):
-        vh = v * h
-        h -= (2.0 * h * h * (3.0 + 2.0 * vh) - 1.0) / (12.0 * h * (1.0 + vh))
-    return 0.5 + v * h
+    return 0.5 + v * _ct_newton(v, _ct_newton(v, _ct_start(v)))
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _ct_start(v):
+    """Cubic first guess of h in `_cos_third`."""
+    return ((-0.0028269 * v + 0.01523889) * v - 0.05456088) * v + 0.40818365
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _ct_newton(v, h):
+    """One Newton step for 2 h^2 (3 + 2 v h) = 1 (see `_cos_third`)."""
+    vh = v * h
+    return h - (2.0 * h * h * (3.0 + 2.0 * vh) - 1.0) / (12.0 * h * (1.0 + vh))
 
 
 @njit(cache=True, error_model="numpy")
@@ -515,8 +524,19 @@ def eig3_fast(c00, c01, c02, c11, c12, c22):
 def _eig3_lanes(c00, c01, c02, c11, c12, c22):
     """`eig3_fast` written without branches (selects only), bit for bit the same values.
 
-    Inlined into loops over many covariances, which the compiler then vectorises.
+    Composed of three stages (`_lanes_stage1`, `_lanes_stage2`, `_lanes_stage3`)
+    that `optimal_kernel` runs as three flat loops over its candidates: each
+    loop vectorises, and its iterations are independent, so the long chain of
+    square roots and divisions of one candidate overlaps with the next ones.
     """
+    q, p, p2, r = _lanes_stage1(c00, c01, c02, c11, c12, c22)
+    v1, h1, v3, h3 = _lanes_stage2(r)
+    return _lanes_stage3(q, p, p2, v1, h1, v3, h3)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _lanes_stage1(c00, c01, c02, c11, c12, c22):
+    """Trace shift q, scale p (and p^2) and the clamped half determinant r."""
     q = (c00 + c11 + c22) / 3.0
     b00 = c00 - q
     b11 = c11 - q
@@ -538,8 +558,22 @@ def _eig3_lanes(c00, c01, c02, c11, c12, c22):
     r = 0.5 * det
     r = -1.0 if r < -1.0 else r
     r = 1.0 if r > 1.0 else r
-    l1 = q + 2.0 * p * _cos_third(math.sqrt(1.0 + r))
-    l3 = q - 2.0 * p * _cos_third(math.sqrt(1.0 - r))
+    return q, p, p2, r
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _lanes_stage2(r):
+    """sqrt(1 + r), sqrt(1 - r) and the first Newton iterate of each `_cos_third`."""
+    v1 = math.sqrt(1.0 + r)
+    v3 = math.sqrt(1.0 - r)
+    return v1, _ct_newton(v1, _ct_start(v1)), v3, _ct_newton(v3, _ct_start(v3))
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _lanes_stage3(q, p, p2, v1, h1, v3, h3):
+    """Second Newton step, the three eigenvalues, ordered and clipped."""
+    l1 = q + 2.0 * p * (0.5 + v1 * _ct_newton(v1, h1))
+    l3 = q - 2.0 * p * (0.5 + v3 * _ct_newton(v3, h3))
     l2 = 3.0 * q - l1 - l3
     l2 = l1 if l2 > l1 else l2
     l2 = l3 if l2 < l3 else l2
@@ -700,10 +734,13 @@ def optimal_kernel(
         angrow = np.zeros(kmax)
         ws = np.ones((n_pairs, kmax))
         act = np.empty(n_pairs, dtype=np.int64)
+        nbp = np.empty(n_pairs, dtype=np.int64)
+        uu = np.empty(n_pairs * kmax)
         masks = np.empty(n_pairs, dtype=np.uint64)
         pm = np.empty((10, nk * n_pairs))
         mq = np.empty((3, nk * n_pairs))
         lam = np.empty((3, nk * n_pairs))
+        ev = np.empty((8, nk * n_pairs))
         rt = np.empty((3, nk * n_pairs))
         lbv = np.empty(nk * n_pairs)
         mk = np.empty((3, nk))
@@ -746,6 +783,7 @@ def optimal_kernel(
                 continue
             n_act = 0
             n_masks = 0
+            n_nb = 0
             a_prev = np.nan
             mask = np.uint64(0)
             x_next = np.inf
@@ -780,16 +818,29 @@ def optimal_kernel(
                         for j in range(kmax):
                             ws[pr, j] = 1.0 if angrow[j] <= a else 0.0
                     else:
+                        # the ramp's argument now, the ramp below for all such pairs
                         inv = 1.0 / (b - a)
-                        # branch-free over the neighbours (selects): vectorisable
+                        base = n_nb * kmax
                         for j in range(kmax):
-                            x = angrow[j]
-                            w = _sigmoid_ramp((x - a) * inv)
-                            w = 0.0 if x >= b else w
-                            w = 1.0 if x <= a else w
-                            ws[pr, j] = w
+                            uu[base + j] = (angrow[j] - a) * inv
+                        nbp[n_nb] = pr
+                        n_nb += 1
                 act[n_act] = pr
                 n_act += 1
+            # the cosine ramps of every pair with angles inside (a, b) in one flat
+            # loop (vectorised, and the polynomials of different pairs overlap)
+            for t in range(n_nb * kmax):
+                uu[t] = _sigmoid_ramp(uu[t])
+            for t in range(n_nb):
+                pr = nbp[t]
+                a = pair_a[pr]
+                b = pair_b[pr]
+                for j in range(kmax):
+                    x = angrow[j]
+                    w = uu[t * kmax + j]
+                    w = 0.0 if x >= b else w
+                    w = 1.0 if x <= a else w
+                    ws[pr, j] = w
             # unweighted barycentres of the k nearest neighbours
             ux = 0.0
             uy = 0.0
@@ -872,7 +923,13 @@ def optimal_kernel(
                 c11 = pm[7, q] - 2.0 * sy * my + sw * my * my
                 c12 = pm[8, q] - sy * mz - my * sz + sw * my * mz
                 c22 = pm[9, q] - 2.0 * sz * mz + sw * mz * mz
-                l1, l2, l3 = _eig3_lanes(c00, c01, c02, c11, c12, c22)
+                ev[0, q], ev[1, q], ev[2, q], ev[3, q] = _lanes_stage1(c00, c01, c02, c11, c12, c22)
+            for q in range(n_q):
+                ev[4, q], ev[5, q], ev[6, q], ev[7, q] = _lanes_stage2(ev[3, q])
+            for q in range(n_q):
+                l1, l2, l3 = _lanes_stage3(
+                    ev[0, q], ev[1, q], ev[2, q], ev[4, q], ev[5, q], ev[6, q], ev[7, q]
+                )
                 lam[0, q] = l1
                 lam[1, q] = l2
                 lam[2, q] = l3
