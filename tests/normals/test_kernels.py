@@ -11,12 +11,13 @@ from scipy import sparse
 from pointatlas.neighbors import query_knn
 from pointatlas.normals import orient_normals
 from pointatlas.normals._kernels import (
+    _forest_edges,
+    _forest_labels,
     component_tops_kernel,
     pca_normals_kernel,
-    propagate_signs_kernel,
-    riemannian_graph_kernel,
     sym3_eigen,
 )
+from pointatlas.normals._orient import _riemannian_graph, _spanning_forest
 from tests.jit_off import run_without_jit
 
 from . import reference
@@ -127,7 +128,7 @@ def test_riemannian_graph_matches_reference():
     nrm = np.vstack([nrm, nrm[:5]])
     idx, _ = query_knn(dup, 8)
     for penalty in (0.0, 1.0, 2.5):
-        indptr, cols, w = riemannian_graph_kernel(dup, nrm, idx, 8, 1e-9, penalty)
+        indptr, cols, w, opposed = _riemannian_graph(dup, nrm, idx, 8, 1e-9, penalty)
         ref = reference.riemannian_graph_reference(dup, nrm, idx, 8, 1e-9, penalty)
         rows = np.repeat(np.arange(dup.shape[0]), np.diff(indptr))
         ours = {(min(a, b), max(a, b)): x for a, b, x in zip(rows, cols, w, strict=True)}
@@ -136,6 +137,8 @@ def test_riemannian_graph_matches_reference():
         keys = list(ref)
         assert np.allclose([ours[e] for e in keys], [ref[e] for e in keys], rtol=1e-12)
         assert (w > 0).all()
+        dots = np.sum(nrm[rows] * nrm[cols], axis=1)
+        np.testing.assert_array_equal(opposed, (dots < 0).astype(np.uint8))
 
 
 def test_component_tops_match_reference():
@@ -150,25 +153,33 @@ def test_component_tops_match_reference():
         assert roots[c] == expected
 
 
-def test_propagate_signs_matches_reference():
+def test_forest_parity_matches_breadth_first_signs():
+    """Signs from the forest kernel's path parities equal breadth-first propagation
+    (scipy's traversal, one Python step per node) from any root."""
     rng = np.random.default_rng(5)
     n = 120
     nrm = rng.normal(size=(n, 3))
     # a random forest of three trees: node j > root attaches to an earlier node
-    comp = np.repeat([0, 1, 2], 40)
     parent = np.array([rng.integers(40 * (j // 40), j) if j % 40 else -1 for j in range(n)])
     child = np.flatnonzero(parent >= 0)
     tree = sparse.csr_array((np.ones(child.size), (parent[child], child)), shape=(n, n))
-    sym = (tree + tree.T).tocsr()
-    roots = np.array([0, 40, 80])
-    root_signs = np.array([1.0, -1.0, 1.0])
-    signs, order = propagate_signs_kernel(
-        sym.indptr.astype(np.int64), sym.indices.astype(np.int64), nrm, roots, root_signs
+    weights = rng.random(child.size) + 0.1
+    graph = sparse.csr_array((weights, (parent[child], child)), shape=(n, n))
+    rows = np.repeat(np.arange(n), np.diff(graph.indptr))
+    dots = np.sum(nrm[rows] * nrm[graph.indices], axis=1)
+    kept_a, _, labels, n_comp, parity = _spanning_forest(
+        graph.indptr.astype(np.int64),
+        graph.indices.astype(np.int64),
+        graph.data,
+        (dots < 0).astype(np.uint8),
     )
-    ref = reference.propagate_signs_reference(tree, nrm, roots, root_signs)
-    assert np.array_equal(signs, ref)
-    assert sorted(order.tolist()) == list(range(n))
-    assert np.array_equal(np.unique(comp[order[:40]]), [0])
+    assert kept_a.size == n - 3 and n_comp == 3
+    np.testing.assert_array_equal(labels, np.repeat([0, 1, 2], 40))
+    for roots in ([0, 40, 80], [17, 55, 119]):
+        root_signs = np.array([1.0, -1.0, 1.0])
+        ref = reference.propagate_signs_reference(tree, nrm, roots, root_signs)
+        ours = root_signs[labels] * np.where(parity == parity[roots][labels], 1.0, -1.0)
+        np.testing.assert_array_equal(ours, ref)
 
 
 def test_orient_matches_reference():
@@ -208,13 +219,14 @@ def test_kernels_without_jit():
     assert run_without_jit(_JIT_OFF_SCRIPT).strip() == "ok"
 
 
-def test_kruskal_forest_keeps_scipys_edges():
+def _forest_edge_set(kept_a, kept_b):
+    return {(min(a, b), max(a, b)) for a, b in zip(kept_a.tolist(), kept_b.tolist(), strict=True)}
+
+
+def test_spanning_forest_keeps_scipys_edges():
     """Kruskal in stable weight order keeps exactly scipy's minimum spanning
     forest, also with tied weights (a regular grid, two components)."""
     from scipy.sparse import csgraph
-
-    from pointatlas._core._sort import stable_argsort
-    from pointatlas.normals._kernels import kruskal_forest_kernel
 
     g = np.arange(12.0)
     grid = np.array([[x, y, 0.0] for x in g for y in g])
@@ -223,36 +235,120 @@ def test_kruskal_forest_keeps_scipys_edges():
     nrm[::7] = [0.0, 0.6, 0.8]
     n = pts.shape[0]
     idx, _ = query_knn(pts, 9)
-    indptr, cols, w = riemannian_graph_kernel(pts, nrm, idx, 9, 1e-9, 1.0)
+    indptr, cols, w, opposed = _riemannian_graph(pts, nrm, idx, 9, 1e-9, 1.0)
     assert np.unique(w).size < w.size  # ties present
-    order = stable_argsort(w)
-    np.testing.assert_array_equal(order, np.argsort(w, kind="stable"))
-    tree_ptr, tree_adj, labels, n_comp = kruskal_forest_kernel(indptr, cols, order)
-    ours = sparse.csr_array((np.ones(tree_adj.size), tree_adj, tree_ptr), shape=(n, n))
+    kept_a, kept_b, labels, n_comp, parity = _spanning_forest(indptr, cols, w, opposed)
+    ours = sparse.csr_array((np.ones(kept_a.size), (kept_a, kept_b)), shape=(n, n))
+    ours = ((ours + ours.T) != 0).astype(np.float64)
     ref = csgraph.minimum_spanning_tree(sparse.csr_array((w, cols, indptr), shape=(n, n)))
     ref = ((ref + ref.T) != 0).astype(np.float64)
     assert (ours != ref).nnz == 0
     assert n_comp == 2 and labels[0] == 0 and labels[-1] == 1
     ref_comp = csgraph.connected_components(ref, directed=False)[1]
     np.testing.assert_array_equal(labels, ref_comp)
+    assert not parity.any()  # no opposed normals
 
 
-def test_kruskal_core_id_width_does_not_matter():
-    """The 32-bit union-find (used below 2**31 nodes) keeps the same edges and
-    labels as the 64-bit one."""
-    from pointatlas._core._sort import stable_argsort
-    from pointatlas.normals._kernels import _kruskal_core
+def _random_graph(rng, n, m, values):
+    """CSR graph with each undirected edge once (sorted columns), weights drawn from
+    ``values`` (many ties), the nodes split into a few clumps."""
+    clump = rng.integers(0, 4, n)
+    pairs = set()
+    while len(pairs) < m:
+        a, b = rng.integers(0, n, 2)
+        if a != b and clump[a] == clump[b] and (b, a) not in pairs:
+            pairs.add((int(a), int(b)))
+    pairs = sorted(pairs)
+    a, b = np.array(pairs).T
+    indptr = np.searchsorted(a, np.arange(n + 1)).astype(np.int64)
+    w = rng.choice(values, len(pairs))
+    opposed = rng.integers(0, 2, len(pairs)).astype(np.uint8)
+    return indptr, b.astype(np.int64), w, opposed
 
-    rng = np.random.default_rng(3)
-    pts = np.round(rng.random((400, 3)) * 8)  # clumps: several components
-    pts += rng.random((400, 3)) * 1e-3
-    nrm = np.tile([0.0, 0.0, 1.0], (400, 1))
-    idx, _ = query_knn(pts, 7)
-    indptr, cols, w = riemannian_graph_kernel(pts, nrm, idx, 7, 1e-9, 1.0)
-    order = stable_argsort(w)
-    narrow = _kruskal_core(indptr, cols, order, np.arange(400).astype(np.int32))
-    wide = _kruskal_core(indptr, cols, order, np.arange(400))
-    assert narrow[2] == wide[2] and narrow[4] == wide[4]
-    np.testing.assert_array_equal(narrow[0][: narrow[2]], wide[0][: wide[2]])
-    np.testing.assert_array_equal(narrow[1][: narrow[2]], wide[1][: wide[2]])
-    np.testing.assert_array_equal(narrow[3], wide[3])
+
+def _kruskal_reference(indptr, cols, weights, n):
+    """Kept edges of Kruskal over Python's stable sort of the weights."""
+    rows = np.repeat(np.arange(n), np.diff(indptr))
+    comp = list(range(n))
+
+    def find(x):
+        while comp[x] != x:
+            x = comp[x]
+        return x
+
+    kept = []
+    for e in sorted(range(len(weights)), key=lambda e: weights[e]):
+        ra, rb = find(rows[e]), find(cols[e])
+        if ra != rb:
+            comp[ra] = rb
+            kept.append((int(rows[e]), int(cols[e])))
+    return kept
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_filter_kruskal_and_id_width_keep_kruskals_edges(seed):
+    """Filter-Kruskal (forced small stages), 32- and 64-bit ids and packed or
+    positional payloads keep Kruskal's edges in Kruskal's order, on graphs with
+    many tied weights (also -0.0 against +0.0 and negative weights), and the
+    parities flip exactly across the opposed tree edges."""
+    from scipy.sparse import csgraph
+
+    rng = np.random.default_rng(seed)
+    n = 300
+    for values in ([1.0, 2.0, 3.0, 4.0], [-0.0, 0.0, -1.5, 2.0, 1e-300], np.arange(1.0, 9.0)):
+        indptr, cols, w, opposed = _random_graph(rng, n, 900, np.array(values))
+        expected = _kruskal_reference(indptr, cols, w, n)
+        results = []
+        for wide, share, minimum in ((False, 0.2, 100_000), (False, 0.3, 16), (True, 0.1, 8)):
+            link = 2 * np.arange(n) if wide else (2 * np.arange(n)).astype(np.int32)
+            work = np.empty((6, cols.size), np.uint64)
+            kept_a, kept_b, n_kept = _forest_edges(
+                indptr, cols, w, opposed, link, wide, share, minimum, work
+            )
+            got = list(zip(kept_a[:n_kept].tolist(), kept_b[:n_kept].tolist(), strict=True))
+            assert got == expected
+            labels, n_comp, parity = _forest_labels(link)
+            results.append((labels, n_comp, parity))
+        for labels, n_comp, parity in results:
+            assert n_comp == results[0][1]
+            np.testing.assert_array_equal(labels, results[0][0])
+            np.testing.assert_array_equal(parity, results[0][2])
+        rows = np.repeat(np.arange(n), np.diff(indptr))
+        flips = {(int(a), int(b)): int(o) for a, b, o in zip(rows, cols, opposed, strict=True)}
+        parity = results[0][2]
+        for a, b in expected:
+            assert parity[a] ^ parity[b] == flips[(a, b)]
+        graph = sparse.csr_array((np.ones(cols.size), cols, indptr), shape=(n, n))
+        n_ref, ref_labels = csgraph.connected_components(graph, directed=False)
+        assert results[0][1] == n_ref
+        np.testing.assert_array_equal(results[0][0], ref_labels)
+        if min(values) > 0:  # scipy reads weight 0 as no edge
+            ref = csgraph.minimum_spanning_tree(sparse.csr_array((w, cols, indptr), shape=(n, n)))
+            ref = sparse.coo_array(ref)
+            assert _forest_edge_set(*np.array(expected).T) == _forest_edge_set(ref.row, ref.col)
+
+
+def test_spatial_order_is_a_permutation():
+    """The graph kernel's visiting order: a permutation for any input (empty, one
+    point, coincident points, a flat or shuffled cloud), nearby points close in it."""
+    from pointatlas._core._sort import morton_bits, morton_order
+
+    rng = np.random.default_rng(2)
+    flat = np.column_stack([rng.random((500, 2)), np.zeros(500)])
+    for pts in (np.zeros((0, 3)), np.ones((1, 3)), np.ones((7, 3)), flat, rng.random((2000, 3))):
+        order = morton_order(pts, morton_bits(pts.shape[0]))
+        np.testing.assert_array_equal(np.sort(order), np.arange(pts.shape[0]))
+    pts = rng.random((4000, 3))
+    order = morton_order(pts, morton_bits(pts.shape[0]))
+    steps = np.linalg.norm(np.diff(pts[order], axis=0), axis=1)
+    assert np.median(steps) < 0.2 * np.median(np.linalg.norm(np.diff(pts, axis=0), axis=1))
+
+
+def test_offsets_kernel_matches_numpy():
+    from pointatlas.normals._kernels import offsets_kernel
+
+    rng = np.random.default_rng(8)
+    pts = rng.normal(size=(500, 3)) * 1e3
+    targets = rng.integers(0, 500, 500)
+    np.testing.assert_array_equal(offsets_kernel(pts, targets), pts[targets] - pts)
+    assert offsets_kernel(np.zeros((0, 3)), np.zeros(0, np.int64)).shape == (0, 3)

@@ -100,6 +100,60 @@ def greedy_merge_reference(pairs, wsum, ssum, eta):
     return np.array([find(i) for i in range(m)])
 
 
+def greedy_merge_lazy_reference(pairs, wsum, ssum, eta, min_cos=0.0, use_angle=False):
+    """Plain transcription of `greedy_merge`'s lazy loop (no stream/heap split, no
+    dedupe table, no prefetching): pop the least (key bits, code) entry, merge it
+    when its current cost is no larger than its key or still the least entry,
+    otherwise push it back with the current cost. Returns (roots, n_merges)."""
+    m = len(wsum)
+    ws = np.column_stack([np.asarray(wsum, dtype=float), np.asarray(ssum, dtype=float)])
+    parent = list(range(m))
+
+    def find(i):
+        while parent[i] != i:
+            i = parent[i]
+        return i
+
+    def union_cost(a, b):
+        s3 = ws[a, 1:] + ws[b, 1:]
+        w = ws[a, 0] + ws[b, 0]
+        s = float(np.sqrt(s3[0] * s3[0] + s3[1] * s3[1] + s3[2] * s3[2]))
+        return max(2.0 * (w - s), 0.0) + 0.0, w, s
+
+    def bits(x):
+        return int(np.float64(x).view(np.int64))
+
+    def ok(cost, w, s):
+        return s >= min_cos * w if use_angle else cost < eta
+
+    queue = []
+    for a, b in pairs:
+        a, b = int(a), int(b)
+        cost, w, s = union_cost(a, b)
+        if ok(cost, w, s):
+            queue.append((bits(cost), (min(a, b) << 32) | max(a, b)))
+    heapq.heapify(queue)
+    n_merges = 0
+    while queue:
+        key, code = heapq.heappop(queue)
+        ra, rb = find(code >> 32), find(code & 0xFFFFFFFF)
+        if ra == rb:
+            continue
+        cost, w, s = union_cost(ra, rb)
+        if not ok(cost, w, s):
+            continue
+        lo, hi = min(ra, rb), max(ra, rb)
+        entry = (bits(cost), (lo << 32) | hi)
+        if entry[0] > key and queue and not entry < queue[0]:
+            heapq.heappush(queue, entry)
+            continue
+        parent[hi] = lo
+        ws[lo, 0] = w
+        ws[lo, 1:] += ws[hi, 1:]
+        n_merges += 1
+    return np.array([find(i) for i in range(m)]), n_merges
+
+
 def region_growing_reference(table, normals, curvature, cos_threshold, curvature_threshold):
     n = len(normals)
     order = sorted(range(n), key=lambda i: (curvature[i], i))

@@ -7,6 +7,7 @@ import textwrap
 import numpy as np
 import pytest
 
+from pointatlas._core._sort import stable_argsort
 from pointatlas.neighbors import query_knn
 from pointatlas.segment import _kernels as K
 from tests.jit_off import run_without_jit
@@ -142,6 +143,98 @@ def test_greedy_merge_ties_follow_pair_order(seed):
         np.testing.assert_array_equal(roots, ref)
 
 
+def _merge_input(rng, n, n_normals, singletons):
+    """A random k-NN graph's region pairs and sums; few distinct normals (and
+    integer weights) make many union costs tie exactly, many of them at 0."""
+    table, _ = query_knn(rng.random((n, 3)), int(rng.integers(3, 9)))
+    indptr, indices = K.symmetric_csr(table, n)
+    basis = rng.normal(size=(n_normals, 3))
+    basis /= np.linalg.norm(basis, axis=1, keepdims=True)
+    normals = basis[rng.integers(0, n_normals, size=n)]
+    weights = rng.integers(1, 4, size=n).astype(float)
+    if singletons:
+        return K.edge_pairs(indptr, indices), weights, weights[:, None] * normals
+    # a later round: regions of several points, pairs listed once per boundary edge
+    labels = K.canonical_labels(rng.integers(0, n // 3, size=n))[0]
+    labels, m = K.connected_label_components(indptr, indices, labels)
+    wsum = np.bincount(labels, weights, minlength=m)
+    ssum = np.stack([np.bincount(labels, weights * normals[:, d], m) for d in range(3)], 1)
+    rows = np.repeat(np.arange(n), np.diff(indptr))
+    a, b = labels[rows], labels[indices]
+    keep = a < b
+    pairs = np.stack([a[keep], b[keep]], 1)
+    if rng.random() < 0.5:  # unsorted, repeated pairs
+        pairs = pairs[rng.permutation(pairs.shape[0])]
+    else:
+        pairs = np.unique(pairs, axis=0)
+    return pairs, wsum, ssum
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_greedy_merge_matches_lazy_reference(seed):
+    """The kernel (sorted stream + heap, dedupe table, prefetching) takes exactly
+    the decisions of the plain lazy loop: same roots and merge count, in eta and
+    angle mode, from singletons and from multi-point regions, with tied costs."""
+    rng = np.random.default_rng(100 + seed)
+    n = int(rng.integers(20, 400))
+    pairs, wsum, ssum = _merge_input(rng, n, int(rng.integers(1, 6)), seed % 2 == 0)
+    for eta in (0.0, 0.3, 2.0, 40.0):
+        got = K.greedy_merge(pairs, wsum, ssum, eta, 0.0, False)
+        ref = reference.greedy_merge_lazy_reference(pairs, wsum, ssum, eta)
+        np.testing.assert_array_equal(got[0], ref[0])
+        assert got[1] == ref[1]
+    min_cos = float(np.cos(rng.uniform(0.05, 0.8)))
+    got = K.greedy_merge(pairs, wsum, ssum, 0.0, min_cos, True)
+    ref = reference.greedy_merge_lazy_reference(pairs, wsum, ssum, 0.0, min_cos, True)
+    np.testing.assert_array_equal(got[0], ref[0])
+    assert got[1] == ref[1]
+
+
+def test_sort_entries_is_stable_argsort():
+    rng = np.random.default_rng(1)
+    for keys in (
+        np.abs(np.round(rng.normal(size=5000), 2)),  # many ties
+        np.repeat(np.abs(_random_doubles(rng, 3000)), 2)[rng.permutation(6000)],
+        np.zeros(10),
+        np.empty(0),
+    ):
+        codes = rng.integers(0, 2**40, size=keys.shape[0])
+        order = stable_argsort(keys)
+        ks, ps = K._sort_entries(keys, codes)
+        np.testing.assert_array_equal(ks, keys[order].view(np.int64))
+        np.testing.assert_array_equal(ps, codes[order])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_merge_candidate_pairs_table_and_sort_agree(seed):
+    """The byte-table path and the sorting path give the same pairs as a plain scan."""
+    rng = np.random.default_rng(seed)
+    n = 300
+    table, _ = query_knn(rng.random((n, 3)), 6)
+    indptr, indices = K.symmetric_csr(table, n)
+    labels = K.canonical_labels(rng.integers(0, 40, size=n))[0]
+    m = int(labels.max()) + 1
+    foreign = K.foreign_counts(indptr, indices, labels)
+    dirty = rng.random(m) < 0.5
+    cost = rng.random(m) * 10.0
+    points = np.flatnonzero(rng.random(n) < 0.7)
+    limit = 8.0
+    slack = limit + 1e-9 * (1.0 + limit)
+    expected = set()
+    for i in points:
+        li = labels[i]
+        if foreign[i] == 0 or cost[li] >= 0.5 * slack:
+            continue
+        for j in indices[indptr[i] : indptr[i + 1]]:
+            lj = labels[j]
+            if lj != li and (dirty[li] or dirty[lj]) and cost[li] + cost[lj] < slack:
+                expected.add((min(li, lj), max(li, lj)))
+    expected = np.array(sorted(expected), dtype=np.int64).reshape(-1, 2)
+    args = (indptr, indices, labels, foreign, dirty, cost)
+    np.testing.assert_array_equal(K.merge_candidate_pairs(*args, limit, points), expected)
+    np.testing.assert_array_equal(K._candidate_pairs_sorted(*args, slack, points), expected)
+
+
 def test_merge_angle_mode_respects_bound():
     _, normals, table = _cloud(7, n=60)
     n = normals.shape[0]
@@ -187,6 +280,9 @@ _JIT_OFF_SCRIPT = textwrap.dedent(
     t.test_flood_edge_cases()
     t.test_switch_kernels_match_reference(0)
     t.test_greedy_merge_matches_reference(0)
+    t.test_greedy_merge_matches_lazy_reference(0)
+    t.test_sort_entries_is_stable_argsort()
+    t.test_merge_candidate_pairs_table_and_sort_agree(0)
     t.test_merge_angle_mode_respects_bound()
     t.test_components_and_pairs()
     t.test_region_growing_kernel_matches_reference(0)
@@ -311,7 +407,7 @@ def test_stable_argsort_matches_numpy():
         np.repeat(_random_doubles(rng, 20_000), 2)[rng.permutation(40_000)],
         1.0 + rng.integers(0, 300, size=20_000) * 2.0**-52,  # only the low digits vary
     ):
-        np.testing.assert_array_equal(K.stable_argsort(values), np.argsort(values, kind="stable"))
+        np.testing.assert_array_equal(stable_argsort(values), np.argsort(values, kind="stable"))
 
 
 def _random_doubles(rng, n):

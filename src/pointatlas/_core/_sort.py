@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
-import numpy as np
-from numba import njit
+import math
 
-__all__ = ["stable_argsort"]
+import numpy as np
+from numba import njit, prange
+
+__all__ = ["morton_bits", "morton_order", "stable_argsort"]
 
 #: bits per radix digit: 256 buckets keep the scatter targets in L1 (measured: 8 bits
 #: sort 6.2M edge weights in 0.35 s, 11 bits 0.62 s, 16 bits 0.66 s)
@@ -58,4 +60,99 @@ def stable_argsort(values):
             order2[pos] = order[i]
         keys, keys2 = keys2, keys
         order, order2 = order2, order
+    return order
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _spread3(x):
+    """Bits 0..9 of ``x`` moved to bits 0, 3, 6, ... (Morton interleave helper)."""
+    x &= 0x3FF
+    x = (x | (x << 16)) & 0x30000FF
+    x = (x | (x << 8)) & 0x300F00F
+    x = (x | (x << 4)) & 0x30C30C3
+    x = (x | (x << 2)) & 0x9249249
+    return x
+
+
+@njit(cache=True)
+def morton_bits(n):
+    """Grid bits per axis for `morton_order` of ``n`` points: about 16 points per
+    cell, between 1 and 7 bits."""
+    bits = math.ceil(math.log2(max(n, 2) / 16.0) / 3.0)
+    return min(max(bits, 1), 7)
+
+
+#: most chunks of the parallel counting sort of `morton_order` (the order is
+#: the same for any chunk count: stable by index within a cell)
+_ORDER_CHUNKS = 8
+
+
+@njit(parallel=True, cache=True, error_model="numpy")
+def morton_order(points, bits):
+    """A cache-friendly processing order: points bucketed by Morton-ordered grid cells.
+
+    Parallel counting sort on a 2^bits per axis grid (bits <= 10) over the bounding
+    box (O(N)): per-chunk histograms, one prefix sum over (cell, chunk), per-chunk
+    scatter; within a cell points keep their index order, so the result does not
+    depend on the chunk or thread count. Points processed
+    in this order reuse their neighbours' coordinates from cache, which matters
+    when the input order is spatially random. Non-finite points go last.
+    """
+    n = points.shape[0]
+    n_cells = 1 << (3 * bits)
+    # fewer chunks on fine grids bound the (cells x chunks) count table
+    nch = max(2, min(_ORDER_CHUNKS, (1 << 22) // n_cells))
+    csize = (n + nch - 1) // nch
+    los = np.full((nch, 3), np.inf)
+    his = np.full((nch, 3), -np.inf)
+    for c in prange(nch):
+        for i in range(c * csize, min(n, (c + 1) * csize)):
+            x = points[i, 0]
+            y = points[i, 1]
+            z = points[i, 2]
+            if math.isfinite(x) and math.isfinite(y) and math.isfinite(z):
+                los[c, 0] = min(los[c, 0], x)
+                los[c, 1] = min(los[c, 1], y)
+                los[c, 2] = min(los[c, 2], z)
+                his[c, 0] = max(his[c, 0], x)
+                his[c, 1] = max(his[c, 1], y)
+                his[c, 2] = max(his[c, 2], z)
+    lo = np.empty(3)
+    scale = np.empty(3)
+    side = 1 << bits
+    for d in range(3):
+        lo[d] = np.inf
+        hi = -np.inf
+        for c in range(nch):
+            lo[d] = min(lo[d], los[c, d])
+            hi = max(hi, his[c, d])
+        ext = hi - lo[d]
+        scale[d] = side / ext if ext > 0 else 0.0
+    key = np.empty(n, dtype=np.int64)
+    counts = np.zeros((n_cells + 1, nch), dtype=np.int64)
+    for c in prange(nch):
+        for i in range(c * csize, min(n, (c + 1) * csize)):
+            code = n_cells
+            x = points[i, 0]
+            y = points[i, 1]
+            z = points[i, 2]
+            if math.isfinite(x) and math.isfinite(y) and math.isfinite(z):
+                qx = min(max(int((x - lo[0]) * scale[0]), 0), side - 1)
+                qy = min(max(int((y - lo[1]) * scale[1]), 0), side - 1)
+                qz = min(max(int((z - lo[2]) * scale[2]), 0), side - 1)
+                code = _spread3(qx) | (_spread3(qy) << 1) | (_spread3(qz) << 2)
+            key[i] = code
+            counts[code, c] += 1
+    total = 0
+    for cell in range(n_cells + 1):
+        for c in range(nch):
+            v = counts[cell, c]
+            counts[cell, c] = total
+            total += v
+    order = np.empty(n, dtype=np.int64)
+    for c in prange(nch):
+        for i in range(c * csize, min(n, (c + 1) * csize)):
+            code = key[i]
+            order[counts[code, c]] = i
+            counts[code, c] += 1
     return order

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from .._core import PointAtlasError, readonly
+from .._core._sort import morton_bits, morton_order
 from ..neighbors import query_knn
 from ._kernels import (
     N_FEATURES,
@@ -22,7 +23,6 @@ from ._kernels import (
     eigvals_batch_kernel,
     features_kernel,
     fused_kernel,
-    spatial_order_kernel,
 )
 from ._weights import _check_ab, _check_indices, _unit_normals_or_nan, normal_angles
 
@@ -208,9 +208,7 @@ def _neighbourhoods(
 
 def _spatial_order(points: np.ndarray) -> np.ndarray:
     """Cache-friendly visiting order (about 16 points per grid cell, Morton order)."""
-    n = points.shape[0]
-    bits = int(np.clip(np.ceil(np.log2(max(n, 2) / 16) / 3), 1, 7))
-    return spatial_order_kernel(points, bits)
+    return morton_order(points, morton_bits(points.shape[0]))
 
 
 def _choice_features(points, idx, k_of, angles, a_of, b_of, flatness, order=None) -> FeatureResult:

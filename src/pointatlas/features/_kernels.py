@@ -19,13 +19,10 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
-from llvmlite import ir
-from numba import njit, prange, types
-from numba.core import cgutils
-from numba.extending import intrinsic
+from numba import njit, prange
 
+from .._core._prefetch import prefetch_read, prefetch_write
 from .._core.tolerances import ANGLE_ZERO
 from ..normals._kernels import _rotate  # the same Jacobi rotation as the normals room
 
@@ -42,7 +39,6 @@ __all__ = [
     "fused_kernel",
     "index_range_kernel",
     "optimal_kernel",
-    "spatial_order_kernel",
 ]
 
 REASON_OK = 0
@@ -61,51 +57,6 @@ _MAX_SWEEPS = 12
 _EPS = 2.220446049250313e-16
 #: how many points ahead (in visiting order) the kernels prefetch rows
 _AHEAD = 8
-
-
-def _make_prefetch(write):
-    """A numba intrinsic ``f(arr, row, col)`` prefetching the cache line of arr[row, col].
-
-    The kernels visit points in a spatial order, so the rows of the (N, k) input
-    tables and of the outputs they touch are scattered: prefetching them a few
-    points ahead hides the memory latency (about 2x on the fixed-k pass). A
-    no-op in pure Python (``NUMBA_DISABLE_JIT``).
-    """
-    if numba.config.DISABLE_JIT:
-
-        def noop(arr, row, col):
-            return None
-
-        return noop
-
-    @intrinsic
-    def _prefetch(typingctx, arr, row, col):
-        if not isinstance(arr, types.Array) or arr.ndim != 2:
-            return None
-        sig = types.void(arr, row, col)
-
-        def codegen(context, builder, signature, args):
-            aryty = signature.args[0]
-            ary = context.make_array(aryty)(context, builder, args[0])
-            r = context.cast(builder, args[1], signature.args[1], types.intp)
-            c = context.cast(builder, args[2], signature.args[2], types.intp)
-            strides = cgutils.unpack_tuple(builder, ary.strides)
-            off = builder.add(builder.mul(r, strides[0]), builder.mul(c, strides[1]))
-            i8p = ir.IntType(8).as_pointer()
-            ptr = builder.gep(builder.bitcast(ary.data, i8p), [off])
-            i32 = ir.IntType(32)
-            fnty = ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32])
-            fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch.p0")
-            builder.call(fn, [ptr, i32(1 if write else 0), i32(3), i32(1)])
-            return context.get_dummy_value()
-
-        return sig, codegen
-
-    return _prefetch
-
-
-prefetch_read = _make_prefetch(False)
-prefetch_write = _make_prefetch(True)
 
 
 @njit(cache=True, error_model="numpy")
@@ -229,7 +180,7 @@ def eigvals_batch_kernel(mats, out):
 def angles_kernel(normals, idx, order, out):
     """Angle between each point's normal and its neighbours' (atan2 form, accurate at 0).
 
-    Rows are visited in ``order`` (a permutation; see `spatial_order_kernel`) in
+    Rows are visited in ``order`` (a permutation; see `pointatlas._core._sort.morton_order`) in
     blocks, the index and output rows `_AHEAD` points later prefetched.
     """
     n, kk = idx.shape
@@ -722,7 +673,7 @@ def optimal_kernel(
     `fused_kernel` at the chosen triple bit for bit, without the angle table and
     the second pass. ``reason``, ``best_k`` (-1: none) and ``best_pair`` (-1) per
     point; rows without a valid choice are NaN. Points are visited in ``order``
-    (see `spatial_order_kernel`); indices must lie in [0, N).
+    (see `pointatlas._core._sort.morton_order`); indices must lie in [0, N).
     """
     n = idx.shape[0]
     n_pairs = pair_a.shape[0] if use_normals else 1
@@ -1246,7 +1197,7 @@ def fused_kernel(points, idx, order, k_of, ang, use_normals, a_of, b_of, m1, m2,
     from them. Eigenvalues and vectors by `eigh3_accurate`; features as in
     `features_kernel`. Row i of ``out`` (N, `N_OUT`) receives the eigenvalues,
     eigenvector_1, eigenvector_3 and the features of point i; degenerate rows are
-    NaN. Points are visited in ``order`` (see `spatial_order_kernel`) in blocks:
+    NaN. Points are visited in ``order`` (see `pointatlas._core._sort.morton_order`) in blocks:
     first the covariances of the block (the index-table and output rows of the
     point `_AHEAD` places later and the neighbour coordinates of the point
     `_AHEAD` / 2 places later prefetched), then the eigen-decompositions and
@@ -1382,90 +1333,3 @@ def fused_kernel(points, idx, order, k_of, ang, use_normals, a_of, b_of, m1, m2,
             if code != REASON_OK:
                 for c in range(N_OUT):
                     out[i, c] = np.nan
-
-
-@njit(cache=True, inline="always", error_model="numpy")
-def _spread3(x):
-    """Bits 0..9 of ``x`` moved to bits 0, 3, 6, ... (Morton interleave helper)."""
-    x &= 0x3FF
-    x = (x | (x << 16)) & 0x30000FF
-    x = (x | (x << 8)) & 0x300F00F
-    x = (x | (x << 4)) & 0x30C30C3
-    x = (x | (x << 2)) & 0x9249249
-    return x
-
-
-#: most chunks of the parallel counting sort of `spatial_order_kernel` (the order is
-#: the same for any chunk count: stable by index within a cell)
-_ORDER_CHUNKS = 8
-
-
-@njit(parallel=True, cache=True, error_model="numpy")
-def spatial_order_kernel(points, bits):
-    """A cache-friendly processing order: points bucketed by Morton-ordered grid cells.
-
-    Parallel counting sort on a 2^bits per axis grid (bits <= 10) over the bounding
-    box (O(N)): per-chunk histograms, one prefix sum over (cell, chunk), per-chunk
-    scatter; within a cell points keep their index order, so the result does not
-    depend on the chunk or thread count. Points processed
-    in this order reuse their neighbours' coordinates from cache, which matters
-    when the input order is spatially random. Non-finite points go last.
-    """
-    n = points.shape[0]
-    n_cells = 1 << (3 * bits)
-    # fewer chunks on fine grids bound the (cells x chunks) count table
-    nch = max(2, min(_ORDER_CHUNKS, (1 << 22) // n_cells))
-    csize = (n + nch - 1) // nch
-    los = np.full((nch, 3), np.inf)
-    his = np.full((nch, 3), -np.inf)
-    for c in prange(nch):
-        for i in range(c * csize, min(n, (c + 1) * csize)):
-            x = points[i, 0]
-            y = points[i, 1]
-            z = points[i, 2]
-            if math.isfinite(x) and math.isfinite(y) and math.isfinite(z):
-                los[c, 0] = min(los[c, 0], x)
-                los[c, 1] = min(los[c, 1], y)
-                los[c, 2] = min(los[c, 2], z)
-                his[c, 0] = max(his[c, 0], x)
-                his[c, 1] = max(his[c, 1], y)
-                his[c, 2] = max(his[c, 2], z)
-    lo = np.empty(3)
-    scale = np.empty(3)
-    side = 1 << bits
-    for d in range(3):
-        lo[d] = np.inf
-        hi = -np.inf
-        for c in range(nch):
-            lo[d] = min(lo[d], los[c, d])
-            hi = max(hi, his[c, d])
-        ext = hi - lo[d]
-        scale[d] = side / ext if ext > 0 else 0.0
-    key = np.empty(n, dtype=np.int64)
-    counts = np.zeros((n_cells + 1, nch), dtype=np.int64)
-    for c in prange(nch):
-        for i in range(c * csize, min(n, (c + 1) * csize)):
-            code = n_cells
-            x = points[i, 0]
-            y = points[i, 1]
-            z = points[i, 2]
-            if math.isfinite(x) and math.isfinite(y) and math.isfinite(z):
-                qx = min(max(int((x - lo[0]) * scale[0]), 0), side - 1)
-                qy = min(max(int((y - lo[1]) * scale[1]), 0), side - 1)
-                qz = min(max(int((z - lo[2]) * scale[2]), 0), side - 1)
-                code = _spread3(qx) | (_spread3(qy) << 1) | (_spread3(qz) << 2)
-            key[i] = code
-            counts[code, c] += 1
-    total = 0
-    for cell in range(n_cells + 1):
-        for c in range(nch):
-            v = counts[cell, c]
-            counts[cell, c] = total
-            total += v
-    order = np.empty(n, dtype=np.int64)
-    for c in prange(nch):
-        for i in range(c * csize, min(n, (c + 1) * csize)):
-            code = key[i]
-            order[counts[code, c]] = i
-            counts[code, c] += 1
-    return order

@@ -5,14 +5,13 @@ from __future__ import annotations
 import numpy as np
 
 from .._core import as_normals, as_points
-from .._core._sort import stable_argsort
 from .._core.tolerances import MST_WEIGHT_EPS, OUTWARD_VOTE_RTOL
 from ._estimate import _check_k, _neighbor_indices
 from ._kernels import (
     component_tops_kernel,
-    kruskal_forest_kernel,
-    propagate_signs_kernel,
+    offsets_kernel,
     riemannian_graph_kernel,
+    spanning_forest_kernel,
 )
 
 __all__ = ["orient_normals"]
@@ -34,22 +33,49 @@ def _check_viewpoint(viewpoint) -> np.ndarray:
     return vp
 
 
-def _spanning_forest(points, normals, idx, edge_penalty):
-    """Minimum spanning forest of the k-NN Riemannian graph.
+def _riemannian_graph(points, normals, idx, k, eps, edge_penalty):
+    """`riemannian_graph_kernel` with numpy-allocated buffers, trimmed to the edges.
+
+    Returns indptr, cols, weights and opposed (see the kernel).
+    """
+    n = idx.shape[0]
+    slots = n * max(k - 1, 0)
+    keep = np.empty((n, max(k - 1, 0)), dtype=np.bool_)
+    cols = np.empty(slots, dtype=np.int64)
+    weights = np.empty(slots)
+    opposed = np.empty(slots, dtype=np.uint8)
+    indptr = riemannian_graph_kernel(
+        points, normals, idx, k, eps, edge_penalty, keep, cols, weights, opposed
+    )
+    m = int(indptr[-1])
+    return indptr, cols[:m], weights[:m], opposed[:m]
+
+
+def _spanning_forest(indptr, cols, weights, opposed):
+    """`spanning_forest_kernel` with numpy-allocated scratch space."""
+    work = np.empty((6, cols.shape[0]), dtype=np.uint64)
+    return spanning_forest_kernel(indptr, cols, weights, opposed, work)
+
+
+def _forest_signs(points, normals, idx, edge_penalty):
+    """Signs from the minimum spanning forest of the k-NN Riemannian graph.
 
     Kruskal over the edges in stable order of weight (each undirected edge
     stored once), as scipy's ``minimum_spanning_tree`` does, so it keeps the
-    same edges; about twice as fast (radix sort, no sparse-matrix round trips).
-    Returns the forest's symmetric CSR (indptr, adjacency), the number of trees
-    and the tree of every point.
+    same edges (Filter-Kruskal with a radix sort, no sparse-matrix round trips).
+    Each tree is rooted at its top point (`_top_roots`) and every node gets the
+    sign that breadth-first propagation from the root gives: the root's sign,
+    flipped once per edge with opposed normals on the tree path (the forest
+    kernel tracks these parities in its union-find, so no traversal is needed).
+    Returns the signs, the number of trees and the tree of every point.
     """
-    k = idx.shape[1]
-    indptr, cols, weights = riemannian_graph_kernel(
-        points, normals, idx, k, MST_WEIGHT_EPS, edge_penalty
-    )
-    order = stable_argsort(weights)
-    tree_ptr, tree_adj, labels, n_comp = kruskal_forest_kernel(indptr, cols, order)
-    return (tree_ptr, tree_adj), int(n_comp), labels
+    graph = _riemannian_graph(points, normals, idx, idx.shape[1], MST_WEIGHT_EPS, edge_penalty)
+    _, _, labels, n_comp, parity = _spanning_forest(*graph)
+    n_comp = int(n_comp)
+    roots, root_signs = _top_roots(points, normals, labels, n_comp)
+    signs = root_signs[labels]
+    signs[parity != parity[roots][labels]] *= -1.0
+    return signs, n_comp, labels
 
 
 def _top_roots(points, normals, labels, n_comp):
@@ -68,7 +94,7 @@ def _outward_flip(points, oriented, labels, n_comp, idx):
     sampling does not bias the vote); 0 (undecided) when the vote is below
     OUTWARD_VOTE_RTOL of sum_i a_i |p_i - c|.
     """
-    far = points[idx[:, -1]] - points
+    far = offsets_kernel(points, np.ascontiguousarray(idx[:, -1]))
     area = np.einsum("ij,ij->i", far, far)
     if not (area > 0).any():
         area = np.ones_like(area)
@@ -162,8 +188,10 @@ def orient_normals(
     weights) and prefers short edges among ties. The minimum spanning forest
     (Kruskal, edges in stable weight order: the edges scipy's
     ``minimum_spanning_tree`` keeps) is traversed breadth-first from each root
-    and n_j is flipped when n_parent . n_j < 0. Each connected component of the
-    k-NN graph is oriented on its own. Decisions and measurements: docs/decisions.md.
+    and n_j is flipped when n_parent . n_j < 0 (in effect: the signs come from
+    the parity of such edges on each tree path, tracked while the forest is
+    built). Each connected component of the k-NN graph is oriented on its own.
+    Decisions and measurements: docs/decisions.md.
 
     Examples
     --------
@@ -190,9 +218,7 @@ def orient_normals(
         return nrm
     k = _check_k(k, minimum=2)
     idx = _neighbor_indices(pts, k, neighbors)
-    (tree_ptr, tree_adj), n_comp, labels = _spanning_forest(pts, nrm, idx, edge_penalty)
-    roots, root_signs = _top_roots(pts, nrm, labels, n_comp)
-    signs, _ = propagate_signs_kernel(tree_ptr, tree_adj, nrm, roots, root_signs)
+    signs, n_comp, labels = _forest_signs(pts, nrm, idx, edge_penalty)
     nrm *= signs[:, None]
     if method == "outward":
         flip = _outward_flip(pts, nrm, labels, n_comp, idx)
