@@ -572,8 +572,12 @@ def batch_switch_bounded(
     ``memo`` (N, 6) float64 stores per point: the margin (NaN: must be examined,
     e.g. a neighbour's label changed), the drift sum at t0, the ids of up to 3
     foreign regions (as floats; -1 none; a point next to more regions is always
-    examined) and rho. The caller sets column 0 to NaN for moved points and
-    their neighbours and for all points after region ids change (merge).
+    examined) and rho. When the bound fails, the point is decided over the
+    remembered foreign regions alone (the same cur, best and tie rule as a full
+    examination, without reading its neighbours' labels: none of them changed),
+    and the memo is refreshed with the values a full examination would store.
+    The caller sets column 0 to NaN for moved points and their neighbours, for
+    points next to merged regions, and renumbers the stored ids after a merge.
     Returns moved points (increasing) and new labels.
     """
     n = labels.shape[0]
@@ -592,6 +596,41 @@ def batch_switch_bounded(
             grow = total - memo[i, 1]
             if margin - (memo[i, 5] * grow + 0.5 * grow * grow) > 1e-12 * (1.0 + total):
                 continue
+            # the bound fails: decide over the remembered foreign regions (no label
+            # around the point changed, so they are exactly its foreign regions)
+            cur = (
+                normals[i, 0] * proxy_normals[li, 0]
+                + normals[i, 1] * proxy_normals[li, 1]
+                + normals[i, 2] * proxy_normals[li, 2]
+            )
+            best = cur
+            best_label = li
+            top = -np.inf
+            low = cur
+            for c in range(2, 5):
+                h = np.int64(memo[i, c])
+                if h < 0:
+                    continue
+                d = (
+                    normals[i, 0] * proxy_normals[h, 0]
+                    + normals[i, 1] * proxy_normals[h, 1]
+                    + normals[i, 2] * proxy_normals[h, 2]
+                )
+                if d > top:
+                    top = d
+                if d < low:
+                    low = d
+                if d > best or (d == best and best_label != li and h < best_label):
+                    best = d
+                    best_label = h
+            if best_label != li and 2.0 * weights[i] * (best - cur) > min_gain:
+                target[i] = best_label
+                memo[i, 0] = np.nan
+            else:
+                memo[i, 0] = cur - top
+                memo[i, 1] = total
+                memo[i, 5] = np.sqrt(max(2.0 - 2.0 * low, 0.0)) + 1e-12
+            continue
         cur = (
             normals[i, 0] * proxy_normals[li, 0]
             + normals[i, 1] * proxy_normals[li, 1]
