@@ -587,7 +587,8 @@ def batch_switch_bounded(
             continue
         li = labels[i]
         margin = memo[i, 0]
-        if margin == margin:  # not NaN: try the bound
+        remembered = margin == margin  # not NaN: try the bound
+        if remembered:
             total = drift[li]
             for c in range(2, 5):
                 h = np.int64(memo[i, c])
@@ -596,79 +597,41 @@ def batch_switch_bounded(
             grow = total - memo[i, 1]
             if margin - (memo[i, 5] * grow + 0.5 * grow * grow) > 1e-12 * (1.0 + total):
                 continue
-            # the bound fails: decide over the remembered foreign regions (no label
-            # around the point changed, so they are exactly its foreign regions)
-            cur = (
-                normals[i, 0] * proxy_normals[li, 0]
-                + normals[i, 1] * proxy_normals[li, 1]
-                + normals[i, 2] * proxy_normals[li, 2]
-            )
-            best = cur
-            best_label = li
-            top = -np.inf
-            low = cur
-            for c in range(2, 5):
-                h = np.int64(memo[i, c])
-                if h < 0:
-                    continue
-                d = (
-                    normals[i, 0] * proxy_normals[h, 0]
-                    + normals[i, 1] * proxy_normals[h, 1]
-                    + normals[i, 2] * proxy_normals[h, 2]
-                )
-                if d > top:
-                    top = d
-                if d < low:
-                    low = d
-                if d > best or (d == best and best_label != li and h < best_label):
-                    best = d
-                    best_label = h
-            if best_label != li and 2.0 * weights[i] * (best - cur) > min_gain:
-                target[i] = best_label
-                memo[i, 0] = np.nan
-            else:
-                memo[i, 0] = cur - top
-                memo[i, 1] = total
-                memo[i, 5] = np.sqrt(max(2.0 - 2.0 * low, 0.0)) + 1e-12
-            continue
-        cur = (
-            normals[i, 0] * proxy_normals[li, 0]
-            + normals[i, 1] * proxy_normals[li, 1]
-            + normals[i, 2] * proxy_normals[li, 2]
-        )
+        cur = _dot_proxy(normals, proxy_normals, i, li)
         best = cur
         best_label = li
-        f0 = -1
-        f1 = -1
-        f2 = -1
-        many = False
         top = -np.inf
         low = cur
-        for t in range(indptr[i], indptr[i + 1]):
-            h = labels[indices[t]]
-            if h == li:
-                continue
-            if h != f0 and h != f1 and h != f2:
-                if f0 < 0:
-                    f0 = h
-                elif f1 < 0:
-                    f1 = h
-                elif f2 < 0:
-                    f2 = h
-                else:
-                    many = True
-            d = (
-                normals[i, 0] * proxy_normals[h, 0]
-                + normals[i, 1] * proxy_normals[h, 1]
-                + normals[i, 2] * proxy_normals[h, 2]
-            )
-            if d > top:
-                top = d
-            if d < low:
-                low = d
-            if d > best or (d == best and best_label != li and h < best_label):
-                best = d
-                best_label = h
+        many = False
+        if remembered:
+            # the bound fails: decide over the remembered foreign regions (no label
+            # around the point changed, so they are exactly its foreign regions)
+            f0 = np.int64(memo[i, 2])
+            f1 = np.int64(memo[i, 3])
+            f2 = np.int64(memo[i, 4])
+            for h in (f0, f1, f2):
+                if h >= 0:
+                    d = _dot_proxy(normals, proxy_normals, i, h)
+                    best, best_label, top, low = _consider(d, h, li, best, best_label, top, low)
+        else:
+            f0 = -1
+            f1 = -1
+            f2 = -1
+            for t in range(indptr[i], indptr[i + 1]):
+                h = labels[indices[t]]
+                if h == li:
+                    continue
+                if h != f0 and h != f1 and h != f2:
+                    if f0 < 0:
+                        f0 = h
+                    elif f1 < 0:
+                        f1 = h
+                    elif f2 < 0:
+                        f2 = h
+                    else:
+                        many = True
+                d = _dot_proxy(normals, proxy_normals, i, h)
+                best, best_label, top, low = _consider(d, h, li, best, best_label, top, low)
         if best_label != li and 2.0 * weights[i] * (best - cur) > min_gain:
             target[i] = best_label
             memo[i, 0] = np.nan
@@ -689,6 +652,31 @@ def batch_switch_bounded(
             memo[i, 4] = f2
             memo[i, 5] = np.sqrt(max(2.0 - 2.0 * low, 0.0)) + 1e-12
     return _compact_moves(target)
+
+
+@njit(cache=True, inline="always")
+def _dot_proxy(normals, proxy_normals, i, h):
+    """n_i . N_h."""
+    return (
+        normals[i, 0] * proxy_normals[h, 0]
+        + normals[i, 1] * proxy_normals[h, 1]
+        + normals[i, 2] * proxy_normals[h, 2]
+    )
+
+
+@njit(cache=True, inline="always")
+def _consider(d, h, li, best, best_label, top, low):
+    """One foreign region h with n_i . N_h = d: the best label (largest d, ties to
+    the smaller label, own region li kept on a tie with it), the largest and the
+    smallest d seen."""
+    if d > top:
+        top = d
+    if d < low:
+        low = d
+    if d > best or (d == best and best_label != li and h < best_label):
+        best = d
+        best_label = h
+    return best, best_label, top, low
 
 
 @njit(cache=True, parallel=True)
