@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .._core._sort import morton_bits, morton_order
+from .._core._sort import morton_bits, morton_order, radix_sort_payload
 
 __all__ = [
     "component_tops_kernel",
@@ -376,10 +376,6 @@ def component_tops_kernel(z, labels, n_comp):
     return roots
 
 
-#: bits per digit of the edge-key radix sort (as ``_core/_sort.py``: 256 buckets
-#: keep the scatter targets in L1)
-_DIGIT_BITS = 8
-_N_PASSES = 8  # 64 / 8
 #: Filter-Kruskal: each stage sorts this share of the remaining edges, the lightest
 #: (10^6-point scene: 0.2-0.3 are best, sort + Kruskal 2.5x faster than one sort)...
 _LIGHT_SHARE = 0.2
@@ -391,41 +387,6 @@ _SAMPLE = 4096
 _WIDE_NODES = 2**30
 _SIGN = np.uint64(1) << np.uint64(63)
 _LOW31 = np.uint64(0x7FFFFFFF)
-
-
-@njit(cache=True)
-def _sort_payload(keys, payload, keys2, payload2):
-    """``payload`` in stable order of ``keys`` (uint64) by LSD radix sort.
-
-    One read of the keys counts the digits of every pass; a pass is skipped
-    when all keys share its digit. All four arrays (of one length) are overwritten;
-    the result is one of them.
-    """
-    n = keys.shape[0]
-    mask = np.uint64((1 << _DIGIT_BITS) - 1)
-    n_buckets = 1 << _DIGIT_BITS
-    count = np.zeros((_N_PASSES, n_buckets + 1), dtype=np.int64)
-    for i in range(n):
-        key = keys[i]
-        for p in range(_N_PASSES):
-            count[p, ((key >> np.uint64(_DIGIT_BITS * p)) & mask) + 1] += 1
-    for p in range(_N_PASSES):
-        c = count[p]
-        if c.max() == n:
-            continue
-        for d in range(n_buckets):
-            c[d + 1] += c[d]
-        sh = np.uint64(_DIGIT_BITS * p)
-        for i in range(n):
-            key = keys[i]
-            d = (key >> sh) & mask
-            pos = c[d]
-            c[d] = pos + 1
-            keys2[pos] = key
-            payload2[pos] = payload[i]
-        keys, keys2 = keys2, keys
-        payload, payload2 = payload2, payload
-    return payload
 
 
 @njit(cache=True)
@@ -528,7 +489,7 @@ def _forest_edges(indptr, cols, weights, opposed, link, wide, light_share, filte
     kept_b = np.empty(max(n - 1, 0), dtype=np.int64)
     n_kept = 0
     while True:
-        ordered = _sort_payload(
+        _, ordered = radix_sort_payload(
             light_keys[:n_light], light_payload[:n_light], work[4, :n_light], work[5, :n_light]
         )
         for s in range(n_light):

@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit, prange
 
 from .._core._prefetch import prefetch_row as _prefetch
+from .._core._sort import radix_sort_payload
 
 # --------------------------------------------------------------------------- graph
 
@@ -911,32 +912,13 @@ def _sort_entries(keys, codes):
     stable_argsort(keys)``.
     """
     n = keys.shape[0]
-    bits = keys.view(np.int64)
-    count = np.zeros((8, 257), dtype=np.int64)
-    for i in range(n):
-        b = bits[i]
-        for p in range(8):
-            count[p, ((b >> (8 * p)) & 255) + 1] += 1
-    k = bits.copy()
-    v = codes.copy()
-    k2 = np.empty(n, dtype=np.int64)
-    v2 = np.empty(n, dtype=np.int64)
-    for p in range(8):
-        c = count[p]
-        if c.max() == n:
-            continue
-        for d in range(256):
-            c[d + 1] += c[d]
-        for i in range(n):
-            key = k[i]
-            d = (key >> (8 * p)) & 255
-            pos = c[d]
-            c[d] = pos + 1
-            k2[pos] = key
-            v2[pos] = v[i]
-        k, k2 = k2, k
-        v, v2 = v2, v
-    return k, v
+    k, v = radix_sort_payload(
+        keys.view(np.uint64).copy(),
+        codes.copy(),
+        np.empty(n, dtype=np.uint64),
+        np.empty(n, dtype=np.int64),
+    )
+    return k.view(np.int64), v
 
 
 @njit(cache=True)
