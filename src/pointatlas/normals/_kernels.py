@@ -456,16 +456,8 @@ def _forest_edges(indptr, cols, weights, opposed, link, wide, light_share, filte
     payload = work[1]
     light_keys = work[2]  # the stage's edges, in position order
     light_payload = work[3]
-    threshold = ~np.uint64(0)
-    if m > filter_min:
-        step = max(m // _SAMPLE, 1)
-        sample = np.empty((m + step - 1) // step, dtype=np.uint64)
-        for s in range(sample.shape[0]):
-            sample[s] = _float_key(bits[s * step])
-        threshold = _quantile_key(sample, light_share)
-    # first stage: keys and payloads, split by the threshold (branch-free)
-    n_light = 0
-    n_heavy = 0
+    # keys and payloads of every edge, in position order
+    k = 0
     for i in range(n):
         for e in range(indptr[i], indptr[i + 1]):
             if wide:
@@ -477,7 +469,27 @@ def _forest_edges(indptr, cols, weights, opposed, link, wide, light_share, filte
                     | (np.uint64(cols[e]) << np.uint64(1))
                     | np.uint64(opposed[e])
                 )
-            key = _float_key(bits[e])
+            keys[k] = _float_key(bits[e])
+            payload[k] = p
+            k += 1
+    n_cand = m
+    kept_a = np.empty(max(n - 1, 0), dtype=np.int64)
+    kept_b = np.empty(max(n - 1, 0), dtype=np.int64)
+    n_kept = 0
+    while n_cand > 0:
+        threshold = ~np.uint64(0)
+        if n_cand > filter_min:
+            step = max(n_cand // _SAMPLE, 1)
+            sample = np.empty((n_cand + step - 1) // step, dtype=np.uint64)
+            for s in range(sample.shape[0]):
+                sample[s] = keys[s * step]
+            threshold = _quantile_key(sample, light_share)
+        # stable partition (branch-free): light edges to the side arrays, heavy in place
+        n_light = 0
+        n_heavy = 0
+        for s in range(n_cand):
+            key = keys[s]
+            p = payload[s]
             is_light = key <= threshold
             light_keys[n_light] = key
             light_payload[n_light] = p
@@ -485,10 +497,6 @@ def _forest_edges(indptr, cols, weights, opposed, link, wide, light_share, filte
             payload[n_heavy] = p
             n_light += is_light
             n_heavy += 1 - is_light
-    kept_a = np.empty(max(n - 1, 0), dtype=np.int64)
-    kept_b = np.empty(max(n - 1, 0), dtype=np.int64)
-    n_kept = 0
-    while True:
         _, ordered = radix_sort_payload(
             light_keys[:n_light], light_payload[:n_light], work[4, :n_light], work[5, :n_light]
         )
@@ -518,28 +526,6 @@ def _forest_edges(indptr, cols, weights, opposed, link, wide, light_share, filte
             keys[n_cand] = keys[s]
             payload[n_cand] = p
             n_cand += (link[a] >> 1) != (link[b] >> 1)
-        if n_cand == 0:
-            break
-        threshold = ~np.uint64(0)
-        if n_cand > filter_min:
-            step = max(n_cand // _SAMPLE, 1)
-            sample = np.empty((n_cand + step - 1) // step, dtype=np.uint64)
-            for s in range(sample.shape[0]):
-                sample[s] = keys[s * step]
-            threshold = _quantile_key(sample, light_share)
-        # next stage: stable partition, light edges to the side arrays, heavy in place
-        n_light = 0
-        n_heavy = 0
-        for s in range(n_cand):
-            key = keys[s]
-            p = payload[s]
-            is_light = key <= threshold
-            light_keys[n_light] = key
-            light_payload[n_light] = p
-            keys[n_heavy] = key
-            payload[n_heavy] = p
-            n_light += is_light
-            n_heavy += 1 - is_light
     return kept_a, kept_b, n_kept
 
 
