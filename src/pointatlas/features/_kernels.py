@@ -682,7 +682,8 @@ def optimal_kernel(
     nblocks = (n + _BLOCK - 1) // _BLOCK
     for blk in prange(nblocks):
         ys = np.empty((kmax, 3))
-        angrow = np.zeros(kmax)
+        angrows = np.zeros((1, kmax))  # a 2-D row for `_choice_cov`
+        angrow = angrows[0]
         ws = np.ones((n_pairs, kmax))
         act = np.empty(n_pairs, dtype=np.int64)
         nbp = np.empty(n_pairs, dtype=np.int64)
@@ -941,82 +942,13 @@ def optimal_kernel(
             # the winner's covariance as `fused_kernel` builds it, and its features
             a = pair_a[bp] if use_normals else 0.0
             b = pair_b[bp] if use_normals else 0.0
-            ux = 0.0
-            uy = 0.0
-            uz = 0.0
-            sw = 0.0
-            sx = 0.0
-            sy = 0.0
-            sz = 0.0
-            sxx = 0.0
-            sxy = 0.0
-            sxz = 0.0
-            syy = 0.0
-            syz = 0.0
-            szz = 0.0
-            n_distinct = 0
-            first = -1
-            second = -1
-            for j in range(bk):
-                m = idx[i, j]
-                yx = ys[j, 0]
-                yy = ys[j, 1]
-                yz = ys[j, 2]
-                ux += yx
-                uy += yy
-                uz += yz
-                w = cosine_sigmoid_scalar(angrow[j], a, b) if use_normals else 1.0
-                if w > 0.0:
-                    sw += w
-                    sx += w * yx
-                    sy += w * yy
-                    sz += w * yz
-                    sxx += w * yx * yx
-                    sxy += w * yx * yy
-                    sxz += w * yx * yz
-                    syy += w * yy * yy
-                    syz += w * yy * yz
-                    szz += w * yz * yz
-                    if n_distinct < 3:
-                        if n_distinct == 0:
-                            first = m
-                            n_distinct = 1
-                        elif not (
-                            points[m, 0] == points[first, 0]
-                            and points[m, 1] == points[first, 1]
-                            and points[m, 2] == points[first, 2]
-                        ):
-                            if n_distinct == 1:
-                                second = m
-                                n_distinct = 2
-                            elif not (
-                                points[m, 0] == points[second, 0]
-                                and points[m, 1] == points[second, 1]
-                                and points[m, 2] == points[second, 2]
-                            ):
-                                n_distinct = 3
-            if sw <= 0.0:
-                code = REASON_ZERO_WEIGHTS
-            elif n_distinct < 3:
-                code = REASON_FEW_DISTINCT
-            else:
-                mx = ux / bk
-                my = uy / bk
-                mz = uz / bk
-                code = REASON_OK
-                if not _eig_features_row(
-                    out,
-                    i,
-                    sxx - 2.0 * sx * mx + sw * mx * mx,
-                    sxy - sx * my - mx * sy + sw * mx * my,
-                    sxz - sx * mz - mx * sz + sw * mx * mz,
-                    syy - 2.0 * sy * my + sw * my * my,
-                    syz - sy * mz - my * sz + sw * my * mz,
-                    szz - 2.0 * sz * mz + sw * mz * mz,
-                    m1,
-                    m2,
-                ):
-                    code = REASON_ZERO_EIGENSUM
+            code, c00, c01, c02, c11, c12, c22 = _choice_cov(
+                points, idx, i, bk, angrows, 0, use_normals, a, b
+            )
+            if code == REASON_OK and not _eig_features_row(
+                out, i, c00, c01, c02, c11, c12, c22, m1, m2
+            ):
+                code = REASON_ZERO_EIGENSUM
             reason[i] = code
             if code == REASON_OK:
                 best_k[i] = bk
@@ -1188,6 +1120,111 @@ def _pow_even(x, m):
     return r
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _choice_cov(points, idx, i, kk, ang, arow, use_normals, a, b):
+    """Reason code and covariance (Eq. 5.4: c00, c01, c02, c11, c12, c22) of point i
+    at one choice: its first ``kk`` neighbours, weights `cosine_sigmoid_scalar` of
+    the angles in row ``arow`` of ``ang`` (all 1 without normals).
+
+    One pass accumulating the moments about the point itself (sum w, sum w y,
+    sum w y y^T) and the unweighted sum of y, from which Eq. 5.4 follows; the
+    distinct weighted points are counted on absolute coordinates. Codes in order of
+    precedence: bad index, non-finite, zero weights, fewer than 3 distinct points
+    (covariance 0 then). Shared by `fused_kernel` and `optimal_kernel`, so both
+    build the same covariance bit for bit.
+    """
+    px = points[i, 0]
+    py = points[i, 1]
+    pz = points[i, 2]
+    finite = math.isfinite(px) and math.isfinite(py) and math.isfinite(pz)
+    bad_index = False
+    ux = 0.0
+    uy = 0.0
+    uz = 0.0
+    sw = 0.0
+    sx = 0.0
+    sy = 0.0
+    sz = 0.0
+    sxx = 0.0
+    sxy = 0.0
+    sxz = 0.0
+    syy = 0.0
+    syz = 0.0
+    szz = 0.0
+    n_distinct = 0
+    first = -1
+    second = -1
+    for j in range(kk):
+        m = idx[i, j]
+        if m < 0 or m >= points.shape[0]:
+            bad_index = True
+            m = i
+        yx = points[m, 0] - px
+        yy = points[m, 1] - py
+        yz = points[m, 2] - pz
+        ux += yx
+        uy += yy
+        uz += yz
+        w = 1.0
+        if use_normals:
+            x = ang[arow, j]
+            if not math.isfinite(x):
+                finite = False
+            w = cosine_sigmoid_scalar(x, a, b)
+        if w > 0.0:
+            sw += w
+            sx += w * yx
+            sy += w * yy
+            sz += w * yz
+            sxx += w * yx * yx
+            sxy += w * yx * yy
+            sxz += w * yx * yz
+            syy += w * yy * yy
+            syz += w * yy * yz
+            szz += w * yz * yz
+            if n_distinct < 3:
+                if n_distinct == 0:
+                    first = m
+                    n_distinct = 1
+                elif not (
+                    points[m, 0] == points[first, 0]
+                    and points[m, 1] == points[first, 1]
+                    and points[m, 2] == points[first, 2]
+                ):
+                    if n_distinct == 1:
+                        second = m
+                        n_distinct = 2
+                    elif not (
+                        points[m, 0] == points[second, 0]
+                        and points[m, 1] == points[second, 1]
+                        and points[m, 2] == points[second, 2]
+                    ):
+                        n_distinct = 3
+    code = REASON_OK
+    if bad_index:
+        code = REASON_BAD_INDEX
+    elif not (finite and math.isfinite(ux + uy + uz)):
+        code = REASON_NONFINITE
+    elif sw <= 0.0:
+        code = REASON_ZERO_WEIGHTS
+    elif n_distinct < 3:
+        code = REASON_FEW_DISTINCT
+    if code != REASON_OK:
+        return code, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    mx = ux / kk
+    my = uy / kk
+    mz = uz / kk
+    return (
+        code,
+        sxx - 2.0 * sx * mx + sw * mx * mx,
+        sxy - sx * my - mx * sy + sw * mx * my,
+        sxz - sx * mz - mx * sz + sw * mx * mz,
+        syy - 2.0 * sy * my + sw * my * my,
+        syz - sy * mz - my * sz + sw * my * mz,
+        szz - 2.0 * sz * mz + sw * mz * mz,
+    )
+
+
 @njit(parallel=True, cache=True, error_model="numpy")
 def fused_kernel(points, idx, order, k_of, ang, use_normals, a_of, b_of, m1, m2, out, reason):
     """One (a, b, k) choice per point: covariance, eigen-decomposition and features.
@@ -1233,94 +1270,11 @@ def fused_kernel(points, idx, order, k_of, ang, use_normals, a_of, b_of, m1, m2,
             kk = k_of[i] if per_k else k_of[0]
             a = a_of[i] if per_ab else a_of[0]
             b = b_of[i] if per_ab else b_of[0]
-            px = points[i, 0]
-            py = points[i, 1]
-            pz = points[i, 2]
-            finite = math.isfinite(px) and math.isfinite(py) and math.isfinite(pz)
-            bad_index = False
-            ux = 0.0
-            uy = 0.0
-            uz = 0.0
-            sw = 0.0
-            sx = 0.0
-            sy = 0.0
-            sz = 0.0
-            sxx = 0.0
-            sxy = 0.0
-            sxz = 0.0
-            syy = 0.0
-            syz = 0.0
-            szz = 0.0
-            n_distinct = 0
-            first = -1
-            second = -1
-            for j in range(kk):
-                m = idx[i, j]
-                if m < 0 or m >= n_pts:
-                    bad_index = True
-                    m = i
-                yx = points[m, 0] - px
-                yy = points[m, 1] - py
-                yz = points[m, 2] - pz
-                ux += yx
-                uy += yy
-                uz += yz
-                w = 1.0
-                if use_normals:
-                    x = ang[i, j]
-                    if not math.isfinite(x):
-                        finite = False
-                    w = cosine_sigmoid_scalar(x, a, b)
-                if w > 0.0:
-                    sw += w
-                    sx += w * yx
-                    sy += w * yy
-                    sz += w * yz
-                    sxx += w * yx * yx
-                    sxy += w * yx * yy
-                    sxz += w * yx * yz
-                    syy += w * yy * yy
-                    syz += w * yy * yz
-                    szz += w * yz * yz
-                    if n_distinct < 3:
-                        if n_distinct == 0:
-                            first = m
-                            n_distinct = 1
-                        elif not (
-                            points[m, 0] == points[first, 0]
-                            and points[m, 1] == points[first, 1]
-                            and points[m, 2] == points[first, 2]
-                        ):
-                            if n_distinct == 1:
-                                second = m
-                                n_distinct = 2
-                            elif not (
-                                points[m, 0] == points[second, 0]
-                                and points[m, 1] == points[second, 1]
-                                and points[m, 2] == points[second, 2]
-                            ):
-                                n_distinct = 3
-            code = REASON_OK
-            if bad_index:
-                code = REASON_BAD_INDEX
-            elif not (finite and math.isfinite(ux + uy + uz)):
-                code = REASON_NONFINITE
-            elif sw <= 0.0:
-                code = REASON_ZERO_WEIGHTS
-            elif n_distinct < 3:
-                code = REASON_FEW_DISTINCT
-            codes[t - t0] = code
-            if code == REASON_OK:
-                mx = ux / kk
-                my = uy / kk
-                mz = uz / kk
-                r = t - t0
-                cov[r, 0] = sxx - 2.0 * sx * mx + sw * mx * mx
-                cov[r, 1] = sxy - sx * my - mx * sy + sw * mx * my
-                cov[r, 2] = sxz - sx * mz - mx * sz + sw * mx * mz
-                cov[r, 3] = syy - 2.0 * sy * my + sw * my * my
-                cov[r, 4] = syz - sy * mz - my * sz + sw * my * mz
-                cov[r, 5] = szz - 2.0 * sz * mz + sw * mz * mz
+            r = t - t0
+            code, cov[r, 0], cov[r, 1], cov[r, 2], cov[r, 3], cov[r, 4], cov[r, 5] = _choice_cov(
+                points, idx, i, kk, ang, i, use_normals, a, b
+            )
+            codes[r] = code
         for t in range(t0, t_end):
             i = order[t]
             r = t - t0

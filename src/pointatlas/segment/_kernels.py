@@ -152,17 +152,30 @@ def region_pairs(indptr, indices, labels, subset):
             if lj > li:
                 key[c] = li * m + lj
                 c += 1
-    key = np.unique(key)
-    out = np.empty((key.shape[0], 2), dtype=np.int64)
-    out[:, 0] = key // m
-    out[:, 1] = key % m
-    return out
+    return _pairs_of_keys(key, m)
 
 
 #: `merge_candidate_pairs` marks pairs in a byte table (cheap regions x all
 #: regions) when it has at most this many bytes per scanned point (plus 1 MiB);
 #: otherwise it sorts the raw pair keys
 _PAIR_TABLE_BYTES_PER_POINT = 8
+
+
+@njit(cache=True, inline="always")
+def _is_candidate(li, lj, dirty, cost, limit):
+    """Regions li, lj (of a boundary edge) form a merge candidate: different, one of
+    them changed since the last pass, and the sum of their costs below ``limit``."""
+    return lj != li and (dirty[li] or dirty[lj]) and cost[li] + cost[lj] < limit
+
+
+@njit(cache=True)
+def _pairs_of_keys(key, m):
+    """Distinct pair keys a * m + b as sorted (a, b) rows."""
+    key = np.unique(key)
+    out = np.empty((key.shape[0], 2), dtype=np.int64)
+    out[:, 0] = key // m
+    out[:, 1] = key % m
+    return out
 
 
 @njit(cache=True, parallel=True)
@@ -210,7 +223,7 @@ def merge_candidate_pairs(indptr, indices, labels, foreign, dirty, cost, limit, 
         off = row[li] * m
         for t in range(indptr[i], indptr[i + 1]):
             lj = labels[indices[t]]
-            if lj != li and (dirty[li] or dirty[lj]) and cost[li] + cost[lj] < limit:
+            if _is_candidate(li, lj, dirty, cost, limit):
                 table[off + lj] = 1
     # the cheap regions in increasing order, their marked partners as keys
     cheap = np.empty(mc, dtype=np.int64)
@@ -234,11 +247,7 @@ def merge_candidate_pairs(indptr, indices, labels, foreign, dirty, cost, limit, 
             if table[c * m + b]:
                 key[k] = min(a, b) * m + max(a, b)
                 k += 1
-    key = np.unique(key)
-    out = np.empty((key.shape[0], 2), dtype=np.int64)
-    out[:, 0] = key // m
-    out[:, 1] = key % m
-    return out
+    return _pairs_of_keys(key, m)
 
 
 @njit(cache=True, parallel=True)
@@ -259,7 +268,7 @@ def _candidate_pairs_sorted(indptr, indices, labels, foreign, dirty, cost, limit
         c = 0
         for t in range(indptr[i], indptr[i + 1]):
             lj = labels[indices[t]]
-            if lj != li and (dirty[li] or dirty[lj]) and cost[li] + cost[lj] < limit:
+            if _is_candidate(li, lj, dirty, cost, limit):
                 c += 1
         per_point[s + 1] = c
     start = np.cumsum(per_point)
@@ -274,14 +283,10 @@ def _candidate_pairs_sorted(indptr, indices, labels, foreign, dirty, cost, limit
         c = start[s]
         for t in range(indptr[i], indptr[i + 1]):
             lj = labels[indices[t]]
-            if lj != li and (dirty[li] or dirty[lj]) and cost[li] + cost[lj] < limit:
+            if _is_candidate(li, lj, dirty, cost, limit):
                 key[c] = min(li, lj) * m + max(li, lj)
                 c += 1
-    key = np.unique(key)
-    out = np.empty((key.shape[0], 2), dtype=np.int64)
-    out[:, 0] = key // m
-    out[:, 1] = key % m
-    return out
+    return _pairs_of_keys(key, m)
 
 
 @njit(cache=True)
