@@ -160,3 +160,14 @@ def test_outward_orientation_invariant_under_rigid_motion(motion, seed):
     est = random_flips(estimate_normals(moved, 12), seed)
     oriented = orient_normals(moved, est, k=10)
     assert flipped_fraction(oriented, exact @ rot.T) == 0.0
+
+
+def test_orientation_follows_a_permutation_of_the_input():
+    # the forest runs on spatially renumbered points; whatever the input order,
+    # every point gets the same sign (a tie-free noisy torus)
+    pts, _ = torus(60, 20, rng=4)
+    est = random_flips(estimate_normals(pts, 12), 5)
+    perm = np.random.default_rng(6).permutation(pts.shape[0])
+    a = orient_normals(pts, est, k=10)
+    b = orient_normals(pts[perm], est[perm], k=10)
+    assert np.array_equal(a[perm], b)

@@ -7,7 +7,14 @@ import math
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["morton_bits", "morton_order", "radix_sort_payload", "stable_argsort"]
+__all__ = [
+    "morton_bits",
+    "morton_order",
+    "permute_table",
+    "radix_sort_payload",
+    "spatial_renumbering",
+    "stable_argsort",
+]
 
 #: bits per radix digit: 256 buckets keep the scatter targets in L1 (measured: 8 bits
 #: sort 6.2M edge weights in 0.35 s, 11 bits 0.62 s, 16 bits 0.66 s)
@@ -171,3 +178,32 @@ def morton_order(points, bits):
             order[counts[code, c]] = i
             counts[code, c] += 1
     return order
+
+
+def spatial_renumbering(points):
+    """``(order, inv)``: new point r is old point ``order[r]`` (`morton_order` with
+    `morton_bits`), old point i is new point ``inv[i]``.
+
+    Kernels whose work follows graph edges (spanning forests, region growing and
+    merging) run much faster on renumbered points, whose neighbours then sit close
+    in memory, than on a spatially random input order.
+    """
+    order = morton_order(points, morton_bits(points.shape[0]))
+    inv = np.empty(order.shape[0], dtype=np.int64)
+    inv[order] = np.arange(order.shape[0])
+    return order, inv
+
+
+@njit(cache=True, parallel=True)
+def permute_table(table, order, inv):
+    """Row r of the result is row ``order[r]`` of ``table`` with every entry j >= 0
+    replaced by ``inv[j]`` (entries < 0 kept): the neighbour table of the points
+    renumbered by `spatial_renumbering`."""
+    n, c = table.shape
+    out = np.empty((n, c), dtype=np.int64)
+    for r in prange(n):
+        src = order[r]
+        for t in range(c):
+            j = table[src, t]
+            out[r, t] = inv[j] if j >= 0 else j
+    return out

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._core import as_normals, as_points
+from .._core._sort import permute_table, spatial_renumbering
 from .._core.tolerances import MST_WEIGHT_EPS, OUTWARD_VOTE_RTOL
 from ._estimate import _check_k, _neighbor_indices
 from ._kernels import (
@@ -69,8 +70,19 @@ def _forest_signs(points, normals, idx, edge_penalty):
     kernel tracks these parities in its union-find, so no traversal is needed).
     Returns the signs, the number of trees and the tree of every point.
     """
-    graph = _riemannian_graph(points, normals, idx, idx.shape[1], MST_WEIGHT_EPS, edge_penalty)
+    # the graph and the forest on spatially renumbered points (1M points in a
+    # random input order: 1.75 s -> 0.75 s); trees and parities mapped back
+    order, inv = spatial_renumbering(points)
+    graph = _riemannian_graph(
+        np.take(points, order, axis=0),
+        np.take(normals, order, axis=0),
+        permute_table(idx, order, inv),
+        idx.shape[1],
+        MST_WEIGHT_EPS,
+        edge_penalty,
+    )
     _, _, labels, n_comp, parity = _spanning_forest(*graph)
+    labels, parity = labels[inv], parity[inv]
     n_comp = int(n_comp)
     roots, root_signs = _top_roots(points, normals, labels, n_comp)
     signs = root_signs[labels]

@@ -6,6 +6,7 @@ import numpy as np
 from scipy import sparse
 
 from .._core import as_labels, as_points
+from .._core._sort import permute_table
 from ..neighbors import query_knn
 from ._kernels import boundary_points, region_pairs, symmetric_csr
 
@@ -56,6 +57,13 @@ def neighbor_graph(points: np.ndarray, k: int, neighbors=None):
         indptr = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
         return indptr, cols.astype(np.int64), None
+    table = _check_table(neighbors, n)
+    indptr, indices = symmetric_csr(np.ascontiguousarray(table), n)
+    return indptr, indices, table
+
+
+def _check_table(neighbors, n: int) -> np.ndarray:
+    """An (N, c) neighbour index table as int64 (entries < 0 mean none), validated."""
     table = np.asarray(neighbors)
     if table.ndim != 2 or table.shape[0] != n:
         raise ValueError(
@@ -63,11 +71,34 @@ def neighbor_graph(points: np.ndarray, k: int, neighbors=None):
         )
     if not np.issubdtype(table.dtype, np.integer):
         raise TypeError(f"neighbors must hold integer indices; got dtype {table.dtype}")
-    table = table.astype(np.int64)
+    table = table.astype(np.int64, copy=False)
     if table.size and table.max() >= n:
         raise ValueError(f"neighbors has indices >= N = {n}; largest is {int(table.max())}")
-    indptr, indices = symmetric_csr(np.ascontiguousarray(table), n)
-    return indptr, indices, table
+    return table
+
+
+def permuted_neighbors(points: np.ndarray, k: int, neighbors, order: np.ndarray, inv: np.ndarray):
+    """``neighbors`` (None, an (N, c) table or a sparse adjacency, as `neighbor_graph`
+    takes it) for the points renumbered so that new point r is old point
+    ``order[r]`` (``inv`` the inverse permutation); None becomes the k-NN table of
+    the old points. Entries < 0 stay < 0; rows keep their column order.
+    """
+    n = points.shape[0]
+    if neighbors is None:
+        k = _check_int(k, "k", 1)
+        if n == 1:
+            return np.zeros((1, 1), dtype=np.int64)
+        neighbors, _ = query_knn(points, min(k, n))
+    elif sparse.issparse(neighbors):
+        if neighbors.shape != (n, n):
+            raise ValueError(
+                f"neighbors must be an (N, N) adjacency with N = {n}; got {neighbors.shape}"
+            )
+        coo = sparse.coo_array(neighbors)
+        rows = inv[np.asarray(coo.row, dtype=np.int64)]
+        cols = inv[np.asarray(coo.col, dtype=np.int64)]
+        return sparse.coo_array((np.ones(rows.shape[0]), (rows, cols)), shape=(n, n))
+    return permute_table(_check_table(neighbors, n), order, inv)
 
 
 def region_adjacency(points, labels, *, k: int = 8, neighbors=None) -> np.ndarray:

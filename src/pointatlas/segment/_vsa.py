@@ -12,6 +12,7 @@ from types import MappingProxyType
 import numpy as np
 
 from .._core import as_normals, as_points, as_rng, readonly
+from .._core._sort import spatial_renumbering
 from .._core.tolerances import (
     NORMAL_ZERO_LENGTH,
     VSA_DEFAULT_MAX_ANGLE,
@@ -19,7 +20,7 @@ from .._core.tolerances import (
     VSA_SWITCH_FULL_SCAN,
     VSA_SWITCH_MIN_GAIN,
 )
-from ._graph import _check_int, neighbor_graph
+from ._graph import _check_int, neighbor_graph, permuted_neighbors
 from ._kernels import (
     apply_moves,
     batch_switch_bounded,
@@ -401,8 +402,10 @@ def _resolve_weights(weights, pts, k, table, indptr, indices):
     return w.copy()
 
 
-def _resolve_seeds(seeds, n, indptr, indices, rng):
-    """Seed indices; every connected component of the graph gets at least one."""
+def _resolve_seeds(seeds, n, indptr, indices, rng, inv):
+    """Seed indices of the renumbered points (old point i is new point ``inv[i]``,
+    the graph is on the new numbering); every connected component of the graph
+    gets at least one: its smallest-index point in the input numbering."""
     if isinstance(seeds, str):
         if seeds != "all":
             raise ValueError(f"seeds must be an int, an index array or 'all'; got {seeds!r}")
@@ -424,13 +427,14 @@ def _resolve_seeds(seeds, n, indptr, indices, rng):
             raise ValueError(f"seeds must be point indices in [0, {n}); got {chosen.tolist()[:5]}")
         if np.unique(chosen).size != chosen.size:
             raise ValueError("seeds must not repeat a point index")
+    chosen = inv[chosen]
     comp, n_comp = connected_label_components(indptr, indices, np.zeros(n, dtype=np.int64))
     has = np.zeros(n_comp, dtype=bool)
     has[comp[chosen]] = True
     if not has.all():
-        # the smallest-index point of every component without a seed
-        _, first = np.unique(comp, return_index=True)
-        chosen = np.concatenate([chosen, first[~has]])
+        # the smallest-index point (input numbering) of every component without a seed
+        _, first = np.unique(comp[inv], return_index=True)
+        chosen = np.concatenate([chosen, inv[first[~has]]])
     return chosen, False
 
 
@@ -558,11 +562,22 @@ def vsa_segment(
         min_cos = math.cos(VSA_DEFAULT_MAX_ANGLE if max_angle is None else max_angle)
 
     t0 = time.perf_counter()
-    indptr, indices, table = neighbor_graph(pts, k, neighbors)
+    # Every step below runs on the points renumbered in a spatial (Morton) order,
+    # so graph neighbours, and the regions grown from them, sit close in memory
+    # (1M points in input order: 8.5 s -> 6.3 s); the results are mapped back
+    # and numbered in the input order at the end.
+    pts_in, nrm_in = pts, nrm
+    order, inv = spatial_renumbering(pts)
+    pts, nrm = np.take(pts, order, axis=0), np.take(nrm, order, axis=0)
+    nb = permuted_neighbors(pts_in, k, neighbors, order, inv)
+    indptr, indices, table = neighbor_graph(pts, k, nb)
     timings["graph"] = time.perf_counter() - t0
-    w = _resolve_weights(weights, pts, k, table, indptr, indices)
+    if isinstance(weights, str):
+        w = _resolve_weights(weights, pts, k, table, indptr, indices)
+    else:
+        w = _resolve_weights(weights, pts_in, k, None, None, None)[order]
     wn = w[:, None] * nrm
-    seed_idx, all_seeds = _resolve_seeds(seeds, n, indptr, indices, rng)
+    seed_idx, all_seeds = _resolve_seeds(seeds, n, indptr, indices, rng, inv)
 
     names: list[str] = []
     history: list[float] = []
@@ -780,6 +795,11 @@ def vsa_segment(
             wsum, ssum, counts = _sums(labels, m, w, wn)
             record("final_merge", _energy_opt(wsum, ssum))
     timings["final_merge"] = time.perf_counter() - t1
+    # back to the input numbering; regions numbered by smallest member index
+    labels, m = canonical_labels(labels[inv])
+    pts, nrm, w = pts_in, nrm_in, w[inv]
+    wn = w[:, None] * nrm
+    wsum, ssum, counts = _sums(labels, m, w, wn)
     prox = _proxies(labels, wsum, ssum, counts, nrm)
     diff = nrm - prox[labels]
     region_l21 = np.bincount(labels, weights=w * np.einsum("ij,ij->i", diff, diff), minlength=m)
@@ -791,7 +811,8 @@ def vsa_segment(
     dist = np.einsum("ij,ij->i", pts - centroids[labels], prox[labels])
     mse = float(np.mean(dist**2))
     best = best_points(labels, m, nrm, prox)
-    adjacency = region_pairs(indptr, indices, labels, boundary_points(indptr, indices, labels))
+    lab_new = labels[order]  # final labels on the renumbered points, for the graph
+    adjacency = region_pairs(indptr, indices, lab_new, boundary_points(indptr, indices, lab_new))
     timings["finalize"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - t_start
     return VSAResult(
