@@ -134,6 +134,12 @@ class VSAResult:
 # --------------------------------------------------------------------------- helpers
 
 
+def _row_norms(v):
+    """Euclidean norms of the rows of an (m, 3) array: ``np.linalg.norm(v, axis=1)``
+    bit for bit (the same sum (x^2 + y^2) + z^2), about 6x faster at 1M rows."""
+    return np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
+
+
 def _sums(labels, m, w, wn):
     """Per-region W = sum w_j, S = sum w_j n_j and point counts."""
     wsum = np.bincount(labels, weights=w, minlength=m)
@@ -152,7 +158,7 @@ def _proxies(labels, wsum, ssum, counts, normals):
     deterministic. Empty regions get (0, 0, 1); no point refers to them.
     """
     m = wsum.shape[0]
-    length = np.linalg.norm(ssum, axis=1)
+    length = _row_norms(ssum)
     bad = length <= NORMAL_ZERO_LENGTH * np.maximum(wsum, 1.0)
     prox = np.zeros_like(ssum)
     prox[:, 2] = 1.0
@@ -168,7 +174,7 @@ def _proxies(labels, wsum, ssum, counts, normals):
 
 def _energy_opt(wsum, ssum):
     """Total L21 at optimal normals: sum 2 (W_i - |S_i|) (GUIDE B2)."""
-    return float(np.maximum(2.0 * (wsum - np.linalg.norm(ssum, axis=1)), 0.0).sum())
+    return float(np.maximum(2.0 * (wsum - _row_norms(ssum)), 0.0).sum())
 
 
 def _energy_fixed(wsum, ssum, prox):
@@ -190,7 +196,7 @@ def _labels_key(labels):
 
 
 def _over_threshold(wsum, ssum, eta, min_cos):
-    length = np.linalg.norm(ssum, axis=1)
+    length = _row_norms(ssum)
     if eta is not None:
         return 2.0 * (wsum - length) > eta
     return length < min_cos * wsum
@@ -594,7 +600,10 @@ def vsa_segment(
     else:
         m = seed_idx.shape[0]
         labels = flood(indptr, indices, nrm, seed_idx, np.ascontiguousarray(nrm[seed_idx]))
-    wsum, ssum, counts = _sums(labels, m, w, wn)
+    if all_seeds:  # the sums of singletons (+ 0.0: as bincount, no -0.0)
+        wsum, ssum, counts = w + 0.0, wn + 0.0, np.ones(n, dtype=np.int64)
+    else:
+        wsum, ssum, counts = _sums(labels, m, w, wn)
     if all_seeds:
         record("flood", 0.0)
     else:
@@ -670,7 +679,7 @@ def vsa_segment(
                 if singletons:
                     pass
                 elif eta is not None:
-                    cost = 2.0 * (wsum - np.linalg.norm(ssum, axis=1))
+                    cost = 2.0 * (wsum - _row_norms(ssum))
                     if np.count_nonzero(dirty_merge) > VSA_SWITCH_FULL_SCAN * m:
                         # most regions changed: scanning every boundary point
                         # is cheaper than filtering them
@@ -714,7 +723,7 @@ def vsa_segment(
                 if switch == "batch":
                     if prev_prox is not None:
                         mp = prev_prox.shape[0]
-                        drift[:mp] += np.linalg.norm(prox[:mp] - prev_prox, axis=1)
+                        drift[:mp] += _row_norms(prox[:mp] - prev_prox)
                     prev_prox = prox
                     moved, new = batch_switch_bounded(
                         indptr,
