@@ -16,6 +16,15 @@ def cube_file(tmp_path):
     return write_mesh(tmp_path / "cube.obj", m.vertices, m.faces)
 
 
+#: the cube's edge and corner vertices carry 45- and 55-degree normals: with the
+#: default 10-degree threshold they form 28 small regions whose absorption into the
+#: faces is decided by exact ties, i.e. by the order of the points (old and new code
+#: alike: 2-3 of 12 shuffled inputs gave 7-12 vertices); 20 degrees lets VSA itself
+#: absorb them, and every input order gives the 8-vertex cube (tested in
+#: test_pipeline.py)
+ROBUST = ["--max-angle-deg", "20"]
+
+
 def test_simplify_cube_writes_closed_polygon_mesh(cube_file, tmp_path):
     out = tmp_path / "cube_simple.obj"
     tri = tmp_path / "cube_tri.ply"
@@ -32,6 +41,7 @@ def test_simplify_cube_writes_closed_polygon_mesh(cube_file, tmp_path):
             str(rep),
             "--vertices",
             "optimize",
+            *ROBUST,
         ],
     )
     assert res.exit_code == 0, res.output
@@ -63,7 +73,7 @@ def test_simplify_default_gives_planar_faces(cube_file, tmp_path):
 def test_simplify_star_faces(cube_file, tmp_path):
     # (--render is exercised by the demo step test below)
     out = tmp_path / "c.ply"
-    res = runner.invoke(app, ["simplify", str(cube_file), str(out), "--faces", "star"])
+    res = runner.invoke(app, ["simplify", str(cube_file), str(out), "--faces", "star", *ROBUST])
     assert res.exit_code == 0, res.output
     assert read_mesh(out).n_faces == 6
 

@@ -38,6 +38,22 @@ def test_cube_gives_closed_mesh_of_six_planar_quads(vertices, faces):
     assert s.triangles.dtype == np.int64 and s.vertices.dtype == np.float64
 
 
+@pytest.mark.parametrize("kwargs", [dict(eta=25.0), dict(max_angle=np.radians(20))])
+def test_cube_from_points_does_not_depend_on_the_input_order(kwargs):
+    # segmentation from every point + meshing: any order of the cube's vertices
+    # gives the closed 8-vertex, 6-quad cube (at the default 10 degrees the edge
+    # vertices' 45-degree normals make 28 small regions whose absorption is
+    # decided by exact ties, so there the result depends on the order)
+    from pointatlas.simplify import simplify_points
+
+    m = cube(8, size=2.0)
+    for seed in range(6):
+        perm = np.random.default_rng(seed).permutation(m.vertices.shape[0])
+        r = simplify_points(m.vertices[perm], m.normals[perm], vertices="optimize", **kwargs)
+        assert (r.mesh.n_vertices, r.mesh.n_faces) == (8, 6)
+        assert r.mesh.is_closed and r.mesh.is_manifold and r.mesh.is_oriented
+
+
 def test_octahedron_optimisation_gives_valence_four_vertices_on_all_planes():
     m = octahedron(16)
     s = simplify_segmentation(m.vertices, m.normals, m.labels, vertices="optimize")
