@@ -194,3 +194,14 @@ def test_translation_invariance(pts, k):
     idx_s, dist_s = query_knn(pts + np.array([1e6, -2e6, 5e5]), k)
     np.testing.assert_array_equal(idx_s, idx)
     np.testing.assert_allclose(dist_s, dist, atol=1e-9)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(1, 500), st.integers(0, 2**32 - 1))
+def test_bounds_kernel_matches_numpy(n, seed):
+    from pointatlas.neighbors._kernels import bounds
+
+    pts = np.random.default_rng(seed).normal(size=(n, 3)) * 10.0 ** (seed % 7 - 3)
+    lo, hi = bounds(pts)
+    np.testing.assert_array_equal(lo, pts.min(axis=0))
+    np.testing.assert_array_equal(hi, pts.max(axis=0))

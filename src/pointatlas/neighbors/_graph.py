@@ -59,7 +59,7 @@ def knn_graph(points, k: int, *, symmetric: bool = True, indices=None) -> sparse
     nbr = np.ascontiguousarray(nbr[:, 1:])
     indptr, cols = _kernels.graph_structure(nbr, n, bool(symmetric))
     # distances on bounding-box-centred coordinates, like query_knn
-    centred = pts - 0.5 * (pts.min(axis=0) + pts.max(axis=0)) if n else pts
+    centred = pts - 0.5 * np.add(*_kernels.bounds(pts)) if n else pts
     dist = _kernels.edge_lengths(centred, indptr, cols)
     return sparse.csr_array((dist, cols, indptr), shape=(n, n))
 

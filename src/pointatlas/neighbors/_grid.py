@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._core._sort import radix_sort_payload
 from .._core.tolerances import RADIUS_QUERY_WIDEN
 from . import _kernels as K
 
@@ -66,13 +67,17 @@ def min_cell_size(ext: np.ndarray) -> float:
 
 def build_grid(pts: np.ndarray, h: float) -> Grid:
     """Sort ``pts`` into cells of size ``h`` (enlarged if keys would overflow)."""
-    lo = pts.min(axis=0)
-    ext = pts.max(axis=0) - lo
+    lo, hi = K.bounds(pts)
+    ext = hi - lo
     h = max(float(h), min_cell_size(ext))
     nx, ny, nz = _dims(ext, h)
     keys = K.grid_keys(pts, lo, 1.0 / h, nx, ny, nz)
-    order = np.argsort(keys, kind="stable")
-    ukeys, cstart = K.cell_starts(keys[order])
+    # stable radix sort of the (non-negative) cell keys: np.argsort(kind="stable")
+    n = keys.shape[0]
+    sorted_keys, order = radix_sort_payload(
+        keys.view(np.uint64), np.arange(n), np.empty(n, dtype=np.uint64), np.empty(n, np.int64)
+    )
+    ukeys, cstart = K.cell_starts(sorted_keys.view(np.int64))
     xs, ys, zs = K.gather_sorted(pts, order)
     return Grid(xs, ys, zs, order, ukeys, cstart, lo, h, nx, ny, nz)
 
@@ -108,8 +113,8 @@ def knn_grid_for(pts: np.ndarray, k: int, *, max_rounds: int = 4) -> Grid:
     """A grid whose point-weighted occupancy is close to `knn_target` (k)."""
     n = pts.shape[0]
     target = knn_target(k)
-    lo = pts.min(axis=0)
-    ext = pts.max(axis=0) - lo
+    lo, hi = K.bounds(pts)
+    ext = hi - lo
     h_min = min_cell_size(ext)
     h = max(_volume_cell_size(ext, n, target), h_min)
     grid = build_grid(pts, h)

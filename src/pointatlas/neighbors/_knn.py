@@ -93,7 +93,8 @@ class NeighborIndex:
     def __init__(self, points, *, backend: str = "auto"):
         pts = as_points(points, min_points=1)
         self.backend = _check_backend(backend)
-        self.center_ = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+        lo, hi = K.bounds(pts)
+        self.center_ = 0.5 * (lo + hi)
         self.points_ = readonly(pts - self.center_)
         self._tree = None
 
