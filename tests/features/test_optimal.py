@@ -220,3 +220,39 @@ def test_chord_bound_is_below_minus_t_log_t():
     lb = np.array([_chord_bound(x) for x in t])
     assert (lb <= f + 1e-15).all()
     assert (f - lb).max() < 1e-3  # tight enough to rule out most choices
+
+
+def test_reported_row_equals_fused_kernel_at_the_chosen_triple_bit_for_bit():
+    # the search takes the winner's covariance from its running moments; it must be
+    # the covariance `fused_kernel` builds at that (a, b, k), so every reported
+    # value equals a fixed-choice pass there bit for bit (also next to duplicate
+    # points, a collinear strand, flipped and NaN normals)
+    from pointatlas.features._features import _choice_features, _neighbourhoods
+    from pointatlas.features._kernels import angles_kernel
+    from pointatlas.features._weights import _unit_normals_or_nan
+
+    pts, nrm = _noisy_surface(8, n=300)
+    pts[10:20] = pts[10]
+    t = np.linspace(0.0, 1.0, 30)
+    pts[40:70] = np.column_stack([t, 2 * t, -t]) + 3.0
+    nrm[::9] *= -1
+    nrm[5] = np.nan
+    idx = _neighbourhoods(pts, 20, None)
+    res = optimal_neighbourhood(pts, nrm, neighbors=idx)
+    ok = res.reason == 0
+    assert ok.sum() > 200 and (res.reason == 1).any()
+    unit = _unit_normals_or_nan(nrm, len(pts))
+    ang = np.empty(idx.shape)
+    angles_kernel(unit, idx, np.arange(len(pts)), ang)
+    fixed = _choice_features(
+        pts,
+        idx,
+        np.where(ok, res.k, 20),
+        ang,
+        np.where(ok, res.a, 0.0),
+        np.where(ok, res.b, math.pi),
+        res.flatness_exponents,
+    )
+    for name in ("eigenvalues", "eigenvector_1", "eigenvector_3", "e_dim", "flatness"):
+        np.testing.assert_array_equal(getattr(res, name)[ok], getattr(fixed, name)[ok])
+    np.testing.assert_array_equal(fixed.reason[ok], 0)

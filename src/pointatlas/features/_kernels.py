@@ -63,13 +63,15 @@ _AHEAD = 8
 def cosine_sigmoid_scalar(x, a, b):
     """Def. 15 with the GUIDE's a = b rule: weight 1 iff x <= a, then cosine to 0 at b.
 
-    The ramp 0.5 cos(pi u) + 0.5 is `_sigmoid_ramp` (a polynomial, error < 3e-16).
+    The ramp 0.5 cos(pi u) + 0.5 is `_sigmoid_ramp` (a polynomial, error < 3e-16) of
+    u = (x - a) * (1 / (b - a)), the form `optimal_kernel` uses for its weights (so
+    both give the same weights bit for bit).
     """
     if x <= a:
         return 1.0
     if x >= b:
         return 0.0
-    return _sigmoid_ramp((x - a) / (b - a))
+    return _sigmoid_ramp((x - a) * (1.0 / (b - a)))
 
 
 #: odd Taylor coefficients of sin(pi t), |t| <= 1/2 (truncation error < 3e-16)
@@ -178,7 +180,7 @@ def eigvals_batch_kernel(mats, out):
 
 @njit(parallel=True, cache=True, error_model="numpy")
 def angles_kernel(normals, idx, order, out):
-    """Angle between each point's normal and its neighbours' (atan2 form, accurate at 0).
+    """Angle between each point's normal and its neighbours' (`_normal_angle`).
 
     Rows are visited in ``order`` (a permutation; see `pointatlas._core._sort.morton_order`) in
     blocks, the index and output rows `_AHEAD` points later prefetched.
@@ -199,18 +201,7 @@ def angles_kernel(normals, idx, order, out):
             nz = normals[i, 2]
             for j in range(kk):
                 m = idx[i, j]
-                dx = nx - normals[m, 0]
-                dy = ny - normals[m, 1]
-                dz = nz - normals[m, 2]
-                sx = nx + normals[m, 0]
-                sy = ny + normals[m, 1]
-                sz = nz + normals[m, 2]
-                x = 2.0 * math.atan2(
-                    math.sqrt(dx * dx + dy * dy + dz * dz), math.sqrt(sx * sx + sy * sy + sz * sz)
-                )
-                if x < ANGLE_ZERO:
-                    x = 0.0
-                out[i, j] = x
+                out[i, j] = _normal_angle(nx, ny, nz, normals[m, 0], normals[m, 1], normals[m, 2])
 
 
 @njit(parallel=True, cache=True, error_model="numpy")
@@ -405,28 +396,35 @@ def _criterion(l1, l2, l3, criterion):
     return -(_xlogx(l1 / s) + _xlogx(l2 / s) + _xlogx(l3 / s))
 
 
-@njit(cache=True, inline="always", error_model="numpy")
-def _cos_third(v):
-    """cos(acos(v^2 - 1) / 3) for v in [0, sqrt 2] without trigonometric calls.
-
-    Writing c = 1/2 + v h, the root c in [1/2, 1] of 4c^3 - 3c = v^2 - 1 solves
-    2 h^2 (3 + 2 v h) = 1 with h in [0.353, 0.409]; a cubic fit (error < 7e-5)
-    and two Newton steps (derivative 12 h (1 + v h) >= 4.2) give h to rounding.
-    """
-    return 0.5 + v * _ct_newton(v, _ct_newton(v, _ct_start(v)))
+#: 1/3 and 1/6 (products instead of divisions in the closed form)
+_THIRD = 1.0 / 3.0
+_SIXTH = 1.0 / 6.0
 
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _ct_start(v):
-    """Cubic first guess of h in `_cos_third`."""
+    """Cubic first guess of h(v), the root of 2 h^2 (3 + 2 v h) = 1, v in [0, sqrt 2].
+
+    cos(acos(v^2 - 1) / 3) = 1/2 + v h: the root c in [1/2, 1] of 4c^3 - 3c = v^2 - 1
+    written as c = 1/2 + v h; h lies in [0.353, 0.409]. The fit's error is < 7e-5;
+    two Newton steps (`_ct_newton2`, derivative 12 h (1 + v h) >= 4.2) give h to
+    rounding.
+    """
     return ((-0.0028269 * v + 0.01523889) * v - 0.05456088) * v + 0.40818365
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _ct_newton(v, h):
-    """One Newton step for 2 h^2 (3 + 2 v h) = 1 (see `_cos_third`)."""
-    vh = v * h
-    return h - (2.0 * h * h * (3.0 + 2.0 * vh) - 1.0) / (12.0 * h * (1.0 + vh))
+def _ct_newton2(v1, h1, v3, h3):
+    """One Newton step for 2 h^2 (3 + 2 v h) = 1 at (v1, h1) and at (v3, h3) with a
+    single division: f1 / d1 = f1 d3 / (d1 d3) (a few ulps of the correction)."""
+    vh1 = v1 * h1
+    vh3 = v3 * h3
+    f1 = 2.0 * h1 * h1 * (3.0 + 2.0 * vh1) - 1.0
+    f3 = 2.0 * h3 * h3 * (3.0 + 2.0 * vh3) - 1.0
+    d1 = 12.0 * h1 * (1.0 + vh1)
+    d3 = 12.0 * h3 * (1.0 + vh3)
+    inv = 1.0 / (d1 * d3)
+    return h1 - f1 * d3 * inv, h3 - f3 * d1 * inv
 
 
 @njit(cache=True, error_model="numpy")
@@ -435,45 +433,24 @@ def eig3_fast(c00, c01, c02, c11, c12, c22):
 
     The trace-shifted, scaled trigonometric closed form (B = (C - qI)/p,
     r = det(B)/2 clamped to [-1, 1]), with cos(acos(r)/3) and cos(acos(r)/3 + 2pi/3)
-    from `_cos_third` of sqrt(1 + r) and sqrt(1 - r) (the smallest root is minus the
-    largest root for -r): about 1.5x faster than acos + 2 cos and as accurate
-    (double roots resolved to ~1e-8 lambda_1; `eigh3_accurate` refines).
+    as 1/2 + v h(v) of v = sqrt(1 + r) and sqrt(1 - r) (the smallest root is minus
+    the largest root for -r; h from `_ct_start` and two `_ct_newton2` steps):
+    about 1.5x faster than acos + 2 cos and as accurate (double roots resolved to
+    ~1e-8 lambda_1; `eigh3_accurate` refines). Four divisions and three square
+    roots. The same arithmetic as `optimal_kernel`'s stages (`_lanes_stage1` to
+    `_lanes_stage3`), so both give the same values bit for bit.
     """
-    q = (c00 + c11 + c22) / 3.0
-    b00 = c00 - q
-    b11 = c11 - q
-    b22 = c22 - q
-    p2 = b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * (c01 * c01 + c02 * c02 + c12 * c12)
+    q, p, p2, r = _lanes_stage1(c00, c01, c02, c11, c12, c22)
     if p2 <= 0.0:
         v = max(q, 0.0)
         return v, v, v
-    p = math.sqrt(p2 / 6.0)
-    inv = 1.0 / p
-    d00 = b00 * inv
-    d11 = b11 * inv
-    d22 = b22 * inv
-    d01 = c01 * inv
-    d02 = c02 * inv
-    d12 = c12 * inv
-    det = (
-        d00 * (d11 * d22 - d12 * d12)
-        - d01 * (d01 * d22 - d12 * d02)
-        + d02 * (d01 * d12 - d11 * d02)
-    )
-    r = min(max(0.5 * det, -1.0), 1.0)
-    l1 = q + 2.0 * p * _cos_third(math.sqrt(1.0 + r))
-    l3 = q - 2.0 * p * _cos_third(math.sqrt(1.0 - r))
-    l2 = 3.0 * q - l1 - l3
-    if l2 > l1:
-        l2 = l1
-    if l2 < l3:
-        l2 = l3
-    return max(l1, 0.0), max(l2, 0.0), max(l3, 0.0)
+    v1, h1, v3, h3 = _lanes_stage2(r)
+    return _lanes_stage3(q, p, p2, v1, h1, v3, h3)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _eig3_lanes(c00, c01, c02, c11, c12, c22):
-    """`eig3_fast` written without branches (selects only), bit for bit the same values.
+    """`eig3_fast` without branches (selects only), bit for bit the same values.
 
     Composed of three stages (`_lanes_stage1`, `_lanes_stage2`, `_lanes_stage3`)
     that `optimal_kernel` runs as three flat loops over its candidates: each
@@ -488,12 +465,12 @@ def _eig3_lanes(c00, c01, c02, c11, c12, c22):
 @njit(cache=True, inline="always", error_model="numpy")
 def _lanes_stage1(c00, c01, c02, c11, c12, c22):
     """Trace shift q, scale p (and p^2) and the clamped half determinant r."""
-    q = (c00 + c11 + c22) / 3.0
+    q = (c00 + c11 + c22) * _THIRD
     b00 = c00 - q
     b11 = c11 - q
     b22 = c22 - q
     p2 = b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * (c01 * c01 + c02 * c02 + c12 * c12)
-    p = math.sqrt(p2 / 6.0)
+    p = math.sqrt(p2 * _SIXTH)
     inv = 1.0 / p
     d00 = b00 * inv
     d11 = b11 * inv
@@ -514,17 +491,19 @@ def _lanes_stage1(c00, c01, c02, c11, c12, c22):
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _lanes_stage2(r):
-    """sqrt(1 + r), sqrt(1 - r) and the first Newton iterate of each `_cos_third`."""
+    """v1 = sqrt(1 + r), v3 = sqrt(1 - r) and the first Newton iterates h1, h3."""
     v1 = math.sqrt(1.0 + r)
     v3 = math.sqrt(1.0 - r)
-    return v1, _ct_newton(v1, _ct_start(v1)), v3, _ct_newton(v3, _ct_start(v3))
+    h1, h3 = _ct_newton2(v1, _ct_start(v1), v3, _ct_start(v3))
+    return v1, h1, v3, h3
 
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _lanes_stage3(q, p, p2, v1, h1, v3, h3):
     """Second Newton step, the three eigenvalues, ordered and clipped."""
-    l1 = q + 2.0 * p * (0.5 + v1 * _ct_newton(v1, h1))
-    l3 = q - 2.0 * p * (0.5 + v3 * _ct_newton(v3, h3))
+    h1, h3 = _ct_newton2(v1, h1, v3, h3)
+    l1 = q + 2.0 * p * (0.5 + v1 * h1)
+    l3 = q - 2.0 * p * (0.5 + v3 * h3)
     l2 = 3.0 * q - l1 - l3
     l2 = l1 if l2 > l1 else l2
     l2 = l3 if l2 < l3 else l2
@@ -609,6 +588,92 @@ def _eig_features_row(out, i, c00, c01, c02, c11, c12, c22, m1, m2):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
+def _three_distinct_k(ws, pr, ys, kmax):
+    """Smallest k such that the first k neighbours (coordinates ``ys``) hold three
+    distinct points of positive weight ``ws[pr]``; kmax + 1 if none (no candidate)."""
+    nd = 0
+    d1 = -1
+    d2 = -1
+    for j in range(kmax):
+        if ws[pr, j] > 0.0:
+            if nd == 0:
+                d1 = j
+                nd = 1
+            elif nd == 1:
+                if not _same(ys, j, d1):
+                    d2 = j
+                    nd = 2
+            elif not _same(ys, j, d1) and not _same(ys, j, d2):
+                return j + 1
+    return kmax + 1
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _cov_from_sums(sw, sx, sy, sz, sxx, sxy, sxz, syy, syz, szz, mx, my, mz):
+    """Eq. 5.4 from the moments about the point itself: C = Syy - Sy m^T - m Sy^T
+    + W m m^T (W = sw, Sy = (sx, sy, sz), Syy the six sums of w y y^T, m the
+    unweighted mean); returns c00, c01, c02, c11, c12, c22. Shared by `_choice_cov`
+    and `optimal_kernel`, so both form the same covariance bit for bit."""
+    return (
+        sxx - 2.0 * sx * mx + sw * mx * mx,
+        sxy - sx * my - mx * sy + sw * mx * my,
+        sxz - sx * mz - mx * sz + sw * mx * mz,
+        syy - 2.0 * sy * my + sw * my * my,
+        syz - sy * mz - my * sz + sw * my * mz,
+        szz - 2.0 * sz * mz + sw * mz * mz,
+    )
+
+
+#: Cephes' atan: P(z) / Q(z) coefficients (z = x^2, |x| <= 0.66), Q monic
+_ATAN_P = (
+    -8.750608600031904122785e-1,
+    -1.615753718733365076637e1,
+    -7.500855792314704667340e1,
+    -1.228866684490136173410e2,
+    -6.485021904942025371773e1,
+)
+_ATAN_Q = (
+    2.485846490142306297962e1,
+    1.650270098316988542046e2,
+    4.328810604912902668951e2,
+    4.853903996359136964868e2,
+    1.945506571482613964425e2,
+)
+#: pi/2 - fl(pi/2), added where Cephes adds it
+_ATAN_MOREBITS = 6.123233995736765886130e-17
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _atan2_nonneg(y, x):
+    """atan2(y, x) for y, x >= 0 (not both 0), in [0, pi/2]; NaN in, NaN out.
+
+    Cephes' atan (relative error ~2e-16) of min/max after the reflection
+    atan(t) = pi/2 - atan(1/t), written with selects only, so loops over it
+    vectorise (libm's atan2 is a call per value: ~60 % of the angles' cost).
+    """
+    hi = y if y > x else x
+    lo = x if y > x else y
+    r = lo / hi
+    big = r > 0.66
+    t = (r - 1.0) / (r + 1.0) if big else r
+    z = t * t
+    p = _ATAN_P[0]
+    p = p * z + _ATAN_P[1]
+    p = p * z + _ATAN_P[2]
+    p = p * z + _ATAN_P[3]
+    p = p * z + _ATAN_P[4]
+    q = z + _ATAN_Q[0]
+    q = q * z + _ATAN_Q[1]
+    q = q * z + _ATAN_Q[2]
+    q = q * z + _ATAN_Q[3]
+    q = q * z + _ATAN_Q[4]
+    a = t + t * (z * p / q)
+    a = (0.7853981633974483 + (a + 0.5 * _ATAN_MOREBITS)) if big else a
+    a = (1.5707963267948966 - a + _ATAN_MOREBITS) if y > x else a
+    return a if (y == y and x == x) else np.nan
+
+
+@njit(cache=True, inline="always", error_model="numpy")
 def _normal_angle(nx, ny, nz, mx, my, mz):
     """Angle between unit normals n and m: 2 atan2(|n - m|, |n + m|), below
     ``ANGLE_ZERO`` exactly 0 (NaN stays NaN)."""
@@ -618,7 +683,7 @@ def _normal_angle(nx, ny, nz, mx, my, mz):
     sx = nx + mx
     sy = ny + my
     sz = nz + mz
-    x = 2.0 * math.atan2(
+    x = 2.0 * _atan2_nonneg(
         math.sqrt(dx * dx + dy * dy + dz * dz), math.sqrt(sx * sx + sy * sy + sz * sz)
     )
     if x < ANGLE_ZERO:
@@ -666,14 +731,16 @@ def optimal_kernel(
     a, then b. Criterion 0: E_dim; 1: eigenentropy. Without normals there is one
     pair with all weights 1.
 
-    The winner's covariance is then rebuilt exactly as `fused_kernel` builds it
-    (weights `cosine_sigmoid_scalar`, the same sums in the same order) and row i
-    of ``out`` (N, `N_OUT`) receives its eigen-decomposition and features
-    (`_eig_features_row`), so the result equals the search followed by
-    `fused_kernel` at the chosen triple bit for bit, without the angle table and
-    the second pass. ``reason``, ``best_k`` (-1: none) and ``best_pair`` (-1) per
-    point; rows without a valid choice are NaN. Points are visited in ``order``
-    (see `pointatlas._core._sort.morton_order`); indices must lie in [0, N).
+    The winner's covariance is the one stored for it (`_cov_from_sums`): the
+    weights are those of `cosine_sigmoid_scalar`, the sums and the formula those
+    of `_choice_cov`, so it is the covariance `fused_kernel` builds at that
+    choice, bit for bit; row i of ``out`` (N, `N_OUT`) receives its
+    eigen-decomposition and features (`_eig_features_row`), so the result equals
+    the search followed by `fused_kernel` at the chosen triple bit for bit,
+    without the angle table and the second pass. ``reason``, ``best_k`` (-1:
+    none) and ``best_pair`` (-1) per point; rows without a valid choice are NaN.
+    Points are visited in ``order`` (see `pointatlas._core._sort.morton_order`);
+    indices must lie in [0, N).
     """
     n = idx.shape[0]
     n_pairs = pair_a.shape[0] if use_normals else 1
@@ -682,20 +749,19 @@ def optimal_kernel(
     nblocks = (n + _BLOCK - 1) // _BLOCK
     for blk in prange(nblocks):
         ys = np.empty((kmax, 3))
-        angrows = np.zeros((1, kmax))  # a 2-D row for `_choice_cov`
-        angrow = angrows[0]
+        angrow = np.zeros(kmax)
         ws = np.ones((n_pairs, kmax))
         act = np.empty(n_pairs, dtype=np.int64)
         nbp = np.empty(n_pairs, dtype=np.int64)
         uu = np.empty(n_pairs * kmax)
         masks = np.empty(n_pairs, dtype=np.uint64)
-        pm = np.empty((10, nk * n_pairs))
-        mq = np.empty((3, nk * n_pairs))
+        cv = np.empty((6, nk * n_pairs))
         lam = np.empty((3, nk * n_pairs))
         ev = np.empty((8, nk * n_pairs))
         rt = np.empty((3, nk * n_pairs))
         lbv = np.empty(nk * n_pairs)
         mk = np.empty((3, nk))
+        fin_k = np.empty(nk, dtype=np.bool_)
         qk = np.empty(nk * n_pairs, dtype=np.int64)
         qp = np.empty(nk * n_pairs, dtype=np.int64)
         t_end = min(n, (blk + 1) * _BLOCK)
@@ -781,15 +847,15 @@ def optimal_kernel(
                 n_act += 1
             # the cosine ramps of every pair with angles inside (a, b) in one flat
             # loop (vectorised, and the polynomials of different pairs overlap)
-            for t in range(n_nb * kmax):
-                uu[t] = _sigmoid_ramp(uu[t])
-            for t in range(n_nb):
-                pr = nbp[t]
+            for u in range(n_nb * kmax):
+                uu[u] = _sigmoid_ramp(uu[u])
+            for u in range(n_nb):
+                pr = nbp[u]
                 a = pair_a[pr]
                 b = pair_b[pr]
                 for j in range(kmax):
                     x = angrow[j]
-                    w = uu[t * kmax + j]
+                    w = uu[u * kmax + j]
                     w = 0.0 if x >= b else w
                     w = 1.0 if x <= a else w
                     ws[pr, j] = w
@@ -806,6 +872,7 @@ def optimal_kernel(
                     mk[0, k - kmin] = ux / k
                     mk[1, k - kmin] = uy / k
                     mk[2, k - kmin] = uz / k
+                    fin_k[k - kmin] = math.isfinite(ux + uy + uz)
             # prefix moments of every active pair at every k >= kmin, pair by pair
             # with the ten sums in registers (the same additions in the same order
             # as one running update per neighbour); only the choices with at least
@@ -813,9 +880,8 @@ def optimal_kernel(
             n_q = 0
             for s in range(n_act):
                 pr = act[s]
-                nd = 0
-                d1 = -1
-                d2 = -1
+                # candidates from the first k with three distinct weighted points
+                ks = max(_three_distinct_k(ws, pr, ys, kmax), kmin)
                 s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = s8 = s9 = 0.0
                 for j in range(kmax):
                     w = ws[pr, j]
@@ -832,50 +898,26 @@ def optimal_kernel(
                     s7 += w * yy * yy
                     s8 += w * yy * yz
                     s9 += w * yz * yz
-                    if nd < 3 and w > 0.0:
-                        if nd == 0:
-                            d1 = j
-                            nd = 1
-                        elif nd == 1:
-                            if not _same(ys, j, d1):
-                                d2 = j
-                                nd = 2
-                        elif not _same(ys, j, d1) and not _same(ys, j, d2):
-                            nd = 3
-                    if j + 1 >= kmin and nd >= 3:
+                    if j + 1 >= ks:
                         q = n_q
                         n_q += 1
-                        pm[0, q] = s0
-                        pm[1, q] = s1
-                        pm[2, q] = s2
-                        pm[3, q] = s3
-                        pm[4, q] = s4
-                        pm[5, q] = s5
-                        pm[6, q] = s6
-                        pm[7, q] = s7
-                        pm[8, q] = s8
-                        pm[9, q] = s9
-                        mq[0, q] = mk[0, j + 1 - kmin]
-                        mq[1, q] = mk[1, j + 1 - kmin]
-                        mq[2, q] = mk[2, j + 1 - kmin]
+                        c = _cov_from_sums(
+                            s0, s1, s2, s3, s4, s5, s6, s7, s8, s9,
+                            mk[0, j + 1 - kmin], mk[1, j + 1 - kmin], mk[2, j + 1 - kmin],
+                        )  # fmt: skip
+                        cv[0, q] = c[0]
+                        cv[1, q] = c[1]
+                        cv[2, q] = c[2]
+                        cv[3, q] = c[3]
+                        cv[4, q] = c[4]
+                        cv[5, q] = c[5]
                         qk[q] = j + 1
                         qp[q] = pr
             # C = Syy - Sy m^T - m Sy^T + W m m^T (m the unweighted mean), eigenvalues
             for q in range(n_q):
-                sw = pm[0, q]
-                sx = pm[1, q]
-                sy = pm[2, q]
-                sz = pm[3, q]
-                mx = mq[0, q]
-                my = mq[1, q]
-                mz = mq[2, q]
-                c00 = pm[4, q] - 2.0 * sx * mx + sw * mx * mx
-                c01 = pm[5, q] - sx * my - mx * sy + sw * mx * my
-                c02 = pm[6, q] - sx * mz - mx * sz + sw * mx * mz
-                c11 = pm[7, q] - 2.0 * sy * my + sw * my * my
-                c12 = pm[8, q] - sy * mz - my * sz + sw * my * mz
-                c22 = pm[9, q] - 2.0 * sz * mz + sw * mz * mz
-                ev[0, q], ev[1, q], ev[2, q], ev[3, q] = _lanes_stage1(c00, c01, c02, c11, c12, c22)
+                ev[0, q], ev[1, q], ev[2, q], ev[3, q] = _lanes_stage1(
+                    cv[0, q], cv[1, q], cv[2, q], cv[3, q], cv[4, q], cv[5, q]
+                )
             for q in range(n_q):
                 ev[4, q], ev[5, q], ev[6, q], ev[7, q] = _lanes_stage2(ev[3, q])
             for q in range(n_q):
@@ -896,22 +938,24 @@ def optimal_kernel(
                     rt[0, q] = (l1 - l2) * il1
                     rt[1, q] = (l2 - l3) * il1
                     rt[2, q] = l3 * il1
-            for q in range(n_q):
-                lb = _chord_bound(rt[0, q]) + _chord_bound(rt[1, q]) + _chord_bound(rt[2, q])
-                lbv[q] = lb if lam[0, q] > 0.0 else np.inf  # lambda_1 = 0: no choice
-            # the smallest bound first, then every choice it does not rule out
+            # the bounds and the smallest one; the smallest bound first, then every
+            # choice it does not rule out
             code = REASON_FEW_DISTINCT
             q0 = -1
             lb0 = np.inf
             for q in range(n_q):
-                if lbv[q] < lb0:
-                    lb0 = lbv[q]
+                lb = _chord_bound(rt[0, q]) + _chord_bound(rt[1, q]) + _chord_bound(rt[2, q])
+                lb = lb if lam[0, q] > 0.0 else np.inf  # lambda_1 = 0: no choice
+                lbv[q] = lb
+                if lb < lb0:
+                    lb0 = lb
                     q0 = q
-                elif lbv[q] == np.inf:
+                elif lb == np.inf:
                     code = REASON_ZERO_EIGENSUM
             bv = np.inf
             bk = -1
             bp = -1
+            bq = -1
             if q0 >= 0:
                 for step in range(n_q + 1):
                     q = q0 if step == 0 else step - 1
@@ -933,17 +977,24 @@ def optimal_kernel(
                         bv = val
                         bk = k
                         bp = pr
+                        bq = q
             if bk < 0:
                 reason[i] = code
                 for c in range(N_OUT):
                     out[i, c] = np.nan
                 out[i, 12] = np.inf
                 continue
-            # the winner's covariance as `fused_kernel` builds it, and its features
-            a = pair_a[bp] if use_normals else 0.0
-            b = pair_b[bp] if use_normals else 0.0
-            code, c00, c01, c02, c11, c12, c22 = _choice_cov(
-                points, idx, i, bk, angrows, 0, use_normals, a, b
+            # the winner's covariance from its stored moments: the very numbers
+            # `_choice_cov` (`fused_kernel`) computes at this choice (same weights,
+            # sums and formula), and its features
+            code = REASON_OK if fin_k[bk - kmin] else REASON_NONFINITE
+            c00, c01, c02, c11, c12, c22 = (
+                cv[0, bq],
+                cv[1, bq],
+                cv[2, bq],
+                cv[3, bq],
+                cv[4, bq],
+                cv[5, bq],
             )
             if code == REASON_OK and not _eig_features_row(
                 out, i, c00, c01, c02, c11, c12, c22, m1, m2
@@ -1130,8 +1181,9 @@ def _choice_cov(points, idx, i, kk, ang, arow, use_normals, a, b):
     sum w y y^T) and the unweighted sum of y, from which Eq. 5.4 follows; the
     distinct weighted points are counted on absolute coordinates. Codes in order of
     precedence: bad index, non-finite, zero weights, fewer than 3 distinct points
-    (covariance 0 then). Shared by `fused_kernel` and `optimal_kernel`, so both
-    build the same covariance bit for bit.
+    (covariance 0 then). `optimal_kernel` forms the same sums in the same order
+    and the covariance with the same formula (`_cov_from_sums`), so both give the
+    same covariance bit for bit.
     """
     px = points[i, 0]
     py = points[i, 1]
@@ -1211,18 +1263,10 @@ def _choice_cov(points, idx, i, kk, ang, arow, use_normals, a, b):
         code = REASON_FEW_DISTINCT
     if code != REASON_OK:
         return code, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    mx = ux / kk
-    my = uy / kk
-    mz = uz / kk
-    return (
-        code,
-        sxx - 2.0 * sx * mx + sw * mx * mx,
-        sxy - sx * my - mx * sy + sw * mx * my,
-        sxz - sx * mz - mx * sz + sw * mx * mz,
-        syy - 2.0 * sy * my + sw * my * my,
-        syz - sy * mz - my * sz + sw * my * mz,
-        szz - 2.0 * sz * mz + sw * mz * mz,
+    c00, c01, c02, c11, c12, c22 = _cov_from_sums(
+        sw, sx, sy, sz, sxx, sxy, sxz, syy, syz, szz, ux / kk, uy / kk, uz / kk
     )
+    return code, c00, c01, c02, c11, c12, c22
 
 
 @njit(parallel=True, cache=True, error_model="numpy")
