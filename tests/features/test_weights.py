@@ -83,3 +83,22 @@ def test_polynomial_ramp_matches_cosine_to_round_off():
     assert cosine_sigmoid_scalar(1.0, 0.3, 1.0) == 0.0
     assert cosine_sigmoid_scalar(0.5, 0.5, 0.5) == 1.0
     assert cosine_sigmoid_scalar(0.6, 0.5, 0.5) == 0.0
+
+
+def test_branch_free_atan2_within_two_ulp_of_libm():
+    from numba import njit
+
+    from pointatlas.features._kernels import _atan2_nonneg
+
+    f = njit(lambda y, x: _atan2_nonneg(y, x))
+    rng = np.random.default_rng(5)
+    for scale in (1e-300, 1e-12, 1e-3, 1.0, 1e8):
+        y = rng.random(2000) * scale
+        x = rng.random(2000)
+        for a, b in ((y, x), (x, y)):
+            got = np.array([f(u, v) for u, v in zip(a, b, strict=True)])
+            want = np.array([math.atan2(u, v) for u, v in zip(a, b, strict=True)])
+            ulp = np.abs(got - want) / np.spacing(np.maximum(want, 1e-300))
+            assert ulp.max() <= 2.0
+    assert f(0.0, 1.0) == 0.0 and f(1.0, 0.0) == math.pi / 2 and f(2.0, 2.0) == math.pi / 4
+    assert math.isnan(f(math.nan, 1.0)) and math.isnan(f(1.0, math.nan))
