@@ -277,16 +277,7 @@ def _weighted_cov(ys, ws, kk, a):
         if w <= 0.0:
             continue
         wsum += w
-        if n_distinct == 0:
-            first = j
-            n_distinct = 1
-        elif n_distinct == 1:
-            if not _same(ys, j, first):
-                second = j
-                n_distinct = 2
-        elif n_distinct == 2:
-            if not _same(ys, j, first) and not _same(ys, j, second):
-                n_distinct = 3
+        n_distinct, first, second = _count_distinct(ys, j, n_distinct, first, second)
         dx = ys[j, 0] - mx
         dy = ys[j, 1] - my
         dz = ys[j, 2] - mz
@@ -596,16 +587,26 @@ def _three_distinct_k(ws, pr, ys, kmax):
     d2 = -1
     for j in range(kmax):
         if ws[pr, j] > 0.0:
-            if nd == 0:
-                d1 = j
-                nd = 1
-            elif nd == 1:
-                if not _same(ys, j, d1):
-                    d2 = j
-                    nd = 2
-            elif not _same(ys, j, d1) and not _same(ys, j, d2):
+            nd, d1, d2 = _count_distinct(ys, j, nd, d1, d2)
+            if nd == 3:
                 return j + 1
     return kmax + 1
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _count_distinct(ys, j, nd, d1, d2):
+    """Count weighted point j (row of ``ys``) among the distinct points seen so far:
+    ``nd`` (up to 3) of them, the first two at rows ``d1``, ``d2``; returns the
+    updated (nd, d1, d2)."""
+    if nd == 0:
+        return 1, j, d2
+    if nd == 1:
+        if _same(ys, j, d1):
+            return nd, d1, d2
+        return 2, d1, j
+    if nd == 2 and not _same(ys, j, d1) and not _same(ys, j, d2):
+        return 3, d1, d2
+    return nd, d1, d2
 
 
 @njit(cache=True, inline="always", error_model="numpy")
