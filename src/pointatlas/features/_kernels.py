@@ -751,6 +751,7 @@ def optimal_kernel(
     for blk in prange(nblocks):
         ys = np.empty((kmax, 3))
         angrow = np.zeros(kmax)
+        nb = np.empty((3, kmax))
         ws = np.ones((n_pairs, kmax))
         act = np.empty(n_pairs, dtype=np.int64)
         nbp = np.empty(n_pairs, dtype=np.int64)
@@ -788,12 +789,20 @@ def optimal_kernel(
                 nx = normals[i, 0]
                 ny = normals[i, 1]
                 nz = normals[i, 2]
+                # the neighbours' normals first, then the angles in a flat loop
+                # (vectorised; x is NaN or in [0, pi])
                 for j in range(kmax):
                     m = idx[i, j]
-                    x = _normal_angle(nx, ny, nz, normals[m, 0], normals[m, 1], normals[m, 2])
+                    nb[0, j] = normals[m, 0]
+                    nb[1, j] = normals[m, 1]
+                    nb[2, j] = normals[m, 2]
+                n_bad = 0
+                for j in range(kmax):
+                    x = _normal_angle(nx, ny, nz, nb[0, j], nb[1, j], nb[2, j])
                     angrow[j] = x
-                    if not math.isfinite(x):
-                        ok = False
+                    n_bad += 0 if x == x else 1
+                if n_bad > 0:
+                    ok = False
             if not ok:
                 reason[i] = REASON_NONFINITE
                 for c in range(N_OUT):
@@ -812,16 +821,17 @@ def optimal_kernel(
                     b = pair_b[pr]
                     if a != a_prev:
                         # neighbours with weight 1 (angle <= a) and the next angle
+                        # (branch-free: the angles are not NaN here)
                         a_prev = a
                         mask = np.uint64(0)
                         x_next = np.inf
                         for j in range(kmax):
                             x = angrow[j]
-                            if x <= a:
-                                if j < 64:
-                                    mask |= np.uint64(1) << np.uint64(j)
-                            elif x < x_next:
-                                x_next = x
+                            x_next = x if (x > a and x < x_next) else x_next
+                        if dedupe:
+                            for j in range(kmax):
+                                bit = np.uint64(1) if angrow[j] <= a else np.uint64(0)
+                                mask |= bit << np.uint64(j)
                     binary = x_next >= b  # no angle in (a, b): weights 0/1
                     if dedupe and binary:
                         seen = False
@@ -883,6 +893,8 @@ def optimal_kernel(
                 pr = act[s]
                 # candidates from the first k with three distinct weighted points
                 ks = max(_three_distinct_k(ws, pr, ys, kmax), kmin)
+                if ks > kmax:
+                    continue
                 s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = s8 = s9 = 0.0
                 for j in range(kmax):
                     w = ws[pr, j]
@@ -941,18 +953,22 @@ def optimal_kernel(
                     rt[2, q] = l3 * il1
             # the bounds and the smallest one; the smallest bound first, then every
             # choice it does not rule out
-            code = REASON_FEW_DISTINCT
-            q0 = -1
-            lb0 = np.inf
+            n_zero = 0
             for q in range(n_q):
                 lb = _chord_bound(rt[0, q]) + _chord_bound(rt[1, q]) + _chord_bound(rt[2, q])
-                lb = lb if lam[0, q] > 0.0 else np.inf  # lambda_1 = 0: no choice
-                lbv[q] = lb
-                if lb < lb0:
-                    lb0 = lb
-                    q0 = q
-                elif lb == np.inf:
-                    code = REASON_ZERO_EIGENSUM
+                zero = not lam[0, q] > 0.0  # lambda_1 = 0: no choice
+                lbv[q] = np.inf if zero else lb
+                n_zero += 1 if zero else 0
+            code = REASON_ZERO_EIGENSUM if n_zero > 0 else REASON_FEW_DISTINCT
+            lb0 = np.inf
+            for q in range(n_q):
+                lb0 = lbv[q] if lbv[q] < lb0 else lb0
+            q0 = -1
+            if lb0 < np.inf:
+                for q in range(n_q):
+                    if lbv[q] == lb0:
+                        q0 = q
+                        break
             bv = np.inf
             bk = -1
             bp = -1
