@@ -105,14 +105,19 @@ def main(argv=None) -> int:
 
     rows = {}
     peers = {}
+    rounds = {}
 
     def pair(name_ours, fn_ours, name_peer, fn_peer, repeat):
         """Alternate ours and the peer round by round (the machine's load drifts)."""
         best_o = best_p = math.inf
+        rounds[name_ours] = []
         for _ in range(repeat):
-            best_o = min(best_o, best_of(fn_ours, 1)[0])
+            t_o = best_of(fn_ours, 1)[0]
+            best_o = min(best_o, t_o)
             if fn_peer is not None:
-                best_p = min(best_p, best_of(fn_peer, 1)[0])
+                t_p = best_of(fn_peer, 1)[0]
+                best_p = min(best_p, t_p)
+                rounds[name_ours].append(t_o / t_p)
         rows[name_ours] = min(rows.get(name_ours, math.inf), best_o)
         print(f"ours  {name_ours:22s} {rows[name_ours]:8.3f} s", flush=True)
         if fn_peer is not None:
@@ -173,6 +178,9 @@ def main(argv=None) -> int:
     print(f"  ours throughput (given):  {n / rows['fixed_k_given'] / 1e6:.2f} M pts/s")
     r5 = rows["full_search_given"] / rows["fixed_k_given"]
     print(f"  full 28 x 15 search / our fixed-k time:        {r5:6.2f}  (target <= 8)")
+    if rounds.get("full_search_given"):
+        rr = ", ".join(f"{x:.2f}" for x in sorted(rounds["full_search_given"]))
+        print(f"    per round (search, then fixed k right after): {rr}")
 
     print("\npeak numpy memory (tracemalloc):")
     for name in ("fixed_k_end_to_end", "optimal_k_given", "full_search_given"):
