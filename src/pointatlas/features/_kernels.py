@@ -99,6 +99,8 @@ def _sigmoid_ramp(u):
     """
     t = u - 0.5
     t2 = t * t
+    # Horner written out (as in `_atan2_nonneg`): a helper looping over the
+    # coefficient tuple gave the same bits but made the search ~5 % slower
     p = _SINPI[10]
     p = p * t2 + _SINPI[9]
     p = p * t2 + _SINPI[8]

@@ -34,19 +34,11 @@ def neighbor_graph(points: np.ndarray, k: int, neighbors=None):
     """
     n = points.shape[0]
     if neighbors is None:
-        k = _check_int(k, "k", 1)
-        if n == 1:
-            knn = np.zeros((1, 1), dtype=np.int64)
-        else:
-            knn, _ = query_knn(points, min(k, n))
+        knn = _knn_table(points, k)
         indptr, indices = symmetric_csr(np.ascontiguousarray(knn), n)
         return indptr, indices, knn
     if sparse.issparse(neighbors):
-        if neighbors.shape != (n, n):
-            raise ValueError(
-                f"neighbors must be an (N, N) adjacency with N = {n}; got {neighbors.shape}"
-            )
-        coo = sparse.coo_array(neighbors)
+        coo = _check_adjacency(neighbors, n)
         rows = np.asarray(coo.row, dtype=np.int64)
         cols = np.asarray(coo.col, dtype=np.int64)
         keep = rows != cols
@@ -60,6 +52,24 @@ def neighbor_graph(points: np.ndarray, k: int, neighbors=None):
     table = _check_table(neighbors, n)
     indptr, indices = symmetric_csr(np.ascontiguousarray(table), n)
     return indptr, indices, table
+
+
+def _knn_table(points: np.ndarray, k: int) -> np.ndarray:
+    """The (N, min(k, N)) k-NN table of the points (the point itself included)."""
+    k = _check_int(k, "k", 1)
+    if points.shape[0] == 1:
+        return np.zeros((1, 1), dtype=np.int64)
+    knn, _ = query_knn(points, min(k, points.shape[0]))
+    return knn
+
+
+def _check_adjacency(neighbors, n: int):
+    """A scipy sparse (N, N) adjacency as a COO array, validated."""
+    if neighbors.shape != (n, n):
+        raise ValueError(
+            f"neighbors must be an (N, N) adjacency with N = {n}; got {neighbors.shape}"
+        )
+    return sparse.coo_array(neighbors)
 
 
 def _check_table(neighbors, n: int) -> np.ndarray:
@@ -85,16 +95,9 @@ def permuted_neighbors(points: np.ndarray, k: int, neighbors, order: np.ndarray,
     """
     n = points.shape[0]
     if neighbors is None:
-        k = _check_int(k, "k", 1)
-        if n == 1:
-            return np.zeros((1, 1), dtype=np.int64)
-        neighbors, _ = query_knn(points, min(k, n))
+        neighbors = _knn_table(points, k)
     elif sparse.issparse(neighbors):
-        if neighbors.shape != (n, n):
-            raise ValueError(
-                f"neighbors must be an (N, N) adjacency with N = {n}; got {neighbors.shape}"
-            )
-        coo = sparse.coo_array(neighbors)
+        coo = _check_adjacency(neighbors, n)
         rows = inv[np.asarray(coo.row, dtype=np.int64)]
         cols = inv[np.asarray(coo.col, dtype=np.int64)]
         return sparse.coo_array((np.ones(rows.shape[0]), (rows, cols)), shape=(n, n))

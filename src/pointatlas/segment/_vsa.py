@@ -597,16 +597,13 @@ def vsa_segment(
     if all_seeds:
         labels = np.arange(n, dtype=np.int64)
         m = n
+        # the sums of singletons (+ 0.0: as bincount, no -0.0)
+        wsum, ssum, counts = w + 0.0, wn + 0.0, np.ones(n, dtype=np.int64)
+        record("flood", 0.0)
     else:
         m = seed_idx.shape[0]
         labels = flood(indptr, indices, nrm, seed_idx, np.ascontiguousarray(nrm[seed_idx]))
-    if all_seeds:  # the sums of singletons (+ 0.0: as bincount, no -0.0)
-        wsum, ssum, counts = w + 0.0, wn + 0.0, np.ones(n, dtype=np.int64)
-    else:
         wsum, ssum, counts = _sums(labels, m, w, wn)
-    if all_seeds:
-        record("flood", 0.0)
-    else:
         record("flood", _energy_fixed(wsum, ssum, nrm[seed_idx]))
     record("update", _energy_opt(wsum, ssum))
     timings["flood"] = time.perf_counter() - t0
