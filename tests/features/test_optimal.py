@@ -222,6 +222,63 @@ def test_chord_bound_is_below_minus_t_log_t():
     assert (f - lb).max() < 1e-3  # tight enough to rule out most choices
 
 
+def _degenerate_covariances(rng, n):
+    """Covariances with planar, linear, isotropic and double-root spectra (and lambda_3 = 0)."""
+    lam = rng.random((6, n, 3))
+    lam[1, :, 2] *= 10.0 ** rng.uniform(-17, -1, n)
+    lam[2, :, 1] = lam[2, :, 0] * (1 - 10.0 ** rng.uniform(-16, -1, n))
+    lam[2, :, 2] *= 10.0 ** rng.uniform(-16, 0, n)
+    lam[3, :, 1] = lam[3, :, 0] * 10.0 ** rng.uniform(-16, -1, n)
+    lam[3, :, 2] = lam[3, :, 1] * (1 - 10.0 ** rng.uniform(-16, -1, n))
+    lam[4, :, 1:] = lam[4, :, :1] * (1 - 10.0 ** rng.uniform(-16, -4, (n, 2)))
+    lam[5, :, 2] = 0.0
+    lam = lam.reshape(-1, 3)
+    rot = np.linalg.qr(rng.normal(size=(lam.shape[0], 3, 3)))[0]
+    return np.einsum("nij,nj,nkj->nik", rot, lam, rot)
+
+
+def test_edim_table_is_below_the_searched_e_dim():
+    # the search skips a choice when its table entry exceeds a value it found; the
+    # entry must lie below the E_dim the search would compute (eig3_fast's
+    # eigenvalues, the kernel's ratios), also at double roots and lambda_3 = 0
+    from pointatlas.features._kernels import EDIM_TABLE_SHAPE, _lanes_stage1, edim_table, eig3_fast
+
+    table = edim_table()
+    n_rho, n_v = EDIM_TABLE_SHAPE
+    gaps = []
+    for c in _degenerate_covariances(np.random.default_rng(21), 4000):
+        args = (c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2])
+        q, p, p2, r = _lanes_stage1(*args)
+        l1, l2, l3 = eig3_fast(*args)
+        rho = p / q
+        v1 = math.sqrt(1.0 + r)
+        if not (rho >= 0.0 and rho < 1.0 and p2 > 0.0):
+            continue  # the kernel gives such choices no bound
+        ts = ((l1 - l2) * (1.0 / l1), (l2 - l3) * (1.0 / l1), l3 * (1.0 / l1))
+        e = -sum(t * math.log(t) for t in ts if t > 0.0)
+        entry = table[int(rho * n_rho), min(int(v1 * (n_v / math.sqrt(2.0))), n_v - 1)]
+        gaps.append(e - entry)
+    gaps = np.array(gaps)
+    assert gaps.size > 20000
+    assert gaps.min() >= 0.0
+    assert np.median(gaps) < 0.01  # tight enough to rule out most choices
+
+
+def test_table_pruning_leaves_the_search_unchanged(monkeypatch):
+    # the same search without the table (every choice through the whole closed
+    # form and the chord bounds) gives the same result bit for bit
+    from pointatlas.features import _optimal
+
+    pts, nrm = _noisy_surface(12, n=2000)
+    nrm[::13] *= -1
+    pts[100:110] = pts[100]
+    with_table = optimal_neighbourhood(pts, nrm)
+    monkeypatch.setattr(_optimal, "_edim_bounds", lambda: np.empty((0, 0)))
+    without = optimal_neighbourhood(pts, nrm)
+    for name in ("k", "a", "b", "reason", "e_dim", "eigenvalues", "eigenvector_3"):
+        np.testing.assert_array_equal(getattr(with_table, name), getattr(without, name))
+
+
 def test_reported_row_equals_fused_kernel_at_the_chosen_triple_bit_for_bit():
     # the search takes the winner's covariance from its running moments; it must be
     # the covariance `fused_kernel` builds at that (a, b, k), so every reported

@@ -102,3 +102,26 @@ def test_branch_free_atan2_within_two_ulp_of_libm():
             assert ulp.max() <= 2.0
     assert f(0.0, 1.0) == 0.0 and f(1.0, 0.0) == math.pi / 2 and f(2.0, 2.0) == math.pi / 4
     assert math.isnan(f(math.nan, 1.0)) and math.isnan(f(1.0, math.nan))
+
+
+def test_unit_normals_as_numpy_and_bad_rows_nan():
+    from pointatlas.features._weights import _unit_normals_or_nan
+
+    rng = np.random.default_rng(4)
+    nrm = rng.normal(size=(500, 3)).astype(np.float32) * 3.0
+    nrm[10] = 0.0
+    nrm[11] = [np.nan, 0.0, 1.0]
+    nrm[12] = [np.inf, 0.0, 0.0]
+    nrm[13] = [1e-13, 0.0, 0.0]
+    got = _unit_normals_or_nan(nrm, 500)
+    x = nrm.astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        want = x / np.linalg.norm(x, axis=1)[:, None]
+    good = np.ones(500, bool)
+    good[10:14] = False
+    np.testing.assert_array_equal(got[good], want[good])
+    assert np.isnan(got[~good]).all()
+    # a squared length that overflows is flagged, not turned into a zero vector
+    assert np.isnan(_unit_normals_or_nan([[1e200, 0.0, 0.0]], 1)).all()
+    with pytest.raises(ValueError, match="one row per point"):
+        _unit_normals_or_nan(nrm, 499)

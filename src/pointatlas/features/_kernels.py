@@ -39,6 +39,7 @@ __all__ = [
     "fused_kernel",
     "index_range_kernel",
     "optimal_kernel",
+    "unit_normals_kernel",
 ]
 
 REASON_OK = 0
@@ -204,6 +205,30 @@ def angles_kernel(normals, idx, order, out):
             for j in range(kk):
                 m = idx[i, j]
                 out[i, j] = _normal_angle(nx, ny, nz, normals[m, 0], normals[m, 1], normals[m, 2])
+
+
+@njit(parallel=True, cache=True, error_model="numpy")
+def unit_normals_kernel(normals, out):
+    """Rows of ``normals`` divided by their length; NaN where non-finite, shorter than
+    1e-12 or so long that the squared length overflows (numpy's norm and division
+    otherwise, bit for bit)."""
+    for i in prange(normals.shape[0]):
+        x = normals[i, 0]
+        y = normals[i, 1]
+        z = normals[i, 2]
+        length = math.sqrt(x * x + y * y + z * z)
+        ux = x / length
+        uy = y / length
+        uz = z / length
+        good = (
+            math.isfinite(ux)
+            and math.isfinite(uy)
+            and math.isfinite(uz)
+            and 1e-12 <= length < np.inf
+        )
+        out[i, 0] = ux if good else np.nan
+        out[i, 1] = uy if good else np.nan
+        out[i, 2] = uz if good else np.nan
 
 
 @njit(parallel=True, cache=True, error_model="numpy")
@@ -540,6 +565,75 @@ def _chord_bound(t):
 #: absolute margin (in criterion units) a lower bound must clear to skip a choice
 _PRUNE_MARGIN = 1e-9
 
+#: cells of `edim_table` along p/q and along sqrt(1 + r)
+EDIM_TABLE_SHAPE = (256, 256)
+#: what a table entry stays below the cell's smallest E_dim (covers eig3_fast's
+#: rounding: its eigenvalues are those of the stage-1 (q, p, r) to ~1e-8 lambda_1
+#: at worst, which moves each -t ln t by at most -d ln d ~ 2e-7 for d = 1e-8)
+_TABLE_MARGIN = 2e-6
+
+
+def _lps_of_cell(rho, theta):
+    """Linearity, planarity, scattering of the eigenvalues q (1 + 2 rho cos(theta +
+    2 pi j / 3)), theta in [0, pi/3] (exact formulas, unclipped)."""
+    den = 1.0 + 2.0 * rho * np.cos(theta)
+    lin = 2.0 * math.sqrt(3.0) * rho * np.sin(math.pi / 3.0 - theta) / den
+    pla = 2.0 * math.sqrt(3.0) * rho * np.sin(theta) / den
+    sca = (1.0 + 2.0 * rho * np.cos(theta + 2.0 * math.pi / 3.0)) / den
+    return lin, pla, sca
+
+
+def _min_tlogt(lo, hi):
+    """Smallest -t ln t over [lo, hi] (clipped to [0, 1]): at an end, as it is concave."""
+    ends = np.clip(np.stack([lo, hi]), 0.0, 1.0)
+    safe = np.where(ends > 0.0, ends, 1.0)
+    return np.min(-ends * np.log(safe), axis=0)
+
+
+def edim_table(n_rho: int = EDIM_TABLE_SHAPE[0], n_v: int = EDIM_TABLE_SHAPE[1]) -> np.ndarray:
+    """Certified lower bounds of E_dim (Eq. 5.7) over cells of the closed form's inputs.
+
+    `eig3_fast` writes the eigenvalues as q (1 + 2 rho c_j) with rho = p/q in
+    [0, 1] (lambda_3 >= 0 needs rho <= 1) and c_j = cos(theta + 2 pi j/3),
+    theta = acos(v^2 - 1)/3, v = sqrt(1 + r) in [0, sqrt 2]. Entry (i, j) bounds
+    E_dim from below for rho in [i, i + 1] / n_rho and v in [j, j + 1] sqrt(2) / n_v.
+    With theta: linearity 2 sqrt(3) rho sin(pi/3 - theta) / (1 + 2 rho cos theta)
+    grows with rho and falls with theta, planarity 2 sqrt(3) rho sin(theta) / (...)
+    grows with both, and scattering falls with rho and, in theta, falls then rises
+    (its derivative has the sign of -(cos(theta + pi/3) + rho)), so the exact range
+    of each over a cell comes from its corners and, for the smallest scattering,
+    theta* = acos(-rho) - pi/3. Where lambda_3 < 0 in the cell (clipped to 0 by the
+    solver: scattering 0, planarity 1 - linearity) the ranges widen to hold that.
+    -t ln t is concave, so its smallest value on a range is at an end; the sum of
+    the three is a lower bound of E_dim on the cell, less `_TABLE_MARGIN`. Cells
+    are widened by 1e-10 on every side for the rounding of the index.
+
+    Returns
+    -------
+    table : ndarray of shape (n_rho, n_v), float64
+    """
+    widen = 1e-10
+    ra = np.maximum(np.arange(n_rho) / n_rho - widen, 0.0)[:, None]
+    rb = (np.arange(1, n_rho + 1) / n_rho + widen)[:, None]
+    v = np.arange(n_v + 1) * (math.sqrt(2.0) / n_v)
+    t_lo = np.arccos(np.clip((v[1:] + widen) ** 2 - 1.0, -1.0, 1.0)) / 3.0 - widen
+    t_hi = np.arccos(np.clip(v[:-1] ** 2 - 1.0, -1.0, 1.0)) / 3.0 + widen
+    ta = np.maximum(t_lo, 0.0)[None, :]
+    tb = np.minimum(t_hi, math.pi / 3.0)[None, :]
+    lin_lo = _lps_of_cell(ra, tb)[0]
+    lin_hi = _lps_of_cell(rb, ta)[0]
+    pla_lo = _lps_of_cell(ra, ta)[1]
+    pla_hi = _lps_of_cell(rb, tb)[1]
+    sca_hi = np.maximum(_lps_of_cell(ra, ta)[2], _lps_of_cell(ra, tb)[2])
+    t_star = np.clip(np.arccos(-np.minimum(rb, 1.0)) - math.pi / 3.0, ta, tb)
+    sca_lo = _lps_of_cell(rb, t_star)[2]
+    clipped = sca_lo < 0.0
+    pla_lo = np.where(clipped, np.minimum(pla_lo, 1.0 - lin_hi), pla_lo)
+    sca_lo = np.maximum(sca_lo, 0.0)
+    sca_hi = np.maximum(sca_hi, 0.0)
+    bound = _min_tlogt(lin_lo, lin_hi) + _min_tlogt(pla_lo, pla_hi) + _min_tlogt(sca_lo, sca_hi)
+    return np.ascontiguousarray(bound - _TABLE_MARGIN)
+
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _eig_features_row(out, i, c00, c01, c02, c11, c12, c22, m1, m2):
@@ -617,13 +711,16 @@ def _cov_from_sums(sw, sx, sy, sz, sxx, sxy, sxz, syy, syz, szz, mx, my, mz):
     + W m m^T (W = sw, Sy = (sx, sy, sz), Syy the six sums of w y y^T, m the
     unweighted mean); returns c00, c01, c02, c11, c12, c22. Shared by `_choice_cov`
     and `optimal_kernel`, so both form the same covariance bit for bit."""
+    gx = sw * mx - sx
+    gy = sw * my - sy
+    gz = sw * mz - sz
     return (
-        sxx - 2.0 * sx * mx + sw * mx * mx,
-        sxy - sx * my - mx * sy + sw * mx * my,
-        sxz - sx * mz - mx * sz + sw * mx * mz,
-        syy - 2.0 * sy * my + sw * my * my,
-        syz - sy * mz - my * sz + sw * my * mz,
-        szz - 2.0 * sz * mz + sw * mz * mz,
+        (sxx - sx * mx) + mx * gx,
+        (sxy - sx * my) + mx * gy,
+        (sxz - sx * mz) + mx * gz,
+        (syy - sy * my) + my * gy,
+        (syz - sy * mz) + my * gz,
+        (szz - sz * mz) + mz * gz,
     )
 
 
@@ -712,6 +809,7 @@ def optimal_kernel(
     reason,
     best_k,
     best_pair,
+    tab,
 ):
     """Optimal (a, b, k) per point (Eq. 5.9) by running moment sums over k, and its features.
 
@@ -724,15 +822,21 @@ def optimal_kernel(
     (a, b)). k then grows by one neighbour at a time while the weighted moments
     (sum w, sum w y, sum w y y^T about the point itself) of every pair and the
     unweighted sum of y are updated, so each covariance costs O(1); the
-    covariances of all choices are stored. Their eigenvalues (`eig3_fast`'s
-    values, from a branch-free copy the compiler vectorises) and a logarithm-free
-    lower bound of the criterion (chords of -t ln t, `_chord_bound`) follow in two
-    flat loops. Only choices whose bound does not exceed the best value found so
-    far by `_PRUNE_MARGIN` get the criterion with its three logarithms, the
-    smallest bound first. Every choice skipped is certified worse, so the result
-    is the exact argmin of the criterion over all choices. Ties: smallest k, then
-    a, then b. Criterion 0: E_dim; 1: eigenentropy. Without normals there is one
-    pair with all weights 1.
+    covariances of all choices are stored. Their eigenvalues are `eig3_fast`'s
+    values, from a branch-free copy in three flat loops the compiler vectorises
+    (`_lanes_stage1` to `_lanes_stage3`). For E_dim (criterion 0) with a table
+    ``tab`` (`edim_table`), the first stage's (q, p, r) of each choice pick a cell
+    whose entry is a certified lower bound of its E_dim; the choice with the
+    smallest entry gets its exact E_dim, and only the choices whose entry does not
+    exceed that value by `_PRUNE_MARGIN` (a few of ~100) go through the other two
+    stages. For those, a logarithm-free lower bound (chords of -t ln t,
+    `_chord_bound`) follows, and only choices whose bound does not exceed the best
+    value found so far by `_PRUNE_MARGIN` get the criterion with its three
+    logarithms, the smallest bound first. Every choice skipped is certified worse,
+    so the result is the exact argmin of the criterion over all choices. Ties:
+    smallest k, then a, then b. Criterion 0: E_dim; 1: eigenentropy (``tab`` of
+    shape (0, 0): every choice goes through all stages). Without normals there is
+    one pair with all weights 1.
 
     The winner's covariance is the one stored for it (`_cov_from_sums`): the
     weights are those of `cosine_sigmoid_scalar`, the sums and the formula those
@@ -750,6 +854,13 @@ def optimal_kernel(
     dedupe = use_normals and kmax <= 64
     nk = kmax - kmin + 1
     nblocks = (n + _BLOCK - 1) // _BLOCK
+    # the table flat, with -inf (no bound) at its end for choices outside it
+    n_rho = tab.shape[0]
+    n_v = tab.shape[1]
+    tabf = np.full(n_rho * n_v + 1, -np.inf)
+    tabf[: n_rho * n_v] = tab.ravel()
+    use_tab = criterion == 0 and n_rho * n_v > 0
+    v_scale = n_v / math.sqrt(2.0)
     for blk in prange(nblocks):
         ys = np.empty((kmax, 3))
         angrow = np.zeros(kmax)
@@ -768,6 +879,9 @@ def optimal_kernel(
         fin_k = np.empty(nk, dtype=np.bool_)
         qk = np.empty(nk * n_pairs, dtype=np.int64)
         qp = np.empty(nk * n_pairs, dtype=np.int64)
+        tb = np.empty(nk * n_pairs)
+        sl = np.empty(nk * n_pairs, dtype=np.int64)
+        e1 = np.empty((4, nk * n_pairs))
         t_end = min(n, (blk + 1) * _BLOCK)
         for t in range(blk * _BLOCK, t_end):
             if t + _AHEAD < t_end:
@@ -933,41 +1047,93 @@ def optimal_kernel(
                 ev[0, q], ev[1, q], ev[2, q], ev[3, q] = _lanes_stage1(
                     cv[0, q], cv[1, q], cv[2, q], cv[3, q], cv[4, q], cv[5, q]
                 )
-            for q in range(n_q):
-                ev[4, q], ev[5, q], ev[6, q], ev[7, q] = _lanes_stage2(ev[3, q])
-            for q in range(n_q):
+            # certified lower bounds of E_dim from the (p/q, sqrt(1 + r)) cell of each
+            # candidate (`edim_table`); only the candidates whose bound does not exceed
+            # the exact E_dim of the one with the smallest bound go on (NaN passes),
+            # their stage-1 values copied into e1 and their indices into sl
+            ns = 0
+            if use_tab and n_q > 0:
+                # the cell of each candidate (bad: the table's last entry, -inf)
+                for q in range(n_q):
+                    rho = ev[1, q] / ev[0, q]
+                    v1 = math.sqrt(1.0 + ev[3, q])
+                    good = rho >= 0.0 and rho < 1.0 and ev[2, q] > 0.0 and v1 <= 2.0
+                    ir = int(rho * n_rho) if good else n_rho
+                    iv = int(v1 * v_scale) if good else 0
+                    iv = n_v - 1 if iv >= n_v else iv
+                    sl[q] = ir * n_v + iv
+                tmin = np.inf
+                for q in range(n_q):
+                    tq = tabf[sl[q]]
+                    tb[q] = tq
+                    tmin = tq if tq < tmin else tmin
+                q0 = 0
+                for q in range(n_q):
+                    if tb[q] == tmin:
+                        q0 = q
+                        break
+                v1, h1, v3, h3 = _lanes_stage2(ev[3, q0])
+                l1, l2, l3 = _lanes_stage3(ev[0, q0], ev[1, q0], ev[2, q0], v1, h1, v3, h3)
+                il1 = 1.0 / l1
+                lin = (l1 - l2) * il1
+                pla = (l2 - l3) * il1
+                sca = l3 * il1
+                lnl = math.log(lin) if lin > 0.0 else 0.0
+                lnp = math.log(pla) if pla > 0.0 else 0.0
+                lns = math.log(sca) if sca > 0.0 else 0.0
+                ub = -(lin * lnl + pla * lnp + sca * lns) + _PRUNE_MARGIN
+                for q in range(n_q):
+                    sl[ns] = q
+                    ns += 0 if tb[q] > ub else 1
+                for s in range(ns):
+                    q = sl[s]
+                    e1[0, s] = ev[0, q]
+                    e1[1, s] = ev[1, q]
+                    e1[2, s] = ev[2, q]
+                    e1[3, s] = ev[3, q]
+            else:
+                for q in range(n_q):
+                    sl[q] = q
+                    e1[0, q] = ev[0, q]
+                    e1[1, q] = ev[1, q]
+                    e1[2, q] = ev[2, q]
+                    e1[3, q] = ev[3, q]
+                ns = n_q
+            for s in range(ns):
+                ev[4, s], ev[5, s], ev[6, s], ev[7, s] = _lanes_stage2(e1[3, s])
+            for s in range(ns):
                 l1, l2, l3 = _lanes_stage3(
-                    ev[0, q], ev[1, q], ev[2, q], ev[4, q], ev[5, q], ev[6, q], ev[7, q]
+                    e1[0, s], e1[1, s], e1[2, s], ev[4, s], ev[5, s], ev[6, s], ev[7, s]
                 )
-                lam[0, q] = l1
-                lam[1, q] = l2
-                lam[2, q] = l3
+                lam[0, s] = l1
+                lam[1, s] = l2
+                lam[2, s] = l3
                 # the arguments of -t ln t in the criterion (as it computes them)
                 if criterion == 1:
                     sm = l1 + l2 + l3
-                    rt[0, q] = l1 / sm
-                    rt[1, q] = l2 / sm
-                    rt[2, q] = l3 / sm
+                    rt[0, s] = l1 / sm
+                    rt[1, s] = l2 / sm
+                    rt[2, s] = l3 / sm
                 else:
                     il1 = 1.0 / l1
-                    rt[0, q] = (l1 - l2) * il1
-                    rt[1, q] = (l2 - l3) * il1
-                    rt[2, q] = l3 * il1
+                    rt[0, s] = (l1 - l2) * il1
+                    rt[1, s] = (l2 - l3) * il1
+                    rt[2, s] = l3 * il1
             # the bounds and the smallest one; the smallest bound first, then every
             # choice it does not rule out
             n_zero = 0
-            for q in range(n_q):
+            for q in range(ns):
                 lb = _chord_bound(rt[0, q]) + _chord_bound(rt[1, q]) + _chord_bound(rt[2, q])
                 zero = not lam[0, q] > 0.0  # lambda_1 = 0: no choice
                 lbv[q] = np.inf if zero else lb
                 n_zero += 1 if zero else 0
             code = REASON_ZERO_EIGENSUM if n_zero > 0 else REASON_FEW_DISTINCT
             lb0 = np.inf
-            for q in range(n_q):
+            for q in range(ns):
                 lb0 = lbv[q] if lbv[q] < lb0 else lb0
             q0 = -1
             if lb0 < np.inf:
-                for q in range(n_q):
+                for q in range(ns):
                     if lbv[q] == lb0:
                         q0 = q
                         break
@@ -976,7 +1142,7 @@ def optimal_kernel(
             bp = -1
             bq = -1
             if q0 >= 0:
-                for step in range(n_q + 1):
+                for step in range(ns + 1):
                     q = q0 if step == 0 else step - 1
                     if step > 0 and (q == q0 or not lbv[q] <= bv + _PRUNE_MARGIN):
                         continue
@@ -990,13 +1156,13 @@ def optimal_kernel(
                         lnp = math.log(pla) if pla > 0.0 else 0.0
                         lns = math.log(sca) if sca > 0.0 else 0.0
                         val = -(lin * lnl + pla * lnp + sca * lns)
-                    k = qk[q]
-                    pr = qp[q]
+                    k = qk[sl[q]]
+                    pr = qp[sl[q]]
                     if val < bv or (val == bv and (k < bk or (k == bk and pr < bp))):
                         bv = val
                         bk = k
                         bp = pr
-                        bq = q
+                        bq = sl[q]
             if bk < 0:
                 reason[i] = code
                 for c in range(N_OUT):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -17,7 +18,7 @@ from ._features import (
     _spatial_order,
     _unit_normals_or_nan,
 )
-from ._kernels import N_OUT, REASON_OK, optimal_kernel
+from ._kernels import N_OUT, REASON_OK, edim_table, optimal_kernel
 from ._weights import normal_angles
 
 __all__ = [
@@ -35,6 +36,14 @@ THESIS_ANGLE_GRID = tuple(i * math.pi / 6 for i in range(7))
 THESIS_K_RANGE = (6, 20)
 
 _CRITERIA = {"e_dim": 0, "eigenentropy": 1}
+
+
+@functools.cache
+def _edim_bounds() -> np.ndarray:
+    """The search's table of certified E_dim lower bounds (`edim_table`), built once."""
+    table = edim_table()
+    table.flags.writeable = False
+    return table
 
 
 def _check_grid(grid, name: str) -> np.ndarray:
@@ -248,6 +257,7 @@ def _run_optimal(pts, nrm, idx, kmin, kmax, pairs, *, criterion, flatness) -> Fe
         reason,
         best_k,
         best_pair,
+        _edim_bounds() if criterion == 0 else np.empty((0, 0)),
     )
     ok = reason == REASON_OK
     pair = np.where(ok, best_pair, 0)

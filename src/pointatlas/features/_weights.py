@@ -8,7 +8,7 @@ import numpy as np
 
 from .._core import PointAtlasError
 from .._core.tolerances import ANGLE_ZERO
-from ._kernels import angles_kernel, index_range_kernel
+from ._kernels import angles_kernel, index_range_kernel, unit_normals_kernel
 
 __all__ = ["cosine_sigmoid", "normal_angles", "normal_weights"]
 
@@ -82,11 +82,8 @@ def _unit_normals_or_nan(normals, n_points: int) -> np.ndarray:
         raise ValueError(f"normals must have shape (N, 3); got {arr.shape}")
     if arr.shape[0] != n_points:
         raise ValueError(f"normals must have one row per point ({n_points}); got {arr.shape[0]}")
-    with np.errstate(invalid="ignore", divide="ignore"):
-        length = np.linalg.norm(arr, axis=1)
-        out = arr / length[:, None]
-    bad = ~np.isfinite(out).all(axis=1) | (length < 1e-12)
-    out[bad] = np.nan
+    out = np.empty(arr.shape)
+    unit_normals_kernel(np.ascontiguousarray(arr), out)
     return out
 
 
