@@ -852,6 +852,8 @@ def optimal_kernel(
     n = idx.shape[0]
     n_pairs = pair_a.shape[0] if use_normals else 1
     dedupe = use_normals and kmax <= 64
+    # the mask of all kmax neighbours (bit j: neighbour j)
+    all_bits = np.uint64(0xFFFFFFFFFFFFFFFF) >> np.uint64(64 - min(kmax, 64))
     nk = kmax - kmin + 1
     nblocks = (n + _BLOCK - 1) // _BLOCK
     # the table flat, with -inf (no bound) at its end for choices outside it
@@ -861,6 +863,8 @@ def optimal_kernel(
     tabf[: n_rho * n_v] = tab.ravel()
     use_tab = criterion == 0 and n_rho * n_v > 0
     v_scale = n_v / math.sqrt(2.0)
+    fv_max = float(n_v - 1)
+    n_cells = float(n_rho * n_v)
     for blk in prange(nblocks):
         ys = np.empty((kmax, 3))
         angrow = np.zeros(kmax)
@@ -881,6 +885,7 @@ def optimal_kernel(
         qp = np.empty(nk * n_pairs, dtype=np.int64)
         tb = np.empty(nk * n_pairs)
         sl = np.empty(nk * n_pairs, dtype=np.int64)
+        cf = np.empty(nk * n_pairs)
         e1 = np.empty((4, nk * n_pairs))
         t_end = min(n, (blk + 1) * _BLOCK)
         for t in range(blk * _BLOCK, t_end):
@@ -925,6 +930,11 @@ def optimal_kernel(
                     out[i, c] = np.nan
                 out[i, 12] = np.inf
                 continue
+            x_max = 0.0
+            if use_normals:
+                for j in range(kmax):
+                    x = angrow[j]
+                    x_max = x if x > x_max else x_max
             n_act = 0
             n_masks = 0
             n_nb = 0
@@ -937,17 +947,21 @@ def optimal_kernel(
                     b = pair_b[pr]
                     if a != a_prev:
                         # neighbours with weight 1 (angle <= a) and the next angle
-                        # (branch-free: the angles are not NaN here)
+                        # (branch-free: the angles are not NaN here); from the
+                        # largest angle on, every neighbour has weight 1
                         a_prev = a
-                        mask = np.uint64(0)
+                        mask = all_bits
                         x_next = np.inf
-                        for j in range(kmax):
-                            x = angrow[j]
-                            x_next = x if (x > a and x < x_next) else x_next
-                        if dedupe:
+                        if a < x_max:
+                            mask = np.uint64(0)
                             for j in range(kmax):
-                                bit = np.uint64(1) if angrow[j] <= a else np.uint64(0)
-                                mask |= bit << np.uint64(j)
+                                x = angrow[j]
+                                c = x if x > a else np.inf
+                                x_next = c if c < x_next else x_next
+                            if dedupe:
+                                for j in range(kmax):
+                                    bit = np.uint64(1) if angrow[j] <= a else np.uint64(0)
+                                    mask |= bit << np.uint64(j)
                     binary = x_next >= b  # no angle in (a, b): weights 0/1
                     if dedupe and binary:
                         seen = False
@@ -1053,18 +1067,19 @@ def optimal_kernel(
             # their stage-1 values copied into e1 and their indices into sl
             ns = 0
             if use_tab and n_q > 0:
-                # the cell of each candidate (bad: the table's last entry, -inf)
+                # the cell of each candidate as a float (the loop vectorises; AVX2 has
+                # no 64-bit integer product), bad ones: the table's last entry, -inf
                 for q in range(n_q):
                     rho = ev[1, q] / ev[0, q]
                     v1 = math.sqrt(1.0 + ev[3, q])
                     good = rho >= 0.0 and rho < 1.0 and ev[2, q] > 0.0 and v1 <= 2.0
-                    ir = int(rho * n_rho) if good else n_rho
-                    iv = int(v1 * v_scale) if good else 0
-                    iv = n_v - 1 if iv >= n_v else iv
-                    sl[q] = ir * n_v + iv
+                    fr = np.floor(rho * n_rho)
+                    fv = np.floor(v1 * v_scale)
+                    fv = fv_max if fv > fv_max else fv
+                    cf[q] = fr * n_v + fv if good else n_cells
                 tmin = np.inf
                 for q in range(n_q):
-                    tq = tabf[sl[q]]
+                    tq = tabf[int(cf[q])]
                     tb[q] = tq
                     tmin = tq if tq < tmin else tmin
                 q0 = 0
