@@ -636,6 +636,22 @@ def edim_table(n_rho: int = EDIM_TABLE_SHAPE[0], n_v: int = EDIM_TABLE_SHAPE[1])
 
 
 @njit(cache=True, inline="always", error_model="numpy")
+def _lps_ratios(l1, l2, l3):
+    """Linearity, planarity, scattering as the search computes them (one division)."""
+    il1 = 1.0 / l1
+    return (l1 - l2) * il1, (l2 - l3) * il1, l3 * il1
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _edim_of(lin, pla, sca):
+    """E_dim (Eq. 5.7) of the search's ratios (-t ln t as 0 at t <= 0)."""
+    lnl = math.log(lin) if lin > 0.0 else 0.0
+    lnp = math.log(pla) if pla > 0.0 else 0.0
+    lns = math.log(sca) if sca > 0.0 else 0.0
+    return -(lin * lnl + pla * lnp + sca * lns)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
 def _eig_features_row(out, i, c00, c01, c02, c11, c12, c22, m1, m2):
     """Eigen-decomposition (`eigh3_accurate`) and features of one covariance into row
     ``i`` of the packed output (`N_OUT` columns); False (row NaN) when lambda_1 = 0."""
@@ -1066,6 +1082,7 @@ def optimal_kernel(
             # the exact E_dim of the one with the smallest bound go on (NaN passes),
             # their stage-1 values copied into e1 and their indices into sl
             ns = 0
+            ub = np.inf
             if use_tab and n_q > 0:
                 # the cell of each candidate as a float (the loop vectorises; AVX2 has
                 # no 64-bit integer product), bad ones: the table's last entry, -inf
@@ -1089,31 +1106,17 @@ def optimal_kernel(
                         break
                 v1, h1, v3, h3 = _lanes_stage2(ev[3, q0])
                 l1, l2, l3 = _lanes_stage3(ev[0, q0], ev[1, q0], ev[2, q0], v1, h1, v3, h3)
-                il1 = 1.0 / l1
-                lin = (l1 - l2) * il1
-                pla = (l2 - l3) * il1
-                sca = l3 * il1
-                lnl = math.log(lin) if lin > 0.0 else 0.0
-                lnp = math.log(pla) if pla > 0.0 else 0.0
-                lns = math.log(sca) if sca > 0.0 else 0.0
-                ub = -(lin * lnl + pla * lnp + sca * lns) + _PRUNE_MARGIN
-                for q in range(n_q):
-                    sl[ns] = q
-                    ns += 0 if tb[q] > ub else 1
-                for s in range(ns):
-                    q = sl[s]
-                    e1[0, s] = ev[0, q]
-                    e1[1, s] = ev[1, q]
-                    e1[2, s] = ev[2, q]
-                    e1[3, s] = ev[3, q]
-            else:
-                for q in range(n_q):
-                    sl[q] = q
-                    e1[0, q] = ev[0, q]
-                    e1[1, q] = ev[1, q]
-                    e1[2, q] = ev[2, q]
-                    e1[3, q] = ev[3, q]
-                ns = n_q
+                lin, pla, sca = _lps_ratios(l1, l2, l3)
+                ub = _edim_of(lin, pla, sca) + _PRUNE_MARGIN
+            for q in range(n_q):
+                sl[ns] = q
+                ns += 0 if (use_tab and tb[q] > ub) else 1
+            for s in range(ns):
+                q = sl[s]
+                e1[0, s] = ev[0, q]
+                e1[1, s] = ev[1, q]
+                e1[2, s] = ev[2, q]
+                e1[3, s] = ev[3, q]
             for s in range(ns):
                 ev[4, s], ev[5, s], ev[6, s], ev[7, s] = _lanes_stage2(e1[3, s])
             for s in range(ns):
@@ -1130,10 +1133,7 @@ def optimal_kernel(
                     rt[1, s] = l2 / sm
                     rt[2, s] = l3 / sm
                 else:
-                    il1 = 1.0 / l1
-                    rt[0, s] = (l1 - l2) * il1
-                    rt[1, s] = (l2 - l3) * il1
-                    rt[2, s] = l3 * il1
+                    rt[0, s], rt[1, s], rt[2, s] = _lps_ratios(l1, l2, l3)
             # the bounds and the smallest one; the smallest bound first, then every
             # choice it does not rule out
             n_zero = 0
@@ -1164,13 +1164,7 @@ def optimal_kernel(
                     if criterion == 1:
                         val = -(_xlogx(rt[0, q]) + _xlogx(rt[1, q]) + _xlogx(rt[2, q]))
                     else:
-                        lin = rt[0, q]
-                        pla = rt[1, q]
-                        sca = rt[2, q]
-                        lnl = math.log(lin) if lin > 0.0 else 0.0
-                        lnp = math.log(pla) if pla > 0.0 else 0.0
-                        lns = math.log(sca) if sca > 0.0 else 0.0
-                        val = -(lin * lnl + pla * lnp + sca * lns)
+                        val = _edim_of(rt[0, q], rt[1, q], rt[2, q])
                     k = qk[sl[q]]
                     pr = qp[sl[q]]
                     if val < bv or (val == bv and (k < bk or (k == bk and pr < bp))):
