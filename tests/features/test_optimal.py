@@ -133,7 +133,9 @@ def test_search_validation():
     pts, nrm = _noisy_surface(4, n=30)
     with pytest.raises(ValueError, match="k_min <= k_max"):
         optimal_neighbourhood(pts, nrm, k_range=(10, 6))
-    with pytest.raises(ValueError, match=r"a_grid values must lie in \[0, pi\]"):
+    with pytest.raises(
+        ValueError, match=r"a_grid must hold finite angles in \[0, pi\] radians; got 4.0"
+    ):
         optimal_neighbourhood(pts, nrm, a_grid=[0.0, 4.0])
     with pytest.raises(ValueError, match="no \\(a, b\\) pair"):
         optimal_neighbourhood(pts, nrm, a_grid=[2.0], b_grid=[1.0])

@@ -271,7 +271,9 @@ def test_las_round_trip(tmp_path, cloud, ext):
     np.testing.assert_array_equal(ps.attributes["intensity"], inten)
     np.testing.assert_array_equal(ps.attributes["classification"], cls)
     np.testing.assert_array_equal(ps.attributes["score"], score)
-    np.testing.assert_array_equal(ps.attributes["colors"], colors)
+    # LAS colours are 16 bits: uint8 is written x 257 and read back as stored (uint16)
+    assert ps.attributes["colors"].dtype == np.uint16
+    np.testing.assert_array_equal(ps.attributes["colors"], colors.astype(np.uint16) * 257)
 
 
 def test_inputs_are_not_modified(tmp_path, cloud):

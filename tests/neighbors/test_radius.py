@@ -83,7 +83,7 @@ def test_radius_result_is_readonly():
 
 @pytest.mark.parametrize("radius", [0.0, -1.0, np.inf, np.nan])
 def test_bad_radius(radius):
-    with pytest.raises(ValueError, match="radius must be a positive finite number"):
+    with pytest.raises(ValueError, match=r"radius must be a finite number > 0; got"):
         NeighborIndex(CLOUDS["random"]).radius(radius)
 
 

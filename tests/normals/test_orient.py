@@ -129,9 +129,9 @@ def test_inputs_not_modified():
         ({"method": "viewpoint"}, ValueError, "viewpoint is required"),
         ({"method": "viewpoint", "viewpoint": [0, 0]}, ValueError, r"shape \(3,\)"),
         ({"method": "viewpoint", "viewpoint": [0, 0, np.inf]}, ValueError, "finite"),
-        ({"k": 1}, ValueError, "k must be >= 2"),
+        ({"k": 1}, ValueError, r"k must be an integer in \[2, 50\]"),
         ({"edge_penalty": -1.0}, ValueError, "edge_penalty must be"),
-        ({"k": 1000}, PointAtlasError, "too few points"),
+        ({"k": 1000}, PointAtlasError, r"in \[2, 50\] \(the number of points\); got 1000"),
         ({"neighbors": np.zeros((50, 3), dtype=np.int64)}, ValueError, "m >= k"),
     ],
 )

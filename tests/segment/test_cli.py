@@ -68,17 +68,18 @@ def test_segment_region_growing_and_options(cube_file, tmp_path):
     assert result.exit_code == 0, result.output
 
 
-def test_segment_needs_normals(tmp_path):
+def test_segment_estimates_normals_when_the_input_has_none(tmp_path):
     mesh = cube(4)
     raw = tmp_path / "raw.xyz"
     write_point_set(raw, mesh.vertices)
-    result = runner.invoke(app, ["segment", str(raw), str(tmp_path / "o.ply")])
-    assert result.exit_code == 1
-    assert "--estimate-normals" in result.output
     result = runner.invoke(
-        app, ["segment", str(raw), str(tmp_path / "o.ply"), "--estimate-normals", "--eta", "5"]
+        app, ["segment", str(raw), str(tmp_path / "o.ply"), "--no-estimate-normals"]
     )
+    assert result.exit_code == 1
+    assert "--no-estimate-normals" in result.output
+    result = runner.invoke(app, ["segment", str(raw), str(tmp_path / "o.ply"), "--eta", "5"])
     assert result.exit_code == 0, result.output
+    assert "estimating normals" in result.stderr
 
 
 @pytest.mark.parametrize(

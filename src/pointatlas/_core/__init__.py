@@ -1,12 +1,24 @@
 """Layer 0: array conventions, validation, rng, tolerances, the PointSet container."""
 
 from ._pointset import PointSet, readonly
-from ._validation import as_labels, as_normals, as_points, as_rng, describe_indices
+from ._validation import (
+    as_float,
+    as_float_array,
+    as_int,
+    as_labels,
+    as_normals,
+    as_points,
+    as_rng,
+    describe_indices,
+)
 from .errors import PointAtlasError
 
 __all__ = [
     "PointAtlasError",
     "PointSet",
+    "as_float",
+    "as_float_array",
+    "as_int",
     "as_labels",
     "as_normals",
     "as_points",

@@ -22,6 +22,19 @@ def readonly(arr: np.ndarray | None) -> np.ndarray | None:
     return arr
 
 
+def _as_meta(meta) -> MappingProxyType:
+    """Read-only shallow copy of a meta mapping (keys must be str)."""
+    if meta is None:
+        return MappingProxyType({})
+    if not isinstance(meta, Mapping):
+        raise TypeError(f"meta must be a mapping of str to objects; got {type(meta).__name__}")
+    out = dict(meta)
+    bad = [k for k in out if not isinstance(k, str)]
+    if bad:
+        raise TypeError(f"meta keys must be str; got {type(bad[0]).__name__} {bad[0]!r}")
+    return MappingProxyType(out)
+
+
 @dataclass(frozen=True, slots=True)
 class PointSet:
     """Points with optional unit normals and per-point attributes.
@@ -36,6 +49,11 @@ class PointSet:
         Per-point scalar or vector fields (labels, colours, features).
     name : str
         A name for reports and file names.
+    meta : mapping of str to object, optional
+        Format details (not per-point arrays) that a reader records so a later
+        write can keep them, e.g. ``"las_header"`` (a ``laspy.LasHeader``) from
+        ``pointatlas.io.read_point_set``. Carried unchanged by :meth:`replace` and
+        :meth:`with_attributes`; shallow-copied into a read-only mapping.
 
     Examples
     --------
@@ -48,6 +66,7 @@ class PointSet:
     normals: np.ndarray | None = None
     attributes: Mapping[str, np.ndarray] = field(default_factory=dict)
     name: str = ""
+    meta: Mapping[str, object] = field(default_factory=dict)
 
     def __post_init__(self):
         pts = np.array(as_points(self.points, min_points=0), copy=True)
@@ -65,15 +84,18 @@ class PointSet:
                 )
             attrs[str(key)] = readonly(arr)
         object.__setattr__(self, "attributes", MappingProxyType(attrs))
+        object.__setattr__(self, "meta", _as_meta(self.meta))
 
     @classmethod
-    def _from_validated(cls, points, normals=None, attributes=None, name: str = "") -> PointSet:
+    def _from_validated(
+        cls, points, normals=None, attributes=None, name: str = "", meta=None
+    ) -> PointSet:
         """Wrap arrays the caller has already validated and owns (private to pointatlas).
 
         No checks and no copies (used by ``pointatlas.io`` readers on fresh arrays):
         ``points`` must be C-contiguous finite float64 (N, 3), ``normals`` unit
         float64 (N, 3) or None, ``attributes`` a dict of arrays with N rows. The
-        arrays are made read-only.
+        arrays are made read-only; ``meta`` is checked and copied as in the constructor.
         """
         obj = object.__new__(cls)
         object.__setattr__(obj, "points", readonly(points))
@@ -81,6 +103,7 @@ class PointSet:
         attrs = {str(k): readonly(v) for k, v in dict(attributes or {}).items()}
         object.__setattr__(obj, "attributes", MappingProxyType(attrs))
         object.__setattr__(obj, "name", str(name))
+        object.__setattr__(obj, "meta", _as_meta(meta))
         return obj
 
     @property
@@ -94,18 +117,22 @@ class PointSet:
         return self.normals is not None
 
     def replace(self, **changes) -> PointSet:
-        """Return a copy with some fields replaced (points, normals, attributes, name)."""
+        """Return a copy with some fields replaced (points, normals, attributes, name, meta).
+
+        Fields not named keep their values; ``meta`` is carried unless replaced.
+        """
         fields = {
             "points": self.points,
             "normals": self.normals,
             "attributes": dict(self.attributes),
             "name": self.name,
+            "meta": self.meta,
         }
         fields.update(changes)
         return PointSet(**fields)
 
     def with_attributes(self, **attributes) -> PointSet:
-        """Return a copy with the given per-point attributes added or replaced."""
+        """Return a copy with the given per-point attributes added or replaced (meta kept)."""
         attrs = dict(self.attributes)
         attrs.update(attributes)
         return self.replace(attributes=attrs)

@@ -8,7 +8,6 @@ import json
 import logging
 import math
 import os
-import tempfile
 import time
 import traceback
 import warnings
@@ -114,18 +113,13 @@ def _plain(value, where: str):
 
 
 def _write_json(path: Path, payload) -> None:
-    """Write JSON atomically: a temporary file in the same folder, then os.replace."""
+    """Write JSON atomically (:func:`pointatlas.io.atomic_write`: umask permissions)."""
+    from ..io import atomic_write
+
     text = json.dumps(payload, indent=2, sort_keys=False)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    with atomic_write(path, "w") as fh:
+        fh.write(text)
+        fh.write("\n")
 
 
 def _read_json(path: Path):

@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import signal
 import sys
+import threading
 from collections.abc import Callable
 
+import numpy as np
 import typer
 from rich.console import Console
 from rich.markup import escape
@@ -24,6 +27,7 @@ from rich.progress import (
 )
 
 from .._core import PointAtlasError
+from .._core._interrupt import clear_interrupt, interrupt_requested, request_interrupt
 
 __all__ = [
     "DEMO_STEPS",
@@ -35,7 +39,11 @@ __all__ = [
     "experiment_app",
     "guarded",
     "progress_bar",
+    "parse_seeds",
     "read_input",
+    "read_with_normals",
+    "say",
+    "angle_deg_option",
 ]
 
 app = typer.Typer(
@@ -50,8 +58,19 @@ experiment_app = typer.Typer(help="Reproduce the thesis' experiments.", no_args_
 app.add_typer(data_app, name="data")
 app.add_typer(experiment_app, name="experiment")
 
-console = Console()
-err_console = Console(stderr=True)
+# soft_wrap: a printed line is never broken at the terminal width (paths stay whole
+# when the output is piped or the terminal is narrow); tables still fit the width.
+console = Console(soft_wrap=True)
+err_console = Console(stderr=True, soft_wrap=True)
+
+
+def say(*parts, out: Console | None = None) -> None:
+    """Print text verbatim on one line: no markup, no highlighting, no wrapping.
+
+    For lines a script may read (``wrote PATH``): brackets in paths stay as they
+    are and long paths are not broken.
+    """
+    (out or console).print(*parts, markup=False, highlight=False, soft_wrap=True, emoji=False)
 
 
 def _one_line(exc: BaseException) -> str:
@@ -67,24 +86,53 @@ def _fail(message: str, code: int):
     raise typer.Exit(code=code)
 
 
+def _on_sigint(signum, frame):
+    request_interrupt()
+    raise KeyboardInterrupt
+
+
 def guarded(func):
     """Turn user errors into one red line on stderr and exit status 1.
 
     ``PointAtlasError``, ``ValueError``, ``TypeError`` and ``OSError`` (missing file,
     permission) are user errors: no traceback. ``MemoryError`` also exits 1 with one
-    line, Ctrl-C exits 130 ("interrupted"). Usage errors stay with typer (exit 2).
+    line. Ctrl-C (SIGINT) prints "interrupted" and exits 130, always: the handler
+    records the request (:mod:`pointatlas._core._interrupt`), so an interrupt that
+    reaches Python as another exception (a ``SystemError`` out of a numba kernel) or
+    is swallowed by library code still ends the command, and no output replaces an
+    earlier file after it (``atomic_write`` checks the flag before the rename).
+    Usage errors stay with typer (exit 2).
     """
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
+        clear_interrupt()
+        previous = None
+        if threading.current_thread() is threading.main_thread():
+            previous = signal.signal(signal.SIGINT, _on_sigint)
         try:
-            return func(*args, **kwargs)
-        except (PointAtlasError, ValueError, TypeError, OSError) as exc:
-            _fail(_one_line(exc), 1)
-        except MemoryError:
-            _fail("out of memory (try a smaller input or fewer neighbours)", 1)
+            result = func(*args, **kwargs)
+            if interrupt_requested():
+                raise KeyboardInterrupt
+            return result
+        except typer.Exit:
+            if interrupt_requested():
+                _fail("interrupted", 130)
+            raise
         except KeyboardInterrupt:
             _fail("interrupted", 130)
+        except BaseException as exc:
+            if interrupt_requested():
+                _fail("interrupted", 130)
+            if isinstance(exc, PointAtlasError | ValueError | TypeError | OSError):
+                _fail(_one_line(exc), 1)
+            if isinstance(exc, MemoryError):
+                _fail("out of memory (try a smaller input or fewer neighbours)", 1)
+            raise
+        finally:
+            if previous is not None:
+                signal.signal(signal.SIGINT, previous)
+            clear_interrupt()  # the request belonged to this command
 
     return wrapper
 
@@ -139,6 +187,8 @@ def read_input(path, *, with_normals: bool = True, zero_normals: str = "raise"):
     from ..io import read_point_set
 
     p = Path(path)
+    if p.is_dir():
+        raise PointAtlasError(f"{path}: is a folder; give a point-set or mesh file")
     if not p.exists():
         from .. import data
 
@@ -150,3 +200,84 @@ def read_input(path, *, with_normals: bool = True, zero_normals: str = "raise"):
                 f"{path}: no such file and not a bundled model; bundled: {', '.join(data.names())}"
             )
     return read_point_set(p, with_normals=with_normals, zero_normals=zero_normals)
+
+
+def angle_deg_option(value, flag: str, *, lo: float = 0.0, hi: float = 180.0):
+    """Validate an angle flag in degrees (finite, in [lo, hi]); None passes through."""
+    from .._core import as_float
+
+    if value is None:
+        return None
+    return as_float(value, flag, lo=lo, hi=hi, what="angle", unit="degrees")
+
+
+def parse_seeds(text: str):
+    """``--seeds``: ``"all"``, a count (``"12"``) or comma-separated indices (``"0,5,9"``)."""
+    text = text.strip()
+    if text.lower() == "all":
+        return "all"
+    try:
+        if "," in text:
+            return np.array([int(t) for t in text.split(",") if t.strip()], dtype=np.int64)
+        value = int(text)
+    except ValueError:
+        raise PointAtlasError(
+            f"--seeds must be 'all', a count or comma-separated indices; got {text!r}"
+        ) from None
+    if value < 1:
+        raise PointAtlasError(f"--seeds must be 'all', a count >= 1 or indices; got {text!r}")
+    return value
+
+
+def read_with_normals(path, *, estimate: bool | None = None, normal_k: int = 20):
+    """Read IN and make sure it has normals; returns the PointSet.
+
+    ``estimate`` None (default of the commands): the input's normals are used; an
+    input without normals gets PCA normals (``normal_k`` neighbours, MST
+    orientation), and a line on stderr says so. True: normals are estimated even
+    when the input has some; the input's normals are kept as the attribute
+    ``input_normals``. False: an input without normals is an error. Points whose
+    stored normal is unusable (zero length, NaN; mesh vertices on no face) are
+    left out with a note giving their number; the field ``source_index`` holds the
+    original indices of the kept points.
+    """
+    from .._core import as_int
+
+    as_int(normal_k, "--normal-k", lo=3)
+    if estimate:
+        ps = read_input(path, with_normals=False)
+        try:
+            given = read_input(path).normals
+        except PointAtlasError:  # some points without a normal: nothing to keep
+            given = None
+        if given is not None:
+            ps = ps.with_attributes(input_normals=given)
+    else:
+        ps = read_input(path, zero_normals="drop")
+        if "source_index" in ps.attributes:  # rare: count the points left out
+            n_total = read_input(path, with_normals=False).n_points
+            say(
+                f"note: left out {n_total - ps.n_points:,} of {n_total:,} points without a "
+                "usable normal (zero or non-finite; mesh vertices on no face); the field "
+                "source_index holds the kept points' original indices",
+                out=err_console,
+            )
+        if ps.normals is not None:
+            return ps
+        if estimate is False:
+            raise PointAtlasError(
+                f"{path}: the input has no normals; drop --no-estimate-normals to estimate them"
+            )
+    from ._cmd_core import _compute_normals
+
+    as_int(normal_k, "--normal-k", lo=3, hi=ps.n_points, note="the number of points")
+    say(
+        f"estimating normals: PCA with k = {normal_k}, MST orientation"
+        + ("" if estimate else " (the input has none)"),
+        out=err_console,
+    )
+    with progress_bar("normals", total=2) as advance:
+        normals = _compute_normals(
+            ps.points, k=normal_k, orient="mst", orient_k=10, viewpoint=None, advance=advance
+        )
+    return ps.replace(normals=normals)

@@ -31,7 +31,24 @@ from ..io import (
 )
 from ..neighbors import mean_spacing, query_knn
 from ..normals import angle_error, estimate_normals, flipped_fraction, orient_normals
-from ._app import DEMO_STEPS, app, console, data_app, demo_step, guarded, progress_bar
+from ._app import (
+    DEMO_STEPS,
+    app,
+    console,
+    data_app,
+    demo_step,
+    guarded,
+    progress_bar,
+    read_input,
+    say,
+)
+from ._outputs import (
+    XYZ_EXTENSIONS,
+    check_outputs,
+    check_point_output,
+    write_point_output,
+    write_text,
+)
 
 __all__ = [
     "DEMO_STEPS",
@@ -58,19 +75,6 @@ DEMO_MODEL = "fandisk"
 
 
 # --------------------------------------------------------------------------- helpers
-
-
-def _check_output(path: Path, extensions: tuple[str, ...], what: str) -> Path:
-    """Fail early (before any work) on a bad output extension or missing folder."""
-    path = Path(path)
-    if path.suffix.lower() not in extensions:
-        raise PointAtlasError(
-            f"{what} must end in one of {', '.join(extensions)}; got {str(path)!r}"
-        )
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise PointAtlasError(f"output folder does not exist: {str(folder)!r}")
-    return path
 
 
 def _fmt(x: float) -> str:
@@ -342,7 +346,8 @@ def render_file(
     """Render a point-set or mesh file to a PNG (the ``render`` command)."""
     from ..viz import fit_camera, render_mesh, render_points
 
-    out_path = _check_output(Path(out_path), (".png",), "OUT")
+    check_outputs([in_path], [("OUT", out_path, (".png",))])
+    out_path = Path(out_path)
     az, el, up_vec = _view(azimuth_deg, elevation_deg, up, Path(in_path))
     if draw not in ("auto", "points", "mesh"):
         raise PointAtlasError(f"--as must be auto, points or mesh; got {draw!r}")
@@ -406,7 +411,8 @@ def info_command(
     if as_json:
         typer.echo(json.dumps(info, indent=2))
     else:
-        console.print(info_table(info, title=escape(str(file))))
+        say(f"file: {file}")
+        console.print(info_table(info))
 
 
 # --------------------------------------------------------------------------- normals
@@ -435,26 +441,29 @@ def normals_command(
 ):
     """Estimate (PCA) and orient normals; write the points with them.
 
-    When the input already has normals (a mesh, or a PLY with nx ny nz) the new
-    normals are compared with them (angle error, flipped fraction).
+    Every input field is kept; normals stored in the input are kept as the field
+    ``input_normals`` and compared with the new ones (angle error, flipped
+    fraction).
     """
-    out_path = _check_output(out_path, POINT_WRITE_EXTENSIONS, "OUT")
+    check_outputs([in_path], [("OUT", out_path, POINT_WRITE_EXTENSIONS)])
     if orient not in ORIENT_METHODS:
         raise PointAtlasError(
             f"--orient must be one of {', '.join(ORIENT_METHODS)}; got {orient!r}"
         )
-    ps = read_point_set(in_path, with_normals=False)
+    ps = read_input(in_path, with_normals=False)
     try:
-        reference = read_point_set(in_path).normals
+        reference = read_input(in_path).normals
     except PointAtlasError:  # some points without a normal: nothing to compare with
         reference = None
+    ours = {} if reference is None else {"input_normals": reference}
+    check_point_output(out_path, ps.replace(normals=np.zeros((ps.n_points, 3)) + 1.0), ours)
     t0 = time.perf_counter()
     with progress_bar("normals", total=2) as advance:
         normals = _compute_normals(
             ps.points, k=k, orient=orient, orient_k=orient_k, viewpoint=viewpoint, advance=advance
         )
     seconds = time.perf_counter() - t0
-    write_point_set(out_path, ps.replace(normals=normals))
+    written = write_point_output(out_path, ps.replace(normals=normals), ours)
     table = Table(
         title=f"normals of {escape(in_path.name)}", show_header=False, title_justify="left"
     )
@@ -470,8 +479,8 @@ def normals_command(
         )
         table.add_row("  ignoring sign", f"{stats['mean_unoriented_error_deg']:.2f} deg")
         table.add_row("flipped fraction", f"{stats['flipped_fraction']:.4f}")
-    table.add_row("written", escape(str(out_path)))
     console.print(table)
+    say(f"wrote {written}")
 
 
 # --------------------------------------------------------------------------- render
@@ -521,7 +530,7 @@ def render_command(
             draw=draw,
         )
         advance()
-    console.print(f"wrote {escape(str(path))}")
+    say(f"wrote {path}")
 
 
 # --------------------------------------------------------------------------- data
@@ -580,8 +589,8 @@ def data_export_command(
     """
     data = _data_module()
     ext = out_path.suffix.lower()
-    _check_output(
-        out_path, tuple(sorted(set(MESH_EXTENSIONS) | set(POINT_WRITE_EXTENSIONS))), "OUT"
+    check_outputs(
+        [], [("OUT", out_path, tuple(sorted(set(MESH_EXTENSIONS) | set(POINT_WRITE_EXTENSIONS))))]
     )
     if name not in data.names():
         raise PointAtlasError(f"unknown model {name!r}; bundled: {', '.join(data.names())}")
@@ -592,13 +601,13 @@ def data_export_command(
     if ext in MESH_EXTENSIONS and not points_only:
         mesh = data.load_mesh(name)
         path = write_mesh(out_path, mesh)
-        console.print(
-            f"wrote {escape(str(path))} ({mesh.n_vertices:,} vertices, {mesh.n_faces:,} faces)"
-        )
+        say(f"wrote {path} ({mesh.n_vertices:,} vertices, {mesh.n_faces:,} faces)")
         return
     ps = data.load(name)
+    if ext in XYZ_EXTENSIONS and ps.attributes:
+        check_point_output(out_path, ps, {})
     path = write_point_set(out_path, ps)
-    console.print(f"wrote {escape(str(path))} ({ps.n_points:,} points)")
+    say(f"wrote {path} ({ps.n_points:,} points)")
 
 
 # --------------------------------------------------------------------------- demo
@@ -609,7 +618,7 @@ def demo_info(ps: PointSet, out_dir: Path, console) -> None:
     """The model: size, bounding box, spacing, k-NN components."""
     info = point_set_info(ps, k=8)
     console.print(info_table(info, title=f"{escape(ps.name)} (bundled)"))
-    (out_dir / f"{ps.name}_info.json").write_text(json.dumps(info, indent=2))
+    write_text(out_dir / f"{ps.name}_info.json", json.dumps(info, indent=2))
 
 
 @demo_step
@@ -640,7 +649,7 @@ def demo_normals(ps: PointSet, out_dir: Path, console) -> PointSet:
     table.add_row("flipped fraction", f"{stats['flipped_fraction']:.4f}")
     table.add_row("written", escape(str(path)))
     console.print(table)
-    (out_dir / f"{ps.name}_normals.json").write_text(json.dumps(stats, indent=2))
+    write_text(out_dir / f"{ps.name}_normals.json", json.dumps(stats, indent=2))
     return ps.with_attributes(normal_error_deg=error)
 
 
@@ -708,9 +717,8 @@ def select_steps(only: str | None) -> list:
 def run_demo(out_dir: Path, *, model: str = DEMO_MODEL, steps=None) -> list[Path]:
     """Run the demo steps on a bundled model; returns the files written."""
     out_dir = Path(out_dir)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise PointAtlasError(f"--out {str(out_dir)!r} exists and is not a folder")
-    out_dir.mkdir(parents=True, exist_ok=True)
+    check_outputs([], folders=[("--out", out_dir)])
+    out_dir.mkdir(exist_ok=True)
     data = _data_module()
     if model not in data.names():
         raise PointAtlasError(f"unknown model {model!r}; bundled: {', '.join(data.names())}")
@@ -792,5 +800,5 @@ def demo_command(
     written = run_demo(out, model=model, steps=select_steps(only))
     console.rule("[bold]outputs", align="left")
     for path in written:
-        console.print(f"  {escape(str(path))}")
-    console.print(f"all outputs are in {escape(str(out.resolve()))}")
+        say(f"  {path}")
+    say(f"all outputs are in {out.resolve()}")

@@ -15,8 +15,9 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from .._core import PointAtlasError
+from .._core import PointAtlasError, as_float_array
 from ..features import (
+    FEATURE_NAMES,
     REASON_CODES,
     THESIS_ANGLE_GRID,
     FeatureResult,
@@ -24,7 +25,8 @@ from ..features import (
     optimal_k_features,
     optimal_neighbourhood,
 )
-from ._app import app, console, demo_step, guarded, read_input
+from ._app import app, console, demo_step, err_console, guarded, read_input, say
+from ._outputs import check_outputs, check_point_output, write_point_output
 
 __all__ = [
     "classify_dimension",
@@ -57,9 +59,8 @@ def _parse_grid_deg(text: str | None, name: str) -> tuple[float, ...]:
         raise PointAtlasError(
             f"{name} must be comma-separated angles in degrees, e.g. 0,30,60; got {text!r}"
         ) from None
-    if not vals or min(vals) < 0 or max(vals) > 180:
-        raise PointAtlasError(f"{name} angles must lie in [0, 180] degrees; got {text!r}")
-    return tuple(math.radians(v) if v < 180 else math.pi for v in vals)
+    arr = as_float_array(vals, name, lo=0.0, hi=180.0, what="angles", unit="degrees")
+    return tuple(math.pi if v == 180.0 else math.radians(v) for v in arr.tolist())
 
 
 def compute_features_for(
@@ -225,21 +226,33 @@ def features_command(
         int, typer.Option("--render-size", min=64, help="Pixels per picture panel.")
     ] = 800,
 ) -> None:
-    """Eigen-features per point (linearity ... flatness) with the optimal neighbourhood."""
-    from ..io import write_point_set
+    """Eigen-features per point (linearity ... flatness) with the optimal neighbourhood.
 
-    if output.suffix.lower() not in (".ply", ".las", ".laz"):
-        raise PointAtlasError(f"OUT must be a .ply (or .las/.laz) file; got {output.name!r}")
-    try:
-        ps = read_input(input_path)
-    except PointAtlasError as exc:
-        if "zero_normals" not in str(exc):
-            raise
-        # vertices without a usable normal (unreferenced, zero-area faces) are left out
-        ps = read_input(input_path, zero_normals="drop")
-        console.print(f"  note: {str(exc).split(':', 2)[-1].strip().split(';')[0]}; left out")
+    Writes OUT with every input field kept and the features added (a feature whose
+    name the input already uses gets the prefix ``pa_``).
+    """
+    from ..io import POINT_WRITE_EXTENSIONS
+
+    check_outputs(
+        [input_path],
+        [("OUT", output, POINT_WRITE_EXTENSIONS)],
+        folders=[("--render", render)],
+    )
     a_vals = _parse_grid_deg(a_grid, "--a-grid-deg")
     b_vals = _parse_grid_deg(b_grid, "--b-grid-deg") if b_grid is not None else a_vals
+    ps = read_input(input_path, zero_normals="drop")
+    if "source_index" in ps.attributes:
+        n_total = read_input(input_path, with_normals=False).n_points
+        say(
+            f"note: left out {n_total - ps.n_points:,} of {n_total:,} points without a usable "
+            "normal; the field source_index holds the kept points' original indices",
+            out=err_console,
+        )
+    n = ps.n_points
+    names = [*(f"eigenvalue_{i}" for i in (1, 2, 3)), *FEATURE_NAMES, "k", "a", "b", "reason"]
+    placeholder = {name: np.zeros(n) for name in names}
+    placeholder["dimension_class"] = np.zeros(n, np.int64)
+    check_point_output(output, ps, placeholder)
     t0 = time.perf_counter()
     result, mode = compute_features_for(
         ps.points,
@@ -255,9 +268,9 @@ def features_command(
     elapsed = time.perf_counter() - t0
     fields = result.scalar_fields()
     fields["dimension_class"] = classify_dimension(result)
-    write_point_set(output, ps.points, normals=ps.normals, attributes=fields)
+    written = write_point_output(output, ps, fields)
     n = result.n_points
-    console.print(f"{input_path.name}: {n} points, {mode} ({elapsed:.2f} s)")
+    say(f"{input_path.name}: {n} points, {mode} ({elapsed:.2f} s)")
     ok = result.is_valid
     if ok.any():
         console.print(
@@ -267,8 +280,9 @@ def features_command(
     for code, count in zip(*np.unique(result.reason, return_counts=True), strict=True):
         if code:
             console.print(f"  {count} point(s) degenerate: {REASON_CODES[int(code)]} (NaN)")
-    console.print(f"  wrote {output}")
+    say(f"  wrote {written}")
     if render is not None:
+        render.mkdir(exist_ok=True)
         fixed_equal = mode.startswith("fixed")
         energies = result if fixed_equal else None
         for p in render_feature_pictures(
@@ -280,7 +294,7 @@ def features_command(
             energies=energies,
             size=render_size,
         ):
-            console.print(f"  wrote {p}")
+            say(f"  wrote {p}")
 
 
 def fig_5_3(points, normals, out_dir, *, name: str, console=None) -> tuple[dict, list[Path]]:

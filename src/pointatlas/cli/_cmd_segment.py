@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 import time
 from pathlib import Path
@@ -19,23 +18,25 @@ import typer
 
 from .._core import PointAtlasError
 from ..segment import region_growing, vsa_segment
-from ._app import app, console, demo_step, guarded, read_input
+from ._app import (
+    angle_deg_option,
+    app,
+    console,
+    demo_step,
+    guarded,
+    parse_seeds,
+    read_with_normals,
+    say,
+)
+from ._outputs import (
+    check_outputs,
+    check_point_output,
+    point_fields,
+    write_point_output,
+    write_summary_json,
+)
 
 __all__ = ["region_table", "segment_command", "segment_point_set", "table_paths"]
-
-
-def _parse_seeds(text: str):
-    if text.strip().lower() == "all":
-        return "all"
-    try:
-        value = int(text)
-    except ValueError:
-        raise PointAtlasError(
-            f"--seeds must be a positive integer or 'all'; got {text!r}"
-        ) from None
-    if value < 1:
-        raise PointAtlasError(f"--seeds must be a positive integer or 'all'; got {text!r}")
-    return value
 
 
 def segment_point_set(
@@ -138,25 +139,19 @@ def _json_safe(value):
     return value
 
 
-def _write_tables(output: Path, rows: list[dict], summary: dict) -> tuple[Path, Path]:
+def _write_tables(output: Path, rows: list[dict]) -> tuple[Path, dict]:
+    """Write the per-region CSV; returns its path and the JSON-ready rows."""
     from ..io import atomic_write
 
-    csv_path, json_path = table_paths(output)
+    csv_path, _ = table_paths(output)
     buf = io.StringIO()
     fields = list(rows[0]) if rows else ["region", "n_points"]
     writer = csv.DictWriter(buf, fieldnames=fields, lineterminator="\n")
     writer.writeheader()
     writer.writerows(rows)
-    text = buf.getvalue()
-    payload = {
-        "summary": {key: _json_safe(val) for key, val in summary.items()},
-        "regions": [{key: _json_safe(val) for key, val in row.items()} for row in rows],
-    }
     with atomic_write(csv_path, "w") as fh:
-        fh.write(text)
-    with atomic_write(json_path, "w") as fh:
-        json.dump(payload, fh, indent=1, allow_nan=False)
-    return csv_path, json_path
+        fh.write(buf.getvalue())
+    return csv_path, [{key: _json_safe(val) for key, val in row.items()} for row in rows]
 
 
 @app.command("segment")
@@ -165,7 +160,12 @@ def segment_command(
     input_path: Annotated[
         Path, typer.Argument(metavar="IN", help="Point set or mesh file, or a bundled model name.")
     ],
-    output: Annotated[Path, typer.Argument(metavar="OUT.ply", help="Labelled point set.")],
+    output: Annotated[
+        Path,
+        typer.Argument(
+            metavar="OUT", help="Labelled point set (.ply, .las, .laz), every input field kept."
+        ),
+    ],
     eta: Annotated[
         float | None, typer.Option("--eta", help="L21 threshold for split/merge (thesis: 25).")
     ] = None,
@@ -173,10 +173,12 @@ def segment_command(
         float | None,
         typer.Option("--max-angle-deg", "--max-angle", help="Max mean normal deviation (deg)."),
     ] = None,
-    seeds: Annotated[str, typer.Option("--seeds", help="Number of seeds or 'all'.")] = "all",
+    seeds: Annotated[
+        str, typer.Option("--seeds", help="'all', a number of random seeds, or indices.")
+    ] = "all",
     k: Annotated[int, typer.Option("--k", help="Neighbours, the point itself included.")] = 8,
-    no_split: Annotated[bool, typer.Option("--no-split", help="Disable split.")] = False,
-    no_merge: Annotated[bool, typer.Option("--no-merge", help="Disable merge.")] = False,
+    split: Annotated[bool, typer.Option("--split/--no-split", help="Split step.")] = True,
+    merge: Annotated[bool, typer.Option("--merge/--no-merge", help="Merge step.")] = True,
     switch: Annotated[str, typer.Option("--switch", help="batch, single or none.")] = "batch",
     classic: Annotated[
         bool, typer.Option("--classic", help="Classic VSA loop (flood/update/re-seed).")
@@ -196,54 +198,62 @@ def segment_command(
         int, typer.Option("--min-cluster-size", help="Region growing: smallest region kept.")
     ] = 1,
     estimate: Annotated[
-        bool,
-        typer.Option("--estimate-normals", help="Estimate (PCA) and orient normals first."),
-    ] = False,
+        bool | None,
+        typer.Option(
+            "--estimate-normals/--no-estimate-normals",
+            help="Estimate (PCA) and orient normals first; default: only when the input has "
+            "none (the input's normals are kept as input_normals).",
+            show_default=False,
+        ),
+    ] = None,
     normal_k: Annotated[
-        int, typer.Option("--normal-k", help="Neighbours for --estimate-normals.")
+        int, typer.Option("--normal-k", help="Neighbours for estimated normals.")
     ] = 20,
     render: Annotated[
         Path | None, typer.Option("--render", help="Also write a PNG picture.")
     ] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed for random seeds.")] = 0,
 ):
-    """Segment a point set into flat regions (VSA, thesis 4.2-4.3) or by region growing."""
-    from ..io import write_point_set
+    """Segment a point set into flat regions (VSA, thesis 4.2-4.3) or by region growing.
 
-    if output.suffix.lower() != ".ply":
-        raise PointAtlasError(f"OUT must be a .ply file; got {str(output)!r}")
+    Writes OUT (the input points with every input field, plus ``label`` and label
+    colours), OUT_regions.csv and, last, OUT_regions.json (summary, regions and the
+    files of this run with their SHA-256).
+    """
+    from ..io import POINT_WRITE_EXTENSIONS
+
+    csv_path, json_path = table_paths(output)
+    check_outputs(
+        [input_path],
+        [
+            ("OUT", output, POINT_WRITE_EXTENSIONS),
+            ("OUT's region table", csv_path, None),
+            ("OUT's summary", json_path, None),
+            ("--render", render, (".png",)),
+        ],
+    )
     if switch not in ("batch", "single", "none"):
         raise PointAtlasError(f"--switch must be batch, single or none; got {switch!r}")
-    seeds_value = _parse_seeds(seeds)
+    if method not in ("vsa", "region-growing"):
+        raise PointAtlasError(f"--method must be vsa or region-growing; got {method!r}")
+    seeds_value = parse_seeds(seeds)
+    angle_deg_option(max_angle_deg, "--max-angle-deg")
+    angle_deg_option(smoothness_deg, "--smoothness-deg")
     t0 = time.perf_counter()
-    ps = read_input(input_path, with_normals=not estimate, zero_normals="drop")
-    extra = {}
-    if "source_index" in ps.attributes:
-        kept = np.asarray(ps.attributes["source_index"])
-        extra["source_index"] = kept
-        console.print(
-            f"[yellow]note:[/] left out the points without a usable normal; "
-            f"{kept.size:,} kept (field source_index holds their original indices)"
-        )
-    normals = ps.normals
-    if normals is None:
-        if not estimate:
-            raise PointAtlasError(
-                f"{input_path} has no normals; pass --estimate-normals to estimate them"
-            )
-        from ..normals import estimate_normals, orient_normals
-
-        normals = orient_normals(ps.points, estimate_normals(ps.points, normal_k))
+    ps = read_with_normals(input_path, estimate=estimate, normal_k=normal_k)
+    n = ps.n_points
+    placeholder = {"label": np.zeros(n, np.int64), "colors": np.zeros((n, 3), np.uint8)}
+    check_point_output(output, ps, placeholder)
     res, summary = segment_point_set(
         ps.points,
-        normals,
+        ps.normals,
         method=method,
         eta=eta,
         max_angle_deg=max_angle_deg,
         seeds=seeds_value,
         k=k,
-        split=not no_split,
-        merge=not no_merge,
+        split=split,
+        merge=merge,
         switch=switch,
         classic=classic,
         weights=weights,
@@ -255,7 +265,7 @@ def segment_command(
     summary.update(
         {
             "input": str(input_path),
-            "n_points": int(ps.n_points),
+            "n_points": int(n),
             "k": k,
             "seed": seed,
             "seconds": round(time.perf_counter() - t0, 3),
@@ -265,27 +275,35 @@ def segment_command(
 
     labels = np.asarray(res.labels)
     colors = (label_colors(labels) * 255).round().astype(np.uint8)
-    write_point_set(
-        output, ps.points, normals=normals, attributes={"label": labels, **extra}, colors=colors
-    )
-    csv_path, json_path = _write_tables(output, region_table(res), summary)
-    console.print(
-        f"{summary['method']}: {summary['n_regions']} regions on {ps.n_points:,} points, "
-        f"MSE {summary['mse']:.3e}, assigned {summary['assigned_fraction']:.1%} "
-        f"({summary['seconds']:.1f} s)"
-    )
-    console.print(f"wrote {output}, {csv_path}, {json_path}")
+    fields = point_fields(ps, {"label": labels, "colors": colors})
+    summary["fields"] = list(fields)
+    written = [write_point_output(output, ps, {"label": labels, "colors": colors})]
+    csv_path, json_rows = _write_tables(output, region_table(res))
+    written.append(csv_path)
     if render is not None:
         from ..viz import render_points
 
-        path = render_points(
-            render,
-            ps.points,
-            normals=normals,
-            labels=labels,
-            title=f"{ps.name}: {summary['method']}, {summary['n_regions']} regions",
+        written.append(
+            render_points(
+                render,
+                ps.points,
+                normals=ps.normals,
+                labels=labels,
+                title=f"{ps.name}: {summary['method']}, {summary['n_regions']} regions",
+            )
         )
-        console.print(f"picture: {path}")
+    payload = {
+        "summary": {key: _json_safe(val) for key, val in summary.items()},
+        "regions": json_rows,
+    }
+    write_summary_json(json_path, payload, written)
+    console.print(
+        f"{summary['method']}: {summary['n_regions']} regions on {n:,} points, "
+        f"MSE {summary['mse']:.3e}, assigned {summary['assigned_fraction']:.1%} "
+        f"({summary['seconds']:.1f} s)"
+    )
+    for path in [*written, json_path]:
+        say(f"wrote {path}")
 
 
 @demo_step

@@ -12,7 +12,6 @@ import warnings
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 from rich.table import Table
 
@@ -20,37 +19,24 @@ from .._core import PointAtlasError, PointSet
 from ..io import write_mesh
 from ..simplify import SimplifyWarning, simplify_points
 from . import _exp_simplify  # noqa: F401  (registers ``experiment simplify``)
-from ._app import app, console, demo_step, err_console, guarded, progress_bar, read_input
+from ._app import (
+    angle_deg_option,
+    app,
+    console,
+    demo_step,
+    err_console,
+    guarded,
+    parse_seeds,
+    read_with_normals,
+    say,
+)
+from ._outputs import check_outputs, write_summary_json, write_text
 
-__all__ = ["parse_seeds", "render_simplification", "simplification_table"]
+__all__ = ["render_simplification", "simplification_table"]
 
 MESH_OUT = (".obj", ".ply", ".off")
 #: Segmentation of the demo model: VSA from every point, split/merge threshold eta.
 DEMO_ETA = 20.0
-
-
-def parse_seeds(text: str):
-    """``"all"``, a count (``"12"``) or comma-separated point indices (``"0,5,9"``)."""
-    text = text.strip()
-    if text == "all":
-        return "all"
-    try:
-        if "," in text:
-            return np.array([int(t) for t in text.split(",") if t.strip()], dtype=np.int64)
-        return int(text)
-    except ValueError:
-        raise PointAtlasError(
-            f"--seeds must be 'all', a count or comma-separated indices; got {text!r}"
-        ) from None
-
-
-def _check_out(path: Path, what: str) -> Path:
-    path = Path(path)
-    if path.suffix.lower() not in MESH_OUT:
-        raise PointAtlasError(f"{what} must end in {', '.join(MESH_OUT)}; got {str(path)!r}")
-    if not path.parent.exists():
-        raise PointAtlasError(f"folder of {what} does not exist: {str(path.parent)!r}")
-    return path
 
 
 def simplification_table(mesh, seg=None, *, title: str | None = None) -> Table:
@@ -170,6 +156,18 @@ def simplify_command(
         bool, typer.Option("--repair/--no-repair", help="Merge regions that cannot be meshed.")
     ] = True,
     smooth: Annotated[int, typer.Option("--smooth", help="Label majority-filter passes.")] = 2,
+    estimate: Annotated[
+        bool | None,
+        typer.Option(
+            "--estimate-normals/--no-estimate-normals",
+            help="Estimate (PCA) and orient normals first; default: only when the input has "
+            "none.",
+            show_default=False,
+        ),
+    ] = None,
+    normal_k: Annotated[
+        int, typer.Option("--normal-k", help="Neighbours for estimated normals.")
+    ] = 20,
     triangles: Annotated[
         Path | None, typer.Option("--triangles", help="Also write the triangulated mesh here.")
     ] = None,
@@ -180,30 +178,28 @@ def simplify_command(
         Path | None, typer.Option("--render", help="PNG: segmentation and mesh side by side.")
     ] = None,
 ):
-    """Segment a point set (VSA) and write its simplified polygon mesh."""
-    out = _check_out(out, "OUT")
-    if triangles is not None:
-        triangles = _check_out(triangles, "--triangles")
-    if render is not None and Path(render).suffix.lower() != ".png":
-        raise PointAtlasError(f"--render must end in .png; got {str(render)!r}")
+    """Segment a point set (VSA) and write its simplified polygon mesh.
+
+    With ``--report`` the JSON report is written last and names every file of the
+    run with its SHA-256.
+    """
+    check_outputs(
+        [infile],
+        [
+            ("OUT", out, MESH_OUT),
+            ("--triangles", triangles, MESH_OUT),
+            ("--render", render, (".png",)),
+            ("--report", report, (".json",)),
+        ],
+    )
     if eta is not None and max_angle_deg is not None:
         raise PointAtlasError("give --eta or --max-angle-deg, not both")
     max_angle = None
     if max_angle_deg is not None:
-        if not (math.isfinite(max_angle_deg) and 0.0 <= max_angle_deg <= 180.0):
-            raise PointAtlasError(f"--max-angle-deg must lie in [0, 180]; got {max_angle_deg}")
-        max_angle = math.radians(max_angle_deg)
+        max_angle = math.radians(angle_deg_option(max_angle_deg, "--max-angle-deg"))
     seed_spec = parse_seeds(seeds)
-    ps = read_input(infile)
+    ps = read_with_normals(infile, estimate=estimate, normal_k=normal_k)
     normals = ps.normals
-    if normals is None:
-        from ._cmd_core import _compute_normals
-
-        err_console.print("no normals in the input: estimating them (k = 20, MST orientation)")
-        with progress_bar("normals", total=2) as advance:
-            normals = _compute_normals(
-                ps.points, k=20, orient="mst", orient_k=10, viewpoint=None, advance=advance
-            )
     result = _run(
         ps.points,
         normals,
@@ -232,16 +228,15 @@ def simplify_command(
     written = [write_mesh(out, mesh.vertices, polys)]
     if triangles is not None:
         written.append(write_mesh(triangles, mesh.vertices, mesh.triangles))
+    if render is not None:
+        written.append(render_simplification(render, ps.points, normals, mesh, title=ps.name))
     if report is not None:
         info = {"input": str(infile), "seed": seed, **mesh.summary()}
         info["complex"] = mesh.complex.summary()
-        Path(report).write_text(json.dumps(info, indent=2))
-        written.append(Path(report))
-    if render is not None:
-        written.append(render_simplification(render, ps.points, normals, mesh, title=ps.name))
+        written.append(write_summary_json(report, info, written))
     console.print(simplification_table(mesh, result.segmentation, title=ps.name))
     for path in written:
-        console.print(f"written: {path}")
+        say(f"written: {path}")
 
 
 @demo_step
@@ -261,6 +256,6 @@ def demo_simplify(ps: PointSet, out_dir: Path, console) -> None:
         mesh,
         title=f"{ps.name}: VSA (eta = {DEMO_ETA:g}) and the simplified mesh",
     )
-    (out_dir / f"{ps.name}_simplified.json").write_text(json.dumps(mesh.summary(), indent=2))
+    write_text(out_dir / f"{ps.name}_simplified.json", json.dumps(mesh.summary(), indent=2))
     console.print(simplification_table(mesh, result.segmentation))
-    console.print(f"mesh: {obj}\npicture: {png}")
+    say(f"mesh: {obj}\npicture: {png}")

@@ -14,7 +14,6 @@ import csv
 import io
 import json
 import math
-import os
 import time
 from pathlib import Path
 from typing import Annotated
@@ -34,7 +33,8 @@ from ..features import (
     optimal_neighbourhood,
 )
 from ..neighbors import query_knn
-from ._app import console, experiment_app, guarded
+from ._app import console, experiment_app, guarded, say
+from ._outputs import check_outputs, write_text
 
 __all__ = [
     "ENERGY_NAMES",
@@ -255,17 +255,11 @@ def aggregate_neighbourhoods(results: dict[str, dict]) -> dict:
 def _save_figure(fig, path: Path) -> Path:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
+    from ..io import atomic_write
+
     FigureCanvasAgg(fig)
-    tmp = path.with_name(f".{path.name}.tmp")
-    fig.savefig(tmp, format="png", dpi=120, bbox_inches="tight")
-    os.replace(tmp, path)
-    return path
-
-
-def _write_text(path: Path, text: str) -> Path:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+    with atomic_write(path, "wb") as fh:
+        fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
     return path
 
 
@@ -302,17 +296,17 @@ def write_neighbourhood_outputs(summary: dict, out: Path, *, label: str) -> list
     from matplotlib.figure import Figure
 
     out.mkdir(parents=True, exist_ok=True)
-    written = [_write_text(out / "neighbourhoods.json", json.dumps(summary, indent=1))]
+    written = [write_text(out / "neighbourhoods.json", json.dumps(summary, indent=1))]
     t1 = summary["table_5_1"]
     rows = [["collection", "weights", "n_points", "min", "mean", "max", "sd"]]
     for key, name in (("equal", "equal weights [WJM14]"), ("optimal", "ours Eq. 5.9")):
         s = t1[key]
         rows.append([label, name, s["n"], s["min"], s["mean"], s["max"], s["sd"]])
-    written.append(_write_text(out / "table_5_1.csv", _csv(rows)))
+    written.append(write_text(out / "table_5_1.csv", _csv(rows)))
     t2 = summary["table_5_2"]
     cols = ["a=0", "a-", "not a-", "b=a", "b-", "not b-"]
     written.append(
-        _write_text(
+        write_text(
             out / "table_5_2.csv",
             _csv(
                 [["collection", *cols, "n_points"], [label, *[t2[c] for c in cols], t2["n_points"]]]
@@ -343,7 +337,7 @@ def write_neighbourhood_outputs(summary: dict, out: Path, *, label: str) -> list
     ax.legend(fontsize=8)
     written.append(_save_figure(fig, out / "fig5_4.png"))
     written.append(
-        _write_text(
+        write_text(
             out / "fig5_4.csv",
             _csv(
                 [["a_deg", "b_deg", *[f"k{k}" for k in ks]]]
@@ -360,7 +354,7 @@ def write_neighbourhood_outputs(summary: dict, out: Path, *, label: str) -> list
     ax.set_title(f"Fig. 5.5 ({label}): k* (mean {summary['k_mean']:.2f}, sd {summary['k_sd']:.2f})")
     written.append(_save_figure(fig, out / "fig5_5.png"))
     written.append(
-        _write_text(
+        write_text(
             out / "fig5_5.csv",
             _csv(
                 [["k", "percent"]]
@@ -377,7 +371,7 @@ def write_neighbourhood_outputs(summary: dict, out: Path, *, label: str) -> list
     ax.set_ylabel("sd of k* within a model")
     ax.set_title("Fig. 5.6")
     written.append(_save_figure(fig, out / "fig5_6.png"))
-    written.append(_write_text(out / "fig5_6.csv", _csv([["k_sd"]] + [[v] for v in sds])))
+    written.append(write_text(out / "fig5_6.csv", _csv([["k_sd"]] + [[v] for v in sds])))
     # Figs. 6.3 / 6.6
     flat = {f"(m1,m2)=({k})": v for k, v in summary["flatness_histograms"].items()}
     written.append(
@@ -393,7 +387,7 @@ def write_neighbourhood_outputs(summary: dict, out: Path, *, label: str) -> list
     rows = [["series", *_bin_labels()]]
     rows += [[k, *v] for k, v in flat.items()]
     rows += [[k, *v] for k, v in summary["energy_histograms"].items()]
-    written.append(_write_text(out / "fig6_3_6_6.csv", _csv(rows)))
+    written.append(write_text(out / "fig6_3_6_6.csv", _csv(rows)))
     return written
 
 
@@ -428,7 +422,7 @@ def noisy_dodecahedron_flatness(out: Path, *, rng=0) -> list[Path]:
     ]
     rows = [["k", "max", *_bin_labels()]]
     rows += [[k, maxima[k], *series[f"k = {k}"]] for k in maxima]
-    written.append(_write_text(out / "fig6_8.csv", _csv(rows)))
+    written.append(write_text(out / "fig6_8.csv", _csv(rows)))
     return written
 
 
@@ -439,7 +433,7 @@ def neighbourhoods_command(
         Path, typer.Option("--models", help="Folder of meshes / point files with normals.")
     ],
     out: Annotated[Path, typer.Option("--out", help="Output folder.")] = Path(
-        "results/neighbourhoods"
+        "experiment-neighbourhoods"
     ),
     pattern: Annotated[
         list[str] | None,
@@ -465,8 +459,9 @@ def neighbourhoods_command(
     if not files:
         raise PointAtlasError(f"no model files in {models}")
     name = label or models.name
-    out.mkdir(parents=True, exist_ok=True)
-    console.print(f"{name}: {len(files)} models -> {out}")
+    check_outputs([], folders=[("--out", out)])
+    out.mkdir(exist_ok=True)
+    say(f"{name}: {len(files)} models -> {out}")
     report = run_batch(
         neighbourhood_model,
         files,

@@ -24,7 +24,8 @@ import typer
 from .._core import PointAtlasError
 from ..segment import vsa_segment
 from ..simplify import SimplifyWarning, simplify_segmentation
-from ._app import console, experiment_app, guarded
+from ._app import console, experiment_app, guarded, say
+from ._outputs import check_outputs, write_text
 
 __all__ = ["CASES", "run_case"]
 
@@ -354,7 +355,8 @@ def experiment_simplify(
     """Reproduce thesis 4.4.3: sphere eta sweep, Fandisk, torus with a hole, 2-torus,
     noisy dodecahedron."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    check_outputs([], folders=[("--out", out)])
+    out.mkdir(exist_ok=True)
     names = case or list(CASES)
     rows = []
     for name in names:
@@ -363,8 +365,8 @@ def experiment_simplify(
         case_rows = run_case(name, out, seed)
         rows.extend(case_rows)
         console.print(f"{name}: {len(case_rows)} meshes in {time.perf_counter() - t0:.1f} s")
-    (out / "results.json").write_text(json.dumps(rows, indent=2, default=float))
+    write_text(out / "results.json", json.dumps(rows, indent=2, default=float))
     md = _markdown(rows)
-    (out / "results.md").write_text(md)
+    write_text(out / "results.md", md)
     console.print(md)
-    console.print(f"outputs in {out.resolve()}")
+    say(f"outputs in {out.resolve()}")

@@ -20,7 +20,6 @@ import csv
 import io
 import json
 import math
-import os
 import time
 from pathlib import Path
 from typing import Annotated
@@ -30,7 +29,8 @@ import typer
 
 from .._core import PointAtlasError
 from ..segment import region_growing, vsa_segment
-from ._app import console, experiment_app, guarded
+from ._app import console, experiment_app, guarded, say
+from ._outputs import check_outputs, write_text
 
 __all__ = ["COLUMNS", "THESIS_TABLE_4_1", "aggregate_vsa", "vsa_command", "vsa_model"]
 
@@ -71,6 +71,11 @@ def vsa_model(path: str, rng: np.random.Generator) -> dict:
     from ..io import read_point_set
 
     ps = read_point_set(path, zero_normals="drop")
+    if ps.normals is None:
+        raise PointAtlasError(
+            f"{path}: experiment vsa needs normals (mesh faces or PLY nx ny nz); "
+            "the file has none"
+        )
     pts = _unit_cube(np.asarray(ps.points))
     nrm = np.asarray(ps.normals)
     kept = ps.attributes.get("source_index")
@@ -203,10 +208,7 @@ def table_markdown(summary: dict, subset: str = "valid") -> str:
 
 
 def _write(path: Path, text: str) -> Path:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
-    return path
+    return write_text(path, text)
 
 
 def write_vsa_outputs(summary: dict, out: Path) -> list[Path]:
@@ -245,9 +247,10 @@ def write_vsa_outputs(summary: dict, out: Path) -> list[Path]:
     ax.set_ylabel("number of regions")
     ax.set_title(f"Fig. 4.5: region sizes up to {fig45['bound']} over {summary['n_valid']} models")
     ax.legend()
-    tmp = out / ".fig_4_5.png.tmp"
-    fig.savefig(tmp, format="png", dpi=120, bbox_inches="tight")
-    os.replace(tmp, out / "fig_4_5.png")
+    from ..io import atomic_write
+
+    with atomic_write(out / "fig_4_5.png", "wb") as fh:
+        fig.savefig(fh, format="png", dpi=120, bbox_inches="tight")
     written.append(out / "fig_4_5.png")
     return written
 
@@ -256,7 +259,7 @@ def write_vsa_outputs(summary: dict, out: Path) -> list[Path]:
 @guarded
 def vsa_command(
     models: Annotated[Path, typer.Option("--models", help="Folder of meshes.")],
-    out: Annotated[Path, typer.Option("--out", help="Output folder.")] = Path("results/vsa"),
+    out: Annotated[Path, typer.Option("--out", help="Output folder.")] = Path("experiment-vsa"),
     n_workers: Annotated[int, typer.Option("--workers", min=1, help="Dask workers.")] = 2,
     scheduler: Annotated[
         str | None, typer.Option("--scheduler", help="Address of a running dask scheduler.")
@@ -271,8 +274,9 @@ def vsa_command(
     files = list_models(models)
     if not files:
         raise PointAtlasError(f"no model files in {models}")
-    out.mkdir(parents=True, exist_ok=True)
-    console.print(f"{models.name}: {len(files)} models -> {out}")
+    check_outputs([], folders=[("--out", out)])
+    out.mkdir(exist_ok=True)
+    say(f"{models.name}: {len(files)} models -> {out}")
     report = run_batch(
         vsa_model, files, out, scheduler=scheduler, n_workers=n_workers, seed=seed, name="vsa"
     )

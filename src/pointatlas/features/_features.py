@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from .._core import PointAtlasError, readonly
+from .._core import PointAtlasError, as_int, readonly
 from .._core._sort import morton_bits, morton_order
 from ..neighbors import query_knn
 from ._kernels import (
@@ -156,21 +156,22 @@ def _as_points_allow_nan(points) -> np.ndarray:
     return np.ascontiguousarray(arr)
 
 
-def _check_k(k, name: str = "k") -> int:
-    if isinstance(k, bool) or not isinstance(k, int | np.integer):
-        raise TypeError(f"{name} must be an integer; got {type(k).__name__}")
-    if k < 1:
-        raise ValueError(f"{name} must be >= 1; got {k}")
-    return int(k)
+def _check_k(k, n_points: int, name: str = "k") -> int:
+    """The room's rule for k: an integer counting the point itself, 1 <= k <= N."""
+    return as_int(k, name, lo=1, hi=n_points, note="the number of points")
 
 
 def _check_flatness(flatness) -> tuple[int, int]:
     try:
-        m1, m2 = (int(v) for v in flatness)
+        m1, m2 = flatness
     except (TypeError, ValueError):
         raise TypeError(f"flatness must be a pair of even integers; got {flatness!r}") from None
-    if m1 < 0 or m2 < 0 or m1 % 2 or m2 % 2:
-        raise ValueError(f"flatness exponents m1, m2 must be even and >= 0 (Eq. 6.1); got {m1, m2}")
+    m1 = as_int(m1, "flatness[0]", lo=0)
+    m2 = as_int(m2, "flatness[1]", lo=0)
+    if m1 % 2 or m2 % 2:
+        raise PointAtlasError(
+            f"flatness exponents m1, m2 must be even and >= 0 (Eq. 6.1); got {m1, m2}"
+        )
     return m1, m2
 
 
@@ -358,7 +359,9 @@ def eigen_features(eigenvalues, *, flatness=(8, 8)) -> dict[str, np.ndarray]:
     Raises
     ------
     ValueError
-        Wrong shape or odd exponents.
+        Wrong shape, odd or negative exponents.
+    TypeError
+        Non-integer exponents.
 
     Examples
     --------
@@ -397,11 +400,13 @@ def covariance_features(
     points : array_like of shape (N, 3)
         Coordinates; rows with NaN/inf are flagged (reason 1), never fatal.
     k : int
-        Neighbourhood size, the point itself included (thesis 6.2 uses 14).
+        Neighbourhood size, the point itself included (thesis 6.2 uses 14);
+        1 <= k <= N, and at most the number of finite points.
     normals : array_like of shape (N, 3), optional
         Oriented normals; needed only for sigmoid weights (a < pi or b < pi).
     a : float
-        Sigmoid start (radians, Def. 15); with ``b`` = pi, the default, weights are 1.
+        Sigmoid start (radians in [0, pi], Def. 15); with ``b`` = pi, the
+        default, weights are 1.
     b : float
         Sigmoid end (radians, [a, pi]).
     neighbors : array_like of shape (N, >= k), int, optional
@@ -418,9 +423,13 @@ def covariance_features(
     Raises
     ------
     ValueError
-        Bad shapes/parameters; normals missing while a or b < pi.
+        Bad shapes/parameters (k outside [1, N], a or b outside their ranges or
+        NaN, odd or negative flatness exponents); normals missing while a or
+        b < pi.
     PointAtlasError
-        Fewer finite points than k.
+        Fewer finite points than k (a ``ValueError``).
+    TypeError
+        Non-integer k or flatness exponents, non-numeric a or b.
 
     Notes
     -----
@@ -440,10 +449,10 @@ def covariance_features(
     (True, 0)
     """
     pts = _as_points_allow_nan(points)
-    k = _check_k(k)
+    n = pts.shape[0]
+    k = _check_k(k, n)
     a, b = _check_ab(a, b)
     flat = _check_flatness(flatness)
-    n = pts.shape[0]
     idx = _neighbourhoods(pts, k, neighbors, check_range=False)
     weighted = not (a == math.pi and b == math.pi)
     angles = None

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from .._core import PointAtlasError, as_float_array
 from ._features import (
     FEATURE_NAMES,
     FeatureResult,
@@ -47,23 +48,27 @@ def _edim_bounds() -> np.ndarray:
 
 
 def _check_grid(grid, name: str) -> np.ndarray:
-    g = np.asarray(grid, dtype=np.float64).ravel()
-    if g.size == 0:
-        raise ValueError(f"{name} must not be empty")
-    if not np.isfinite(g).all() or g.min() < 0 or g.max() > math.pi + 1e-12:
-        raise ValueError(f"{name} values must lie in [0, pi] radians; got {g.tolist()}")
-    return np.unique(np.minimum(g, math.pi))
+    """A non-empty grid of finite angles in [0, pi] radians, sorted and de-duplicated.
+
+    Values at most 1e-12 above pi (round-off of a degree conversion) count as pi.
+    """
+    arr = np.asarray(grid) if grid is not None else grid
+    if arr is not None and arr.dtype.kind == "f":
+        arr = np.where((arr > math.pi) & (arr <= math.pi + 1e-12), math.pi, arr)
+    g = as_float_array(arr, name, lo=0.0, hi=math.pi, what="angles", unit="radians")
+    return np.unique(g)
 
 
-def _check_k_range(k_range) -> tuple[int, int]:
+def _check_k_range(k_range, n_points: int) -> tuple[int, int]:
+    """An inclusive (k_min, k_max) with 1 <= k_min <= k_max <= N (k counts the point)."""
     try:
         kmin, kmax = k_range
     except (TypeError, ValueError):
         raise TypeError(f"k_range must be a pair (k_min, k_max); got {k_range!r}") from None
-    kmin = _check_k(kmin, "k_range[0]")
-    kmax = _check_k(kmax, "k_range[1]")
+    kmin = _check_k(kmin, n_points, "k_range[0]")
+    kmax = _check_k(kmax, n_points, "k_range[1]")
     if kmin > kmax:
-        raise ValueError(f"k_range must have k_min <= k_max; got {k_range!r}")
+        raise PointAtlasError(f"k_range must have k_min <= k_max; got {k_range!r}")
     return kmin, kmax
 
 
@@ -83,7 +88,10 @@ def angle_pairs(a_grid=THESIS_ANGLE_GRID, b_grid=THESIS_ANGLE_GRID) -> np.ndarra
     Raises
     ------
     ValueError
-        Empty grids, values outside [0, pi] or no pair with a <= b.
+        Empty grids, values that are NaN, infinite or outside [0, pi], grids of
+        more than one dimension, or no pair with a <= b.
+    TypeError
+        Non-numeric or boolean grid values.
 
     Examples
     --------
@@ -94,7 +102,7 @@ def angle_pairs(a_grid=THESIS_ANGLE_GRID, b_grid=THESIS_ANGLE_GRID) -> np.ndarra
     bg = _check_grid(b_grid, "b_grid")
     pairs = np.array([(a, b) for a in ag for b in bg if a <= b], dtype=np.float64)
     if pairs.size == 0:
-        raise ValueError("no (a, b) pair with a <= b in the given grids")
+        raise PointAtlasError("no (a, b) pair with a <= b in the given grids")
     return pairs.reshape(-1, 2)
 
 
@@ -117,9 +125,11 @@ def optimal_neighbourhood(
     normals : array_like of shape (N, 3)
         Oriented normals (the weights of Eq. 5.2 use their angles).
     a_grid, b_grid : sequence of float
-        Sigmoid thresholds in radians (default: {0, pi/6, ..., pi}; 28 pairs a <= b).
+        Sigmoid thresholds in radians, finite, in [0, pi], not empty (default:
+        {0, pi/6, ..., pi}; 28 pairs a <= b).
     k_range : tuple of int
-        Inclusive neighbourhood sizes (default 6..20; the point itself counts).
+        Inclusive neighbourhood sizes (default 6..20; the point itself counts),
+        1 <= k_min <= k_max <= N.
     neighbors : array_like of shape (N, >= k_max), int, optional
         Precomputed neighbour table sorted by distance, itself first.
     flatness : tuple of int
@@ -135,9 +145,12 @@ def optimal_neighbourhood(
     Raises
     ------
     ValueError
-        Bad shapes, grids or range.
+        Bad shapes, grids (empty, NaN, outside [0, pi]) or range (k outside
+        [1, N], k_min > k_max).
     PointAtlasError
-        Fewer finite points than k_max.
+        Fewer finite points than k_max (a ``ValueError``).
+    TypeError
+        Non-integer k, non-numeric grid values.
 
     Notes
     -----
@@ -162,7 +175,7 @@ def optimal_neighbourhood(
     pts = _as_points_allow_nan(points)
     n = pts.shape[0]
     pairs = angle_pairs(a_grid, b_grid)
-    kmin, kmax = _check_k_range(k_range)
+    kmin, kmax = _check_k_range(k_range, n)
     flat = _check_flatness(flatness)
     nrm = _unit_normals_or_nan(normals, n)
     idx = _neighbourhoods(pts, kmax, neighbors)
@@ -184,7 +197,8 @@ def optimal_k_features(
     points : array_like of shape (N, 3)
         Coordinates (non-finite rows are flagged).
     k_range : tuple of int
-        Inclusive range of k (the point itself counts); default 10..50 as pgeof.
+        Inclusive range of k (the point itself counts), 1 <= k_min <= k_max <= N;
+        default 10..50 as pgeof.
     criterion : {"eigenentropy", "e_dim"}
         Minimised quantity: eigenentropy of the normalised eigenvalues ([WJM14]) or
         the dimensionality entropy E_dim of Eq. 5.7 (the thesis' equal-weight
@@ -203,9 +217,11 @@ def optimal_k_features(
     Raises
     ------
     ValueError
-        Unknown criterion, bad range.
+        Unknown criterion, bad range (k outside [1, N], k_min > k_max).
     PointAtlasError
-        Fewer finite points than k_max.
+        Fewer finite points than k_max (a ``ValueError``).
+    TypeError
+        Non-integer k.
 
     Notes
     -----
@@ -222,7 +238,7 @@ def optimal_k_features(
     if criterion not in _CRITERIA:
         raise ValueError(f"criterion must be one of {sorted(_CRITERIA)}; got {criterion!r}")
     pts = _as_points_allow_nan(points)
-    kmin, kmax = _check_k_range(k_range)
+    kmin, kmax = _check_k_range(k_range, pts.shape[0])
     flat = _check_flatness(flatness)
     idx = _neighbourhoods(pts, kmax, neighbors)
     pairs = np.array([[math.pi, math.pi]])
@@ -314,7 +330,7 @@ def decrease_cases(
     Raises
     ------
     ValueError
-        Shapes that do not match ``result``.
+        Shapes that do not match ``result``; bad grids (as `angle_pairs`).
 
     Examples
     --------

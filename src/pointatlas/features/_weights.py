@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .._core import PointAtlasError
+from .._core import PointAtlasError, as_float
 from .._core.tolerances import ANGLE_ZERO
 from ._kernels import angles_kernel, index_range_kernel, unit_normals_kernel
 
@@ -14,15 +14,9 @@ __all__ = ["cosine_sigmoid", "normal_angles", "normal_weights"]
 
 
 def _check_ab(a, b) -> tuple[float, float]:
-    try:
-        a = float(a)
-        b = float(b)
-    except (TypeError, ValueError):
-        raise TypeError(f"a and b must be numbers; got {a!r}, {b!r}") from None
-    if not (0.0 <= a <= math.pi) or not math.isfinite(a):
-        raise ValueError(f"a must lie in [0, pi]; got {a}")
-    if not (a <= b <= math.pi):
-        raise ValueError(f"b must lie in [a, pi] = [{a}, {math.pi}]; got {b}")
+    """Sigmoid thresholds: 0 <= a <= b <= pi (radians), finite."""
+    a = as_float(a, "a", lo=0.0, hi=math.pi, what="angle", unit="radians")
+    b = as_float(b, "b", lo=a, hi=math.pi, what="angle", unit="radians", note="b >= a")
     return a, b
 
 
@@ -47,7 +41,9 @@ def cosine_sigmoid(x, a: float, b: float) -> np.ndarray:
     Raises
     ------
     ValueError
-        ``a`` outside [0, pi] or ``b`` outside [a, pi].
+        ``a`` outside [0, pi] or ``b`` outside [a, pi] (NaN included).
+    TypeError
+        ``a`` or ``b`` not a real number.
 
     Notes
     -----
@@ -164,7 +160,9 @@ def normal_weights(normals, neighbors, a: float, b: float) -> np.ndarray:
     Raises
     ------
     ValueError
-        Bad shapes, indices or thresholds.
+        Bad shapes, indices or thresholds (a outside [0, pi], b outside [a, pi]).
+    TypeError
+        Non-numeric thresholds.
 
     Examples
     --------

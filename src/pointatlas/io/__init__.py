@@ -7,7 +7,6 @@ atomic (:func:`atomic_write`).
 from ._api import (
     MESH_EXTENSIONS,
     POINT_EXTENSIONS,
-    POINT_WRITE_EXTENSIONS,
     as_point_set,
     read_mesh,
     read_point_set,
@@ -15,8 +14,10 @@ from ._api import (
     write_point_set,
 )
 from ._atomic import atomic_write
+from ._attrs import merge_attributes
 from ._errors import PointAtlasIOError
 from ._mesh import Mesh, fan_triangulate, vertex_normals
+from ._plan import POINT_WRITE_EXTENSIONS, check_point_set_writable
 
 __all__ = [
     "MESH_EXTENSIONS",
@@ -26,7 +27,9 @@ __all__ = [
     "PointAtlasIOError",
     "as_point_set",
     "atomic_write",
+    "check_point_set_writable",
     "fan_triangulate",
+    "merge_attributes",
     "read_mesh",
     "read_point_set",
     "vertex_normals",

@@ -3,18 +3,18 @@
 from __future__ import annotations
 
 import os
-import re
 from pathlib import Path
 
 import numpy as np
 
-from .._core import PointAtlasError, PointSet, as_normals, as_points, describe_indices
+from .._core import PointAtlasError, PointSet, as_points, describe_indices
 from .._core.tolerances import NORMAL_ZERO_LENGTH
 from ._atomic import atomic_write
 from ._errors import PointAtlasIOError, describe_exception, fail
 from ._las import read_las, write_las
 from ._mesh import Mesh, _check_faces, _vertex_normals
 from ._obj import read_obj, read_off, write_obj, write_off
+from ._plan import POINT_WRITE_EXTENSIONS, plan_write
 from ._ply import read_ply, write_ply
 from ._raw import RawData, colors_to_uint8
 from ._stl import read_stl, write_stl
@@ -45,10 +45,6 @@ _READERS = {
 POINT_EXTENSIONS = tuple(sorted(_READERS))
 #: Extensions read_mesh and write_mesh understand.
 MESH_EXTENSIONS = (".obj", ".off", ".ply", ".stl")
-#: Extensions write_point_set understands.
-POINT_WRITE_EXTENSIONS = (".las", ".laz", ".ply", ".txt", ".xyz")
-_RESERVED = {"x", "y", "z", "nx", "ny", "nz", "red", "green", "blue", "alpha"}
-_NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
 _ZERO_POLICIES = ("raise", "drop")
 
 
@@ -118,15 +114,30 @@ def read_point_set(path, *, with_normals: bool = True, zero_normals: str = "rais
     -------
     point_set : PointSet
         Points (N, 3) float64, unit normals or None, attributes (other PLY vertex
-        properties with their dtypes, ``colors`` (N, 3|4) uint8, LAS dimensions,
-        extra XYZ columns ``column_<j>``), name = the file stem.
+        properties with their names and dtypes; ``colors`` (N, 3|4) from PLY
+        red/green/blue(/alpha) of one dtype, kept as uint8, uint16, float32 or
+        float64 (other integer types 0..255 become uint8); LAS dimensions with their
+        dtypes and ``colors`` (N, 3) uint16 as stored; extra XYZ columns
+        ``column_<j>``), name = the file stem, and for LAS/LAZ
+        ``meta["las_header"]`` (the ``laspy.LasHeader``), which
+        :func:`write_point_set` keeps when writing LAS/LAZ again.
 
     Raises
     ------
     PointAtlasIOError
         Missing, empty, truncated or malformed file, unknown extension, non-numeric
         values, NaN/Inf coordinates, faces with out-of-range indices, points
-        without normals (``zero_normals="raise"``). The message names the file.
+        without normals (``zero_normals="raise"``), a binary PLY with bytes after
+        its declared elements, a binary STL whose size does not match its
+        triangle count, an XYZ row that is ambiguous (commas and spaces both
+        separating) or has another column count than the first row. The message
+        names the file (and the line for text formats).
+
+    Warns
+    -----
+    UserWarning
+        An ASCII PLY with more records than its header declares (the extra lines
+        are ignored; the warning names the declared counts and the extra lines).
     PointAtlasError
         Invalid ``zero_normals``.
 
@@ -168,11 +179,21 @@ def read_point_set(path, *, with_normals: bool = True, zero_normals: str = "rais
         zero_normals,
         what="" if normals is None else what,
         trusted=True,
+        meta=raw.meta,
     )
 
 
 def _finish(
-    source, points, normals, attributes, name, zero_normals, *, what: str, trusted: bool = False
+    source,
+    points,
+    normals,
+    attributes,
+    name,
+    zero_normals,
+    *,
+    what: str,
+    trusted: bool = False,
+    meta=None,
 ) -> PointSet:
     """Apply the zero-normal policy and build the PointSet (errors name ``source``).
 
@@ -205,9 +226,9 @@ def _finish(
     if trusted:
         attrs = {k: v if v.flags.owndata else v.copy() for k, v in attributes.items()}
         points = np.ascontiguousarray(points, dtype=np.float64)
-        return PointSet._from_validated(points, normals, attrs, name=name)
+        return PointSet._from_validated(points, normals, attrs, name=name, meta=meta)
     try:
-        return PointSet(points, normals, attributes, name=name)
+        return PointSet(points, normals, attributes, name=name, meta=meta or {})
     except ValueError as exc:
         raise fail(source, str(exc)) from None
 
@@ -265,65 +286,6 @@ def read_mesh(path) -> Mesh:
 # --------------------------------------------------------------------------- writing
 
 
-def _ply_column(name: str, values: np.ndarray, path) -> np.ndarray:
-    """Convert one attribute column to a PLY-storable dtype (see io-decisions)."""
-    kind, size = values.dtype.kind, values.dtype.itemsize
-    if kind == "b":
-        return values.astype(np.uint8)
-    if kind == "f":
-        return values.astype(np.float32 if size <= 4 else np.float64)
-    if kind in "iu" and size <= 4:
-        return values
-    if kind in "iu":
-        target = np.int32 if kind == "i" else np.uint32
-        info = np.iinfo(target)
-        if values.size == 0 or (values.min() >= info.min and values.max() <= info.max):
-            return values.astype(target)
-        if np.abs(values.astype(np.float64)).max() <= 2.0**53:
-            return values.astype(np.float64)
-    raise fail(path, f"attribute {name!r} of dtype {values.dtype} cannot be stored in PLY")
-
-
-def _gather(data, normals, attributes, colors) -> tuple[np.ndarray, np.ndarray | None, dict]:
-    """Collect validated points, normals, attributes (colours under 'colors')."""
-    if isinstance(data, PointSet):
-        points = data.points
-        base_normals = data.normals
-        attrs = dict(data.attributes)
-    else:
-        try:
-            points = as_points(data, name="data", min_points=0)
-        except (TypeError, ValueError) as exc:
-            raise PointAtlasError(str(exc)) from None
-        base_normals, attrs = None, {}
-    n = points.shape[0]
-    try:
-        nrm = as_normals(normals, n) if normals is not None else base_normals
-    except (TypeError, ValueError) as exc:
-        raise PointAtlasError(str(exc)) from None
-    for key, value in dict(attributes or {}).items():
-        attrs[str(key)] = np.asarray(value)
-    if colors is not None:
-        attrs["colors"] = np.asarray(colors)
-    for key, value in attrs.items():
-        if value.ndim not in (1, 2) or value.shape[0] != n:
-            raise PointAtlasError(
-                f"attribute {key!r} must have shape (N,) or (N, k) with N = {n}; got {value.shape}"
-            )
-        if value.dtype.kind not in "biuf":
-            raise PointAtlasError(f"attribute {key!r} must be numeric; got dtype {value.dtype}")
-    if "colors" in attrs:
-        value = attrs["colors"]
-        converted = colors_to_uint8(value) if value.ndim == 2 else None
-        if converted is None or converted.shape[1] not in (3, 4):
-            raise PointAtlasError(
-                "colors must have shape (N, 3) or (N, 4), uint8 0..255 or floats in [0, 1]; "
-                f"got shape {value.shape}, dtype {value.dtype}"
-            )
-        attrs["colors"] = converted
-    return points, nrm, attrs
-
-
 def write_point_set(
     path, data, *, normals=None, attributes=None, colors=None, binary: bool = True
 ) -> Path:
@@ -340,8 +302,8 @@ def write_point_set(
     attributes : mapping of str to array_like of shape (N,) or (N, k), optional
         Extra per-point fields (added to, or replacing, those of ``data``).
     colors : array_like of shape (N, 3) or (N, 4), optional
-        RGB(A) as uint8 0..255 or floats in [0, 1]; also taken from the attribute
-        ``colors``.
+        RGB(A) as uint8 0..255, uint16 0..65535 or floats in [0, 1]; also taken
+        from the attribute ``colors`` (see Notes).
     binary : bool
         PLY only: binary little-endian (default) or ASCII.
 
@@ -353,20 +315,45 @@ def write_point_set(
     Raises
     ------
     PointAtlasIOError
-        Unsupported extension, an attribute that the format cannot store, or the
-        write failed (the previous file, if any, is left untouched).
+        Unsupported extension, an attribute name or dtype the format cannot store,
+        two fields with the same name in the file, values that do not fit a LAS
+        dimension, or the write failed (the previous file, if any, is left
+        untouched). :func:`check_point_set_writable` raises the same errors
+        without writing.
     PointAtlasError
         Invalid points, normals, attributes or colours.
 
     Notes
     -----
-    PLY: x, y, z and nx, ny, nz as double; colours as uchar red/green/blue(/alpha);
-    1-D attributes as vertex properties of their own type (bool -> uchar, float16
-    -> float, int64/uint64 -> int/uint when the values fit, else double when exact);
-    an (N, k) attribute becomes ``name_0`` ... ``name_{k-1}``. XYZ/TXT stores only
-    coordinates and normals. LAS/LAZ: LAS 1.4 point format 6/7, coordinates scaled
-    to the finest power of ten that fits int32 (round-trip error at most 2.5e-9 of the
-    extent), attributes that are not standard dimensions and the normals as extra
+    Colours: the ``colors=`` argument is converted (uint8 and uint16 kept, other
+    integers 0..255 -> uint8, floats in [0, 1] -> uint8); a
+    ``colors`` attribute (of ``data`` or in ``attributes``, e.g. as read) is written
+    as stored when uint8, uint16, float32 or float64.
+
+    PLY: x, y, z and nx, ny, nz as double; colours as red/green/blue(/alpha) of
+    their dtype (uchar, ushort, float, double); 1-D attributes as vertex properties
+    of their own name and type (bool -> uchar, float16 -> float, int64/uint64 ->
+    int/uint when the values fit, else double when exact); an (N, k) attribute
+    becomes ``name_0`` ... ``name_{k-1}``. Any name PLY allows (ASCII, no
+    whitespace, e.g. ``scalar_Intensity(1)``) is written unchanged; a name may not
+    repeat x/y/z, the normals' nx/ny/nz (when normals are written), the colour
+    channels (when colours are written) or another column. XYZ/TXT stores only
+    coordinates and normals.
+
+    LAS/LAZ from a point set read from LAS/LAZ (``meta["las_header"]``): the
+    input's header is kept (version, point format, scales, offsets, VLRs, EVLRs,
+    extra-bytes dimensions); every attribute named like one of its dimensions fills
+    it (values must fit the dimension's type; colours go back to RGB as uint16), so
+    an untouched point set is written back bit for bit, X/Y/Z included. Moved
+    coordinates are re-quantised with the input's scale and offset; an axis that no
+    longer fits int32 gets a new offset (its minimum) and, if still needed, the
+    finest power-of-ten scale that fits (the only header change). New fields, the
+    normals (unless the file had nx/ny/nz) and colours for a format without RGB
+    become extra bytes (a fourth colour channel becomes extra bytes ``alpha``).
+    Other point sets: LAS 1.4 point format 6 (7 with colours), coordinates scaled
+    to the finest power of ten that fits int32 (round-trip error at most 2.5e-9 of
+    the extent), colours as 16 bits (uint8 x 257, floats in [0, 1] x 65535),
+    attributes that are not standard dimensions and the normals as extra
     bytes. Writes go through :func:`atomic_write`.
 
     Examples
@@ -378,52 +365,19 @@ def write_point_set(
     >>> ps.points[1].tolist(), ps.attributes["label"].tolist()
     ([1.0, 2.0, 3.0], [4, 5])
     """
-    p = Path(os.fspath(path))
-    ext = p.suffix.lower()
-    if ext not in POINT_WRITE_EXTENSIONS:
-        raise fail(
-            p, f"cannot write point sets as {ext or '(none)'!r}; use {POINT_WRITE_EXTENSIONS}"
-        )
-    points, nrm, attrs = _gather(data, normals, attributes, colors)
-    cols = attrs.pop("colors", None)
-    for key in attrs:
-        if ext == ".ply" and (key in _RESERVED or not _NAME_RE.match(key)):
-            raise PointAtlasError(
-                f"attribute name {key!r} cannot be a PLY property (reserved or not an identifier)"
-            )
+    plan = plan_write(path, data, normals, attributes, colors)
+    p, ext = plan.path, plan.ext
     if ext == ".ply":
-        columns = [(k, points[:, c]) for c, k in enumerate("xyz")]
-        if nrm is not None:
-            columns += [(k, nrm[:, c]) for c, k in enumerate(("nx", "ny", "nz"))]
-        for key, value in attrs.items():
-            if value.ndim == 1:
-                columns.append((key, _ply_column(key, value, p)))
-            else:
-                columns += [
-                    (f"{key}_{j}", _ply_column(key, value[:, j], p)) for j in range(value.shape[1])
-                ]
-        if cols is not None:
-            columns += [
-                (k, cols[:, c])
-                for c, k in enumerate(("red", "green", "blue", "alpha")[: cols.shape[1]])
-            ]
+        columns = plan.ply_columns
         _write_guarded(
             p,
             "wb",
             lambda fh: write_ply(fh, columns, binary=binary, comments=("written by pointatlas",)),
         )
     elif ext in (".xyz", ".txt"):
-        _write_guarded(p, "w", lambda fh: write_xyz(fh, points, nrm))
+        _write_guarded(p, "w", lambda fh: write_xyz(fh, plan.points, plan.normals))
     else:
-        flat_attrs = {}
-        for key, value in attrs.items():
-            if value.ndim == 1:
-                flat_attrs[key] = value
-            else:
-                flat_attrs.update({f"{key}_{j}": value[:, j] for j in range(value.shape[1])})
-        _write_guarded(
-            p, "wb", lambda fh: write_las(fh, points, nrm, flat_attrs, cols, laz=ext == ".laz")
-        )
+        _write_guarded(p, "wb", lambda fh: write_las(fh, plan.las, laz=ext == ".laz"))
     return p
 
 

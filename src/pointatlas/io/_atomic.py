@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import tempfile
 from pathlib import Path
 
-__all__ = ["atomic_write"]
+from .._core._interrupt import interrupt_requested
+
+__all__ = ["atomic_write", "remove_stale_temp_files", "temp_prefix"]
 
 
 def _current_umask() -> int:
@@ -55,6 +58,12 @@ def atomic_write(path, mode: str = "wb", *, encoding: str | None = None, newline
 
     Notes
     -----
+    The temporary file is named ``.<name>.pa<pid>.<random>.tmp``; a writer killed
+    before the rename (SIGKILL, power loss) leaves it behind, and
+    :func:`remove_stale_temp_files` removes such files once their process is gone.
+    Once the user asked to stop (``pointatlas._core._interrupt``), the block raises
+    ``KeyboardInterrupt`` instead of replacing ``path``.
+
     The new file gets the permissions of the file it replaces, or ``0o666`` minus
     the process umask for a new file (as :func:`open` would give it).
 
@@ -71,7 +80,9 @@ def atomic_write(path, mode: str = "wb", *, encoding: str | None = None, newline
         raise ValueError(f"mode must be 'wb' or 'w'; got {mode!r}")
     target = Path(os.fspath(path))
     folder = target.parent if str(target.parent) else Path(".")
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    if interrupt_requested():
+        raise KeyboardInterrupt
+    fd, tmp_name = tempfile.mkstemp(prefix=temp_prefix(target), suffix=".tmp", dir=folder)
     try:
         try:
             perm = target.stat().st_mode & 0o7777
@@ -86,6 +97,8 @@ def atomic_write(path, mode: str = "wb", *, encoding: str | None = None, newline
             fh.flush()
             os.fsync(fh.fileno())
         os.chmod(tmp_name, perm)
+        if interrupt_requested():  # the user asked to stop: keep the previous file
+            raise KeyboardInterrupt
         os.replace(tmp_name, target)
     except BaseException:
         with contextlib.suppress(OSError):
@@ -104,3 +117,66 @@ def _fsync_folder(folder: Path) -> None:
             os.fsync(dir_fd)
         finally:
             os.close(dir_fd)
+
+
+def temp_prefix(path) -> str:
+    """Prefix of :func:`atomic_write`'s temporary files for ``path`` (name and pid)."""
+    return f".{Path(os.fspath(path)).name}.pa{os.getpid()}."
+
+
+def _process_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def remove_stale_temp_files(path) -> list[Path]:
+    """Remove the temporary files that killed writers of ``path`` left behind.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An output file (need not exist). Its folder is searched for
+        ``.<name>.pa<pid>.<random>.tmp`` files whose process no longer runs, and for
+        ``.<name>.<8 characters>.tmp`` files of versions that did not record the pid.
+
+    Returns
+    -------
+    removed : list of pathlib.Path
+        The files removed (files that cannot be removed are left alone).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (folder / ".out.ply.pa999999999.abcd1234.tmp").write_text("partial")
+    >>> [p.name for p in remove_stale_temp_files(folder / "out.ply")]
+    ['.out.ply.pa999999999.abcd1234.tmp']
+    """
+    target = Path(os.fspath(path))
+    folder = target.parent if str(target.parent) else Path(".")
+    pattern = re.compile(
+        r"^\." + re.escape(target.name) + r"\.(?:pa(?P<pid>\d+)\.[A-Za-z0-9_]+|[a-z0-9_]{8})\.tmp$"
+    )
+    removed = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        match = pattern.match(entry.name)
+        if match is None or not entry.is_file(follow_symlinks=False):
+            continue
+        pid = match.group("pid")
+        if pid is not None and _process_alive(int(pid)):
+            continue
+        with contextlib.suppress(OSError):
+            os.unlink(entry.path)
+            removed.append(Path(entry.path))
+    return removed

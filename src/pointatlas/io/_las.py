@@ -1,23 +1,40 @@
-"""LAS/LAZ via laspy (LAZ through the lazrs backend) (private)."""
+"""LAS/LAZ via laspy (LAZ through the lazrs backend) (private).
+
+Reading keeps every dimension and the header (``meta["las_header"]``); writing a
+point set that came from LAS keeps that header and its dimensions (see
+:func:`plan_las`).
+"""
 
 from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ._errors import describe_exception, fail
 from ._raw import RawData
 
-__all__ = ["read_las", "write_las"]
+__all__ = ["LasPlan", "plan_las", "read_las", "write_las"]
 
-_SKIP = {"X", "Y", "Z", "red", "green", "blue"}
+_RGB = ("red", "green", "blue")
 _NORMALS = ("nx", "ny", "nz")
+_SKIP = {"X", "Y", "Z", *_RGB}
+#: Names laspy cannot take for extra bytes (coordinates, either case).
+_COORDS = {"x", "y", "z", "X", "Y", "Z"}
+#: dtypes extra bytes can hold (LAS 1.4 R15 table 24), and conversions into them.
+_EXTRA_KINDS = {"u1", "i1", "u2", "i2", "u4", "i4", "u8", "i8", "f4", "f8"}
+_INT32 = np.iinfo(np.int32)
+_MAX_EXTRA_NAME = 32
 
 
 def read_las(path) -> RawData:
-    """Read scaled x, y, z (float64) and every other dimension as an attribute (private).
+    """Read scaled x, y, z (float64), every other dimension and the header (private).
 
-    RGB becomes the ``colors`` attribute (uint8; 16-bit values are shifted down by 8
-    bits when any exceeds 255). Extra-byte dimensions ``nx, ny, nz`` become normals.
+    RGB becomes the ``colors`` attribute, (N, 3) uint16 exactly as stored.
+    Extra-byte dimensions ``nx, ny, nz`` become normals. ``meta["las_header"]`` is
+    a deep copy of the ``laspy.LasHeader`` (version, point format, scales,
+    offsets, VLRs, EVLRs, extra-bytes definitions).
     """
     import laspy
 
@@ -33,14 +50,14 @@ def read_las(path) -> RawData:
         normals = None
         if all(k in names for k in _NORMALS):
             normals = np.column_stack([np.asarray(las[k], dtype=np.float64) for k in _NORMALS])
-        if all(k in names for k in ("red", "green", "blue")):
-            rgb = np.column_stack([np.asarray(las[k]) for k in ("red", "green", "blue")])
-            if rgb.size and rgb.max() > 255:
-                rgb = rgb >> 8
-            attributes["colors"] = rgb.astype(np.uint8)
+        if all(k in names for k in _RGB):
+            attributes["colors"] = np.column_stack([np.asarray(las[k]) for k in _RGB])
+        else:
+            attributes.update({k: np.array(las[k]) for k in _RGB if k in names})
+        meta = {"las_header": copy.deepcopy(las.header)}
     except Exception as exc:  # laspy/lazrs raise many types on corrupt input
         raise fail(path, f"cannot read LAS/LAZ ({describe_exception(exc)})") from None
-    return RawData(points=points, normals=normals, attributes=attributes)
+    return RawData(points=points, normals=normals, attributes=attributes, meta=meta)
 
 
 def _scale_for(values: np.ndarray) -> tuple[float, float]:
@@ -53,34 +70,189 @@ def _scale_for(values: np.ndarray) -> tuple[float, float]:
     return lo, max(float(scale), 1e-12)
 
 
-def write_las(path_or_fh, points, normals, attributes, colors, *, laz: bool) -> None:
-    """Write LAS 1.4, point format 6 (7 with colours); attributes as extra bytes (private)."""
+def _quantise(values: np.ndarray, offset: float, scale: float) -> np.ndarray | None:
+    """laspy's rounding ``round((v - offset) / scale)`` as int32, or None if outside int32."""
+    q = np.round((values - offset) / scale)
+    if q.size and (q.min() < _INT32.min or q.max() > _INT32.max):
+        return None
+    return q.astype(np.int32)
+
+
+@dataclass
+class LasPlan:
+    """Everything a LAS/LAZ write needs, validated (private; see :func:`plan_las`)."""
+
+    header: object
+    xyz: list[np.ndarray]
+    assign: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def plan_las(path, points, normals, attributes, colors, header=None) -> LasPlan:
+    """Validate a LAS/LAZ write and build its header (private; nothing is written).
+
+    With ``header`` (a ``laspy.LasHeader`` read from a file): a deep copy keeps its
+    version, point format, scales, offsets, VLRs and extra-bytes dimensions; an
+    attribute named like one of its dimensions fills that dimension (its values must
+    fit the dimension's type exactly); coordinates are quantised with its scales and
+    offsets (bit for bit the stored integers when the points did not move), or,
+    for an axis that no longer fits int32, with a new offset (the minimum) and,
+    if needed, a new power-of-ten scale as for a fresh file. Without ``header``:
+    LAS 1.4, point format 6 (7 with colours), offsets the minima, scales the finest
+    power of ten keeping int32. Colours go to the RGB dimensions as 16 bits (uint8 x
+    257, uint16 as is, floats in [0, 1] x 65535 rounded) or, for a format without
+    RGB, to extra bytes red/green/blue (uint16); a fourth channel to extra bytes
+    ``alpha``. Normals and every attribute that is no dimension become extra bytes.
+    """
     import laspy
 
-    header = laspy.LasHeader(point_format=7 if colors is not None else 6, version="1.4")
-    offsets, scales = zip(*(_scale_for(points[:, c]) for c in range(3)), strict=True)
-    header.offsets = np.array(offsets)
-    header.scales = np.array(scales)
-    standard = set(header.point_format.dimension_names)
-    extra = {}
-    for name, value in attributes.items():
-        if name in standard and value.ndim == 1:
-            continue
-        extra[name] = value
-    if normals is not None:
-        extra.update({k: normals[:, c] for c, k in enumerate(_NORMALS)})
-    for name, value in extra.items():
-        if value.ndim != 1:
-            raise fail(path_or_fh, f"LAS attribute {name!r} must be one value per point")
-        header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=value.dtype))
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = points[:, 0], points[:, 1], points[:, 2]
-    for name, value in attributes.items():
-        if name in standard and value.ndim == 1:
-            las[name] = value
-    for name, value in extra.items():
-        las[name] = value
+    if header is None:
+        header = laspy.LasHeader(point_format=7 if colors is not None else 6, version="1.4")
+        scales_offsets = [_scale_for(points[:, c])[::-1] for c in range(3)]
+        header.scales = np.array([s for s, _ in scales_offsets])
+        header.offsets = np.array([o for _, o in scales_offsets])
+    else:
+        header = copy.deepcopy(header)
+    xyz = _plan_xyz(header, points)
+    dims = {d.name: d for d in header.point_format.dimensions}
+    assign: dict[str, np.ndarray] = {}
+    new_extra: dict[str, np.ndarray] = {}
+    origin: dict[str, str] = {}
+
+    def put(name: str, value: np.ndarray, what: str, *, exact: bool = True) -> None:
+        if name in _COORDS:
+            raise fail(
+                path, f"{what} cannot be stored in LAS: {name!r} is reserved for the coordinates"
+            )
+        if name in origin:
+            raise fail(
+                path, f"LAS dimension {name!r} would be written twice ({origin[name]} and {what})"
+            )
+        origin[name] = what
+        if name in dims:
+            assign[name] = _fit_dimension(path, dims[name], value, what, exact=exact)
+        else:
+            new_extra[name] = _extra_column(path, name, value, what)
+
     if colors is not None:
-        for c, k in enumerate(("red", "green", "blue")):
-            las[k] = colors[:, c].astype(np.uint16) * 257
+        rgb = _colors_16(path, colors[:, :3])
+        for c, k in enumerate(_RGB):
+            put(k, rgb[:, c], "colors")
+        if colors.shape[1] == 4:
+            put("alpha", colors[:, 3], "colors (alpha)")
+    if normals is not None:
+        for c, k in enumerate(_NORMALS):
+            put(k, normals[:, c], "normals", exact=False)
+    for name, value in attributes.items():
+        dim = dims.get(name)
+        if value.ndim == 1 or (dim is not None and dim.num_elements == value.shape[1]):
+            put(name, value, f"attribute {name!r}")
+        else:
+            for j in range(value.shape[1]):
+                put(f"{name}_{j}", value[:, j], f"attribute {name!r} (column {j})")
+    if new_extra:
+        header.add_extra_dims(
+            [laspy.ExtraBytesParams(name=k, type=v.dtype) for k, v in new_extra.items()]
+        )
+        assign.update(new_extra)
+    return LasPlan(header=header, xyz=xyz, assign=assign)
+
+
+def _plan_xyz(header, points: np.ndarray) -> list[np.ndarray]:
+    """Quantise each axis with the header's scale/offset, re-choosing them when needed."""
+    scales, offsets = np.array(header.scales, float), np.array(header.offsets, float)
+    out = []
+    for c in range(3):
+        q = _quantise(points[:, c], offsets[c], scales[c])
+        if q is None:  # moved out of int32: offset at the minimum, then a coarser scale
+            offsets[c] = float(points[:, c].min())
+            q = _quantise(points[:, c], offsets[c], scales[c])
+        if q is None:
+            offsets[c], scales[c] = _scale_for(points[:, c])
+            q = _quantise(points[:, c], offsets[c], scales[c])
+        out.append(q)
+    header.scales, header.offsets = scales, offsets
+    return out
+
+
+def _colors_16(path, rgb: np.ndarray) -> np.ndarray:
+    """RGB as LAS's uint16: uint8 x 257, uint16 as is, floats in [0, 1] x 65535."""
+    if rgb.dtype == np.uint16:
+        return rgb
+    if rgb.dtype == np.uint8:
+        return rgb.astype(np.uint16) * np.uint16(257)
+    if rgb.size and not (np.isfinite(rgb).all() and rgb.min() >= 0 and rgb.max() <= 1):
+        raise fail(
+            path,
+            f"LAS stores colours as 16-bit integers; float colors must lie in [0, 1], got "
+            f"[{np.nanmin(rgb):.6g}, {np.nanmax(rgb):.6g}]",
+        )
+    return np.rint(rgb.astype(np.float64) * 65535.0).astype(np.uint16)
+
+
+def _fit_dimension(path, dim, value: np.ndarray, what: str, *, exact: bool) -> np.ndarray:
+    """Check that ``value`` fits the dimension ``dim`` without loss; return it cast."""
+    if dim.scales is not None or dim.offsets is not None:
+        return value.astype(np.float64)  # scaled extra bytes: laspy quantises
+    is_bits = dim.kind.name == "BitField"
+    if is_bits:
+        target = np.dtype(np.uint8)
+    else:
+        target = np.dtype(dim.dtype.base if dim.dtype.subdtype else dim.dtype)
+    if is_bits:
+        lo, hi = 0, (1 << dim.num_bits) - 1
+    elif target.kind in "iu":
+        info = np.iinfo(target)
+        lo, hi = info.min, info.max
+    else:
+        lo = hi = None
+    if value.dtype.kind == "b":
+        value = value.astype(np.uint8)
+    cast = value.astype(target)
+    if not exact:
+        return cast
+    if lo is not None:
+        ok = value.dtype.kind in "iu" or (
+            np.isfinite(value).all() and np.array_equal(value, np.round(value))
+        )
+        ok = ok and (value.size == 0 or (value.min() >= lo and value.max() <= hi))
+    else:
+        ok = np.array_equal(cast.astype(value.dtype), value, equal_nan=True)
+    if not ok:
+        bits = f", {dim.num_bits} bits" if is_bits else ""
+        raise fail(
+            path,
+            f"{what} ({value.dtype}) does not fit the LAS dimension {dim.name!r} "
+            f"({target}{bits}) without loss",
+        )
+    return cast
+
+
+def _extra_column(path, name: str, value: np.ndarray, what: str) -> np.ndarray:
+    """A new extra-bytes column: bool -> uint8, float16 -> float32; checks the name."""
+    if not name.isascii() or not name or len(name) > _MAX_EXTRA_NAME:
+        raise fail(
+            path,
+            f"{what} cannot be a LAS extra-bytes name: {name!r} must be 1 to "
+            f"{_MAX_EXTRA_NAME} ASCII characters",
+        )
+    if value.dtype.kind == "b":
+        value = value.astype(np.uint8)
+    elif value.dtype == np.float16:
+        value = value.astype(np.float32)
+    code = value.dtype.newbyteorder("=").str[1:]
+    if code not in _EXTRA_KINDS:
+        raise fail(path, f"{what} of dtype {value.dtype} cannot be stored as LAS extra bytes")
+    return value.astype(value.dtype.newbyteorder("<"))
+
+
+def write_las(path_or_fh, plan: LasPlan, *, laz: bool) -> None:
+    """Write a planned point set (private; see :func:`plan_las`)."""
+    import laspy
+
+    header = plan.header
+    n = plan.xyz[0].shape[0]
+    las = laspy.LasData(header, points=laspy.ScaleAwarePointRecord.zeros(n, header=header))
+    las.X, las.Y, las.Z = plan.xyz
+    for name, value in plan.assign.items():
+        las[name] = value
     las.write(path_or_fh, do_compress=laz)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import mmap
+import warnings
 
 import numpy as np
 from numpy.lib import recfunctions as rfn
@@ -29,6 +30,8 @@ _PLY_NAMES = {
 _NORMAL_NAMES = (("nx", "ny", "nz"), ("normal_x", "normal_y", "normal_z"))
 _COLOR_NAMES = ("red", "green", "blue", "alpha")
 _FACE_LIST_NAMES = ("vertex_indices", "vertex_index")
+#: Colour channel types read into ``colors`` as they are.
+_KEPT_COLOR_DTYPES = tuple(np.dtype(t) for t in ("u1", "u2", "f4", "f8"))
 #: Longest run of records read at once when list lengths repeat (binary lists).
 _MAX_RUN = 1 << 20
 
@@ -65,6 +68,9 @@ def read_ply(path) -> RawData:
         cols = reader.element(elt)
         if elt.name in ("vertex", face_name):
             columns[elt.name] = cols
+    for elt in header.elements[last + 1 :]:
+        reader.skip(elt)
+    reader.finish(header.elements)
     raw = _vertex_raw(path, columns["vertex"])
     if face_name is not None:
         _face_raw(path, header[face_name], columns[face_name], raw)
@@ -107,19 +113,42 @@ def _vertex_raw(path, table) -> RawData:
             break
     cols = {k: table[k] for k in names if k not in used}
     attributes = {}
-    channels = [k for k in _COLOR_NAMES if k in cols and not isinstance(cols[k], tuple)]
-    if channels[:3] == ["red", "green", "blue"]:
-        stacked = np.stack([cols[k] for k in channels], axis=1)
-        colors = colors_to_uint8(stacked)
-        if colors is not None:
-            attributes["colors"] = colors
-            for k in channels:
-                del cols[k]
+    colors, used = _vertex_colors(cols)
+    if colors is not None:
+        attributes["colors"] = colors
+        for k in used:
+            del cols[k]
     for name, value in cols.items():
         if isinstance(value, tuple):  # list properties of vertices are not kept
             continue
         attributes[name] = np.array(value, dtype=value.dtype.newbyteorder("="), copy=True)
     return RawData(points=points, normals=normals, attributes=attributes)
+
+
+def _vertex_colors(cols) -> tuple[np.ndarray | None, list[str]]:
+    """``colors`` from scalar red/green/blue(/alpha) of one dtype, and the names used.
+
+    uint8, uint16, float32 and float64 channels are kept as they are (so they are
+    written back with the same type); other integer types become uint8 when their
+    values lie in 0..255. Channels of different types, or out of range, stay
+    separate attributes. alpha joins only when it has the colours' dtype.
+    """
+    scalar = {k: cols[k] for k in _COLOR_NAMES if k in cols and not isinstance(cols[k], tuple)}
+    if not all(k in scalar for k in _COLOR_NAMES[:3]):
+        return None, []
+    dtypes = {k: np.dtype(v.dtype).newbyteorder("=") for k, v in scalar.items()}
+    dt = dtypes["red"]
+    if dtypes["green"] != dt or dtypes["blue"] != dt:
+        return None, []
+    used = [k for k in _COLOR_NAMES if k in scalar and dtypes[k] == dt]
+    stacked = np.stack([scalar[k] for k in used], axis=1).astype(dt)
+    if dt in _KEPT_COLOR_DTYPES:
+        return stacked, used
+    if dt.kind in "iu":
+        converted = colors_to_uint8(stacked)
+        if converted is not None:
+            return converted, used
+    return None, []
 
 
 def _face_raw(path, elt, cols, raw: RawData) -> None:
@@ -179,6 +208,25 @@ class _BinaryBody:
             self.pos += dtype.itemsize * elt.count
             return arr
         return self._list_element(elt, specs)
+
+    def skip(self, elt) -> None:
+        """Step over an element that is not kept (its records must still be there)."""
+        self.element(elt)
+
+    def finish(self, elements) -> None:
+        """Refuse bytes after the declared elements (a header count that is too small).
+
+        Up to two trailing line-break bytes (written by some exporters) are allowed.
+        """
+        extra = len(self.buf) - self.pos
+        if extra == 0 or (extra <= 2 and bytes(self.buf[self.pos :]).strip(b"\r\n") == b""):
+            return
+        raise fail(
+            self.path,
+            f"binary PLY has {extra} bytes after the declared elements "
+            f"({_describe_counts(elements)}); the header declares fewer records than "
+            f"the file holds",
+        )
 
     def _list_element(self, elt, specs) -> dict:
         buf, end = self.buf, len(self.buf)
@@ -250,8 +298,7 @@ class _AsciiBody:
         self.lines = [line for line in text.splitlines() if line.strip()]
         self.pos = 0
 
-    def element(self, elt) -> dict:
-        specs = _element_specs(elt, "=")
+    def _take(self, elt) -> list[str]:
         rows = self.lines[self.pos : self.pos + elt.count]
         if len(rows) < elt.count:
             raise fail(
@@ -260,6 +307,26 @@ class _AsciiBody:
                 f"the file has {len(rows)} more lines",
             )
         self.pos += elt.count
+        return rows
+
+    def skip(self, elt) -> None:
+        """Step over an element that is not kept (one line per record)."""
+        self._take(elt)
+
+    def finish(self, elements) -> None:
+        """Warn about non-empty lines after the declared elements (they are ignored)."""
+        extra = len(self.lines) - self.pos
+        if extra > 0:
+            warnings.warn(
+                f"{self.path}: ASCII PLY has {extra} non-empty lines after the declared "
+                f"elements ({_describe_counts(elements)}); they are ignored",
+                UserWarning,
+                stacklevel=5,  # finish < read_ply < _load < read_point_set/read_mesh < caller
+            )
+
+    def element(self, elt) -> dict:
+        specs = _element_specs(elt, "=")
+        rows = self._take(elt)
         if all(s[1] is None for s in specs):
             return self._scalar_element(elt, specs, rows)
         return self._list_element(elt, specs, rows)
@@ -332,6 +399,11 @@ class _AsciiBody:
                 flat = self._cast(elt, name, self._numbers(elt, lists[name][0]), val)
                 out[name] = (flat, np.array(lists[name][1], dtype=np.int64))
         return out
+
+
+def _describe_counts(elements) -> str:
+    """``"vertex: 50 declared, face: 10 declared"`` for an error message."""
+    return ", ".join(f"{e.name}: {e.count} declared" for e in elements)
 
 
 def _is_number(token: str) -> bool:

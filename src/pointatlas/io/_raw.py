@@ -14,7 +14,8 @@ class RawData:
     """Arrays as read from a file, not yet validated.
 
     ``points`` is (N, 3) float64; ``faces``/``face_offsets`` are the compressed-row
-    polygon layout of :class:`Mesh` (None for point formats).
+    polygon layout of :class:`Mesh` (None for point formats); ``meta`` holds format
+    details for a later write (PointSet.meta).
     """
 
     points: np.ndarray
@@ -23,6 +24,7 @@ class RawData:
     faces: np.ndarray | None = None
     face_offsets: np.ndarray | None = None
     face_colors: np.ndarray | None = None
+    meta: dict[str, object] = field(default_factory=dict)
 
     @property
     def has_faces(self) -> bool:

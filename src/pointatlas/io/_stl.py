@@ -13,29 +13,40 @@ __all__ = ["read_stl", "write_stl"]
 
 _STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
 _VERTEX_RE = re.compile(rb"vertex\s+(\S+)\s+(\S+)\s+(\S+)")
+#: Control bytes that never occur in ASCII STL text (NUL, DEL, C0 except tab/CR/LF/FF/VT).
+_BINARY_BYTES = re.compile(rb"[\x00-\x08\x0e-\x1f\x7f]")
 
 
 def read_stl(path) -> RawData:
     """Read an STL triangle soup and merge bit-identical corners into vertices (private).
 
-    Vertices are numbered in order of first appearance; the stored facet normals are
-    ignored (normals are recomputed from the triangles).
+    Binary or ASCII is decided by size, as trimesh and numpy-stl do: a file of
+    exactly 84 + 50 n bytes, n being the count at byte 80, is binary even when its
+    80-byte header starts with ``solid`` (common in CAD exports). Any other file
+    must be ASCII text (``solid`` ... ``endsolid``); a file that is neither is an
+    error naming the expected and the actual size. Vertices are numbered in order
+    of first appearance; the stored facet normals are ignored (normals are
+    recomputed from the triangles).
     """
     with open(path, "rb") as fh:
         data = fh.read()
+    n_tri = None
     if len(data) >= 84:
         n_tri = int(np.frombuffer(data, dtype="<u4", count=1, offset=80)[0])
         if len(data) == 84 + 50 * n_tri:
             recs = np.frombuffer(data, dtype=_STL_RECORD, count=n_tri, offset=84)
             return _merge(recs["corners"].reshape(-1, 3).astype(np.float64))
-    if not data.lstrip()[:5].lower() == b"solid":
-        if len(data) >= 84:
+    if data.lstrip()[:5].lower() != b"solid" or _BINARY_BYTES.search(data):
+        if n_tri is not None:
             raise fail(
                 path,
-                f"not an STL file: binary header declares {n_tri} triangles "
-                f"({84 + 50 * n_tri} bytes) but the file has {len(data)} bytes",
+                f"truncated binary STL or not an STL file: the binary header declares "
+                f"{n_tri} triangles, so {84 + 50 * n_tri} bytes are expected, but the "
+                f"file has {len(data)} bytes (and it is not ASCII STL text)",
             )
         raise fail(path, "not an STL file (too short for binary, no 'solid' keyword)")
+    if not re.search(rb"\bendsolid\b", data):
+        raise fail(path, "ASCII STL ends without 'endsolid' (truncated?)")
     found = _VERTEX_RE.findall(data)
     n_facets = len(re.findall(rb"\bfacet\b", data))
     if len(found) % 3 or len(found) != 3 * n_facets:

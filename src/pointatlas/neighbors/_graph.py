@@ -6,7 +6,7 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
 
-from .._core import as_points
+from .._core import as_int, as_points
 from . import _kernels
 from ._knn import query_knn
 
@@ -21,7 +21,8 @@ def knn_graph(points, k: int, *, symmetric: bool = True, indices=None) -> sparse
     points : array_like of shape (N, 3)
         Coordinates.
     k : int
-        Neighbourhood size including the point itself (self loops are not stored).
+        Neighbourhood size including the point itself (self loops are not
+        stored); 1 <= k <= N, only k >= 1 when ``indices`` is given.
     symmetric : bool
         If True (default) i ~ j when either is among the other's k nearest.
     indices : ndarray of shape (N, k), int64, optional
@@ -34,6 +35,13 @@ def knn_graph(points, k: int, *, symmetric: bool = True, indices=None) -> sparse
         Entry (i, j) is the distance |p_i - p_j|. Exact duplicates are stored as
         explicit zeros, so use ``graph.indices``/``indptr`` (the structure), not
         ``graph.data != 0``, for adjacency. Columns are sorted within each row.
+
+    Raises
+    ------
+    ValueError
+        Bad points; k outside [1, N]; ``indices`` of the wrong shape or range.
+    TypeError
+        k not an integer.
 
     Notes
     -----
@@ -51,6 +59,8 @@ def knn_graph(points, k: int, *, symmetric: bool = True, indices=None) -> sparse
     n = pts.shape[0]
     if indices is None:
         indices, _ = query_knn(pts, k)
+    else:
+        as_int(k, "k", lo=1)
     nbr = np.asarray(indices, dtype=np.int64)
     if nbr.ndim != 2 or nbr.shape[0] != n or nbr.shape[1] < 1:
         raise ValueError(f"indices must have shape ({n}, k) with k >= 1; got {nbr.shape}")
@@ -72,7 +82,8 @@ def knn_components(points, k: int, *, indices=None) -> tuple[int, np.ndarray]:
     points : array_like of shape (N, 3)
         Coordinates.
     k : int
-        Neighbourhood size including the point itself.
+        Neighbourhood size including the point itself (1 <= k <= N, only
+        k >= 1 when ``indices`` is given).
     indices : ndarray of shape (N, k), int64, optional
         Precomputed `query_knn` indices.
 
@@ -82,6 +93,13 @@ def knn_components(points, k: int, *, indices=None) -> tuple[int, np.ndarray]:
         Number of components.
     labels : ndarray of shape (N,), int64
         Component of every point, numbered by smallest member index.
+
+    Raises
+    ------
+    ValueError
+        As `knn_graph`.
+    TypeError
+        k not an integer.
 
     Examples
     --------
@@ -109,7 +127,8 @@ def mean_spacing(points, k: int = 12, *, distances=None) -> float:
         Coordinates (N >= k + 1).
     k : int
         Number of neighbours, the point itself excluded (GUIDE: 12; 6 in 5.4's
-        denoising application).
+        denoising application): 1 <= k <= N - 1, or at most the columns of
+        ``distances`` minus 1.
     distances : ndarray of shape (N, >= k + 1), float64, optional
         Precomputed `query_knn` distances (column 0 is the point itself).
 
@@ -118,11 +137,27 @@ def mean_spacing(points, k: int = 12, *, distances=None) -> float:
     l : float
         The length unit of "noise of amplitude x %" (GUIDE conventions).
 
+    Raises
+    ------
+    ValueError
+        Bad points; k out of range; ``distances`` not 2-D or non-finite.
+    TypeError
+        k not an integer.
+
     Examples
     --------
     >>> mean_spacing([[0, 0, 0], [1, 0, 0], [3, 0, 0]], k=1)
     1.3333333333333333
     """
     if distances is None:
-        _, distances = query_knn(points, k + 1)
-    return float(np.mean(np.asarray(distances)[:, 1 : k + 1]))
+        pts = as_points(points)
+        k = as_int(k, "k", lo=1, hi=pts.shape[0] - 1, note="the number of other points")
+        _, distances = query_knn(pts, k + 1)
+    else:
+        distances = np.asarray(distances, dtype=np.float64)
+        if distances.ndim != 2 or distances.shape[0] < 1:
+            raise ValueError(f"distances must have shape (N, m) with N >= 1; got {distances.shape}")
+        k = as_int(k, "k", lo=1, hi=distances.shape[1] - 1, note="columns of distances minus 1")
+        if not np.isfinite(distances[:, 1 : k + 1]).all():
+            raise ValueError("distances must be finite")
+    return float(np.mean(distances[:, 1 : k + 1]))

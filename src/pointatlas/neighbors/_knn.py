@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._core import PointAtlasError, as_points, readonly
+from .._core import as_float, as_int, as_points, readonly
 from .._core.tolerances import RADIUS_QUERY_WIDEN
 from . import _kernels as K
 from ._grid import knn_grid_for, radius_grid_for
@@ -41,17 +41,8 @@ _CHUNK_ENTRIES = 1 << 22
 
 
 def _check_k(k, n_points: int) -> int:
-    if isinstance(k, bool) or not isinstance(k, int | np.integer):
-        raise TypeError(f"k must be an integer; got {type(k).__name__}")
-    k = int(k)
-    if k < 1:
-        raise ValueError(f"k must be >= 1; got {k}")
-    if k > n_points:
-        raise PointAtlasError(
-            f"too few points for k: k = {k} neighbours (the point included) need at least "
-            f"{k} points; got {n_points}"
-        )
-    return k
+    """k counts the point itself: an integer with 1 <= k <= N."""
+    return as_int(k, "k", lo=1, hi=n_points, note="the number of points")
 
 
 def _check_backend(backend) -> str:
@@ -128,7 +119,9 @@ class NeighborIndex:
         Raises
         ------
         PointAtlasError
-            k larger than the number of points.
+            k outside [1, N] (a ``ValueError``).
+        TypeError
+            k not an integer (bool and floats included).
         """
         n = self.n_points
         k = _check_k(k, n)
@@ -205,10 +198,10 @@ class NeighborIndex:
         ------
         ValueError
             Non-positive or non-finite radius.
+        TypeError
+            Non-numeric radius (bool included).
         """
-        radius = float(radius)
-        if not np.isfinite(radius) or radius <= 0:
-            raise ValueError(f"radius must be a positive finite number; got {radius}")
+        radius = as_float(radius, "radius", lo=0.0, lo_open=True)
         if self.backend == "kdtree":
             return self._radius_kdtree(radius)
         n = self.n_points
@@ -304,12 +297,12 @@ def query_knn(points, k: int, *, backend: str = "auto") -> tuple[np.ndarray, np.
 
     Raises
     ------
-    PointAtlasError
-        k larger than the number of points ("too few points for k").
     ValueError
-        Non-finite or badly shaped points, k < 1, unknown backend.
+        Non-finite or badly shaped points, unknown backend; k outside [1, N]
+        (a `PointAtlasError`: "k must be an integer in [1, N] (the number of
+        points); got ...").
     TypeError
-        Non-integer k.
+        Non-integer k (bool and floats included).
 
     Notes
     -----
@@ -349,7 +342,9 @@ def query_radius(points, radius: float, *, backend: str = "auto") -> RadiusNeigh
     Raises
     ------
     ValueError
-        Non-finite or badly shaped points; non-positive radius.
+        Non-finite or badly shaped points; non-positive or non-finite radius.
+    TypeError
+        Non-numeric radius.
 
     Notes
     -----

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._core import PointAtlasError, as_points, describe_indices, readonly
+from .._core import as_int, as_points, describe_indices, readonly
 from .._core.tolerances import NORMAL_DEGENERATE_RATIO
 from ..neighbors import query_knn
 from ._kernels import pca_normals_kernel
@@ -14,27 +14,20 @@ from ._kernels import pca_normals_kernel
 __all__ = ["PCANormalsResult", "estimate_normals", "pca_normals"]
 
 
-def _check_k(k, *, name: str = "k", minimum: int) -> int:
-    if isinstance(k, bool) or not isinstance(k, int | np.integer):
-        raise TypeError(f"{name} must be an integer; got {type(k).__name__}")
-    if int(k) < minimum:
-        raise ValueError(f"{name} must be >= {minimum}; got {int(k)}")
-    return int(k)
+def _check_k(k, n_points: int, *, minimum: int) -> int:
+    """The room's rule for k: an integer counting the point itself, minimum <= k <= N
+    (3 for a PCA plane, 2 for an orientation graph)."""
+    return as_int(k, "k", lo=minimum, hi=n_points, note="the number of points")
 
 
 def _neighbor_indices(points: np.ndarray, k: int, neighbors) -> np.ndarray:
     """The first k columns of validated neighbour indices, or one `query_knn` call.
 
     ``neighbors`` may be an index array of shape (N, m >= k) or the
-    ``(indices, distances)`` tuple returned by `query_knn`.
+    ``(indices, distances)`` tuple returned by `query_knn`; k validated (`_check_k`).
     """
     n = points.shape[0]
     if neighbors is None:
-        if k > n:
-            raise PointAtlasError(
-                f"too few points for k: k = {k} neighbours (the point included) need at "
-                f"least {k} points; got {n}"
-            )
         return query_knn(points, k)[0]
     if isinstance(neighbors, tuple) and len(neighbors) == 2:
         neighbors = neighbors[0]
@@ -95,7 +88,7 @@ def pca_normals(points, k: int = 20, *, neighbors=None) -> PCANormalsResult:
     points : array_like of shape (N, 3)
         Coordinates (float64 after conversion, finite).
     k : int
-        Neighbourhood size, the point itself included (>= 3).
+        Neighbourhood size, the point itself included (3 <= k <= N).
     neighbors : ndarray of shape (N, m), int, or tuple, optional
         Precomputed neighbour indices with m >= k (for example
         ``query_knn(points, 20)[0]``, or the tuple `query_knn` returns); the first
@@ -110,11 +103,10 @@ def pca_normals(points, k: int = 20, *, neighbors=None) -> PCANormalsResult:
     Raises
     ------
     ValueError
-        Bad points, k < 3, or neighbour indices of the wrong shape or range.
-    PointAtlasError
-        k larger than the number of points.
+        Bad points, k outside [3, N] (a `PointAtlasError`), or neighbour indices
+        of the wrong shape or range.
     TypeError
-        Non-integer k or neighbour indices.
+        Non-integer k (bool and floats included) or neighbour indices.
 
     Notes
     -----
@@ -135,7 +127,7 @@ def pca_normals(points, k: int = 20, *, neighbors=None) -> PCANormalsResult:
     (np.float64(1.0), 0)
     """
     pts = as_points(points)
-    k = _check_k(k, minimum=3)
+    k = _check_k(k, pts.shape[0], minimum=3)
     idx = _neighbor_indices(pts, k, neighbors)
     n = pts.shape[0]
     normals = np.empty((n, 3))
@@ -153,7 +145,7 @@ def estimate_normals(points, k: int = 20, *, neighbors=None, degenerate: str = "
     points : array_like of shape (N, 3)
         Coordinates (float64 after conversion, finite).
     k : int
-        Neighbourhood size, the point itself included (>= 3; default 20).
+        Neighbourhood size, the point itself included (3 <= k <= N; default 20).
     neighbors : ndarray of shape (N, m), int, or tuple, optional
         Precomputed neighbour indices with m >= k (the first k columns are used),
         or the tuple returned by `pointatlas.neighbors.query_knn`. Default: one
@@ -171,9 +163,10 @@ def estimate_normals(points, k: int = 20, *, neighbors=None, degenerate: str = "
     Raises
     ------
     ValueError
-        Bad points, k < 3, bad neighbour indices, or unknown ``degenerate``.
-    PointAtlasError
-        k larger than the number of points.
+        Bad points, k outside [3, N] (a `PointAtlasError`), bad neighbour
+        indices, or unknown ``degenerate``.
+    TypeError
+        Non-integer k (bool and floats included) or neighbour indices.
 
     Notes
     -----

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._core import as_normals, as_points
+from .._core import as_float, as_normals, as_points
 from .._core._sort import permute_table, spatial_renumbering
 from .._core.tolerances import MST_WEIGHT_EPS, OUTWARD_VOTE_RTOL
 from ._estimate import _check_k, _neighbor_indices
@@ -150,7 +150,7 @@ def orient_normals(
         Normals of any sign (rescaled to unit length; zero length raises).
     k : int
         Neighbourhood size of the k-NN Riemannian graph, the point itself
-        included (>= 2; default 10). Ignored by ``method="viewpoint"``.
+        included (2 <= k <= N; default 10). Ignored by ``method="viewpoint"``.
     method : {"outward", "mst", "viewpoint"}
         ``"mst"``: minimum-spanning-tree propagation (Hoppe et al. 1992); in
         every connected component of the k-NN graph the root is the point with
@@ -170,8 +170,8 @@ def orient_normals(
         or the tuple returned by `pointatlas.neighbors.query_knn`; lets one k-NN
         query serve `estimate_normals` and this function.
     edge_penalty : float
-        Weight (>= 0) of the term penalising graph edges along the normals (see
-        Notes); 0 gives Hoppe's weight exactly.
+        Weight (finite, >= 0) of the term penalising graph edges along the
+        normals (see Notes); 0 gives Hoppe's weight exactly.
 
     Returns
     -------
@@ -181,10 +181,11 @@ def orient_normals(
     Raises
     ------
     ValueError
-        Bad points or normals, unknown method, missing/bad viewpoint, k < 2,
-        negative edge_penalty, bad neighbour indices.
-    PointAtlasError
-        k larger than the number of points.
+        Bad points or normals, unknown method, missing/bad viewpoint, k outside
+        [2, N] (a `PointAtlasError`), negative or non-finite edge_penalty, bad
+        neighbour indices.
+    TypeError
+        Non-integer k, non-numeric edge_penalty or viewpoint.
 
     Notes
     -----
@@ -217,9 +218,7 @@ def orient_normals(
     """
     if method not in _METHODS:
         raise ValueError(f"method must be one of {_METHODS}; got {method!r}")
-    edge_penalty = float(edge_penalty)
-    if not np.isfinite(edge_penalty) or edge_penalty < 0:
-        raise ValueError(f"edge_penalty must be a finite number >= 0; got {edge_penalty}")
+    edge_penalty = as_float(edge_penalty, "edge_penalty", lo=0.0)
     pts = as_points(points)
     n = pts.shape[0]
     nrm = as_normals(normals, n)
@@ -228,7 +227,7 @@ def orient_normals(
         facing = np.einsum("ij,ij->i", vp - pts, nrm)
         nrm[facing < 0] *= -1.0
         return nrm
-    k = _check_k(k, minimum=2)
+    k = _check_k(k, n, minimum=2)
     idx = _neighbor_indices(pts, k, neighbors)
     signs, n_comp, labels = _forest_signs(pts, nrm, idx, edge_penalty)
     nrm *= signs[:, None]

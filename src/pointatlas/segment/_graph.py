@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import sparse
 
-from .._core import as_labels, as_points
+from .._core import as_int, as_labels, as_points
 from .._core._sort import permute_table
 from ..neighbors import query_knn
 from ._kernels import boundary_points, region_pairs, symmetric_csr
@@ -13,12 +13,15 @@ from ._kernels import boundary_points, region_pairs, symmetric_csr
 __all__ = ["neighbor_graph", "region_adjacency"]
 
 
-def _check_int(value, name: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"{name} must be an integer; got {type(value).__name__}")
-    if value < minimum:
-        raise ValueError(f"{name} must be >= {minimum}; got {value}")
-    return int(value)
+def _check_k(k, n_points: int, neighbors=None) -> int:
+    """The room's rule for k: an integer counting the point itself, 1 <= k <= N.
+
+    With a precomputed ``neighbors`` table or adjacency k is not used for the
+    graph, so only k >= 1 is required.
+    """
+    if neighbors is None:
+        return as_int(k, "k", lo=1, hi=n_points, note="the number of points")
+    return as_int(k, "k", lo=1)
 
 
 def neighbor_graph(points: np.ndarray, k: int, neighbors=None):
@@ -55,11 +58,9 @@ def neighbor_graph(points: np.ndarray, k: int, neighbors=None):
 
 
 def _knn_table(points: np.ndarray, k: int) -> np.ndarray:
-    """The (N, min(k, N)) k-NN table of the points (the point itself included)."""
-    k = _check_int(k, "k", 1)
-    if points.shape[0] == 1:
-        return np.zeros((1, 1), dtype=np.int64)
-    knn, _ = query_knn(points, min(k, points.shape[0]))
+    """The (N, k) k-NN table of the points (the point itself included); k validated
+    by the caller (`_check_k`)."""
+    knn, _ = query_knn(points, k)
     return knn
 
 
@@ -72,8 +73,9 @@ def _check_adjacency(neighbors, n: int):
     return sparse.coo_array(neighbors)
 
 
-def _check_table(neighbors, n: int) -> np.ndarray:
-    """An (N, c) neighbour index table as int64 (entries < 0 mean none), validated."""
+def _check_table(neighbors, n: int, *, allow_negative: bool = True) -> np.ndarray:
+    """An (N, c) neighbour index table as int64, validated; entries < 0 mean "none"
+    unless ``allow_negative`` is False (then they raise)."""
     table = np.asarray(neighbors)
     if table.ndim != 2 or table.shape[0] != n:
         raise ValueError(
@@ -84,6 +86,10 @@ def _check_table(neighbors, n: int) -> np.ndarray:
     table = table.astype(np.int64, copy=False)
     if table.size and table.max() >= n:
         raise ValueError(f"neighbors has indices >= N = {n}; largest is {int(table.max())}")
+    if not allow_negative and table.size and table.min() < 0:
+        raise ValueError(
+            f"neighbors must hold point indices in [0, {n}); smallest is {int(table.min())}"
+        )
     return table
 
 
@@ -117,7 +123,8 @@ def region_adjacency(points, labels, *, k: int = 8, neighbors=None) -> np.ndarra
     labels : array_like of shape (N,), int
         Region of every point (>= 0).
     k : int
-        Neighbourhood size, the point itself included.
+        Neighbourhood size, the point itself included (1 <= k <= N; only k >= 1
+        is required when ``neighbors`` is given).
     neighbors : ndarray of shape (N, c) or scipy sparse (N, N), optional
         A precomputed neighbour table or adjacency instead of the k-NN query.
 
@@ -129,7 +136,9 @@ def region_adjacency(points, labels, *, k: int = 8, neighbors=None) -> np.ndarra
     Raises
     ------
     ValueError
-        Labels of the wrong shape or negative.
+        Labels of the wrong shape or negative; k outside [1, N].
+    TypeError
+        k not an integer.
 
     Notes
     -----
@@ -147,5 +156,6 @@ def region_adjacency(points, labels, *, k: int = 8, neighbors=None) -> np.ndarra
     lab = as_labels(labels, pts.shape[0])
     if (lab < 0).any():
         raise ValueError("labels must be >= 0 (every point in a region)")
+    k = _check_k(k, pts.shape[0], neighbors)
     indptr, indices, _ = neighbor_graph(pts, k, neighbors)
     return region_pairs(indptr, indices, lab, boundary_points(indptr, indices, lab))

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._core import as_normals, as_points, readonly
+from .._core import as_float, as_int, as_normals, as_points, readonly
 from .._core.tolerances import NORMAL_ZERO_LENGTH
-from ._graph import _check_int, neighbor_graph
+from ._graph import _check_k, _check_table, neighbor_graph
 from ._kernels import region_growing as _grow_kernel
 
 __all__ = ["RegionGrowingResult", "region_growing", "surface_curvature"]
@@ -81,14 +81,23 @@ def surface_curvature(points, *, k: int = 8, neighbors=None) -> np.ndarray:
     points : array_like of shape (N, 3)
         Coordinates.
     k : int
-        Neighbourhood size, the point itself included.
+        Neighbourhood size, the point itself included (1 <= k <= N; ignored when
+        ``neighbors`` is given).
     neighbors : ndarray of shape (N, c), int, optional
-        Precomputed neighbour table (column 0 the point itself).
+        Precomputed neighbour table (column 0 the point itself; indices in [0, N)).
 
     Returns
     -------
     curvature : ndarray of shape (N,), float64
         In [0, 1/3]; 0 where all neighbours coincide. l3 is the smallest eigenvalue.
+
+    Raises
+    ------
+    ValueError
+        Bad points, k outside [1, N], or a neighbour table of the wrong shape or
+        with indices outside [0, N).
+    TypeError
+        k not an integer, or a non-integer neighbour table.
 
     Notes
     -----
@@ -101,10 +110,11 @@ def surface_curvature(points, *, k: int = 8, neighbors=None) -> np.ndarray:
     0.0
     """
     pts = as_points(points)
+    k = _check_k(k, pts.shape[0], neighbors)
     if neighbors is None:
         _, _, table = neighbor_graph(pts, k)
     else:
-        table = np.asarray(neighbors, dtype=np.int64)
+        table = _check_table(neighbors, pts.shape[0], allow_negative=False)
     out = np.empty(pts.shape[0])
     chunk = 200_000
     for s in range(0, pts.shape[0], chunk):
@@ -140,20 +150,26 @@ def region_growing(
     normals : array_like of shape (N, 3)
         Normals (orientation is ignored, as in PCL: |n_i . n_j| is compared).
     k : int
-        Neighbours per point, the point itself included (PCL ``setNumberOfNeighbours``).
+        Neighbours per point, the point itself included (PCL
+        ``setNumberOfNeighbours``); 1 <= k <= N, only k >= 1 when ``neighbors``
+        is given.
     smoothness_angle : float
         A neighbour joins when the angle between its normal and the current
-        point's is at most this (radians; PCL ``setSmoothnessThreshold``).
+        point's is at most this (radians in [0, pi]; PCL ``setSmoothnessThreshold``).
     curvature_threshold : float, optional
-        Joined points with curvature <= this continue the growth (PCL
+        Joined points with curvature <= this (finite) continue the growth (PCL
         ``setCurvatureThreshold``). Default: the 98th percentile of the curvatures,
         Rabbani et al.'s percentile rule for the residual threshold.
     min_cluster_size, max_cluster_size : int
-        Regions outside this size range are dropped (label -1), as PCL does.
+        Regions outside this size range are dropped (label -1), as PCL does;
+        1 <= min_cluster_size <= max_cluster_size. A min_cluster_size above N is
+        valid and leaves every point unassigned (no regions, ``mse`` NaN).
     curvature : array_like of shape (N,), optional
         Precomputed curvature (default `surface_curvature` with the same k).
     neighbors : ndarray of shape (N, c), int, optional
-        Precomputed k-NN table (column 0 the point itself), e.g. from PCL.
+        Precomputed k-NN table (column 0 the point itself), e.g. from PCL;
+        entries < 0 mean "no neighbour" (then give ``curvature`` too:
+        `surface_curvature` needs a full table).
 
     Returns
     -------
@@ -163,7 +179,10 @@ def region_growing(
     Raises
     ------
     ValueError
-        Bad shapes or parameter values.
+        Bad shapes, non-finite values, or parameters out of range (the message
+        names the parameter).
+    TypeError
+        Non-integer k or cluster sizes, non-numeric thresholds.
 
     Notes
     -----
@@ -184,34 +203,31 @@ def region_growing(
     pts = as_points(points)
     n = pts.shape[0]
     nrm = as_normals(normals, n)
-    k = _check_int(k, "k", 1)
-    min_cluster_size = _check_int(min_cluster_size, "min_cluster_size", 1)
+    k = _check_k(k, n, neighbors)
+    min_cluster_size = as_int(min_cluster_size, "min_cluster_size", lo=1)
     if max_cluster_size is not None:
-        max_cluster_size = _check_int(max_cluster_size, "max_cluster_size", min_cluster_size)
-    angle = float(smoothness_angle)
-    if not 0.0 <= angle <= math.pi:
-        raise ValueError(f"smoothness_angle must lie in [0, pi] radians; got {smoothness_angle}")
+        max_cluster_size = as_int(
+            max_cluster_size, "max_cluster_size", lo=min_cluster_size, note=">= min_cluster_size"
+        )
+    angle = as_float(
+        smoothness_angle, "smoothness_angle", lo=0.0, hi=math.pi, what="angle", unit="radians"
+    )
+    if curvature_threshold is None:
+        thr = None
+    else:
+        thr = as_float(curvature_threshold, "curvature_threshold")
     if neighbors is None:
         _, _, table = neighbor_graph(pts, k)
     else:
-        table = np.asarray(neighbors)
-        if table.ndim != 2 or table.shape[0] != n or not np.issubdtype(table.dtype, np.integer):
-            raise ValueError(
-                f"neighbors must be an (N, k) integer table with N = {n}; got {table.shape}"
-            )
-        table = table.astype(np.int64)
+        table = _check_table(neighbors, n)
     if curvature is None:
         curv = surface_curvature(pts, neighbors=table)
     else:
         curv = np.asarray(curvature, dtype=np.float64)
         if curv.shape != (n,) or not np.isfinite(curv).all():
             raise ValueError(f"curvature must be a finite ({n},) array; got shape {curv.shape}")
-    if curvature_threshold is None:
+    if thr is None:
         thr = float(np.percentile(curv, 98.0))
-    else:
-        thr = float(curvature_threshold)
-        if not math.isfinite(thr):
-            raise ValueError(f"curvature_threshold must be finite; got {curvature_threshold}")
     order = np.lexsort((np.arange(n), curv))
     raw = _grow_kernel(np.ascontiguousarray(table), nrm, curv, order, math.cos(angle), thr)
     sizes = np.bincount(raw)
@@ -225,13 +241,15 @@ def region_growing(
     sel = labels >= 0
     lab = labels[sel]
     counts = np.bincount(lab, minlength=m).astype(np.int64)
+    # float64 also when no point is kept (bincount of nothing is int64)
     ssum = np.stack([np.bincount(lab, weights=nrm[sel, d], minlength=m) for d in range(3)], 1)
+    ssum = ssum.astype(np.float64, copy=False)
     length = np.linalg.norm(ssum, axis=1)
     degenerate = length <= NORMAL_ZERO_LENGTH * np.maximum(counts, 1)
     prox = np.full((m, 3), np.nan)
     prox[~degenerate] = ssum[~degenerate] / length[~degenerate, None]
     cen = np.stack([np.bincount(lab, weights=pts[sel, d], minlength=m) for d in range(3)], 1)
-    cen /= np.maximum(counts, 1)[:, None]
+    cen = cen.astype(np.float64, copy=False) / np.maximum(counts, 1)[:, None]
     l21 = np.where(degenerate, np.nan, 2.0 * (counts - length))
     l21 = np.where(np.isnan(l21), np.nan, np.maximum(l21, 0.0))
     if lab.size and not degenerate.any():

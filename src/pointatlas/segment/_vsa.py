@@ -11,7 +11,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .._core import as_normals, as_points, as_rng, readonly
+from .._core import as_float, as_int, as_normals, as_points, as_rng, readonly
 from .._core._sort import spatial_renumbering
 from .._core.tolerances import (
     NORMAL_ZERO_LENGTH,
@@ -20,7 +20,7 @@ from .._core.tolerances import (
     VSA_SWITCH_FULL_SCAN,
     VSA_SWITCH_MIN_GAIN,
 )
-from ._graph import _check_int, neighbor_graph, permuted_neighbors
+from ._graph import _check_k, neighbor_graph, permuted_neighbors
 from ._kernels import (
     apply_moves,
     batch_switch_bounded,
@@ -295,7 +295,8 @@ def area_weights(points, *, k: int = 8, neighbors=None) -> np.ndarray:
     points : array_like of shape (N, 3)
         Coordinates.
     k : int
-        Neighbourhood size, the point itself included (it adds 0).
+        Neighbourhood size, the point itself included (it adds 0); 1 <= k <= N,
+        ignored when ``neighbors`` is given.
     neighbors : ndarray of shape (N, c), int, optional
         Precomputed neighbour table (e.g. `pointatlas.neighbors.query_knn` indices).
 
@@ -303,6 +304,13 @@ def area_weights(points, *, k: int = 8, neighbors=None) -> np.ndarray:
     -------
     weights : ndarray of shape (N,), float64
         Non-negative weights in squared input units.
+
+    Raises
+    ------
+    ValueError
+        Bad points, k outside [1, N], a neighbour table of the wrong shape.
+    TypeError
+        k not an integer.
 
     Notes
     -----
@@ -315,6 +323,7 @@ def area_weights(points, *, k: int = 8, neighbors=None) -> np.ndarray:
     [1.0, 1.0, 4.0]
     """
     pts = as_points(points)
+    k = _check_k(k, pts.shape[0], neighbors)
     if neighbors is None:
         _, _, table = neighbor_graph(pts, k)
     else:
@@ -355,7 +364,10 @@ def estimate_eta(mean_curvature: float, n_points: int, *, curvature_split: float
     Raises
     ------
     ValueError
-        Negative or non-finite curvature, n_points < 1, or curvature_split outside [0, 1].
+        Negative or non-finite curvature, n_points < 1, or curvature_split
+        outside [0, 1] (or NaN).
+    TypeError
+        Non-integer n_points, non-numeric curvature or curvature_split.
 
     Notes
     -----
@@ -370,13 +382,9 @@ def estimate_eta(mean_curvature: float, n_points: int, *, curvature_split: float
     >>> estimate_eta(1.0, 100) > estimate_eta(0.5, 100)
     True
     """
-    h = float(mean_curvature)
-    if not math.isfinite(h) or h < 0:
-        raise ValueError(f"mean_curvature must be a finite number >= 0; got {mean_curvature}")
-    n = _check_int(n_points, "n_points", 1)
-    s = float(curvature_split)
-    if not 0.0 <= s <= 1.0:
-        raise ValueError(f"curvature_split must lie in [0, 1]; got {curvature_split}")
+    h = as_float(mean_curvature, "mean_curvature", lo=0.0)
+    n = as_int(n_points, "n_points", lo=1)
+    s = as_float(curvature_split, "curvature_split", lo=0.0, hi=1.0)
     nu = math.ceil(math.sqrt(n - 1) / 2.0)
     if nu == 0:
         return 0.0
@@ -417,9 +425,7 @@ def _resolve_seeds(seeds, n, indptr, indices, rng, inv):
             raise ValueError(f"seeds must be an int, an index array or 'all'; got {seeds!r}")
         return np.arange(n, dtype=np.int64), True
     if isinstance(seeds, int | np.integer) and not isinstance(seeds, bool):
-        m = int(seeds)
-        if not 1 <= m <= n:
-            raise ValueError(f"seeds must be between 1 and N = {n}; got {m}")
+        m = as_int(seeds, "seeds", lo=1, hi=n, note="the number of points")
         chosen = as_rng(rng).choice(n, size=m, replace=False).astype(np.int64)
     else:
         chosen = np.asarray(seeds)
@@ -471,18 +477,21 @@ def vsa_segment(
         Oriented normals (rescaled to unit length).
     k : int
         Neighbourhood size (the point itself included) of the k-NN graph used by
-        flood, switch and region adjacency.
+        flood, switch and region adjacency: 1 <= k <= N (only k >= 1 when
+        ``neighbors`` is given).
     weights : {"uniform", "area"} or array_like of shape (N,)
         Point weights w_j of Eq. 4.4: 1, the area proxy of Eq. 4.6, or given.
     seeds : int, array_like of int or "all"
-        Number of random seeds (drawn with ``rng``), seed point indices, or every
+        Number of random seeds in [1, N] (drawn with ``rng``), seed point indices, or every
         point a seed. Every connected component of the graph without a seed gets
         its smallest-index point as an extra seed, so no point stays unassigned.
     eta : float, optional
         Split regions with L21 > eta, merge neighbours whose union has L21 < eta
-        (4.3.3). Depends on the number of points per region; see `estimate_eta`.
+        (4.3.3); finite, >= 0. Depends on the number of points per region; see
+        `estimate_eta`.
     max_angle : float, optional
-        Alternative threshold independent of the number of points (radians): a
+        Alternative threshold independent of the number of points (radians in
+        [0, pi]): a
         region's mean normal deviation arccos(|S|/W) must not exceed it. With
         neither threshold, ``max_angle`` = 10 degrees is used.
     split, merge : bool
@@ -496,7 +505,7 @@ def vsa_segment(
         stopping when nothing changes or a labelling repeats); split, merge and
         switch do not apply and eta/max_angle must not be given.
     max_iter : int
-        Maximum number of iterations.
+        Maximum number of iterations (>= 0).
     rng : None, int or numpy.random.Generator
         Randomness for drawing an integer number of seeds.
     neighbors : ndarray of shape (N, c), int, or scipy sparse (N, N), optional
@@ -510,9 +519,11 @@ def vsa_segment(
     Raises
     ------
     ValueError
-        Bad shapes, non-finite values, zero normals, invalid options.
+        Bad shapes, non-finite values, zero normals, options out of range (the
+        message names the parameter, e.g. ``k must be an integer in [1, 2000]
+        (the number of points); got 100000``).
     TypeError
-        Non-integer k or max_iter.
+        Non-integer k, seeds or max_iter; non-numeric eta or max_angle.
 
     Notes
     -----
@@ -547,20 +558,18 @@ def vsa_segment(
     pts = as_points(points)
     n = pts.shape[0]
     nrm = as_normals(normals, n)
-    k = _check_int(k, "k", 1)
-    max_iter = _check_int(max_iter, "max_iter", 0)
+    k = _check_k(k, n, neighbors)
+    max_iter = as_int(max_iter, "max_iter", lo=0)
     if switch not in _SWITCH_MODES:
         raise ValueError(f"switch must be one of {_SWITCH_MODES}; got {switch!r}")
     if eta is not None and max_angle is not None:
         raise ValueError("give eta or max_angle, not both")
     if eta is not None:
-        eta = float(eta)
-        if not math.isfinite(eta) or eta < 0:
-            raise ValueError(f"eta must be a finite number >= 0; got {eta}")
+        eta = as_float(eta, "eta", lo=0.0)
     if max_angle is not None:
-        max_angle = float(max_angle)
-        if not 0.0 <= max_angle <= math.pi:
-            raise ValueError(f"max_angle must lie in [0, pi] radians; got {max_angle}")
+        max_angle = as_float(
+            max_angle, "max_angle", lo=0.0, hi=math.pi, what="angle", unit="radians"
+        )
     if classic and (eta is not None or max_angle is not None):
         raise ValueError("classic=True runs without split/merge; do not give eta or max_angle")
     min_cos = None

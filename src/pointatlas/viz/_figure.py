@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -148,20 +147,14 @@ def _check_png_path(path) -> Path:
 
 
 def _atomic_png(fig, path: Path) -> Path:
-    """Save ``fig`` as PNG: temp file in the target folder, then ``os.replace``."""
+    """Save ``fig`` as PNG through :func:`pointatlas.io.atomic_write` (umask permissions)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    folder = path.parent if str(path.parent) else Path(".")
+    from ..io import atomic_write
+
     canvas = FigureCanvasAgg(fig)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            canvas.print_png(fh, metadata={"Software": "pointatlas"})
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
+    with atomic_write(path, "wb") as fh:
+        canvas.print_png(fh, metadata={"Software": "pointatlas"})
     return path
 
 

@@ -264,12 +264,14 @@ def _rgb_colors(colors, n: int) -> np.ndarray:
         raise ValueError(f"colors must have shape ({n}, 3) or ({n}, 4); got {col.shape}")
     if col.dtype == np.uint8:
         return col[:, :3].astype(np.float64) / 255.0
+    if col.dtype == np.uint16:  # LAS and 16-bit PLY colours, kept as read
+        return col[:, :3].astype(np.float64) / 65535.0
     try:
         rgb = np.asarray(col[:, :3], dtype=np.float64)
     except (TypeError, ValueError):
         raise TypeError(f"colors must be numeric; got dtype {col.dtype}") from None
     if not np.isfinite(rgb).all() or rgb.min() < 0 or rgb.max() > 1:
-        raise ValueError("colors must be uint8 or floats in [0, 1]")
+        raise ValueError("colors must be uint8, uint16 or floats in [0, 1]")
     return rgb
 
 

@@ -1,0 +1,5 @@
+"""``python -m pointatlas.cli``: the same as the ``pointatlas`` command."""
+
+from . import main
+
+main()
