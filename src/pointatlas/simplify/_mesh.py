@@ -2,19 +2,21 @@
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from .._core import PointAtlasError, as_labels, as_points, readonly
-from .._core.tolerances import SIMPLIFY_PARALLEL_ANGLE
-from ..complex import SurfaceComplex, surface_complex
+from .._core import PointAtlasError, as_labels, as_normals, as_points, readonly
+from ..complex import SurfaceComplex
 from ..neighbors import query_knn
+from ._checks import check_memory, check_size, usable_normals
 from ._faces import general_faces, star_faces
+from ._frame import frame_of
 from ._kernels import point_triangle_distances
-from ._proxies import region_proxies
-from ._repair import absorb_regions, smooth_labels
+from ._proxies import check_not_parallel, region_proxies
+from ._repair import clean_regions
 from ._vertices import (
     MeshVertices,
     SimplifyWarning,
@@ -66,8 +68,8 @@ class SimplifiedMesh:
     is_closed, is_manifold, is_oriented : bool
         Every edge in exactly two triangles; edges in at most two triangles and one
         triangle fan per vertex; no directed edge used twice.
-    distances : ndarray of shape (N,), float64
-        Distance of every input point to the triangulated mesh.
+    distances : ndarray of shape (M,), float64
+        Distance of every point used (``point_index``) to the triangulated mesh.
     mean_distance, max_distance : float
         Mean and largest of ``distances``.
     vertex_method, face_method : str
@@ -84,8 +86,9 @@ class SimplifiedMesh:
         Plane normal per region (proxy normals, or the corrected n~_i).
     plane_offsets : ndarray of shape (R,), float64
         d_i of every region's plane ``plane_normals[i] . x = d_i``.
-    labels : ndarray of shape (N,), int64
-        Region of every point after merging (face regions refer to these).
+    labels : ndarray of shape (M,), int64
+        Region of every point used (``point_index``) after merging (face regions
+        refer to these).
     region_map : ndarray of shape (R_in,), int64
         Input region -> region of ``labels`` holding most of its points (several
         map together when merged).
@@ -93,6 +96,11 @@ class SimplifiedMesh:
         The surface-like complex the mesh was built from.
     anchor_weight : float
         Anchor weight ``vertices="fit"`` used (NaN for the other methods).
+    point_index : ndarray of shape (M,), int64
+        Input index of every point used; ``labels`` and ``distances`` follow it.
+        Points without a usable normal (zero-length or NaN/Inf) are left out.
+    n_dropped : int
+        Number of input points left out for want of a usable normal.
     """
 
     vertices: np.ndarray
@@ -123,6 +131,8 @@ class SimplifiedMesh:
     region_map: np.ndarray
     complex: SurfaceComplex
     anchor_weight: float = float("nan")
+    point_index: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int64))
+    n_dropped: int = 0
 
     def __post_init__(self):
         for name in (
@@ -140,6 +150,7 @@ class SimplifiedMesh:
             "plane_offsets",
             "labels",
             "region_map",
+            "point_index",
         ):
             readonly(getattr(self, name))
         for p in self.polygons:
@@ -185,6 +196,7 @@ class SimplifiedMesh:
             "anchor_weight": None if np.isnan(self.anchor_weight) else self.anchor_weight,
             "n_input_regions": int(self.region_map.shape[0]),
             "n_regions": int(self.labels.max()) + 1 if self.labels.size else 0,
+            "n_dropped_points": self.n_dropped,
         }
 
 
@@ -292,7 +304,9 @@ def point_mesh_distance(points, vertices, triangles) -> np.ndarray:
         raise ValueError(f"triangles must index vertices 0..{verts.shape[0] - 1}")
     if pts.shape[0] == 0:
         return np.zeros(0)
-    return point_triangle_distances(pts, verts, np.ascontiguousarray(tri))
+    # differences of coordinates far from the origin lose digits: centre both first
+    center = frame_of(verts).center
+    return point_triangle_distances(pts - center, verts - center, np.ascontiguousarray(tri))
 
 
 def _planarity(vertices, loops):
@@ -310,7 +324,8 @@ def _check_choice(value, name, choices):
     return value
 
 
-def _resolve_centers(centers, proxies, n_regions):
+def _resolve_centers(centers, proxies, n_regions, frame):
+    """Proxy plane points C_i in working coordinates (given ones are mapped there)."""
     if centers is None or (isinstance(centers, str) and centers == "centroid"):
         return np.array(proxies.centroids)
     if isinstance(centers, str):
@@ -320,16 +335,7 @@ def _resolve_centers(centers, proxies, n_regions):
     arr = as_points(centers, name="centers")
     if arr.shape[0] != n_regions:
         raise ValueError(f"centers must have one row per region ({n_regions}); got {arr.shape[0]}")
-    return arr
-
-
-def _check_not_parallel(normals):
-    cosines = np.abs(normals @ normals[0])
-    if cosines.min() >= np.cos(SIMPLIFY_PARALLEL_ANGLE):
-        raise PointAtlasError(
-            f"all {normals.shape[0]} proxy planes are parallel (within "
-            f"{np.degrees(SIMPLIFY_PARALLEL_ANGLE):.0f} degrees); no mesh vertex can be placed"
-        )
+    return frame.to_local(arr)
 
 
 #: anchor weights tried by ``vertices="fit"`` with ``anchor_weight=None``, loosest first
@@ -364,20 +370,6 @@ def _fit_with_valid_faces(
     return mv, face_list, (float("nan") if mv.fallback else aw)
 
 
-def _proxies_for(points, normals, labels, region_map, pn0, ctr0, base_valid):
-    """Proxy normals/centers for the current labels: the given ones for regions that
-    are one unchanged input region, recomputed from the points otherwise."""
-    prox = region_proxies(points, normals, labels)
-    n_cur = prox.normals.shape[0]
-    counts = np.bincount(region_map, minlength=n_cur)
-    pn = np.array(prox.normals)
-    ctr = np.array(prox.centroids)
-    single = np.flatnonzero((counts[region_map] == 1) & base_valid)
-    pn[region_map[single]] = pn0[single]
-    ctr[region_map[single]] = ctr0[single]
-    return pn, ctr, prox
-
-
 def simplify_segmentation(
     points,
     normals,
@@ -405,13 +397,16 @@ def simplify_segmentation(
     points : array_like of shape (N, 3), float64
         Coordinates.
     normals : array_like of shape (N, 3), float64 or None
-        Unit normals, used for the proxy normals. May be None when
-        ``proxy_normals`` and ``centers`` (an array) are given; regions are then
-        used as they are (no smoothing, merging or repair).
+        Normals (rescaled to unit length), used for the proxy normals. Points
+        whose normal is zero-length or has a NaN/Inf entry are left out (counted in
+        ``n_dropped``). May be None when ``proxy_normals`` and ``centers`` (an
+        array) are given; regions are then used as they are (no smoothing, merging
+        or repair).
     labels : array_like of shape (N,), int64
         Region of every point, consecutive 0..R-1 (e.g. ``VSAResult.labels``).
     k : int
-        Neighbourhood size for the region adjacency (Remark 6).
+        Neighbourhood size for the region adjacency (Remark 6); 1 <= k <= the
+        number of points used.
     vertices : {"fit", "lsq", "optimize"}
         ``"fit"`` (default, beyond the thesis): planes refitted to their points under
         the constraint that every vertex lies on all its planes, so every face is
@@ -457,21 +452,29 @@ def simplify_segmentation(
     max_iter : int
         Iteration limit of the Eq. 4.12 optimisation.
     indices : ndarray of shape (N, k), int64, optional
-        Precomputed `pointatlas.neighbors.query_knn` indices.
+        Precomputed `pointatlas.neighbors.query_knn` indices (ignored, and
+        recomputed, when points are left out).
 
     Returns
     -------
     mesh : SimplifiedMesh
         Polygon mesh, triangulation, per-face planarity error, closed/manifold
-        flags, point-to-mesh distances and the complex.
+        flags, point-to-mesh distances, the complex, and the points used
+        (``point_index``, ``n_dropped``).
 
     Raises
     ------
     ValueError
         Bad shapes or options.
+    TypeError
+        Non-numeric arrays, non-integer ``k``.
     PointAtlasError
-        Degenerate input: fewer than three regions, no vertex where three regions
-        meet, all proxy planes parallel, or no region with a closed boundary.
+        Too few points (fewer than 4, or fewer than ``k``; "simplify needs at
+        least ..."), more memory than available for this ``k`` (estimated before
+        any work), no point (or a whole region without a point) with a usable
+        normal, or degenerate input: fewer than three regions, no vertex where
+        three regions meet, all proxy planes parallel, or no region with a closed
+        boundary.
 
     Warns
     -----
@@ -489,8 +492,12 @@ def simplify_segmentation(
     |n_i| = 1 with free offsets d_i, minimising the points' mean squared distance
     to their planes plus ``anchor_weight`` times the vertices' mean squared
     displacement from (a); started from (a) and the proxy planes. Faces:
-    [SZP20]'s star-convex ordering or the general method of 4.4.2. Decisions in
-    docs/decisions.md (simplify).
+    [SZP20]'s star-convex ordering or the general method of 4.4.2. Every step
+    runs on centred coordinates scaled by a power of two (at least the bounding-box
+    diagonal) and the results are mapped back, so the mesh moves with translations
+    and scalings of the input and all tolerances are relative to its size.
+    Decisions in docs/decisions.md (simplify; "Simplify: invariance and input
+    checks").
 
     Examples
     --------
@@ -501,8 +508,9 @@ def simplify_segmentation(
     (8, 6, True, [4, 4, 4, 4, 4, 4])
     """
     pts = as_points(points)
-    n = pts.shape[0]
-    lab = as_labels(labels, n)
+    n_input = pts.shape[0]
+    lab = as_labels(labels, n_input)
+    k = check_size(n_input, k)
     _check_choice(vertices, "vertices", _VERTEX_METHODS)
     _check_choice(faces, "faces", _FACE_METHODS)
     weight = float(weight)
@@ -531,9 +539,27 @@ def simplify_segmentation(
             raise ValueError(
                 f"proxy_normals must have shape ({n_regions}, 3); got {pn_given.shape}"
             )
-        normals = pn_given[lab]
+        nrm, keep = as_normals(pn_given[lab]), np.ones(n_input, dtype=bool)
         smooth, repair, min_region_size = 0, False, 1
-    proxies = region_proxies(pts, normals, lab)
+    else:
+        nrm, keep = usable_normals(normals, n_input)
+    if not keep.all():  # points without a usable normal are left out (n_dropped)
+        pts, lab, indices = pts[keep], lab[keep], None
+        k = check_size(pts.shape[0], k)
+        emptied = np.bincount(lab, minlength=n_regions) == 0
+        if emptied.any():
+            raise PointAtlasError(
+                f"regions {np.flatnonzero(emptied)[:5].tolist()} keep no point with a "
+                "usable normal (all their normals are zero-length or non-finite)"
+            )
+    if min_region_size is None:
+        min_region_size = k
+    if isinstance(min_region_size, bool) or int(min_region_size) < 1:
+        raise ValueError(f"min_region_size must be an integer >= 1; got {min_region_size}")
+    check_memory(pts.shape[0], k, n_regions)
+    frame = frame_of(pts)
+    q = frame.to_local(pts)
+    proxies = region_proxies(q, nrm, lab)
     if proxy_normals is None:
         pn0 = np.array(proxies.normals)
     else:
@@ -541,121 +567,78 @@ def simplify_segmentation(
         if pn0.shape != (n_regions, 3) or not np.isfinite(pn0).all():
             raise ValueError(f"proxy_normals must have shape ({n_regions}, 3); got {pn0.shape}")
         pn0 = pn0 / np.linalg.norm(pn0, axis=1, keepdims=True)
-    ctr0 = _resolve_centers(centers, proxies, n_regions)
-    _check_not_parallel(pn0)
-    if min_region_size is None:
-        min_region_size = k
-    if isinstance(min_region_size, bool) or int(min_region_size) < 1:
-        raise ValueError(f"min_region_size must be an integer >= 1; got {min_region_size}")
+    ctr0 = _resolve_centers(centers, proxies, n_regions, frame)
+    check_not_parallel(pn0)
     if indices is None:
-        indices, _ = query_knn(pts, k)
+        indices, _ = query_knn(q, k)
     indices = np.asarray(indices, dtype=np.int64)
+    clean = clean_regions(
+        q,
+        nrm,
+        lab,
+        indices,
+        pn0,
+        ctr0,
+        k=k,
+        smooth=smooth,
+        min_region_size=min_region_size,
+        repair=repair,
+        max_boundary_fraction=max_boundary_fraction,
+    )
+    mv, face_list, used_weight = _place_vertices(
+        clean,
+        q,
+        vertices=vertices,
+        faces=faces,
+        weight=weight,
+        anchor_weight=anchor_weight,
+        max_distance=None if max_distance is None else float(max_distance) / frame.scale,
+        max_iter=max_iter,
+    )
+    return _assemble(
+        frame, q, clean, mv, face_list, faces, used_weight, np.flatnonzero(keep), n_input
+    )
 
-    cur = lab
-    base_valid = np.ones(n_regions, dtype=bool)
-    # points the majority filter relabelled to another input region stay out of the
-    # plane fit of vertices="fit"
-    fit_mask = np.ones(n, dtype=bool)
-    if smooth:
-        cur = smooth_labels(lab, indices, smooth)
-        # a piece keeps its input region's proxy unless the region was split
-        pair_counts = np.zeros((int(cur.max()) + 1, n_regions), dtype=np.int64)
-        np.add.at(pair_counts, (cur, lab), 1)
-        owner = pair_counts.argmax(axis=1)
-        base_valid = np.bincount(owner, minlength=n_regions)[owner] == 1
-        pn0, ctr0 = pn0[owner], ctr0[owner]
-        fit_mask = owner[cur] == lab
-    region_map = np.arange(int(cur.max()) + 1)  # base piece -> current region
-    n_cur0 = int(cur.max()) + 1
-    bad = np.bincount(cur, minlength=n_cur0) < int(min_region_size)
-    if repair and max_boundary_fraction < 1.0:
-        # thin regions: (almost) every point sees another region; their two sides
-        # see each other across them and the complex cannot separate them
-        on_boundary = (cur[indices] != cur[:, None]).any(axis=1)
-        frac = np.bincount(cur, weights=on_boundary, minlength=n_cur0) / np.maximum(
-            np.bincount(cur, minlength=n_cur0), 1
-        )
-        sizes0 = np.bincount(cur, minlength=n_cur0)
-        # only regions smaller than half the largest count as strips (on a coarse
-        # sampling every region may have all its points near a boundary)
-        bad |= (frac > max_boundary_fraction) & (sizes0 < 0.5 * sizes0.max())
-    for _round in range(31):
-        stop = False
-        if bad.any():
-            cur_pn = _proxies_for(pts, normals, cur, region_map, pn0, ctr0, base_valid)[0]
-            new_labels, step = absorb_regions(cur, indices, cur_pn, bad)
-            if int(new_labels.max()) + 1 >= 3:
-                cur, region_map = new_labels, step[region_map]
-            else:  # merging would leave no polyhedron: keep the regions as they are
-                stop = True
-        pn, ctr, cprox = _proxies_for(pts, normals, cur, region_map, pn0, ctr0, base_valid)
-        n_cur = pn.shape[0]
-        if n_cur < 3:
-            raise PointAtlasError(
-                f"simplification needs at least 3 regions (three planes meeting at a "
-                f"vertex); got {n_cur} after merging regions too small to mesh"
-            )
-        _check_not_parallel(pn)
-        cplx = surface_complex(pts, cur, k=k, indices=indices)
-        if not any(len(r) >= 3 for r in cplx.vertex_regions):
-            raise PointAtlasError(
-                f"no vertex where three or more regions meet (k = {k}); the {n_cur} "
-                "regions do not form a closed polygon mesh"
-            )
-        if not repair or stop:
-            break
-        no_cycle = np.array([len(rc) == 0 for rc in cplx.region_cycles])
-        bad_now = no_cycle.copy()
-        bad_now[cplx.regions_open] = True
-        for c in cplx.cycles_not_simple:
-            bad_now[cplx.cycle_region[c]] = True
-        if not bad_now.any():
-            break
-        # merge the smallest quarter of the failing regions per round
-        sizes = np.bincount(cur, minlength=n_cur)
-        cand = np.flatnonzero(bad_now)
-        cand = cand[np.lexsort((cand, sizes[cand]))][: max(1, cand.size // 4)]
-        bad = np.zeros(n_cur, dtype=bool)
-        bad[cand] = True
-    n_in = int(lab.max()) + 1
-    both = np.zeros((n_in, pn.shape[0]), dtype=np.int64)
-    np.add.at(both, (lab, cur), 1)
-    input_map = both.argmax(axis=1)  # input region -> final region holding most of it
-    lab = cur
-    n_regions = pn.shape[0]
-    proxies = cprox
-    lsq = lsq_vertices(cplx, pts, pn, ctr, max_distance=max_distance)
-    if vertices == "optimize":
-        mv: MeshVertices = optimize_vertices(
-            cplx, pts, pn, ctr, weight=weight, max_iter=max_iter, lsq=lsq
-        )
-    else:
-        mv = lsq
+
+def _place_vertices(
+    clean, q, *, vertices, faces, weight, anchor_weight, max_distance, max_iter
+) -> tuple[MeshVertices, list, float]:
+    """Vertices by the chosen method and the faces (working coordinates; private)."""
+    cplx, pn, ctr = clean.complex, clean.proxy_normals, clean.centers
+    lsq = lsq_vertices(cplx, q, pn, ctr, max_distance=max_distance)
     builder = general_faces if faces == "general" else star_faces
-    centroids = np.asarray(proxies.centroids)
     if vertices == "fit":
-        mv, face_list, used_weight = _fit_with_valid_faces(
+        return _fit_with_valid_faces(
             cplx,
-            pts[fit_mask],
-            lab[fit_mask],
+            q[clean.fit_mask],
+            clean.labels[clean.fit_mask],
             pn,
             ctr,
             lsq,
             anchor_weight,
             max_iter,
             builder,
-            centroids,
+            clean.centroids,
         )
-    else:
-        face_list = builder(cplx, np.asarray(mv.positions), np.asarray(mv.plane_normals), centroids)
-        used_weight = float("nan")
-    positions = np.asarray(mv.positions)
-    plane_n = np.asarray(mv.plane_normals)
+    mv = lsq
+    if vertices == "optimize":
+        mv = optimize_vertices(cplx, q, pn, ctr, weight=weight, max_iter=max_iter, lsq=lsq)
+    face_list = builder(
+        cplx, np.asarray(mv.positions), np.asarray(mv.plane_normals), clean.centroids
+    )
+    return mv, face_list, float("nan")
+
+
+def _assemble(frame, q, clean, mv, face_list, faces, used_weight, point_index, n_input):
+    """The SimplifiedMesh in input coordinates from the working-frame results (private)."""
+    cplx = clean.complex
     if not face_list:
         raise PointAtlasError(
             "no region has a closed boundary cycle; cannot build faces "
             f"({cplx.n_vertices} vertices, {cplx.n_edges} edges)"
         )
+    positions = np.asarray(mv.positions)
+    plane_n = np.asarray(mv.plane_normals)
     used = np.unique(np.concatenate([np.concatenate(f.loops) for f in face_list]))
     remap = np.full(cplx.n_vertices, -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
@@ -678,19 +661,20 @@ def simplify_segmentation(
     triangle_face = np.concatenate(tri_face) if tri_face else np.zeros(0, np.int64)
     closed, manifold, oriented = mesh_checks(verts.shape[0], triangles)
     if triangles.shape[0]:
-        dist = point_triangle_distances(pts, np.ascontiguousarray(verts), triangles)
+        dist = point_triangle_distances(q, np.ascontiguousarray(verts), triangles) * frame.scale
     else:
-        dist = np.full(n, np.inf)
+        dist = np.full(q.shape[0], np.inf)
     with_face = {f.region for f in face_list}
+    n_regions = plane_n.shape[0]
     return SimplifiedMesh(
-        vertices=verts,
+        vertices=frame.to_input(verts),
         vertex_ids=used.astype(np.int64),
         polygons=tuple(np.asarray(p, dtype=np.int64) for p in polygons),
         polygon_face=np.asarray(polygon_face, dtype=np.int64),
         face_region=np.array([f.region for f in face_list], dtype=np.int64),
         face_loops=tuple(face_loops),
         face_ok=np.array([f.ok for f in face_list], dtype=bool),
-        planarity_error=np.array([_planarity(verts, lp) for lp in face_loops]),
+        planarity_error=np.array([_planarity(verts, lp) for lp in face_loops]) * frame.scale,
         triangles=triangles,
         triangle_face=triangle_face,
         is_closed=closed,
@@ -708,9 +692,11 @@ def simplify_segmentation(
             [i for i in range(n_regions) if i not in with_face], dtype=np.int64
         ),
         plane_normals=plane_n,
-        plane_offsets=np.asarray(mv.plane_offsets),
-        labels=lab,
-        region_map=input_map,
-        complex=cplx,
+        plane_offsets=frame.offsets_to_input(plane_n, mv.plane_offsets),
+        labels=clean.labels,
+        region_map=clean.input_map,
+        complex=dataclasses.replace(cplx, vertex_anchor=frame.to_input(cplx.vertex_anchor)),
         anchor_weight=used_weight,
+        point_index=point_index,
+        n_dropped=int(n_input - point_index.size),
     )

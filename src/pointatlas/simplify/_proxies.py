@@ -7,9 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._core import PointAtlasError, as_labels, as_normals, as_points, readonly
-from .._core.tolerances import NORMAL_ZERO_LENGTH
+from .._core.tolerances import NORMAL_ZERO_LENGTH, SIMPLIFY_PARALLEL_ANGLE
 
-__all__ = ["RegionProxies", "region_proxies"]
+__all__ = ["RegionProxies", "check_not_parallel", "region_proxies"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -130,3 +130,14 @@ def region_proxies(points, normals, labels, *, weights=None) -> RegionProxies:
         sizes=sizes,
         energy=np.maximum(energy, 0.0),
     )
+
+
+def check_not_parallel(normals: np.ndarray) -> None:
+    """Raise when all proxy normals (R, 3), unit, lie within
+    ``SIMPLIFY_PARALLEL_ANGLE`` of one direction (up to sign): no vertex is defined."""
+    cosines = np.abs(normals @ normals[0])
+    if cosines.min() >= np.cos(SIMPLIFY_PARALLEL_ANGLE):
+        raise PointAtlasError(
+            f"all {normals.shape[0]} proxy planes are parallel (within "
+            f"{np.degrees(SIMPLIFY_PARALLEL_ANGLE):.0f} degrees); no mesh vertex can be placed"
+        )

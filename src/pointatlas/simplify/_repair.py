@@ -8,9 +8,15 @@ region with the most similar proxy normal, and the complex is rebuilt.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["absorb_regions", "region_contacts"]
+from .._core import PointAtlasError
+from ..complex import SurfaceComplex, surface_complex
+from ._proxies import check_not_parallel, region_proxies
+
+__all__ = ["CleanRegions", "absorb_regions", "clean_regions", "region_contacts", "smooth_labels"]
 
 
 def region_contacts(labels: np.ndarray, indices: np.ndarray, n_regions: int) -> np.ndarray:
@@ -58,6 +64,31 @@ def absorb_regions(labels, indices, proxy_normals, bad) -> tuple[np.ndarray, np.
     return lut[merged], lut[root]
 
 
+def _row_majority(nb: np.ndarray) -> np.ndarray:
+    """Most frequent label of every row of ``nb`` (N, k); the row's first entry (the
+    point's own label) wins ties, other ties go to the label seen first in the row.
+
+    Sorts each row (O(N k) memory, not the O(N k^2) of comparing all pairs): runs of
+    equal labels give the counts, the first entry of a stable-sorted run its first
+    column.
+    """
+    n, k = nb.shape
+    order = np.argsort(nb, axis=1, kind="stable")
+    srt = np.take_along_axis(nb, order, axis=1)
+    start = np.ones((n, k), dtype=bool)
+    start[:, 1:] = srt[:, 1:] != srt[:, :-1]
+    first = np.flatnonzero(start.ravel())  # every row starts a run
+    run_len = np.diff(np.append(first, n * k))
+    run_row = first // k
+    run_label = srt.ravel()[first]
+    run_col = order.ravel()[first]
+    # doubled counts, +1 for the own label: it beats an equal count, never a larger one
+    score = 2 * run_len + (run_label == nb[run_row, 0])
+    pick = np.lexsort((run_col, -score, run_row))
+    best = pick[np.searchsorted(run_row[pick], np.arange(n))]
+    return run_label[best]
+
+
 def smooth_labels(labels: np.ndarray, indices: np.ndarray, n_iter: int) -> np.ndarray:
     """Majority filter over k-NN rows (own label wins ties), then connected pieces.
 
@@ -70,10 +101,7 @@ def smooth_labels(labels: np.ndarray, indices: np.ndarray, n_iter: int) -> np.nd
 
     lab = labels.copy()
     for _ in range(int(n_iter)):
-        nb = lab[indices]
-        counts = (nb[:, :, None] == nb[:, None, :]).sum(axis=1).astype(np.float64)
-        counts[:, 0] += 0.5  # ties keep the point's own label (column 0 is the point)
-        new = nb[np.arange(nb.shape[0]), counts.argmax(axis=1)]
+        new = _row_majority(lab[indices])
         if np.array_equal(new, lab):
             break
         lab = new
@@ -89,3 +117,129 @@ def smooth_labels(labels: np.ndarray, indices: np.ndarray, n_iter: int) -> np.nd
     rank = np.empty_like(order)
     rank[order] = np.arange(order.size)
     return rank[inv.reshape(-1)].astype(np.int64)
+
+
+def _proxies_for(points, normals, labels, region_map, pn0, ctr0, base_valid):
+    """Proxy normals/centers for the current labels: the given ones for regions that
+    are one unchanged input region, recomputed from the points otherwise."""
+    prox = region_proxies(points, normals, labels)
+    n_cur = prox.normals.shape[0]
+    counts = np.bincount(region_map, minlength=n_cur)
+    pn = np.array(prox.normals)
+    ctr = np.array(prox.centroids)
+    single = np.flatnonzero((counts[region_map] == 1) & base_valid)
+    pn[region_map[single]] = pn0[single]
+    ctr[region_map[single]] = ctr0[single]
+    return pn, ctr, prox
+
+
+@dataclass(frozen=True, slots=True)
+class CleanRegions:
+    """Result of `clean_regions` (private): the labels meshed, their proxies and
+    complex, which input region went where, and the points the plane fit may use."""
+
+    labels: np.ndarray
+    input_map: np.ndarray
+    proxy_normals: np.ndarray
+    centers: np.ndarray
+    centroids: np.ndarray
+    complex: SurfaceComplex
+    fit_mask: np.ndarray
+
+
+def clean_regions(
+    points,
+    normals,
+    labels,
+    indices,
+    pn0,
+    ctr0,
+    *,
+    k,
+    smooth,
+    min_region_size,
+    repair,
+    max_boundary_fraction,
+) -> CleanRegions:
+    """Smooth the labels, merge tiny/strip regions, then (``repair``) regions whose
+    boundary does not close into simple cycles, and build the complex (private;
+    validated input, working coordinates; see `simplify_segmentation`)."""
+    n = points.shape[0]
+    n_regions = int(labels.max()) + 1
+    cur = labels
+    base_valid = np.ones(n_regions, dtype=bool)
+    # points the majority filter relabelled to another input region stay out of the
+    # plane fit of vertices="fit"
+    fit_mask = np.ones(n, dtype=bool)
+    if smooth:
+        cur = smooth_labels(labels, indices, smooth)
+        # a piece keeps its input region's proxy unless the region was split
+        pair_counts = np.zeros((int(cur.max()) + 1, n_regions), dtype=np.int64)
+        np.add.at(pair_counts, (cur, labels), 1)
+        owner = pair_counts.argmax(axis=1)
+        base_valid = np.bincount(owner, minlength=n_regions)[owner] == 1
+        pn0, ctr0 = pn0[owner], ctr0[owner]
+        fit_mask = owner[cur] == labels
+    region_map = np.arange(int(cur.max()) + 1)  # base piece -> current region
+    n_cur0 = int(cur.max()) + 1
+    bad = np.bincount(cur, minlength=n_cur0) < int(min_region_size)
+    if repair and max_boundary_fraction < 1.0:
+        # thin regions: (almost) every point sees another region; their two sides
+        # see each other across them and the complex cannot separate them
+        on_boundary = (cur[indices] != cur[:, None]).any(axis=1)
+        frac = np.bincount(cur, weights=on_boundary, minlength=n_cur0) / np.maximum(
+            np.bincount(cur, minlength=n_cur0), 1
+        )
+        sizes0 = np.bincount(cur, minlength=n_cur0)
+        # only regions smaller than half the largest count as strips (on a coarse
+        # sampling every region may have all its points near a boundary)
+        bad |= (frac > max_boundary_fraction) & (sizes0 < 0.5 * sizes0.max())
+    for _round in range(31):
+        stop = False
+        if bad.any():
+            cur_pn = _proxies_for(points, normals, cur, region_map, pn0, ctr0, base_valid)[0]
+            new_labels, step = absorb_regions(cur, indices, cur_pn, bad)
+            if int(new_labels.max()) + 1 >= 3:
+                cur, region_map = new_labels, step[region_map]
+            else:  # merging would leave no polyhedron: keep the regions as they are
+                stop = True
+        pn, ctr, cprox = _proxies_for(points, normals, cur, region_map, pn0, ctr0, base_valid)
+        n_cur = pn.shape[0]
+        if n_cur < 3:
+            raise PointAtlasError(
+                f"simplification needs at least 3 regions (three planes meeting at a "
+                f"vertex); got {n_cur} after merging regions too small to mesh"
+            )
+        check_not_parallel(pn)
+        cplx = surface_complex(points, cur, k=k, indices=indices)
+        if not any(len(r) >= 3 for r in cplx.vertex_regions):
+            raise PointAtlasError(
+                f"no vertex where three or more regions meet (k = {k}); the {n_cur} "
+                "regions do not form a closed polygon mesh"
+            )
+        if not repair or stop:
+            break
+        no_cycle = np.array([len(rc) == 0 for rc in cplx.region_cycles])
+        bad_now = no_cycle.copy()
+        bad_now[cplx.regions_open] = True
+        for c in cplx.cycles_not_simple:
+            bad_now[cplx.cycle_region[c]] = True
+        if not bad_now.any():
+            break
+        # merge the smallest quarter of the failing regions per round
+        sizes = np.bincount(cur, minlength=n_cur)
+        cand = np.flatnonzero(bad_now)
+        cand = cand[np.lexsort((cand, sizes[cand]))][: max(1, cand.size // 4)]
+        bad = np.zeros(n_cur, dtype=bool)
+        bad[cand] = True
+    both = np.zeros((n_regions, pn.shape[0]), dtype=np.int64)
+    np.add.at(both, (labels, cur), 1)
+    return CleanRegions(
+        labels=cur,
+        input_map=both.argmax(axis=1),  # input region -> final region holding most of it
+        proxy_normals=pn,
+        centers=ctr,
+        centroids=np.asarray(cprox.centroids),
+        complex=cplx,
+        fit_mask=fit_mask,
+    )

@@ -1,0 +1,118 @@
+"""Input checks of the simplify room: point count, k, memory, unusable normals.
+
+Private helpers used once by the public functions (STYLE section 5); the decisions
+are recorded in docs/decisions.md, "Simplify: invariance and input checks".
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .._core import PointAtlasError, as_int, as_normals, describe_indices
+from .._core.tolerances import NORMAL_ZERO_LENGTH
+
+__all__ = [
+    "MIN_POINTS",
+    "available_memory",
+    "check_memory",
+    "check_size",
+    "usable_normals",
+]
+
+#: fewest points a simplification can use: a closed polyhedron has at least four
+#: faces, each of them a region with at least one point
+MIN_POINTS = 4
+
+#: bytes per (point, neighbour) pair of the k-NN rows, measured on the room's
+#: largest stage (the surface-like complex: about 160-220 bytes per pair at
+#: k = 8..256 on synth:torus; the k-NN query and VSA take less), rounded up
+BYTES_PER_NEIGHBOUR = 256
+
+#: bytes per pair of regions: the dense region-by-region tables of the repair
+#: step (contacts, proxy similarities, piece/region counts), int64/float64 each
+BYTES_PER_REGION_PAIR = 32
+
+
+def check_size(n_points: int, k) -> int:
+    """Validate ``k`` against the point count; return it as an int.
+
+    Raises a `PointAtlasError` naming the real problem: too few points for any
+    simplification, or fewer points than the neighbourhood size ``k``.
+    """
+    k = as_int(k, "k", lo=1)
+    if n_points < MIN_POINTS:
+        raise PointAtlasError(
+            f"simplify needs at least {MIN_POINTS} points (a closed polyhedron has four "
+            f"faces); got {n_points}"
+        )
+    if k > n_points:
+        raise PointAtlasError(
+            f"simplify needs at least k = {k} points; got {n_points} "
+            f"(k must be <= the number of points)"
+        )
+    return k
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to this process: ``MemAvailable`` of /proc/meminfo,
+    else the physical memory (``os.sysconf``); None where neither can be read."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, ValueError, OSError):  # pragma: no cover - non-POSIX
+        return None
+
+
+def memory_estimate(n_points: int, k: int, n_regions: int = 0) -> int:
+    """Rough peak bytes of the simplification of ``n_points`` with ``k`` neighbours
+    and ``n_regions`` regions (0: not known yet)."""
+    return BYTES_PER_NEIGHBOUR * n_points * k + BYTES_PER_REGION_PAIR * n_regions**2
+
+
+def check_memory(n_points: int, k: int, n_regions: int = 0) -> None:
+    """Raise a `PointAtlasError` before the work starts when its estimated memory
+    exceeds the available memory (a clear message instead of running out of it)."""
+    need = memory_estimate(n_points, k, n_regions)
+    have = available_memory()
+    if have is not None and need > have:
+        regions = f" and {n_regions} regions" if n_regions else ""
+        raise PointAtlasError(
+            f"simplify with k = {k} on {n_points} points{regions} needs about "
+            f"{need / 2**30:.1f} GiB of memory; {have / 2**30:.1f} GiB are available "
+            f"(lower k{', or merge regions' if n_regions else ''})"
+        )
+
+
+def usable_normals(normals, n_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals of the points that have a usable one, and which points those are.
+
+    A normal is unusable when it is zero length (below ``NORMAL_ZERO_LENGTH``) or
+    has a NaN/Inf entry; such points are left out (reported by the callers as
+    ``n_dropped``). Returns (unit normals (M, 3), keep mask (N,)). Raises on a
+    wrong shape or when no point keeps a normal.
+    """
+    try:
+        arr = np.asarray(normals, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"normals must be numeric; got {type(normals).__name__}: {exc}") from None
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"normals must have shape (N, 3); got {arr.shape}")
+    if arr.shape[0] != n_points:
+        raise ValueError(f"normals must have one row per point ({n_points}); got {arr.shape[0]}")
+    with np.errstate(invalid="ignore", over="ignore"):
+        length = np.linalg.norm(arr, axis=1)
+    bad = ~(np.isfinite(arr).all(axis=1) & np.isfinite(length) & (length >= NORMAL_ZERO_LENGTH))
+    if bad.all():
+        raise PointAtlasError(
+            f"no point has a usable normal (zero-length or non-finite normals at "
+            f"{describe_indices(bad)})"
+        )
+    return as_normals(arr[~bad]), ~bad
