@@ -117,7 +117,7 @@ def test_two_outputs_that_are_the_same_file_are_refused(tmp_path):
     assert not out.exists()
 
 
-# --------------------------------------------------------------------------- 14: outputs checked first
+# ------------------------------------------------------------------- 14: outputs checked first
 
 
 @pytest.mark.parametrize(
@@ -350,7 +350,7 @@ def test_sigint_during_segment_exits_130_and_keeps_previous_outputs(tmp_path):
         p.write_bytes(b"previous")
     cmd = [sys.executable, "-m", "pointatlas.cli", "segment", str(src), str(out), "--eta", "25"]
     n_interrupted = 0
-    for delay in (1.5, 3.0, 4.5):
+    for delay in (0.3, 1.5, 3.0, 4.5):
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         time.sleep(delay)
         proc.send_signal(signal.SIGINT)
@@ -366,7 +366,7 @@ def test_sigint_during_segment_exits_130_and_keeps_previous_outputs(tmp_path):
     assert n_interrupted >= 1
 
 
-# --------------------------------------------------------------------------- 15, 16: messages, flags
+# ------------------------------------------------------------------- 15, 16: messages, flags
 
 
 def test_folder_input_says_it_is_a_folder(tmp_path):

@@ -22,7 +22,7 @@ def cube_file(tmp_path):
 #: alike: 2-3 of 12 shuffled inputs gave 7-12 vertices); 20 degrees lets VSA itself
 #: absorb them, and every input order gives the 8-vertex cube (tested in
 #: test_pipeline.py)
-ROBUST = ["--max-angle-deg", "20"]
+ROBUST = ["--max-angle-deg", "20", "--vertices-only"]
 
 
 def test_simplify_cube_writes_closed_polygon_mesh(cube_file, tmp_path):
@@ -57,7 +57,15 @@ def test_simplify_cube_writes_closed_polygon_mesh(cube_file, tmp_path):
 def test_simplify_default_gives_planar_faces(cube_file, tmp_path):
     rep = tmp_path / "report.json"
     res = runner.invoke(
-        app, ["simplify", str(cube_file), str(tmp_path / "c.obj"), "--report", str(rep)]
+        app,
+        [
+            "simplify",
+            str(cube_file),
+            str(tmp_path / "c.obj"),
+            "--report",
+            str(rep),
+            "--vertices-only",
+        ],
     )
     assert res.exit_code == 0, res.output
     report = json.loads(rep.read_text())
@@ -65,7 +73,15 @@ def test_simplify_default_gives_planar_faces(cube_file, tmp_path):
     assert report["is_closed"] and report["is_manifold"] and report["is_oriented"]
     assert report["max_planarity_error"] < 1e-9 and report["faces_not_ok"] == []
     res = runner.invoke(
-        app, ["simplify", str(cube_file), str(tmp_path / "d.obj"), "--anchor-weight", "0"]
+        app,
+        [
+            "simplify",
+            str(cube_file),
+            str(tmp_path / "d.obj"),
+            "--anchor-weight",
+            "0",
+            "--vertices-only",
+        ],
     )
     assert res.exit_code == 1 and "anchor_weight" in res.output
 
@@ -73,7 +89,9 @@ def test_simplify_default_gives_planar_faces(cube_file, tmp_path):
 def test_simplify_star_faces(cube_file, tmp_path):
     # (--render is exercised by the demo step test below)
     out = tmp_path / "c.ply"
-    res = runner.invoke(app, ["simplify", str(cube_file), str(out), "--faces", "star", *ROBUST])
+    res = runner.invoke(
+        app, ["simplify", str(cube_file), str(out), "--face-method", "star", *ROBUST]
+    )
     assert res.exit_code == 0, res.output
     assert read_mesh(out).n_faces == 6
 
@@ -82,10 +100,26 @@ def test_degenerate_input_gives_one_line_and_no_file(tmp_path):
     m = plane_patch()
     flat = write_mesh(tmp_path / "flat.obj", m.vertices, m.faces)
     out = tmp_path / "flat_simple.obj"
-    res = runner.invoke(app, ["simplify", str(flat), str(out)])
+    res = runner.invoke(app, ["simplify", str(flat), str(out), "--vertices-only"])
     assert res.exit_code == 1
     assert "error:" in res.output and "regions" in res.output
     assert not out.exists()
+
+
+def test_open_sheet_keeps_its_boundary_on_the_mesh_path(tmp_path):
+    m = plane_patch()
+    flat = write_mesh(tmp_path / "flat.obj", m.vertices, m.faces)
+    out = tmp_path / "flat_simple.obj"
+    rep = tmp_path / "r.json"
+    res = runner.invoke(app, ["simplify", str(flat), str(out), "--report", str(rep)])
+    assert res.exit_code == 0, res.output
+    report = json.loads(rep.read_text())
+    assert report["n_faces"] == 1 and not report["is_closed"] and report["is_manifold"]
+    assert report["euler_characteristic"] == 1  # a disk
+    got = read_mesh(out)
+    lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
+    assert got.vertices.min(axis=0).tolist() == lo.tolist()
+    assert got.vertices.max(axis=0).tolist() == hi.tolist()
 
 
 def test_bad_output_extension(cube_file, tmp_path):
@@ -103,7 +137,7 @@ def test_bad_output_extension(cube_file, tmp_path):
             "10",
         ],
     )
-    assert res.exit_code == 1 and "not both" in res.output
+    assert res.exit_code == 1 and "give one of" in res.output
 
 
 @pytest.mark.slow

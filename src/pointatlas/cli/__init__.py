@@ -1,22 +1,55 @@
 """Command-line interface ``pointatlas`` (typer + rich).
 
-Command modules register themselves on import; add one import line per module.
+Command modules register themselves on import; add one name per module to
+``_COMMAND_MODULES`` (keep it sorted). They are imported on first use of ``app``,
+so that ``main`` can install its Ctrl-C handler before the heavy imports.
 """
 
-# command modules (each registers on ``app`` / sub-apps when imported)
-# (one import line per module, keep sorted)
-from . import (
-    _cmd_core,  # noqa: F401
-    _cmd_features,  # noqa: F401
-    _cmd_segment,  # noqa: F401
-    _cmd_simplify,  # noqa: F401
-    _exp_vsa,  # noqa: F401
-)
-from ._app import app
+from __future__ import annotations
+
+import importlib
+import os
+import signal
+import sys
 
 __all__ = ["app", "main"]
 
+# command modules (each registers on ``app`` / sub-apps when imported)
+_COMMAND_MODULES = (
+    "_cmd_core",
+    "_cmd_features",
+    "_cmd_segment",
+    "_cmd_simplify",
+    "_exp_vsa",
+)
+
+
+def _load_app():
+    for name in _COMMAND_MODULES:
+        importlib.import_module(f"{__name__}.{name}")
+    from ._app import app
+
+    return app
+
+
+def __getattr__(name: str):
+    if name == "app":
+        return _load_app()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _interrupted_while_starting(signum, frame):  # pragma: no cover - timing dependent
+    # nothing has been written yet: say so in one line and leave at once
+    sys.stderr.write("error: interrupted\n")
+    sys.stderr.flush()
+    os._exit(130)
+
 
 def main() -> None:
-    """Entry point of the ``pointatlas`` console script."""
-    app()
+    """Entry point of the ``pointatlas`` console script.
+
+    Ctrl-C while the command modules load prints one line and exits 130; once a
+    command runs, ``guarded`` handles it (outputs stay as they were).
+    """
+    signal.signal(signal.SIGINT, _interrupted_while_starting)
+    _load_app()()

@@ -79,6 +79,137 @@ def render_simplification(path: Path, points, normals, mesh, *, title: str | Non
     return render_side_by_side(path, panels, title=title, view=camera, size=(1800, 900))
 
 
+def _length_option(text: str | None, flag: str, diagonal: float) -> float | None:
+    """A length, or a percentage of the bounding-box diagonal (``0.5%``)."""
+    from .._core import as_float
+
+    if text is None:
+        return None
+    raw = text.strip()
+    try:
+        value = float(raw[:-1]) / 100.0 * diagonal if raw.endswith("%") else float(raw)
+    except ValueError:
+        raise PointAtlasError(
+            f"{flag} must be a length or a percentage of the diagonal such as 0.5%; got {text!r}"
+        ) from None
+    return as_float(value, flag, lo=0.0, lo_open=True, what="length")
+
+
+def read_mesh_input(infile):
+    """The input as a triangle mesh when it has faces (a mesh file or a bundled model
+    with a mesh), else None."""
+    from .. import data
+    from ..io import MESH_EXTENSIONS, read_mesh
+
+    p = Path(infile)
+    if p.is_file():
+        if p.suffix.lower() not in MESH_EXTENSIONS:
+            return None
+        mesh = read_mesh(p)
+    elif str(infile) in data.names():
+        try:
+            mesh = data.load_mesh(str(infile))
+        except (PointAtlasError, ValueError, KeyError, AttributeError):
+            return None
+    else:
+        return None
+    return mesh if mesh.n_faces else None
+
+
+def surface_table(res, *, title: str | None = None) -> Table:
+    """A rich table of a mesh-path result's quality report."""
+    s = res.summary()
+    table = Table(title=title, show_header=False, title_justify="left")
+    table.add_column("property", style="bold")
+    table.add_column("value")
+    table.add_row("path", "mesh (regions of the input's triangles)")
+    table.add_row("faces (regions)", str(s["n_faces"]))
+    table.add_row("vertices", str(s["n_vertices"]))
+    table.add_row("faces with holes", str(s["n_faces_with_holes"]))
+    table.add_row("faces kept as input triangles", str(s["n_faces_kept_as_input_triangles"]))
+    table.add_row(
+        "closed / manifold / oriented",
+        f"{s['is_closed']} / {s['is_manifold']} / {s['is_oriented']}",
+    )
+    table.add_row("Euler characteristic", str(s["euler_characteristic"]))
+    table.add_row("max planarity error", f"{s['max_planarity_error']:.3g}")
+    table.add_row("mean / max distance", f"{s['mean_distance']:.4g} / {s['max_distance']:.4g}")
+    return table
+
+
+def render_surface(path: Path, mesh_in, res, *, title: str | None = None):
+    """Side-by-side picture: the input's triangles by region and the simplified mesh."""
+    from ..viz import MeshPanel, fit_camera, render_side_by_side
+
+    camera = fit_camera(mesh_in.vertices)
+    panels = [
+        MeshPanel(
+            mesh_in.vertices,
+            mesh_in.triangles,
+            face_labels=res.face_labels,
+            edges=False,
+            title=f"input: {mesh_in.n_faces:,} triangles, {res.n_faces} regions",
+        ),
+        MeshPanel(
+            res.vertices,
+            [p.tolist() for p in res.polygons],
+            face_labels=res.polygon_face,
+            title=f"simplified mesh: {res.n_faces} faces",
+        ),
+    ]
+    return render_side_by_side(path, panels, title=title, view=camera, size=(1800, 900))
+
+
+def _simplify_mesh_command(
+    infile,
+    mesh_in,
+    out,
+    *,
+    max_angle,
+    eta,
+    n_faces,
+    max_error,
+    chord_tolerance,
+    seed,
+    triangles,
+    report,
+    render,
+):
+    import numpy as np
+
+    from ..simplify import simplify_mesh
+
+    v = mesh_in.vertices
+    diagonal = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))) if v.size else 0.0
+    res = simplify_mesh(
+        v,
+        mesh_in.triangles,
+        max_angle=max_angle,
+        eta=eta,
+        n_faces=n_faces,
+        max_error=_length_option(max_error, "--max-error", diagonal),
+        chord_tolerance=_length_option(chord_tolerance, "--chord-tolerance", diagonal),
+        rng=seed,
+    )
+    written = [write_mesh(out, res.vertices, [p.tolist() for p in res.polygons])]
+    if triangles is not None:
+        written.append(write_mesh(triangles, res.vertices, res.triangles))
+    if render is not None:
+        written.append(render_surface(render, mesh_in, res, title=Path(str(infile)).name))
+    if report is not None:
+        info = {
+            "input": str(infile),
+            "input_vertices": int(mesh_in.n_vertices),
+            "input_faces": int(mesh_in.n_faces),
+            "seed": seed,
+            **res.summary(),
+        }
+        written.append(write_summary_json(report, info, written))
+    console.print(surface_table(res, title=Path(str(infile)).name))
+    for path in written:
+        say(f"written: {path}")
+
+
 def _run(points, normals, **kw):
     """simplify_points, with a SimplifyWarning turned into one yellow line."""
     with warnings.catch_warnings(record=True) as caught:
@@ -132,9 +263,39 @@ def simplify_command(
             "lsq (plane intersection) or optimize (Eq. 4.12).",
         ),
     ] = "fit",
-    faces: Annotated[
-        str, typer.Option("--faces", help="general (cycles, holes) or star ([SZP20]).")
+    face_method: Annotated[
+        str,
+        typer.Option(
+            "--face-method", help="Points path: general (cycles, holes) or star ([SZP20])."
+        ),
     ] = "general",
+    n_faces: Annotated[
+        int | None,
+        typer.Option("--faces", help="Target number of faces (mesh input; found by bisection)."),
+    ] = None,
+    max_error: Annotated[
+        str | None,
+        typer.Option(
+            "--max-error",
+            help="Largest distance of an input vertex to the output (mesh input): a length, "
+            "or a percentage of the bounding-box diagonal such as 0.5%.",
+        ),
+    ] = None,
+    chord_tolerance: Annotated[
+        str | None,
+        typer.Option(
+            "--chord-tolerance",
+            help="Mesh input: largest distance of a boundary arc to its chords (a length or "
+            "a percentage of the diagonal; default 0.5%).",
+        ),
+    ] = None,
+    vertices_only: Annotated[
+        bool,
+        typer.Option(
+            "--vertices-only",
+            help="Use a mesh input's vertices only, as a point set (the thesis' path).",
+        ),
+    ] = False,
     centers: Annotated[
         str, typer.Option("--centers", help="Proxy plane point: centroid or seed (C_i).")
     ] = "centroid",
@@ -178,10 +339,14 @@ def simplify_command(
         Path | None, typer.Option("--render", help="PNG: segmentation and mesh side by side.")
     ] = None,
 ):
-    """Segment a point set (VSA) and write its simplified polygon mesh.
+    """Simplify a mesh or a point set into a polygon mesh with planar faces.
 
-    With ``--report`` the JSON report is written last and names every file of the
-    run with its SHA-256.
+    A mesh input (a file with faces, or a bundled model) takes the mesh path: its
+    triangles are segmented (VSA on faces) and each region becomes one face; the
+    output is closed and manifold whenever the input is. A point set, or a mesh
+    with ``--vertices-only``, takes the thesis' path (VSA on points, surface-like
+    complex, 4.4). With ``--report`` the JSON report is written last and names
+    every file of the run with its SHA-256.
     """
     check_outputs(
         [infile],
@@ -192,11 +357,47 @@ def simplify_command(
             ("--report", report, (".json",)),
         ],
     )
-    if eta is not None and max_angle_deg is not None:
-        raise PointAtlasError("give --eta or --max-angle-deg, not both")
+    levels = [
+        ("--eta", eta),
+        ("--max-angle-deg", max_angle_deg),
+        ("--faces", n_faces),
+        ("--max-error", max_error),
+    ]
+    given = [flag for flag, value in levels if value is not None]
+    if len(given) > 1:
+        raise PointAtlasError(
+            f"give one of --eta, --max-angle-deg, --faces, --max-error; got {', '.join(given)}"
+        )
     max_angle = None
     if max_angle_deg is not None:
         max_angle = math.radians(angle_deg_option(max_angle_deg, "--max-angle-deg"))
+    mesh_in = None if vertices_only else read_mesh_input(infile)
+    if mesh_in is not None:
+        _simplify_mesh_command(
+            infile,
+            mesh_in,
+            out,
+            max_angle=max_angle,
+            eta=eta,
+            n_faces=n_faces,
+            max_error=max_error,
+            chord_tolerance=chord_tolerance,
+            seed=seed,
+            triangles=triangles,
+            report=report,
+            render=render,
+        )
+        return
+    for flag, value in (
+        ("--faces", n_faces),
+        ("--max-error", max_error),
+        ("--chord-tolerance", chord_tolerance),
+    ):
+        if value is not None:
+            raise PointAtlasError(
+                f"{flag} needs a mesh input (a file with faces); {infile} is a point set "
+                "or --vertices-only was given: use --eta or --max-angle-deg"
+            )
     seed_spec = parse_seeds(seeds)
     ps = read_with_normals(infile, estimate=estimate, normal_k=normal_k)
     normals = ps.normals
@@ -215,7 +416,7 @@ def simplify_command(
         max_iter=max_iter,
         rng=seed,
         vertices=vertices,
-        faces=faces,
+        faces=face_method,
         centers=centers,
         weight=weight,
         anchor_weight=anchor_weight,

@@ -218,7 +218,7 @@ def _split(points, w, labels, m, over):
     wr = np.bincount(lab, weights=ww, minlength=m)
     counts = np.bincount(lab, minlength=m)
     p = points[idx]
-    regs = np.flatnonzero(over)
+    regs = np.flatnonzero(over & (wr > 0.0))  # a region without points has no centroid
     cen = np.zeros((m, 3))
     for d in range(3):
         cen[:, d] = np.bincount(lab, weights=ww * p[:, d], minlength=m)

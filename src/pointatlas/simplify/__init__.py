@@ -3,6 +3,7 @@
 from ._mesh import SimplifiedMesh, mesh_checks, point_mesh_distance, simplify_segmentation
 from ._pipeline import PointSimplification, simplify_points
 from ._proxies import RegionProxies, region_proxies
+from ._surface import SurfaceSimplification, simplify_mesh
 from ._vertices import MeshVertices, SimplifyWarning
 
 __all__ = [
@@ -11,9 +12,11 @@ __all__ = [
     "RegionProxies",
     "SimplifiedMesh",
     "SimplifyWarning",
+    "SurfaceSimplification",
     "mesh_checks",
     "point_mesh_distance",
     "region_proxies",
+    "simplify_mesh",
     "simplify_points",
     "simplify_segmentation",
 ]
