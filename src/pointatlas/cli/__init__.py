@@ -16,10 +16,13 @@ __all__ = ["app", "main"]
 
 # command modules (each registers on ``app`` / sub-apps when imported)
 _COMMAND_MODULES = (
+    "_cmd_cloudsurface",
     "_cmd_core",
+    "_cmd_denoise",
     "_cmd_features",
     "_cmd_segment",
     "_cmd_simplify",
+    "_exp_denoise",
     "_exp_vsa",
 )
 

@@ -1,5 +1,23 @@
-"""The surface-like complex K' of a segmentation (thesis section 3, GUIDE B1)."""
+"""Complexes on point sets and their simplicial-surface checks.
 
+The cloud complex of a cloud set (thesis Chapter A, Defs 3-10, GUIDE A1) and the
+surface-like complex K' of a segmentation (section 3, GUIDE B1) share one set of
+simplicial-surface checks and one topology report (`surface_report`, Defs 7, 8, 13, 14).
+"""
+
+from ._clouds import CloudComplex, cloud_complex
 from ._complex import SurfaceComplex, surface_complex
+from ._report import CurveReport, curve_report, realise_complex, surface_report
+from ._surface import SurfaceReport
 
-__all__ = ["SurfaceComplex", "surface_complex"]
+__all__ = [
+    "CloudComplex",
+    "CurveReport",
+    "SurfaceComplex",
+    "SurfaceReport",
+    "cloud_complex",
+    "curve_report",
+    "realise_complex",
+    "surface_complex",
+    "surface_report",
+]

@@ -31,6 +31,7 @@ from scipy.sparse import csgraph
 
 from .._core import as_labels, as_points, readonly
 from ..neighbors import query_knn
+from ._surface import incidence_checks
 
 __all__ = ["SurfaceComplex", "surface_complex"]
 
@@ -451,33 +452,6 @@ def _trace_region(edges_of_region, edges):
     return cycles, open_edges
 
 
-def _has_hamiltonian_path(n: int, adj: list[set]) -> bool:
-    if n <= 1:
-        return True
-    if n > 10:  # fall back to the fan criterion: connected, degrees <= 2
-        seen, stack = {0}, [0]
-        while stack:
-            x = stack.pop()
-            for y in adj[x]:
-                if y not in seen:
-                    seen.add(y)
-                    stack.append(y)
-        return len(seen) == n and all(len(a) <= 2 for a in adj)
-
-    def dfs(x, visited):
-        if len(visited) == n:
-            return True
-        for y in adj[x]:
-            if y not in visited:
-                visited.add(y)
-                if dfs(y, visited):
-                    return True
-                visited.remove(y)
-        return False
-
-    return any(dfs(s, {s}) for s in range(n))
-
-
 def surface_complex(points, labels, *, k: int = 8, indices=None) -> SurfaceComplex:
     """Build the surface-like complex K' of a segmentation (thesis section 3).
 
@@ -687,13 +661,14 @@ def surface_complex(points, labels, *, k: int = 8, indices=None) -> SurfaceCompl
         if opn:
             regions_open.append(i)
 
-    # conditions of Conjectures 3 and 4
-    edge_count = np.zeros(E.shape[0], dtype=np.int64)
-    vertex_cycles: list[list[int]] = [[] for _ in range(n_v)]
-    for c, (verts, path) in enumerate(zip(cycles, cycle_edges, strict=True)):
-        np.add.at(edge_count, path, 1)
-        for v in set(verts.tolist()):
-            vertex_cycles[v].append(c)
+    # conditions of Conjectures 3 and 4: the simplicial-surface checks of Def 7 on the
+    # cycles as faces (shared with the cloud complex, ._surface)
+    he_face = np.concatenate(
+        [np.full(p.size, c, dtype=np.int64) for c, p in enumerate(cycle_edges)]
+        or [np.zeros(0, np.int64)]
+    )
+    he_edge = np.concatenate(cycle_edges or [np.zeros(0, np.int64)]).astype(np.int64)
+    edge_count, no_cycle, not_fan = incidence_checks(n_v, E, he_face, he_edge)
     edge_set = {(int(u), int(v)) for u, v in E}
     not_simple = []
     for c, verts in enumerate(cycles):
@@ -701,15 +676,6 @@ def surface_complex(points, labels, *, k: int = 8, indices=None) -> SurfaceCompl
         induced = sum(1 for u, v in edge_set if u in vs and v in vs)
         if len(vs) != verts.size or verts.size < 3 or induced != verts.size:
             not_simple.append(c)
-    not_fan = []
-    for v in range(n_v):
-        cs = vertex_cycles[v]
-        if len(cs) <= 1:
-            continue
-        inc = [{int(e) for e in cycle_edges[c] if E[e, 0] == v or E[e, 1] == v} for c in cs]
-        adj = [{j for j in range(len(cs)) if j != i and inc[i] & inc[j]} for i in range(len(cs))]
-        if not _has_hamiltonian_path(len(cs), adj):
-            not_fan.append(v)
     n_cyc_region = np.array([len(rc) for rc in region_cycles], dtype=np.int64)
 
     vpoints = [np.asarray(p, dtype=np.int64) for p in b.vpoints]
@@ -738,9 +704,9 @@ def surface_complex(points, labels, *, k: int = 8, indices=None) -> SurfaceCompl
         region_cycles=tuple(tuple(rc) for rc in region_cycles),
         open_edges=np.unique(arr(open_edges, dtype=np.int64)),
         regions_open=arr(regions_open, dtype=np.int64),
-        vertices_without_cycle=arr([v for v in range(n_v) if not vertex_cycles[v]], dtype=np.int64),
+        vertices_without_cycle=no_cycle,
         edges_in_many_cycles=np.flatnonzero(edge_count > 2),
-        vertices_not_fan=arr(not_fan, dtype=np.int64),
+        vertices_not_fan=not_fan,
         edges_not_in_two_cycles=np.flatnonzero(edge_count != 2),
         regions_not_one_cycle=np.flatnonzero(n_cyc_region != 1),
         vertices_not_triple=arr([v for v in range(n_v) if len(b.vregions[v]) != 3], dtype=np.int64),

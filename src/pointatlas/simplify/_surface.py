@@ -802,6 +802,10 @@ def simplify_surface(
 CHORD_TOLERANCE = 0.005
 #: Default mean normal deviation per region of the mesh path (radians, 10 degrees).
 MAX_ANGLE = np.radians(10.0)
+#: Neighbouring regions whose union stays this flat are merged after VSA (radians):
+#: pieces of one flat CAD face that VSA's agglomeration left apart. Larger unions
+#: are left to VSA (they fold over in their plane more often).
+FLAT_MERGE_ANGLE = np.radians(1.0)
 
 
 def _as_triangles(triangles, n_vertices: int) -> np.ndarray:
@@ -929,6 +933,9 @@ def simplify_mesh(
 
     def run(angle, eta_=None, tol_=tol):
         labels, normals = _segment_faces(s, graph, max_angle=angle, eta=eta_, rng=rng)
+        if angle is not None:
+            labels = _merge_flat(s, graph, labels, min(angle, FLAT_MERGE_ANGLE))
+            normals = _region_normals(s, labels, int(labels.max()) + 1)
         res = simplify_surface(verts, tri, labels, normals, chord_tolerance=tol_)
         for _ in range(_SPLIT_ROUNDS):
             if not res.face_kept_input.any():
@@ -1039,3 +1046,75 @@ def _split_regions(s: _Surface, graph, labels: np.ndarray, regions) -> np.ndarra
     rank = np.empty_like(order)
     rank[order] = np.arange(order.size)
     return rank[comp]
+
+
+def _merge_flat(s: _Surface, graph, labels: np.ndarray, max_angle: float) -> np.ndarray:
+    """Merge neighbouring regions while their union keeps a mean normal deviation of at
+    most ``max_angle`` (VSA with a max_angle threshold has no final merge pass; on flat
+    CAD faces its agglomeration can stop with a face in several pieces).
+
+    Cheapest union first (largest |S| / W), with the regions' (W, S) summaries of
+    GUIDE B2; merged regions stay connected because only neighbours merge.
+    """
+    import heapq
+
+    n_regions = int(labels.max()) + 1
+    w = s.areas
+    wsum = np.bincount(labels, weights=w, minlength=n_regions)
+    ssum = np.stack(
+        [np.bincount(labels, weights=w * s.normals[:, d], minlength=n_regions) for d in range(3)],
+        axis=1,
+    )
+    coo = graph.tocoo()
+    a, b = labels[coo.row], labels[coo.col]
+    pairs = np.unique(np.sort(np.stack([a[a != b], b[a != b]], 1), axis=1), axis=0)
+    neighbours: list[set] = [set() for _ in range(n_regions)]
+    for x, y in pairs.tolist():
+        neighbours[x].add(y)
+        neighbours[y].add(x)
+    min_cos = float(np.cos(max_angle))
+    parent = list(range(n_regions))
+    wsum, ssum = wsum.tolist(), ssum.tolist()
+
+    def score(x, y):
+        wt = wsum[x] + wsum[y]
+        sx, sy = ssum[x], ssum[y]
+        length = float(np.sqrt(sum((sx[d] + sy[d]) ** 2 for d in range(3))))
+        return length / wt if wt > 0 else 1.0
+
+    heap = [(-score(x, y), x, y) for x, y in pairs.tolist()]
+    heapq.heapify(heap)
+    alive = [True] * n_regions
+    while heap:
+        neg, x, y = heapq.heappop(heap)
+        if not (alive[x] and alive[y]):
+            continue
+        if -neg < min_cos - 1e-15:
+            break
+        if abs(-neg - score(x, y)) > 1e-15:  # stale entry
+            continue
+        # merge y into x
+        alive[y] = False
+        parent[y] = x
+        wsum[x] += wsum[y]
+        ssum[x] = [ssum[x][d] + ssum[y][d] for d in range(3)]
+        for z in neighbours[y]:
+            if z != x:
+                neighbours[z].discard(y)
+                neighbours[z].add(x)
+                neighbours[x].add(z)
+        neighbours[x].discard(y)
+        for z in neighbours[x]:
+            heapq.heappush(heap, (-score(x, z), min(x, z), max(x, z)))
+    root = np.arange(n_regions)
+    for r in range(n_regions):
+        q = r
+        while parent[q] != q:
+            q = parent[q]
+        root[r] = q
+    merged = root[labels]
+    _, first = np.unique(merged, return_index=True)
+    order = np.argsort(first, kind="stable")
+    rank = np.empty(n_regions, dtype=np.int64)
+    rank[np.unique(merged)[order]] = np.arange(order.size)
+    return rank[merged]

@@ -1,5 +1,6 @@
 """Synthetic test shapes with exact normals, mesh sampling and noise (GUIDE "Test models")."""
 
+from ._clouds import MeshClouds, clouds_from_mesh, sphere_density, vertex_curvature
 from ._mesh import SynthMesh, face_areas, vertex_normals
 from ._noise import add_gaussian_noise, add_normal_noise
 from ._sample import MeshSample, sample_mesh
@@ -17,10 +18,12 @@ from ._shapes import (
 )
 
 __all__ = [
+    "MeshClouds",
     "MeshSample",
     "SynthMesh",
     "add_gaussian_noise",
     "add_normal_noise",
+    "clouds_from_mesh",
     "cube",
     "cylinder",
     "dodecahedron",
@@ -32,6 +35,8 @@ __all__ = [
     "plane_patch",
     "sample_mesh",
     "sphere",
+    "sphere_density",
     "torus",
+    "vertex_curvature",
     "vertex_normals",
 ]

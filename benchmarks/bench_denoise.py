@@ -1,0 +1,231 @@
+"""Point denoising against Open3D's and CGAL's point-set smoothers (one run, same inputs).
+
+Inputs: the noisy/clean pairs of ``../shared/data/models/noisy`` (noisy mesh vertices,
+clean mesh), CAD models with 1 %, 2 %, 3 % Gaussian noise of the bounding-sphere
+radius (the literature's protocol), and optionally a 100,000-point noisy scene
+(``benchmarks/scene.py``; no mesh there, so Chamfer and distances only). Every
+method gets the raw noisy points: ours estimates and orients PCA normals first
+(timed), peers use their own. Normal MSE: ours its filtered normals; peers PCA
+normals (k = 20) of their output, signed like the clean normals.
+
+    python benchmarks/bench_denoise.py [--data ../shared/data] [--no-scene] [--out FILE.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from pointatlas.denoise import add_noise, denoise_measures, normal_voting_denoise
+from pointatlas.io import read_mesh
+from pointatlas.neighbors import mean_spacing
+from pointatlas.normals import estimate_normals, orient_normals
+from pointatlas.synth import cube, vertex_normals
+
+NOISY_PAIRS = {
+    "fandisk_0.3": ("noisy/fandisk_6475_noisy_0_3.obj", "fandisk_6475.obj"),
+    "fandisk_0.7": ("noisy/fandisk_6475_noisy_0_7.obj", "fandisk_6475.obj"),
+    "block_0.4": ("noisy/block_8771_noisy_0_4.obj", "block_8771.obj"),
+    "sharp_sphere_0.3": ("noisy/sharp_sphere_10443_noisy_0_3.obj", "sharp_sphere_10443.obj"),
+    "twelve_impulsive_0.5": ("noisy/twelve_4610_noisy_impulsive_0_5.obj", "twelve_4610.obj"),
+}
+CAD_MODELS = ("fandisk_6475.obj", "block_2132.obj", "synth:cube_1538")
+ORGANIC = {"fertility_4494.off", "sharp_sphere_0.3"}
+
+
+# ----------------------------------------------------------------------------- peers
+
+
+def _o3d(points):
+    import open3d as o3d
+
+    pc = o3d.geometry.PointCloud()
+    pc.points = o3d.utility.Vector3dVector(np.array(points, dtype=np.float64))
+    return o3d, pc
+
+
+def o3d_mls(points, ell, tuned):
+    o3d, pc = _o3d(points)
+    param = (
+        o3d.geometry.KDTreeSearchParamHybrid(radius=3 * ell, max_nn=30)
+        if tuned
+        else o3d.geometry.KDTreeSearchParamHybrid(radius=0.05, max_nn=30)
+    )
+    t = time.perf_counter()
+    out = pc.smooth_mls(param)
+    return np.asarray(out.points), time.perf_counter() - t
+
+
+def o3d_taubin(points, ell, tuned):
+    o3d, pc = _o3d(points)
+    t = time.perf_counter()
+    out = pc.smooth_taubin(iterations=30 if tuned else 10, knn=12 if tuned else 20)
+    return np.asarray(out.points), time.perf_counter() - t
+
+
+def o3d_laplacian(points, ell, tuned):
+    o3d, pc = _o3d(points)
+    t = time.perf_counter()
+    out = pc.smooth_laplacian(iterations=3 if tuned else 10, knn=12 if tuned else 20)
+    return np.asarray(out.points), time.perf_counter() - t
+
+
+def _cgal_set(points):
+    from CGAL.CGAL_Kernel import Point_3
+    from CGAL.CGAL_Point_set_3 import Point_set_3
+
+    ps = Point_set_3()
+    for x, y, z in points:
+        ps.insert(Point_3(float(x), float(y), float(z)))
+    return ps
+
+
+def _cgal_points(ps):
+    return np.array([[p.x(), p.y(), p.z()] for p in (ps.point(i) for i in range(ps.size()))])
+
+
+def cgal_jet(points, ell, tuned):
+    import CGAL.CGAL_Point_set_processing_3 as cp
+
+    ps = _cgal_set(points)
+    t = time.perf_counter()
+    cp.jet_smooth_point_set(ps, 12 if tuned else 24)
+    return _cgal_points(ps), time.perf_counter() - t
+
+
+def cgal_bilateral(points, ell, tuned):
+    import CGAL.CGAL_Point_set_processing_3 as cp
+
+    ps = _cgal_set(points)
+    ps.add_normal_map()
+    t = time.perf_counter()
+    cp.jet_estimate_normals(ps, 18)
+    cp.mst_orient_normals(ps, 18)
+    for _ in range(3 if tuned else 1):
+        cp.bilateral_smooth_point_set(ps, 12 if tuned else 24, 25.0)
+    return _cgal_points(ps), time.perf_counter() - t
+
+
+def cgal_wlop(points, ell, tuned):
+    import CGAL.CGAL_Point_set_processing_3 as cp
+
+    ps = _cgal_set(points)
+    out = _cgal_set(np.empty((0, 3)))
+    t = time.perf_counter()
+    cp.wlop_simplify_and_regularize_point_set(ps, out, 50.0 if tuned else 5.0)
+    return _cgal_points(out), time.perf_counter() - t
+
+
+def ours(points, ell, variant):
+    t = time.perf_counter()
+    nrm = orient_normals(points, estimate_normals(points, 20))
+    r = normal_voting_denoise(points, nrm, adaptive=variant == "adaptive")
+    return r.points, time.perf_counter() - t, r.normals
+
+
+PEERS = {
+    "open3d smooth_mls": o3d_mls,
+    "open3d smooth_taubin": o3d_taubin,
+    "open3d smooth_laplacian": o3d_laplacian,
+    "cgal jet_smooth": cgal_jet,
+    "cgal bilateral_smooth": cgal_bilateral,
+    "cgal wlop": cgal_wlop,
+}
+
+
+# ----------------------------------------------------------------------------- inputs
+
+
+def _mesh(path):
+    if str(path).startswith("synth:cube"):
+        m = cube(16)
+        return np.asarray(m.vertices), np.asarray(m.faces)
+    mesh = read_mesh(path)
+    return np.asarray(mesh.vertices), np.asarray(mesh.triangles)
+
+
+def inputs(data: Path):
+    for name, (noisy, clean) in NOISY_PAIRS.items():
+        nv, _ = _mesh(data / "models" / noisy)
+        cv, cf = _mesh(data / "models" / clean)
+        yield name, nv, cv, cf
+    for model in CAD_MODELS:
+        cv, cf = _mesh(model if model.startswith("synth") else data / "models" / model)
+        cn = vertex_normals(cv, cf)
+        radius = float(np.sqrt(((cv - cv.mean(axis=0)) ** 2).sum(axis=1).max()))
+        for pct in (1, 2, 3):
+            noisy = add_noise(cv, cn, pct / 100, kind="isotropic", spacing=radius, rng=pct)
+            yield f"{Path(model).stem}_{pct}%", noisy, cv, cf
+
+
+def _measure(points, normals, cv, cf, cn):
+    if normals is None:
+        normals = estimate_normals(points, 20)
+        if len(points) == len(cv):
+            normals = np.where(((normals * cn).sum(axis=1) < 0)[:, None], -normals, normals)
+        else:
+            normals = None
+    m = denoise_measures(points, cv, normals=normals, clean_normals=cn, clean_faces=cf)
+    return m.as_dict()
+
+
+def run(data: Path, scene: bool) -> list[dict]:
+    rows = []
+    cases = list(inputs(data))
+    if scene:
+        from scene import cad_scene
+
+        clean, cn, _ = cad_scene(100_000, noise=0.0, rng=0)
+        noisy, _, _ = cad_scene(100_000, noise=0.05, rng=0)
+        cases.append(("scene_100k", noisy, clean, None))
+    for name, noisy, cv, cf in cases:
+        cn = vertex_normals(cv, cf) if cf is not None else None
+        ell = mean_spacing(cv, 6)
+        base = _measure(noisy, None, cv, cf, cn)
+        rows.append({"input": name, "method": "noisy input", "seconds": 0.0, **base})
+        for variant in ("adaptive", "fixed"):
+            pts, sec, nrm = ours(noisy, ell, variant)
+            rows.append({"input": name, "method": f"pointatlas normal-voting ({variant})",
+                         "seconds": sec, **_measure(pts, nrm, cv, cf, cn)})  # fmt: skip
+        for peer, func in PEERS.items():
+            for tuned in (False, True):
+                if peer == "cgal wlop" and len(noisy) > 20_000:
+                    continue
+                try:
+                    pts, sec = func(noisy, ell, tuned)
+                    if not np.isfinite(pts).all():
+                        raise ValueError(f"{int((~np.isfinite(pts).all(axis=1)).sum())} NaN points")
+                except Exception as exc:  # a peer that fails is reported, not fatal
+                    print(f"{name}: {peer} failed: {exc}", file=sys.stderr)
+                    continue
+                label = f"{peer} ({'tuned' if tuned else 'default'})"
+                rows.append({"input": name, "method": label, "seconds": sec,
+                             **_measure(pts, None, cv, cf, cn)})  # fmt: skip
+        for r in rows:
+            if r["input"] == name:
+                print(f"{name:22s} {r['method']:42s} CD {r['chamfer']:.3e} "
+                      f"p2m {r['p2m_mean_unit']:.3e} nMSE {r['normal_mse']:.4f} "
+                      f"{r['seconds']:.2f} s", flush=True)  # fmt: skip
+    return rows
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--no-scene", action="store_true")
+    ap.add_argument("--out", type=Path, default=None)
+    args = ap.parse_args(argv)
+    rows = run(args.data, not args.no_scene)
+    if args.out:
+        args.out.write_text(json.dumps(rows, indent=1, default=float) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,527 @@
+"""``pointatlas cloudsurface`` and ``pointatlas deform``: cloud surfaces (thesis Chapter A).
+
+``cloudsurface`` cuts a point set into clouds with the ball cover of Prop. 4/5
+(Algorithm 2; a fixed scale or a search over scales and seeded rotations), or
+generates clouds from a mesh (Algorithm 1, ``--from-mesh``), and writes into OUT_DIR:
+
+- ``clouds.ply``: the points with every input field, ``n_clouds`` (number of clouds
+  per point) and Example 2 colours (1 grey, 2 blue, 3 orange, 4+ red, 0 black);
+- ``complex.ply`` (``complex.obj`` with line elements for a 2-D curve): the
+  geometric realisation, one vertex per cloud;
+- ``cloudsurface.npz``: the cloud set (CSR), the cloud points and the points, read
+  by ``deform``;
+- ``report.txt`` (a readable table), ``search.csv`` (with ``--search``),
+  ``cloudsurface.png`` (clouds beside the complex) and, last, ``report.json``.
+
+``deform`` moves the points of a cloud surface with its cloud points (Algorithm 3).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import time
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from .._core import PointAtlasError, as_float, as_int
+from ..complex import cloud_complex, curve_report, realise_complex, surface_report
+from ..cover import ball_cover, search_cover_scale
+from ._app import app, console, guarded, progress_bar, read_input, say
+from ._outputs import (
+    check_outputs,
+    check_point_output,
+    point_fields,
+    write_point_output,
+    write_summary_json,
+    write_text,
+)
+
+__all__ = [
+    "cloudsurface_command",
+    "deform_command",
+    "load_cloudsurface",
+    "membership_colors",
+    "scale_grid",
+]
+
+#: Example 2 colours by number of clouds: 0 black, 1 light grey, 2 blue, 3 orange, 4+ red.
+_EXAMPLE2 = np.array(
+    [[0, 0, 0], [205, 205, 205], [50, 110, 220], [245, 150, 30], [220, 20, 20]], dtype=np.uint8
+)
+
+_MODELS = ("eta1", "eta2", "eta3")
+
+
+def membership_colors(n_memberships: np.ndarray) -> np.ndarray:
+    """Example 2 colours (uint8 RGB) from the number of clouds of every point."""
+    return _EXAMPLE2[np.minimum(np.asarray(n_memberships), 4)]
+
+
+def scale_grid(smin: float, smax: float, step: float) -> np.ndarray:
+    """Scales smin, smin + step, ... up to smax (inclusive to round-off), as for ``--search``."""
+    smin = as_float(smin, "--search SMIN", lo=0.0, lo_open=True)
+    smax = as_float(smax, "--search SMAX", lo=smin)
+    step = as_float(step, "--search STEP", lo=0.0, lo_open=True)
+    n = int(np.floor((smax - smin) / step + 1e-9)) + 1
+    if n > 10_000:
+        raise PointAtlasError(f"--search gives {n} scales; at most 10000 (raise STEP)")
+    return np.round(smin + step * np.arange(n), 12)
+
+
+def _out_paths(out_dir: Path, dim: int) -> dict:
+    return {
+        "clouds": out_dir / "clouds.ply",
+        "complex": out_dir / ("complex.ply" if dim == 3 else "complex.obj"),
+        "npz": out_dir / "cloudsurface.npz",
+        "table": out_dir / "report.txt",
+        "search": out_dir / "search.csv",
+        "picture": out_dir / "cloudsurface.png",
+        "json": out_dir / "report.json",
+    }
+
+
+def _write_npz(path: Path, K, points: np.ndarray, faces: np.ndarray, meta: dict) -> Path:
+    from ..io import atomic_write
+
+    with atomic_write(path, "wb") as fh:
+        np.savez(
+            fh,
+            cloud_indptr=K.cloud_indptr,
+            cloud_members=K.cloud_members,
+            cloud_points=K.cloud_points,
+            points=points,
+            faces=faces,
+            meta=np.array(repr(meta)),
+        )
+    return path
+
+
+def _write_curve_obj(path: Path, vertices: np.ndarray, edges: np.ndarray) -> Path:
+    buf = io.StringIO()
+    buf.write("# cloud complex of a 2-D cover: one vertex per cloud, one line per 1-simplex\n")
+    for v in vertices:
+        buf.write(f"v {v[0]:.17g} {v[1]:.17g} {v[2]:.17g}\n")
+    for a, b in edges.tolist():
+        buf.write(f"l {a + 1} {b + 1}\n")
+    return write_text(path, buf.getvalue())
+
+
+def _picture(path: Path, points, counts, vertices, faces, edges, title: str) -> Path:
+    from ..viz import MeshPanel, PointsPanel, render_side_by_side
+
+    colors = membership_colors(counts)
+    panels = [PointsPanel(points, colors=colors, title="points by number of clouds (Example 2)")]
+    if faces.shape[0]:
+        panels.append(MeshPanel(vertices, faces, title=f"complex: {faces.shape[0]} triangles"))
+    else:  # a curve: sample the edges densely
+        t = np.linspace(0.0, 1.0, 24)[None, :, None]
+        a, b = vertices[edges[:, 0]][:, None, :], vertices[edges[:, 1]][:, None, :]
+        seg = (a + t * (b - a)).reshape(-1, 3)
+        pts = np.concatenate([seg, vertices[np.isfinite(vertices).all(axis=1)]])
+        panels.append(PointsPanel(pts, title=f"complex: {edges.shape[0]} edges", lighting=False))
+    return render_side_by_side(path, panels, title=title, size=(1200, 600))
+
+
+def _search_csv(path: Path, rows: list[dict]) -> Path:
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    return write_text(path, buf.getvalue())
+
+
+def _run_cover(points, *, scale, search, rotations, dim, layout, radius, seed, cloud_points):
+    """Fixed scale or search; returns (cover, search result or None, chosen setting)."""
+    if search is None:
+        rot = None
+        res = None
+        if rotations:
+            from ..cover import random_rotations
+
+            rot = random_rotations(rotations, dim=dim, rng=seed)[-1]
+        cov = ball_cover(points, scale, dim=dim, layout=layout, radius=radius, rotation=rot,
+                         cloud_points=cloud_points)  # fmt: skip
+        return cov, None, {"scale": scale, "rotation": rotations}
+    grid = scale_grid(*search)
+    total = grid.size * (rotations + 1)
+    with progress_bar("scale search", total=total) as advance:
+        res = search_cover_scale(
+            points, grid, n_rotations=rotations, rng=seed, dim=dim, layout=layout,
+            radius=radius, callback=lambda _: advance(),
+        )  # fmt: skip
+    acc = res.accepted
+    pick = int(acc[0]) if acc.size else _closest_setting(res)
+    s = float(res.scales[pick])
+    r = int(res.rotation_index[pick])
+    cov = ball_cover(points, s, dim=dim, layout=layout, radius=radius,
+                     rotation=res.rotations[r], cloud_points=cloud_points)  # fmt: skip
+    return cov, res, {"scale": s, "rotation": r}
+
+
+def _closest_setting(res) -> int:
+    """Without an accepted setting: the one with the fewest offending simplices."""
+    bad = []
+    for rep in res.reports:
+        if res.dim == 3:
+            bad.append(
+                rep.vertices_not_in_face.size + rep.edges_in_many_faces.shape[0]
+                + rep.vertices_not_fan.size + len(rep.simplices_above_2)
+                + rep.edges_not_in_face.shape[0] + rep.boundary_edges.shape[0]
+            )  # fmt: skip
+        else:
+            bad.append(rep.vertices_bad_degree.size + rep.n_triangles)
+    return int(np.argmin(bad))
+
+
+@app.command("cloudsurface")
+@guarded
+def cloudsurface_command(
+    paths: Annotated[
+        list[Path],
+        typer.Argument(
+            metavar="IN OUT_DIR",
+            help="Point set or mesh file (or a bundled model name) and the output folder; "
+            "with --from-mesh only OUT_DIR.",
+        ),
+    ],
+    scale: Annotated[
+        float | None, typer.Option("--scale", help="Grid scale s of the ball cover.")
+    ] = None,
+    search: Annotated[
+        tuple[float, float, float] | None,
+        typer.Option("--search", help="Try scales SMIN SMAX STEP; keeps the first closed one."),
+    ] = None,
+    rotations: Annotated[
+        int, typer.Option("--rotations", help="Random rotations tried (seeded by --seed).")
+    ] = 0,
+    dim: Annotated[int, typer.Option("--dim", help="3: Prop. 4; 2: a curve in the xy-plane.")] = 3,
+    layout: Annotated[
+        str, typer.Option("--layout", help="2-D cover: two-radius (Prop. 5 ii) or tiling (5 i).")
+    ] = "two-radius",
+    radius: Annotated[
+        float | None, typer.Option("--radius", help="2-D cover: big radius in units of s.")
+    ] = None,
+    cloud_points: Annotated[
+        str, typer.Option("--cloud-points", help="Realisation: centroid or centre (ball).")
+    ] = "centroid",
+    from_mesh: Annotated[
+        Path | None,
+        typer.Option("--from-mesh", help="Generate clouds from this mesh (Algorithm 1)."),
+    ] = None,
+    model: Annotated[str, typer.Option("--model", help="--from-mesh: eta1, eta2 or eta3.")] = (
+        "eta1"
+    ),
+    c: Annotated[float, typer.Option("--c", help="--from-mesh: eta1/eta2 parameter c.")] = 0.0,
+    c_v: Annotated[float, typer.Option("--c-v", help="--from-mesh: eta3 parameter c_v.")] = 0.5,
+    c_h: Annotated[float, typer.Option("--c-h", help="--from-mesh: eta3 parameter c_h.")] = 0.5,
+    t: Annotated[
+        float, typer.Option("--t", help="--from-mesh: ball radius position in [0, 1).")
+    ] = 0.5,
+    samples: Annotated[
+        int, typer.Option("--samples", help="--from-mesh: samples per vertex and triangle.")
+    ] = 10,
+    curvature: Annotated[
+        str, typer.Option("--curvature", help="--from-mesh: none, gaussian or mean scaling.")
+    ] = "none",
+    render: Annotated[
+        bool, typer.Option("--render/--no-render", help="Write cloudsurface.png.")
+    ] = True,
+    seed: Annotated[int, typer.Option("--seed", help="Seed for rotations and sampling.")] = 0,
+):
+    """Cloud surface of a point set (ball cover, Algorithm 2) or of a mesh (Algorithm 1).
+
+    Writes into OUT_DIR the clouds (clouds.ply, Example 2 colours), the complex as a
+    mesh, cloudsurface.npz (for ``deform``), report.txt, a picture and, last,
+    report.json (topology report and the files of this run with their SHA-256).
+    """
+    if from_mesh is not None:
+        if len(paths) != 1:
+            raise PointAtlasError("with --from-mesh give only OUT_DIR (the mesh is the input)")
+        in_path, out_dir = from_mesh, paths[0]
+        dim = 3
+    else:
+        if len(paths) != 2:
+            raise PointAtlasError(f"give IN and OUT_DIR; got {len(paths)} path(s)")
+        in_path, out_dir = paths
+        dim = as_int(dim, "--dim", lo=2, hi=3)
+        if (scale is None) == (search is None):
+            raise PointAtlasError("give exactly one of --scale S and --search SMIN SMAX STEP")
+        if scale is not None:
+            as_float(scale, "--scale", lo=0.0, lo_open=True)
+        else:
+            scale_grid(*search)
+        as_int(rotations, "--rotations", lo=0, hi=1000)
+    out = _out_paths(out_dir, dim)
+    files = [
+        ("clouds", out["clouds"], None),
+        ("complex", out["complex"], None),
+        ("cloudsurface.npz", out["npz"], None),
+        ("report.txt", out["table"], None),
+        ("search.csv", out["search"] if search is not None else None, None),
+        ("picture", out["picture"] if render else None, None),
+        ("report.json", out["json"], None),
+    ]
+    check_outputs([in_path], [], [("OUT_DIR", out_dir)])
+    out_dir.mkdir(exist_ok=True)
+    check_outputs([in_path], files)
+    t0 = time.perf_counter()
+    if from_mesh is not None:
+        _from_mesh(in_path, out, model=model, c=c, c_v=c_v, c_h=c_h, t=t, samples=samples,
+                   curvature=curvature, render=render, seed=seed, t0=t0)  # fmt: skip
+        return
+    ps = read_input(in_path, with_normals=False)
+    placeholder = {"n_clouds": np.zeros(ps.n_points, np.int64),
+                   "colors": np.zeros((ps.n_points, 3), np.uint8)}  # fmt: skip
+    check_point_output(out["clouds"], ps, placeholder)
+    cov, res, chosen = _run_cover(
+        ps.points, scale=scale, search=search, rotations=rotations, dim=dim, layout=layout,
+        radius=radius, seed=seed, cloud_points=cloud_points,
+    )  # fmt: skip
+    K = cov.complex
+    written = []
+    report = surface_report(K) if dim == 3 else curve_report(K)
+    verts, faces = realise_complex(K, report) if dim == 3 else (np.asarray(K.cloud_points), None)
+    written.append(_write_clouds(out["clouds"], ps, K.n_memberships))
+    if dim == 3:
+        from ..io import write_mesh
+
+        written.append(write_mesh(out["complex"], np.nan_to_num(verts), faces))
+    else:
+        written.append(_write_curve_obj(out["complex"], verts, K.edges))
+        faces = np.zeros((0, 3), np.int64)
+    meta = {"kind": "cover", "dim": dim, "layout": cov.layout, **chosen}
+    written.append(_write_npz(out["npz"], K, ps.points, faces, meta))
+    written.append(write_text(out["table"], report.table()))
+    if res is not None:
+        written.append(_search_csv(out["search"], res.rows()))
+    accepted = (report.is_cloud_surface and report.is_closed) if dim == 3 else (
+        report.is_one_manifold
+    )
+    if render:
+        title = (f"{ps.name}: s = {chosen['scale']:g}, {cov.n_clouds} clouds, "
+                 + ("closed cloud surface" if accepted else "not accepted"))  # fmt: skip
+        written.append(
+            _picture(out["picture"], ps.points, K.n_memberships, verts, faces, K.edges, title)
+        )
+    payload = {
+        "input": str(in_path),
+        "n_points": int(ps.n_points),
+        "mode": "cover",
+        "dim": dim,
+        "layout": cov.layout,
+        "scale": chosen["scale"],
+        "rotation": chosen["rotation"],
+        "rotation_matrix": cov.rotation.tolist(),
+        "n_clouds": cov.n_clouds,
+        "accepted": bool(accepted),
+        "seed": seed,
+        "points_per_cloud_count": np.bincount(K.n_memberships).tolist(),
+        "fields": list(point_fields(ps, placeholder)),
+        "report": report.summary(),
+        "search": None if res is None else {
+            "n_settings": int(res.scales.size),
+            "accepted": [{"scale": float(res.scales[i]), "rotation": int(res.rotation_index[i])}
+                         for i in res.accepted],
+        },  # fmt: skip
+        "seconds": round(time.perf_counter() - t0, 3),
+    }
+    write_summary_json(out["json"], payload, written)
+    _print_result(report, cov.n_clouds, chosen, accepted, res, payload["seconds"], dim)
+    for path in [*written, out["json"]]:
+        say(f"wrote {path}")
+
+
+def _write_clouds(path: Path, ps, counts: np.ndarray) -> Path:
+    return write_point_output(
+        path, ps, {"n_clouds": np.asarray(counts, np.int64), "colors": membership_colors(counts)}
+    )
+
+
+def _print_result(report, n_clouds, chosen, accepted, res, seconds, dim):
+    if res is not None:
+        console.print(
+            f"search: {res.accepted.size} of {res.scales.size} settings accepted; "
+            f"using s = {chosen['scale']:g}, rotation {chosen['rotation']}"
+        )
+    if dim == 3:
+        console.print(
+            f"{n_clouds} clouds: V {report.n_vertices}, E {report.n_edges}, "
+            f"F {report.n_faces}, chi {report.euler_characteristic}, "
+            f"closed {report.is_closed}, boundary loops {report.n_boundary_loops}, "
+            f"orientable {report.is_orientable}, genus {report.genus}, "
+            f"cloud surface {report.is_cloud_surface} ({seconds:.1f} s)"
+        )
+    else:
+        console.print(
+            f"{n_clouds} clouds: V {report.n_vertices}, E {report.n_edges}, "
+            f"1-manifold {report.is_one_manifold}, closed {report.is_closed}, "
+            f"components {report.n_components} ({seconds:.1f} s)"
+        )
+
+
+def _from_mesh(in_path, out, *, model, c, c_v, c_h, t, samples, curvature, render, seed, t0):
+    """--from-mesh: Algorithm 1 on a mesh file or bundled model; same outputs."""
+    from ..io import Mesh, read_mesh, write_mesh
+    from ..synth import clouds_from_mesh
+
+    if model not in _MODELS:
+        raise PointAtlasError(f"--model must be one of {', '.join(_MODELS)}; got {model!r}")
+    if curvature not in ("none", "gaussian", "mean"):
+        raise PointAtlasError(f"--curvature must be none, gaussian or mean; got {curvature!r}")
+    p = Path(in_path)
+    if p.exists():
+        mesh = read_mesh(p)
+        name = p.stem
+    else:
+        from .. import data
+
+        if str(in_path) not in data.names():
+            raise PointAtlasError(f"{in_path}: no such file and not a bundled model")
+        mesh = data.load_mesh(str(in_path))
+        name = str(in_path)
+    if not isinstance(mesh, Mesh) or mesh.n_faces == 0:
+        raise PointAtlasError(f"{in_path}: --from-mesh needs a mesh with faces")
+    tri = mesh.triangles
+    mc = clouds_from_mesh(
+        mesh.vertices, tri, model=model, c=c, c_v=c_v, c_h=c_h, t=t, n_samples=samples,
+        curvature=None if curvature == "none" else curvature, rng=seed,
+    )  # fmt: skip
+    K = cloud_complex(mc.clouds, mc.points, cloud_points=mc.cloud_points)
+    report = surface_report(K)
+    verts, faces = realise_complex(K, report)
+    from .._core import PointSet
+
+    ps = PointSet(mc.points, None, {"source_face": mc.source_face}, name=name)
+    written = [_write_clouds(out["clouds"], ps, K.n_memberships)]
+    written.append(write_mesh(out["complex"], verts, faces))
+    meta = {"kind": "mesh", "model": model, "seed": seed}
+    written.append(_write_npz(out["npz"], K, mc.points, faces, meta))
+    written.append(write_text(out["table"], report.table()))
+    mesh_tri = np.unique(np.sort(tri, axis=1), axis=0)
+    same = bool(np.array_equal(K.triangles, mesh_tri))
+    if render:
+        title = f"{name}: {model}, {mc.points.shape[0]:,} points, complex = mesh: {same}"
+        written.append(_picture(out["picture"], mc.points, K.n_memberships, verts, faces,
+                                K.edges, title))  # fmt: skip
+    payload = {
+        "input": str(in_path),
+        "mode": "from-mesh",
+        "model": model,
+        "c": c, "c_v": c_v, "c_h": c_h, "t": t,
+        "samples": samples,
+        "curvature": curvature,
+        "seed": seed,
+        "n_points": int(mc.points.shape[0]),
+        "n_drawn": mc.n_drawn,
+        "n_accepted": mc.n_accepted,
+        "n_clouds": int(K.n_clouds),
+        "complex_equals_mesh": same,
+        "points_per_cloud_count": np.bincount(K.n_memberships).tolist(),
+        "report": report.summary(),
+        "seconds": round(time.perf_counter() - t0, 3),
+    }  # fmt: skip
+    write_summary_json(out["json"], payload, written)
+    console.print(f"Algorithm 1 ({model}): {mc.points.shape[0]:,} points in {K.n_clouds} clouds; "
+                  f"complex equals the mesh: {same}")  # fmt: skip
+    _print_result(report, K.n_clouds, {}, report.is_cloud_surface, None, payload["seconds"], 3)
+    for path in [*written, out["json"]]:
+        say(f"wrote {path}")
+
+
+def load_cloudsurface(folder: Path):
+    """Read ``cloudsurface.npz`` of a cloudsurface folder: (complex, points, faces)."""
+    path = Path(folder) / "cloudsurface.npz"
+    if not Path(folder).is_dir():
+        raise PointAtlasError(f"{folder}: not a folder (give the OUT_DIR of cloudsurface)")
+    if not path.exists():
+        raise PointAtlasError(f"{folder}: no cloudsurface.npz (give the OUT_DIR of cloudsurface)")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            indptr, members = z["cloud_indptr"], z["cloud_members"]
+            cp, pts, faces = z["cloud_points"], z["points"], z["faces"]
+    except (OSError, ValueError, KeyError) as exc:
+        raise PointAtlasError(f"{path}: unreadable ({exc})") from None
+    clouds = np.split(members, indptr[1:-1])
+    K = cloud_complex(clouds, n_points=pts.shape[0], cloud_points=np.nan_to_num(cp))
+    return K, pts, faces
+
+
+@app.command("deform")
+@guarded
+def deform_command(
+    surface_dir: Annotated[
+        Path, typer.Argument(metavar="CLOUDSURFACE_DIR", help="Output folder of cloudsurface.")
+    ],
+    new_cloud_points: Annotated[
+        Path,
+        typer.Argument(
+            metavar="NEW_CLOUD_POINTS",
+            help="The cloud points at time 1 (complex.ply with moved vertices, or any point "
+            "file with one point per cloud, in order).",
+        ),
+    ],
+    output: Annotated[Path, typer.Argument(metavar="OUT.ply", help="The moved points.")],
+    inverse: Annotated[
+        bool, typer.Option("--inverse", help="Map points at time 1 back to time 0.")
+    ] = False,
+    points_path: Annotated[
+        Path | None,
+        typer.Option("--points", help="Points to move (default: the cloud surface's points)."),
+    ] = None,
+):
+    """Move the points of a cloud surface with its cloud points (Algorithm 3).
+
+    Points in three clouds follow their triangle, in two clouds their edge, in one
+    cloud their vertex; points that cannot be routed keep their position and are
+    counted (field ``route`` = 0). Writes OUT and, last, OUT.json.
+    """
+    from ..dynamics import deform_points
+
+    json_path = output.with_suffix(".json")
+    check_outputs(
+        [surface_dir / "cloudsurface.npz", new_cloud_points, points_path],
+        [("OUT", output, (".ply",)), ("OUT's summary", json_path, None)],
+    )
+    K, pts0, faces = load_cloudsurface(surface_dir)
+    new_cp = read_input(new_cloud_points, with_normals=False).points
+    if new_cp.shape[0] != K.n_clouds:
+        raise PointAtlasError(
+            f"{new_cloud_points}: has {new_cp.shape[0]} points; the cloud surface has "
+            f"{K.n_clouds} clouds (give one point per cloud, in the order of complex.ply)"
+        )
+    pts = pts0 if points_path is None else read_input(points_path, with_normals=False).points
+    if pts.shape[0] != K.n_points:
+        raise PointAtlasError(
+            f"--points {points_path}: has {pts.shape[0]} points; the cloud surface has "
+            f"{K.n_points}"
+        )
+    t0 = time.perf_counter()
+    res = deform_points(pts, K, new_cp, faces=faces, inverse=inverse)
+    from ..io import write_point_set
+
+    colors = membership_colors(K.n_memberships)
+    written = [write_point_set(output, res.points, attributes={
+        "route": res.route.astype(np.int64), "n_clouds": np.asarray(K.n_memberships)},
+        colors=colors)]  # fmt: skip
+    payload = {
+        "surface": str(surface_dir),
+        "new_cloud_points": str(new_cloud_points),
+        "inverse": inverse,
+        "n_points": int(K.n_points),
+        "routes": res.counts(),
+        "unroutable": [int(i) for i in res.unroutable[:1000]],
+        "seconds": round(time.perf_counter() - t0, 3),
+    }
+    write_summary_json(json_path, payload, written)
+    c = res.counts()
+    console.print(
+        f"moved {K.n_points - c['unroutable']:,} of {K.n_points:,} points: "
+        f"{c['triangle']:,} by triangles, {c['edge']:,} by edges, {c['vertex']:,} by vertices; "
+        f"{c['unroutable']:,} unroutable (kept in place)"
+    )
+    for path in [*written, json_path]:
+        say(f"wrote {path}")

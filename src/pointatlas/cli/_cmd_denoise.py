@@ -1,0 +1,317 @@
+"""``pointatlas denoise``: normal voting (thesis 5.4, [YRS+18]) or flatness (6.2) denoising.
+
+Writes the moved points with their filtered normals and every input field, a JSON
+summary beside the output (with the measures against ``--clean``) and optionally a
+picture of the input beside the result.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from .._core import PointAtlasError, as_float, as_int
+from ..denoise import (
+    DENOISE_METHODS,
+    FLATNESS_SCHEDULES,
+    choose_method,
+    denoise_measures,
+    flatness_denoise,
+    normal_voting_denoise,
+)
+from ._app import app, console, guarded, progress_bar, read_with_normals, say
+from ._outputs import check_outputs, check_point_output, write_point_output, write_summary_json
+
+__all__ = ["denoise_command", "read_clean", "summary_path"]
+
+#: what `pointatlas denoise` prints with --clean (attribute, label)
+MEASURE_ROWS = (
+    ("chamfer", "Chamfer (unit sphere, squared)"),
+    ("p2m_mean", "point-to-mesh mean"),
+    ("p2m_max", "point-to-mesh max"),
+    ("normal_mse", "normal MSE (Eq. 5.10)"),
+    ("distance_mean", "distance to clean point, mean"),
+    ("distance_max", "distance to clean point, max"),
+    ("drift_share", "tangential drift > l, share"),
+)
+
+
+def summary_path(output: Path) -> Path:
+    """``OUT_denoise.json`` beside ``OUT``."""
+    return Path(f"{output.with_suffix('')}_denoise.json")
+
+
+def read_clean(path: Path):
+    """The clean model of ``--clean``: (points, normals or None, triangles or None).
+
+    A mesh file gives its vertices, area-weighted vertex normals and triangles; a
+    point file its points and normals (no point-to-mesh distance then).
+    """
+    from ..io import MESH_EXTENSIONS, read_mesh, read_point_set
+
+    p = Path(path)
+    if not p.is_file():
+        raise PointAtlasError(f"--clean: no such file: {str(p)!r}")
+    if p.suffix.lower() in MESH_EXTENSIONS:
+        mesh = read_mesh(p)
+        if mesh.n_faces:
+            normals = mesh.vertex_normals()
+            if not np.isfinite(normals).all():
+                normals = None
+            return np.asarray(mesh.vertices), normals, np.asarray(mesh.triangles)
+    ps = read_point_set(p, zero_normals="drop")
+    return ps.points, ps.normals, None
+
+
+def _run(ps, method, *, rho, tau, n_iter, n_filter_iter, max_step, k, eta, eps, schedule,
+         k_start):  # fmt: skip
+    """Run the method with a progress bar; returns the DenoiseResult."""
+    if method == "flatness":
+        n_iter = 60 if n_iter is None else n_iter
+        with progress_bar("flatness iterations", total=n_iter) as advance:
+            return flatness_denoise(
+                ps.points,
+                k=k,
+                eta=eta,
+                eps=eps,
+                n_iter=n_iter,
+                schedule=schedule,
+                k_start=k_start,
+                normals=ps.normals,
+                progress=advance,
+            )
+    n_iter = 4 if n_iter is None else n_iter
+    with progress_bar("normal filter steps", total=n_iter * n_filter_iter) as advance:
+        return normal_voting_denoise(
+            ps.points,
+            ps.normals,
+            rho=rho,
+            tau=tau,
+            n_iter=n_iter,
+            n_filter_iter=n_filter_iter,
+            adaptive=method == "normal-voting-adaptive",
+            max_step=max_step,
+            progress=advance,
+        )
+
+
+def _print_measures(before: dict, after: dict) -> None:
+    from rich.table import Table
+
+    table = Table(title="against --clean")
+    table.add_column("measure")
+    table.add_column("input", justify="right")
+    table.add_column("denoised", justify="right")
+    for key, label in MEASURE_ROWS:
+        a, b = before[key], after[key]
+        if isinstance(a, float) and math.isnan(a):
+            continue
+        table.add_row(label, f"{a:.4g}", f"{b:.4g}")
+    console.print(table)
+
+
+@app.command("denoise")
+@guarded
+def denoise_command(
+    input_path: Annotated[
+        Path, typer.Argument(metavar="IN", help="Point set or mesh file, or a bundled model name.")
+    ],
+    output: Annotated[
+        Path,
+        typer.Argument(
+            metavar="OUT", help="Denoised point set (.ply, .las, .laz), every input field kept."
+        ),
+    ],
+    method: Annotated[
+        str,
+        typer.Option(
+            "--method",
+            help="normal-voting, normal-voting-adaptive, flatness or auto (adaptive normal "
+            "voting when IN has normals, else flatness).",
+        ),
+    ] = "auto",
+    rho: Annotated[float, typer.Option("--rho", help="Normal voting: cut-off on n_i . n_j.")] = 0.9,
+    tau: Annotated[
+        float,
+        typer.Option("--tau", help="Normal voting: eigenvalue threshold (and feature classes)."),
+    ] = 0.3,
+    n_iter: Annotated[
+        int | None,
+        typer.Option(
+            "--n-iter", help="Iterations (point updates); default 4 (voting), 60 (flatness)."
+        ),
+    ] = None,
+    n_filter_iter: Annotated[
+        int, typer.Option("--filter-iter", help="Normal voting: filter steps per iteration.")
+    ] = 20,
+    max_step: Annotated[
+        float, typer.Option("--max-step", help="Normal voting: largest move per iteration, in l.")
+    ] = 0.5,
+    k: Annotated[
+        int, typer.Option("--k", help="Flatness: neighbours, the point itself included.")
+    ] = 28,
+    eta: Annotated[float, typer.Option("--eta", help="Flatness: weight of the plane term.")] = 1.0,
+    eps: Annotated[float, typer.Option("--eps", help="Flatness: step scale.")] = 0.1,
+    schedule: Annotated[
+        str, typer.Option("--schedule", help="Flatness: constant or decreasing (large k first).")
+    ] = "constant",
+    k_start: Annotated[
+        int | None, typer.Option("--k-start", help="Flatness, decreasing: first k (default 4 k).")
+    ] = None,
+    clean: Annotated[
+        Path | None,
+        typer.Option("--clean", help="Clean mesh (or point set): print and record the measures."),
+    ] = None,
+    estimate: Annotated[
+        bool | None,
+        typer.Option(
+            "--estimate-normals/--no-estimate-normals",
+            help="Estimate (PCA) and orient normals first; default: only when the input has none.",
+            show_default=False,
+        ),
+    ] = None,
+    normal_k: Annotated[
+        int, typer.Option("--normal-k", help="Neighbours for estimated normals.")
+    ] = 20,
+    render: Annotated[
+        Path | None, typer.Option("--render", help="Also write a PNG: input beside result.")
+    ] = None,
+):
+    """Denoise a point set: normal voting with adaptive k (thesis 5.4) or flatness (Eq. 6.3).
+
+    Writes OUT (moved points, filtered normals, every input field, plus
+    ``displacement``, ``feature_class``, ``denoise_k`` and, for flatness, ``flatness``)
+    and, last, OUT_denoise.json (parameters, timings, measures, files with SHA-256).
+    """
+    from ..io import POINT_WRITE_EXTENSIONS
+
+    json_path = summary_path(output)
+    check_outputs(
+        [input_path, clean],
+        [
+            ("OUT", output, POINT_WRITE_EXTENSIONS),
+            ("OUT's summary", json_path, None),
+            ("--render", render, (".png",)),
+        ],
+    )
+    if method not in DENOISE_METHODS:
+        raise PointAtlasError(
+            f"--method must be one of {', '.join(DENOISE_METHODS)}; got {method!r}"
+        )
+    if schedule not in FLATNESS_SCHEDULES:
+        raise PointAtlasError(
+            f"--schedule must be one of {', '.join(FLATNESS_SCHEDULES)}; got {schedule!r}"
+        )
+    as_float(rho, "--rho", lo=-1.0, hi=1.0)
+    as_float(tau, "--tau", lo=0.0, hi=1.0, lo_open=True)
+    as_float(max_step, "--max-step", lo=0.0)
+    as_float(eta, "--eta", lo=0.0, hi=1.0)
+    as_float(eps, "--eps", lo=0.0, lo_open=True)
+    as_int(n_filter_iter, "--filter-iter", lo=0)
+    if n_iter is not None:
+        as_int(n_iter, "--n-iter", lo=0)
+    if clean is not None and not Path(clean).is_file():
+        raise PointAtlasError(f"--clean: no such file: {str(clean)!r}")
+    t0 = time.perf_counter()
+    if method == "auto" and estimate is None:
+        # auto decides on the input as given: normals present -> adaptive voting
+        from ._app import read_input
+
+        probe = read_input(input_path, zero_normals="drop")
+        method = choose_method(probe.points, probe.normals)
+    elif method == "auto":
+        method = "normal-voting-adaptive"
+    ps = read_with_normals(input_path, estimate=estimate, normal_k=normal_k)
+    n = ps.n_points
+    ours = {
+        "displacement": np.zeros(n),
+        "feature_class": np.zeros(n, np.int8),
+        "denoise_k": np.zeros(n, np.int64),
+    }
+    if method == "flatness":
+        ours["flatness"] = np.zeros(n)
+    check_point_output(output, ps, ours)
+    clean_model = read_clean(clean) if clean is not None else None
+    t1 = time.perf_counter()
+    res = _run(ps, method, rho=rho, tau=tau, n_iter=n_iter, n_filter_iter=n_filter_iter,
+               max_step=max_step, k=k, eta=eta, eps=eps, schedule=schedule,
+               k_start=k_start)  # fmt: skip
+    seconds = time.perf_counter() - t1
+    ours = {
+        "displacement": res.displacement,
+        "feature_class": res.feature_class,
+        "denoise_k": res.k,
+    }
+    if method == "flatness":
+        ours["flatness"] = res.energy
+    out_ps = ps.replace(points=res.points, normals=res.normals)
+    written = [write_point_output(output, out_ps, ours)]
+    summary = {
+        "input": str(input_path),
+        "method": res.method,
+        "n_points": n,
+        "n_iter": res.n_iter,
+        "spacing": res.spacing,
+        "displacement_mean": float(res.displacement.mean()),
+        "displacement_max": float(res.displacement.max()),
+        "n_fallback": res.n_fallback,
+        "feature_classes": {
+            name: int((res.feature_class == c).sum())
+            for c, name in ((1, "face"), (2, "edge"), (3, "corner"))
+        },
+        "parameters": (
+            {"k": k, "eta": eta, "eps": eps, "schedule": schedule, "k_start": k_start}
+            if method == "flatness"
+            else {"rho": rho, "tau": tau, "filter_iter": n_filter_iter, "max_step": max_step}
+        ),
+        "seconds": round(seconds, 3),
+        "seconds_total": round(time.perf_counter() - t0, 3),
+    }
+    if clean_model is not None:
+        cpts, cnrm, cfaces = clean_model
+        before = denoise_measures(
+            ps.points, cpts, normals=ps.normals, clean_normals=cnrm, clean_faces=cfaces
+        ).as_dict()
+        after = denoise_measures(
+            res.points, cpts, normals=res.normals, clean_normals=cnrm, clean_faces=cfaces
+        ).as_dict()
+        summary["clean"] = str(clean)
+        summary["measures_input"] = before
+        summary["measures_denoised"] = after
+    if render is not None:
+        from ..viz import PointsPanel, render_side_by_side
+
+        scal = res.energy if method == "flatness" else res.feature_class.astype(float)
+        name = "flatness" if method == "flatness" else "feature class"
+        written.append(
+            render_side_by_side(
+                render,
+                [
+                    PointsPanel(ps.points, normals=ps.normals, title="input"),
+                    PointsPanel(
+                        res.points,
+                        normals=res.normals,
+                        scalars=scal,
+                        scalar_name=name,
+                        cmap="Blues",
+                        title=res.method,
+                    ),  # fmt: skip
+                ],
+                title=f"{ps.name}: denoised ({res.method}, {res.n_iter} iterations)",
+            )
+        )
+    write_summary_json(json_path, summary, written)
+    console.print(
+        f"{res.method}: {n:,} points, {res.n_iter} iterations, mean move "
+        f"{summary['displacement_mean'] / res.spacing if res.spacing else 0:.2f} l "
+        f"({seconds:.2f} s)"
+    )
+    if clean_model is not None:
+        _print_measures(summary["measures_input"], summary["measures_denoised"])
+    for path in [*written, json_path]:
+        say(f"wrote {path}")

@@ -1,0 +1,52 @@
+"""Denoising: normal voting filtering with adaptive k, point updates, flatness denoising.
+
+Thesis 5.4 (application scenario, Table 5.3) and 6.2 (Eq. 6.3, Figs 6.7-6.9);
+GUIDE C3. The normal voting tensor stage of [YRS+18] (reconstructed), the thesis'
+variant choosing every point's k by least E_dim, a restricted quadric point update
+driven by the filtered normals, the flatness update of Eq. 6.3 (with the
+large-k-first schedule of 6.2's outlook), noise models and the measures of the
+denoising literature (normal MSE, Chamfer, point-to-mesh, tangential drift).
+"""
+
+from ._api import DENOISE_METHODS, choose_method, denoise
+from ._flatness import FLATNESS_SCHEDULES, flatness_denoise, flatness_schedule
+from ._measures import (
+    DenoiseMeasures,
+    chamfer_distance,
+    denoise_measures,
+    normal_mse,
+    point_to_mesh_distance,
+    unit_sphere_transform,
+)
+from ._noise import NOISE_KINDS, add_impulsive_noise, add_noise
+from ._result import DenoiseResult, NormalFilterResult
+from ._voting import (
+    THESIS_FILTER_PARAMETERS,
+    default_neighbourhoods,
+    filter_normals,
+    normal_voting_denoise,
+)
+
+__all__ = [
+    "DENOISE_METHODS",
+    "FLATNESS_SCHEDULES",
+    "NOISE_KINDS",
+    "THESIS_FILTER_PARAMETERS",
+    "DenoiseMeasures",
+    "DenoiseResult",
+    "NormalFilterResult",
+    "add_impulsive_noise",
+    "add_noise",
+    "chamfer_distance",
+    "choose_method",
+    "default_neighbourhoods",
+    "denoise",
+    "denoise_measures",
+    "filter_normals",
+    "flatness_denoise",
+    "flatness_schedule",
+    "normal_mse",
+    "normal_voting_denoise",
+    "point_to_mesh_distance",
+    "unit_sphere_transform",
+]

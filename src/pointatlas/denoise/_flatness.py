@@ -1,0 +1,212 @@
+"""Flatness-driven point denoising (thesis 6.2, Eq. 6.3; GUIDE C3)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._core import PointAtlasError, as_float, as_int, as_normals, as_points
+from ..features import covariance_features
+from ..neighbors import mean_spacing, query_knn
+from ._result import DenoiseResult
+
+__all__ = ["FLATNESS_SCHEDULES", "flatness_schedule", "flatness_denoise", "flatness_step"]
+
+#: "constant": k and eta fixed (thesis Fig. 6.9); "decreasing": the future work of
+#: 6.2 -- start with a large k and eta = 1, lower both as the iterations go
+FLATNESS_SCHEDULES = ("constant", "decreasing")
+
+
+def flatness_schedule(
+    n_iter: int, k: int, eta: float, *, schedule: str = "constant", k_start=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The (k, eta) of every iteration.
+
+    Parameters
+    ----------
+    n_iter : int
+        Iterations (>= 1).
+    k : int
+        Neighbourhood size (the point itself counts); the last one for "decreasing".
+    eta : float
+        Weight of the plane term of Eq. 6.3 in [0, 1]; the last one for "decreasing".
+    schedule : {"constant", "decreasing"}
+        See `FLATNESS_SCHEDULES`.
+    k_start : int, optional
+        First k of "decreasing" (default 4 k).
+
+    Returns
+    -------
+    ks : ndarray of shape (n_iter,), int64
+        k per iteration ("decreasing": geometric from k_start down to k).
+    etas : ndarray of shape (n_iter,), float64
+        eta per iteration ("decreasing": linear from 1 down to eta).
+
+    Raises
+    ------
+    ValueError
+        Unknown schedule, k_start < k.
+
+    Examples
+    --------
+    >>> ks, etas = flatness_schedule(3, 14, 0.5, schedule="decreasing")
+    >>> ks.tolist(), etas.tolist()
+    ([56, 28, 14], [1.0, 0.75, 0.5])
+    """
+    if schedule not in FLATNESS_SCHEDULES:
+        raise ValueError(
+            f"schedule must be one of {', '.join(FLATNESS_SCHEDULES)}; got {schedule!r}"
+        )
+    if schedule == "constant":
+        return np.full(n_iter, k, dtype=np.int64), np.full(n_iter, float(eta))
+    k0 = 4 * k if k_start is None else as_int(k_start, "k_start", lo=k)
+    t = np.linspace(0.0, 1.0, n_iter) if n_iter > 1 else np.ones(1)
+    ks = np.rint(k0 * (k / k0) ** t).astype(np.int64)
+    etas = 1.0 + (eta - 1.0) * t
+    return ks, etas
+
+
+def flatness_step(points, k: int, eta: float, eps: float, *, flatness=(8, 8)):
+    """One Jacobi step of Eq. 6.3 for every point (private helper, validated input).
+
+    Returns (new points, flatness energy, PCA normal v3, is_valid).
+    """
+    idx = query_knn(points, k)[0]
+    fr = covariance_features(points, k, neighbors=idx, flatness=flatness)
+    bary = points[idx].mean(axis=1)
+    rel = points - bary
+    v1 = np.asarray(fr.eigenvector_1)
+    v3 = np.asarray(fr.eigenvector_3)
+    energy = np.asarray(fr.flatness)
+    d = (rel * v3).sum(axis=1)
+    to_plane = -d[:, None] * v3
+    # p_bar - p: projection of p on the line (barycentre, v1) minus p
+    to_line = (rel * v1).sum(axis=1)[:, None] * v1 - rel
+    step = eps * (
+        eta * (2.0 - energy)[:, None] * to_plane + (1.0 - eta) * energy[:, None] * to_line
+    )
+    valid = fr.is_valid & np.isfinite(step).all(axis=1)
+    step[~valid] = 0.0
+    return points + step, energy, v3, valid
+
+
+def flatness_denoise(
+    points,
+    *,
+    k: int = 28,
+    eta: float = 1.0,
+    eps: float = 0.1,
+    n_iter: int = 60,
+    flatness=(8, 8),
+    schedule: str = "constant",
+    k_start=None,
+    normals=None,
+    progress=None,
+) -> DenoiseResult:
+    """Move every point by the flatness update of thesis Eq. 6.3, all points at once.
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3), float64
+        Noisy positions, N > k.
+    k : int
+        Neighbourhood size, the point itself counted (Fig. 6.9: 14, 8, 28).
+    eta : float
+        Weight in [0, 1] of the plane term; 1 - eta weighs the line term (Fig. 6.9:
+        0.5, 0.5, 1).
+    eps : float
+        Step scale > 0 (Fig. 6.9: 0.1).
+    n_iter : int
+        Iterations (Fig. 6.9: 60).
+    flatness : tuple of int
+        Even exponents (m1, m2) of Eq. 6.1 (8, 8).
+    schedule : {"constant", "decreasing"}
+        "decreasing": start with k_start and eta = 1 and lower both to (k, eta)
+        (the future work of 6.2; `flatness_schedule`).
+    k_start : int, optional
+        First k of the "decreasing" schedule (default 4 k, at most N).
+    normals : array_like of shape (N, 3), float64, optional
+        Input normals; only used to orient the returned PCA normals.
+    progress : callable, optional
+        Called with 1 after every iteration (progress bars).
+
+    Returns
+    -------
+    result : DenoiseResult
+        ``energy`` is the flatness of the last iteration, ``normals`` its PCA
+        normals (oriented like ``normals`` when given, else sign arbitrary),
+        ``feature_class`` 0.
+
+    Raises
+    ------
+    ValueError
+        Bad shapes or values (k outside [3, N - 1], eta outside [0, 1], eps <= 0).
+    TypeError
+        Non-integer k or n_iter.
+
+    Notes
+    -----
+    Eq. 6.3: p <- p + eps (eta (2 - E_p) (-d v3) + (1 - eta) E_p (p_bar - p)), with
+    the barycentre b of the k nearest (equal weights), d = (p - b) . v3 and p_bar
+    the projection of p on the line (b, v1). Neighbourhoods and energies are
+    recomputed every iteration from the current points (Jacobi: every point moves
+    with the values of the previous iteration). Degenerate neighbourhoods (NaN
+    features) do not move.
+
+    Examples
+    --------
+    >>> from pointatlas.synth import plane_patch, add_normal_noise
+    >>> m = plane_patch(16, 16)
+    >>> noisy = add_normal_noise(m.points, m.normals, 0.3, rng=0)
+    >>> r = flatness_denoise(noisy, k=14, n_iter=10)
+    >>> bool(abs(r.points[:, 2]).mean() < abs(noisy[:, 2]).mean())
+    True
+    """
+    pts = as_points(points)
+    n = pts.shape[0]
+    nrm = None if normals is None else as_normals(normals, n)
+    k = as_int(k, "k", lo=3, hi=n - 1, note="the number of points - 1")
+    eta = as_float(eta, "eta", lo=0.0, hi=1.0)
+    eps = as_float(eps, "eps", lo=0.0, lo_open=True)
+    n_iter = as_int(n_iter, "n_iter", lo=0)
+    if k_start is not None:
+        k_start = as_int(k_start, "k_start", lo=k, hi=n - 1, note="k .. number of points - 1")
+    elif schedule == "decreasing":
+        k_start = min(4 * k, n - 1)
+    ks, etas = flatness_schedule(max(n_iter, 1), k, eta, schedule=schedule, k_start=k_start)
+    ell = mean_spacing(pts, 6) if n > 6 else 0.0
+    cur = pts.copy()
+    energy = np.full(n, np.nan)
+    v3 = np.full((n, 3), np.nan)
+    valid = np.zeros(n, dtype=bool)
+    for t in range(n_iter):
+        cur, energy, v3, valid = flatness_step(
+            cur, int(ks[t]), float(etas[t]), eps, flatness=flatness
+        )
+        if progress is not None:
+            progress(1)
+    if n_iter == 0 or not valid.any():
+        _, energy, v3, valid = flatness_step(cur, k, eta, eps, flatness=flatness)
+    out_normals = _oriented(v3, valid, nrm)
+    if not np.isfinite(cur).all():
+        raise PointAtlasError("flatness denoising produced non-finite points")
+    return DenoiseResult(
+        points=cur,
+        normals=out_normals,
+        displacement=np.sqrt(((cur - pts) ** 2).sum(axis=1)),
+        feature_class=np.zeros(n, dtype=np.int8),
+        energy=np.where(valid, energy, np.nan),
+        k=np.where(valid, int(ks[-1]) if n_iter else k, -1).astype(np.int64),
+        method="flatness",
+        n_iter=n_iter,
+        n_fallback=0,
+        spacing=ell,
+    )
+
+
+def _oriented(v3: np.ndarray, valid: np.ndarray, reference) -> np.ndarray:
+    """PCA normals with the sign of ``reference`` (its row where v3 is undefined)."""
+    out = np.where(valid[:, None], v3, reference if reference is not None else [0.0, 0.0, 1.0])
+    if reference is not None:
+        flip = (out * reference).sum(axis=1) < 0
+        out[flip] *= -1.0
+    return out / np.linalg.norm(out, axis=1)[:, None]

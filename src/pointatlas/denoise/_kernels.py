@@ -1,0 +1,513 @@
+"""numba kernels of the denoise room (STYLE section 7).
+
+Kernels assume validated input (finite float64 arrays, unit normals, index tables
+whose rows start with the point itself and are sorted by distance) and never
+validate. Plain-numpy references live in ``tests/denoise/reference.py``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+__all__ = [
+    "CLASS_CORNER",
+    "CLASS_EDGE",
+    "CLASS_FACE",
+    "adaptive_k_kernel",
+    "point_triangle_kernel",
+    "quadric_update_kernel",
+    "sym3_eigh",
+    "sym3_eigvals",
+    "voting_filter_kernel",
+]
+
+#: feature classes of the point update ([YRS+18] stage 2 as reconstructed)
+CLASS_FACE = 1
+CLASS_EDGE = 2
+CLASS_CORNER = 3
+
+
+# --------------------------------------------------------------------------- 3x3 eigen
+
+
+@njit(cache=True)
+def sym3_eigh(a, lam, vec):
+    """Eigen-decomposition of a symmetric 3x3 matrix by cyclic Jacobi rotations.
+
+    ``a`` is overwritten. Writes the eigenvalues ascending into ``lam`` (3,) and the
+    unit eigenvectors as the columns of ``vec`` (3, 3), like ``numpy.linalg.eigh``.
+    """
+    for r in range(3):
+        for s in range(3):
+            vec[r, s] = 1.0 if r == s else 0.0
+    scale = abs(a[0, 0]) + abs(a[1, 1]) + abs(a[2, 2]) + abs(a[0, 1]) + abs(a[0, 2]) + abs(a[1, 2])
+    for _ in range(50):
+        off = abs(a[0, 1]) + abs(a[0, 2]) + abs(a[1, 2])
+        if off <= 1e-18 * scale or off == 0.0:
+            break
+        for p, q in ((0, 1), (0, 2), (1, 2)):
+            apq = a[p, q]
+            if apq == 0.0:
+                continue
+            theta = (a[q, q] - a[p, p]) / (2.0 * apq)
+            t = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
+            if theta < 0.0:
+                t = -t
+            c = 1.0 / math.sqrt(t * t + 1.0)
+            s_ = t * c
+            for r in range(3):
+                arp = a[r, p]
+                arq = a[r, q]
+                a[r, p] = c * arp - s_ * arq
+                a[r, q] = s_ * arp + c * arq
+            for r in range(3):
+                apr = a[p, r]
+                aqr = a[q, r]
+                a[p, r] = c * apr - s_ * aqr
+                a[q, r] = s_ * apr + c * aqr
+            for r in range(3):
+                vrp = vec[r, p]
+                vrq = vec[r, q]
+                vec[r, p] = c * vrp - s_ * vrq
+                vec[r, q] = s_ * vrp + c * vrq
+    # sort ascending (insertion sort on 3 entries), carrying the vectors
+    for r in range(3):
+        lam[r] = a[r, r]
+    for i in range(1, 3):
+        j = i
+        while j > 0 and lam[j - 1] > lam[j]:
+            lam[j - 1], lam[j] = lam[j], lam[j - 1]
+            for r in range(3):
+                vec[r, j - 1], vec[r, j] = vec[r, j], vec[r, j - 1]
+            j -= 1
+
+
+# --------------------------------------------------------------------------- distances
+
+
+@njit(cache=True)
+def _segment_d2(px, py, pz, ax, ay, az, bx, by, bz):
+    """Squared distance from p to the segment ab (a point when a == b)."""
+    ux, uy, uz = bx - ax, by - ay, bz - az
+    den = ux * ux + uy * uy + uz * uz
+    t = 0.0
+    if den > 0.0:
+        t = ((px - ax) * ux + (py - ay) * uy + (pz - az) * uz) / den
+        t = min(max(t, 0.0), 1.0)
+    return (px - ax - t * ux) ** 2 + (py - ay - t * uy) ** 2 + (pz - az - t * uz) ** 2
+
+
+@njit(cache=True, error_model="numpy")
+def _closest_on_triangle(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
+    """Squared distance from p to triangle abc (Ericson, Real-Time Collision Detection 5.1.5).
+
+    A zero-area triangle is the union of its three edges.
+    """
+    abx, aby, abz = bx - ax, by - ay, bz - az
+    acx, acy, acz = cx - ax, cy - ay, cz - az
+    nx = aby * acz - abz * acy
+    ny = abz * acx - abx * acz
+    nz = abx * acy - aby * acx
+    scale = (abx * abx + aby * aby + abz * abz) * (acx * acx + acy * acy + acz * acz)
+    if nx * nx + ny * ny + nz * nz <= 1e-24 * scale:
+        return min(
+            _segment_d2(px, py, pz, ax, ay, az, bx, by, bz),
+            _segment_d2(px, py, pz, bx, by, bz, cx, cy, cz),
+            _segment_d2(px, py, pz, cx, cy, cz, ax, ay, az),
+        )
+    apx, apy, apz = px - ax, py - ay, pz - az
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
+    if d1 <= 0.0 and d2 <= 0.0:
+        qx, qy, qz = ax, ay, az
+    else:
+        bpx, bpy, bpz = px - bx, py - by, pz - bz
+        d3 = abx * bpx + aby * bpy + abz * bpz
+        d4 = acx * bpx + acy * bpy + acz * bpz
+        vc = d1 * d4 - d3 * d2
+        cpx, cpy, cpz = px - cx, py - cy, pz - cz
+        d5 = abx * cpx + aby * cpy + abz * cpz
+        d6 = acx * cpx + acy * cpy + acz * cpz
+        vb = d5 * d2 - d1 * d6
+        va = d3 * d6 - d5 * d4
+        if d3 >= 0.0 and d4 <= d3:
+            qx, qy, qz = bx, by, bz
+        elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+            v = d1 / (d1 - d3)
+            qx, qy, qz = ax + v * abx, ay + v * aby, az + v * abz
+        elif d6 >= 0.0 and d5 <= d6:
+            qx, qy, qz = cx, cy, cz
+        elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+            w = d2 / (d2 - d6)
+            qx, qy, qz = ax + w * acx, ay + w * acy, az + w * acz
+        elif va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+            w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+            qx, qy, qz = bx + w * (cx - bx), by + w * (cy - by), bz + w * (cz - bz)
+        else:
+            denom = va + vb + vc
+            v = vb / denom
+            w = vc / denom
+            qx = ax + abx * v + acx * w
+            qy = ay + aby * v + acy * w
+            qz = az + abz * v + acz * w
+    return (px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2
+
+
+@njit(parallel=True, cache=True)
+def point_triangle_kernel(points, vertices, faces, indptr, cand, out):
+    """Distance from every point to the nearest of its candidate triangles.
+
+    Parameters
+    ----------
+    points : (N, 3) float64
+    vertices : (V, 3) float64
+    faces : (F, 3) int64
+    indptr : (N + 1,) int64
+        CSR row pointers into ``cand``.
+    cand : (M,) int64
+        Candidate triangle ids of each point (must hold the nearest triangle).
+    out : (N,) float64
+        Distances (+inf for a point without candidates).
+    """
+    n = points.shape[0]
+    for i in prange(n):
+        best = math.inf
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        for c in range(indptr[i], indptr[i + 1]):
+            f = cand[c]
+            a, b, cc = faces[f, 0], faces[f, 1], faces[f, 2]
+            d2 = _closest_on_triangle(
+                px, py, pz,
+                vertices[a, 0], vertices[a, 1], vertices[a, 2],
+                vertices[b, 0], vertices[b, 1], vertices[b, 2],
+                vertices[cc, 0], vertices[cc, 1], vertices[cc, 2],
+            )  # fmt: skip
+            if d2 < best:
+                best = d2
+        out[i] = math.sqrt(best)
+
+
+# --------------------------------------------------------------------------- E_dim choice
+
+
+@njit(cache=True)
+def sym3_eigvals(c00, c01, c02, c11, c12, c22):
+    """Eigenvalues (l1 >= l2 >= l3) of a symmetric 3x3 matrix, closed form (Smith 1961)."""
+    p1 = c01 * c01 + c02 * c02 + c12 * c12
+    q = (c00 + c11 + c22) / 3.0
+    if p1 <= 1e-300:
+        a, b, c = c00, c11, c22
+    else:
+        d0, d1, d2 = c00 - q, c11 - q, c22 - q
+        p2 = d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * p1
+        p = math.sqrt(p2 / 6.0)
+        # det((C - q I) / p) / 2
+        b00, b11, b22 = d0 / p, d1 / p, d2 / p
+        b01, b02, b12 = c01 / p, c02 / p, c12 / p
+        r = 0.5 * (
+            b00 * (b11 * b22 - b12 * b12)
+            - b01 * (b01 * b22 - b12 * b02)
+            + b02 * (b01 * b12 - b11 * b02)
+        )
+        r = min(max(r, -1.0), 1.0)
+        phi = math.acos(r) / 3.0
+        a = q + 2.0 * p * math.cos(phi)
+        c = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)
+        b = 3.0 * q - a - c
+    # sort descending
+    if a < b:
+        a, b = b, a
+    if b < c:
+        b, c = c, b
+    if a < b:
+        a, b = b, a
+    return a, b, c
+
+
+@njit(cache=True)
+def _edim_from_cov(c):
+    """E_dim (Eq. 5.7, 0 ln 0 = 0) of a symmetric 3x3 matrix; +inf when lambda_1 <= 0."""
+    l1, l2, l3 = sym3_eigvals(c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2])
+    l1 = max(l1, 0.0)
+    l2 = max(l2, 0.0)
+    l3 = max(l3, 0.0)
+    if not l1 > 0.0 or not (l1 + l2 + l3) > 0.0:
+        return math.inf
+    e = 0.0
+    for x in ((l1 - l2) / l1, (l2 - l3) / l1, l3 / l1):
+        if x > 0.0:
+            e -= x * math.log(x)
+    return e
+
+
+@njit(parallel=True, cache=True)
+def adaptive_k_kernel(points, normals, idx, k_lo, k_hi, cos_a, best_k, best_edim):
+    """Per point the k in [k_lo[i], k_hi[i]] of least E_dim with cut-off weights.
+
+    Weights w_ij = 1 iff n_i . n_j >= cos_a (a = b sharp cut-off of Def. 15); the
+    covariance is Eq. 5.4 (weighted outer products about the unweighted barycentre
+    of the k nearest). A choice is degenerate when fewer than three neighbours carry
+    weight or the eigenvalues vanish. Ties: the smallest k. ``best_k`` = -1 and
+    ``best_edim`` = +inf when every choice degenerates.
+
+    Parameters
+    ----------
+    points : (N, 3) float64
+    normals : (N, 3) float64, unit
+    idx : (N, K) int64, K >= max(k_hi)
+    k_lo, k_hi : (N,) int64, 1 <= k_lo <= k_hi <= K
+    cos_a : float
+    best_k : (N,) int64, out
+    best_edim : (N,) float64, out
+    """
+    n = points.shape[0]
+    for i in prange(n):
+        su = np.zeros(3)  # unweighted sum of y
+        sw = 0.0
+        swy = np.zeros(3)
+        swyy = np.zeros((3, 3))
+        nw = 0
+        bk = -1
+        be = math.inf
+        cov = np.empty((3, 3))
+        for kk in range(1, k_hi[i] + 1):
+            j = idx[i, kk - 1]
+            y0 = points[j, 0] - points[i, 0]
+            y1 = points[j, 1] - points[i, 1]
+            y2 = points[j, 2] - points[i, 2]
+            su[0] += y0
+            su[1] += y1
+            su[2] += y2
+            dot = (
+                normals[i, 0] * normals[j, 0]
+                + normals[i, 1] * normals[j, 1]
+                + normals[i, 2] * normals[j, 2]
+            )
+            if dot >= cos_a:
+                nw += 1
+                sw += 1.0
+                y = (y0, y1, y2)
+                for r in range(3):
+                    swy[r] += y[r]
+                    for s in range(3):
+                        swyy[r, s] += y[r] * y[s]
+            if kk < k_lo[i] or nw < 3:
+                continue
+            m0, m1, m2 = su[0] / kk, su[1] / kk, su[2] / kk
+            m = (m0, m1, m2)
+            for r in range(3):
+                for s in range(3):
+                    cov[r, s] = swyy[r, s] - m[r] * swy[s] - swy[r] * m[s] + sw * m[r] * m[s]
+            e = _edim_from_cov(cov)
+            if e < be:
+                be = e
+                bk = kk
+        best_k[i] = bk
+        best_edim[i] = be
+
+
+# --------------------------------------------------------------------------- voting
+
+
+@njit(cache=True)
+def _binarised_projector(t, tau, proj):
+    """Eigen-decompose T, scale eigenvalues by the largest, keep those >= tau (set 1).
+
+    Writes sum over kept eigenvectors of v v^T into ``proj``; returns the number of
+    kept eigenvalues (0 when T is zero).
+    """
+    lam = np.empty(3)
+    vec = np.empty((3, 3))
+    sym3_eigh(t, lam, vec)
+    top = lam[2]
+    proj[:, :] = 0.0
+    if not top > 0.0:
+        return 0
+    kept = 0
+    for e in range(3):
+        if lam[e] / top >= tau:
+            kept += 1
+            for r in range(3):
+                for s in range(3):
+                    proj[r, s] += vec[r, e] * vec[s, e]
+    return kept
+
+
+@njit(parallel=True, cache=True)
+def voting_filter_kernel(normals, idx, k_of, use_cut, cos_rho, tau, out):
+    """One normal voting tensor step ([YRS+18] stage 1, GUIDE C3) for every point.
+
+    T_i = sum_j w_ij n_j n_j^T over the first ``k_of[i]`` neighbours, w_ij = 1 if
+    n_i . n_j >= cos_rho else 0 (all 1 where ``use_cut[i]`` is False); eigenvalues
+    scaled by the largest and set to 1 if >= tau else 0; n_i <- normalise(T~_i n_i).
+    A normal whose projection vanishes is kept.
+
+    Parameters
+    ----------
+    normals : (N, 3) float64, unit
+    idx : (N, K) int64
+    k_of : (N,) int64, 1 <= k_of <= K
+    use_cut : (N,) bool
+    cos_rho, tau : float
+    out : (N, 3) float64, out
+    """
+    n = normals.shape[0]
+    for i in prange(n):
+        t = np.zeros((3, 3))
+        proj = np.empty((3, 3))
+        for kk in range(k_of[i]):
+            j = idx[i, kk]
+            dot = (
+                normals[i, 0] * normals[j, 0]
+                + normals[i, 1] * normals[j, 1]
+                + normals[i, 2] * normals[j, 2]
+            )
+            if use_cut[i] and dot < cos_rho:
+                continue
+            for r in range(3):
+                for s in range(3):
+                    t[r, s] += normals[j, r] * normals[j, s]
+        _binarised_projector(t, tau, proj)
+        x = proj[0, 0] * normals[i, 0] + proj[0, 1] * normals[i, 1] + proj[0, 2] * normals[i, 2]
+        y = proj[1, 0] * normals[i, 0] + proj[1, 1] * normals[i, 1] + proj[1, 2] * normals[i, 2]
+        z = proj[2, 0] * normals[i, 0] + proj[2, 1] * normals[i, 1] + proj[2, 2] * normals[i, 2]
+        length = math.sqrt(x * x + y * y + z * z)
+        if length > 1e-12:
+            out[i, 0] = x / length
+            out[i, 1] = y / length
+            out[i, 2] = z / length
+        else:
+            out[i, 0] = normals[i, 0]
+            out[i, 1] = normals[i, 1]
+            out[i, 2] = normals[i, 2]
+
+
+# --------------------------------------------------------------------------- point update
+
+
+@njit(parallel=True, cache=True)
+def quadric_update_kernel(points, normals, idx, k_of, cos_rho, tau, max_step, sharpen, out, klass):
+    """Restricted quadric point update ([YRS+18] stages 2-3 as reconstructed).
+
+    Stage 2: the class of point i is the number of eigenvalues >= tau (scaled by the
+    largest) of the equal-weight voting tensor sum_j n_j n_j^T over its first
+    ``k_of[i]`` neighbours: 1 face, 2 edge, 3 corner. Stage 3 (``sharpen``; else every
+    point is treated as a face point, moving along its own normal only): p_i moves by
+    x = D s, D = n_i (face) or the dominant eigenvectors (edge: two; corner: all),
+    minimising sum_j w_j (n_j . (p_i + x - p_j))^2 with w_j = [n_i . n_j >= cos_rho]
+    for faces and w_j = [|n_j . d_q| >= cos_rho for a dominant d_q] otherwise (a
+    bevel normal, e.g. the bisector at a mesh edge, casts no plane); the solve
+    drops directions whose eigenvalue is below 1e-6 of the largest, and |x| is
+    clipped to ``max_step``.
+
+    Parameters
+    ----------
+    points : (N, 3) float64
+    normals : (N, 3) float64, unit (filtered)
+    idx : (N, K) int64
+    k_of : (N,) int64
+    cos_rho, tau, max_step : float
+    sharpen : bool
+    out : (N, 3) float64, out (new positions)
+    klass : (N,) int64, out
+    """
+    n = points.shape[0]
+    for i in prange(n):
+        t = np.zeros((3, 3))
+        kk = k_of[i]
+        for c in range(kk):
+            j = idx[i, c]
+            for r in range(3):
+                for s in range(3):
+                    t[r, s] += normals[j, r] * normals[j, s]
+        lam = np.empty(3)
+        vec = np.empty((3, 3))
+        sym3_eigh(t, lam, vec)
+        top = lam[2]
+        m = 1
+        if top > 0.0:
+            m = 0
+            for e in range(3):
+                if lam[e] / top >= tau:
+                    m += 1
+            m = max(m, 1)
+        klass[i] = m
+        if not sharpen:
+            m = 1
+        d = np.empty((3, m))
+        if m == 1:
+            for r in range(3):
+                d[r, 0] = normals[i, r]
+        else:
+            for c in range(m):
+                for r in range(3):
+                    d[r, c] = vec[r, 2 - c]
+        a = np.zeros((m, m))
+        b = np.zeros(m)
+        for c in range(kk):
+            j = idx[i, c]
+            dot = (
+                normals[i, 0] * normals[j, 0]
+                + normals[i, 1] * normals[j, 1]
+                + normals[i, 2] * normals[j, 2]
+            )
+            if m == 1 and dot < cos_rho:
+                continue
+            if m > 1:
+                # only planes whose normal follows one of the dominant directions
+                aligned = False
+                for q in range(m):
+                    c_q = (
+                        d[0, q] * normals[j, 0] + d[1, q] * normals[j, 1] + d[2, q] * normals[j, 2]
+                    )
+                    if abs(c_q) >= cos_rho:
+                        aligned = True
+                if not aligned:
+                    continue
+            off = 0.0
+            for r in range(3):
+                off += normals[j, r] * (points[i, r] - points[j, r])
+            g = np.zeros(m)
+            for q in range(m):
+                for r in range(3):
+                    g[q] += d[r, q] * normals[j, r]
+            for q in range(m):
+                b[q] -= g[q] * off
+                for s in range(m):
+                    a[q, s] += g[q] * g[s]
+        a3 = np.zeros((3, 3))
+        for q in range(m):
+            for s in range(m):
+                a3[q, s] = a[q, s]
+        mu3 = np.empty(3)
+        w3 = np.empty((3, 3))
+        sym3_eigh(a3, mu3, w3)
+        # the m x m block's eigenpairs are the last m of the padded 3 x 3 (zeros first)
+        mu = mu3[3 - m :]
+        w = w3[:m, 3 - m :]
+        s_vec = np.zeros(m)
+        if mu[m - 1] > 0.0:
+            for e in range(m):
+                if mu[e] > 1e-6 * mu[m - 1]:
+                    proj = 0.0
+                    for q in range(m):
+                        proj += w[q, e] * b[q]
+                    for q in range(m):
+                        s_vec[q] += w[q, e] * proj / mu[e]
+        x0 = 0.0
+        x1 = 0.0
+        x2 = 0.0
+        for q in range(m):
+            x0 += d[0, q] * s_vec[q]
+            x1 += d[1, q] * s_vec[q]
+            x2 += d[2, q] * s_vec[q]
+        length = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+        scale = 1.0
+        if length > max_step:
+            scale = max_step / length
+        out[i, 0] = points[i, 0] + scale * x0
+        out[i, 1] = points[i, 1] + scale * x1
+        out[i, 2] = points[i, 2] + scale * x2

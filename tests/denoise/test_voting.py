@@ -1,0 +1,116 @@
+"""Normal voting filtering (thesis 5.4, [YRS+18] reconstructed) and the point update."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pointatlas.denoise import (
+    THESIS_FILTER_PARAMETERS,
+    add_noise,
+    default_neighbourhoods,
+    denoise,
+    filter_normals,
+    normal_mse,
+    normal_voting_denoise,
+)
+from pointatlas.normals import angle_error
+from pointatlas.synth import cube, plane_patch, vertex_normals
+
+
+@pytest.fixture(scope="module")
+def noisy_cube():
+    """cube(12) with 0.3 l noise along the normals (l: 6-NN), noisy-mesh vertex normals."""
+    m = cube(12)
+    noisy = add_noise(m.points, m.normals, 0.3, k=6, rng=3)
+    return m, noisy, vertex_normals(noisy, m.faces)
+
+
+def _near_edge_face_points(m, ell, width=2.0):
+    a = np.sort(np.abs(m.points), axis=1)
+    return ~m.is_sharp & (0.5 - a[:, 1] <= width * ell + 1e-9)
+
+
+def test_clean_cube_normals_unchanged():
+    m = cube(8)
+    for adaptive in (False, True):
+        r = filter_normals(m.points, m.normals, rho=0.95, tau=0.3, n_iter=10, adaptive=adaptive)
+        np.testing.assert_allclose(r.normals, m.normals, atol=1e-12)
+        assert r.normals.shape == (m.n_vertices, 3) and r.normals.dtype == np.float64
+        assert r.k.dtype == np.int64 and not r.normals.flags.writeable
+
+
+def test_adaptive_never_worse_than_fixed_on_cube(noisy_cube):
+    m, noisy, nn = noisy_cube
+    p, rho, tau = THESIS_FILTER_PARAMETERS["cube"]
+    fixed = filter_normals(noisy, nn, rho=rho, tau=tau, n_iter=p)
+    adaptive = filter_normals(noisy, nn, rho=rho, tau=tau, n_iter=p, adaptive=True)
+    noise = normal_mse(nn, m.normals)
+    assert normal_mse(adaptive.normals, m.normals) <= normal_mse(fixed.normals, m.normals)
+    assert normal_mse(fixed.normals, m.normals) < noise
+    # the chosen k lies in the thesis' range around the default k
+    ok = ~adaptive.is_fallback
+    assert (np.abs(adaptive.k[ok] - adaptive.default_k[ok]) <= 10).all()
+
+
+def test_sharp_edges_survive_filter_and_update(noisy_cube):
+    m, noisy, nn = noisy_cube
+    r = normal_voting_denoise(noisy, nn, rho=0.95, tau=0.3, n_iter=3, n_filter_iter=30)
+    near = _near_edge_face_points(m, 1 / 12)
+    ang = np.degrees(angle_error(r.normals, m.normals))[near]
+    # normals on both sides of every edge stay within 5 degrees of their face's
+    assert np.percentile(ang, 95) < 5.0 and (ang < 5.0).mean() > 0.9
+    # edge points are classified as edges or corners, face centres as faces
+    centre = np.abs(np.sort(np.abs(m.points), axis=1)[:, 1]) < 0.2
+    assert (r.feature_class[centre] == 1).mean() > 0.95
+    assert (r.feature_class[m.is_sharp] >= 2).mean() > 0.5
+    # the update moves points towards the surface
+    dist_before = np.abs(np.abs(noisy).max(axis=1) - 0.5).mean()
+    dist_after = np.abs(np.abs(r.points).max(axis=1) - 0.5).mean()
+    assert dist_after < 0.6 * dist_before
+
+
+@pytest.mark.parametrize("method", ["normal-voting", "normal-voting-adaptive", "flatness"])
+def test_noisy_plane_gets_flatter(method):
+    m = plane_patch(24, 24)
+    noisy = add_noise(m.points, m.normals, 0.5, k=6, rng=7)
+    r = denoise(noisy, m.normals, method=method)
+    inner = np.abs(m.points[:, :2]).max(axis=1) < 0.4  # away from the open border
+    rms_before = math.sqrt(np.mean(noisy[inner, 2] ** 2))
+    rms_after = math.sqrt(np.mean(r.points[inner, 2] ** 2))
+    assert rms_after < 0.5 * rms_before
+    assert r.points.shape == (m.n_vertices, 3) and r.displacement.shape == (m.n_vertices,)
+
+
+def test_same_seed_same_output():
+    m = cube(6)
+    outs = []
+    for _ in range(2):
+        noisy = add_noise(m.points, m.normals, 0.6, k=6, rng=11)
+        r = normal_voting_denoise(noisy, vertex_normals(noisy, m.faces), n_iter=2)
+        outs.append((noisy, r.points, r.normals, r.k))
+    for a, b in zip(outs[0], outs[1], strict=True):
+        assert np.array_equal(a, b)
+
+
+def test_default_neighbourhoods_sizes():
+    pts = plane_patch(20, 20).points
+    idx, k, ell = default_neighbourhoods(pts, extra=10)
+    assert idx.shape[1] == int(k.max()) + 10 and (idx[:, 0] == np.arange(len(pts))).all()
+    assert 12 <= np.median(k) <= 24 and ell > 0  # 21 lattice points within 2.28 h
+
+
+def test_validation_messages():
+    m = cube(4)
+    with pytest.raises(ValueError, match=r"rho must be a finite number in \[-1, 1\]"):
+        filter_normals(m.points, m.normals, rho=2.0)
+    with pytest.raises(ValueError, match="normals must have one row per point"):
+        filter_normals(m.points, m.normals[:5])
+    with pytest.raises(TypeError, match="n_iter must be an integer"):
+        filter_normals(m.points, m.normals, n_iter=1.5)
+    with pytest.raises(ValueError, match="points must hold at least 8"):
+        normal_voting_denoise(m.points[:5], m.normals[:5])
+    with pytest.raises(ValueError, match="needs oriented normals"):
+        denoise(m.points, None, method="normal-voting")
+    with pytest.raises(ValueError, match="method must be one of"):
+        denoise(m.points, m.normals, method="median")

@@ -1,0 +1,70 @@
+"""CAD-like closed triangle meshes with known topology, built by extruding polygons.
+
+Each shape is what a CAD export gives: few vertices on large flat faces (the caps
+are earcut triangulations of the outline, the sides one quad = two triangles per
+outline edge), consistently oriented outwards.
+"""
+
+from __future__ import annotations
+
+import mapbox_earcut
+import numpy as np
+
+
+def _ring(xy) -> np.ndarray:
+    xy = np.asarray(xy, dtype=np.float64)
+    x, y = xy[:, 0], xy[:, 1]
+    area = 0.5 * (x @ np.roll(y, -1) - np.roll(x, -1) @ y)
+    return xy if area > 0 else xy[::-1].copy()
+
+
+def extrude(outer, holes=(), height: float = 1.0):
+    """Closed prism over a polygon with holes: (vertices, triangles), outward oriented."""
+    rings = [_ring(outer)] + [_ring(h)[::-1].copy() for h in holes]  # holes clockwise
+    xy = np.concatenate(rings)
+    n = xy.shape[0]
+    ends = np.cumsum([len(r) for r in rings]).astype(np.uint32)
+    cap = np.asarray(mapbox_earcut.triangulate_float64(xy, ends), dtype=np.int64).reshape(-1, 3)
+    a, b, c = xy[cap[:, 0]], xy[cap[:, 1]], xy[cap[:, 2]]
+    ccw = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    cap[ccw < 0] = cap[ccw < 0][:, [0, 2, 1]]
+    bottom = np.column_stack([xy, np.zeros(n)])
+    top = np.column_stack([xy, np.full(n, height)])
+    vertices = np.concatenate([bottom, top])
+    tris = [cap[:, [0, 2, 1]], cap + n]  # bottom faces down, top faces up
+    start = 0
+    for r in rings:
+        m = len(r)
+        i = start + np.arange(m)
+        j = start + (np.arange(m) + 1) % m
+        tris.append(np.column_stack([i, j, j + n]))
+        tris.append(np.column_stack([i, j + n, i + n]))
+        start += m
+    return vertices, np.concatenate(tris)
+
+
+def circle(center, radius, n):
+    t = 2.0 * np.pi * np.arange(n) / n
+    return np.column_stack([center[0] + radius * np.cos(t), center[1] + radius * np.sin(t)])
+
+
+def box():
+    """A sparse CAD box: 8 vertices, 12 triangles."""
+    return extrude([[0, 0], [2, 0], [2, 1], [0, 1]], height=0.5)
+
+
+def cylinder(n=64):
+    return extrude(circle((0, 0), 1.0, n), height=2.0)
+
+
+def plate_with_two_holes(n=32):
+    outer = [[0, 0], [6, 0], [6, 3], [0, 3]]
+    return extrude(outer, [circle((1.5, 1.5), 0.6, n), circle((4.5, 1.5), 0.6, n)], height=0.4)
+
+
+def l_bracket():
+    return extrude([[0, 0], [4, 0], [4, 1], [1, 1], [1, 3], [0, 3]], height=2.0)
+
+
+def cube_with_square_hole():
+    return extrude([[0, 0], [3, 0], [3, 3], [0, 3]], [[[1, 1], [2, 1], [2, 2], [1, 2]]], height=3.0)
