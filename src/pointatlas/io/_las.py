@@ -33,8 +33,8 @@ def read_las(path) -> RawData:
 
     RGB becomes the ``colors`` attribute, (N, 3) uint16 exactly as stored.
     Extra-byte dimensions ``nx, ny, nz`` become normals. ``meta["las_header"]`` is
-    a deep copy of the ``laspy.LasHeader`` (version, point format, scales,
-    offsets, VLRs, EVLRs, extra-bytes definitions).
+    the ``laspy.LasHeader`` as read (version, point format, scales, offsets, VLRs,
+    EVLRs, extra-bytes definitions); it is never modified.
     """
     import laspy
 
@@ -54,7 +54,9 @@ def read_las(path) -> RawData:
             attributes["colors"] = np.column_stack([np.asarray(las[k]) for k in _RGB])
         else:
             attributes.update({k: np.array(las[k]) for k in _RGB if k in names})
-        meta = {"las_header": copy.deepcopy(las.header)}
+        # the header object as read (not a deep copy: a corrupt header can hold huge
+        # VLR payloads; writers copy what they change, see plan_las)
+        meta = {"las_header": las.header}
     except Exception as exc:  # laspy/lazrs raise many types on corrupt input
         raise fail(path, f"cannot read LAS/LAZ ({describe_exception(exc)})") from None
     return RawData(points=points, normals=normals, attributes=attributes, meta=meta)

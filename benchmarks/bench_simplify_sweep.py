@@ -1,0 +1,185 @@
+"""`pointatlas simplify` on a whole collection with default options, CGAL VSA beside it.
+
+Run from the repository root::
+
+    .venv/bin/python benchmarks/bench_simplify_sweep.py \
+        --models ../shared/data/collection --out bench-output/simplify_sweep [--cgal 1]
+
+Every model goes through the same code as ``pointatlas simplify MODEL OUT.obj`` with
+default options (a mesh input takes the mesh path). One CSV row per model: faces,
+vertices, closed / manifold / oriented, Euler characteristic, faces that kept their
+input triangles, mean and max distance of the input vertices to the output (% of the
+bounding-box diagonal), seconds, path taken. With ``--cgal K`` every K-th model is
+also given to CGAL's ``Surface_mesh_approximation`` (benchmarks/cgal_vsa.cpp,
+compiled with Debian's libcgal-dev, see bench_simplify.py) with as many proxies as
+our output has faces, and its output is measured the same way (one metric for all:
+`pointatlas.simplify.point_mesh_distance`); the summary prints the ratio of mean
+distances (ours / CGAL's) and how often each output is a closed manifold.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import importlib.util
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pointatlas.io import read_mesh
+from pointatlas.simplify import mesh_checks, simplify_mesh
+
+HERE = Path(__file__).resolve().parent
+MESH_SUFFIXES = (".obj", ".off", ".ply", ".stl")
+
+
+def _bench_simplify():
+    spec = importlib.util.spec_from_file_location("bench_simplify", HERE / "bench_simplify.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def run_ours(mesh) -> dict:
+    v = mesh.vertices
+    diag = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
+    t0 = time.perf_counter()
+    res = simplify_mesh(v, mesh.triangles)
+    seconds = time.perf_counter() - t0
+    return {
+        "faces": res.n_faces,
+        "vertices": res.n_vertices,
+        "closed": res.is_closed,
+        "manifold": res.is_manifold,
+        "oriented": res.is_oriented,
+        "euler": res.euler_characteristic,
+        "faces_kept_as_input": int(res.face_kept_input.sum()),
+        "mean_distance_pct": 100.0 * res.mean_distance / diag,
+        "max_distance_pct": 100.0 * res.max_distance / diag,
+        "max_planarity_pct": 100.0 * float(res.planarity_error.max(initial=0.0)) / diag,
+        "seconds": seconds,
+        "path": "mesh",
+    }
+
+
+def run_cgal(bench, mesh, n_proxies: int, build_dir: Path) -> dict:
+    """CGAL VSA with ``n_proxies``; its output checked and measured as ours."""
+    import subprocess
+    import tempfile
+
+    from pointatlas.io import write_mesh
+    from pointatlas.simplify import point_mesh_distance
+
+    exe, why = bench._cgal_binary(build_dir)
+    if exe is None:
+        return {"cgal_note": why}
+    v = mesh.vertices
+    diag = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
+    with tempfile.TemporaryDirectory() as tmp:
+        src = write_mesh(Path(tmp) / "in.off", v, mesh.triangles)
+        dst = Path(tmp) / "out.off"
+        res = subprocess.run(
+            [str(exe), str(src), str(dst), str(int(n_proxies))],
+            capture_output=True,
+            text=True,
+            timeout=1200,
+        )
+        if res.returncode != 0:
+            return {"cgal_note": f"failed: {res.stderr.strip()[:200]}"}
+        seconds, _ = res.stdout.split()
+        out = read_mesh(dst)
+    tri = out.triangles
+    if tri.shape[0] == 0:
+        return {"cgal_note": "no triangles"}
+    closed, manifold, oriented = mesh_checks(out.n_vertices, tri)
+    d = point_mesh_distance(v, out.vertices, tri)
+    return {
+        "cgal_faces": int(n_proxies),
+        "cgal_mean_distance_pct": 100.0 * float(d.mean()) / diag,
+        "cgal_max_distance_pct": 100.0 * float(d.max()) / diag,
+        "cgal_closed": closed,
+        "cgal_manifold": manifold and closed and oriented,
+        "cgal_seconds": float(seconds),
+    }
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", type=Path, default=HERE.parent / "../shared/data/collection")
+    parser.add_argument("--out", type=Path, default=Path("bench-output/simplify_sweep"))
+    parser.add_argument("--cgal", type=int, default=0, help="every K-th model also to CGAL")
+    parser.add_argument("--limit", type=int, default=0, help="only the first N models")
+    args = parser.parse_args(argv)
+    files = sorted(p for p in args.models.iterdir() if p.suffix.lower() in MESH_SUFFIXES)
+    if args.limit:
+        files = files[: args.limit]
+    if not files:
+        print(f"no meshes in {args.models}", file=sys.stderr)
+        return 1
+    args.out.mkdir(parents=True, exist_ok=True)
+    bench = _bench_simplify() if args.cgal else None
+    rows = []
+    for i, path in enumerate(files):
+        mesh = read_mesh(path)
+        row = {"model": path.name, "input_faces": mesh.n_faces}
+        row["input_closed_manifold"] = all(mesh_checks(mesh.n_vertices, mesh.triangles))
+        row.update(run_ours(mesh))
+        if args.cgal and i % args.cgal == 0:
+            row.update(run_cgal(bench, mesh, row["faces"], args.out.parent / "cgal-build"))
+        rows.append(row)
+        print(
+            f"{i + 1:3d}/{len(files)} {path.name:45s} {row['faces']:5d} faces "
+            f"closed+manifold+oriented={row['closed'] and row['manifold'] and row['oriented']} "
+            f"mean {row['mean_distance_pct']:.3f} % {row['seconds']:.2f} s"
+            + (
+                f" | CGAL mean {row['cgal_mean_distance_pct']:.3f} % "
+                f"closed+manifold+oriented={row['cgal_manifold']}"
+                if "cgal_mean_distance_pct" in row
+                else ""
+            ),
+            flush=True,
+        )
+    fields = sorted(
+        {k for r in rows for k in r}, key=lambda k: list(rows[0]).index(k) if k in rows[0] else 99
+    )
+    with open(args.out / "sweep.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=fields, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+    closed_in = [r for r in rows if r["input_closed_manifold"]]
+    good = [r for r in closed_in if r["closed"] and r["manifold"] and r["oriented"]]
+    planar = [r for r in good if r["faces_kept_as_input"] == 0]
+    seconds = np.array([r["seconds"] for r in rows])
+    print(f"models: {len(rows)}, closed manifold inputs: {len(closed_in)}")
+    print(
+        f"closed + manifold + oriented outputs: {len(good)} / {len(closed_in)} "
+        f"({100.0 * len(good) / max(len(closed_in), 1):.1f} %); of them every face a "
+        f"planar polygon (none kept as input triangles): {len(planar)}"
+    )
+    print(
+        f"faces median {np.median([r['faces'] for r in rows]):.0f}, mean distance median "
+        f"{np.median([r['mean_distance_pct'] for r in rows]):.3f} % of the diagonal"
+    )
+    print(
+        f"time: median {np.median(seconds):.2f} s, max {seconds.max():.2f} s, "
+        f"total {seconds.sum():.1f} s"
+    )
+    both = [r for r in rows if "cgal_mean_distance_pct" in r]
+    if both:
+        n_ours = sum(r["manifold"] for r in both)
+        n_cgal = sum(bool(r["cgal_manifold"]) for r in both)
+        ratio = np.array([r["mean_distance_pct"] / r["cgal_mean_distance_pct"] for r in both])
+        print(
+            f"CGAL VSA at the same face count on {len(both)} models: mean distance ours / "
+            f"CGAL median {np.median(ratio):.2f}x (max {ratio.max():.2f}x, <= 1 on "
+            f"{int((ratio <= 1.0).sum())}); closed manifold oriented outputs: ours "
+            f"{n_ours}, CGAL {n_cgal}"
+        )
+    print(f"table: {args.out / 'sweep.csv'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
