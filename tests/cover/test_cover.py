@@ -227,5 +227,72 @@ def test_bad_input_messages():
         search_cover_scale(pts, [1.0, -1.0])
     with pytest.raises(ValueError, match="n_rotations must be"):
         search_cover_scale(pts, [1.0], n_rotations=-1)
-    with pytest.raises(ValueError, match="more than 1e6 balls"):
+    with pytest.raises(ValueError, match=r"more than 1e\+06 balls"):
         ball_cover(np.array([[0, 0, 0], [1, 0, 0.0]]), 1e-7)
+
+
+def test_offset_shifts_the_lattice_against_the_bounding_box():
+    from pointatlas.cover import random_offsets
+
+    pts = fibonacci_sphere(1500).vertices
+    off = np.array([0.25, 0.5, 0.75])
+    cov = ball_cover(pts, 0.5, offset=off)
+    np.testing.assert_array_equal(cov.offset, off)
+    lat = (cov.centres - pts.min(axis=0)) / 0.5 + off
+    np.testing.assert_allclose(lat, np.round(lat), atol=1e-9)
+    assert cov.complex.uncovered_points.size == 0
+    # every cloud is exactly the points within its ball
+    for c in range(0, cov.n_clouds, 5):
+        d = np.linalg.norm(pts - cov.centres[c], axis=1)
+        assert cov.complex.cloud(c).tolist() == np.flatnonzero(d <= cov.ball_radius[c]).tolist()
+    o = random_offsets(3, dim=2, rng=1)
+    assert o.shape == (4, 3) and (o[0] == 0).all() and (o[:, 2] == 0).all()
+    assert ((o >= 0) & (o < 1)).all()
+    np.testing.assert_array_equal(o, random_offsets(3, dim=2, rng=1))
+    with pytest.raises(ValueError, match=r"offset must hold numbers in \[0, 1\)"):
+        ball_cover(pts, 0.5, offset=[0.0, 1.0, 0.0])
+    with pytest.raises(ValueError, match=r"offset must have shape \(3,\); got \(4,\)"):
+        ball_cover(pts, 0.5, offset=np.zeros(4))
+
+
+def test_search_over_offsets_accepts_an_open_plane_and_rebuilds_the_chosen_setting():
+    from pointatlas.synth import plane_patch
+
+    pts = plane_patch(65, 65, width=4.0, height=4.0).vertices
+    res = search_cover_scale(pts, [0.25], n_offsets=24, rng=0, accept="open")
+    assert res.offset_index.tolist() == list(range(25)) and res.rotation_index.max() == 0
+    assert not res.is_accepted[0] and res.reports[0].n_faces == 0  # the lattice layer z = 0
+    assert res.n_unsupported[0] == pts.shape[0]
+    i = res.chosen
+    assert i == res.accepted[0] and res.n_unsupported[i] == 0
+    rep = surface_report(ball_cover(pts, **res.setting(i)).complex)
+    assert rep.summary() == res.reports[i].summary()
+    assert rep.is_cloud_surface and not rep.is_closed and rep.n_boundary_loops == 1
+    closed = search_cover_scale(pts, [0.25], n_offsets=24, rng=0)  # accept="closed"
+    assert closed.accepted.size == 0 and closed.chosen == i  # fewest unsupported points
+    with pytest.raises(ValueError, match="accept must be one of closed, open"):
+        search_cover_scale(pts, [0.25], accept="any")
+
+
+def test_unsupported_points_match_a_plain_reference():
+    from pointatlas.complex import cloud_complex
+    from pointatlas.complex._clouds import unsupported_mask
+
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(0.0, 3.0, size=(3000, 3))
+    pts[:, 2] *= 0.2  # a slab: some edges and vertices on no triangle
+    K = ball_cover(pts, 0.6).complex
+    tris = {tuple(t) for t in K.triangles.tolist()}
+    tri_edges = {e for a, b, c in tris for e in ((a, b), (b, c), (a, c))}
+    tri_verts = {v for t in tris for v in t}
+    want = []
+    for p in range(K.n_points):
+        cl = tuple(K.clouds_of(p).tolist())
+        ok = (len(cl) == 3 or (len(cl) == 2 and cl in tri_edges)
+              or (len(cl) == 1 and cl[0] in tri_verts))  # fmt: skip
+        want.append(not ok)
+    assert unsupported_mask(K).tolist() == want
+    assert 0 < sum(want) < K.n_points
+    # point 2: its vertex (cloud 3) is on no triangle; point 3: in no cloud
+    Kt = cloud_complex([[0, 1], [0, 1], [0, 1], [2]], n_points=4)
+    assert unsupported_mask(Kt).tolist() == [False, False, True, True]

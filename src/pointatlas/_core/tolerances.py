@@ -99,3 +99,62 @@ KDTREE_CERTIFY_RTOL = 1e-12
 #: Relative widening of the radius handed to cKDTree for closed-ball queries; the
 #: exact test (squared distance <= radius**2) is re-applied afterwards.
 RADIUS_QUERY_WIDEN = 1e-9
+
+#: cover (cloud surfaces): balls are closed and a point counts as inside when
+#: |y - c|^2 <= r^2 (1 + this). The balls of Props 4-5 meet exactly on their
+#: boundaries (the cube centre lies at distance sqrt(3)/2 from four lattice points),
+#: where round-off in r^2 (0.75 comes out as 0.7499999999999999) would otherwise
+#: leave such a point in no ball; 1e-12 is far above that round-off and far below
+#: any sampling spacing.
+COVER_RADIUS_RTOL = 1e-12
+
+#: cover: a rotation matrix is accepted when |R^T R - I| and |det R - 1| are below
+#: this (and, for a 2-D cover, its z row and column differ from e_z by less): loose
+#: enough for a rotation written to text with 10 digits, tight enough that a
+#: scaling or shear is refused.
+COVER_ROTATION_TOL = 1e-9
+
+#: cover: at most this many lattice spacings along the points' bounding box; a
+#: smaller grid scale is refused with a message (it would build ~1e18 lattice codes
+#: and overflow the int64 codes of the membership kernel long before that).
+COVER_MAX_CELLS_PER_AXIS = 1e6
+
+#: complex (Def 7 iii): the exact Hamiltonian-path search over the faces at a vertex
+#: (needed only where an edge at the vertex lies in three or more faces) runs for at
+#: most this many faces; the search is exponential, and a larger star falls back to
+#: "connected with every face adjacent to at most two others" (then a path exists).
+FAN_EXACT_MAX = 10
+
+#: dynamics (Algorithm 3): a triangle, edge or area-weighted normal shorter than this
+#: fraction of the realisation's bounding-box diagonal (squared for areas) is
+#: degenerate: its frame is undefined and its points are reported instead of moved.
+#: Relative, so independent of units; round-off in cross products is ~1e-16.
+DEFORM_DEGENERATE_RTOL = 1e-12
+
+#: dynamics: the minimal rotation taking a vertex normal n to n~ is undefined when
+#: n . n~ <= -1 + this (antipodal normals; the Rodrigues factor 1 / (1 + cos) would
+#: blow up); such points are reported as "vertex normal reversed".
+DEFORM_ANTIPODAL_TOL = 1e-12
+
+#: synth (Algorithm 1): a triangle corner whose shorter edge is below this fraction
+#: of the mesh's bounding-box diagonal has no usable local frame (the ball of
+#: Eq. 2.1 would have radius ~0); such meshes are refused with the faces named.
+MESH_CLOUDS_DEGENERATE_RTOL = 1e-12
+
+#: denoise: default neighbourhood of the normal voting filter ([YRS+18] as
+#: reconstructed, docs/decisions/denoise.md) is the ball of this radius in units of
+#: l (mean 6-NN spacing): 2 l holds ~21 points of a square grid, ~16 mesh vertices.
+DENOISE_RADIUS_FACTOR = 2.0
+
+#: denoise: fewest points of a default neighbourhood (a 6-NN ring plus the point),
+#: so sparse regions still get a tensor of rank >= 2 to vote with.
+DENOISE_K_MIN = 7
+
+#: denoise: most points of a default neighbourhood; bounds the cost on dense
+#: clusters, and K_MAX + K_WIDTH (58) fits the 62-bit weight patterns the adaptive
+#: search caches.
+DENOISE_K_MAX = 48
+
+#: denoise: half-width of the thesis' adaptive range, k in [k_i - 10, k_i + 10]
+#: (thesis 5.4, application scenario).
+DENOISE_K_WIDTH = 10

@@ -22,6 +22,7 @@ _COMMAND_MODULES = (
     "_cmd_features",
     "_cmd_segment",
     "_cmd_simplify",
+    "_exp_cloudsurfaces",
     "_exp_denoise",
     "_exp_vsa",
 )

@@ -10,7 +10,8 @@ generates clouds from a mesh (Algorithm 1, ``--from-mesh``), and writes into OUT
   geometric realisation, one vertex per cloud;
 - ``cloudsurface.npz``: the cloud set (CSR), the cloud points and the points, read
   by ``deform``;
-- ``report.txt`` (a readable table), ``search.csv`` (with ``--search``),
+- ``report.txt`` (a readable table), ``search.csv`` (with ``--search``, ``--rotations`` or
+  ``--offsets``),
   ``cloudsurface.png`` (clouds beside the complex) and, last, ``report.json``.
 
 ``deform`` moves the points of a cloud surface with its cloud points (Algorithm 3).
@@ -134,47 +135,30 @@ def _search_csv(path: Path, rows: list[dict]) -> Path:
     return write_text(path, buf.getvalue())
 
 
-def _run_cover(points, *, scale, search, rotations, dim, layout, radius, seed, cloud_points):
-    """Fixed scale or search; returns (cover, search result or None, chosen setting)."""
-    if search is None:
-        rot = None
-        res = None
-        if rotations:
-            from ..cover import random_rotations
+def _run_cover(points, *, scale, search, rotations, offsets, accept, dim, layout, radius, seed,
+               cloud_points):  # fmt: skip
+    """Fixed scale or search; returns (cover, search result or None, chosen setting).
 
-            rot = random_rotations(rotations, dim=dim, rng=seed)[-1]
-        cov = ball_cover(points, scale, dim=dim, layout=layout, radius=radius, rotation=rot,
+    A fixed scale with ``--rotations``/``--offsets`` searches the placements at that
+    scale; the first accepted setting is kept, else the closest (`ScaleSearch.chosen`).
+    """
+    if search is None and not rotations and not offsets:
+        cov = ball_cover(points, scale, dim=dim, layout=layout, radius=radius,
                          cloud_points=cloud_points)  # fmt: skip
-        return cov, None, {"scale": scale, "rotation": rotations}
-    grid = scale_grid(*search)
-    total = grid.size * (rotations + 1)
-    with progress_bar("scale search", total=total) as advance:
+        return cov, None, {"scale": scale, "rotation": 0, "offset": 0}
+    grid = np.array([scale]) if search is None else scale_grid(*search)
+    total = grid.size * (rotations + 1) * (offsets + 1)
+    with progress_bar("cover search", total=total) as advance:
         res = search_cover_scale(
-            points, grid, n_rotations=rotations, rng=seed, dim=dim, layout=layout,
-            radius=radius, callback=lambda _: advance(),
+            points, grid, n_rotations=rotations, n_offsets=offsets, rng=seed, accept=accept,
+            dim=dim, layout=layout, radius=radius, callback=lambda _: advance(),
         )  # fmt: skip
-    acc = res.accepted
-    pick = int(acc[0]) if acc.size else _closest_setting(res)
-    s = float(res.scales[pick])
-    r = int(res.rotation_index[pick])
-    cov = ball_cover(points, s, dim=dim, layout=layout, radius=radius,
-                     rotation=res.rotations[r], cloud_points=cloud_points)  # fmt: skip
-    return cov, res, {"scale": s, "rotation": r}
-
-
-def _closest_setting(res) -> int:
-    """Without an accepted setting: the one with the fewest offending simplices."""
-    bad = []
-    for rep in res.reports:
-        if res.dim == 3:
-            bad.append(
-                rep.vertices_not_in_face.size + rep.edges_in_many_faces.shape[0]
-                + rep.vertices_not_fan.size + len(rep.simplices_above_2)
-                + rep.edges_not_in_face.shape[0] + rep.boundary_edges.shape[0]
-            )  # fmt: skip
-        else:
-            bad.append(rep.vertices_bad_degree.size + rep.n_triangles)
-    return int(np.argmin(bad))
+    pick = res.chosen
+    cov = ball_cover(points, dim=dim, layout=layout, radius=radius, cloud_points=cloud_points,
+                     **res.setting(pick))  # fmt: skip
+    chosen = {"scale": float(res.scales[pick]), "rotation": int(res.rotation_index[pick]),
+              "offset": int(res.offset_index[pick])}  # fmt: skip
+    return cov, res, chosen
 
 
 @app.command("cloudsurface")
@@ -198,6 +182,14 @@ def cloudsurface_command(
     rotations: Annotated[
         int, typer.Option("--rotations", help="Random rotations tried (seeded by --seed).")
     ] = 0,
+    offsets: Annotated[
+        int,
+        typer.Option("--offsets", help="Random lattice offsets tried with each rotation."),
+    ] = 0,
+    accept: Annotated[
+        str | None,
+        typer.Option("--accept", help="closed (default in 3-D) or open (boundary allowed)."),
+    ] = None,
     dim: Annotated[int, typer.Option("--dim", help="3: Prop. 4; 2: a curve in the xy-plane.")] = 3,
     layout: Annotated[
         str, typer.Option("--layout", help="2-D cover: two-radius (Prop. 5 ii) or tiling (5 i).")
@@ -255,13 +247,16 @@ def cloudsurface_command(
         else:
             scale_grid(*search)
         as_int(rotations, "--rotations", lo=0, hi=1000)
+        as_int(offsets, "--offsets", lo=0, hi=1000)
+        if accept not in (None, "closed", "open"):
+            raise PointAtlasError(f"--accept must be closed or open; got {accept!r}")
     out = _out_paths(out_dir, dim)
     files = [
         ("clouds", out["clouds"], None),
         ("complex", out["complex"], None),
         ("cloudsurface.npz", out["npz"], None),
         ("report.txt", out["table"], None),
-        ("search.csv", out["search"] if search is not None else None, None),
+        ("search.csv", out["search"] if (search or rotations or offsets) else None, None),
         ("picture", out["picture"] if render else None, None),
         ("report.json", out["json"], None),
     ]
@@ -278,8 +273,9 @@ def cloudsurface_command(
                    "colors": np.zeros((ps.n_points, 3), np.uint8)}  # fmt: skip
     check_point_output(out["clouds"], ps, placeholder)
     cov, res, chosen = _run_cover(
-        ps.points, scale=scale, search=search, rotations=rotations, dim=dim, layout=layout,
-        radius=radius, seed=seed, cloud_points=cloud_points,
+        ps.points, scale=scale, search=search, rotations=rotations, offsets=offsets,
+        accept=accept, dim=dim, layout=layout, radius=radius, seed=seed,
+        cloud_points=cloud_points,
     )  # fmt: skip
     K = cov.complex
     written = []
@@ -298,12 +294,15 @@ def cloudsurface_command(
     written.append(write_text(out["table"], report.table()))
     if res is not None:
         written.append(_search_csv(out["search"], res.rows()))
-    accepted = (report.is_cloud_surface and report.is_closed) if dim == 3 else (
-        report.is_one_manifold
-    )
+    closed_only = (accept or ("closed" if dim == 3 else "open")) == "closed"
+    accepted = (
+        (report.is_cloud_surface and (report.is_closed or not closed_only)) if dim == 3
+        else (report.is_one_manifold and (report.is_closed or not closed_only))
+    )  # fmt: skip
     if render:
         title = (f"{ps.name}: s = {chosen['scale']:g}, {cov.n_clouds} clouds, "
-                 + ("closed cloud surface" if accepted else "not accepted"))  # fmt: skip
+                 + (("closed " if report.is_closed else "") + ("cloud surface" if dim == 3
+                    else "curve") if accepted else "not accepted"))  # fmt: skip
         written.append(
             _picture(out["picture"], ps.points, K.n_memberships, verts, faces, K.edges, title)
         )
@@ -316,6 +315,8 @@ def cloudsurface_command(
         "scale": chosen["scale"],
         "rotation": chosen["rotation"],
         "rotation_matrix": cov.rotation.tolist(),
+        "offset": chosen["offset"],
+        "offset_vector": cov.offset.tolist(),
         "n_clouds": cov.n_clouds,
         "accepted": bool(accepted),
         "seed": seed,
@@ -324,8 +325,8 @@ def cloudsurface_command(
         "report": report.summary(),
         "search": None if res is None else {
             "n_settings": int(res.scales.size),
-            "accepted": [{"scale": float(res.scales[i]), "rotation": int(res.rotation_index[i])}
-                         for i in res.accepted],
+            "accepted": [{"scale": float(res.scales[i]), "rotation": int(res.rotation_index[i]),
+                          "offset": int(res.offset_index[i])} for i in res.accepted],
         },  # fmt: skip
         "seconds": round(time.perf_counter() - t0, 3),
     }
@@ -345,7 +346,8 @@ def _print_result(report, n_clouds, chosen, accepted, res, seconds, dim):
     if res is not None:
         console.print(
             f"search: {res.accepted.size} of {res.scales.size} settings accepted; "
-            f"using s = {chosen['scale']:g}, rotation {chosen['rotation']}"
+            f"using s = {chosen['scale']:g}, rotation {chosen['rotation']}, "
+            f"offset {chosen['offset']}"
         )
     if dim == 3:
         console.print(

@@ -15,7 +15,13 @@ import numpy as np
 
 from .._core import as_int, as_points, readonly
 
-__all__ = ["CloudComplex", "cloud_complex", "complex_from_membership", "membership_csr"]
+__all__ = [
+    "CloudComplex",
+    "cloud_complex",
+    "complex_from_membership",
+    "membership_csr",
+    "unsupported_mask",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -300,3 +306,29 @@ def cloud_centroids(indptr: np.ndarray, members: np.ndarray, points: np.ndarray)
         sums[:, j] = np.bincount(cloud_of, weights=points[members, j], minlength=sizes.size)
     with np.errstate(invalid="ignore", divide="ignore"):
         return sums / sizes[:, None]
+
+
+def unsupported_mask(K: CloudComplex) -> np.ndarray:
+    """Points whose clouds form no simplex on a triangle of ``K`` (validated input).
+
+    True for a point in no cloud, in four or more clouds, in two clouds whose edge
+    lies in no triangle, or in one cloud whose vertex lies in no triangle: exactly
+    the points Algorithm 3 cannot route (degenerate frames aside). A cloud surface
+    (Def. 8) has none but points in no cloud.
+    """
+    n_c = max(K.n_clouds, 1)
+    counts = K.n_memberships
+    first = K.point_indptr[:-1]
+    bad = (counts == 0) | (counts >= 4)
+    tri = K.triangles
+    on_tri_v = np.zeros(n_c, dtype=bool)
+    on_tri_v[tri.reshape(-1)] = True
+    one = np.flatnonzero(counts == 1)
+    bad[one] = ~on_tri_v[K.point_clouds[first[one]]]
+    two = np.flatnonzero(counts == 2)
+    if two.size:
+        pairs = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]])
+        tri_codes = np.unique(pairs[:, 0] * n_c + pairs[:, 1])
+        a, b = K.point_clouds[first[two]], K.point_clouds[first[two] + 1]
+        bad[two] = ~np.isin(a * n_c + b, tri_codes)
+    return bad

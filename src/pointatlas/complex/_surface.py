@@ -16,20 +16,17 @@ from scipy import sparse
 from scipy.sparse import csgraph
 
 from .._core import readonly
+from .._core.tolerances import FAN_EXACT_MAX
 
 __all__ = ["SurfaceReport", "has_hamiltonian_path", "incidence_checks", "surface_report_core"]
 
-#: Exact Hamiltonian-path search at a vertex is run for at most this many faces
-#: (a vertex where an edge lies in three or more faces); larger stars fall back to
-#: "connected with every face adjacent to at most two others" (then a path exists).
-_FAN_EXACT_MAX = 10
 
 
 def has_hamiltonian_path(n: int, adj: list[set]) -> bool:
     """Whether the small graph ``adj`` (n nodes) has a path visiting every node once."""
     if n <= 1:
         return True
-    if n > _FAN_EXACT_MAX:  # fall back to the fan criterion: connected, degrees <= 2
+    if n > FAN_EXACT_MAX:  # fall back to the fan criterion: connected, degrees <= 2
         seen, stack = {0}, [0]
         while stack:
             x = stack.pop()

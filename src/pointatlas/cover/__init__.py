@@ -3,7 +3,7 @@
 Layer 3; builds its cloud complexes with `pointatlas.complex`.
 """
 
-from ._cover import BallCover, ball_cover, cover_radii, random_rotations
+from ._cover import BallCover, ball_cover, cover_radii, random_offsets, random_rotations
 from ._search import ScaleSearch, search_cover_scale
 
 __all__ = [
@@ -11,6 +11,7 @@ __all__ = [
     "ScaleSearch",
     "ball_cover",
     "cover_radii",
+    "random_offsets",
     "random_rotations",
     "search_cover_scale",
 ]

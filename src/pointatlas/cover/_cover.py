@@ -9,6 +9,7 @@ import numpy as np
 
 from .._core import as_float, as_int, readonly
 from .._core._validation import describe_indices
+from .._core.tolerances import COVER_MAX_CELLS_PER_AXIS, COVER_RADIUS_RTOL, COVER_ROTATION_TOL
 from ..complex import CloudComplex
 from ..complex._clouds import cloud_centroids, complex_from_membership
 from . import _kernels
@@ -17,7 +18,9 @@ __all__ = [
     "BallCover",
     "ball_cover",
     "cover_radii",
+    "as_offset",
     "prepare_points",
+    "random_offsets",
     "random_rotations",
 ]
 
@@ -25,13 +28,6 @@ __all__ = [
 R_EVEN_3D = math.sqrt(3.0) / 2.0
 #: Prop. 4: radius of the balls at odd lattice points.
 R_ODD_3D = math.sqrt(3.0) / 6.0
-#: Balls are closed: a point counts as inside when |y - c|^2 <= r^2 (1 + this). The
-#: balls of Props 4-5 meet exactly on their boundaries (the cube centre lies at
-#: distance sqrt(3)/2 from four lattice points), where round-off in r^2 (0.75 comes
-#: out as 0.7499999999999999) would otherwise leave a point in no ball.
-COVER_RADIUS_RTOL = 1e-12
-#: A rotation matrix is accepted when R^T R = I and det R = 1 to this tolerance.
-_ROTATION_TOL = 1e-9
 
 LAYOUTS = ("two-radius", "tiling")
 
@@ -161,14 +157,63 @@ def _as_rotation(rotation, dim: int) -> np.ndarray:
     if not np.isfinite(R).all():
         raise ValueError("rotation must be finite")
     err = float(np.abs(R.T @ R - np.eye(3)).max())
-    if err > _ROTATION_TOL or abs(np.linalg.det(R) - 1.0) > _ROTATION_TOL:
+    if err > COVER_ROTATION_TOL or abs(np.linalg.det(R) - 1.0) > COVER_ROTATION_TOL:
         raise ValueError(
             f"rotation must be orthonormal with determinant +1; got |R^T R - I| = {err:.2e}, "
             f"det = {np.linalg.det(R):.6f}"
         )
-    if dim == 2 and (np.abs(R[2, :2]).max() > _ROTATION_TOL or abs(R[2, 2] - 1) > _ROTATION_TOL):
+    if dim == 2 and (
+        np.abs(R[2, :2]).max() > COVER_ROTATION_TOL or abs(R[2, 2] - 1) > COVER_ROTATION_TOL
+    ):
         raise ValueError("rotation must be about the z axis for a 2-D cover")
     return R
+
+
+def as_offset(offset, dim: int) -> np.ndarray:
+    """Validate a lattice offset: (3,) (or (2,) in 2-D) in [0, 1); returns (3,) float64."""
+    if offset is None:
+        return np.zeros(3)
+    off = np.asarray(offset, dtype=np.float64)
+    if dim == 2 and off.shape == (2,):
+        off = np.append(off, 0.0)
+    if off.shape != (3,):
+        raise ValueError(f"offset must have shape (3,); got {off.shape}")
+    if not np.isfinite(off).all() or (off < 0).any() or (off >= 1).any():
+        raise ValueError(f"offset must hold numbers in [0, 1) (units of the grid scale); got {off}")
+    if dim == 2:
+        off[2] = 0.0
+    return off
+
+
+def random_offsets(n: int, *, dim: int = 3, rng=None) -> np.ndarray:
+    """Zero followed by ``n`` uniform random lattice offsets in [0, 1)^dim, seeded.
+
+    Parameters
+    ----------
+    n : int
+        Number of random offsets (>= 0).
+    dim : {2, 3}
+        In 2-D the z entry is 0.
+    rng : int, numpy.random.Generator or None
+        Seed or generator (``np.random.default_rng(rng)``).
+
+    Returns
+    -------
+    offsets : ndarray of shape (n + 1, 3), float64
+        ``offsets[0]`` is 0 (Algorithm 2's lattice at the bounding-box corner).
+
+    Examples
+    --------
+    >>> off = random_offsets(2, dim=2, rng=0)
+    >>> off.shape, off[0].tolist(), off[1:, 2].tolist()
+    ((3, 3), [0.0, 0.0, 0.0], [0.0, 0.0])
+    """
+    n = as_int(n, "n_offsets", lo=0)
+    dim = as_int(dim, "dim", lo=2, hi=3)
+    gen = np.random.default_rng(rng)
+    out = np.zeros((n + 1, 3))
+    out[1:, :dim] = gen.random((n, dim))
+    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -187,8 +232,11 @@ class BallCover:
         Ball radii at even and odd lattice points, in the points' units.
     rotation : ndarray of shape (3, 3), float64
         Rotation applied to the points before covering (y = R x).
+    offset : ndarray of shape (3,), float64
+        Shift of the lattice against the bounding box, in units of s.
     origin : ndarray of shape (3,), float64
-        Corner of the rotated points' bounding box (the lattice origin).
+        Lattice point 0 in rotated coordinates: the rotated points' bounding-box
+        corner minus ``offset`` s.
     centres : ndarray of shape (C, 3), float64
         Centre of every non-empty ball (= cloud), in input coordinates.
     ball_radius : ndarray of shape (C,), float64
@@ -206,6 +254,7 @@ class BallCover:
     scale: float
     radii: tuple
     rotation: np.ndarray
+    offset: np.ndarray
     origin: np.ndarray
     centres: np.ndarray
     ball_radius: np.ndarray
@@ -213,7 +262,7 @@ class BallCover:
     complex: CloudComplex
 
     def __post_init__(self):
-        for name in ("rotation", "origin", "centres", "ball_radius", "lattice_index"):
+        for name in ("rotation", "offset", "origin", "centres", "ball_radius", "lattice_index"):
             readonly(getattr(self, name))
 
     @property
@@ -276,12 +325,14 @@ def cover_prepared(
     r_odd: float,
     R: np.ndarray,
     cloud_points: str,
+    offset: np.ndarray | None = None,
 ) -> BallCover:
-    """`ball_cover` on validated input."""
+    """`ball_cover` on validated input (``offset`` in lattice units, in [0, 1))."""
     x = pts @ R.T
     if dim == 2:
         x[:, 2] = 0.0
-    origin = x.min(axis=0)
+    off = np.zeros(3) if offset is None else np.asarray(offset, dtype=np.float64)
+    origin = x.min(axis=0) - off * scale  # the lattice point 0, rotated coordinates
     y = (x - origin) / scale
     codes, counts, decode, centre, radius = _membership(y, dim, layout, r_even, r_odd)
     n = pts.shape[0]
@@ -316,6 +367,7 @@ def cover_prepared(
         scale=float(scale),
         radii=(r_even * scale, r_odd * scale),
         rotation=R.copy(),
+        offset=off.copy(),
         origin=origin,
         centres=centres,
         ball_radius=radius(idx) * scale,
@@ -332,6 +384,7 @@ def ball_cover(
     layout: str = "two-radius",
     radius: float | None = None,
     rotation=None,
+    offset=None,
     cloud_points: str = "centroid",
 ) -> BallCover:
     """Cut a point set into clouds with the ball cover of Prop. 4 or 5 (Algorithm 2).
@@ -352,6 +405,11 @@ def ball_cover(
     rotation : array_like of shape (3, 3), optional
         Rotation applied to the points before covering (2.2.2: the result depends on
         it); in 2-D a rotation about z, also as (2, 2).
+    offset : array_like of shape (3,), float64, optional
+        Shift of the lattice against the bounding box, in units of s, each entry in
+        [0, 1) (in 2-D also (2,); the z entry is ignored). Default 0: the lattice
+        starts at the bounding-box corner (Algorithm 2). A plane or cube face lying in
+        a lattice layer gives no triangles; a shift (or a rotation) moves it off.
     cloud_points : {"centroid", "centre"}
         Realisation of each cloud: the centroid of its points (GUIDE A1 default) or
         its ball centre.
@@ -365,13 +423,13 @@ def ball_cover(
     Raises
     ------
     ValueError
-        Bad shapes, non-finite coordinates, scale <= 0, a bad rotation, an unknown
-        layout or ``cloud_points``, a radius out of range.
+        Bad shapes, non-finite coordinates, scale <= 0, a bad rotation, an offset
+        outside [0, 1), an unknown layout or ``cloud_points``, a radius out of range.
 
     Notes
     -----
     Algorithm 2: the (rotated) points are translated so their bounding box starts at
-    the origin; balls sit at s * j for integer j >= 0 (the tiling's vertices
+    the origin (then by ``offset`` s); balls sit at s * j for integer j >= 0 (the tiling's vertices
     (i + j/2, j sqrt(3)/2) s); each non-empty closed ball is a cloud. Balls are
     closed, as in Props 4-5. Every point of space lies in 1 to d + 1 balls
     (d + 1 only on a null set), so a cloud complex of a cover has dimension <= d
@@ -398,10 +456,11 @@ def ball_cover(
     if cloud_points not in ("centroid", "centre"):
         raise ValueError(f"cloud_points must be 'centroid' or 'centre'; got {cloud_points!r}")
     R = _as_rotation(rotation, dim)
+    off = as_offset(offset, dim)
     extent = float((pts.max(axis=0) - pts.min(axis=0)).max())
-    if extent / s > 1e6:
+    if extent / s > COVER_MAX_CELLS_PER_AXIS:
         raise ValueError(
-            f"scale {s} gives more than 1e6 balls along the bounding box ({extent:.3g} long); "
-            "give a larger scale"
+            f"scale {s} gives more than {COVER_MAX_CELLS_PER_AXIS:g} balls along the bounding "
+            f"box ({extent:.3g} long); give a larger scale"
         )
-    return cover_prepared(pts, s, dim, layout, r_even, r_odd, R, cloud_points)
+    return cover_prepared(pts, s, dim, layout, r_even, r_odd, R, cloud_points, off)

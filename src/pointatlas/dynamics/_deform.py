@@ -13,14 +13,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._core import as_points, readonly
+from .._core.tolerances import DEFORM_ANTIPODAL_TOL, DEFORM_DEGENERATE_RTOL
 from ..complex import CloudComplex, realise_complex
 
 __all__ = ["DeformResult", "deform_points"]
 
-#: A triangle (or edge, or area-weighted normal) shorter than this fraction of the
-#: realisation's bounding-box diagonal (squared for areas) is degenerate: its frame
-#: is undefined and its points are reported instead of moved.
-_DEGENERATE_RTOL = 1e-12
 
 ROUTE_NONE, ROUTE_VERTEX, ROUTE_EDGE, ROUTE_TRIANGLE = 0, 1, 2, 3
 _REASONS = (
@@ -90,7 +87,7 @@ def _rotation_between(a: np.ndarray, b: np.ndarray):
     """Minimal rotations (M, 3, 3) taking unit a to unit b; ok False when b = -a."""
     v = np.cross(a, b)
     cos = np.einsum("ij,ij->i", a, b)
-    ok = cos > -1.0 + 1e-12
+    ok = cos > -1.0 + DEFORM_ANTIPODAL_TOL
     k = 1.0 / np.where(ok, 1.0 + cos, 1.0)
     vx = np.zeros((a.shape[0], 3, 3))
     vx[:, 0, 1], vx[:, 0, 2] = -v[:, 2], v[:, 1]
@@ -233,7 +230,7 @@ def _deform(p, K: CloudComplex, cp0, cp1, faces) -> DeformResult:
     n, n_c = p.shape[0], K.n_clouds
     span = np.concatenate([cp0, cp1])
     diag = float(np.linalg.norm(span.max(axis=0) - span.min(axis=0))) if span.size else 1.0
-    eps = _DEGENERATE_RTOL * (diag or 1.0)
+    eps = DEFORM_DEGENERATE_RTOL * (diag or 1.0)
     f0 = _Frame(cp0, faces, K.edges, eps)
     f1 = _Frame(cp1, faces, K.edges, eps)
     counts = K.n_memberships

@@ -2,7 +2,7 @@
 
 VSA on the input's triangles, then `simplify_surface`; regions that bound no planar
 polygon are cut and the mesh rebuilt; level-of-detail searches (target face count,
-largest distance). Decisions in docs/decisions.md ("Simplify: the mesh path").
+largest distance). Decisions in docs/decisions/simplify.md.
 """
 
 from __future__ import annotations
@@ -123,7 +123,7 @@ def simplify_mesh(
     projected to its plane and triangulated. A region whose loops do not bound a
     planar polygon gets its arcs refined, down to the full arcs, and then keeps
     its input triangles: the output is closed and manifold whenever the input
-    is. Decisions in docs/decisions.md ("Simplify: the mesh path").
+    is. Decisions in docs/decisions/simplify.md.
 
     Examples
     --------

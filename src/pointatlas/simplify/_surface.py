@@ -1,19 +1,19 @@
 """The simplified mesh of a labelled triangle mesh: one face per region (private).
 
-The robust path beside the thesis' surface-like complex (docs/decisions.md,
-"Simplify: the mesh path"). When the input is a triangle mesh its faces already
-form a surface, so the segmentation runs on the faces (VSA with face normals,
-area weights and the edge adjacency of the faces) and every region is a connected
-set of faces. Its boundary is a set of closed loops of mesh edges; the loops split
-into arcs at *anchors* (mesh vertices where three or more regions meet, the input's
-boundary counting as a region) and every arc is simplified once, by
-Douglas-Peucker with a chord tolerance, so that the two regions beside it share the
-same chord vertices. Each region then becomes one face: its loops projected to the
-region's plane and triangulated (earcut). Nothing is invented: every output vertex
-is an input vertex, so the output is a closed manifold whenever each region's
-projected loops bound a valid planar polygon. Where they do not, the region's arcs
-are refined (tolerance halved, down to the full arcs) and, if that is not enough,
-the region keeps its input triangles — in the worst case the output is the input.
+The robust path beside the thesis' surface-like complex
+(docs/decisions/simplify.md). When the input is a triangle mesh its faces already
+form a surface, so the segmentation runs on the faces (VSA with face normals, area
+weights and the edge adjacency of the faces) and every region is a connected set of
+faces. Its boundary is a set of closed loops of mesh edges; the loops split into
+arcs at *anchors* (mesh vertices where three or more regions meet, the input's
+boundary counting as a region) and every arc is simplified once, by Douglas-Peucker
+with a chord tolerance, so that the two regions beside it share the same chord
+vertices. Each region then becomes one face: its loops projected to the region's
+plane and triangulated (earcut). Nothing is invented: every output vertex is an
+input vertex, so the output is a closed manifold whenever each region's projected
+loops bound a valid planar polygon. Where they do not, the region's arcs are refined
+(tolerance halved, down to the full arcs) and, if that is not enough, the region
+keeps its input triangles — in the worst case the output is the input.
 """
 
 from __future__ import annotations

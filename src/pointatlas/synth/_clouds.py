@@ -17,14 +17,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._core import as_float, as_int, as_points, readonly
+from .._core.tolerances import MESH_CLOUDS_DEGENERATE_RTOL
 from ._mesh import _as_faces
 
 __all__ = ["MeshClouds", "clouds_from_mesh", "sphere_density", "vertex_curvature"]
 
 MODELS = ("eta1", "eta2", "eta3")
-#: Triangles whose two edges at a vertex are shorter than this (relative to the mesh's
-#: bounding-box diagonal) or whose angle is below it have no usable local frame.
-_DEGENERATE_RTOL = 1e-12
 
 
 def _angular_gap(s: np.ndarray, alpha: np.ndarray) -> np.ndarray:
@@ -317,7 +315,7 @@ def clouds_from_mesh(
     gen = np.random.default_rng(rng)
     frames, alpha, r_lo, r_hi, dbl_area = _corner_geometry(verts, tri)
     scale = float(np.linalg.norm(verts.max(axis=0) - verts.min(axis=0))) or 1.0
-    bad = (r_hi <= _DEGENERATE_RTOL * scale).any(axis=1) | (dbl_area[:, 0] <= 0)
+    bad = (r_hi <= MESH_CLOUDS_DEGENERATE_RTOL * scale).any(axis=1) | (dbl_area[:, 0] <= 0)
     if bad.any():
         from .._core import describe_indices
 
