@@ -90,7 +90,7 @@ def test_adaptive_k_matches_reference(seed, duplicates):
     cos_a = math.cos(0.5)
     bk = np.empty(n, dtype=np.int64)
     be = np.empty(n)
-    adaptive_k_kernel(pts, nrm, idx, k_lo, k_hi, cos_a, bk, be)
+    adaptive_k_kernel(pts, nrm, idx, k_lo, k_hi, cos_a, bk, be, np.full(n, -1, np.int64))
     wk, we = ref.adaptive_k(pts, nrm, idx, k_lo, k_hi, cos_a)
     assert bk[0] == -1 and math.isinf(be[0])
     assert bk[3] == -1  # flipped normal
@@ -100,6 +100,28 @@ def test_adaptive_k_matches_reference(seed, duplicates):
     close = np.zeros(len(we), dtype=bool)
     close[fin] = np.abs(be[fin] - we[fin]) < 1e-9
     assert (bk[close] == wk[close]).all() and (bk[~fin] == -1).all()
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_adaptive_k_cache_gives_the_fresh_result(seed):
+    """Kept choices (unchanged weight pattern) equal a fresh search, bit for bit."""
+    pts, nrm, idx = _table(seed, n=40)
+    n = len(pts)
+    k_lo = np.full(n, 3, dtype=np.int64)
+    k_hi = np.full(n, 12, dtype=np.int64)
+    cos_a = math.cos(0.5)
+    masks = np.full(n, -1, np.int64)
+    bk, be = np.empty(n, np.int64), np.empty(n)
+    adaptive_k_kernel(pts, nrm, idx, k_lo, k_hi, cos_a, bk, be, masks)
+    assert (masks >= 0).all()
+    rng = np.random.default_rng(seed + 5)
+    for _ in range(3):  # small changes: most patterns stay, some flip
+        nrm = nrm + rng.normal(scale=0.05, size=nrm.shape) * (rng.random((n, 1)) < 0.3)
+        nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+        adaptive_k_kernel(pts, nrm, idx, k_lo, k_hi, cos_a, bk, be, masks)
+        fk, fe = np.empty(n, np.int64), np.empty(n)
+        adaptive_k_kernel(pts, nrm, idx, k_lo, k_hi, cos_a, fk, fe, np.full(n, -1, np.int64))
+        assert np.array_equal(bk, fk) and np.array_equal(be, fe)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -113,6 +135,25 @@ def test_voting_filter_matches_reference(seed):
     want = ref.voting_filter(nrm, idx, k_of, use_cut, 0.9, 0.3)
     np.testing.assert_allclose(out, want, atol=1e-9)
     np.testing.assert_allclose(np.linalg.norm(out, axis=1), 1.0)
+
+
+@pytest.mark.parametrize("tau", [0.05, 0.3, 0.9])
+def test_voting_filter_near_degenerate_tensors(tau):
+    """Tensors of two or three nearly equal eigenvalues (the Jacobi fallback) and of
+    well-separated ones (closed-form eigenvector) both match the reference."""
+    rng = np.random.default_rng(7)
+    n = 24
+    base = np.eye(3)[rng.integers(0, 3, size=n)]
+    # groups of points whose neighbours hold 1, 2 or 3 orthogonal normals
+    nrm = base + rng.normal(scale=1e-9, size=(n, 3)) * (np.arange(n) % 2)[:, None]
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    idx = np.array([np.roll(np.arange(n), -i)[:6] for i in range(n)], dtype=np.int64)
+    k_of = np.full(n, 6, np.int64)
+    use_cut = np.zeros(n, bool)
+    out = np.empty_like(nrm)
+    voting_filter_kernel(nrm, idx, k_of, use_cut, 0.9, tau, out)
+    want = ref.voting_filter(nrm, idx, k_of, use_cut, 0.9, tau)
+    np.testing.assert_allclose(out, want, atol=1e-9)
 
 
 def test_voting_filter_single_point_keeps_normal():

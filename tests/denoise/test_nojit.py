@@ -28,7 +28,7 @@ _SCRIPT = textwrap.dedent(
     idx = query_knn(pts, 8)[0]
     lo = np.full(14, 3, np.int64); hi = np.full(14, 8, np.int64)
     bk = np.empty(14, np.int64); be = np.empty(14)
-    adaptive_k_kernel(pts, nrm, idx, lo, hi, 0.8, bk, be)
+    adaptive_k_kernel(pts, nrm, idx, lo, hi, 0.8, bk, be, np.full(14, -1, np.int64))
     wk, we = ref.adaptive_k(pts, nrm, idx, lo, hi, 0.8)
     fin = np.isfinite(we)
     assert np.allclose(be[fin], we[fin], atol=1e-7) and (bk[~fin] == -1).all()

@@ -60,8 +60,19 @@ app.add_typer(experiment_app, name="experiment")
 
 # soft_wrap: a printed line is never broken at the terminal width (paths stay whole
 # when the output is piped or the terminal is narrow); tables still fit the width.
-console = Console(soft_wrap=True)
-err_console = Console(stderr=True, soft_wrap=True)
+#: Width of tables when the output is not a terminal (a pipe, a file, a test runner):
+#: wide enough that no table of ours wraps, whatever COLUMNS says.
+PIPE_WIDTH = 160
+
+
+def _console(stderr: bool = False) -> Console:
+    stream = sys.stderr if stderr else sys.stdout
+    is_tty = hasattr(stream, "isatty") and stream.isatty()
+    return Console(stderr=stderr, soft_wrap=True, width=None if is_tty else PIPE_WIDTH)
+
+
+console = _console()
+err_console = _console(stderr=True)
 
 
 def say(*parts, out: Console | None = None) -> None:

@@ -85,7 +85,7 @@ def _run(ps, method, *, rho, tau, n_iter, n_filter_iter, max_step, k, eta, eps, 
                 normals=ps.normals,
                 progress=advance,
             )
-    n_iter = 4 if n_iter is None else n_iter
+    n_iter = 2 if n_iter is None else n_iter
     with progress_bar("normal filter steps", total=n_iter * n_filter_iter) as advance:
         return normal_voting_denoise(
             ps.points,
@@ -143,12 +143,12 @@ def denoise_command(
     n_iter: Annotated[
         int | None,
         typer.Option(
-            "--n-iter", help="Iterations (point updates); default 4 (voting), 60 (flatness)."
+            "--n-iter", help="Iterations (point updates); default 2 (voting), 60 (flatness)."
         ),
     ] = None,
     n_filter_iter: Annotated[
         int, typer.Option("--filter-iter", help="Normal voting: filter steps per iteration.")
-    ] = 20,
+    ] = 10,
     max_step: Annotated[
         float, typer.Option("--max-step", help="Normal voting: largest move per iteration, in l.")
     ] = 0.5,

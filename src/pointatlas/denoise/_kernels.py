@@ -29,6 +29,14 @@ CLASS_FACE = 1
 CLASS_EDGE = 2
 CLASS_CORNER = 3
 
+#: neighbours per cached weight pattern of `adaptive_k_kernel` (bits of an int64,
+#: sign bit unused)
+MASK_BITS = 62
+#: `_voted_normal` takes the closed-form eigenvector when its eigenvalue is apart
+#: from the others by more than this share of the largest (error ~ 1e-16 / gap, so
+#: below 1e-12); closer pairs go through Jacobi rotations
+EIGEN_GAP_REL = 1e-4
+
 
 # --------------------------------------------------------------------------- 3x3 eigen
 
@@ -228,9 +236,9 @@ def sym3_eigvals(c00, c01, c02, c11, c12, c22):
 
 
 @njit(cache=True)
-def _edim_from_cov(c):
+def _edim_from_cov(c00, c01, c02, c11, c12, c22):
     """E_dim (Eq. 5.7, 0 ln 0 = 0) of a symmetric 3x3 matrix; +inf when lambda_1 <= 0."""
-    l1, l2, l3 = sym3_eigvals(c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2])
+    l1, l2, l3 = sym3_eigvals(c00, c01, c02, c11, c12, c22)
     l1 = max(l1, 0.0)
     l2 = max(l2, 0.0)
     l3 = max(l3, 0.0)
@@ -244,7 +252,7 @@ def _edim_from_cov(c):
 
 
 @njit(parallel=True, cache=True)
-def adaptive_k_kernel(points, normals, idx, k_lo, k_hi, cos_a, best_k, best_edim):
+def adaptive_k_kernel(points, normals, idx, k_lo, k_hi, cos_a, best_k, best_edim, masks):
     """Per point the k in [k_lo[i], k_hi[i]] of least E_dim with cut-off weights.
 
     Weights w_ij = 1 iff n_i . n_j >= cos_a (a = b sharp cut-off of Def. 15); the
@@ -253,6 +261,13 @@ def adaptive_k_kernel(points, normals, idx, k_lo, k_hi, cos_a, best_k, best_edim
     weight or the eigenvalues vanish. Ties: the smallest k. ``best_k`` = -1 and
     ``best_edim`` = +inf when every choice degenerates.
 
+    The choice depends on the normals only through the weights. ``masks[i]`` caches
+    the weight pattern of point i (bit c: neighbour ``idx[i, c]`` has weight 1;
+    rows with k_hi[i] > MASK_BITS are never cached): when the pattern is unchanged
+    since the call that wrote it, ``best_k[i]`` and ``best_edim[i]`` from that
+    call are kept, which is the same result. Callers pass -1 to force the search
+    and reset the masks whenever ``points`` or ``idx`` change.
+
     Parameters
     ----------
     points : (N, 3) float64
@@ -260,48 +275,63 @@ def adaptive_k_kernel(points, normals, idx, k_lo, k_hi, cos_a, best_k, best_edim
     idx : (N, K) int64, K >= max(k_hi)
     k_lo, k_hi : (N,) int64, 1 <= k_lo <= k_hi <= K
     cos_a : float
-    best_k : (N,) int64, out
-    best_edim : (N,) float64, out
+    best_k : (N,) int64, in/out
+    best_edim : (N,) float64, in/out
+    masks : (N,) int64, in/out (-1: no cached pattern)
     """
     n = points.shape[0]
     for i in prange(n):
-        su = np.zeros(3)  # unweighted sum of y
+        nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+        kh = k_hi[i]
+        if kh <= MASK_BITS:
+            mask = 0
+            for c in range(kh):
+                j = idx[i, c]
+                if nx * normals[j, 0] + ny * normals[j, 1] + nz * normals[j, 2] >= cos_a:
+                    mask |= 1 << c
+            if mask == masks[i]:
+                continue
+            masks[i] = mask
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        su0 = su1 = su2 = 0.0  # unweighted sum of y = p_j - p_i
         sw = 0.0
-        swy = np.zeros(3)
-        swyy = np.zeros((3, 3))
+        sy0 = sy1 = sy2 = 0.0  # weighted sum of y
+        s00 = s01 = s02 = s11 = s12 = s22 = 0.0  # weighted sum of y y^T
         nw = 0
         bk = -1
         be = math.inf
-        cov = np.empty((3, 3))
-        for kk in range(1, k_hi[i] + 1):
+        for kk in range(1, kh + 1):
             j = idx[i, kk - 1]
-            y0 = points[j, 0] - points[i, 0]
-            y1 = points[j, 1] - points[i, 1]
-            y2 = points[j, 2] - points[i, 2]
-            su[0] += y0
-            su[1] += y1
-            su[2] += y2
-            dot = (
-                normals[i, 0] * normals[j, 0]
-                + normals[i, 1] * normals[j, 1]
-                + normals[i, 2] * normals[j, 2]
-            )
-            if dot >= cos_a:
+            y0 = points[j, 0] - px
+            y1 = points[j, 1] - py
+            y2 = points[j, 2] - pz
+            su0 += y0
+            su1 += y1
+            su2 += y2
+            if nx * normals[j, 0] + ny * normals[j, 1] + nz * normals[j, 2] >= cos_a:
                 nw += 1
                 sw += 1.0
-                y = (y0, y1, y2)
-                for r in range(3):
-                    swy[r] += y[r]
-                    for s in range(3):
-                        swyy[r, s] += y[r] * y[s]
+                sy0 += y0
+                sy1 += y1
+                sy2 += y2
+                s00 += y0 * y0
+                s01 += y0 * y1
+                s02 += y0 * y2
+                s11 += y1 * y1
+                s12 += y1 * y2
+                s22 += y2 * y2
             if kk < k_lo[i] or nw < 3:
                 continue
-            m0, m1, m2 = su[0] / kk, su[1] / kk, su[2] / kk
-            m = (m0, m1, m2)
-            for r in range(3):
-                for s in range(3):
-                    cov[r, s] = swyy[r, s] - m[r] * swy[s] - swy[r] * m[s] + sw * m[r] * m[s]
-            e = _edim_from_cov(cov)
+            m0, m1, m2 = su0 / kk, su1 / kk, su2 / kk
+            # sum_j w_j (y_j - m)(y_j - m)^T expanded
+            e = _edim_from_cov(
+                s00 - 2.0 * m0 * sy0 + sw * m0 * m0,
+                s01 - m0 * sy1 - sy0 * m1 + sw * m0 * m1,
+                s02 - m0 * sy2 - sy0 * m2 + sw * m0 * m2,
+                s11 - 2.0 * m1 * sy1 + sw * m1 * m1,
+                s12 - m1 * sy2 - sy1 * m2 + sw * m1 * m2,
+                s22 - 2.0 * m2 * sy2 + sw * m2 * m2,
+            )
             if e < be:
                 be = e
                 bk = kk
@@ -317,7 +347,7 @@ def _binarised_projector(t, tau, proj):
     """Eigen-decompose T, scale eigenvalues by the largest, keep those >= tau (set 1).
 
     Writes sum over kept eigenvectors of v v^T into ``proj``; returns the number of
-    kept eigenvalues (0 when T is zero).
+    kept eigenvalues (0 when T is zero). ``t`` is overwritten.
     """
     lam = np.empty(3)
     vec = np.empty((3, 3))
@@ -334,6 +364,70 @@ def _binarised_projector(t, tau, proj):
                 for s in range(3):
                     proj[r, s] += vec[r, e] * vec[s, e]
     return kept
+
+
+@njit(cache=True)
+def _eigenvector_of(c00, c01, c02, c11, c12, c22, lam):
+    """Unit eigenvector of a symmetric 3x3 matrix for a simple eigenvalue ``lam``.
+
+    The largest cross product of two rows of C - lam I (exact for a simple
+    eigenvalue; the caller checks the gap). Returns (x, y, z).
+    """
+    a0, a1, a2 = c00 - lam, c01, c02
+    b0, b1, b2 = c01, c11 - lam, c12
+    d0, d1, d2 = c02, c12, c22 - lam
+    u0, u1, u2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+    v0, v1, v2 = a1 * d2 - a2 * d1, a2 * d0 - a0 * d2, a0 * d1 - a1 * d0
+    w0, w1, w2 = b1 * d2 - b2 * d1, b2 * d0 - b0 * d2, b0 * d1 - b1 * d0
+    nu = u0 * u0 + u1 * u1 + u2 * u2
+    nv = v0 * v0 + v1 * v1 + v2 * v2
+    nw = w0 * w0 + w1 * w1 + w2 * w2
+    if nv > nu and nv >= nw:
+        u0, u1, u2, nu = v0, v1, v2, nv
+    elif nw > nu:
+        u0, u1, u2, nu = w0, w1, w2, nw
+    s = 1.0 / math.sqrt(nu)
+    return u0 * s, u1 * s, u2 * s
+
+
+@njit(cache=True)
+def _voted_normal(t00, t01, t02, t11, t12, t22, nx, ny, nz, tau):
+    """T~ n for the voting tensor T (6 entries) and normal n, not normalised.
+
+    Eigenvalues in closed form; the one eigenvector the projector needs (the
+    largest's when one eigenvalue is kept, the smallest's when two are) from
+    `_eigenvector_of` when it is separated from the others by more than
+    EIGEN_GAP_REL of the largest, else by Jacobi rotations (`_binarised_projector`).
+    """
+    l1, l2, l3 = sym3_eigvals(t00, t01, t02, t11, t12, t22)
+    if not l1 > 0.0:
+        return 0.0, 0.0, 0.0
+    kept = 1
+    if l2 / l1 >= tau:
+        kept += 1
+    if l3 / l1 >= tau:
+        kept += 1
+    if kept == 3:
+        return nx, ny, nz
+    if kept == 1 and l1 - l2 > EIGEN_GAP_REL * l1:
+        v0, v1, v2 = _eigenvector_of(t00, t01, t02, t11, t12, t22, l1)
+        s = v0 * nx + v1 * ny + v2 * nz
+        return s * v0, s * v1, s * v2
+    if kept == 2 and l2 - l3 > EIGEN_GAP_REL * l1:
+        v0, v1, v2 = _eigenvector_of(t00, t01, t02, t11, t12, t22, l3)
+        s = v0 * nx + v1 * ny + v2 * nz
+        return nx - s * v0, ny - s * v1, nz - s * v2
+    t = np.empty((3, 3))
+    t[0, 0], t[0, 1], t[0, 2] = t00, t01, t02
+    t[1, 0], t[1, 1], t[1, 2] = t01, t11, t12
+    t[2, 0], t[2, 1], t[2, 2] = t02, t12, t22
+    proj = np.empty((3, 3))
+    _binarised_projector(t, tau, proj)
+    return (
+        proj[0, 0] * nx + proj[0, 1] * ny + proj[0, 2] * nz,
+        proj[1, 0] * nx + proj[1, 1] * ny + proj[1, 2] * nz,
+        proj[2, 0] * nx + proj[2, 1] * ny + proj[2, 2] * nz,
+    )
 
 
 @njit(parallel=True, cache=True)
@@ -356,33 +450,28 @@ def voting_filter_kernel(normals, idx, k_of, use_cut, cos_rho, tau, out):
     """
     n = normals.shape[0]
     for i in prange(n):
-        t = np.zeros((3, 3))
-        proj = np.empty((3, 3))
+        nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+        t00 = t01 = t02 = t11 = t12 = t22 = 0.0
+        cut = use_cut[i]
         for kk in range(k_of[i]):
             j = idx[i, kk]
-            dot = (
-                normals[i, 0] * normals[j, 0]
-                + normals[i, 1] * normals[j, 1]
-                + normals[i, 2] * normals[j, 2]
-            )
-            if use_cut[i] and dot < cos_rho:
+            a, b, c = normals[j, 0], normals[j, 1], normals[j, 2]
+            if cut and nx * a + ny * b + nz * c < cos_rho:
                 continue
-            for r in range(3):
-                for s in range(3):
-                    t[r, s] += normals[j, r] * normals[j, s]
-        _binarised_projector(t, tau, proj)
-        x = proj[0, 0] * normals[i, 0] + proj[0, 1] * normals[i, 1] + proj[0, 2] * normals[i, 2]
-        y = proj[1, 0] * normals[i, 0] + proj[1, 1] * normals[i, 1] + proj[1, 2] * normals[i, 2]
-        z = proj[2, 0] * normals[i, 0] + proj[2, 1] * normals[i, 1] + proj[2, 2] * normals[i, 2]
+            t00 += a * a
+            t01 += a * b
+            t02 += a * c
+            t11 += b * b
+            t12 += b * c
+            t22 += c * c
+        x, y, z = _voted_normal(t00, t01, t02, t11, t12, t22, nx, ny, nz, tau)
         length = math.sqrt(x * x + y * y + z * z)
         if length > 1e-12:
             out[i, 0] = x / length
             out[i, 1] = y / length
             out[i, 2] = z / length
         else:
-            out[i, 0] = normals[i, 0]
-            out[i, 1] = normals[i, 1]
-            out[i, 2] = normals[i, 2]
+            out[i, 0], out[i, 1], out[i, 2] = nx, ny, nz
 
 
 # --------------------------------------------------------------------------- point update
@@ -416,94 +505,31 @@ def quadric_update_kernel(points, normals, idx, k_of, cos_rho, tau, max_step, sh
     """
     n = points.shape[0]
     for i in prange(n):
-        t = np.zeros((3, 3))
         kk = k_of[i]
+        t00 = t01 = t02 = t11 = t12 = t22 = 0.0
         for c in range(kk):
             j = idx[i, c]
-            for r in range(3):
-                for s in range(3):
-                    t[r, s] += normals[j, r] * normals[j, s]
-        lam = np.empty(3)
-        vec = np.empty((3, 3))
-        sym3_eigh(t, lam, vec)
-        top = lam[2]
+            a, b, cc = normals[j, 0], normals[j, 1], normals[j, 2]
+            t00 += a * a
+            t01 += a * b
+            t02 += a * cc
+            t11 += b * b
+            t12 += b * cc
+            t22 += cc * cc
+        l1, l2, l3 = sym3_eigvals(t00, t01, t02, t11, t12, t22)
         m = 1
-        if top > 0.0:
-            m = 0
-            for e in range(3):
-                if lam[e] / top >= tau:
-                    m += 1
-            m = max(m, 1)
-        klass[i] = m
-        if not sharpen:
+        if l1 > 0.0:
             m = 1
-        d = np.empty((3, m))
-        if m == 1:
-            for r in range(3):
-                d[r, 0] = normals[i, r]
+            if l2 / l1 >= tau:
+                m += 1
+            if l3 / l1 >= tau:
+                m += 1
+        klass[i] = m
+        if sharpen and m > 1:
+            x0, x1, x2 = _feature_move(points, normals, idx, i, kk, m, cos_rho,
+                                       t00, t01, t02, t11, t12, t22)  # fmt: skip
         else:
-            for c in range(m):
-                for r in range(3):
-                    d[r, c] = vec[r, 2 - c]
-        a = np.zeros((m, m))
-        b = np.zeros(m)
-        for c in range(kk):
-            j = idx[i, c]
-            dot = (
-                normals[i, 0] * normals[j, 0]
-                + normals[i, 1] * normals[j, 1]
-                + normals[i, 2] * normals[j, 2]
-            )
-            if m == 1 and dot < cos_rho:
-                continue
-            if m > 1:
-                # only planes whose normal follows one of the dominant directions
-                aligned = False
-                for q in range(m):
-                    c_q = (
-                        d[0, q] * normals[j, 0] + d[1, q] * normals[j, 1] + d[2, q] * normals[j, 2]
-                    )
-                    if abs(c_q) >= cos_rho:
-                        aligned = True
-                if not aligned:
-                    continue
-            off = 0.0
-            for r in range(3):
-                off += normals[j, r] * (points[i, r] - points[j, r])
-            g = np.zeros(m)
-            for q in range(m):
-                for r in range(3):
-                    g[q] += d[r, q] * normals[j, r]
-            for q in range(m):
-                b[q] -= g[q] * off
-                for s in range(m):
-                    a[q, s] += g[q] * g[s]
-        a3 = np.zeros((3, 3))
-        for q in range(m):
-            for s in range(m):
-                a3[q, s] = a[q, s]
-        mu3 = np.empty(3)
-        w3 = np.empty((3, 3))
-        sym3_eigh(a3, mu3, w3)
-        # the m x m block's eigenpairs are the last m of the padded 3 x 3 (zeros first)
-        mu = mu3[3 - m :]
-        w = w3[:m, 3 - m :]
-        s_vec = np.zeros(m)
-        if mu[m - 1] > 0.0:
-            for e in range(m):
-                if mu[e] > 1e-6 * mu[m - 1]:
-                    proj = 0.0
-                    for q in range(m):
-                        proj += w[q, e] * b[q]
-                    for q in range(m):
-                        s_vec[q] += w[q, e] * proj / mu[e]
-        x0 = 0.0
-        x1 = 0.0
-        x2 = 0.0
-        for q in range(m):
-            x0 += d[0, q] * s_vec[q]
-            x1 += d[1, q] * s_vec[q]
-            x2 += d[2, q] * s_vec[q]
+            x0, x1, x2 = _normal_move(points, normals, idx, i, kk, cos_rho)
         length = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
         scale = 1.0
         if length > max_step:
@@ -511,3 +537,94 @@ def quadric_update_kernel(points, normals, idx, k_of, cos_rho, tau, max_step, sh
         out[i, 0] = points[i, 0] + scale * x0
         out[i, 1] = points[i, 1] + scale * x1
         out[i, 2] = points[i, 2] + scale * x2
+
+
+@njit(cache=True)
+def _normal_move(points, normals, idx, i, kk, cos_rho):
+    """Face move x = s n_i minimising sum_j (n_j . (p_i + s n_i - p_j))^2 over the
+    first ``kk`` neighbours with n_i . n_j >= cos_rho (zero when no plane constrains s).
+    """
+    nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+    a = 0.0
+    b = 0.0
+    for c in range(kk):
+        j = idx[i, c]
+        g = nx * normals[j, 0] + ny * normals[j, 1] + nz * normals[j, 2]
+        if g < cos_rho:
+            continue
+        off = (
+            normals[j, 0] * (points[i, 0] - points[j, 0])
+            + normals[j, 1] * (points[i, 1] - points[j, 1])
+            + normals[j, 2] * (points[i, 2] - points[j, 2])
+        )
+        a += g * g
+        b -= g * off
+    s = b / a if a > 0.0 else 0.0
+    return s * nx, s * ny, s * nz
+
+
+@njit(cache=True)
+def _feature_move(points, normals, idx, i, kk, m, cos_rho, t00, t01, t02, t11, t12, t22):
+    """Edge/corner move x = D s, D the m dominant eigenvectors of the voting tensor T.
+
+    Minimises sum_j (n_j . (p_i + x - p_j))^2 over neighbours whose normal is within
+    arccos(cos_rho) of a dominant direction (up to sign); the solve drops directions
+    whose eigenvalue is below 1e-6 of the largest.
+    """
+    t = np.empty((3, 3))
+    t[0, 0], t[0, 1], t[0, 2] = t00, t01, t02
+    t[1, 0], t[1, 1], t[1, 2] = t01, t11, t12
+    t[2, 0], t[2, 1], t[2, 2] = t02, t12, t22
+    lam = np.empty(3)
+    vec = np.empty((3, 3))
+    sym3_eigh(t, lam, vec)
+    d = np.empty((3, m))
+    for c in range(m):
+        for r in range(3):
+            d[r, c] = vec[r, 2 - c]
+    a = np.zeros((m, m))
+    b = np.zeros(m)
+    g = np.zeros(m)
+    for c in range(kk):
+        j = idx[i, c]
+        aligned = False
+        for q in range(m):
+            g[q] = d[0, q] * normals[j, 0] + d[1, q] * normals[j, 1] + d[2, q] * normals[j, 2]
+            if abs(g[q]) >= cos_rho:
+                aligned = True
+        if not aligned:
+            continue
+        off = 0.0
+        for r in range(3):
+            off += normals[j, r] * (points[i, r] - points[j, r])
+        for q in range(m):
+            b[q] -= g[q] * off
+            for s in range(m):
+                a[q, s] += g[q] * g[s]
+    a3 = np.zeros((3, 3))
+    for q in range(m):
+        for s in range(m):
+            a3[q, s] = a[q, s]
+    mu3 = np.empty(3)
+    w3 = np.empty((3, 3))
+    sym3_eigh(a3, mu3, w3)
+    # the m x m block's eigenpairs are the last m of the padded 3 x 3 (zeros first)
+    mu = mu3[3 - m :]
+    w = w3[:m, 3 - m :]
+    s_vec = np.zeros(m)
+    if mu[m - 1] > 0.0:
+        for e in range(m):
+            if mu[e] > 1e-6 * mu[m - 1]:
+                proj = 0.0
+                for q in range(m):
+                    proj += w[q, e] * b[q]
+                for q in range(m):
+                    s_vec[q] += w[q, e] * proj / mu[e]
+    x0 = 0.0
+    x1 = 0.0
+    x2 = 0.0
+    for q in range(m):
+        x0 += d[0, q] * s_vec[q]
+        x1 += d[1, q] * s_vec[q]
+        x2 += d[2, q] * s_vec[q]
+    return x0, x1, x2

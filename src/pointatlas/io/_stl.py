@@ -35,7 +35,9 @@ def read_stl(path) -> RawData:
         n_tri = int(np.frombuffer(data, dtype="<u4", count=1, offset=80)[0])
         if len(data) == 84 + 50 * n_tri:
             recs = np.frombuffer(data, dtype=_STL_RECORD, count=n_tri, offset=84)
-            return _merge(recs["corners"].reshape(-1, 3).astype(np.float64))
+            with np.errstate(invalid="ignore", over="ignore"):  # NaN/Inf: refused by the caller
+                corners = recs["corners"].reshape(-1, 3).astype(np.float64)
+            return _merge(corners)
     if data.lstrip()[:5].lower() != b"solid" or _BINARY_BYTES.search(data):
         if n_tri is not None:
             raise fail(
