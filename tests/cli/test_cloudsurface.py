@@ -121,3 +121,16 @@ def test_experiment_cloudsurfaces_writes_every_figure_and_the_routed_shares(tmp_
                if r["figure"] == "2.9")  # the complex equals the cube mesh
     sph = rows[("2.17", "noisy sphere: chosen s / clouds / closed / chi / genus")]
     assert sph.split(" / ")[2:] == ["True", "2", "0"]
+
+
+def test_from_mesh_defaults_are_valid_for_every_model(tmp_path):
+    """eta2 needs c >= 1: its default is the thesis' c = 1 (Fig. 2.8), eta1's c = 0."""
+    for model in ("eta1", "eta2", "eta3"):
+        out = tmp_path / model
+        res = runner.invoke(
+            app, ["cloudsurface", "--from-mesh", "synth:cube", str(out), "--model", model]
+        )
+        assert res.exit_code == 0, res.output
+        report = json.loads((out / "report.json").read_text())
+        assert report["c"] == (1.0 if model == "eta2" else 0.0)
+        assert report["complex_equals_mesh"]

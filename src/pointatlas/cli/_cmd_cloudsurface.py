@@ -207,7 +207,12 @@ def cloudsurface_command(
     model: Annotated[str, typer.Option("--model", help="--from-mesh: eta1, eta2 or eta3.")] = (
         "eta1"
     ),
-    c: Annotated[float, typer.Option("--c", help="--from-mesh: eta1/eta2 parameter c.")] = 0.0,
+    c: Annotated[
+        float | None,
+        typer.Option(
+            "--c", help="--from-mesh: eta1/eta2 parameter c (default 0 for eta1, 1 for eta2)."
+        ),
+    ] = None,
     c_v: Annotated[float, typer.Option("--c-v", help="--from-mesh: eta3 parameter c_v.")] = 0.5,
     c_h: Annotated[float, typer.Option("--c-h", help="--from-mesh: eta3 parameter c_h.")] = 0.5,
     t: Annotated[
@@ -366,6 +371,8 @@ def _print_result(report, n_clouds, chosen, accepted, res, seconds, dim):
 
 
 def _from_mesh(in_path, out, *, model, c, c_v, c_h, t, samples, curvature, render, seed, t0):
+    if c is None:  # the thesis' settings: c = 0 for eta1 (Fig. 2.7), c = 1 for eta2 (Fig. 2.8)
+        c = 1.0 if model == "eta2" else 0.0
     """--from-mesh: Algorithm 1 on a mesh file or bundled model; same outputs."""
     from ..io import Mesh, read_mesh, write_mesh
     from ..synth import clouds_from_mesh
