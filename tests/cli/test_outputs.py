@@ -420,3 +420,22 @@ def test_zero_normals_are_dropped_and_counted(tmp_path):
         result = run(command, src, tmp_path / out, *extra)
         assert result.exit_code == 0, (command, result.output)
         assert f"left out 2 of {n:,} points" in result.stderr, (command, result.stderr)
+
+
+def test_too_few_points_name_the_user_facing_option(tmp_path):
+    src = tmp_path / "five.xyz"
+    write_point_set(src, sphere(5))
+    assert_user_error(
+        run("simplify", src, tmp_path / "o.obj"), "needs at least 8 points; got 5", "--k"
+    )
+    result = run("simplify", src, tmp_path / "o.obj", "--k", "4")
+    assert_user_error(result, "--normal-k")
+
+
+def test_experiment_vsa_on_an_obj_without_faces_says_what_is_missing(tmp_path):
+    from pointatlas.cli._exp_vsa import vsa_model
+
+    src = tmp_path / "pts.obj"
+    src.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n")
+    with pytest.raises(Exception, match="needs normals"):
+        vsa_model(str(src), np.random.default_rng(0))

@@ -240,7 +240,17 @@ def parse_seeds(text: str):
     return value
 
 
-def read_with_normals(path, *, estimate: bool | None = None, normal_k: int = 20):
+def _check_min_points(path, ps, min_points: int, what: str) -> None:
+    if ps.n_points < min_points:
+        raise PointAtlasError(
+            f"{path}: {what or 'this command'} needs at least {min_points} points; "
+            f"got {ps.n_points}"
+        )
+
+
+def read_with_normals(
+    path, *, estimate: bool | None = None, normal_k: int = 20, min_points: int = 1, what: str = ""
+):
     """Read IN and make sure it has normals; returns the PointSet.
 
     ``estimate`` None (default of the commands): the input's normals are used; an
@@ -250,7 +260,8 @@ def read_with_normals(path, *, estimate: bool | None = None, normal_k: int = 20)
     ``input_normals``. False: an input without normals is an error. Points whose
     stored normal is unusable (zero length, NaN; mesh vertices on no face) are
     left out with a note giving their number; the field ``source_index`` holds the
-    original indices of the kept points.
+    original indices of the kept points. An input with fewer than ``min_points``
+    points is refused before anything is estimated (``what`` names the job).
     """
     from .._core import as_int
 
@@ -274,11 +285,13 @@ def read_with_normals(path, *, estimate: bool | None = None, normal_k: int = 20)
                 out=err_console,
             )
         if ps.normals is not None:
+            _check_min_points(path, ps, min_points, what)
             return ps
         if estimate is False:
             raise PointAtlasError(
                 f"{path}: the input has no normals; drop --no-estimate-normals to estimate them"
             )
+    _check_min_points(path, ps, min_points, what)
     from ._cmd_core import _compute_normals
 
     as_int(normal_k, "--normal-k", lo=3, hi=ps.n_points, note="the number of points")

@@ -399,7 +399,13 @@ def simplify_command(
                 "or --vertices-only was given: use --eta or --max-angle-deg"
             )
     seed_spec = parse_seeds(seeds)
-    ps = read_with_normals(infile, estimate=estimate, normal_k=normal_k)
+    ps = read_with_normals(
+        infile,
+        estimate=estimate,
+        normal_k=normal_k,
+        min_points=max(4, k),
+        what=f"simplify with k = {k} (--k)",
+    )
     normals = ps.normals
     result = _run(
         ps.points,
