@@ -164,3 +164,20 @@ def test_options_are_validated():
         simplify_mesh(v, t + 100)
     with pytest.raises(ValueError, match="n_faces"):
         simplify_mesh(v, t, n_faces=0)
+
+
+def test_planarize_flattens_faces_and_keeps_the_mesh_valid():
+    v, t = C.cylinder(64)
+    plain = simplify_mesh(v, t)
+    flat = simplify_mesh(v, t, planarize=True)
+    assert flat.n_faces == plain.n_faces
+    np.testing.assert_array_equal(flat.vertex_source, plain.vertex_source)
+    assert flat.planarity_error.max() < 0.5 * plain.planarity_error.max()
+    assert (flat.is_closed, flat.is_manifold, flat.is_oriented) == (True, True, True)
+    moved = np.linalg.norm(flat.vertices - plain.vertices, axis=1)
+    assert moved.max() <= flat.chord_tolerance * (1 + 1e-12)
+    # a flat part is already planar: nothing moves
+    v, t = C.l_bracket()
+    np.testing.assert_array_equal(
+        simplify_mesh(v, t, planarize=True).vertices, simplify_mesh(v, t).vertices
+    )

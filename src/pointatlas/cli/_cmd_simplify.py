@@ -170,6 +170,7 @@ def _simplify_mesh_command(
     n_faces,
     max_error,
     chord_tolerance,
+    planarize,
     seed,
     triangles,
     report,
@@ -189,6 +190,7 @@ def _simplify_mesh_command(
         n_faces=n_faces,
         max_error=_length_option(max_error, "--max-error", diagonal),
         chord_tolerance=_length_option(chord_tolerance, "--chord-tolerance", diagonal),
+        planarize=planarize,
         rng=seed,
     )
     written = [write_mesh(out, res.vertices, [p.tolist() for p in res.polygons])]
@@ -289,6 +291,14 @@ def simplify_command(
             "a percentage of the diagonal; default 0.5%).",
         ),
     ] = None,
+    planarize: Annotated[
+        bool,
+        typer.Option(
+            "--planarize",
+            help="Mesh input: move vertices towards their faces' planes (at most the chord "
+            "tolerance): flatter faces, larger distance to the input.",
+        ),
+    ] = False,
     vertices_only: Annotated[
         bool,
         typer.Option(
@@ -382,6 +392,7 @@ def simplify_command(
             n_faces=n_faces,
             max_error=max_error,
             chord_tolerance=chord_tolerance,
+            planarize=planarize,
             seed=seed,
             triangles=triangles,
             report=report,
@@ -389,6 +400,7 @@ def simplify_command(
         )
         return
     for flag, value in (
+        ("--planarize", planarize or None),
         ("--faces", n_faces),
         ("--max-error", max_error),
         ("--chord-tolerance", chord_tolerance),

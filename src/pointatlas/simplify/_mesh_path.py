@@ -70,6 +70,7 @@ def simplify_mesh(
     n_faces: int | None = None,
     max_error: float | None = None,
     chord_tolerance: float | None = None,
+    planarize: bool = False,
     rng=None,
 ) -> SurfaceSimplification:
     """Simplified polygon mesh of a triangle mesh: closed and manifold for closed inputs.
@@ -96,6 +97,12 @@ def simplify_mesh(
     chord_tolerance : float, optional
         Largest distance of a boundary arc's vertices to its chords (input units);
         default 0.5 % of the bounding-box diagonal.
+    planarize : bool
+        Move every output vertex towards the planes of its faces (least squares, at
+        most the chord tolerance, never flipping a triangle): flatter faces (the
+        collection's median largest planarity error 0.93 % -> 0.77 % of the diagonal)
+        for a larger distance to the input (median mean distance 0.088 % -> 0.133 %).
+        Off by default: the output's vertices are then input vertices.
     rng : None, int or numpy.random.Generator
         Passed to VSA (only used with a number of random seeds).
 
@@ -144,9 +151,7 @@ def simplify_mesh(
     else:
         tol = as_float(chord_tolerance, "chord_tolerance", lo=0.0)
     if max_angle is not None:
-        max_angle = as_float(
-            max_angle, "max_angle", lo=0.0, hi=np.pi, what="angle", unit="radians"
-        )
+        max_angle = as_float(max_angle, "max_angle", lo=0.0, hi=np.pi, what="angle", unit="radians")
     if eta is not None:
         eta = as_float(eta, "eta", lo=0.0)
     s = _surface(verts, tri)
@@ -157,7 +162,9 @@ def simplify_mesh(
         if angle is not None:
             labels = _merge_flat(s, graph, labels, min(angle, FLAT_MERGE_ANGLE))
             normals = _region_normals(s, labels, int(labels.max()) + 1)
-        res = simplify_surface(verts, tri, labels, normals, chord_tolerance=tol_)
+        res = simplify_surface(
+            verts, tri, labels, normals, chord_tolerance=tol_, planarize=planarize
+        )
         for _ in range(_SPLIT_ROUNDS):
             if not res.face_kept_input.any():
                 break
@@ -165,7 +172,9 @@ def simplify_mesh(
             # or its chords cross) is cut in two and the mesh rebuilt
             labels = _split_regions(s, graph, labels, np.flatnonzero(res.face_kept_input))
             normals = _region_normals(s, labels, int(labels.max()) + 1)
-            again = simplify_surface(verts, tri, labels, normals, chord_tolerance=tol_)
+            again = simplify_surface(
+                verts, tri, labels, normals, chord_tolerance=tol_, planarize=planarize
+            )
             if again.face_kept_input.sum() >= res.face_kept_input.sum():
                 break
             res = again

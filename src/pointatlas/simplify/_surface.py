@@ -379,6 +379,66 @@ def _planarity(pts: np.ndarray) -> float:
     return float(np.max(np.abs(c @ vt[-1])))
 
 
+def _plane_offsets(s: _Surface, labels: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """d_r of every region's plane N_r . x = d_r through its area-weighted centroid."""
+    n_regions = normals.shape[0]
+    w = s.areas + 1e-300
+    wsum = np.bincount(labels, weights=w, minlength=n_regions)
+    cen = np.stack(
+        [np.bincount(labels, weights=w * s.centroids[:, d], minlength=n_regions) for d in range(3)],
+        axis=1,
+    ) / np.maximum(wsum, 1e-300)[:, None]
+    return np.einsum("ij,ij->i", normals, cen)
+
+
+def _planarize(v0, tri, tface, kept, normals, offsets, bound, *, weight=1e-3, rounds=4):
+    """Move every vertex towards the planes of its planar faces (least squares with a
+    small pull ``weight`` to where it was), by at most ``bound``.
+
+    A vertex on three or more planes goes to (near) their intersection, on two to the
+    nearest point of their line, on one onto the plane; vertices of regions that kept
+    their input triangles only keep their place. A triangle that would flip or
+    collapse against its face's normal puts its vertices back (repeated ``rounds``
+    times), so the faces stay as valid as before.
+    """
+    n_v = v0.shape[0]
+    planar = ~kept[tface]
+    pv = tri[planar].reshape(-1)
+    pf = np.repeat(tface[planar], 3)
+    key = np.unique(pv * (int(tface.max(initial=0)) + 1) + pf)
+    pv, pf = key // (int(tface.max(initial=0)) + 1), key % (int(tface.max(initial=0)) + 1)
+    nrm = normals[pf]
+    mat = np.zeros((n_v, 3, 3))
+    rhs = weight * v0
+    mat[:, [0, 1, 2], [0, 1, 2]] = weight
+    np.add.at(mat, pv, nrm[:, :, None] * nrm[:, None, :])
+    np.add.at(rhs, pv, nrm * offsets[pf][:, None])
+    x = np.linalg.solve(mat, rhs[:, :, None])[:, :, 0]
+    disp = x - v0
+    length = np.linalg.norm(disp, axis=1)
+    scale = np.where(length > bound, bound / np.maximum(length, 1e-300), 1.0)
+    x = v0 + disp * scale[:, None]
+    x[length <= 1e-12 * max(bound, 1e-300)] = v0[length <= 1e-12 * max(bound, 1e-300)]
+    before = _triangle_normals(v0, tri)
+    face_n = normals[tface]
+    for _ in range(rounds):
+        after = _triangle_normals(x, tri)
+        ok_before = np.einsum("ij,ij->i", before, face_n) > 0.0
+        bad = ok_before & ~(np.einsum("ij,ij->i", after, face_n) > 0.0)
+        if not bad.any():
+            break
+        back = np.unique(tri[bad])
+        x[back] = v0[back]
+    return x
+
+
+def _triangle_normals(v, tri):
+    """Unit normals of the triangles (zero for degenerate ones)."""
+    c = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
+    length = np.linalg.norm(c, axis=1)
+    return c / np.maximum(length, 1e-300)[:, None]
+
+
 def _bad_regions(tri: np.ndarray, tface: np.ndarray, closed_input: bool) -> set[int]:
     """Regions owning a triangle at a non-manifold (or, for closed inputs, open) edge or
     at a vertex whose triangles do not form one fan."""
@@ -422,13 +482,15 @@ def simplify_surface(
     proxy_normals,
     *,
     chord_tolerance: float,
+    planarize: bool = False,
 ) -> SurfaceSimplification:
     """Build the simplified polygon mesh of a labelled triangle mesh (private API).
 
     ``labels`` (F,) are regions of the triangles, connected in the edge graph and
     numbered 0..R-1; ``proxy_normals`` (R, 3) their planes' normals;
     ``chord_tolerance`` the largest distance of a boundary arc's vertices to its
-    chords (input units).
+    chords (input units); ``planarize`` moves the output vertices towards the
+    planes of their faces (at most ``chord_tolerance`` each, see `_planarize`).
     """
     from ._mesh import mesh_checks, point_mesh_distance
 
@@ -531,6 +593,9 @@ def simplify_surface(
     remap[used] = np.arange(used.size)
     out_t = remap[all_t]
     out_v = verts[used]
+    if planarize and tol > 0.0:
+        offsets = _plane_offsets(s, lab, normals)
+        out_v = _planarize(out_v, out_t, all_f, kept_input, normals, offsets, tol)
     polygons, polygon_face, face_loops, planarity = [], [], [], []
     for r in range(n_regions):
         lps = tuple(remap[lp] for lp in loops_out[r])
