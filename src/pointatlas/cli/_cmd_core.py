@@ -8,7 +8,6 @@ terminal.
 
 from __future__ import annotations
 
-import html
 import json
 import math
 import time
@@ -23,7 +22,6 @@ from rich.table import Table
 from .._core import PointAtlasError, PointSet
 from ..io import (
     MESH_EXTENSIONS,
-    atomic_write,
     read_mesh,
     read_point_set,
     write_mesh,
@@ -52,11 +50,15 @@ from ._outputs import (
 
 __all__ = [
     "DEMO_STEPS",
+    "REPORT_EXTENSIONS",
     "compare_normals",
     "point_set_info",
     "info_table",
     "knn_component_sizes",
     "render_file",
+    "report_layer",
+    "report_summary",
+    "report_up",
     "run_demo",
     "select_steps",
     "step_name",
@@ -318,6 +320,49 @@ def _field_list(ps: PointSet) -> str:
     return ", ".join(["normals", "x", "y", "z", *sorted(ps.attributes)])
 
 
+# --------------------------------------------------------------------------- reports
+
+#: Extensions of ``--report``.
+REPORT_EXTENSIONS = (".html", ".htm")
+
+
+def report_summary(path, ps: PointSet) -> dict:
+    """The input part of a command's ``--report``: file, size, normals, fields, box."""
+    summary = {
+        "file": str(path),
+        "points": int(ps.n_points),
+        "normals": "yes" if ps.has_normals else "no",
+        "input fields": ", ".join(sorted(ps.attributes)) or "none",
+    }
+    if ps.n_points:
+        summary["bounding box min"] = ps.points.min(axis=0).tolist()
+        summary["bounding box max"] = ps.points.max(axis=0).tolist()
+    return summary
+
+
+def report_layer(ps: PointSet, ours: dict, *, color_by: str | None = None):
+    """A `PointsLayer` of our per-point fields, then the input's numeric ones.
+
+    Only one value per point is drawn (vectors such as colours are left out); an
+    input field whose name one of ours uses is shown as ``input <name>``.
+    """
+    from ..viz import PointsLayer
+
+    fields = {}
+    for prefix, source in (("", ours), ("input ", ps.attributes)):
+        for name, values in source.items():
+            arr = np.asarray(values)
+            if arr.shape != (ps.n_points,) or arr.dtype.kind not in "biuf":
+                continue
+            fields[name if name not in fields else prefix + name] = arr
+    return PointsLayer(ps.points, fields, color_by=color_by if color_by in fields else None)
+
+
+def report_up(path) -> str:
+    """Up axis of a report's 3-D view: z for LAS/LAZ (lidar), else y."""
+    return "z" if Path(path).suffix.lower() in Z_UP_EXTENSIONS else "y"
+
+
 def _view(azimuth_deg: float, elevation_deg: float, up: str, path: Path):
     if not (math.isfinite(azimuth_deg) and math.isfinite(elevation_deg)):
         raise PointAtlasError("--azimuth-deg and --elevation-deg must be finite")
@@ -438,6 +483,10 @@ def normals_command(
         tuple[float, float, float] | None,
         typer.Option("--viewpoint", help="Sensor position X Y Z for --orient viewpoint."),
     ] = None,
+    report: Annotated[
+        Path | None,
+        typer.Option("--report", help="Also write an HTML report with a 3-D view (.html)."),
+    ] = None,
 ):
     """Estimate (PCA) and orient normals; write the points with them.
 
@@ -445,7 +494,10 @@ def normals_command(
     ``input_normals`` and compared with the new ones (angle error, flipped
     fraction).
     """
-    check_outputs([in_path], [("OUT", out_path, POINT_WRITE_EXTENSIONS)])
+    check_outputs(
+        [in_path],
+        [("OUT", out_path, POINT_WRITE_EXTENSIONS), ("--report", report, REPORT_EXTENSIONS)],
+    )
     if orient not in ORIENT_METHODS:
         raise PointAtlasError(
             f"--orient must be one of {', '.join(ORIENT_METHODS)}; got {orient!r}"
@@ -472,6 +524,7 @@ def normals_command(
     table.add_row("points", f"{ps.n_points:,}")
     table.add_row("k / orientation", f"{k} / {orient}")
     table.add_row("time", f"{seconds:.2f} s")
+    stats = None
     if reference is not None:
         stats = compare_normals(normals, reference)
         table.add_row(
@@ -479,8 +532,41 @@ def normals_command(
         )
         table.add_row("  ignoring sign", f"{stats['mean_unoriented_error_deg']:.2f} deg")
         table.add_row("flipped fraction", f"{stats['flipped_fraction']:.4f}")
+    if report is not None:
+        _write_normals_report(
+            report,
+            in_path,
+            ps,
+            normals,
+            reference,
+            stats,
+            {"k": k, "orient": orient, "orient_k": orient_k, "viewpoint": viewpoint},
+            seconds,
+        )
     console.print(table)
     say(f"wrote {written}")
+    if report is not None:
+        say(f"wrote {report}")
+
+
+def _write_normals_report(path, in_path, ps, normals, reference, stats, parameters, seconds):
+    """``normals --report``: the comparison numbers and the points coloured by error/normal."""
+    from ..viz import write_report
+
+    result = {"points": ps.n_points, "seconds": round(seconds, 3), **(stats or {})}
+    ours = {}
+    if reference is not None:
+        ours["normal_error_deg"] = np.degrees(angle_error(normals, reference))
+    ours.update(nx=normals[:, 0], ny=normals[:, 1], nz=normals[:, 2])
+    write_report(
+        path,
+        title=f"pointatlas normals: {Path(in_path).name}",
+        summary=report_summary(in_path, ps),
+        parameters=parameters,
+        tables={"result": result},
+        layers=[report_layer(ps, ours)],
+        up=report_up(in_path),
+    )
 
 
 # --------------------------------------------------------------------------- render
@@ -747,39 +833,69 @@ def run_demo(out_dir: Path, *, model: str = DEMO_MODEL, steps=None) -> list[Path
                 if p.is_file() and p.stat().st_mtime >= step_start and p.name not in seen
             )
             seen.update(files)
-            sections.append((f"{i}/{len(steps)} {heading}", text, files))
+            layers = _step_layers(out_dir, files, ps)
+            sections.append((f"{i}/{len(steps)} {heading}", text, files, layers))
     finally:
         console.record = was_recording
     write_demo_report(out_dir / "report.html", model, sections)
     return sorted(p for p in out_dir.iterdir() if p.is_file() and p.stat().st_mtime >= start)
 
 
-def write_demo_report(path: Path, model: str, sections) -> Path:
-    """Write the demo's HTML report: each step's console output, pictures and files.
+def _step_layers(out_dir: Path, files, ps: PointSet) -> list:
+    """The 3-D view of a demo step: the point set and meshes it wrote.
 
-    ``sections`` is a list of ``(heading, html_of_console_output, file_names)``; PNGs
-    are shown inline, other files linked (paths relative to the report's folder).
+    The first point file of the step is shown with its fields; without one, the
+    demo's current point set (with the fields the steps so far added). Mesh files
+    (.obj, .off, .stl) are shown as surfaces.
     """
-    parts = [
-        "<!DOCTYPE html><html><head><meta charset='utf-8'>",
-        f"<title>pointatlas demo: {html.escape(model)}</title>",
-        "<style>body{font-family:sans-serif;max-width:1400px;margin:2em auto;padding:0 1em}"
-        "pre.log{background:#f6f6f6;padding:.6em;overflow-x:auto;font-size:12px}"
-        "img{max-width:100%;border:1px solid #ddd;margin:.4em 0}</style></head><body>",
-        f"<h1>pointatlas demo on the bundled model <code>{html.escape(model)}</code></h1>",
-    ]
-    for heading, text, files in sections:
-        parts.append(f"<h2>{html.escape(heading)}</h2>{text}")
-        for name in files:
-            ref = html.escape(name, quote=True)
-            if name.endswith(".png"):
-                parts.append(f"<p><img src='{ref}' alt='{ref}'></p>")
-            elif name != path.name:
-                parts.append(f"<p>file: <a href='{ref}'>{ref}</a></p>")
-    parts.append("</body></html>")
-    with atomic_write(path, "w") as fh:
-        fh.write("\n".join(parts))
-    return path
+    from ..viz import MeshLayer
+
+    point_set = None
+    meshes = []
+    for name in files:
+        ext = Path(name).suffix.lower()
+        if ext in (".obj", ".off", ".stl"):
+            mesh = read_mesh(out_dir / name)
+            if mesh.n_faces:
+                meshes.append(
+                    MeshLayer(mesh.vertices, mesh.faces, face_offsets=mesh.face_offsets, name=name)
+                )
+        elif ext in POINT_WRITE_EXTENSIONS and point_set is None:
+            point_set = read_point_set(out_dir / name, zero_normals="drop")
+    return [report_layer(point_set if point_set is not None else ps, {}), *meshes]
+
+
+def write_demo_report(path: Path, model: str, sections) -> Path:
+    """Write the demo's HTML report: each step's console output, pictures, files and 3-D view.
+
+    ``sections`` is a list of ``(heading, html_of_console_output, file_names,
+    layers)``; PNGs are shown inline and other files linked (paths relative to the
+    report's folder); ``layers`` (`pointatlas.viz.PointsLayer` / ``MeshLayer``)
+    make the step's interactive 3-D view.
+    """
+    from ..viz import ReportSection, write_report
+
+    path = Path(path)
+    folder = path.parent
+    parts = []
+    for heading, text, files, layers in sections:
+        parts.append(
+            ReportSection(
+                heading,
+                log_html=text,
+                pictures=[folder / name for name in files if name.endswith(".png")],
+                layers=layers,
+                links=[n for n in files if not n.endswith(".png") and n != path.name],
+            )
+        )
+    return write_report(
+        path,
+        title=f"pointatlas demo on the bundled model {model}",
+        summary={"model": model},
+        parameters={"steps": ", ".join(heading for heading, *_ in sections)},
+        sections=parts,
+        link_pictures=True,
+    )
 
 
 @app.command("demo")

@@ -26,12 +26,14 @@ from ..features import (
     optimal_neighbourhood,
 )
 from ._app import app, console, demo_step, err_console, guarded, read_input, say
+from ._cmd_core import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 from ._outputs import check_outputs, check_point_output, write_point_output
 
 __all__ = [
     "classify_dimension",
     "compute_features_for",
     "demo_features",
+    "feature_statistics",
     "fig_5_3",
     "features_command",
     "render_feature_pictures",
@@ -225,17 +227,22 @@ def features_command(
     render_size: Annotated[
         int, typer.Option("--render-size", min=64, help="Pixels per picture panel.")
     ] = 800,
+    report: Annotated[
+        Path | None,
+        typer.Option("--report", help="Also write an HTML report with a 3-D view (.html)."),
+    ] = None,
 ) -> None:
     """Eigen-features per point (linearity ... flatness) with the optimal neighbourhood.
 
     Writes OUT with every input field kept and the features added (a feature whose
-    name the input already uses gets the prefix ``pa_``).
+    name the input already uses gets the prefix ``pa_``); with ``--report`` also an
+    HTML report with per-field statistics and a 3-D view.
     """
     from ..io import POINT_WRITE_EXTENSIONS
 
     check_outputs(
         [input_path],
-        [("OUT", output, POINT_WRITE_EXTENSIONS)],
+        [("OUT", output, POINT_WRITE_EXTENSIONS), ("--report", report, REPORT_EXTENSIONS)],
         folders=[("--render", render)],
     )
     a_vals = _parse_grid_deg(a_grid, "--a-grid-deg")
@@ -277,15 +284,15 @@ def features_command(
             f"  E_dim mean {np.mean(result.e_dim[ok]):.4f}, flatness mean "
             f"{np.mean(result.flatness[ok]):.4f}"
         )
-    for code, count in zip(*np.unique(result.reason, return_counts=True), strict=True):
-        if code:
-            console.print(f"  {count} point(s) degenerate: {REASON_CODES[int(code)]} (NaN)")
+    for code, count in _reason_counts(result):
+        console.print(f"  {count} point(s) degenerate: {REASON_CODES[code]} (NaN)")
     say(f"  wrote {written}")
+    pictures = []
     if render is not None:
         render.mkdir(exist_ok=True)
         fixed_equal = mode.startswith("fixed")
         energies = result if fixed_equal else None
-        for p in render_feature_pictures(
+        pictures = render_feature_pictures(
             render,
             ps.points,
             ps.normals,
@@ -293,8 +300,58 @@ def features_command(
             name=Path(input_path).stem,
             energies=energies,
             size=render_size,
-        ):
+        )
+        for p in pictures:
             say(f"  wrote {p}")
+    if report is not None:
+        from ..viz import write_report
+
+        parameters = {
+            "k": k,
+            "k_range": k_range,
+            "weights": weights,
+            "a_grid_deg": a_grid,
+            "b_grid_deg": b_grid,
+            "flatness": flatness,
+            "criterion": criterion,
+        }
+        counts = {"mode": mode, "points": n, "seconds": round(elapsed, 3)}
+        counts.update(
+            {f"degenerate: {REASON_CODES[int(c)]}": int(m) for c, m in _reason_counts(result)}
+        )
+        write_report(
+            report,
+            title=f"pointatlas features: {Path(input_path).name}",
+            summary=report_summary(input_path, ps),
+            parameters=parameters,
+            tables={"result": counts, "fields": feature_statistics(fields)},
+            pictures=pictures,
+            layers=[report_layer(ps, fields, color_by="dimension_class")],
+            up=report_up(input_path),
+        )
+        say(f"  wrote {report}")
+
+
+def _reason_counts(result: FeatureResult) -> list[tuple[int, int]]:
+    """(reason code, number of points) of every non-zero reason."""
+    codes, counts = np.unique(result.reason, return_counts=True)
+    return [(int(c), int(m)) for c, m in zip(codes, counts, strict=True) if c]
+
+
+def feature_statistics(fields: dict) -> list[dict]:
+    """One row per per-point field: mean, min, max over the finite values, NaN count."""
+    rows = []
+    for name, values in fields.items():
+        arr = np.asarray(values, dtype=np.float64)
+        ok = np.isfinite(arr)
+        row = {"field": name, "mean": None, "min": None, "max": None}
+        if ok.any():
+            row.update(
+                mean=float(arr[ok].mean()), min=float(arr[ok].min()), max=float(arr[ok].max())
+            )
+        row["non-finite"] = int((~ok).sum())
+        rows.append(row)
+    return rows
 
 
 def fig_5_3(points, normals, out_dir, *, name: str, console=None) -> tuple[dict, list[Path]]:

@@ -28,6 +28,7 @@ from ._app import (
     read_with_normals,
     say,
 )
+from ._cmd_core import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 from ._outputs import (
     check_outputs,
     check_point_output,
@@ -212,16 +213,38 @@ def segment_command(
     render: Annotated[
         Path | None, typer.Option("--render", help="Also write a PNG picture.")
     ] = None,
+    report: Annotated[
+        Path | None,
+        typer.Option("--report", help="Also write an HTML report with a 3-D view (.html)."),
+    ] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed for random seeds.")] = 0,
 ):
     """Segment a point set into flat regions (VSA, thesis 4.2-4.3) or by region growing.
 
     Writes OUT (the input points with every input field, plus ``label`` and label
-    colours), OUT_regions.csv and, last, OUT_regions.json (summary, regions and the
-    files of this run with their SHA-256).
+    colours), OUT_regions.csv, with ``--report`` an HTML report with a 3-D view and,
+    last, OUT_regions.json (summary, regions and the files of this run with their
+    SHA-256).
     """
     from ..io import POINT_WRITE_EXTENSIONS
 
+    parameters = {
+        "method": method,
+        "eta": eta,
+        "max_angle_deg": max_angle_deg,
+        "seeds": seeds,
+        "k": k,
+        "split": split,
+        "merge": merge,
+        "switch": switch,
+        "classic": classic,
+        "weights": weights,
+        "smoothness_deg": smoothness_deg,
+        "curvature_threshold": curvature_threshold,
+        "min_cluster_size": min_cluster_size,
+        "estimate_normals": estimate,
+        "normal_k": normal_k,
+    }
     csv_path, json_path = table_paths(output)
     check_outputs(
         [input_path],
@@ -230,6 +253,7 @@ def segment_command(
             ("OUT's region table", csv_path, None),
             ("OUT's summary", json_path, None),
             ("--render", render, (".png",)),
+            ("--report", report, REPORT_EXTENSIONS),
         ],
     )
     if switch not in ("batch", "single", "none"):
@@ -298,6 +322,22 @@ def segment_command(
         "summary": {key: _json_safe(val) for key, val in summary.items()},
         "regions": json_rows,
     }
+    if report is not None:
+        from ..viz import write_report
+
+        written.append(
+            write_report(
+                report,
+                title=f"pointatlas segment: {Path(input_path).name}",
+                summary=report_summary(input_path, ps),
+                parameters=parameters,
+                seed=seed,
+                tables={"result": payload["summary"], "regions": json_rows},
+                pictures=[render] if render is not None else [],
+                layers=[report_layer(ps, {"label": labels}, color_by="label")],
+                up=report_up(input_path),
+            )
+        )
     write_summary_json(json_path, payload, written)
     console.print(
         f"{summary['method']}: {summary['n_regions']} regions on {n:,} points, "
