@@ -101,6 +101,11 @@ class SimplifiedMesh:
         Points without a usable normal (zero-length or NaN/Inf) are left out.
     n_dropped : int
         Number of input points left out for want of a usable normal.
+    regions_report : tuple of dict
+        One entry per input region (of the ``labels`` given): ``region``,
+        ``n_points`` (points used), ``became_face`` (bool), ``final_region`` (region
+        of ``labels`` holding most of its points, or -1) and ``reason`` (why it did or
+        did not become a face of its own).
     """
 
     vertices: np.ndarray
@@ -133,6 +138,7 @@ class SimplifiedMesh:
     anchor_weight: float = float("nan")
     point_index: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int64))
     n_dropped: int = 0
+    regions_report: tuple = ()
 
     def __post_init__(self):
         for name in (
@@ -197,6 +203,7 @@ class SimplifiedMesh:
             "n_input_regions": int(self.region_map.shape[0]),
             "n_regions": int(self.labels.max()) + 1 if self.labels.size else 0,
             "n_dropped_points": self.n_dropped,
+            "regions_report": [dict(r) for r in self.regions_report],
         }
 
 
@@ -595,9 +602,60 @@ def simplify_segmentation(
         max_distance=None if max_distance is None else float(max_distance) / frame.scale,
         max_iter=max_iter,
     )
-    return _assemble(
+    mesh = _assemble(
         frame, q, clean, mv, face_list, faces, used_weight, np.flatnonzero(keep), n_input
     )
+    return dataclasses.replace(mesh, regions_report=regions_report(lab, clean, face_list))
+
+
+def regions_report(labels, clean, face_list) -> tuple:
+    """Which input regions became faces and why the others did not (private).
+
+    An input region becomes a face when the final region holding most of its points
+    has a face and the region is that final region's largest input region; a region
+    merged into another keeps the first reason recorded by `clean_regions`.
+    """
+    n_in = int(labels.max()) + 1
+    n_fin = int(clean.labels.max()) + 1
+    both = np.zeros((n_in, n_fin), dtype=np.int64)
+    np.add.at(both, (labels, clean.labels), 1)
+    n_points = np.bincount(labels, minlength=n_in)
+    final = np.where(both.any(axis=1), both.argmax(axis=1), -1)
+    # main input region of every final region: most points, then smaller id
+    main = np.argmax(both, axis=0)
+    faces = {f.region: f for f in face_list}
+    cplx = clean.complex
+    reasons = clean.input_reasons or ("",) * n_in
+    out = []
+    for r in range(n_in):
+        f = int(final[r])
+        face = faces.get(f) if f >= 0 else None
+        became = face is not None and int(main[f]) == r
+        if f < 0:
+            why = "every point was relabelled by the majority filter (smooth)"
+        elif became:
+            merged = [int(x) for x in np.flatnonzero(both[:, f]) if x != r]
+            why = "face" + (f" (with points of input regions {merged})" if merged else "")
+            if not face.ok:
+                why += "; not valid: " + (face.note or "triangulation differs from its cycles")
+        elif reasons[r]:
+            why = reasons[r]
+        elif face is not None:
+            why = f"merged into the face of input region {int(main[f])}"
+        elif not cplx.region_cycles[f]:
+            why = "no closed boundary cycle in the complex"
+        else:
+            why = "no valid boundary loop"
+        out.append(
+            {
+                "region": r,
+                "n_points": int(n_points[r]),
+                "became_face": bool(became),
+                "final_region": f,
+                "reason": why,
+            }
+        )
+    return tuple(out)
 
 
 def _place_vertices(

@@ -16,7 +16,14 @@ from .._core import PointAtlasError
 from ..complex import SurfaceComplex, surface_complex
 from ._proxies import check_not_parallel, region_proxies
 
-__all__ = ["CleanRegions", "absorb_regions", "clean_regions", "region_contacts", "smooth_labels"]
+__all__ = [
+    "CleanRegions",
+    "absorb_regions",
+    "clean_regions",
+    "region_contacts",
+    "smooth_labels",
+    "split_disconnected",
+]
 
 
 def region_contacts(labels: np.ndarray, indices: np.ndarray, n_regions: int) -> np.ndarray:
@@ -29,12 +36,17 @@ def region_contacts(labels: np.ndarray, indices: np.ndarray, n_regions: int) -> 
     return counts + counts.T
 
 
-def absorb_regions(labels, indices, proxy_normals, bad) -> tuple[np.ndarray, np.ndarray]:
+def absorb_regions(
+    labels, indices, proxy_normals, bad, by_contacts=None
+) -> tuple[np.ndarray, np.ndarray]:
     """Merge every ``bad`` region into its most similar neighbour; relabel 0..R'-1.
 
     Returns the new labels and the map old region -> new region. Bad regions without
-    a neighbour stay. Chains (a bad region merged into another bad one) are resolved
-    with union-find; new ids follow the smallest point index of each region.
+    a neighbour stay. Regions marked in ``by_contacts`` (pieces of a disconnected
+    region) go to the neighbour sharing most k-NN contacts instead (ties: most
+    similar normal, then smaller id). Chains (a bad region merged into another bad
+    one) are resolved with union-find; new ids follow the smallest point index of
+    each region.
     """
     n_regions = proxy_normals.shape[0]
     contacts = region_contacts(labels, indices, n_regions)
@@ -51,7 +63,10 @@ def absorb_regions(labels, indices, proxy_normals, bad) -> tuple[np.ndarray, np.
         nbrs = np.flatnonzero(contacts[i] > 0)
         if nbrs.size == 0:
             continue
-        j = int(nbrs[np.lexsort((nbrs, -contacts[i, nbrs], -sim[i, nbrs]))[0]])
+        if by_contacts is not None and by_contacts[i]:
+            j = int(nbrs[np.lexsort((nbrs, -sim[i, nbrs], -contacts[i, nbrs]))[0]])
+        else:
+            j = int(nbrs[np.lexsort((nbrs, -contacts[i, nbrs], -sim[i, nbrs]))[0]])
         ri, rj = find(int(i)), find(j)
         if ri != rj:
             parent[ri] = rj
@@ -119,6 +134,39 @@ def smooth_labels(labels: np.ndarray, indices: np.ndarray, n_iter: int) -> np.nd
     return rank[inv.reshape(-1)].astype(np.int64)
 
 
+def split_disconnected(labels: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    """Connected pieces of every region in the symmetric k-NN graph of ``indices``.
+
+    The largest piece of a region keeps its id (ties: the piece with the smallest
+    point); the other pieces get new ids R, R+1, ... in order of their smallest
+    point, so connected labellings come back unchanged (private).
+    """
+    from scipy import sparse
+    from scipy.sparse import csgraph
+
+    n = labels.size
+    rows = np.repeat(np.arange(n), indices.shape[1] - 1)
+    cols = indices[:, 1:].ravel()
+    same = labels[rows] == labels[cols]
+    g = sparse.csr_array((np.ones(int(same.sum())), (rows[same], cols[same])), shape=(n, n))
+    _, comp = csgraph.connected_components(g, directed=False)
+    uniq, first, inv = np.unique(comp, return_index=True, return_inverse=True)
+    inv = inv.reshape(-1)
+    size = np.bincount(inv)
+    reg = labels[first]
+    # per region: the largest piece (then smallest first point) keeps the region id
+    order = np.lexsort((first, -size, reg))
+    keeps = np.zeros(uniq.size, dtype=bool)
+    head = np.ones(order.size, dtype=bool)
+    head[1:] = reg[order][1:] != reg[order][:-1]
+    keeps[order[head]] = True
+    new_id = np.where(keeps, reg, -1)
+    extra = np.flatnonzero(~keeps)
+    extra = extra[np.argsort(first[extra], kind="stable")]
+    new_id[extra] = int(labels.max()) + 1 + np.arange(extra.size)
+    return new_id[inv].astype(np.int64)
+
+
 def _proxies_for(points, normals, labels, region_map, pn0, ctr0, base_valid):
     """Proxy normals/centers for the current labels: the given ones for regions that
     are one unchanged input region, recomputed from the points otherwise."""
@@ -145,6 +193,7 @@ class CleanRegions:
     centroids: np.ndarray
     complex: SurfaceComplex
     fit_mask: np.ndarray
+    input_reasons: tuple = ()
 
 
 def clean_regions(
@@ -171,8 +220,13 @@ def clean_regions(
     # points the majority filter relabelled to another input region stay out of the
     # plane fit of vertices="fit"
     fit_mask = np.ones(n, dtype=bool)
-    if smooth:
-        cur = smooth_labels(labels, indices, smooth)
+    # every region connected in the k-NN graph (issue 14 item 6): the majority filter
+    # splits into pieces itself; without it, disconnected regions are split here
+    cur = smooth_labels(labels, indices, smooth) if smooth else split_disconnected(labels, indices)
+    is_piece = np.zeros(int(cur.max()) + 1, dtype=bool)
+    if not smooth:
+        is_piece[n_regions:] = True
+    if int(cur.max()) + 1 != n_regions or not np.array_equal(cur, labels):
         # a piece keeps its input region's proxy unless the region was split
         pair_counts = np.zeros((int(cur.max()) + 1, n_regions), dtype=np.int64)
         np.add.at(pair_counts, (cur, labels), 1)
@@ -180,9 +234,24 @@ def clean_regions(
         base_valid = np.bincount(owner, minlength=n_regions)[owner] == 1
         pn0, ctr0 = pn0[owner], ctr0[owner]
         fit_mask = owner[cur] == labels
+        if smooth:  # pieces: all but the largest base piece of an input region
+            nb = owner.size
+            sizes_b = np.bincount(cur, minlength=nb)
+            order = np.lexsort((np.arange(nb), -sizes_b, owner))
+            head = np.ones(nb, dtype=bool)
+            head[1:] = owner[order][1:] != owner[order][:-1]
+            is_piece[order[~head]] = True
     region_map = np.arange(int(cur.max()) + 1)  # base piece -> current region
     n_cur0 = int(cur.max()) + 1
-    bad = np.bincount(cur, minlength=n_cur0) < int(min_region_size)
+    reasons = [""] * n_regions
+    sizes0 = np.bincount(cur, minlength=n_cur0)
+    bad = sizes0 < int(min_region_size)
+    why = [f"fewer than min_region_size = {int(min_region_size)} points ({int(c)})" for c in sizes0]
+    for c in np.flatnonzero(is_piece & bad):
+        why[c] = (
+            f"a disconnected piece of {int(sizes0[c])} points (fewer than {int(min_region_size)})"
+        )
+    by_contacts = is_piece.copy()
     if repair and max_boundary_fraction < 1.0:
         # thin regions: (almost) every point sees another region; their two sides
         # see each other across them and the complex cannot separate them
@@ -190,16 +259,22 @@ def clean_regions(
         frac = np.bincount(cur, weights=on_boundary, minlength=n_cur0) / np.maximum(
             np.bincount(cur, minlength=n_cur0), 1
         )
-        sizes0 = np.bincount(cur, minlength=n_cur0)
         # only regions smaller than half the largest count as strips (on a coarse
         # sampling every region may have all its points near a boundary)
-        bad |= (frac > max_boundary_fraction) & (sizes0 < 0.5 * sizes0.max())
+        strip = (frac > max_boundary_fraction) & (sizes0 < 0.5 * sizes0.max()) & ~bad
+        for c in np.flatnonzero(strip):
+            why[c] = (
+                f"a thin strip ({100 * frac[c]:.0f} % of its points see another region "
+                f"among their k = {indices.shape[1]} neighbours)"
+            )
+        bad |= strip
     for _round in range(31):
         stop = False
         if bad.any():
             cur_pn = _proxies_for(points, normals, cur, region_map, pn0, ctr0, base_valid)[0]
-            new_labels, step = absorb_regions(cur, indices, cur_pn, bad)
+            new_labels, step = absorb_regions(cur, indices, cur_pn, bad, by_contacts)
             if int(new_labels.max()) + 1 >= 3:
+                _record(reasons, labels, cur, bad, why)
                 cur, region_map = new_labels, step[region_map]
             else:  # merging would leave no polyhedron: keep the regions as they are
                 stop = True
@@ -221,11 +296,18 @@ def clean_regions(
             break
         no_cycle = np.array([len(rc) == 0 for rc in cplx.region_cycles])
         bad_now = no_cycle.copy()
-        bad_now[cplx.regions_open] = True
+        why = ["no closed boundary cycle in the complex" if x else "" for x in no_cycle]
+        for c in cplx.regions_open:
+            bad_now[c] = True
+            why[c] = why[c] or "its boundary does not close into cycles"
         for c in cplx.cycles_not_simple:
             bad_now[cplx.cycle_region[c]] = True
+            why[cplx.cycle_region[c]] = (
+                why[cplx.cycle_region[c]] or "a boundary cycle is not simple"
+            )
         if not bad_now.any():
             break
+        by_contacts = None
         # merge the smallest quarter of the failing regions per round
         sizes = np.bincount(cur, minlength=n_cur)
         cand = np.flatnonzero(bad_now)
@@ -242,4 +324,17 @@ def clean_regions(
         centroids=np.asarray(cprox.centroids),
         complex=cplx,
         fit_mask=fit_mask,
+        input_reasons=tuple(reasons),
     )
+
+
+def _record(reasons, labels, cur, bad, why):
+    """Note why an input region is merged away: the first time the current region
+    holding most of its points is absorbed (private)."""
+    n_in, n_cur = len(reasons), int(cur.max()) + 1
+    both = np.zeros((n_in, n_cur), dtype=np.int64)
+    np.add.at(both, (labels, cur), 1)
+    main = both.argmax(axis=1)
+    for r in range(n_in):
+        if not reasons[r] and both[r].any() and bad[main[r]]:
+            reasons[r] = "merged into a neighbour: " + why[main[r]]
