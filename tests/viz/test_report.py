@@ -225,3 +225,19 @@ def test_features_and_normals_reports_hold_their_fields(cube_file, tmp_path, com
     expected = {"features": {"e_dim", "dimension_class", "k"}, "normals": {"nx", "ny", "nz"}}
     assert expected[command] <= set(names)
     assert html.escape(f"pointatlas {command}: cube.ply") in text
+
+
+@pytest.mark.parametrize("vertices_only", [False, True], ids=["mesh path", "points path"])
+def test_simplify_report_shows_its_numbers_and_the_mesh(tmp_path, vertices_only):
+    from pointatlas.io import read_mesh
+
+    out, report = tmp_path / "c.obj", tmp_path / "c.html"
+    extra = ["--vertices-only", "--max-angle-deg", "20"] if vertices_only else []
+    res = runner.invoke(app, ["simplify", "synth:cube", str(out), "--report", str(report), *extra])
+    assert res.exit_code == 0, res.output
+    text = report.read_text()
+    mesh = read_mesh(out)
+    assert f"data-value='{mesh.n_faces}'" in text  # n_faces in the result table
+    data = view_payloads(text)[0]
+    assert data["meshes"], "the view holds the simplified mesh"
+    assert html.escape("pointatlas simplify: synth:cube") in text

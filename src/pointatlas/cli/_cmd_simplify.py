@@ -12,6 +12,7 @@ import warnings
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich.table import Table
 
@@ -30,6 +31,7 @@ from ._app import (
     read_with_normals,
     say,
 )
+from ._cmd_core import REPORT_EXTENSIONS
 from ._outputs import check_outputs, write_summary_json, write_text
 
 __all__ = ["render_simplification", "simplification_table"]
@@ -176,8 +178,6 @@ def _simplify_mesh_command(
     report,
     render,
 ):
-    import numpy as np
-
     from ..simplify import simplify_mesh
 
     v = mesh_in.vertices
@@ -206,10 +206,49 @@ def _simplify_mesh_command(
             "seed": seed,
             **res.summary(),
         }
-        written.append(write_summary_json(report, info, written))
+        if Path(report).suffix.lower() in REPORT_EXTENSIONS:
+            from ..viz import MeshLayer
+
+            layers = [
+                MeshLayer(
+                    mesh_in.vertices,
+                    mesh_in.triangles,
+                    face_labels=res.face_labels,
+                    name="input triangles by region",
+                ),
+                MeshLayer(
+                    res.vertices,
+                    [p.tolist() for p in res.polygons],
+                    face_labels=res.polygon_face,
+                    name="simplified mesh",
+                ),
+            ]
+            written.append(_html_report(report, infile, info, written, layers, seed))
+        else:
+            written.append(write_summary_json(report, info, written))
     console.print(surface_table(res, title=Path(str(infile)).name))
     for path in written:
         say(f"written: {path}")
+
+
+def _html_report(path, infile, info: dict, written, layers, seed: int):
+    """The HTML report of ``simplify``: the numbers, the pictures written, a 3-D view."""
+    from ..viz import write_report
+
+    numbers = {
+        k: v for k, v in info.items() if not isinstance(v, dict | list | tuple) and k != "input"
+    }
+    pictures = [p for p in written if Path(p).suffix.lower() == ".png"]
+    return write_report(
+        path,
+        title=f"pointatlas simplify: {Path(str(infile)).name}",
+        summary={"file": str(infile), "files written": ", ".join(str(p) for p in written)},
+        parameters={k: info[k] for k in ("seed",) if k in info},
+        tables={"result": numbers},
+        pictures=pictures,
+        layers=layers,
+        seed=seed,
+    )
 
 
 def _run(points, normals, **kw):
@@ -343,7 +382,12 @@ def simplify_command(
         Path | None, typer.Option("--triangles", help="Also write the triangulated mesh here.")
     ] = None,
     report: Annotated[
-        Path | None, typer.Option("--report", help="Write the quality report as JSON.")
+        Path | None,
+        typer.Option(
+            "--report",
+            help="Write the quality report: .json (numbers, written last) or .html (with a "
+            "3-D view of the input and the simplified mesh).",
+        ),
     ] = None,
     render: Annotated[
         Path | None, typer.Option("--render", help="PNG: segmentation and mesh side by side.")
@@ -364,7 +408,7 @@ def simplify_command(
             ("OUT", out, MESH_OUT),
             ("--triangles", triangles, MESH_OUT),
             ("--render", render, (".png",)),
-            ("--report", report, (".json",)),
+            ("--report", report, (".json", *REPORT_EXTENSIONS)),
         ],
     )
     levels = [
@@ -452,7 +496,22 @@ def simplify_command(
     if report is not None:
         info = {"input": str(infile), "seed": seed, **mesh.summary()}
         info["complex"] = mesh.complex.summary()
-        written.append(write_summary_json(report, info, written))
+        if Path(report).suffix.lower() in REPORT_EXTENSIONS:
+            from ..viz import MeshLayer, PointsLayer
+
+            used = ps.points[mesh.point_index] if mesh.point_index.size else ps.points
+            layers = [
+                PointsLayer(used, {"region": np.asarray(mesh.labels)}, name="points by region"),
+                MeshLayer(
+                    mesh.vertices,
+                    polys,
+                    face_labels=mesh.face_region[mesh.polygon_face],
+                    name="simplified mesh",
+                ),
+            ]
+            written.append(_html_report(report, infile, info, written, layers, seed))
+        else:
+            written.append(write_summary_json(report, info, written))
     console.print(simplification_table(mesh, result.segmentation, title=ps.name))
     for path in written:
         say(f"written: {path}")
