@@ -241,3 +241,18 @@ def test_simplify_report_shows_its_numbers_and_the_mesh(tmp_path, vertices_only)
     data = view_payloads(text)[0]
     assert data["meshes"], "the view holds the simplified mesh"
     assert html.escape("pointatlas simplify: synth:cube") in text
+
+
+def test_cloudsurface_report_shows_the_clouds_and_the_complex(tmp_path):
+    out, report = tmp_path / "cs", tmp_path / "cs.html"
+    res = runner.invoke(
+        app, ["cloudsurface", "synth:sphere", str(out), "--scale", "0.9", "--report", str(report)]
+    )
+    assert res.exit_code == 0, res.output
+    summary = json.loads((out / "report.json").read_text())
+    assert any(f["path"].endswith("cs.html") for f in summary["files"])
+    text = report.read_text()
+    data = view_payloads(text)[0]
+    assert [f["name"] for f in data["points"]["fields"]] == ["n_clouds"]
+    assert data["meshes"]
+    assert f"data-value='{summary['n_clouds']}'" in text

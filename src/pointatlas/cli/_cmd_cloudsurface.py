@@ -32,6 +32,7 @@ from .._core import PointAtlasError, as_float, as_int
 from ..complex import cloud_complex, curve_report, realise_complex, surface_report
 from ..cover import ball_cover, search_cover_scale
 from ._app import app, console, guarded, progress_bar, read_input, say
+from ._cmd_core import REPORT_EXTENSIONS
 from ._outputs import (
     check_outputs,
     check_point_output,
@@ -228,6 +229,13 @@ def cloudsurface_command(
         bool, typer.Option("--render/--no-render", help="Write cloudsurface.png.")
     ] = True,
     seed: Annotated[int, typer.Option("--seed", help="Seed for rotations and sampling.")] = 0,
+    html_report: Annotated[
+        Path | None,
+        typer.Option(
+            "--report",
+            help="Also write an HTML report with a 3-D view of the clouds and the complex.",
+        ),
+    ] = None,
 ):
     """Cloud surface of a point set (ball cover, Algorithm 2) or of a mesh (Algorithm 1).
 
@@ -265,13 +273,16 @@ def cloudsurface_command(
         ("picture", out["picture"] if render else None, None),
         ("report.json", out["json"], None),
     ]
+    files.append(("--report", html_report, REPORT_EXTENSIONS))
     check_outputs([in_path], [], [("OUT_DIR", out_dir)])
+    check_outputs([in_path], [f for f in files if f[0] == "--report"])
     out_dir.mkdir(exist_ok=True)
     check_outputs([in_path], files)
     t0 = time.perf_counter()
     if from_mesh is not None:
         _from_mesh(in_path, out, model=model, c=c, c_v=c_v, c_h=c_h, t=t, samples=samples,
-                   curvature=curvature, render=render, seed=seed, t0=t0)  # fmt: skip
+                   curvature=curvature, render=render, seed=seed, t0=t0,
+                   html_report=html_report)  # fmt: skip
         return
     ps = read_input(in_path, with_normals=False)
     placeholder = {"n_clouds": np.zeros(ps.n_points, np.int64),
@@ -335,10 +346,38 @@ def cloudsurface_command(
         },  # fmt: skip
         "seconds": round(time.perf_counter() - t0, 3),
     }
+    if html_report is not None:
+        written.append(
+            _html_report(html_report, in_path, payload, ps.points, K.n_memberships, verts,
+                         faces, written, seed)
+        )  # fmt: skip
     write_summary_json(out["json"], payload, written)
     _print_result(report, cov.n_clouds, chosen, accepted, res, payload["seconds"], dim)
     for path in [*written, out["json"]]:
         say(f"wrote {path}")
+
+
+def _html_report(path, in_path, payload, points, counts, verts, faces, written, seed):
+    """The HTML report: the numbers, the picture, a 3-D view of clouds and complex."""
+    from ..viz import MeshLayer, PointsLayer, write_report
+
+    numbers = {k: v for k, v in payload.items() if isinstance(v, int | float | str | bool)}
+    numbers.update(
+        {k: v for k, v in payload["report"].items() if isinstance(v, int | float | str | bool)}
+    )
+    layers = [PointsLayer(points, {"n_clouds": np.asarray(counts)}, name="points")]
+    if faces is not None and len(faces):
+        layers.append(MeshLayer(np.nan_to_num(verts), faces, name="cloud complex", opacity=0.6))
+    return write_report(
+        path,
+        title=f"pointatlas cloudsurface: {Path(str(in_path)).name}",
+        summary={"file": str(in_path), "points": int(points.shape[0])},
+        parameters={k: payload[k] for k in ("mode", "seed") if k in payload},
+        tables={"result": numbers},
+        pictures=[p for p in written if Path(p).suffix.lower() == ".png"],
+        layers=layers,
+        seed=seed,
+    )
 
 
 def _write_clouds(path: Path, ps, counts: np.ndarray) -> Path:
@@ -370,7 +409,9 @@ def _print_result(report, n_clouds, chosen, accepted, res, seconds, dim):
         )
 
 
-def _from_mesh(in_path, out, *, model, c, c_v, c_h, t, samples, curvature, render, seed, t0):
+def _from_mesh(
+    in_path, out, *, model, c, c_v, c_h, t, samples, curvature, render, seed, t0, html_report
+):
     if c is None:  # the thesis' settings: c = 0 for eta1 (Fig. 2.7), c = 1 for eta2 (Fig. 2.8)
         c = 1.0 if model == "eta2" else 0.0
     """--from-mesh: Algorithm 1 on a mesh file or bundled model; same outputs."""
@@ -433,6 +474,11 @@ def _from_mesh(in_path, out, *, model, c, c_v, c_h, t, samples, curvature, rende
         "report": report.summary(),
         "seconds": round(time.perf_counter() - t0, 3),
     }  # fmt: skip
+    if html_report is not None:
+        written.append(
+            _html_report(html_report, in_path, payload, mc.points, K.n_memberships, verts,
+                         faces, written, seed)
+        )  # fmt: skip
     write_summary_json(out["json"], payload, written)
     console.print(f"Algorithm 1 ({model}): {mc.points.shape[0]:,} points in {K.n_clouds} clouds; "
                   f"complex equals the mesh: {same}")  # fmt: skip
