@@ -9,11 +9,13 @@ method gets the raw noisy points: ours estimates and orients PCA normals first
 normals (k = 20) of their output; all signed like the clean normals.
 
     python benchmarks/bench_denoise.py [--data ../shared/data] [--no-scene]
-        [--inputs NAME,...] [--methods WORD,...] [--repeat R] [--out FILE.json]
+        [--inputs NAME,...] [--methods WORD,...] [--repeat R] [--flatness] [--out FILE.json]
 
 Every row prints its time and, for ours, the ratio to Open3D smooth_mls (tuned and
-default) on the same input (the issue's goal: at most 3x). ``--inputs`` keeps the
-inputs whose name starts with one of the given words; ``--methods`` keeps the
+default) on the same input (the issue's goal: at most 3x). Ours: normal voting
+(adaptive and fixed) given no normals (it estimates and orients them from its first
+neighbour table, timed); with ``--flatness`` also ``flatness_denoise`` (defaults).
+``--inputs`` keeps the inputs whose name starts with one of the given words; ``--methods`` keeps the
 methods whose label contains one of them (ours always runs, and MLS for the ratio).
 For the scene (no mesh) "p2m" is the mean distance to the tangent plane of the
 corresponding clean point, and the normal MSE uses the scene's exact normals.
@@ -34,12 +36,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from pointatlas.denoise import (
     add_noise,
     denoise_measures,
+    flatness_denoise,
     normal_voting_denoise,
     unit_sphere_transform,
 )
 from pointatlas.io import read_mesh
-from pointatlas.neighbors import mean_spacing, query_knn
-from pointatlas.normals import estimate_normals, orient_normals
+from pointatlas.neighbors import mean_spacing
+from pointatlas.normals import estimate_normals
 from pointatlas.synth import cube, vertex_normals
 
 NOISY_PAIRS = {
@@ -138,9 +141,14 @@ def cgal_wlop(points, ell, tuned):
 
 def ours(points, ell, variant):
     t = time.perf_counter()
-    knn = query_knn(points, 20)  # one table for estimating and orienting
-    nrm = orient_normals(points, estimate_normals(points, 20, neighbors=knn), neighbors=knn)
-    r = normal_voting_denoise(points, nrm, adaptive=variant == "adaptive")
+    # no normals given: PCA (k = 20) + orientation from the first neighbour table
+    r = normal_voting_denoise(points, None, adaptive=variant == "adaptive")
+    return r.points, time.perf_counter() - t, r.normals
+
+
+def ours_flatness(points, ell, _variant):
+    t = time.perf_counter()
+    r = flatness_denoise(points)  # defaults: k = 28, eta = 1, eps = 0.1, 60 iterations
     return r.points, time.perf_counter() - t, r.normals
 
 
@@ -156,9 +164,9 @@ def timed_min(func, args, repeat):
 def warm_up():
     """Compile our kernels (numba cache) before anything is timed."""
     m = cube(4)
-    nrm = orient_normals(m.points, estimate_normals(m.points, 20))
     for adaptive in (True, False):
-        normal_voting_denoise(m.points, nrm, adaptive=adaptive, n_iter=1, n_filter_iter=1)
+        normal_voting_denoise(m.points, None, adaptive=adaptive, n_iter=2, n_filter_iter=1)
+    flatness_denoise(m.points, k=8, n_iter=1)
 
 
 PEERS = {
@@ -232,7 +240,7 @@ def _print_rows(rows, name):
               f"{r['seconds']:.3f} s{ratio}", flush=True)  # fmt: skip
 
 
-def run(data: Path, scene: bool, inputs_kept=(), methods_kept=(), repeat=1) -> list[dict]:
+def run(data: Path, scene: bool, inputs_kept=(), methods_kept=(), repeat=1, flatness=False):
     rows = []
     warm_up()
     cases = [c for c in inputs(data) if not inputs_kept or c[0].startswith(tuple(inputs_kept))]
@@ -249,6 +257,10 @@ def run(data: Path, scene: bool, inputs_kept=(), methods_kept=(), repeat=1) -> l
         for variant in ("adaptive", "fixed"):
             pts, sec, nrm = timed_min(ours, (noisy, ell, variant), repeat)
             rows.append({"input": name, "method": f"pointatlas normal-voting ({variant})",
+                         "seconds": sec, **_measure(pts, nrm, cv, cf, cn)})  # fmt: skip
+        if flatness:
+            pts, sec, nrm = timed_min(ours_flatness, (noisy, ell, None), repeat)
+            rows.append({"input": name, "method": "pointatlas flatness (default)",
                          "seconds": sec, **_measure(pts, nrm, cv, cf, cn)})  # fmt: skip
         for peer, func in PEERS.items():
             for tuned in (False, True):
@@ -277,11 +289,12 @@ def main(argv=None):
     ap.add_argument("--inputs", default="", help="comma-separated input name prefixes")
     ap.add_argument("--methods", default="", help="comma-separated words of peer labels")
     ap.add_argument("--repeat", type=int, default=1, help="report the least time of R runs")
+    ap.add_argument("--flatness", action="store_true", help="also time flatness_denoise")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
     words = [w for w in args.methods.split(",") if w]
     names = [w for w in args.inputs.split(",") if w]
-    rows = run(args.data, not args.no_scene, names, words, args.repeat)
+    rows = run(args.data, not args.no_scene, names, words, args.repeat, args.flatness)
     if args.out:
         args.out.write_text(json.dumps(rows, indent=1, default=float) + "\n")
 

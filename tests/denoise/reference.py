@@ -138,3 +138,74 @@ def flatness_step(points, k, eta, eps, m1=8, m2=8):
         pbar = b + ((points[i] - b) @ v1) * v1
         out[i] = points[i] + eps * (eta * (2 - e) * (-d * v3) + (1 - eta) * e * (pbar - points[i]))
     return out
+
+
+# --------------------------------------------------------------------------- previous pipeline
+
+
+def previous_neighbourhoods(pts, radius_factor=2.0, extra=0):
+    """`default_neighbourhoods` before the speed work: one full-width query."""
+    from pointatlas.neighbors import mean_spacing, query_knn
+
+    n = pts.shape[0]
+    kcap = min(48, n)
+    ncol = min(kcap + extra, n)
+    idx, dist = query_knn(pts, ncol)
+    ell = float(np.mean(dist[:, 1:7])) if ncol > 6 else mean_spacing(pts, 6)
+    inside = (dist[:, :kcap] <= radius_factor * ell).sum(axis=1)
+    k = np.clip(inside, min(7, n), kcap).astype(np.int64)
+    return np.ascontiguousarray(idx[:, : min(int(k.max()) + extra, ncol)]), k, ell
+
+
+def previous_normal_voting_denoise(points, normals=None, *, rho=0.9, tau=0.3, n_iter=2,
+                                   n_filter_iter=10, adaptive=True, max_step=0.5,
+                                   sharpen=False, radius_factor=2.0):  # fmt: skip
+    """`normal_voting_denoise` before the speed work (checked kernels, fresh queries).
+
+    Without normals: PCA normals (k = 20) oriented with `orient_normals` on one
+    20-NN table, as the benchmark did. Returns (points, normals, k, feature_class).
+    """
+    from pointatlas.denoise._kernels import (
+        adaptive_k_kernel,
+        quadric_update_kernel,
+        voting_filter_kernel,
+    )
+    from pointatlas.neighbors import query_knn
+    from pointatlas.normals import estimate_normals, orient_normals
+
+    pts = np.array(points, dtype=np.float64)
+    n = len(pts)
+    if normals is None:
+        knn = query_knn(pts, min(20, n))
+        nrm = orient_normals(pts, estimate_normals(pts, min(20, n), neighbors=knn), neighbors=knn)
+    else:
+        nrm = np.array(normals, dtype=np.float64)
+        nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    ell = None
+    cur = pts.copy()
+    klass = np.ones(n, dtype=np.int64)
+    k_of = np.zeros(n, dtype=np.int64)
+    for _ in range(n_iter):
+        idx, k_def, spacing = previous_neighbourhoods(cur, radius_factor, 10 if adaptive else 0)
+        ell = spacing if ell is None else ell
+        k_of = k_def.copy()
+        use_cut = np.ones(n, dtype=bool)
+        if adaptive:
+            k_lo = np.maximum(k_def - 10, 1).astype(np.int64)
+            k_hi = np.minimum(k_def + 10, idx.shape[1]).astype(np.int64)
+            best_k = np.empty(n, dtype=np.int64)
+            best_e = np.empty(n)
+            masks = np.full(n, -1, dtype=np.int64)
+        for _ in range(n_filter_iter):
+            if adaptive:
+                adaptive_k_kernel(cur, nrm, idx, k_lo, k_hi, rho, best_k, best_e, masks)
+                fallback = best_k < 0
+                k_of = np.where(fallback, k_def, best_k)
+                use_cut = ~fallback
+            out = np.empty_like(nrm)
+            voting_filter_kernel(nrm, idx, k_of, use_cut, rho, tau, out)
+            nrm = out
+        nxt = np.empty_like(cur)
+        quadric_update_kernel(cur, nrm, idx, k_def, rho, tau, max_step * ell, sharpen, nxt, klass)
+        cur = nxt
+    return cur, nrm, k_of, klass

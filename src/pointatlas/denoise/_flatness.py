@@ -7,6 +7,7 @@ import numpy as np
 from .._core import PointAtlasError, as_float, as_int, as_normals, as_points
 from ..features import covariance_features
 from ..neighbors import mean_spacing, query_knn
+from ._kernels import threads_for
 from ._result import DenoiseResult
 
 __all__ = ["FLATNESS_SCHEDULES", "flatness_schedule", "flatness_denoise", "flatness_step"]
@@ -173,19 +174,20 @@ def flatness_denoise(
     elif schedule == "decreasing":
         k_start = min(4 * k, n - 1)
     ks, etas = flatness_schedule(max(n_iter, 1), k, eta, schedule=schedule, k_start=k_start)
-    ell = mean_spacing(pts, 6) if n > 6 else 0.0
     cur = pts.copy()
     energy = np.full(n, np.nan)
     v3 = np.full((n, 3), np.nan)
     valid = np.zeros(n, dtype=bool)
-    for t in range(n_iter):
-        cur, energy, v3, valid = flatness_step(
-            cur, int(ks[t]), float(etas[t]), eps, flatness=flatness
-        )
-        if progress is not None:
-            progress(1)
-    if n_iter == 0 or not valid.any():
-        _, energy, v3, valid = flatness_step(cur, k, eta, eps, flatness=flatness)
+    with threads_for(n):  # small input, busy machine: one thread (same output)
+        ell = mean_spacing(pts, 6) if n > 6 else 0.0
+        for t in range(n_iter):
+            cur, energy, v3, valid = flatness_step(
+                cur, int(ks[t]), float(etas[t]), eps, flatness=flatness
+            )
+            if progress is not None:
+                progress(1)
+        if n_iter == 0 or not valid.any():
+            _, energy, v3, valid = flatness_step(cur, k, eta, eps, flatness=flatness)
     out_normals = _oriented(v3, valid, nrm)
     if not np.isfinite(cur).all():
         raise PointAtlasError("flatness denoising produced non-finite points")

@@ -8,7 +8,10 @@ validate. Plain-numpy references live in ``tests/denoise/reference.py``.
 from __future__ import annotations
 
 import math
+import os
+from contextlib import contextmanager
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -16,11 +19,14 @@ __all__ = [
     "CLASS_CORNER",
     "CLASS_EDGE",
     "CLASS_FACE",
+    "PARALLEL_MIN_POINTS",
     "adaptive_k_kernel",
+    "machine_busy",
     "point_triangle_kernel",
     "quadric_update_kernel",
     "sym3_eigh",
     "sym3_eigvals",
+    "threads_for",
     "voting_filter_kernel",
 ]
 
@@ -32,10 +38,49 @@ CLASS_CORNER = 3
 #: neighbours per cached weight pattern of `adaptive_k_kernel` (bits of an int64,
 #: sign bit unused)
 MASK_BITS = 62
+#: below this many points, on a busy machine (1-minute load average >= the number
+#: of CPUs), the denoisers run every numba kernel they call (this room's and those
+#: of the neighbours, normals and features rooms) in one thread (`threads_for`): a
+#: filter step costs about 1 ms per 6,500 points, less than a parallel region
+#: loses when one of its threads waits for a busy core; on an idle machine the
+#: second thread pays (measured both ways: docs/decisions/denoise.md, "Speed").
+#: Outputs are the same bit for bit (per-point loops; tested)
+PARALLEL_MIN_POINTS = 50_000
 #: `_voted_normal` takes the closed-form eigenvector when its eigenvalue is apart
 #: from the others by more than this share of the largest (error ~ 1e-16 / gap, so
 #: below 1e-12); closer pairs go through Jacobi rotations
 EIGEN_GAP_REL = 1e-4
+
+
+# --------------------------------------------------------------------------- threads
+
+
+def machine_busy() -> bool:
+    """True when the 1-minute load average reaches the number of CPUs (Unix; else False)."""
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):
+        return False
+    return load >= (os.cpu_count() or 1)
+
+
+@contextmanager
+def threads_for(n_points: int):
+    """Run the enclosed numba parallel regions in one thread for small inputs on a busy machine.
+
+    Below `PARALLEL_MIN_POINTS` points, when `machine_busy`, sets numba's thread
+    count to 1 for the calling thread (numba's setting is thread-local) and
+    restores it on exit; otherwise changes nothing. Results do not depend on it.
+    """
+    if n_points >= PARALLEL_MIN_POINTS or not machine_busy():
+        yield
+        return
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
 
 
 # --------------------------------------------------------------------------- 3x3 eigen

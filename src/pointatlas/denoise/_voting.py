@@ -12,9 +12,11 @@ from .._core.tolerances import (
     DENOISE_RADIUS_FACTOR,
 )
 from ..neighbors import mean_spacing, query_knn
+from ..normals import estimate_normals, orient_normals
 from ._kernels import (
     adaptive_k_kernel,
     quadric_update_kernel,
+    threads_for,
     voting_filter_kernel,
 )
 from ._result import DenoiseResult, NormalFilterResult
@@ -45,11 +47,14 @@ RADIUS_FACTOR = DENOISE_RADIUS_FACTOR
 K_MIN = DENOISE_K_MIN
 K_MAX = DENOISE_K_MAX
 K_WIDTH = DENOISE_K_WIDTH
+#: columns added to the previous outer iteration's need when guessing the next
+#: table's width (`_neighbourhoods` checks the guess and falls back to full width)
+_WIDTH_MARGIN = 4
 
 
-def _check_common(points, normals, rho, tau, radius_factor):
+def _check_common(points, normals, rho, tau, radius_factor, *, optional=False):
     pts = as_points(points, min_points=K_MIN + 1)
-    nrm = as_normals(normals, pts.shape[0])
+    nrm = None if optional and normals is None else as_normals(normals, pts.shape[0])
     rho = as_float(rho, "rho", lo=-1.0, hi=1.0, note="a cosine")
     tau = as_float(tau, "tau", lo=0.0, hi=1.0, lo_open=True)
     radius_factor = as_float(radius_factor, "radius_factor", lo=0.0, lo_open=True)
@@ -96,14 +101,47 @@ def default_neighbourhoods(
     pts = as_points(points, min_points=K_MIN + 1)
     radius_factor = as_float(radius_factor, "radius_factor", lo=0.0, lo_open=True)
     extra = as_int(extra, "extra", lo=0)
+    _, idx, k, ell = _neighbourhoods(pts, radius_factor, extra)
+    return idx, k, ell
+
+
+def _neighbourhoods(pts, radius_factor, extra, width=None):
+    """`default_neighbourhoods` on validated input; returns (table, idx, k, l).
+
+    ``table`` is the whole queried index table (at least ``min(48, N)`` columns
+    when ``width`` is None, so its first 20 columns can serve normal estimation).
+    ``width`` guesses the number of columns: a query of that many columns gives
+    the same result when every row's last column lies outside the ball (then the
+    ball's count is complete) and max(k) + extra fits; otherwise the full-width
+    query runs. Rows of a narrower query are prefixes of the full one (ties by
+    index), and l is the same mean (docs/decisions/denoise.md, "Speed").
+    """
     n = pts.shape[0]
     kcap = min(K_MAX, n)
     ncol = min(kcap + extra, n)
+    if width is not None and 6 < width < ncol:
+        idx, dist = query_knn(pts, width)
+        ell = float(np.mean(dist[:, 1:7]))
+        r = radius_factor * ell
+        if width >= kcap or bool((dist[:, width - 1] > r).all()):
+            inside = (dist[:, : min(kcap, width)] <= r).sum(axis=1)
+            k = np.clip(inside, min(K_MIN, n), kcap).astype(np.int64)
+            if int(k.max()) + extra <= width:
+                return idx, np.ascontiguousarray(idx[:, : int(k.max()) + extra]), k, ell
     idx, dist = query_knn(pts, ncol)
     ell = float(np.mean(dist[:, 1:7])) if ncol > 6 else mean_spacing(pts, 6)
     inside = (dist[:, :kcap] <= radius_factor * ell).sum(axis=1)
     k = np.clip(inside, min(K_MIN, n), kcap).astype(np.int64)
-    return np.ascontiguousarray(idx[:, : min(int(k.max()) + extra, ncol)]), k, ell
+    return idx, np.ascontiguousarray(idx[:, : min(int(k.max()) + extra, ncol)]), k, ell
+
+
+def _estimated_normals(pts, table, k):
+    """PCA normals (k-NN) oriented by `orient_normals` (MST, outward; its default
+    10-NN graph), from one table (queried here when ``table`` is too narrow)."""
+    need = min(max(k, 10), pts.shape[0])
+    if table is None or table.shape[1] < need:
+        table = query_knn(pts, need)[0]
+    return orient_normals(pts, estimate_normals(pts, k, neighbors=table), neighbors=table)
 
 
 def _filter_steps(pts, nrm, idx, k_def, *, rho, tau, n_iter, adaptive, progress):
@@ -203,13 +241,12 @@ def filter_normals(
     """
     pts, nrm, rho, tau, radius_factor = _check_common(points, normals, rho, tau, radius_factor)
     n_iter = as_int(n_iter, "n_iter", lo=0)
-    idx, k_def, _ = default_neighbourhoods(
-        pts, radius_factor=radius_factor, extra=K_WIDTH if adaptive else 0
-    )
-    out, k_of, fallback = _filter_steps(
-        pts, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_iter, adaptive=bool(adaptive),
-        progress=progress,
-    )  # fmt: skip
+    with threads_for(pts.shape[0]):
+        _, idx, k_def, _ = _neighbourhoods(pts, radius_factor, K_WIDTH if adaptive else 0)
+        out, k_of, fallback = _filter_steps(
+            pts, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_iter, adaptive=bool(adaptive),
+            progress=progress,
+        )  # fmt: skip
     return NormalFilterResult(
         normals=out,
         k=k_of,
@@ -224,7 +261,7 @@ def filter_normals(
 
 def normal_voting_denoise(
     points,
-    normals,
+    normals=None,
     *,
     rho: float = 0.9,
     tau: float = 0.3,
@@ -234,6 +271,7 @@ def normal_voting_denoise(
     max_step: float = 0.5,
     sharpen: bool = False,
     radius_factor: float = RADIUS_FACTOR,
+    normal_k: int = 20,
     progress=None,
 ) -> DenoiseResult:
     """Denoise points: normal voting filtering, feature classes and a restricted quadric update.
@@ -242,8 +280,12 @@ def normal_voting_denoise(
     ----------
     points : array_like of shape (N, 3), float64
         Noisy positions, N > 7.
-    normals : array_like of shape (N, 3), float64
-        Oriented normals of the noisy points (e.g. estimated and oriented).
+    normals : array_like of shape (N, 3), float64, optional
+        Oriented normals of the noisy points. None: PCA normals over ``normal_k``
+        neighbours, oriented by `pointatlas.normals.orient_normals` (MST,
+        outward; its default 10 neighbours), both from the first neighbour table
+        (the same normals as `estimate_normals` and `orient_normals` on a fresh
+        ``normal_k``-NN table, without the extra query).
     rho, tau : float
         Filter cut-off and eigenvalue threshold (`filter_normals`); tau also
         separates faces, edges and corners.
@@ -267,6 +309,8 @@ def normal_voting_denoise(
         docs/decisions/denoise.md); off, every point moves along its own normal.
     radius_factor : float
         Default neighbourhood radius in units of l.
+    normal_k : int
+        Neighbours of the estimated normals (only when ``normals`` is None; 20).
     progress : callable, optional
         Called with 1 after every filter step.
 
@@ -305,11 +349,16 @@ def normal_voting_denoise(
     >>> bool(abs(r.points[:, 2]).mean() < abs(noisy[:, 2]).mean())
     True
     """
-    pts, nrm, rho, tau, radius_factor = _check_common(points, normals, rho, tau, radius_factor)
+    estimate = normals is None
+    pts, nrm, rho, tau, radius_factor = _check_common(
+        points, normals, rho, tau, radius_factor, optional=True
+    )
     n_iter = as_int(n_iter, "n_iter", lo=0)
     n_filter_iter = as_int(n_filter_iter, "n_filter_iter", lo=0)
     max_step = as_float(max_step, "max_step", lo=0.0)
+    normal_k = min(as_int(normal_k, "normal_k", lo=3), pts.shape[0])
     adaptive = bool(adaptive)
+    extra = K_WIDTH if adaptive else 0
     n = pts.shape[0]
     ell = None
     cur = pts.copy()
@@ -317,22 +366,29 @@ def normal_voting_denoise(
     klass = np.ones(n, dtype=np.int64)
     k_of = np.zeros(n, dtype=np.int64)
     fallback = np.zeros(n, dtype=bool)
-    for _ in range(n_iter):
-        idx, k_def, spacing = default_neighbourhoods(
-            cur, radius_factor=radius_factor, extra=K_WIDTH if adaptive else 0
-        )
-        if ell is None:  # l of the input, from the first table (no extra query)
-            ell = spacing
-        nrm, k_of, fallback = _filter_steps(
-            cur, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_filter_iter, adaptive=adaptive,
-            progress=progress,
-        )  # fmt: skip
-        quadric_update_kernel(
-            cur, nrm, idx, k_def, rho, tau, max_step * ell, bool(sharpen), nxt, klass
-        )
-        cur, nxt = nxt, cur
-    if ell is None:
-        ell = mean_spacing(pts, 6)
+    width = None  # the first query is full width; with estimate=True it also serves
+    table = None  # the normals (its first normal_k columns)
+    with threads_for(n):
+        for it in range(n_iter):
+            table, idx, k_def, spacing = _neighbourhoods(cur, radius_factor, extra, width)
+            if ell is None:  # l of the input, from the first table (no extra query)
+                ell = spacing
+            if it == 0 and estimate:
+                nrm = _estimated_normals(cur, table, normal_k)
+            # the next table is a few columns wider than this one's need (checked, exact)
+            width = int(k_def.max()) + extra + _WIDTH_MARGIN
+            nrm, k_of, fallback = _filter_steps(
+                cur, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_filter_iter, adaptive=adaptive,
+                progress=progress,
+            )  # fmt: skip
+            quadric_update_kernel(
+                cur, nrm, idx, k_def, rho, tau, max_step * ell, bool(sharpen), nxt, klass
+            )
+            cur, nxt = nxt, cur
+        if ell is None:
+            ell = mean_spacing(pts, 6)
+        if estimate and table is None:  # n_iter = 0: the normals are still wanted
+            nrm = _estimated_normals(pts, None, normal_k)
     if not np.isfinite(cur).all():
         raise PointAtlasError("normal voting denoising produced non-finite points")
     return DenoiseResult(
