@@ -256,3 +256,23 @@ def test_cloudsurface_report_shows_the_clouds_and_the_complex(tmp_path):
     assert [f["name"] for f in data["points"]["fields"]] == ["n_clouds"]
     assert data["meshes"]
     assert f"data-value='{summary['n_clouds']}'" in text
+
+
+def test_denoise_report_shows_result_input_and_measures(tmp_path):
+    from pointatlas import data
+    from pointatlas.io import write_mesh
+
+    clean = write_mesh(tmp_path / "cube.obj", data.load_mesh("synth:cube"))
+    out, report = tmp_path / "d.ply", tmp_path / "d.html"
+    res = runner.invoke(
+        app, ["denoise", "synth:cube", str(out), "--clean", str(clean), "--report", str(report)]
+    )
+    assert res.exit_code == 0, res.output
+    summary = json.loads((tmp_path / "d_denoise.json").read_text())
+    assert any(f["path"] == "d.html" for f in summary["files"])
+    text = report.read_text()
+    views = view_payloads(text)
+    assert len(views) == 2  # the result, then the input
+    assert "displacement" in [f["name"] for f in views[0]["points"]["fields"]]
+    chamfer = summary["measures_denoised"]["chamfer"]
+    assert f"data-value='{chamfer!r}'" in text

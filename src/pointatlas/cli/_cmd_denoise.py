@@ -25,6 +25,7 @@ from ..denoise import (
     normal_voting_denoise,
 )
 from ._app import app, console, guarded, progress_bar, read_with_normals, say
+from ._cmd_core import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 from ._outputs import check_outputs, check_point_output, write_point_output, write_summary_json
 
 __all__ = ["denoise_command", "read_clean", "summary_path"]
@@ -115,6 +116,35 @@ def _print_measures(before: dict, after: dict) -> None:
     console.print(table)
 
 
+def _html_report(path, input_path, ps, out_ps, ours, summary, written):
+    """The HTML report: numbers, measures, the picture, the input beside the result."""
+    from ..viz import ReportSection, write_report
+
+    tables = {
+        "result": {
+            k: v for k, v in summary.items() if isinstance(v, int | float | str | bool)
+        }
+    }
+    for key in ("measures_input", "measures_denoised"):
+        if key in summary:
+            tables[key.replace("_", " ")] = summary[key]
+    import dataclasses
+
+    input_layer = dataclasses.replace(report_layer(ps, {}), name="input")
+    result_layer = dataclasses.replace(report_layer(out_ps, dict(ours)), name="denoised")
+    return write_report(
+        path,
+        title=f"pointatlas denoise: {Path(str(input_path)).name}",
+        summary=report_summary(input_path, ps),
+        parameters={"method": summary["method"], **summary["parameters"]},
+        tables=tables,
+        pictures=[p for p in written if Path(p).suffix.lower() == ".png"],
+        layers=[result_layer],
+        sections=[ReportSection("the input", layers=[input_layer])],
+        up=report_up(input_path),
+    )
+
+
 @app.command("denoise")
 @guarded
 def denoise_command(
@@ -181,6 +211,12 @@ def denoise_command(
     render: Annotated[
         Path | None, typer.Option("--render", help="Also write a PNG: input beside result.")
     ] = None,
+    report: Annotated[
+        Path | None,
+        typer.Option(
+            "--report", help="Also write an HTML report with a 3-D view of input and result."
+        ),
+    ] = None,
 ):
     """Denoise a point set: normal voting with adaptive k (thesis 5.4) or flatness (Eq. 6.3).
 
@@ -197,6 +233,7 @@ def denoise_command(
             ("OUT", output, POINT_WRITE_EXTENSIONS),
             ("OUT's summary", json_path, None),
             ("--render", render, (".png",)),
+            ("--report", report, REPORT_EXTENSIONS),
         ],
     )
     if method not in DENOISE_METHODS:
@@ -305,6 +342,8 @@ def denoise_command(
                 title=f"{ps.name}: denoised ({res.method}, {res.n_iter} iterations)",
             )
         )
+    if report is not None:
+        written.append(_html_report(report, input_path, ps, out_ps, ours, summary, written))
     write_summary_json(json_path, summary, written)
     console.print(
         f"{res.method}: {n:,} points, {res.n_iter} iterations, mean move "
