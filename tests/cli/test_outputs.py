@@ -20,20 +20,13 @@ from typer.testing import CliRunner
 from pointatlas.cli import app
 from pointatlas.io import read_point_set, write_mesh, write_point_set
 
+from .test_core import assert_user_error
+
 runner = CliRunner()
 
 
 def run(*args, **kw):
     return runner.invoke(app, [str(a) for a in args], **kw)
-
-
-def assert_user_error(result, *fragments):
-    assert result.exit_code == 1, result.output
-    text = result.stderr.strip()
-    assert len(text.splitlines()) == 1, text
-    assert text.startswith("error:"), text
-    for fragment in fragments:
-        assert fragment in text, text
 
 
 def sphere(n=400, seed=0):

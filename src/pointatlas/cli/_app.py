@@ -12,6 +12,7 @@ import signal
 import sys
 import threading
 from collections.abc import Callable
+from typing import Annotated
 
 import numpy as np
 import typer
@@ -31,6 +32,8 @@ from .._core._interrupt import clear_interrupt, interrupt_requested, request_int
 
 __all__ = [
     "DEMO_STEPS",
+    "EstimateNormalsOption",
+    "NormalKOption",
     "app",
     "console",
     "data_app",
@@ -220,6 +223,21 @@ def angle_deg_option(value, flag: str, *, lo: float = 0.0, hi: float = 180.0):
     if value is None:
         return None
     return as_float(value, flag, lo=lo, hi=hi, what="angle", unit="degrees")
+
+
+#: ``--estimate-normals/--no-estimate-normals`` of every command that needs normals
+#: (see `read_with_normals`); the same flag and help everywhere.
+EstimateNormalsOption = Annotated[
+    bool | None,
+    typer.Option(
+        "--estimate-normals/--no-estimate-normals",
+        help="Estimate (PCA) and orient normals first; default: only when the input has none "
+        "(normals the input has are kept as input_normals when re-estimated).",
+        show_default=False,
+    ),
+]
+#: ``--normal-k``: neighbours of the estimated normals.
+NormalKOption = Annotated[int, typer.Option("--normal-k", help="Neighbours for estimated normals.")]
 
 
 def parse_seeds(text: str):

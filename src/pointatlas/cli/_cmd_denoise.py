@@ -24,7 +24,16 @@ from ..denoise import (
     flatness_denoise,
     normal_voting_denoise,
 )
-from ._app import app, console, guarded, progress_bar, read_with_normals, say
+from ._app import (
+    EstimateNormalsOption,
+    NormalKOption,
+    app,
+    console,
+    guarded,
+    progress_bar,
+    read_with_normals,
+    say,
+)
 from ._cmd_core import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 from ._outputs import check_outputs, check_point_output, write_point_output, write_summary_json
 
@@ -121,9 +130,7 @@ def _html_report(path, input_path, ps, out_ps, ours, summary, written):
     from ..viz import ReportSection, write_report
 
     tables = {
-        "result": {
-            k: v for k, v in summary.items() if isinstance(v, int | float | str | bool)
-        }
+        "result": {k: v for k, v in summary.items() if isinstance(v, int | float | str | bool)}
     }
     for key in ("measures_input", "measures_denoised"):
         if key in summary:
@@ -197,17 +204,8 @@ def denoise_command(
         Path | None,
         typer.Option("--clean", help="Clean mesh (or point set): print and record the measures."),
     ] = None,
-    estimate: Annotated[
-        bool | None,
-        typer.Option(
-            "--estimate-normals/--no-estimate-normals",
-            help="Estimate (PCA) and orient normals first; default: only when the input has none.",
-            show_default=False,
-        ),
-    ] = None,
-    normal_k: Annotated[
-        int, typer.Option("--normal-k", help="Neighbours for estimated normals.")
-    ] = 20,
+    estimate: EstimateNormalsOption = None,
+    normal_k: NormalKOption = 20,
     render: Annotated[
         Path | None, typer.Option("--render", help="Also write a PNG: input beside result.")
     ] = None,

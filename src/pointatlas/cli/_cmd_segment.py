@@ -19,6 +19,8 @@ import typer
 from .._core import PointAtlasError
 from ..segment import region_growing, vsa_segment
 from ._app import (
+    EstimateNormalsOption,
+    NormalKOption,
     angle_deg_option,
     app,
     console,
@@ -198,18 +200,8 @@ def segment_command(
     min_cluster_size: Annotated[
         int, typer.Option("--min-cluster-size", help="Region growing: smallest region kept.")
     ] = 1,
-    estimate: Annotated[
-        bool | None,
-        typer.Option(
-            "--estimate-normals/--no-estimate-normals",
-            help="Estimate (PCA) and orient normals first; default: only when the input has "
-            "none (the input's normals are kept as input_normals).",
-            show_default=False,
-        ),
-    ] = None,
-    normal_k: Annotated[
-        int, typer.Option("--normal-k", help="Neighbours for estimated normals.")
-    ] = 20,
+    estimate: EstimateNormalsOption = None,
+    normal_k: NormalKOption = 20,
     render: Annotated[
         Path | None, typer.Option("--render", help="Also write a PNG picture.")
     ] = None,

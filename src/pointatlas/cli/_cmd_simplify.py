@@ -21,6 +21,8 @@ from ..io import write_mesh
 from ..simplify import SimplifyWarning, simplify_points
 from . import _exp_simplify  # noqa: F401  (registers ``experiment simplify``)
 from ._app import (
+    EstimateNormalsOption,
+    NormalKOption,
     angle_deg_option,
     app,
     console,
@@ -366,18 +368,8 @@ def simplify_command(
         bool, typer.Option("--repair/--no-repair", help="Merge regions that cannot be meshed.")
     ] = True,
     smooth: Annotated[int, typer.Option("--smooth", help="Label majority-filter passes.")] = 2,
-    estimate: Annotated[
-        bool | None,
-        typer.Option(
-            "--estimate-normals/--no-estimate-normals",
-            help="Estimate (PCA) and orient normals first; default: only when the input has "
-            "none.",
-            show_default=False,
-        ),
-    ] = None,
-    normal_k: Annotated[
-        int, typer.Option("--normal-k", help="Neighbours for estimated normals.")
-    ] = 20,
+    estimate: EstimateNormalsOption = None,
+    normal_k: NormalKOption = 20,
     triangles: Annotated[
         Path | None, typer.Option("--triangles", help="Also write the triangulated mesh here.")
     ] = None,

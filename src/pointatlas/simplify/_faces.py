@@ -37,6 +37,15 @@ def _signed_area(xy):
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
+def plane_deviation(pts: np.ndarray) -> float:
+    """Largest distance of points to their least-squares plane (0 for three or fewer)."""
+    if pts.shape[0] <= 3:
+        return 0.0
+    c = pts - pts.mean(axis=0)
+    _, _, vt = np.linalg.svd(c, full_matrices=False)
+    return float(np.max(np.abs(c @ vt[-1])))
+
+
 def _inside(pt, poly):
     """Even-odd point-in-polygon test (2-D)."""
     x, y = pt

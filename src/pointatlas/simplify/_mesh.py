@@ -12,7 +12,7 @@ from .._core import PointAtlasError, as_labels, as_normals, as_points, readonly
 from ..complex import SurfaceComplex
 from ..neighbors import query_knn
 from ._checks import check_memory, check_size, usable_normals
-from ._faces import general_faces, star_faces
+from ._faces import general_faces, plane_deviation, star_faces
 from ._frame import frame_of
 from ._kernels import point_triangle_distances
 from ._proxies import check_not_parallel, region_proxies
@@ -317,12 +317,7 @@ def point_mesh_distance(points, vertices, triangles) -> np.ndarray:
 
 
 def _planarity(vertices, loops):
-    pts = vertices[np.concatenate(loops)]
-    if pts.shape[0] <= 3:
-        return 0.0
-    c = pts - pts.mean(axis=0)
-    _, _, vt = np.linalg.svd(c, full_matrices=False)
-    return float(np.max(np.abs(c @ vt[-1])))
+    return plane_deviation(vertices[np.concatenate(loops)])
 
 
 def _check_choice(value, name, choices):

@@ -34,6 +34,7 @@ from ._arcs import (
     simplify_arc,
     split_arcs,
 )
+from ._faces import _signed_area, plane_deviation
 
 __all__ = ["SurfaceSimplification", "simplify_surface"]
 
@@ -260,11 +261,6 @@ def _basis(normal):
     return u, np.cross(normal, u)
 
 
-def _signed_area(xy):
-    x, y = xy[:, 0], xy[:, 1]
-    return 0.5 * float(x @ np.roll(y, -1) - np.roll(x, -1) @ y)
-
-
 def _segments_cross(xy_loops) -> bool:
     """True when two edges of the loops (not sharing an end) touch or cross."""
     segs, ids = [], []
@@ -369,14 +365,6 @@ def _vertex_label_count(s: _Surface, labels: np.ndarray) -> np.ndarray:
     on_border = np.zeros(n, dtype=bool)
     on_border[open_edges.reshape(-1)] = True
     return count + on_border
-
-
-def _planarity(pts: np.ndarray) -> float:
-    if pts.shape[0] <= 3:
-        return 0.0
-    c = pts - pts.mean(axis=0)
-    _, _, vt = np.linalg.svd(c, full_matrices=False)
-    return float(np.max(np.abs(c @ vt[-1])))
 
 
 def _plane_offsets(s: _Surface, labels: np.ndarray, normals: np.ndarray) -> np.ndarray:
@@ -607,7 +595,7 @@ def simplify_surface(
         else:
             polygons.append(lps[0].copy())
             polygon_face.append(r)
-        planarity.append(_planarity(out_v[np.unique(mine)]))
+        planarity.append(plane_deviation(out_v[np.unique(mine)]))
     closed, manifold, oriented = mesh_checks(out_v.shape[0], out_t)
     und = np.sort(np.concatenate([out_t[:, [0, 1]], out_t[:, [1, 2]], out_t[:, [2, 0]]]), 1)
     n_edges = np.unique(und, axis=0).shape[0]
