@@ -1,12 +1,16 @@
 """Point denoising against Open3D's and CGAL's point-set smoothers (one run, same inputs).
 
 Inputs: the noisy/clean pairs of ``../shared/data/models/noisy`` (noisy mesh vertices,
-clean mesh), CAD models with 1 %, 2 %, 3 % Gaussian noise of the bounding-sphere
-radius (the literature's protocol), and optionally a 100,000-point noisy scene
-(``benchmarks/scene.py``; no mesh there). Every
+clean mesh), CAD models and one organic model (fertility) with 1 %, 2 %, 3 % Gaussian
+noise of the bounding-sphere radius (the literature's protocol), and optionally a
+100,000-point noisy scene (``benchmarks/scene.py``; no mesh there). Every
 method gets the raw noisy points: ours estimates and orients PCA normals first
-(timed), peers use their own. Normal MSE: ours its filtered normals; peers PCA
-normals (k = 20) of their output; all signed like the clean normals.
+(timed), peers use their own. Normal MSE: ours its filtered normals (column
+``nMSE``) and PCA normals (k = 20) of its output (``pca``); peers PCA normals of
+their output; all signed like the clean normals. ``edge5``: on mesh inputs, the
+share of face points (all incident triangles within 1 degree) within 2 l of a
+feature vertex (incident triangles more than 30 degrees apart) whose normal is
+within 5 degrees of the clean one (the issue's "sharp edges kept").
 
     python benchmarks/bench_denoise.py [--data ../shared/data] [--no-scene]
         [--inputs NAME,...] [--methods WORD,...] [--repeat R] [--flatness] [--out FILE.json]
@@ -37,6 +41,7 @@ from pointatlas.denoise import (
     add_noise,
     denoise_measures,
     flatness_denoise,
+    normal_mse,
     normal_voting_denoise,
     unit_sphere_transform,
 )
@@ -53,7 +58,8 @@ NOISY_PAIRS = {
     "twelve_impulsive_0.5": ("noisy/twelve_4610_noisy_impulsive_0_5.obj", "twelve_4610.obj"),
 }
 CAD_MODELS = ("fandisk_6475.obj", "block_2132.obj", "synth:cube_1538")
-ORGANIC = {"fertility_4494.off", "sharp_sphere_0.3"}
+ORGANIC_MODELS = ("fertility_4494.off",)
+ORGANIC = {"fertility_4494", "sharp_sphere_0.3"}
 
 
 # ----------------------------------------------------------------------------- peers
@@ -195,7 +201,7 @@ def inputs(data: Path):
         nv, _ = _mesh(data / "models" / noisy)
         cv, cf = _mesh(data / "models" / clean)
         yield name, nv, cv, cf, vertex_normals(cv, cf)
-    for model in CAD_MODELS:
+    for model in CAD_MODELS + ORGANIC_MODELS:
         cv, cf = _mesh(model if model.startswith("synth") else data / "models" / model)
         cn = vertex_normals(cv, cf)
         radius = float(np.sqrt(((cv - cv.mean(axis=0)) ** 2).sum(axis=1).max()))
@@ -204,17 +210,48 @@ def inputs(data: Path):
             yield f"{Path(model).stem}_{pct}%", noisy, cv, cf, cn
 
 
+def _near_edge_faces(cv, cf):
+    """Face vertices (incident triangles within 1 degree) within 2 l of a feature
+    vertex (incident triangles more than 30 degrees apart)."""
+    from scipy.spatial import cKDTree
+
+    fn = np.cross(cv[cf[:, 1]] - cv[cf[:, 0]], cv[cf[:, 2]] - cv[cf[:, 0]])
+    fn /= np.linalg.norm(fn, axis=1)[:, None]
+    lo = np.full((len(cv), 3), np.inf)
+    hi = np.full((len(cv), 3), -np.inf)
+    for c in range(3):  # per-vertex box of incident face normals, then its diagonal
+        np.minimum.at(lo, cf[:, c], fn)
+        np.maximum.at(hi, cf[:, c], fn)
+    spread = np.linalg.norm(hi - lo, axis=1)  # ~ angle (rad) between incident normals
+    feature = spread > np.radians(30)
+    flat = spread < np.radians(1)
+    if not feature.any():
+        return np.zeros(len(cv), dtype=bool)
+    d = cKDTree(cv[feature]).query(cv)[0]
+    return flat & (d <= 2 * mean_spacing(cv, 6))
+
+
 def _measure(points, normals, cv, cf, cn):
-    if normals is None:
-        normals = estimate_normals(points, 20)
-    if len(points) == len(cv) and cn is not None:
+    """Measures of one output; ``normals`` None: PCA normals (k = 20) of the output."""
+    pca = estimate_normals(points, 20)
+    mine = normals
+    normals = pca if normals is None else normals
+    same = len(points) == len(cv) and cn is not None
+    if same:
         # every method's normals signed like the clean ones: orientation is not
         # what the denoisers are compared on (ours come from orient_normals)
-        normals = np.where(((normals * cn).sum(axis=1) < 0)[:, None], -normals, normals)
-    else:
-        normals = None
-    m = denoise_measures(points, cv, normals=normals, clean_normals=cn, clean_faces=cf).as_dict()
-    if cf is None and cn is not None and len(points) == len(cv):
+        normals, pca = (np.where(((x * cn).sum(axis=1) < 0)[:, None], -x, x)
+                        for x in (normals, pca))  # fmt: skip
+    m = denoise_measures(
+        points, cv, normals=normals if same else None, clean_normals=cn, clean_faces=cf
+    ).as_dict()
+    if mine is not None and same:  # ours: also PCA normals of the output
+        m["normal_mse_pca"] = normal_mse(pca, cn)
+    if cf is not None and same:
+        near = _near_edge_faces(cv, cf)
+        cos = np.clip((normals[near] * cn[near]).sum(axis=1), -1.0, 1.0)
+        m["edge5"] = float((np.degrees(np.arccos(cos)) < 5.0).mean()) if near.any() else np.nan
+    if cf is None and same:
         # no mesh: distance to the corresponding clean point's tangent plane, unit sphere
         radius = unit_sphere_transform(cv)[1]
         m["p2m_mean_unit"] = float(np.abs(((points - cv) * cn).sum(axis=1)).mean() / radius)
@@ -235,8 +272,10 @@ def _print_rows(rows, name):
             parts = [f"{r['seconds'] / sec:.1f}x MLS {lab.split('(')[1][:-1]}"
                      for lab, sec in sorted(mls.items()) if sec > 0]  # fmt: skip
             ratio = " (" + ", ".join(parts) + ")"
+        pca = f" (pca {r['normal_mse_pca']:.4f})" if "normal_mse_pca" in r else ""
+        edge = f" edge5 {r['edge5']:.3f}" if "edge5" in r else ""
         print(f"{name:22s} {r['method']:42s} CD {r['chamfer']:.3e} "
-              f"p2m {r['p2m_mean_unit']:.3e} nMSE {r['normal_mse']:.4f} "
+              f"p2m {r['p2m_mean_unit']:.3e} nMSE {r['normal_mse']:.4f}{pca}{edge} "
               f"{r['seconds']:.3f} s{ratio}", flush=True)  # fmt: skip
 
 

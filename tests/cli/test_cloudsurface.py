@@ -102,27 +102,6 @@ def test_cloudsurface_offsets_at_one_scale_find_the_planar_patch(tmp_path):
     assert res.exit_code == 1 and "--accept must be closed or open" in res.output
 
 
-def test_experiment_cloudsurfaces_writes_every_figure_and_the_routed_shares(tmp_path):
-    from pointatlas.cli._exp_cloudsurfaces import FIGURES
-
-    res = _run(["experiment", "cloudsurfaces", "--out", tmp_path / "e"])
-    assert res.exit_code == 0, res.output
-    summary = json.loads((tmp_path / "e" / "summary.json").read_text())
-    names = {f["path"] for f in summary["files"]}
-    assert names == {*FIGURES, "cloudsurfaces.csv"}
-    assert summary["routed_share"]["2.20"] == 1.0
-    assert summary["routed_share"]["2.21"] >= 0.998
-    rows = {(r["figure"], r["quantity"]): r["ours"] for r in summary["rows"]}
-    assert rows[("2.2", "eta1 delta_h at pi + alpha/2, c = 1")] == 0.5  # c / (c + 1)
-    assert rows[("2.2", "eta2 delta_h at pi + alpha/2, c = 2")] == round(1 / 3, 6)
-    crossing = rows[("2.14", "vertices of degree != 2 (the crossing at 0) / chi")]
-    assert crossing == "1 (degree 4) / -1"
-    assert all(r["ours"].split(" / ")[1] == "True" for r in summary["rows"]
-               if r["figure"] == "2.9")  # the complex equals the cube mesh
-    sph = rows[("2.17", "noisy sphere: chosen s / clouds / closed / chi / genus")]
-    assert sph.split(" / ")[2:] == ["True", "2", "0"]
-
-
 def test_from_mesh_defaults_are_valid_for_every_model(tmp_path):
     """eta2 needs c >= 1: its default is the thesis' c = 1 (Fig. 2.8), eta1's c = 0."""
     for model in ("eta1", "eta2", "eta3"):

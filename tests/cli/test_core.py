@@ -8,34 +8,11 @@ import re
 import numpy as np
 import pytest
 from PIL import Image
-from typer.testing import CliRunner
 
-from pointatlas.cli import app
 from pointatlas.cli._app import DEMO_STEPS
-from pointatlas.io import read_mesh, read_point_set, write_mesh, write_point_set
+from pointatlas.io import read_mesh, read_point_set, write_point_set
 
-runner = CliRunner()
-
-
-def run(*args):
-    return runner.invoke(app, [str(a) for a in args])
-
-
-def assert_user_error(result, *fragments):
-    """Exit 1, one line on stderr, no traceback."""
-    assert result.exit_code == 1, result.output
-    text = result.stderr.strip()
-    assert len(text.splitlines()) == 1, text
-    assert "Traceback" not in result.output
-    assert text.startswith("error:")
-    for fragment in fragments:
-        assert fragment in text, text
-
-
-def sphere_points(n=300, seed=0):
-    rng = np.random.default_rng(seed)
-    p = rng.normal(size=(n, 3))
-    return p / np.linalg.norm(p, axis=1, keepdims=True)
+from .helpers import assert_user_error, run, sphere_points, write_unit_cube_obj
 
 
 @pytest.fixture
@@ -51,11 +28,7 @@ def sphere_ply(tmp_path):
 @pytest.fixture
 def cube_obj(tmp_path):
     """The unit cube as a quad mesh (polygon faces)."""
-    v = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
-    faces = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
-    path = tmp_path / "cube.obj"
-    write_mesh(path, v, faces)
-    return path
+    return write_unit_cube_obj(tmp_path / "cube.obj")
 
 
 # --------------------------------------------------------------------------- info
@@ -83,7 +56,7 @@ def test_info_json_values(sphere_ply, tmp_path):
     assert info["knn_components"] >= 2  # the far point is its own component
     assert info["faces"] is None and info["normals"] is False
     assert info["bbox_max"] == [10.0, 10.0, 10.0]
-    # GUIDE's l: mean distance to the 12 nearest (independent numpy check)
+    # l: mean distance to the 12 nearest (independent numpy check)
     from scipy.spatial import cKDTree
 
     all_pts = np.vstack([pts, pts, [[10.0, 10.0, 10.0]]])
@@ -282,8 +255,7 @@ def test_demo_bad_out(tmp_path):
 
 
 def test_component_sizes_match_neighbors_reference():
-    from pointatlas.cli._cmd_core import knn_component_sizes
-    from pointatlas.neighbors import knn_components, query_knn
+    from pointatlas.neighbors import knn_component_sizes, knn_components, query_knn
 
     rng = np.random.default_rng(5)
     # three separated blobs plus isolated points: several components
@@ -293,7 +265,7 @@ def test_component_sizes_match_neighbors_reference():
     )
     for k in (2, 4, 8):
         idx, _ = query_knn(pts, k)
-        n_ref, labels = knn_components(pts, k, indices=idx)
+        n_ref, labels = knn_components(pts, k, neighbors=idx)
         sizes = knn_component_sizes(idx)
         assert sizes.size == n_ref
         assert sorted(sizes.tolist()) == sorted(np.bincount(labels).tolist())

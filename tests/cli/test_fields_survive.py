@@ -92,3 +92,28 @@ def test_every_command_keeps_every_input_field(name, tmp_path):
                         normals = np.column_stack([np.asarray(after[d]) for d in names])
                     # stored normals are rescaled to unit length on reading (<= 1 ulp)
                     np.testing.assert_allclose(normals, given.normals, rtol=0, atol=4e-16)
+
+
+def test_chained_normal_estimates_keep_every_earlier_normal(tmp_path):
+    """Re-estimating normals on a file that already holds ``input_normals_0..2`` (a PLY
+    written by an earlier run) keeps both sets: the new copy is ``pa_`` prefixed."""
+    first = tmp_path / "a.ply"
+    assert runner.invoke(app, ["normals", "fandisk", str(first), "--k", "10"]).exit_code == 0
+    stages = [first]
+    for step, args in enumerate(
+        (["normals", "--k", "10"], ["segment", "--estimate-normals", "--max-angle-deg", "20"])
+    ):
+        out = tmp_path / f"s{step}.ply"
+        done = runner.invoke(app, [args[0], str(stages[-1]), str(out), *args[1:]])
+        assert done.exit_code == 0, done.output
+        stages.append(out)
+    before = read_point_set(stages[1])
+    after = read_point_set(stages[2])
+    for key, value in before.attributes.items():
+        np.testing.assert_array_equal(after.attributes[key], value)
+    for prefix in ("input_normals", "pa_input_normals", "pa_pa_input_normals"):
+        assert {f"{prefix}_{j}" for j in range(3)} <= set(after.attributes)
+    np.testing.assert_array_equal(
+        np.column_stack([after.attributes[f"pa_pa_input_normals_{j}"] for j in range(3)]),
+        before.normals,
+    )

@@ -15,24 +15,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
 
-from pointatlas.cli import app
-from pointatlas.io import read_point_set, write_mesh, write_point_set
+from pointatlas.io import read_point_set, write_point_set
 
-from .test_core import assert_user_error
-
-runner = CliRunner()
-
-
-def run(*args, **kw):
-    return runner.invoke(app, [str(a) for a in args], **kw)
+from .helpers import assert_user_error, run, sphere_points, write_unit_cube_obj
 
 
 def sphere(n=400, seed=0):
-    rng = np.random.default_rng(seed)
-    p = rng.normal(size=(n, 3))
-    return p / np.linalg.norm(p, axis=1, keepdims=True)
+    return sphere_points(n, seed)
 
 
 @pytest.fixture
@@ -58,11 +48,7 @@ def scan_ply(tmp_path):
 
 @pytest.fixture
 def cube_obj(tmp_path):
-    v = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
-    faces = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
-    path = tmp_path / "cube.obj"
-    write_mesh(path, v, faces)
-    return path
+    return write_unit_cube_obj(tmp_path / "cube.obj")
 
 
 def digest(path: Path) -> str:
@@ -120,11 +106,13 @@ def test_two_outputs_that_are_the_same_file_are_refused(tmp_path):
         ["segment", "{ply}", "{tmp}/seg.ply", "--render", "/nonexistent-dir/x.png"],
         ["simplify", "synth:cube", "{tmp}/seg.obj", "--report", "/nonexistent-dir/r.json"],
         ["simplify", "synth:cube", "{tmp}/seg.obj", "--render", "{tmp}/x.jpg"],
-        ["features", "{ply}", "{tmp}/seg.ply", "--render", "/nonexistent-dir/figs"],
+        ["features", "{ply}", "{tmp}/seg.ply", "--render", "/nonexistent-dir/figs.png"],
+        ["features", "{ply}", "{tmp}/seg.ply", "--render", "{tmp}/figs"],
         ["normals", "{ply}", "/nonexistent-dir/seg.ply"],
         ["segment", "{ply}", "{tmp}/seg.obj"],
     ],
-    ids=["jpg", "nodir-png", "nodir-report", "simplify-jpg", "features-nodir", "normals", "ext"],
+    ids=["jpg", "nodir-png", "nodir-report", "simplify-jpg", "features-nodir", "features-folder",
+         "normals", "ext"],
 )
 def test_bad_output_locations_fail_before_any_work(scan_ply, tmp_path, args):
     args = [a.format(ply=scan_ply, tmp=tmp_path) for a in args]
@@ -146,11 +134,8 @@ def test_read_only_folder_is_refused_before_work(scan_ply, tmp_path):
         folder.chmod(0o700)
 
 
-def test_output_folder_option_needs_an_existing_parent(scan_ply, tmp_path):
-    assert_user_error(
-        run("features", scan_ply, tmp_path / "f.ply", "--render", tmp_path / "a" / "b"),
-        "folder does not exist",
-    )
+def test_output_folder_option_needs_an_existing_parent(tmp_path):
+    assert_user_error(run("demo", "--out", tmp_path / "a" / "b"), "folder does not exist")
     assert not (tmp_path / "a").exists()
 
 
@@ -423,12 +408,3 @@ def test_too_few_points_name_the_user_facing_option(tmp_path):
     )
     result = run("simplify", src, tmp_path / "o.obj", "--k", "4")
     assert_user_error(result, "--normal-k")
-
-
-def test_experiment_vsa_on_an_obj_without_faces_says_what_is_missing(tmp_path):
-    from pointatlas.cli._exp_vsa import vsa_model
-
-    src = tmp_path / "pts.obj"
-    src.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n")
-    with pytest.raises(Exception, match="needs normals"):
-        vsa_model(str(src), np.random.default_rng(0))

@@ -15,6 +15,7 @@ from pointatlas.cover import (
     search_cover_scale,
 )
 from pointatlas.synth import fibonacci_sphere
+from tests.jit_off import JIT_OFF, run_module_without_jit
 
 from .reference import cubic_membership_reference, tiling_membership_reference
 
@@ -112,16 +113,9 @@ def test_tiling_kernel_matches_reference():
             assert codes[p, : counts[p]].tolist() == want
 
 
+@pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
 def test_kernels_without_jit():
-    from tests.jit_off import run_without_jit
-
-    script = (
-        "import numpy as np\n"
-        "from tests.cover.test_cover import test_cubic_kernel_matches_reference as a\n"
-        "from tests.cover.test_cover import test_tiling_kernel_matches_reference as b\n"
-        "a(); b(); print('ok')\n"
-    )
-    assert run_without_jit(script).strip() == "ok"
+    run_module_without_jit(__file__, select="kernel_matches_reference")
 
 
 def test_algorithm2_clouds_are_the_non_empty_balls():

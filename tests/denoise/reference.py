@@ -120,6 +120,23 @@ def quadric_update(points, normals, idx, k_of, cos_rho, tau, max_step, sharpen=T
     return out, klass
 
 
+def plane_update(points, normals, idx, k_of, cos_rho, max_step, sigma):
+    """Each point along its normal by the weighted least squares over the planes
+    (n_i + n_j) . (x - p_j) = 0 of its neighbours with n_i . n_j >= cos_rho."""
+    out = points.copy()
+    for i in range(len(points)):
+        nb = idx[i, : k_of[i]]
+        nb = nb[normals[nb] @ normals[i] >= cos_rho]
+        d = points[nb] - points[i]
+        w = np.exp(-(d**2).sum(axis=1) / sigma**2)
+        m = normals[i] + normals[nb]
+        g = m @ normals[i]
+        a = float((w * g * g).sum())
+        s = float((w * g * (m * d).sum(axis=1)).sum()) / a if a > 0 else 0.0
+        out[i] = points[i] + min(max(s, -max_step), max_step) * normals[i]
+    return out
+
+
 def flatness_step(points, k, eta, eps, m1=8, m2=8):
     """Eq. 6.3 for every point with numpy eigh on the equal-weight covariance."""
     from scipy.spatial import cKDTree
@@ -143,69 +160,11 @@ def flatness_step(points, k, eta, eps, m1=8, m2=8):
 # --------------------------------------------------------------------------- previous pipeline
 
 
-def previous_neighbourhoods(pts, radius_factor=2.0, extra=0):
-    """`default_neighbourhoods` before the speed work: one full-width query."""
-    from pointatlas.neighbors import mean_spacing, query_knn
-
-    n = pts.shape[0]
-    kcap = min(48, n)
-    ncol = min(kcap + extra, n)
-    idx, dist = query_knn(pts, ncol)
-    ell = float(np.mean(dist[:, 1:7])) if ncol > 6 else mean_spacing(pts, 6)
-    inside = (dist[:, :kcap] <= radius_factor * ell).sum(axis=1)
-    k = np.clip(inside, min(7, n), kcap).astype(np.int64)
-    return np.ascontiguousarray(idx[:, : min(int(k.max()) + extra, ncol)]), k, ell
-
-
-def previous_normal_voting_denoise(points, normals=None, *, rho=0.9, tau=0.3, n_iter=2,
-                                   n_filter_iter=10, adaptive=True, max_step=0.5,
-                                   sharpen=False, radius_factor=2.0):  # fmt: skip
-    """`normal_voting_denoise` before the speed work (checked kernels, fresh queries).
-
-    Without normals: PCA normals (k = 20) oriented with `orient_normals` on one
-    20-NN table, as the benchmark did. Returns (points, normals, k, feature_class).
-    """
-    from pointatlas.denoise._kernels import (
-        adaptive_k_kernel,
-        quadric_update_kernel,
-        voting_filter_kernel,
-    )
-    from pointatlas.neighbors import query_knn
-    from pointatlas.normals import estimate_normals, orient_normals
-
-    pts = np.array(points, dtype=np.float64)
+def neighbourhoods(pts, radius_factor=2.0):
+    """k_i and l by brute force: l the mean distance to the 6 nearest others, k_i the
+    number of points within radius_factor * l (itself included), clamped to [7, 48]."""
     n = len(pts)
-    if normals is None:
-        knn = query_knn(pts, min(20, n))
-        nrm = orient_normals(pts, estimate_normals(pts, min(20, n), neighbors=knn), neighbors=knn)
-    else:
-        nrm = np.array(normals, dtype=np.float64)
-        nrm /= np.linalg.norm(nrm, axis=1)[:, None]
-    ell = None
-    cur = pts.copy()
-    klass = np.ones(n, dtype=np.int64)
-    k_of = np.zeros(n, dtype=np.int64)
-    for _ in range(n_iter):
-        idx, k_def, spacing = previous_neighbourhoods(cur, radius_factor, 10 if adaptive else 0)
-        ell = spacing if ell is None else ell
-        k_of = k_def.copy()
-        use_cut = np.ones(n, dtype=bool)
-        if adaptive:
-            k_lo = np.maximum(k_def - 10, 1).astype(np.int64)
-            k_hi = np.minimum(k_def + 10, idx.shape[1]).astype(np.int64)
-            best_k = np.empty(n, dtype=np.int64)
-            best_e = np.empty(n)
-            masks = np.full(n, -1, dtype=np.int64)
-        for _ in range(n_filter_iter):
-            if adaptive:
-                adaptive_k_kernel(cur, nrm, idx, k_lo, k_hi, rho, best_k, best_e, masks)
-                fallback = best_k < 0
-                k_of = np.where(fallback, k_def, best_k)
-                use_cut = ~fallback
-            out = np.empty_like(nrm)
-            voting_filter_kernel(nrm, idx, k_of, use_cut, rho, tau, out)
-            nrm = out
-        nxt = np.empty_like(cur)
-        quadric_update_kernel(cur, nrm, idx, k_def, rho, tau, max_step * ell, sharpen, nxt, klass)
-        cur = nxt
-    return cur, nrm, k_of, klass
+    d = np.sqrt(((pts[:, None, :] - pts[None, :, :]) ** 2).sum(axis=-1))
+    ell = float(np.sort(d, axis=1)[:, 1:7].mean())
+    k = np.clip((d <= radius_factor * ell).sum(axis=1), min(7, n), min(48, n))
+    return k.astype(np.int64), ell

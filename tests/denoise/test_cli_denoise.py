@@ -61,7 +61,8 @@ def test_auto_and_render_and_bundled_model(tmp_path):
               "--render", str(tmp_path / "o.png")],
     )  # fmt: skip
     assert res.exit_code == 0, res.output
-    assert "normal-voting-adaptive" in res.output and (tmp_path / "o.png").stat().st_size > 0
+    assert "normal-voting" in res.output and (tmp_path / "o.png").stat().st_size > 0
+    assert "normal-voting-adaptive" not in res.output  # auto: fixed neighbourhoods
 
 
 def test_bad_options_fail_before_work(files, tmp_path):

@@ -1,18 +1,13 @@
-"""The fast normal voting pipeline gives the previous implementation's output bit for bit.
-
-Speed work (docs/decisions/denoise.md, "Speed"): one table serves normal
-estimation, orientation and the first filter run; later tables are queried only
-as wide as the last need (checked); small inputs on a busy machine run every
-kernel in one thread.
-``tests/denoise/reference.py`` keeps the previous pipeline.
-"""
+"""The normal voting pipeline: one neighbour table, the symmetric plane update, the
+automatic stops, and the one-thread rule (docs/decisions/denoise.md)."""
 
 import numpy as np
 import pytest
 
-from pointatlas.denoise import _voting, add_noise, normal_voting_denoise
+from pointatlas.denoise import _threads, _voting, add_noise, normal_voting_denoise
+from pointatlas.denoise._kernels import feature_class_kernel, plane_update_kernel
 from pointatlas.neighbors import query_knn
-from pointatlas.synth import cube, vertex_normals
+from pointatlas.synth import cube
 from tests.denoise import reference as ref
 
 
@@ -25,39 +20,99 @@ def _blob(rng, n):
     return pts
 
 
-def _same(result, previous):
-    p, n, k, klass = previous
-    assert np.array_equal(result.points, p)
-    assert np.array_equal(result.normals, n)
-    assert np.array_equal(result.k, k)
-    assert np.array_equal(result.feature_class, klass.astype(np.int8))
+@pytest.mark.parametrize("extra", [0, 10])
+def test_neighbourhoods_match_brute_force(extra):
+    rng = np.random.default_rng(3)
+    for n in (60, 700):
+        pts = _blob(rng, n)
+        table, idx, k, ell = _voting._neighbourhoods(pts, 2.0, extra)
+        want_k, want_ell = ref.neighbourhoods(pts, 2.0)
+        assert np.array_equal(k, want_k) and ell == pytest.approx(want_ell, rel=1e-12)
+        assert np.array_equal(table, query_knn(pts, min(48 + extra, n))[0])
+        assert np.array_equal(idx, table[:, : int(k.max()) + extra])
 
 
-@pytest.mark.parametrize("adaptive", [False, True])
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_equals_previous_without_normals(adaptive, seed):
+@pytest.mark.parametrize("seed", [0, 1])
+def test_plane_update_matches_reference(seed):
     rng = np.random.default_rng(seed)
-    pts = _blob(rng, int(rng.integers(300, 1500)))
-    kw = dict(adaptive=adaptive, n_iter=3, n_filter_iter=4)
-    _same(normal_voting_denoise(pts, None, **kw), ref.previous_normal_voting_denoise(pts, **kw))
+    pts = _blob(rng, 300)
+    nrm = rng.normal(size=(300, 3)) * 0.2 + [0, 0, 1.0]
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    idx = query_knn(pts, 16)[0]
+    k_of = rng.integers(1, 17, size=300).astype(np.int64)
+    out = np.empty_like(pts)
+    plane_update_kernel(pts, nrm, idx, k_of, 0.95, 0.02, 1.0 / 0.05**2, out)
+    want = ref.plane_update(pts, nrm, idx, k_of, 0.95, 0.02, 0.05)
+    np.testing.assert_allclose(out, want, atol=1e-12)
+    step = np.linalg.norm(out - pts, axis=1)
+    assert step.max() <= 0.02 + 1e-15 and (step > 0).any()
+    assert np.allclose(np.cross(out - pts, nrm), 0.0, atol=1e-12)  # along the own normal
 
 
-@pytest.mark.parametrize("adaptive", [False, True])
-def test_equals_previous_with_normals_and_sharpen(adaptive):
-    m = cube(10)
-    noisy = add_noise(m.points, m.normals, 0.5, k=6, rng=5)
-    nn = vertex_normals(noisy, m.faces)
-    kw = dict(adaptive=adaptive, n_iter=3, n_filter_iter=5, sharpen=True, rho=0.95)
-    _same(
-        normal_voting_denoise(noisy, nn, **kw), ref.previous_normal_voting_denoise(noisy, nn, **kw)
-    )
+@pytest.mark.parametrize("shape", ["sphere", "cylinder"])
+def test_points_on_spheres_and_cylinders_stay(shape):
+    """(n_i + n_j) . (p_j - p_i) = 0 on a sphere and a cylinder: no inflation; the
+    one-sided planes of the old update push the convex surface out."""
+    rng = np.random.default_rng(5)
+    v = rng.normal(size=(2000, 3))
+    if shape == "cylinder":
+        v[:, 2] = 0.0
+    nrm = v / np.linalg.norm(v, axis=1)[:, None]
+    pts = 2.0 * nrm
+    if shape == "cylinder":
+        pts[:, 2] = rng.uniform(-1, 1, size=2000)
+    idx = query_knn(pts, 20)[0]
+    k_of = np.full(2000, 20, np.int64)
+    out = np.empty_like(pts)
+    plane_update_kernel(pts, nrm, idx, k_of, 0.9, 1.0, 1.0 / 0.1**2, out)
+    np.testing.assert_allclose(out, pts, atol=1e-13)
+    from pointatlas.denoise._kernels import quadric_update_kernel
+
+    quadric_update_kernel(pts, nrm, idx, k_of, 0.9, 0.3, 1.0, False, out, np.empty(2000, np.int64))
+    assert ((out - pts) * nrm).sum(axis=1).mean() > 1e-4  # outwards
+
+
+def test_feature_classes_match_the_quadric_kernel():
+    from pointatlas.denoise._kernels import quadric_update_kernel
+
+    m = cube(8)
+    idx = query_knn(m.points, 12)[0]
+    k_of = np.full(m.n_vertices, 12, np.int64)
+    klass = np.empty(m.n_vertices, np.int64)
+    want = np.empty(m.n_vertices, np.int64)
+    feature_class_kernel(m.normals, idx, k_of, 0.3, klass)
+    quadric_update_kernel(m.points, m.normals, idx, k_of, 0.9, 0.3, 0.1, False,
+                          np.empty_like(m.points), want)  # fmt: skip
+    assert np.array_equal(klass, want) and set(klass.tolist()) == {1, 2, 3}
+
+
+def test_clean_cube_stays_in_place():
+    """Exact normals of a clean cube (area-weighted at edges and corners): nothing
+    moves, one round, and the automatic stop ends the updates at once."""
+    m = cube(8)
+    for adaptive in (False, True):
+        r = normal_voting_denoise(m.points, m.normals, rho=0.95, adaptive=adaptive)
+        np.testing.assert_allclose(r.points, m.points, atol=1e-12)
+        assert r.n_iter == 1 and r.displacement.max() < 1e-12
+
+
+def test_automatic_rounds_equal_explicit_ones():
+    """n_iter=None stops where an explicit count gives the same result."""
+    m = cube(12)
+    for noise in (0.3, 1.2):
+        noisy = add_noise(m.points, m.normals, noise, k=6, rng=2)
+        auto = normal_voting_denoise(noisy, None, adaptive=False)
+        again = normal_voting_denoise(noisy, None, adaptive=False, n_iter=auto.n_iter)
+        assert np.array_equal(auto.points, again.points)
+        assert 1 <= auto.n_iter <= _voting.MAX_ROUNDS
+    assert auto.n_iter >= 2  # the high noise takes another round
 
 
 def test_one_thread_and_parallel_give_the_same_bits(monkeypatch):
     """Small inputs on a busy machine run every kernel in one thread; same output."""
     import numba
 
-    from pointatlas.denoise import _kernels, flatness_denoise
+    from pointatlas.denoise import flatness_denoise
 
     rng = np.random.default_rng(7)
     pts = _blob(rng, 900)
@@ -72,37 +127,25 @@ def test_one_thread_and_parallel_give_the_same_bits(monkeypatch):
     monkeypatch.setattr(_voting, "voting_filter_kernel", spy)
     out = {}
     for busy in (True, False):
-        monkeypatch.setattr(_kernels, "machine_busy", lambda busy=busy: busy)
+        monkeypatch.setattr(_threads, "machine_busy", lambda busy=busy: busy)
         out[busy] = (
             normal_voting_denoise(pts, None, n_iter=2, n_filter_iter=3),
             flatness_denoise(pts, k=10, n_iter=3),
         )
         assert numba.get_num_threads() == threads  # restored
-    assert seen == [1] * 6 + [threads] * 6
+    assert seen == [1] * 9 + [threads] * 9  # 2 rounds + the last normals, 3 steps each
     (one, flat_one), (par, flat_par) = out[True], out[False]
     assert np.array_equal(one.points, par.points) and np.array_equal(one.normals, par.normals)
     assert np.array_equal(flat_one.points, flat_par.points)
-    monkeypatch.setattr(_kernels, "machine_busy", lambda: True)
-    with _kernels.threads_for(_kernels.PARALLEL_MIN_POINTS):  # large inputs: untouched
+    monkeypatch.setattr(_threads, "machine_busy", lambda: True)
+    with _threads.threads_for(_threads.PARALLEL_MIN_POINTS):  # large inputs: untouched
         assert numba.get_num_threads() == threads
-    assert isinstance(_kernels.machine_busy(), bool)
-
-
-@pytest.mark.parametrize("extra", [0, 10])
-def test_narrow_table_equals_the_full_one(extra):
-    rng = np.random.default_rng(3)
-    for n in (60, 700):
-        pts = _blob(rng, n)
-        idx, k, ell = ref.previous_neighbourhoods(pts, 2.0, extra)
-        for width in (7, 12, 20, int(k.max()) + extra, int(k.max()) + extra + 4, 80):
-            table, got_idx, got_k, got_ell = _voting._neighbourhoods(pts, 2.0, extra, width)
-            assert np.array_equal(got_idx, idx) and np.array_equal(got_k, k) and got_ell == ell
-            assert np.array_equal(table, query_knn(pts, table.shape[1])[0])
+    assert isinstance(_threads.machine_busy(), bool)
 
 
 def test_estimated_normals_from_the_first_table():
     """Without normals: PCA + orientation as on a fresh normal_k-NN table (also when
-    normal_k exceeds the first table's width and needs its own query)."""
+    normal_k exceeds the table's width and needs its own query)."""
     from pointatlas.normals import estimate_normals, orient_normals
 
     pts = _blob(np.random.default_rng(4), 400)

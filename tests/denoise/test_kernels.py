@@ -5,7 +5,6 @@ import math
 import numpy as np
 import pytest
 
-from pointatlas.denoise import point_to_mesh_distance
 from pointatlas.denoise._flatness import flatness_step
 from pointatlas.denoise._kernels import (
     adaptive_k_kernel,
@@ -14,7 +13,7 @@ from pointatlas.denoise._kernels import (
     sym3_eigvals,
     voting_filter_kernel,
 )
-from pointatlas.neighbors import query_knn
+from pointatlas.neighbors import point_mesh_distance, query_knn
 from tests.denoise import reference as ref
 
 
@@ -31,21 +30,21 @@ def test_point_to_mesh_matches_brute_force(seed):
     faces[0] = [0, 0, 1]  # a degenerate (zero-area) triangle
     pts = rng.normal(size=(40, 3)) * 1.5
     pts[0] = verts[3]  # on a vertex
-    got = point_to_mesh_distance(pts, verts, faces)
+    got = point_mesh_distance(pts, verts, faces)
     want = ref.point_to_mesh(pts, verts, faces)
     np.testing.assert_allclose(got, want, atol=1e-12)
 
 
 def test_point_to_mesh_empty_and_on_surface():
     verts = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
-    assert point_to_mesh_distance(np.empty((0, 3)), verts, [[0, 1, 2]]).shape == (0,)
-    d = point_to_mesh_distance([[0.25, 0.25, 0.0], [2.0, 0.0, 0.0]], verts, [[0, 1, 2]])
+    assert point_mesh_distance(np.empty((0, 3)), verts, [[0, 1, 2]]).shape == (0,)
+    d = point_mesh_distance([[0.25, 0.25, 0.0], [2.0, 0.0, 0.0]], verts, [[0, 1, 2]])
     np.testing.assert_allclose(d, [0.0, 1.0], atol=1e-15)
 
 
 def test_point_to_mesh_bad_faces():
-    with pytest.raises(ValueError, match="faces must index vertices 0..2; got 0..3"):
-        point_to_mesh_distance([[0, 0, 0]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 3]])
+    with pytest.raises(ValueError, match="triangles must index vertices 0..2; got 0..3"):
+        point_mesh_distance([[0, 0, 0]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 3]])
 
 
 @pytest.mark.parametrize("seed", [0, 1])

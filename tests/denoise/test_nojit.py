@@ -7,11 +7,10 @@ from tests.jit_off import run_without_jit
 _SCRIPT = textwrap.dedent(
     """
     import numpy as np
-    from pointatlas.denoise import point_to_mesh_distance
     from pointatlas.denoise._kernels import (
-        adaptive_k_kernel, quadric_update_kernel, voting_filter_kernel,
+        adaptive_k_kernel, plane_update_kernel, quadric_update_kernel, voting_filter_kernel,
     )
-    from pointatlas.neighbors import query_knn
+    from pointatlas.neighbors import point_mesh_distance, query_knn
     from tests.denoise import reference as ref
 
     rng = np.random.default_rng(0)
@@ -19,7 +18,7 @@ _SCRIPT = textwrap.dedent(
     faces = rng.integers(0, 8, size=(6, 3))
     faces[0] = [1, 1, 2]
     pts = rng.normal(size=(10, 3))
-    assert np.allclose(point_to_mesh_distance(pts, verts, faces),
+    assert np.allclose(point_mesh_distance(pts, verts, faces),
                        ref.point_to_mesh(pts, verts, faces), atol=1e-12)
     pts = rng.normal(size=(14, 3)) * [1.0, 0.8, 0.1]
     nrm = rng.normal(size=(14, 3)) * 0.3 + [0, 0, 1.0]
@@ -40,6 +39,8 @@ _SCRIPT = textwrap.dedent(
     quadric_update_kernel(pts, nrm, idx, k_of, 0.9, 0.1, 0.05, True, newp, klass)
     want, wclass = ref.quadric_update(pts, nrm, idx, k_of, 0.9, 0.1, 0.05)
     assert np.allclose(newp, want, atol=1e-9) and (klass == wclass).all()
+    plane_update_kernel(pts, nrm, idx, k_of, 0.9, 0.05, 4.0, newp)
+    assert np.allclose(newp, ref.plane_update(pts, nrm, idx, k_of, 0.9, 0.05, 0.5), atol=1e-12)
     print("ok")
     """
 )

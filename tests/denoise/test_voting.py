@@ -76,9 +76,10 @@ def test_range_fits_the_cached_weight_patterns():
     assert DENOISE_K_MAX + DENOISE_K_WIDTH <= MASK_BITS
 
 
-def test_sharp_edges_survive_filter_and_update(noisy_cube):
+@pytest.mark.parametrize("kw", [{}, {"n_filter_iter": 30}, {"adaptive": False}])
+def test_sharp_edges_survive_filter_and_update(noisy_cube, kw):
     m, noisy, nn = noisy_cube
-    r = normal_voting_denoise(noisy, nn, rho=0.95, tau=0.3, n_iter=3, n_filter_iter=30)
+    r = normal_voting_denoise(noisy, nn, rho=0.95, tau=0.3, **kw)
     near = _near_edge_face_points(m, 1 / 12)
     ang = np.degrees(angle_error(r.normals, m.normals))[near]
     # normals on both sides of every edge stay within 5 degrees of their face's
@@ -103,6 +104,18 @@ def test_noisy_plane_gets_flatter(method):
     rms_after = math.sqrt(np.mean(r.points[inner, 2] ** 2))
     assert rms_after < 0.5 * rms_before
     assert r.points.shape == (m.n_vertices, 3) and r.displacement.shape == (m.n_vertices,)
+
+
+def test_denoise_without_normals_estimates_them():
+    """Normal voting without normals: PCA normals (k = 20), MST-oriented outwards."""
+    m = cube(8)
+    noisy = add_noise(m.points, m.normals, 0.3, k=6, rng=1)
+    r = denoise(noisy, None, method="normal-voting")
+    assert r.method == "normal-voting" and np.isfinite(r.normals).all()
+    assert ((r.normals * m.normals).sum(axis=1) > 0.5).mean() > 0.95  # outward
+    dist = np.abs(np.abs(r.points).max(axis=1) - 0.5).mean()
+    assert dist < 0.6 * np.abs(np.abs(noisy).max(axis=1) - 0.5).mean()
+    assert denoise(noisy).method == "normal-voting"  # auto
 
 
 def test_same_seed_same_output():
@@ -133,7 +146,5 @@ def test_validation_messages():
         filter_normals(m.points, m.normals, n_iter=1.5)
     with pytest.raises(ValueError, match="points must hold at least 8"):
         normal_voting_denoise(m.points[:5], m.normals[:5])
-    with pytest.raises(ValueError, match="needs oriented normals"):
-        denoise(m.points, None, method="normal-voting")
     with pytest.raises(ValueError, match="method must be one of"):
         denoise(m.points, m.normals, method="median")

@@ -51,17 +51,19 @@ def test_equal_weights_fixed_k_and_render(tmp_path):
     write_point_set(src, pts)
     out = tmp_path / "o.ply"
     pics = tmp_path / "pics"
+    pics.mkdir()
     res = runner.invoke(
         app,
-        ["features", str(src), str(out), "--k", "9", "--render", str(pics), "--render-size", "160"],
-    )
+        ["features", str(src), str(out), "--k", "9", "--render", str(pics / "slab.png"),
+         "--render-size", "160"],
+    )  # fmt: skip
     assert res.exit_code == 0, res.output
     assert "fixed k = 9" in res.output
     ps = read_point_set(out)
     assert (ps.attributes["k"] == 9).all()
     assert np.nanmean(ps.attributes["planarity"]) > 0.4
     names = sorted(p.name for p in pics.iterdir())
-    assert names == ["slab_fig5_3.png", "slab_fig6_5.png", "slab_flatness.png"]
+    assert names == ["slab.png", "slab_fig6_5.png", "slab_flatness.png"]
 
 
 @pytest.mark.parametrize(

@@ -222,7 +222,7 @@ def test_validation_messages():
         covariance_features(pts[:4], 5)
     with pytest.raises(TypeError, match="k must be an integer"):
         covariance_features(pts, 5.5)
-    with pytest.raises(ValueError, match="neighbors must have at least 9"):
+    with pytest.raises(ValueError, match=r"with N = 20 points and m >= 9; got \(20, 5\)"):
         covariance_features(pts, 9, neighbors=query_knn(pts, 5)[0])
     # the fixed-k path checks the index range inside the kernel (no separate pass)
     bad = query_knn(pts, 5)[0]

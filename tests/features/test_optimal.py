@@ -6,10 +6,8 @@ import numpy as np
 import pytest
 
 from pointatlas.features import (
-    THESIS_ANGLE_GRID,
     angle_pairs,
     covariance_features,
-    decrease_cases,
     optimal_k_features,
     optimal_neighbourhood,
 )
@@ -99,28 +97,6 @@ def test_weinmann_optimal_k_matches_brute_force():
         assert (res.a == math.pi).all()
 
 
-def test_decrease_cases_match_direct_checks():
-    pts, nrm = _noisy_surface(3, n=40)
-    res = optimal_neighbourhood(pts, nrm)
-    a_case, b_case = decrease_cases(pts, nrm, res)
-    grid = np.array(THESIS_ANGLE_GRID)
-    idx = query_knn(pts, 20)[0]
-    for i in range(40):
-        a, b, k = res.a[i], res.b[i], int(res.k[i])
-        ia = int(np.argmin(np.abs(grid - a)))
-        if ia == 0:
-            assert a_case[i] == 0
-        else:
-            code = ref.point_features(pts, nrm, idx[i], k, grid[ia - 1], b)[0]
-            assert a_case[i] == (1 if code == 0 else 2)
-        ib = int(np.argmin(np.abs(grid - b)))
-        if b == a:
-            assert b_case[i] == 0
-        else:
-            code = ref.point_features(pts, nrm, idx[i], k, a, grid[ib - 1])[0]
-            assert b_case[i] == (1 if code == 0 else 2)
-
-
 def test_cube_optimal_weights_sharpen_edges():
     m = cube(8)
     eq = optimal_k_features(m.points, k_range=(6, 20), criterion="e_dim")
@@ -172,7 +148,7 @@ def test_search_with_pruning_agrees_with_brute_force_on_smooth_patch():
 
 @pytest.mark.parametrize("kind", ["random", "collinear", "coplanar", "disc", "duplicate"])
 def test_fast_closed_form_eigenvalues_match_eigvalsh(kind):
-    from pointatlas.features._kernels import eig3_fast
+    from pointatlas.normals._kernels.eig3 import eig3_fast
 
     rng = np.random.default_rng(7)
     y = rng.normal(size=(200, 12, 3))
@@ -200,7 +176,7 @@ def test_fast_closed_form_eigenvalues_match_eigvalsh(kind):
 def test_branch_free_eigenvalues_equal_closed_form_bit_for_bit():
     # the search ranks choices by E_dim of eig3_fast's eigenvalues; its vectorised
     # copy must give the very same numbers (also for C = 0 and C = c I)
-    from pointatlas.features._kernels import _eig3_lanes, eig3_fast
+    from pointatlas.normals._kernels.eig3 import eig3_fast, eig3_lanes
 
     rng = np.random.default_rng(11)
     y = rng.normal(size=(300, 8, 3))
@@ -210,16 +186,16 @@ def test_branch_free_eigenvalues_equal_closed_form_bit_for_bit():
     cov = list(np.einsum("nki,nkj->nij", z, z)) + [np.zeros((3, 3)), 2.5 * np.eye(3)]
     for c in cov:
         args = (c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2])
-        assert _eig3_lanes(*args) == eig3_fast(*args)
+        assert eig3_lanes(*args) == eig3_fast(*args)
 
 
 def test_chord_bound_is_below_minus_t_log_t():
-    from pointatlas.features._kernels import _chord_bound
+    from pointatlas.features._kernels.math_helpers import chord_bound
 
     t = np.concatenate([np.linspace(0.0, 1.0, 20001), np.geomspace(1e-300, 1e-2, 2000)])
     t = np.concatenate([t, [np.nextafter(1.0, 2.0), 1.0 + 4e-16]])
     f = -t * np.log(np.where(t > 0, t, 1.0))
-    lb = np.array([_chord_bound(x) for x in t])
+    lb = np.array([chord_bound(x) for x in t])
     assert (lb <= f + 1e-15).all()
     assert (f - lb).max() < 1e-3  # tight enough to rule out most choices
 
@@ -243,14 +219,15 @@ def test_edim_table_is_below_the_searched_e_dim():
     # the search skips a choice when its table entry exceeds a value it found; the
     # entry must lie below the E_dim the search would compute (eig3_fast's
     # eigenvalues, the kernel's ratios), also at double roots and lambda_3 = 0
-    from pointatlas.features._kernels import EDIM_TABLE_SHAPE, _lanes_stage1, edim_table, eig3_fast
+    from pointatlas.features._kernels import EDIM_TABLE_SHAPE, edim_table
+    from pointatlas.normals._kernels.eig3 import eig3_fast, lanes_stage1
 
     table = edim_table()
     n_rho, n_v = EDIM_TABLE_SHAPE
     gaps = []
     for c in _degenerate_covariances(np.random.default_rng(21), 4000):
         args = (c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2])
-        q, p, p2, r = _lanes_stage1(*args)
+        q, p, p2, r = lanes_stage1(*args)
         l1, l2, l3 = eig3_fast(*args)
         rho = p / q
         v1 = math.sqrt(1.0 + r)

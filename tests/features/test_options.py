@@ -12,7 +12,6 @@ from pointatlas.features import (
     angle_pairs,
     cosine_sigmoid,
     covariance_features,
-    decrease_cases,
     eigen_features,
     normal_weights,
     optimal_k_features,
@@ -135,12 +134,6 @@ def test_angle_grids(which, grid, error, match):
         optimal_neighbourhood(PTS, NRM, **{which: grid})
     with pytest.raises(error, match="^" + which + " " + match):
         angle_pairs(**{which: grid})
-
-
-def test_angle_grid_nan_in_decrease_cases():
-    res = optimal_neighbourhood(PTS, NRM, k_range=(6, 8))
-    with pytest.raises(ValueError, match=r"^a_grid must hold finite angles .*; got nan$"):
-        decrease_cases(PTS, NRM, res, a_grid=[0.0, NAN, math.pi])
 
 
 @pytest.mark.parametrize(

@@ -72,12 +72,12 @@ def test_indices_validated():
 
 
 def test_polynomial_ramp_matches_cosine_to_round_off():
-    from pointatlas.features._kernels import _sigmoid_ramp, cosine_sigmoid_scalar
+    from pointatlas.features._kernels.math_helpers import cosine_sigmoid_scalar, sigmoid_ramp
 
     u = np.linspace(0.0, 1.0, 100001)
-    got = np.array([_sigmoid_ramp(v) for v in u])
+    got = np.array([sigmoid_ramp(v) for v in u])
     np.testing.assert_allclose(got, 0.5 * np.cos(np.pi * u) + 0.5, rtol=0, atol=4e-16)
-    assert (got >= 0).all() and _sigmoid_ramp(0.0) == pytest.approx(1.0, abs=1e-16)
+    assert (got >= 0).all() and sigmoid_ramp(0.0) == pytest.approx(1.0, abs=1e-16)
     # the scalar sigmoid: exact 1 at and below a, exact 0 at and beyond b, a = b sharp
     assert cosine_sigmoid_scalar(0.3, 0.3, 1.0) == 1.0
     assert cosine_sigmoid_scalar(1.0, 0.3, 1.0) == 0.0
@@ -88,9 +88,9 @@ def test_polynomial_ramp_matches_cosine_to_round_off():
 def test_branch_free_atan2_within_two_ulp_of_libm():
     from numba import njit
 
-    from pointatlas.features._kernels import _atan2_nonneg
+    from pointatlas.features._kernels.math_helpers import atan2_nonneg
 
-    f = njit(lambda y, x: _atan2_nonneg(y, x))
+    f = njit(lambda y, x: atan2_nonneg(y, x))
     rng = np.random.default_rng(5)
     for scale in (1e-300, 1e-12, 1e-3, 1.0, 1e8):
         y = rng.random(2000) * scale

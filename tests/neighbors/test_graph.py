@@ -51,17 +51,17 @@ def test_duplicates_stored_as_explicit_zeros():
     assert g.nnz == 6
 
 
-def test_graph_precomputed_indices():
+def test_graph_precomputed_neighbors():
     pts = _cloud()
     idx, _ = query_knn(pts, 6)
     a = knn_graph(pts, 6)
-    b = knn_graph(pts, 6, indices=idx)
+    b = knn_graph(pts, 6, neighbors=idx)
     np.testing.assert_array_equal(a.indptr, b.indptr)
     np.testing.assert_array_equal(a.indices, b.indices)
-    with pytest.raises(ValueError, match="indices must have shape"):
-        knn_graph(pts, 6, indices=idx[:10])
-    with pytest.raises(ValueError, match="indices must lie in"):
-        knn_graph(pts, 6, indices=idx + 1000)
+    with pytest.raises(ValueError, match="neighbors must have shape"):
+        knn_graph(pts, 6, neighbors=idx[:10])
+    with pytest.raises(ValueError, match=r"neighbors must index points 0\.\.299; got range"):
+        knn_graph(pts, 6, neighbors=idx + 1000)
 
 
 def test_components_of_disconnected_clusters():

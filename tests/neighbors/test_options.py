@@ -50,9 +50,9 @@ def test_k_boundaries(k):
 
 def test_knn_graph_with_indices_checks_only_the_type_of_k():
     idx, _ = query_knn(PTS, 4)
-    assert knn_graph(PTS, 100, indices=idx).shape == (N, N)
+    assert knn_graph(PTS, 100, neighbors=idx).shape == (N, N)
     with pytest.raises(TypeError, match=r"^k must be an integer; got float"):
-        knn_graph(PTS, 4.0, indices=idx)
+        knn_graph(PTS, 4.0, neighbors=idx)
 
 
 @pytest.mark.parametrize(

@@ -2,23 +2,16 @@
 
 from __future__ import annotations
 
-import textwrap
-
 import numpy as np
 import pytest
 from scipy import sparse
 
 from pointatlas.neighbors import query_knn
-from pointatlas.normals import orient_normals
-from pointatlas.normals._kernels import (
-    _forest_edges,
-    _forest_labels,
-    component_tops_kernel,
-    pca_normals_kernel,
-    sym3_eigen,
-)
+from pointatlas.normals import estimate_normals, orient_normals
+from pointatlas.normals._kernels import component_tops_kernel, pca_normals_kernel, sym3_eigen
+from pointatlas.normals._kernels.forest import _forest_edges, _forest_labels
 from pointatlas.normals._orient import _riemannian_graph, _spanning_forest
-from tests.jit_off import run_without_jit
+from tests.jit_off import JIT_OFF, run_module_without_jit
 
 from . import reference
 from .shapes import random_flips, sphere, torus
@@ -192,14 +185,7 @@ def test_orient_matches_reference():
             assert np.allclose(ours, ref, atol=1e-15)
 
 
-_JIT_OFF_SCRIPT = textwrap.dedent(
-    """
-    import numpy as np
-    from pointatlas.neighbors import query_knn
-    from pointatlas.normals import estimate_normals, orient_normals
-    from tests.normals import reference
-    from tests.normals.shapes import random_flips, sphere
-
+def test_estimate_and_orient_tiny_reference():
     pts, exact = sphere(60)
     idx, _ = query_knn(pts, 8)
     est = estimate_normals(pts, 8, neighbors=idx)
@@ -210,13 +196,11 @@ _JIT_OFF_SCRIPT = textwrap.dedent(
     ours = orient_normals(pts, random_flips(est, 0), k=8, neighbors=idx, method="mst")
     assert np.allclose(ours, reference.orient_mst_reference(pts, ours, idx, 8, 1e-9, 1.0))
     assert (np.sum(ours * exact, axis=1) > 0).all()
-    print("ok")
-    """
-)
 
 
+@pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
 def test_kernels_without_jit():
-    assert run_without_jit(_JIT_OFF_SCRIPT).strip() == "ok"
+    run_module_without_jit(__file__, select="tiny_reference")
 
 
 def _forest_edge_set(kept_a, kept_b):

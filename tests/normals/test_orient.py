@@ -132,7 +132,7 @@ def test_inputs_not_modified():
         ({"k": 1}, ValueError, r"k must be an integer in \[2, 50\]"),
         ({"edge_penalty": -1.0}, ValueError, "edge_penalty must be"),
         ({"k": 1000}, PointAtlasError, r"in \[2, 50\] \(the number of points\); got 1000"),
-        ({"neighbors": np.zeros((50, 3), dtype=np.int64)}, ValueError, "m >= k"),
+        ({"neighbors": np.zeros((50, 3), dtype=np.int64)}, ValueError, "m >= 10"),
     ],
 )
 def test_bad_input(kwargs, error, match):

@@ -1,10 +1,9 @@
-"""``pointatlas segment``, its demo step and ``pointatlas experiment vsa``."""
+"""``pointatlas segment`` and its demo step (``experiment vsa``: tests/experiments)."""
 
 from __future__ import annotations
 
 import csv
 import json
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +11,6 @@ import pytest
 from typer.testing import CliRunner
 
 from pointatlas.cli import app
-from pointatlas.cli._exp_vsa import COLUMNS, aggregate_vsa, table_markdown, vsa_model
 from pointatlas.io import read_point_set, write_point_set
 from pointatlas.synth import cube
 
@@ -63,7 +61,7 @@ def test_segment_region_growing_and_options(cube_file, tmp_path):
     result = runner.invoke(
         app,
         ["segment", str(cube_file), str(out2), "--seeds", "6", "--no-split", "--no-merge"]
-        + ["--switch", "single", "--max-angle", "20"],
+        + ["--switch", "single", "--max-angle-deg", "20"],
     )
     assert result.exit_code == 0, result.output
 
@@ -88,7 +86,7 @@ def test_segment_estimates_normals_when_the_input_has_none(tmp_path):
         (["--seeds", "many"], "--seeds"),
         (["--switch", "fast"], "--switch"),
         (["--method", "magic"], "--method"),
-        (["--eta", "1", "--max-angle", "5"], "not both"),
+        (["--eta", "1", "--max-angle-deg", "5"], "not both"),
     ],
 )
 def test_segment_bad_options(cube_file, tmp_path, args, message):
@@ -104,33 +102,68 @@ def test_demo_step_registered():
     assert demo_segment in DEMO_STEPS
 
 
-def test_experiment_model_and_table(tmp_path):
-    model = DATA / "models" / "bar_386.obj"
-    res = vsa_model(str(model), np.random.default_rng(0))
-    for col in COLUMNS:
-        assert sum(res[col]["sizes"]) == res["n_points"]
-        assert res[col]["m"] == len(res[col]["sizes"]) >= 1
-    assert res["no_sm"]["stop_reason"] in ("converged", "cycle", "max_iter")
-    summary = aggregate_vsa({"bar": res, "bar2": res})
-    assert summary["n_models"] == 2
-    assert (
-        summary["table_4_1"]["all"]["columns"]["global_eta_sm"]["m"]["avg"]
-        == (res["global_eta_sm"]["m"])
-    )
-    assert "| avg MSE |" in table_markdown(summary)
+#: The VSA flags of ``segment`` and ``simplify`` (declared once in cli/_app.py).
+VSA_FLAGS = (
+    "--k",
+    "--eta",
+    "--max-angle-deg",
+    "--seeds",
+    "--split",
+    "--merge",
+    "--switch",
+    "--classic",
+    "--weights",
+    "--max-iter",
+    "--seed",
+)
 
 
-@pytest.mark.slow
-def test_experiment_command(tmp_path):
-    models = tmp_path / "models"
-    models.mkdir()
-    for name in ("bar_386.obj", "cube_26.obj"):
-        shutil.copy(DATA / "models" / name, models / name)
-    out = tmp_path / "out"
-    result = runner.invoke(
-        app, ["experiment", "vsa", "--models", str(models), "--out", str(out), "--workers", "1"]
-    )
+def _flags(command: str) -> dict:
+    import typer
+
+    params = typer.main.get_command(app).commands[command].params
+    return {opt: p for p in params for opt in p.opts}
+
+
+def test_segment_and_simplify_share_the_vsa_flags():
+    seg, simp = _flags("segment"), _flags("simplify")
+    for flag in VSA_FLAGS:
+        a, b = seg[flag], simp[flag]
+        assert (a.opts, a.secondary_opts, a.default, a.help) == (
+            b.opts,
+            b.secondary_opts,
+            b.default,
+            b.help,
+        ), flag
+    # degree flags end in -deg and have no alias
+    for flags in (seg, simp):
+        assert "--max-angle" not in flags
+        assert all(p.opts == [opt] for opt, p in flags.items() if "deg" in opt)
+
+
+def test_segment_max_iter_and_classic_reach_vsa(cube_file, tmp_path):
+    out = tmp_path / "seg.ply"
+    args = ["segment", str(cube_file), str(out), "--seeds", "5", "--classic", "--max-iter", "1"]
+    result = runner.invoke(app, args)
     assert result.exit_code == 0, result.output
-    summary = json.loads((out / "table_4_1.json").read_text())
-    assert summary["n_failed"] == 0 and summary["n_models"] == 2
-    assert (out / "fig_4_5.png").stat().st_size > 0
+    summary = json.loads((tmp_path / "seg_regions.json").read_text())["summary"]
+    assert summary["n_iter"] == 1
+
+
+def test_vsa_options_of_the_cli_flags():
+    import math
+
+    from pointatlas.cli._app import vsa_options
+    from pointatlas.segment import VSAOptions
+
+    flags = {
+        "k": 10, "eta": None, "max_angle_deg": 12.0, "seeds": "3,7", "split": False,
+        "merge": True, "switch": "single", "classic": False, "weights": "area", "max_iter": 5,
+    }  # fmt: skip
+    opts = vsa_options(**flags)
+    assert opts == VSAOptions(
+        k=10, max_angle=math.radians(12.0), seeds=[3, 7], split=False, switch="single",
+        weights="area", max_iter=5,
+    )  # fmt: skip
+    with pytest.raises(ValueError, match=r"^--max-angle-deg must be a finite angle in \[0, 180\]"):
+        vsa_options(**{**flags, "max_angle_deg": 200.0})

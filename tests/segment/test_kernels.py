@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import textwrap
+import heapq
 
 import numpy as np
 import pytest
@@ -10,9 +10,20 @@ import pytest
 from pointatlas._core._sort import stable_argsort
 from pointatlas.neighbors import query_knn
 from pointatlas.segment import _kernels as K
-from tests.jit_off import run_without_jit
+from pointatlas.segment import vsa_segment
+from pointatlas.segment._kernels import _heap
+from pointatlas.segment._kernels._merge import _candidate_pairs_sorted, _sort_entries
+from tests.jit_off import JIT_OFF, run_module_without_jit
 
 from . import reference
+from .examples import figure_4_1
+
+if JIT_OFF:
+    # without the JIT the merge's slot hash (a 64-bit multiply that wraps by
+    # design) runs on numpy int64 scalars, which warn on overflow
+    pytestmark = pytest.mark.filterwarnings(
+        "ignore:overflow encountered in scalar multiply:RuntimeWarning"
+    )
 
 
 def _cloud(seed, n=80, k=6):
@@ -36,8 +47,13 @@ def test_symmetric_csr(seed):
 
 
 @pytest.mark.parametrize("seed", range(4))
-def test_flood_matches_reference(seed):
+@pytest.mark.parametrize("tied", [False, True])
+def test_flood_matches_reference(seed, tied):
+    """Same labels as the heapq flood; with axis-aligned normals many keys tie and
+    the order falls to (point, region)."""
     _, normals, table = _cloud(seed)
+    if tied:
+        normals = np.eye(3)[np.random.default_rng(seed).integers(0, 3, normals.shape[0])]
     n = normals.shape[0]
     indptr, indices = K.symmetric_csr(table, n)
     lists = reference.symmetric_lists(table, n)
@@ -200,7 +216,7 @@ def test_sort_entries_is_stable_argsort():
     ):
         codes = rng.integers(0, 2**40, size=keys.shape[0])
         order = stable_argsort(keys)
-        ks, ps = K._sort_entries(keys, codes)
+        ks, ps = _sort_entries(keys, codes)
         np.testing.assert_array_equal(ks, keys[order].view(np.int64))
         np.testing.assert_array_equal(ps, codes[order])
 
@@ -232,7 +248,7 @@ def test_merge_candidate_pairs_table_and_sort_agree(seed):
     expected = np.array(sorted(expected), dtype=np.int64).reshape(-1, 2)
     args = (indptr, indices, labels, foreign, dirty, cost)
     np.testing.assert_array_equal(K.merge_candidate_pairs(*args, limit, points), expected)
-    np.testing.assert_array_equal(K._candidate_pairs_sorted(*args, slack, points), expected)
+    np.testing.assert_array_equal(_candidate_pairs_sorted(*args, slack, points), expected)
 
 
 def test_merge_angle_mode_respects_bound():
@@ -267,36 +283,6 @@ def test_region_growing_kernel_matches_reference(seed):
     ours = K.region_growing(table, normals, curv, order, cos_t, thr)
     ref = reference.region_growing_reference(table, normals, curv, cos_t, thr)
     np.testing.assert_array_equal(ours, ref)
-
-
-_JIT_OFF_SCRIPT = textwrap.dedent(
-    """
-    import numpy as np
-    from tests.segment import test_kernels as t
-    from tests.segment.examples import figure_4_1
-    from pointatlas.segment import vsa_segment
-    t.test_symmetric_csr(0)
-    t.test_flood_matches_reference(0)
-    t.test_flood_edge_cases()
-    t.test_switch_kernels_match_reference(0)
-    t.test_greedy_merge_matches_reference(0)
-    t.test_greedy_merge_matches_lazy_reference(0)
-    t.test_sort_entries_is_stable_argsort()
-    t.test_merge_candidate_pairs_table_and_sort_agree(0)
-    t.test_merge_angle_mode_respects_bound()
-    t.test_components_and_pairs()
-    t.test_region_growing_kernel_matches_reference(0)
-    assert t._bounded_switch_run(0, n=60, iters=4) >= 0
-    t.test_stable_argsort_matches_numpy()
-    p, n, adj, s = figure_4_1(20)
-    assert vsa_segment(p, n, seeds=s, classic=True, neighbors=adj).converged
-    print("ok")
-    """
-)
-
-
-def test_kernels_without_jit():
-    assert run_without_jit(_JIT_OFF_SCRIPT).strip() == "ok"
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -414,3 +400,86 @@ def _random_doubles(rng, n):
     bits = rng.integers(0, 2**63 - 1, size=n, dtype=np.int64, endpoint=True).view(np.float64)
     bits = np.where(np.isfinite(bits), bits, 1.0)
     return bits * np.where(rng.random(n) < 0.5, -1.0, 1.0)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_heap_pops_in_key_code_order(seed):
+    """The room's heap pops (key, code) in sorted order, ties by code, across
+    growth and interleaved pushes and pops, like heapq."""
+    rng = np.random.default_rng(seed)
+    heap, base = _heap.heap_new(4)
+    bits, bits_i = _heap.key_buffer()
+    size = 0
+    ref = []
+    popped, expected = [], []
+    for _ in range(600):
+        if size and rng.random() < 0.4:
+            popped.append((int(heap[base, 0]), int(heap[base, 1])))
+            _heap.heap_pop(heap, base, size)
+            size -= 1
+            expected.append(heapq.heappop(ref))
+        else:
+            bits[0] = float(rng.integers(0, 5)) * 0.5  # many equal keys
+            entry = (int(bits_i[0]), int(rng.integers(0, 50)))
+            heap, base = _heap.heap_push(heap, base, size, *entry)
+            size += 1
+            heapq.heappush(ref, entry)
+    while size:
+        popped.append((int(heap[base, 0]), int(heap[base, 1])))
+        _heap.heap_pop(heap, base, size)
+        size -= 1
+        expected.append(heapq.heappop(ref))
+    assert popped == expected
+    # keys are the bits of non-negative doubles: they pop in the order of the values
+    values = np.concatenate([[0.0, 5e-324, 1e300], rng.random(300) * 10.0 ** rng.integers(-9, 9)])
+    for v in values:
+        bits[0] = v
+        heap, base = _heap.heap_push(heap, base, size, bits_i[0], 0)
+        size += 1
+    out = []
+    while size:
+        out.append(np.array([heap[base, 0]]).view(np.float64)[0])
+        _heap.heap_pop(heap, base, size)
+        size -= 1
+    assert out == sorted(values.tolist())
+
+
+def test_bounded_switch_small_run():
+    """The bounded switch on a small input (also part of the JIT-off run)."""
+    assert _bounded_switch_run(0, n=60, iters=4) >= 0
+
+
+def test_classic_vsa_figure_4_1_converges():
+    points, normals, adjacency, seeds = figure_4_1(20)
+    res = vsa_segment(points, normals, seeds=seeds, classic=True, neighbors=adjacency)
+    assert res.converged and res.region_counts.tolist() == [41, 1]
+
+
+#: The small kernel-vs-reference tests that run again with the JIT off (STYLE 7):
+#: one case of every kernel (a pytest ``-k`` expression).
+NO_JIT_SELECTION = " or ".join(
+    [
+        "test_symmetric_csr[0]",
+        "test_flood_matches_reference[False-0]",
+        "test_flood_matches_reference[True-0]",
+        "test_flood_edge_cases",
+        "test_switch_kernels_match_reference[0]",
+        "test_greedy_merge_matches_reference[0]",
+        "test_greedy_merge_matches_lazy_reference[0]",
+        "test_sort_entries_is_stable_argsort",
+        "test_merge_candidate_pairs_table_and_sort_agree[0]",
+        "test_merge_angle_mode_respects_bound",
+        "test_components_and_pairs",
+        "test_region_growing_kernel_matches_reference[0]",
+        "test_bounded_switch_small_run",
+        "test_stable_argsort_matches_numpy",
+        "test_heap_pops_in_key_code_order[0]",
+        "test_classic_vsa_figure_4_1_converges",
+    ]
+)
+
+
+@pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
+def test_kernels_without_jit():
+    out = run_module_without_jit(__file__, select=NO_JIT_SELECTION)
+    assert "16 passed" in out, out[-500:]

@@ -360,17 +360,17 @@ def test_no_mergeable_neighbours_left(seed, eta):
 def test_bounded_switch_same_result_as_full_scan(monkeypatch):
     """The drift bound of the batch switch only skips work: forcing every
     boundary point to be examined gives the same labels and energies."""
-    from pointatlas.segment import _vsa
+    from pointatlas.segment import _vsa_run
 
     points, normals = _noisy_planes(0, n=2000)
     res = vsa_segment(points, normals, k=8, eta=4.0)
-    plain = _vsa.batch_switch_bounded
+    plain = _vsa_run.batch_switch_bounded
 
     def full_scan(*args):
         args[-1][:, 0] = np.nan  # forget every margin: examine every point
         return plain(*args)
 
-    monkeypatch.setattr(_vsa, "batch_switch_bounded", full_scan)
+    monkeypatch.setattr(_vsa_run, "batch_switch_bounded", full_scan)
     ref = vsa_segment(points, normals, k=8, eta=4.0)
     np.testing.assert_array_equal(res.labels, ref.labels)
     np.testing.assert_array_equal(res.energy_history, ref.energy_history)

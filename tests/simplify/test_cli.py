@@ -100,10 +100,54 @@ def test_degenerate_input_gives_one_line_and_no_file(tmp_path):
     m = plane_patch()
     flat = write_mesh(tmp_path / "flat.obj", m.vertices, m.faces)
     out = tmp_path / "flat_simple.obj"
-    res = runner.invoke(app, ["simplify", str(flat), str(out), "--vertices-only"])
+    # the thesis path alone cannot mesh one plane: one line, no file
+    res = runner.invoke(
+        app, ["simplify", str(flat), str(out), "--vertices-only", "--path", "thesis"]
+    )
     assert res.exit_code == 1
     assert "error:" in res.output and "regions" in res.output
     assert not out.exists()
+
+
+def test_flat_points_take_the_robust_path_and_say_why(tmp_path):
+    m = plane_patch()
+    flat = write_mesh(tmp_path / "flat.obj", m.vertices, m.faces)
+    out = tmp_path / "flat_simple.obj"
+    rep = tmp_path / "r.json"
+    res = runner.invoke(
+        app, ["simplify", str(flat), str(out), "--vertices-only", "--report", str(rep)]
+    )
+    assert res.exit_code == 0, res.output
+    info = json.loads(rep.read_text())
+    assert info["path"] == "robust"
+    assert info["path_reason"].startswith("thesis path: ") and "regions" in info["path_reason"]
+    assert info["n_faces"] == 1 and not info["is_closed"] and info["is_manifold"]
+    assert "robust" in res.output
+    assert read_mesh(out).n_faces == 1
+
+
+def test_simplify_uses_the_labels_written_by_segment(tmp_path):
+    m = cube(8, size=2.0)
+    pts = write_mesh(tmp_path / "cube.obj", m.vertices, m.faces)
+    seg = tmp_path / "cube_seg.ply"
+    res = runner.invoke(app, ["segment", str(pts), str(seg), "--max-angle-deg", "20"])
+    assert res.exit_code == 0, res.output
+    out = tmp_path / "cube_simple.obj"
+    rep = tmp_path / "r.json"
+    res = runner.invoke(app, ["simplify", str(seg), str(out), "--report", str(rep)])
+    assert res.exit_code == 0, res.output
+    assert "the input's 'label' field" in res.output
+    info = json.loads(rep.read_text())
+    # the six faces of segment's regions, closed; VSA is not run again
+    assert info["path"] == "thesis" and info["n_faces"] == 6 and info["is_closed"]
+    assert read_mesh(out).n_faces == 6
+    # --no-labels runs VSA (here with a threshold that gives the same six faces)
+    res = runner.invoke(
+        app, ["simplify", str(seg), str(out), "--no-labels", "--max-angle-deg", "20"]
+    )
+    assert res.exit_code == 0, res.output
+    assert "label' field" not in res.output
+    assert read_mesh(out).n_faces == 6
 
 
 def test_open_sheet_keeps_its_boundary_on_the_mesh_path(tmp_path):

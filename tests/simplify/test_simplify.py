@@ -242,22 +242,6 @@ def test_given_proxies_without_normals_are_used_as_they_are():
         simplify_segmentation(pts, None, lab, proxy_normals=prox.normals)
 
 
-def test_distance_kernel_without_jit_matches_reference():
-    # STYLE 7: the kernel bodies also run once as plain Python (coverage)
-    from tests.jit_off import run_without_jit
-
-    code = (
-        "import numpy as np\n"
-        "from pointatlas.simplify._kernels import point_triangle_distances as f\n"
-        "from tests.simplify.reference import point_triangle_distance_reference as ref\n"
-        "rng = np.random.default_rng(1)\n"
-        "v = rng.normal(size=(6, 3)); t = np.array([[0, 1, 2], [3, 4, 5], [0, 0, 1]])\n"
-        "p = rng.normal(size=(25, 3))\n"
-        "assert np.allclose(f(p, v, t), ref(p, v, t), rtol=1e-10, atol=1e-12)\n"
-    )
-    run_without_jit(code)
-
-
 def _assert_closed_planar(s, scale):
     """Closed, manifold, oriented, every face valid and every vertex on its planes."""
     assert s.vertex_method == "fit" and not s.fallback
@@ -342,6 +326,8 @@ def test_failed_plane_fit_falls_back_with_a_warning(monkeypatch):
         raise ValueError("broken solver")
 
     monkeypatch.setattr(vert, "minimize", broken)
+    # the Newton solver tried first does not converge either: the reference runs
+    monkeypatch.setattr(vert, "_sqp", lambda z, *problem: (z, False, 0))
     m = octahedron(16)
     with pytest.warns(SimplifyWarning, match="plane intersection"):
         s = simplify_segmentation(m.vertices, m.normals, m.labels)

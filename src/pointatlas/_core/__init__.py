@@ -9,6 +9,7 @@ from ._validation import (
     as_normals,
     as_points,
     as_rng,
+    check_neighbors,
     describe_indices,
 )
 from .errors import PointAtlasError
@@ -23,6 +24,7 @@ __all__ = [
     "as_normals",
     "as_points",
     "as_rng",
+    "check_neighbors",
     "describe_indices",
     "readonly",
 ]

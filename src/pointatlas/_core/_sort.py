@@ -16,8 +16,8 @@ __all__ = [
     "stable_argsort",
 ]
 
-#: bits per radix digit: 256 buckets keep the scatter targets in L1 (measured: 8 bits
-#: sort 6.2M edge weights in 0.35 s, 11 bits 0.62 s, 16 bits 0.66 s)
+#: bits per radix digit: 256 buckets keep the scatter targets in L1 (the fastest of
+#: 8, 11 and 16 bits; timings in docs/benchmarks/archive.md, "Radix digit width")
 _DIGIT_BITS = 8
 _N_PASSES = 8  # 64 / 8
 

@@ -1,4 +1,4 @@
-"""Validation helpers used once at every public boundary (STYLE section 5)."""
+"""Validation helpers used once at every public boundary (docs/decisions/core.md)."""
 
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ __all__ = [
     "as_normals",
     "as_points",
     "as_rng",
+    "check_neighbors",
     "describe_indices",
 ]
 
@@ -203,6 +204,81 @@ def as_rng(rng=None) -> np.random.Generator:
     rng : numpy.random.Generator
     """
     return np.random.default_rng(rng)
+
+
+# --------------------------------------------------------------------------- neighbours
+
+
+def check_neighbors(
+    neighbors,
+    n_points: int,
+    *,
+    k: int | None = None,
+    name: str = "neighbors",
+    allow_negative: bool = False,
+    check_range: bool = True,
+) -> np.ndarray:
+    """Validate a neighbour index table (the ``neighbors=`` argument of every room).
+
+    Parameters
+    ----------
+    neighbors : array_like of shape (N, m), int, or tuple
+        Row i lists neighbour indices of point i (e.g. the first array returned by
+        `pointatlas.neighbors.query_knn`); the ``(indices, distances)`` tuple that
+        `query_knn` returns is accepted as well.
+    n_points : int
+        N, the number of points the table belongs to.
+    k : int, optional
+        Keep the first ``k`` columns (the table must have at least ``k``); None
+        keeps all columns (at least one).
+    name : str
+        Parameter name used in error messages.
+    allow_negative : bool
+        Accept entries < 0 (they mean "no neighbour" to the caller).
+    check_range : bool
+        Check that the indices lie in [0, N) (or < N with ``allow_negative``);
+        False leaves the check to a kernel that reports bad indices itself.
+
+    Returns
+    -------
+    neighbors : ndarray of shape (N, k or m), int64
+        C-contiguous; a view of the input when no conversion was needed.
+
+    Raises
+    ------
+    TypeError
+        Non-integer entries.
+    ValueError
+        Wrong shape, too few columns, or indices out of range (the range found is
+        given).
+
+    Examples
+    --------
+    >>> check_neighbors([[0, 1], [1, 0], [2, 1]], 3, k=1).ravel().tolist()
+    [0, 1, 2]
+    """
+    if isinstance(neighbors, tuple) and len(neighbors) == 2:
+        neighbors = neighbors[0]
+    table = np.asarray(neighbors)
+    if table.dtype.kind not in "iu":
+        raise TypeError(f"{name} must be an integer index array; got dtype {table.dtype}")
+    n_cols = 1 if k is None else k
+    if table.ndim != 2 or table.shape[0] != n_points or table.shape[1] < n_cols:
+        raise ValueError(
+            f"{name} must have shape (N, m) with N = {n_points} points and m >= {n_cols}; "
+            f"got {table.shape}"
+        )
+    if k is not None and table.shape[1] != k:
+        table = table[:, :k]
+    table = np.ascontiguousarray(table, dtype=np.int64)
+    if check_range and table.size:
+        from ._ranges import index_range  # numba: loaded on first use, not on import
+
+        lo, hi = index_range(table)
+        if hi >= n_points or (lo < 0 and not allow_negative):
+            allowed = f"< {n_points}" if allow_negative else f"0..{n_points - 1}"
+            raise PointAtlasError(f"{name} must index points {allowed}; got range {lo}..{hi}")
+    return table
 
 
 # --------------------------------------------------------------------------- scalars

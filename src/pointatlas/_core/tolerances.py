@@ -4,13 +4,13 @@
 #: without amplifying round-off to O(1) direction errors).
 NORMAL_ZERO_LENGTH = 1e-12
 
-#: Angles between normals below this are treated as exactly 0 (GUIDE C1):
+#: Angles between normals below this are treated as exactly 0 (thesis Def. 15):
 #: arccos of a dot product of identical unit vectors can return ~1e-8 instead of 0.
 ANGLE_ZERO = 1e-7
 
 #: Relative tolerance for comparing squared distances when breaking ties in
 #: k-nearest-neighbour queries: distances equal to within round-off are ties
-#: and the smaller index wins (GUIDE conventions).
+#: and the smaller index wins (docs/decisions/neighbors.md).
 DISTANCE_TIE_RTOL = 0.0
 
 #: How many offending indices an error message lists before "...".
@@ -74,7 +74,7 @@ SIMPLIFY_PARALLEL_ANGLE = 0.08726646259971647
 #: VSA (segment): safety cap on the iterations of the main loop in which merges
 #: are allowed. Merges may raise the energy (thesis 4.3.3 b); they stop at the
 #: first round in which split and merge do not reduce the number of regions (see
-#: docs/decisions.md), which on the benchmark scene happens after
+#: docs/decisions/segment.md), which on the benchmark scene happens after
 #: 3-10 rounds; afterwards only split, switch and update run, which never raise
 #: the energy, so the loop terminates (Theorem 1).
 VSA_MERGE_ROUNDS = 50
@@ -83,7 +83,7 @@ VSA_MERGE_ROUNDS = 50
 #: merge round, the merge scans every boundary point for candidate pairs instead of
 #: first collecting the boundary points next to a changed region (same pairs, cheaper
 #: bookkeeping). The switch has its own exact skip rule (batch_switch_bounded).
-VSA_SWITCH_FULL_SCAN = 0.5
+VSA_MERGE_FULL_SCAN_SHARE = 0.5
 
 #: Safety margin of the k-NN grid (pointatlas.neighbors), relative to the cell
 #: size: cell faces computed as lo + i * h and the floor() that assigns points to

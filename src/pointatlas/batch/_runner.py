@@ -254,6 +254,33 @@ def _progress(enabled: bool, description: str, total: int):
     )
 
 
+def _check_arguments(func, n_workers, seed) -> None:
+    """The argument checks of `run_batch` (one precise error each)."""
+    if not callable(func):
+        raise TypeError(f"func must be callable; got {type(func).__name__}")
+    if isinstance(n_workers, bool) or not isinstance(n_workers, int | np.integer):
+        raise TypeError(f"n_workers must be an integer; got {type(n_workers).__name__}")
+    if n_workers < 1:
+        raise ValueError(f"n_workers must be >= 1; got {n_workers}")
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0; got {seed!r}")
+
+
+def _stored_results(items, results_dir: Path):
+    """Results of an earlier run read back; the (index, path, stem) still to compute."""
+    results: dict[str, dict] = {}
+    models: dict[str, dict] = {}
+    todo = []
+    for index, (path, stem) in enumerate(items):
+        stored = _read_json(results_dir / f"{stem}{_RESULT_SUFFIX}")
+        if isinstance(stored, dict):
+            results[stem] = stored
+            models[stem] = {"input": path, "index": index, "status": "skipped"}
+        else:
+            todo.append((index, path, stem))
+    return results, models, todo
+
+
 def run_batch(
     func: Callable,
     inputs: Iterable,
@@ -316,7 +343,7 @@ def run_batch(
     models whose ``<stem>.json`` exists and retries failed ones. An exception in
     ``func`` (or a worker dying twice on a model) is recorded in
     ``<stem>.error.json`` with type, message and traceback, and the batch goes on.
-    STYLE section 6 (seeding); decisions in docs/decisions.md (batch).
+    Decisions in docs/decisions/batch.md.
 
     Examples
     --------
@@ -325,14 +352,7 @@ def run_batch(
     ...     run_batch(len, [], tmp, progress=False).n_done
     0
     """
-    if not callable(func):
-        raise TypeError(f"func must be callable; got {type(func).__name__}")
-    if isinstance(n_workers, bool) or not isinstance(n_workers, int | np.integer):
-        raise TypeError(f"n_workers must be an integer; got {type(n_workers).__name__}")
-    if n_workers < 1:
-        raise ValueError(f"n_workers must be >= 1; got {n_workers}")
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise ValueError(f"seed must be an integer >= 0; got {seed!r}")
+    _check_arguments(func, n_workers, seed)
     items = _validate_inputs(inputs)
     label = name or getattr(func, "__name__", "batch")
     out = Path(out_dir)
@@ -341,17 +361,8 @@ def run_batch(
     start = time.perf_counter()
     children = np.random.SeedSequence(int(seed)).spawn(len(items))
 
-    results: dict[str, dict] = {}
     failures: dict[str, str] = {}
-    models: dict[str, dict] = {}
-    todo = []
-    for index, (path, stem) in enumerate(items):
-        stored = _read_json(results_dir / f"{stem}{_RESULT_SUFFIX}")
-        if isinstance(stored, dict):
-            results[stem] = stored
-            models[stem] = {"input": path, "index": index, "status": "skipped"}
-        else:
-            todo.append((index, path, stem))
+    results, models, todo = _stored_results(items, results_dir)
     n_skipped = len(results)
     n_done = 0
     where = None

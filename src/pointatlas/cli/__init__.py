@@ -18,13 +18,14 @@ __all__ = ["app", "main"]
 _COMMAND_MODULES = (
     "_cmd_cloudsurface",
     "_cmd_core",
+    "_cmd_data",
+    "_cmd_deform",
     "_cmd_denoise",
+    "_cmd_experiment",
     "_cmd_features",
+    "_cmd_render",
     "_cmd_segment",
     "_cmd_simplify",
-    "_exp_cloudsurfaces",
-    "_exp_denoise",
-    "_exp_vsa",
 )
 
 

@@ -34,6 +34,13 @@ __all__ = [
     "DEMO_STEPS",
     "EstimateNormalsOption",
     "NormalKOption",
+    "HaloOption",
+    "MaxMemoryOption",
+    "SchedulerOption",
+    "TileSizeOption",
+    "WorkersOption",
+    "run_tiled",
+    "tile_options",
     "app",
     "console",
     "data_app",
@@ -47,6 +54,18 @@ __all__ = [
     "read_with_normals",
     "say",
     "angle_deg_option",
+    "ClassicOption",
+    "EtaOption",
+    "MaxAngleDegOption",
+    "MaxIterOption",
+    "MergeOption",
+    "SeedsOption",
+    "SplitOption",
+    "SwitchOption",
+    "VSAKOption",
+    "VSASeedOption",
+    "WeightsOption",
+    "vsa_options",
 ]
 
 app = typer.Typer(
@@ -239,6 +258,128 @@ EstimateNormalsOption = Annotated[
 #: ``--normal-k``: neighbours of the estimated normals.
 NormalKOption = Annotated[int, typer.Option("--normal-k", help="Neighbours for estimated normals.")]
 
+# The VSA flags of ``segment`` and ``simplify``: declared once, so both commands
+# take the same names, help and (in their signatures) defaults; `vsa_options`
+# turns them into one `pointatlas.segment.VSAOptions`.
+#: ``--k``: neighbourhood size of the VSA graph (default 8).
+VSAKOption = Annotated[
+    int, typer.Option("--k", help="Neighbours, the point itself included (thesis: 8).")
+]
+#: ``--eta``: L21 threshold of split and merge.
+EtaOption = Annotated[
+    float | None,
+    typer.Option("--eta", help="L21 threshold for split/merge (thesis 4.3.3; thesis: 25)."),
+]
+#: ``--max-angle-deg``: largest mean normal deviation of a region (degrees).
+MaxAngleDegOption = Annotated[
+    float | None,
+    typer.Option("--max-angle-deg", help="Max mean normal deviation per region (deg)."),
+]
+#: ``--seeds``: see `parse_seeds` (default "all").
+SeedsOption = Annotated[
+    str, typer.Option("--seeds", help="'all', a number of random seeds, or indices.")
+]
+#: ``--split/--no-split`` (default on).
+SplitOption = Annotated[bool, typer.Option("--split/--no-split", help="Split step.")]
+#: ``--merge/--no-merge`` (default on).
+MergeOption = Annotated[bool, typer.Option("--merge/--no-merge", help="Merge step.")]
+#: ``--switch`` (default batch).
+SwitchOption = Annotated[str, typer.Option("--switch", help="batch, single or none.")]
+#: ``--classic`` (default off).
+ClassicOption = Annotated[
+    bool, typer.Option("--classic", help="Classic VSA loop (flood/update/re-seed).")
+]
+#: ``--weights`` (default uniform).
+WeightsOption = Annotated[str, typer.Option("--weights", help="uniform or area (Eq. 4.6).")]
+#: ``--max-iter`` (default 1000).
+MaxIterOption = Annotated[int, typer.Option("--max-iter", help="VSA iterations.")]
+#: ``--seed``: draws the random VSA seeds; recorded with the outputs (default 0).
+VSASeedOption = Annotated[int, typer.Option("--seed", help="Seed for random VSA seeds.")]
+
+#: Tiled processing (`pointatlas.batch`), the same five flags on normals, features,
+#: segment and denoise; `tile_options` turns them into a ``TileOptions`` (None
+#: without ``--tile-size``: the command runs as before).
+TileSizeOption = Annotated[
+    float | None,
+    typer.Option(
+        "--tile-size",
+        help="Process by x/y tiles of this edge length (coordinate units) on a dask cluster; "
+        "LAS/LAZ is streamed by chunks. Default: all points at once.",
+        rich_help_panel="Tiles",
+    ),
+]
+HaloOption = Annotated[
+    float | None,
+    typer.Option(
+        "--halo",
+        help="Halo width around every tile (default: automatic, wide enough for every "
+        "neighbourhood); a given halo that is too narrow is an error.",
+        rich_help_panel="Tiles",
+    ),
+]
+WorkersOption = Annotated[
+    int | None,
+    typer.Option(
+        "--workers", help="Worker processes of the local cluster (2).", rich_help_panel="Tiles"
+    ),
+]
+SchedulerOption = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler",
+        help="Address of a running dask scheduler (tcp://host:8786).",
+        rich_help_panel="Tiles",
+    ),
+]
+MaxMemoryOption = Annotated[
+    str | None,
+    typer.Option(
+        "--max-memory",
+        help="Memory limit per worker, e.g. 4GB; larger tiles are refused.",
+        rich_help_panel="Tiles",
+    ),
+]
+
+
+def tile_options(tile_size, halo, workers, scheduler, max_memory, **refused):
+    """The ``TileOptions`` of the tile flags, or None without ``--tile-size``.
+
+    ``refused``: flags that cannot run by tiles (``report=path``); any that is
+    given with ``--tile-size`` is a one-line error.
+    """
+    from ..batch import tile_options as make
+    from ..batch._tiles_cli import refuse
+
+    options = make(tile_size, halo, workers, scheduler, max_memory, progress=sys.stderr.isatty())
+    refuse(options, **refused)
+    return options
+
+
+def run_tiled(kind: str, in_path, out_path, params: dict, options, **kwargs) -> dict:
+    """Run a command by tiles (`pointatlas.batch.run_tiled_command`), print a summary
+    line and the files written; returns the summary."""
+    from ..batch import run_tiled_command
+
+    summary, written = run_tiled_command(kind, in_path, out_path, params, options, **kwargs)
+    tiles = summary["tiles"]
+    line = (
+        f"{kind}: {summary['points']:,} points in {tiles['tiles']} tiles of "
+        f"{tiles['tile_size']:g} (halo {tiles['halo_min']:.4g}"
+        + (f"-{tiles['halo_max']:.4g}" if tiles["halo_max"] != tiles["halo_min"] else "")
+        + f", {tiles['points_sent_per_point']:.2f} points sent per point) on "
+        f"{summary['scheduler']}, {summary['seconds_total']:.1f} s"
+    )
+    say(line)
+    quality = summary.get("quality")
+    if quality:
+        say(
+            f"  {quality['n_regions']} regions, energy {quality['energy']:.6g}, "
+            f"MSE {quality['mse']:.3e}"
+        )
+    for path in written:
+        say(f"wrote {path}")
+    return summary
+
 
 def parse_seeds(text: str):
     """``--seeds``: ``"all"``, a count (``"12"``) or comma-separated indices (``"0,5,9"``)."""
@@ -256,6 +397,43 @@ def parse_seeds(text: str):
     if value < 1:
         raise PointAtlasError(f"--seeds must be 'all', a count >= 1 or indices; got {text!r}")
     return value
+
+
+def vsa_options(
+    *,
+    k: int,
+    eta: float | None,
+    max_angle_deg: float | None,
+    seeds: str,
+    split: bool,
+    merge: bool,
+    switch: str,
+    classic: bool,
+    weights: str,
+    max_iter: int,
+):
+    """The VSA flags (`VSAKOption`, `EtaOption`, ...) as a
+    `pointatlas.segment.VSAOptions`: ``--seeds`` parsed, degrees to radians; a
+    bad ``--switch``, ``--max-angle-deg`` or ``--seeds`` is named by its flag."""
+    import math
+
+    from ..segment import VSAOptions
+
+    if switch not in ("batch", "single", "none"):
+        raise PointAtlasError(f"--switch must be batch, single or none; got {switch!r}")
+    max_angle = angle_deg_option(max_angle_deg, "--max-angle-deg")
+    return VSAOptions(
+        k=k,
+        eta=eta,
+        max_angle=None if max_angle is None else math.radians(max_angle),
+        seeds=parse_seeds(seeds),
+        split=split,
+        merge=merge,
+        switch=switch,
+        classic=classic,
+        weights=weights,
+        max_iter=max_iter,
+    )
 
 
 def _check_min_points(path, ps, min_points: int, what: str) -> None:
@@ -290,8 +468,11 @@ def read_with_normals(
             given = read_input(path).normals
         except PointAtlasError:  # some points without a normal: nothing to keep
             given = None
-        if given is not None:
-            ps = ps.with_attributes(input_normals=given)
+        if given is not None:  # kept as input_normals (pa_ prefixed if that name is taken)
+            from ..io import merge_attributes
+
+            name = list(merge_attributes(ps.attributes, {"input_normals": given}))[-1]
+            ps = ps.with_attributes(**{name: given})
     else:
         ps = read_input(path, zero_normals="drop")
         if "source_index" in ps.attributes:  # rare: count the points left out

@@ -44,23 +44,10 @@ from ._outputs import (
 
 __all__ = [
     "cloudsurface_command",
-    "deform_command",
-    "load_cloudsurface",
-    "membership_colors",
     "scale_grid",
 ]
 
-#: Example 2 colours by number of clouds: 0 black, 1 light grey, 2 blue, 3 orange, 4+ red.
-_EXAMPLE2 = np.array(
-    [[0, 0, 0], [205, 205, 205], [50, 110, 220], [245, 150, 30], [220, 20, 20]], dtype=np.uint8
-)
-
 _MODELS = ("eta1", "eta2", "eta3")
-
-
-def membership_colors(n_memberships: np.ndarray) -> np.ndarray:
-    """Example 2 colours (uint8 RGB) from the number of clouds of every point."""
-    return _EXAMPLE2[np.minimum(np.asarray(n_memberships), 4)]
 
 
 def scale_grid(smin: float, smax: float, step: float) -> np.ndarray:
@@ -113,7 +100,7 @@ def _write_curve_obj(path: Path, vertices: np.ndarray, edges: np.ndarray) -> Pat
 
 
 def _picture(path: Path, points, counts, vertices, faces, edges, title: str) -> Path:
-    from ..viz import MeshPanel, PointsPanel, render_side_by_side
+    from ..viz import MeshPanel, PointsPanel, membership_colors, render_side_by_side
 
     colors = membership_colors(counts)
     panels = [PointsPanel(points, colors=colors, title="points by number of clouds (Example 2)")]
@@ -162,17 +149,134 @@ def _run_cover(points, *, scale, search, rotations, offsets, accept, dim, layout
     return cov, res, chosen
 
 
+def _cover_arguments(paths, from_mesh, *, dim, scale, search, rotations, offsets, accept):
+    """IN, OUT_DIR and the dimension from the arguments; one error for a bad combination."""
+    if from_mesh is not None:
+        if len(paths) != 1:
+            raise PointAtlasError("with --from-mesh give only OUT_DIR (the mesh is the input)")
+        in_path, out_dir = from_mesh, paths[0]
+        dim = 3
+    else:
+        if len(paths) != 2:
+            raise PointAtlasError(f"give IN and OUT_DIR; got {len(paths)} path(s)")
+        in_path, out_dir = paths
+        dim = as_int(dim, "--dim", lo=2, hi=3)
+        if (scale is None) == (search is None):
+            raise PointAtlasError("give exactly one of --scale S and --search SMIN SMAX STEP")
+        if scale is not None:
+            as_float(scale, "--scale", lo=0.0, lo_open=True)
+        else:
+            scale_grid(*search)
+        as_int(rotations, "--rotations", lo=0, hi=1000)
+        as_int(offsets, "--offsets", lo=0, hi=1000)
+        if accept not in (None, "closed", "open"):
+            raise PointAtlasError(f"--accept must be closed or open; got {accept!r}")
+    return in_path, out_dir, dim
+
+
+def _checked_outputs(in_path, out_dir, dim, *, search, rotations, offsets, render, html_report):
+    """The output paths of a run, checked before any work (OUT_DIR created)."""
+    out = _out_paths(out_dir, dim)
+    files = [
+        ("clouds", out["clouds"], None),
+        ("complex", out["complex"], None),
+        ("cloudsurface.npz", out["npz"], None),
+        ("report.txt", out["table"], None),
+        ("search.csv", out["search"] if (search or rotations or offsets) else None, None),
+        ("picture", out["picture"] if render else None, None),
+        ("report.json", out["json"], None),
+    ]
+    files.append(("--report", html_report, REPORT_EXTENSIONS))
+    check_outputs([in_path], [], [("OUT_DIR", out_dir)])
+    check_outputs([in_path], [f for f in files if f[0] == "--report"])
+    out_dir.mkdir(exist_ok=True)
+    check_outputs([in_path], files)
+    return out
+
+
+def _write_cover_files(out, ps, cov, chosen, report, res, dim):
+    """Clouds, complex, cloudsurface.npz, report.txt and search.csv of a cover run.
+
+    Returns the files written and the complex's realisation (vertices, faces).
+    """
+    K = cov.complex
+    written = []
+    verts, faces = realise_complex(K, report) if dim == 3 else (np.asarray(K.cloud_points), None)
+    written.append(_write_clouds(out["clouds"], ps, K.n_memberships))
+    if dim == 3:
+        from ..io import write_mesh
+
+        written.append(write_mesh(out["complex"], np.nan_to_num(verts), faces))
+    else:
+        written.append(_write_curve_obj(out["complex"], verts, K.edges))
+        faces = np.zeros((0, 3), np.int64)
+    meta = {"kind": "cover", "dim": dim, "layout": cov.layout, **chosen}
+    written.append(_write_npz(out["npz"], K, ps.points, faces, meta))
+    written.append(write_text(out["table"], report.table()))
+    if res is not None:
+        written.append(_search_csv(out["search"], res.rows()))
+    return written, verts, faces
+
+
+def _is_accepted(report, accept, dim) -> bool:
+    """A closed (or, with --accept open, any) cloud surface or 1-manifold curve."""
+    closed_only = (accept or ("closed" if dim == 3 else "open")) == "closed"
+    return (
+        (report.is_cloud_surface and (report.is_closed or not closed_only)) if dim == 3
+        else (report.is_one_manifold and (report.is_closed or not closed_only))
+    )  # fmt: skip
+
+
+def _cover_payload(in_path, ps, cov, chosen, report, res, accepted, seed, placeholder, dim):
+    """The numbers of report.json for a ball-cover run (the seconds are added after)."""
+    K = cov.complex
+    payload = {
+        "input": str(in_path),
+        "n_points": int(ps.n_points),
+        "mode": "cover",
+        "dim": dim,
+        "layout": cov.layout,
+        "scale": chosen["scale"],
+        "rotation": chosen["rotation"],
+        "rotation_matrix": cov.rotation.tolist(),
+        "offset": chosen["offset"],
+        "offset_vector": cov.offset.tolist(),
+        "n_clouds": cov.n_clouds,
+        "accepted": bool(accepted),
+        "seed": seed,
+        "points_per_cloud_count": np.bincount(K.n_memberships).tolist(),
+        "fields": list(point_fields(ps, placeholder)),
+        "report": report.summary(),
+        "search": None if res is None else {
+            "n_settings": int(res.scales.size),
+            "accepted": [{"scale": float(res.scales[i]), "rotation": int(res.rotation_index[i]),
+                          "offset": int(res.offset_index[i])} for i in res.accepted],
+        },  # fmt: skip
+    }
+    return payload
+
+
+_PathsArgument = Annotated[
+    list[Path],
+    typer.Argument(
+        metavar="IN OUT_DIR",
+        help="Point set or mesh file (or a bundled model name) and the output folder; "
+        "with --from-mesh only OUT_DIR.",
+    ),
+]
+_ModelOption = Annotated[str, typer.Option("--model", help="--from-mesh: eta1, eta2 or eta3.")]
+_COption = Annotated[
+    float | None,
+    typer.Option(
+        "--c", help="--from-mesh: eta1/eta2 parameter c (default 0 for eta1, 1 for eta2)."
+    ),
+]
+
+
 @app.command("cloudsurface")
 @guarded
 def cloudsurface_command(
-    paths: Annotated[
-        list[Path],
-        typer.Argument(
-            metavar="IN OUT_DIR",
-            help="Point set or mesh file (or a bundled model name) and the output folder; "
-            "with --from-mesh only OUT_DIR.",
-        ),
-    ],
+    paths: _PathsArgument,
     scale: Annotated[
         float | None, typer.Option("--scale", help="Grid scale s of the ball cover.")
     ] = None,
@@ -205,15 +309,8 @@ def cloudsurface_command(
         Path | None,
         typer.Option("--from-mesh", help="Generate clouds from this mesh (Algorithm 1)."),
     ] = None,
-    model: Annotated[str, typer.Option("--model", help="--from-mesh: eta1, eta2 or eta3.")] = (
-        "eta1"
-    ),
-    c: Annotated[
-        float | None,
-        typer.Option(
-            "--c", help="--from-mesh: eta1/eta2 parameter c (default 0 for eta1, 1 for eta2)."
-        ),
-    ] = None,
+    model: _ModelOption = "eta1",
+    c: _COption = None,
     c_v: Annotated[float, typer.Option("--c-v", help="--from-mesh: eta3 parameter c_v.")] = 0.5,
     c_h: Annotated[float, typer.Option("--c-h", help="--from-mesh: eta3 parameter c_h.")] = 0.5,
     t: Annotated[
@@ -243,41 +340,12 @@ def cloudsurface_command(
     mesh, cloudsurface.npz (for ``deform``), report.txt, a picture and, last,
     report.json (topology report and the files of this run with their SHA-256).
     """
-    if from_mesh is not None:
-        if len(paths) != 1:
-            raise PointAtlasError("with --from-mesh give only OUT_DIR (the mesh is the input)")
-        in_path, out_dir = from_mesh, paths[0]
-        dim = 3
-    else:
-        if len(paths) != 2:
-            raise PointAtlasError(f"give IN and OUT_DIR; got {len(paths)} path(s)")
-        in_path, out_dir = paths
-        dim = as_int(dim, "--dim", lo=2, hi=3)
-        if (scale is None) == (search is None):
-            raise PointAtlasError("give exactly one of --scale S and --search SMIN SMAX STEP")
-        if scale is not None:
-            as_float(scale, "--scale", lo=0.0, lo_open=True)
-        else:
-            scale_grid(*search)
-        as_int(rotations, "--rotations", lo=0, hi=1000)
-        as_int(offsets, "--offsets", lo=0, hi=1000)
-        if accept not in (None, "closed", "open"):
-            raise PointAtlasError(f"--accept must be closed or open; got {accept!r}")
-    out = _out_paths(out_dir, dim)
-    files = [
-        ("clouds", out["clouds"], None),
-        ("complex", out["complex"], None),
-        ("cloudsurface.npz", out["npz"], None),
-        ("report.txt", out["table"], None),
-        ("search.csv", out["search"] if (search or rotations or offsets) else None, None),
-        ("picture", out["picture"] if render else None, None),
-        ("report.json", out["json"], None),
-    ]
-    files.append(("--report", html_report, REPORT_EXTENSIONS))
-    check_outputs([in_path], [], [("OUT_DIR", out_dir)])
-    check_outputs([in_path], [f for f in files if f[0] == "--report"])
-    out_dir.mkdir(exist_ok=True)
-    check_outputs([in_path], files)
+    in_path, out_dir, dim = _cover_arguments(
+        paths, from_mesh, dim=dim, scale=scale, search=search, rotations=rotations,
+        offsets=offsets, accept=accept,
+    )  # fmt: skip
+    out = _checked_outputs(in_path, out_dir, dim, search=search, rotations=rotations,
+                           offsets=offsets, render=render, html_report=html_report)  # fmt: skip
     t0 = time.perf_counter()
     if from_mesh is not None:
         _from_mesh(in_path, out, model=model, c=c, c_v=c_v, c_h=c_h, t=t, samples=samples,
@@ -294,27 +362,9 @@ def cloudsurface_command(
         cloud_points=cloud_points,
     )  # fmt: skip
     K = cov.complex
-    written = []
     report = surface_report(K) if dim == 3 else curve_report(K)
-    verts, faces = realise_complex(K, report) if dim == 3 else (np.asarray(K.cloud_points), None)
-    written.append(_write_clouds(out["clouds"], ps, K.n_memberships))
-    if dim == 3:
-        from ..io import write_mesh
-
-        written.append(write_mesh(out["complex"], np.nan_to_num(verts), faces))
-    else:
-        written.append(_write_curve_obj(out["complex"], verts, K.edges))
-        faces = np.zeros((0, 3), np.int64)
-    meta = {"kind": "cover", "dim": dim, "layout": cov.layout, **chosen}
-    written.append(_write_npz(out["npz"], K, ps.points, faces, meta))
-    written.append(write_text(out["table"], report.table()))
-    if res is not None:
-        written.append(_search_csv(out["search"], res.rows()))
-    closed_only = (accept or ("closed" if dim == 3 else "open")) == "closed"
-    accepted = (
-        (report.is_cloud_surface and (report.is_closed or not closed_only)) if dim == 3
-        else (report.is_one_manifold and (report.is_closed or not closed_only))
-    )  # fmt: skip
+    written, verts, faces = _write_cover_files(out, ps, cov, chosen, report, res, dim)
+    accepted = _is_accepted(report, accept, dim)
     if render:
         title = (f"{ps.name}: s = {chosen['scale']:g}, {cov.n_clouds} clouds, "
                  + (("closed " if report.is_closed else "") + ("cloud surface" if dim == 3
@@ -322,30 +372,10 @@ def cloudsurface_command(
         written.append(
             _picture(out["picture"], ps.points, K.n_memberships, verts, faces, K.edges, title)
         )
-    payload = {
-        "input": str(in_path),
-        "n_points": int(ps.n_points),
-        "mode": "cover",
-        "dim": dim,
-        "layout": cov.layout,
-        "scale": chosen["scale"],
-        "rotation": chosen["rotation"],
-        "rotation_matrix": cov.rotation.tolist(),
-        "offset": chosen["offset"],
-        "offset_vector": cov.offset.tolist(),
-        "n_clouds": cov.n_clouds,
-        "accepted": bool(accepted),
-        "seed": seed,
-        "points_per_cloud_count": np.bincount(K.n_memberships).tolist(),
-        "fields": list(point_fields(ps, placeholder)),
-        "report": report.summary(),
-        "search": None if res is None else {
-            "n_settings": int(res.scales.size),
-            "accepted": [{"scale": float(res.scales[i]), "rotation": int(res.rotation_index[i]),
-                          "offset": int(res.offset_index[i])} for i in res.accepted],
-        },  # fmt: skip
-        "seconds": round(time.perf_counter() - t0, 3),
-    }
+    payload = _cover_payload(
+        in_path, ps, cov, chosen, report, res, accepted, seed, placeholder, dim
+    )
+    payload["seconds"] = round(time.perf_counter() - t0, 3)
     if html_report is not None:
         written.append(
             _html_report(html_report, in_path, payload, ps.points, K.n_memberships, verts,
@@ -381,6 +411,8 @@ def _html_report(path, in_path, payload, points, counts, verts, faces, written, 
 
 
 def _write_clouds(path: Path, ps, counts: np.ndarray) -> Path:
+    from ..viz import membership_colors
+
     return write_point_output(
         path, ps, {"n_clouds": np.asarray(counts, np.int64), "colors": membership_colors(counts)}
     )
@@ -484,99 +516,4 @@ def _from_mesh(
                   f"complex equals the mesh: {same}")  # fmt: skip
     _print_result(report, K.n_clouds, {}, report.is_cloud_surface, None, payload["seconds"], 3)
     for path in [*written, out["json"]]:
-        say(f"wrote {path}")
-
-
-def load_cloudsurface(folder: Path):
-    """Read ``cloudsurface.npz`` of a cloudsurface folder: (complex, points, faces)."""
-    path = Path(folder) / "cloudsurface.npz"
-    if not Path(folder).is_dir():
-        raise PointAtlasError(f"{folder}: not a folder (give the OUT_DIR of cloudsurface)")
-    if not path.exists():
-        raise PointAtlasError(f"{folder}: no cloudsurface.npz (give the OUT_DIR of cloudsurface)")
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            indptr, members = z["cloud_indptr"], z["cloud_members"]
-            cp, pts, faces = z["cloud_points"], z["points"], z["faces"]
-    except (OSError, ValueError, KeyError) as exc:
-        raise PointAtlasError(f"{path}: unreadable ({exc})") from None
-    clouds = np.split(members, indptr[1:-1])
-    K = cloud_complex(clouds, n_points=pts.shape[0], cloud_points=np.nan_to_num(cp))
-    return K, pts, faces
-
-
-@app.command("deform")
-@guarded
-def deform_command(
-    surface_dir: Annotated[
-        Path, typer.Argument(metavar="CLOUDSURFACE_DIR", help="Output folder of cloudsurface.")
-    ],
-    new_cloud_points: Annotated[
-        Path,
-        typer.Argument(
-            metavar="NEW_CLOUD_POINTS",
-            help="The cloud points at time 1 (complex.ply with moved vertices, or any point "
-            "file with one point per cloud, in order).",
-        ),
-    ],
-    output: Annotated[Path, typer.Argument(metavar="OUT.ply", help="The moved points.")],
-    inverse: Annotated[
-        bool, typer.Option("--inverse", help="Map points at time 1 back to time 0.")
-    ] = False,
-    points_path: Annotated[
-        Path | None,
-        typer.Option("--points", help="Points to move (default: the cloud surface's points)."),
-    ] = None,
-):
-    """Move the points of a cloud surface with its cloud points (Algorithm 3).
-
-    Points in three clouds follow their triangle, in two clouds their edge, in one
-    cloud their vertex; points that cannot be routed keep their position and are
-    counted (field ``route`` = 0). Writes OUT and, last, OUT.json.
-    """
-    from ..dynamics import deform_points
-
-    json_path = output.with_suffix(".json")
-    check_outputs(
-        [surface_dir / "cloudsurface.npz", new_cloud_points, points_path],
-        [("OUT", output, (".ply",)), ("OUT's summary", json_path, None)],
-    )
-    K, pts0, faces = load_cloudsurface(surface_dir)
-    new_cp = read_input(new_cloud_points, with_normals=False).points
-    if new_cp.shape[0] != K.n_clouds:
-        raise PointAtlasError(
-            f"{new_cloud_points}: has {new_cp.shape[0]} points; the cloud surface has "
-            f"{K.n_clouds} clouds (give one point per cloud, in the order of complex.ply)"
-        )
-    pts = pts0 if points_path is None else read_input(points_path, with_normals=False).points
-    if pts.shape[0] != K.n_points:
-        raise PointAtlasError(
-            f"--points {points_path}: has {pts.shape[0]} points; the cloud surface has "
-            f"{K.n_points}"
-        )
-    t0 = time.perf_counter()
-    res = deform_points(pts, K, new_cp, faces=faces, inverse=inverse)
-    from ..io import write_point_set
-
-    colors = membership_colors(K.n_memberships)
-    written = [write_point_set(output, res.points, attributes={
-        "route": res.route.astype(np.int64), "n_clouds": np.asarray(K.n_memberships)},
-        colors=colors)]  # fmt: skip
-    payload = {
-        "surface": str(surface_dir),
-        "new_cloud_points": str(new_cloud_points),
-        "inverse": inverse,
-        "n_points": int(K.n_points),
-        "routes": res.counts(),
-        "unroutable": [int(i) for i in res.unroutable[:1000]],
-        "seconds": round(time.perf_counter() - t0, 3),
-    }
-    write_summary_json(json_path, payload, written)
-    c = res.counts()
-    console.print(
-        f"moved {K.n_points - c['unroutable']:,} of {K.n_points:,} points: "
-        f"{c['triangle']:,} by triangles, {c['edge']:,} by edges, {c['vertex']:,} by vertices; "
-        f"{c['unroutable']:,} unroutable (kept in place)"
-    )
-    for path in [*written, json_path]:
         say(f"wrote {path}")

@@ -1,6 +1,6 @@
-"""Core commands: ``info``, ``normals``, ``render``, ``data list/export`` and ``demo``.
+"""Core commands: ``info``, ``normals``, ``demo`` (``render``, ``data``: own modules).
 
-Conventions (docs/decisions.md): user errors print one red line and exit
+Conventions (docs/decisions/cli.md): user errors print one red line and exit
 1, usage errors exit 2 (typer); outputs are written atomically; angles on the
 command line are degrees (``--*-deg``); long steps show a progress bar on a
 terminal.
@@ -9,7 +9,6 @@ terminal.
 from __future__ import annotations
 
 import json
-import math
 import time
 from pathlib import Path
 from typing import Annotated
@@ -22,26 +21,31 @@ from rich.table import Table
 from .._core import PointAtlasError, PointSet
 from ..io import (
     MESH_EXTENSIONS,
+    POINT_WRITE_EXTENSIONS,
     read_mesh,
     read_point_set,
-    write_mesh,
     write_point_set,
 )
-from ..neighbors import mean_spacing, query_knn
-from ..normals import angle_error, estimate_normals, flipped_fraction, orient_normals
+from ..neighbors import point_set_info, query_knn
+from ..normals import angle_error, compare_normals, estimate_normals, orient_normals
 from ._app import (
     DEMO_STEPS,
+    HaloOption,
+    MaxMemoryOption,
+    SchedulerOption,
+    TileSizeOption,
+    WorkersOption,
     app,
     console,
-    data_app,
     demo_step,
     guarded,
     progress_bar,
     read_input,
+    run_tiled,
     say,
+    tile_options,
 )
 from ._outputs import (
-    XYZ_EXTENSIONS,
     check_outputs,
     check_point_output,
     write_point_output,
@@ -51,11 +55,7 @@ from ._outputs import (
 __all__ = [
     "DEMO_STEPS",
     "REPORT_EXTENSIONS",
-    "compare_normals",
-    "point_set_info",
     "info_table",
-    "knn_component_sizes",
-    "render_file",
     "report_layer",
     "report_summary",
     "report_up",
@@ -64,14 +64,10 @@ __all__ = [
     "step_name",
 ]
 
-#: Extensions ``write_point_set`` writes (checked before any work is done).
-POINT_WRITE_EXTENSIONS = (".las", ".laz", ".ply", ".txt", ".xyz")
 #: Orientation methods of ``pointatlas normals`` (``none`` keeps PCA signs).
 ORIENT_METHODS = ("mst", "outward", "viewpoint", "none")
 #: Point-only formats whose data are conventionally z-up (LiDAR / GIS).
 Z_UP_EXTENSIONS = (".las", ".laz")
-#: Integer attributes whose name contains one of these are drawn as categories.
-CATEGORY_HINTS = ("label", "class", "region", "segment", "cluster", "component")
 #: Model used by ``pointatlas demo``.
 DEMO_MODEL = "fandisk"
 
@@ -85,114 +81,6 @@ def _fmt(x: float) -> str:
 
 def _vec(v) -> str:
     return "(" + ", ".join(_fmt(float(c)) for c in v) + ")"
-
-
-def _duplicates(points: np.ndarray) -> int:
-    """Number of redundant copies: N minus the number of distinct positions."""
-    if points.shape[0] < 2:
-        return 0
-    canon = np.ascontiguousarray(points + 0.0)  # -0.0 == 0.0
-    rows = canon.view(np.dtype((np.void, canon.dtype.itemsize * 3))).ravel()
-    return int(points.shape[0] - np.unique(rows).shape[0])
-
-
-def knn_component_sizes(indices: np.ndarray) -> np.ndarray:
-    """Sizes of the connected components of the symmetric k-NN graph, largest first.
-
-    Same partition as `pointatlas.neighbors.knn_components` (i ~ j when either is
-    among the other's neighbours), computed as the *weakly* connected components
-    of the directed k-NN graph: no symmetrisation, de-duplication or distances,
-    so it stays linear-time at 1e6 points.
-
-    Parameters
-    ----------
-    indices : ndarray of shape (N, k), int64
-        `query_knn` indices (column 0 is the point itself).
-
-    Returns
-    -------
-    sizes : ndarray of shape (n_components,), int64
-    """
-    from scipy import sparse
-    from scipy.sparse import csgraph
-
-    n, k = indices.shape
-    rows = np.repeat(np.arange(n, dtype=np.int64), k)
-    graph = sparse.csr_array(
-        (np.ones(n * k, dtype=np.int8), (rows, indices.reshape(-1))), shape=(n, n)
-    )
-    _, labels = csgraph.connected_components(graph, directed=True, connection="weak")
-    return np.sort(np.bincount(labels))[::-1]
-
-
-def point_set_info(ps: PointSet, *, k: int = 8, n_faces: int | None = None, face_sizes=None):
-    """Summary of a point set as a JSON-ready dict (used by ``info`` and ``demo``).
-
-    Parameters
-    ----------
-    ps : PointSet
-        The points (normals and attributes optional).
-    k : int
-        Neighbourhood size (point itself included) of the k-NN graph whose
-        connected components are counted.
-    n_faces : int, optional
-        Number of faces when the file is a mesh.
-    face_sizes : ndarray of shape (F,), int, optional
-        Vertices per face, to tell triangle from polygon meshes.
-
-    Returns
-    -------
-    info : dict
-        points, faces, face_kind, normals, bbox_min/max/size, mean_spacing (GUIDE
-        l: mean distance to the 12 nearest; None below 2 points), knn_k,
-        knn_components, largest_component, duplicates, attributes.
-
-    Raises
-    ------
-    PointAtlasError
-        k < 2.
-    """
-    if k < 2:
-        raise PointAtlasError(f"--k must be at least 2 (the point itself and a neighbour); got {k}")
-    pts = ps.points
-    n = ps.n_points
-    info: dict = {"name": ps.name, "points": n}
-    info["faces"] = None if n_faces is None else int(n_faces)
-    if face_sizes is not None and len(face_sizes):
-        lo, hi = int(np.min(face_sizes)), int(np.max(face_sizes))
-        info["face_kind"] = "triangles" if lo == hi == 3 else f"polygons ({lo}-{hi} vertices)"
-    else:
-        info["face_kind"] = None
-    info["normals"] = bool(ps.has_normals)
-    if n:
-        lo, hi = pts.min(axis=0), pts.max(axis=0)
-        info["bbox_min"] = lo.tolist()
-        info["bbox_max"] = hi.tolist()
-        info["bbox_size"] = (hi - lo).tolist()
-    else:
-        info["bbox_min"] = info["bbox_max"] = info["bbox_size"] = None
-    k_eff = min(k, n)
-    k_query = min(max(k, 13), n)
-    info["knn_k"] = k_eff
-    if n >= 2:
-        indices, distances = query_knn(pts, k_query)
-        k_l = min(12, n - 1)
-        info["mean_spacing"] = mean_spacing(pts, k=k_l, distances=distances)
-        info["mean_spacing_k"] = k_l
-        sizes = knn_component_sizes(indices[:, :k_eff])
-        info["knn_components"] = int(sizes.size)
-        info["largest_component"] = int(sizes[0])
-    else:
-        info["mean_spacing"] = None
-        info["mean_spacing_k"] = None
-        info["knn_components"] = n
-        info["largest_component"] = n
-    info["duplicates"] = _duplicates(pts)
-    info["attributes"] = {
-        name: {"dtype": str(arr.dtype), "shape": list(arr.shape[1:])}
-        for name, arr in sorted(ps.attributes.items())
-    }
-    return info
 
 
 def info_table(info: dict, *, title: str | None = None) -> Table:
@@ -238,18 +126,6 @@ def _read_for_info(path: Path):
     return ps, n_faces, face_sizes
 
 
-def compare_normals(estimated: np.ndarray, reference: np.ndarray) -> dict:
-    """Angle errors (degrees) and flipped fraction of normals against a reference."""
-    oriented = np.degrees(angle_error(estimated, reference))
-    unoriented = np.degrees(angle_error(estimated, reference, unoriented=True))
-    return {
-        "mean_angle_error_deg": float(oriented.mean()),
-        "median_angle_error_deg": float(np.median(oriented)),
-        "mean_unoriented_error_deg": float(unoriented.mean()),
-        "flipped_fraction": float(flipped_fraction(estimated, reference)),
-    }
-
-
 def _compute_normals(points, *, k: int, orient: str, orient_k: int, viewpoint, advance):
     if orient not in ORIENT_METHODS:
         raise PointAtlasError(
@@ -279,45 +155,6 @@ def _compute_normals(points, *, k: int, orient: str, orient_k: int, viewpoint, a
         )
     advance()
     return oriented
-
-
-def _pick_coloring(ps: PointSet, color_by: str) -> dict:
-    """Keyword arguments of ``render_points`` for ``--color-by`` (see the docs)."""
-    attrs = ps.attributes
-    key = color_by.strip()
-    if key == "normals":
-        return {}
-    if key == "labels" and "labels" not in attrs:
-        candidates = [a for a in attrs if any(h in a.lower() for h in CATEGORY_HINTS)]
-        if not candidates:
-            raise PointAtlasError(
-                "--color-by labels: the file has no 'labels' attribute; fields: " + _field_list(ps)
-            )
-        key = candidates[0]
-    if key in attrs:
-        values = np.asarray(attrs[key])
-        if values.ndim == 2 and values.shape[1] in (3, 4) and key.lower() in ("colors", "colours"):
-            return {"colors": values}
-        if values.ndim != 1:
-            raise PointAtlasError(
-                f"--color-by {key}: attribute has shape {values.shape}, not one value per "
-                f"point; fields: {_field_list(ps)}"
-            )
-        if values.dtype.kind in "iu" and any(h in key.lower() for h in CATEGORY_HINTS):
-            return {"labels": values}
-        if values.dtype.kind not in "biuf":
-            raise PointAtlasError(f"--color-by {key}: attribute is not numeric ({values.dtype})")
-        return {"scalars": values.astype(np.float64), "scalar_name": key}
-    if key in ("x", "y", "z"):
-        axis = "xyz".index(key)
-        return {"scalars": ps.points[:, axis], "scalar_name": key}
-    raise PointAtlasError(
-        f"--color-by {color_by!r} is not a field of the file; fields: {_field_list(ps)}"
-    )
-
-
-def _field_list(ps: PointSet) -> str:
-    return ", ".join(["normals", "x", "y", "z", *sorted(ps.attributes)])
 
 
 # --------------------------------------------------------------------------- reports
@@ -363,83 +200,16 @@ def report_up(path) -> str:
     return "z" if Path(path).suffix.lower() in Z_UP_EXTENSIONS else "y"
 
 
-def _view(azimuth_deg: float, elevation_deg: float, up: str, path: Path):
-    if not (math.isfinite(azimuth_deg) and math.isfinite(elevation_deg)):
-        raise PointAtlasError("--azimuth-deg and --elevation-deg must be finite")
-    if not -90.0 <= elevation_deg <= 90.0:
-        raise PointAtlasError(f"--elevation-deg must lie in [-90, 90]; got {elevation_deg}")
-    if up == "auto":
-        up = "z" if path.suffix.lower() in Z_UP_EXTENSIONS else "y"
-    if up not in ("x", "y", "z"):
-        raise PointAtlasError(f"--up must be auto, x, y or z; got {up!r}")
-    return math.radians(azimuth_deg), math.radians(elevation_deg), np.eye(3)["xyz".index(up)]
-
-
-def render_file(
-    in_path: Path,
-    out_path: Path,
-    *,
-    color_by: str = "normals",
-    title: str | None = None,
-    size=(1024, 1024),
-    azimuth_deg: float = 35.0,
-    elevation_deg: float = 25.0,
-    up: str = "auto",
-    cmap: str = "viridis",
-    draw: str = "auto",
-) -> Path:
-    """Render a point-set or mesh file to a PNG (the ``render`` command)."""
-    from ..viz import fit_camera, render_mesh, render_points
-
-    check_outputs([in_path], [("OUT", out_path, (".png",))])
-    out_path = Path(out_path)
-    az, el, up_vec = _view(azimuth_deg, elevation_deg, up, Path(in_path))
-    if draw not in ("auto", "points", "mesh"):
-        raise PointAtlasError(f"--as must be auto, points or mesh; got {draw!r}")
-    mesh = None
-    if draw != "points" and Path(in_path).suffix.lower() in MESH_EXTENSIONS:
-        mesh = read_mesh(in_path)
-        if mesh.n_faces == 0:
-            mesh = None
-    if draw == "mesh" and mesh is None:
-        raise PointAtlasError(f"--as mesh: {str(in_path)!r} has no faces")
-    if draw == "mesh" and color_by != "normals":
-        raise PointAtlasError("--color-by colours points; use it without --as mesh")
-    if mesh is not None and (draw == "mesh" or color_by == "normals"):
-        camera = fit_camera(mesh.vertices, azimuth=az, elevation=el, up=up_vec)
-        colors = mesh.face_colors if color_by == "normals" else None
-        return render_mesh(
-            out_path,
-            mesh.vertices,
-            mesh.faces,
-            face_offsets=mesh.face_offsets,
-            face_colors=colors,
-            title=title or mesh.name,
-            view=camera,
-            size=size,
-        )
-    ps = read_point_set(in_path, zero_normals="drop")
-    coloring = _pick_coloring(ps, color_by)
-    camera = fit_camera(ps.points, azimuth=az, elevation=el, up=up_vec)
-    return render_points(
-        out_path,
-        ps.points,
-        normals=ps.normals,
-        cmap=cmap,
-        title=title or ps.name,
-        view=camera,
-        size=size,
-        **coloring,
-    )
-
-
 # --------------------------------------------------------------------------- info
 
 
 @app.command("info")
 @guarded
 def info_command(
-    file: Annotated[Path, typer.Argument(help="Point set or mesh (PLY, OBJ, OFF, STL, XYZ, LAS).")],
+    file: Annotated[
+        Path,
+        typer.Argument(metavar="IN", help="Point set or mesh (PLY, OBJ, OFF, STL, XYZ, LAS)."),
+    ],
     k: Annotated[
         int, typer.Option("--k", help="k of the k-NN graph whose components are counted.")
     ] = 8,
@@ -487,6 +257,11 @@ def normals_command(
         Path | None,
         typer.Option("--report", help="Also write an HTML report with a 3-D view (.html)."),
     ] = None,
+    tile_size: TileSizeOption = None,
+    halo: HaloOption = None,
+    workers: WorkersOption = None,
+    scheduler: SchedulerOption = None,
+    max_memory: MaxMemoryOption = None,
 ):
     """Estimate (PCA) and orient normals; write the points with them.
 
@@ -502,6 +277,11 @@ def normals_command(
         raise PointAtlasError(
             f"--orient must be one of {', '.join(ORIENT_METHODS)}; got {orient!r}"
         )
+    tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, report=report)
+    if tiles is not None:
+        params = {"k": k, "orient": orient, "orient_k": orient_k, "viewpoint": viewpoint}
+        run_tiled("normals", in_path, out_path, params, tiles)
+        return
     ps = read_input(in_path, with_normals=False)
     try:
         reference = read_input(in_path).normals
@@ -572,53 +352,6 @@ def _write_normals_report(path, in_path, ps, normals, reference, stats, paramete
 # --------------------------------------------------------------------------- render
 
 
-@app.command("render")
-@guarded
-def render_command(
-    in_path: Annotated[Path, typer.Argument(metavar="IN", help="Point set or mesh file.")],
-    out_path: Annotated[Path, typer.Argument(metavar="OUT.png", help="PNG to write.")],
-    color_by: Annotated[
-        str,
-        typer.Option(
-            "--color-by",
-            help="normals (shading, default), labels, x/y/z, or any per-point attribute.",
-        ),
-    ] = "normals",
-    title: Annotated[str | None, typer.Option("--title", help="Picture title.")] = None,
-    size: Annotated[tuple[int, int], typer.Option("--size", help="Width and height (pixels).")] = (
-        1024,
-        1024,
-    ),
-    azimuth_deg: Annotated[float, typer.Option("--azimuth-deg", help="View azimuth.")] = 35.0,
-    elevation_deg: Annotated[float, typer.Option("--elevation-deg", help="View elevation.")] = 25.0,
-    up: Annotated[
-        str, typer.Option("--up", help="Up axis: auto (z for LAS/LAZ, else y), x, y or z.")
-    ] = "auto",
-    cmap: Annotated[
-        str, typer.Option("--cmap", help="Matplotlib colormap for scalars.")
-    ] = "viridis",
-    draw: Annotated[
-        str, typer.Option("--as", help="auto (mesh when the file has faces), points or mesh.")
-    ] = "auto",
-):
-    """Render a point set or mesh to a PNG (offscreen, fixed camera)."""
-    with progress_bar("rendering") as advance:
-        path = render_file(
-            in_path,
-            out_path,
-            color_by=color_by,
-            title=title,
-            size=size,
-            azimuth_deg=azimuth_deg,
-            elevation_deg=elevation_deg,
-            up=up,
-            cmap=cmap,
-            draw=draw,
-        )
-        advance()
-    say(f"wrote {path}")
-
-
 # --------------------------------------------------------------------------- data
 
 
@@ -628,72 +361,6 @@ def _data_module():
     except ImportError as exc:  # pragma: no cover - the data room ships with the package
         raise PointAtlasError(f"bundled models are not available ({exc})") from None
     return data
-
-
-@data_app.command("list")
-@guarded
-def data_list_command(
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")] = False,
-):
-    """List the bundled models and synthetic shapes (name, points, licence, source)."""
-    rows = [
-        {"name": r.name, "points": r.n_points, "license": r.license, "source": r.source}
-        for r in _data_module().info()
-    ]
-    if as_json:
-        typer.echo(json.dumps(rows, indent=2))
-        return
-    table = Table(title="bundled models (pointatlas data export NAME OUT)", title_justify="left")
-    table.add_column("name", style="bold", no_wrap=True)
-    table.add_column("points", justify="right", no_wrap=True)
-    table.add_column("licence")
-    table.add_column("source", overflow="fold")
-    for r in rows:
-        table.add_row(r["name"], f"{r['points']:,}", r["license"], r["source"])
-    console.print(table)
-
-
-@data_app.command("export")
-@guarded
-def data_export_command(
-    name: Annotated[str, typer.Argument(help="Bundled model name (see `pointatlas data list`).")],
-    out_path: Annotated[
-        Path, typer.Argument(metavar="OUT", help="Output file; format by extension.")
-    ],
-    points_only: Annotated[
-        bool,
-        typer.Option(
-            "--points", help="Write the point set (normals, attributes such as labels), no faces."
-        ),
-    ] = False,
-):
-    """Write a bundled model to a file.
-
-    Mesh formats (.obj .off .stl .ply) keep the faces; point formats (.xyz .txt
-    .las .laz), or ``--points`` with .ply, write the points with their normals and
-    attributes (e.g. the ground-truth ``labels`` of synthetic shapes).
-    """
-    data = _data_module()
-    ext = out_path.suffix.lower()
-    check_outputs(
-        [], [("OUT", out_path, tuple(sorted(set(MESH_EXTENSIONS) | set(POINT_WRITE_EXTENSIONS))))]
-    )
-    if name not in data.names():
-        raise PointAtlasError(f"unknown model {name!r}; bundled: {', '.join(data.names())}")
-    if points_only and ext not in POINT_WRITE_EXTENSIONS:
-        raise PointAtlasError(
-            f"--points needs a point format ({', '.join(POINT_WRITE_EXTENSIONS)})"
-        )
-    if ext in MESH_EXTENSIONS and not points_only:
-        mesh = data.load_mesh(name)
-        path = write_mesh(out_path, mesh)
-        say(f"wrote {path} ({mesh.n_vertices:,} vertices, {mesh.n_faces:,} faces)")
-        return
-    ps = data.load(name)
-    if ext in XYZ_EXTENSIONS and ps.attributes:
-        check_point_output(out_path, ps, {})
-    path = write_point_set(out_path, ps)
-    say(f"wrote {path} ({ps.n_points:,} points)")
 
 
 # --------------------------------------------------------------------------- demo

@@ -26,13 +26,20 @@ from ..denoise import (
 )
 from ._app import (
     EstimateNormalsOption,
+    HaloOption,
+    MaxMemoryOption,
     NormalKOption,
+    SchedulerOption,
+    TileSizeOption,
+    WorkersOption,
     app,
     console,
     guarded,
     progress_bar,
     read_with_normals,
+    run_tiled,
     say,
+    tile_options,
 )
 from ._cmd_core import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 from ._outputs import check_outputs, check_point_output, write_point_output, write_summary_json
@@ -95,8 +102,9 @@ def _run(ps, method, *, rho, tau, n_iter, n_filter_iter, max_step, k, eta, eps, 
                 normals=ps.normals,
                 progress=advance,
             )
-    n_iter = 2 if n_iter is None else n_iter
-    with progress_bar("normal filter steps", total=n_iter * n_filter_iter) as advance:
+    # n_iter None: rounds until the points settle (normal_voting_denoise); total unknown
+    total = None if n_iter is None else (n_iter + (n_iter > 0)) * n_filter_iter
+    with progress_bar("normal filter steps", total=total) as advance:
         return normal_voting_denoise(
             ps.points,
             ps.normals,
@@ -152,88 +160,9 @@ def _html_report(path, input_path, ps, out_ps, ours, summary, written):
     )
 
 
-@app.command("denoise")
-@guarded
-def denoise_command(
-    input_path: Annotated[
-        Path, typer.Argument(metavar="IN", help="Point set or mesh file, or a bundled model name.")
-    ],
-    output: Annotated[
-        Path,
-        typer.Argument(
-            metavar="OUT", help="Denoised point set (.ply, .las, .laz), every input field kept."
-        ),
-    ],
-    method: Annotated[
-        str,
-        typer.Option(
-            "--method",
-            help="normal-voting, normal-voting-adaptive, flatness or auto (adaptive normal "
-            "voting when IN has normals, else flatness).",
-        ),
-    ] = "auto",
-    rho: Annotated[float, typer.Option("--rho", help="Normal voting: cut-off on n_i . n_j.")] = 0.9,
-    tau: Annotated[
-        float,
-        typer.Option("--tau", help="Normal voting: eigenvalue threshold (and feature classes)."),
-    ] = 0.3,
-    n_iter: Annotated[
-        int | None,
-        typer.Option(
-            "--n-iter", help="Iterations (point updates); default 2 (voting), 60 (flatness)."
-        ),
-    ] = None,
-    n_filter_iter: Annotated[
-        int, typer.Option("--filter-iter", help="Normal voting: filter steps per iteration.")
-    ] = 10,
-    max_step: Annotated[
-        float, typer.Option("--max-step", help="Normal voting: largest move per iteration, in l.")
-    ] = 0.5,
-    k: Annotated[
-        int, typer.Option("--k", help="Flatness: neighbours, the point itself included.")
-    ] = 28,
-    eta: Annotated[float, typer.Option("--eta", help="Flatness: weight of the plane term.")] = 1.0,
-    eps: Annotated[float, typer.Option("--eps", help="Flatness: step scale.")] = 0.1,
-    schedule: Annotated[
-        str, typer.Option("--schedule", help="Flatness: constant or decreasing (large k first).")
-    ] = "constant",
-    k_start: Annotated[
-        int | None, typer.Option("--k-start", help="Flatness, decreasing: first k (default 4 k).")
-    ] = None,
-    clean: Annotated[
-        Path | None,
-        typer.Option("--clean", help="Clean mesh (or point set): print and record the measures."),
-    ] = None,
-    estimate: EstimateNormalsOption = None,
-    normal_k: NormalKOption = 20,
-    render: Annotated[
-        Path | None, typer.Option("--render", help="Also write a PNG: input beside result.")
-    ] = None,
-    report: Annotated[
-        Path | None,
-        typer.Option(
-            "--report", help="Also write an HTML report with a 3-D view of input and result."
-        ),
-    ] = None,
-):
-    """Denoise a point set: normal voting with adaptive k (thesis 5.4) or flatness (Eq. 6.3).
-
-    Writes OUT (moved points, filtered normals, every input field, plus
-    ``displacement``, ``feature_class``, ``denoise_k`` and, for flatness, ``flatness``)
-    and, last, OUT_denoise.json (parameters, timings, measures, files with SHA-256).
-    """
-    from ..io import POINT_WRITE_EXTENSIONS
-
-    json_path = summary_path(output)
-    check_outputs(
-        [input_path, clean],
-        [
-            ("OUT", output, POINT_WRITE_EXTENSIONS),
-            ("OUT's summary", json_path, None),
-            ("--render", render, (".png",)),
-            ("--report", report, REPORT_EXTENSIONS),
-        ],
-    )
+def _check_options(method, schedule, *, rho, tau, max_step, eta, eps, n_filter_iter, n_iter,
+                   clean) -> None:
+    """One precise error for an option out of range (before any work)."""
     if method not in DENOISE_METHODS:
         raise PointAtlasError(
             f"--method must be one of {', '.join(DENOISE_METHODS)}; got {method!r}"
@@ -252,15 +181,19 @@ def denoise_command(
         as_int(n_iter, "--n-iter", lo=0)
     if clean is not None and not Path(clean).is_file():
         raise PointAtlasError(f"--clean: no such file: {str(clean)!r}")
-    t0 = time.perf_counter()
+
+
+def _read_checked(input_path, output, method, estimate, normal_k):
+    """The method (``auto`` decided on the input as given) and the input with normals,
+    after checking that OUT can hold the input's fields and ours."""
     if method == "auto" and estimate is None:
-        # auto decides on the input as given: normals present -> adaptive voting
+        # auto decides on the input as given (choose_method)
         from ._app import read_input
 
         probe = read_input(input_path, zero_normals="drop")
         method = choose_method(probe.points, probe.normals)
     elif method == "auto":
-        method = "normal-voting-adaptive"
+        method = choose_method([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
     ps = read_with_normals(input_path, estimate=estimate, normal_k=normal_k)
     n = ps.n_points
     ours = {
@@ -271,12 +204,11 @@ def denoise_command(
     if method == "flatness":
         ours["flatness"] = np.zeros(n)
     check_point_output(output, ps, ours)
-    clean_model = read_clean(clean) if clean is not None else None
-    t1 = time.perf_counter()
-    res = _run(ps, method, rho=rho, tau=tau, n_iter=n_iter, n_filter_iter=n_filter_iter,
-               max_step=max_step, k=k, eta=eta, eps=eps, schedule=schedule,
-               k_start=k_start)  # fmt: skip
-    seconds = time.perf_counter() - t1
+    return method, ps
+
+
+def _our_fields(res, method) -> dict:
+    """Our per-point fields of OUT."""
     ours = {
         "displacement": res.displacement,
         "feature_class": res.feature_class,
@@ -284,8 +216,12 @@ def denoise_command(
     }
     if method == "flatness":
         ours["flatness"] = res.energy
-    out_ps = ps.replace(points=res.points, normals=res.normals)
-    written = [write_point_output(output, out_ps, ours)]
+    return ours
+
+
+def _summary(input_path, res, n, method, seconds, t0, *, k, eta, eps, schedule, k_start, rho,
+             tau, n_filter_iter, max_step) -> dict:
+    """The numbers of OUT_denoise.json (the measures against --clean are added after)."""
     summary = {
         "input": str(input_path),
         "method": res.method,
@@ -307,39 +243,172 @@ def denoise_command(
         "seconds": round(seconds, 3),
         "seconds_total": round(time.perf_counter() - t0, 3),
     }
-    if clean_model is not None:
-        cpts, cnrm, cfaces = clean_model
-        before = denoise_measures(
-            ps.points, cpts, normals=ps.normals, clean_normals=cnrm, clean_faces=cfaces
-        ).as_dict()
-        after = denoise_measures(
-            res.points, cpts, normals=res.normals, clean_normals=cnrm, clean_faces=cfaces
-        ).as_dict()
-        summary["clean"] = str(clean)
-        summary["measures_input"] = before
-        summary["measures_denoised"] = after
-    if render is not None:
-        from ..viz import PointsPanel, render_side_by_side
+    return summary
 
-        scal = res.energy if method == "flatness" else res.feature_class.astype(float)
-        name = "flatness" if method == "flatness" else "feature class"
-        written.append(
-            render_side_by_side(
-                render,
-                [
-                    PointsPanel(ps.points, normals=ps.normals, title="input"),
-                    PointsPanel(
-                        res.points,
-                        normals=res.normals,
-                        scalars=scal,
-                        scalar_name=name,
-                        cmap="Blues",
-                        title=res.method,
-                    ),  # fmt: skip
-                ],
-                title=f"{ps.name}: denoised ({res.method}, {res.n_iter} iterations)",
-            )
-        )
+
+def _clean_measures(clean, clean_model, ps, res) -> dict:
+    """Chamfer, p2m and normal MSE of the input and of the result against --clean."""
+    cpts, cnrm, cfaces = clean_model
+    before = denoise_measures(
+        ps.points, cpts, normals=ps.normals, clean_normals=cnrm, clean_faces=cfaces
+    ).as_dict()
+    after = denoise_measures(
+        res.points, cpts, normals=res.normals, clean_normals=cnrm, clean_faces=cfaces
+    ).as_dict()
+    return {"clean": str(clean), "measures_input": before, "measures_denoised": after}
+
+
+def _render_result(render, ps, res, method):
+    """The --render PNG: the input beside the result (flatness or feature class)."""
+    from ..viz import PointsPanel, render_side_by_side
+
+    scal = res.energy if method == "flatness" else res.feature_class.astype(float)
+    name = "flatness" if method == "flatness" else "feature class"
+    return render_side_by_side(
+        render,
+        [
+            PointsPanel(ps.points, normals=ps.normals, title="input"),
+            PointsPanel(
+                res.points,
+                normals=res.normals,
+                scalars=scal,
+                scalar_name=name,
+                cmap="Blues",
+                title=res.method,
+            ),  # fmt: skip
+        ],
+        title=f"{ps.name}: denoised ({res.method}, {res.n_iter} iterations)",
+    )
+
+
+_MethodOption = Annotated[
+    str,
+    typer.Option(
+        "--method",
+        help="normal-voting, normal-voting-adaptive, flatness or auto (normal-voting; "
+        "normals are estimated when IN has none).",
+    ),
+]
+_NIterOption = Annotated[
+    int | None,
+    typer.Option(
+        "--n-iter",
+        help="Rounds (voting; default: until the points settle, at most 4) or "
+        "iterations (flatness; default 60).",
+    ),
+]
+_CleanOption = Annotated[
+    Path | None,
+    typer.Option("--clean", help="Clean mesh (or point set): print and record the measures."),
+]
+_RenderOption = Annotated[
+    Path | None, typer.Option("--render", help="Also write a PNG: input beside result.")
+]
+_ReportOption = Annotated[
+    Path | None,
+    typer.Option("--report", help="Also write an HTML report with a 3-D view of input and result."),
+]
+
+
+@app.command("denoise")
+@guarded
+def denoise_command(
+    input_path: Annotated[
+        Path, typer.Argument(metavar="IN", help="Point set or mesh file, or a bundled model name.")
+    ],
+    output: Annotated[
+        Path,
+        typer.Argument(
+            metavar="OUT", help="Denoised point set (.ply, .las, .laz), every input field kept."
+        ),
+    ],
+    method: _MethodOption = "auto",
+    rho: Annotated[float, typer.Option("--rho", help="Normal voting: cut-off on n_i . n_j.")] = 0.9,
+    tau: Annotated[
+        float,
+        typer.Option("--tau", help="Normal voting: eigenvalue threshold (and feature classes)."),
+    ] = 0.3,
+    n_iter: _NIterOption = None,
+    n_filter_iter: Annotated[
+        int, typer.Option("--filter-iter", help="Normal voting: filter steps per round.")
+    ] = 5,
+    max_step: Annotated[
+        float, typer.Option("--max-step", help="Normal voting: largest move per iteration, in l.")
+    ] = 0.5,
+    k: Annotated[
+        int, typer.Option("--k", help="Flatness: neighbours, the point itself included.")
+    ] = 28,
+    eta: Annotated[float, typer.Option("--eta", help="Flatness: weight of the plane term.")] = 1.0,
+    eps: Annotated[float, typer.Option("--eps", help="Flatness: step scale.")] = 0.1,
+    schedule: Annotated[
+        str, typer.Option("--schedule", help="Flatness: constant or decreasing (large k first).")
+    ] = "constant",
+    k_start: Annotated[
+        int | None, typer.Option("--k-start", help="Flatness, decreasing: first k (default 4 k).")
+    ] = None,
+    clean: _CleanOption = None,
+    estimate: EstimateNormalsOption = None,
+    normal_k: NormalKOption = 20,
+    render: _RenderOption = None,
+    report: _ReportOption = None,
+    tile_size: TileSizeOption = None,
+    halo: HaloOption = None,
+    workers: WorkersOption = None,
+    scheduler: SchedulerOption = None,
+    max_memory: MaxMemoryOption = None,
+):
+    """Denoise a point set: normal voting with adaptive k (thesis 5.4) or flatness (Eq. 6.3).
+
+    Writes OUT (moved points, filtered normals, every input field, plus
+    ``displacement``, ``feature_class``, ``denoise_k`` and, for flatness, ``flatness``)
+    and, last, OUT_denoise.json (parameters, timings, measures, files with SHA-256).
+    """
+    from ..io import POINT_WRITE_EXTENSIONS
+
+    json_path = summary_path(output)
+    check_outputs(
+        [input_path, clean],
+        [
+            ("OUT", output, POINT_WRITE_EXTENSIONS),
+            ("OUT's summary", json_path, None),
+            ("--render", render, (".png",)),
+            ("--report", report, REPORT_EXTENSIONS),
+        ],
+    )
+    _check_options(method, schedule, rho=rho, tau=tau, max_step=max_step, eta=eta, eps=eps,
+                   n_filter_iter=n_filter_iter, n_iter=n_iter, clean=clean)  # fmt: skip
+    tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, clean=clean,
+                         render=render, report=report)  # fmt: skip
+    if tiles is not None:
+        from ..batch._tiles_cli import denoise_params, normal_params_for
+
+        params = denoise_params(
+            input_path, method=method, estimate=estimate, rho=rho, tau=tau, n_iter=n_iter,
+            filter_iter=n_filter_iter, max_step=max_step, k=k, eta=eta, eps=eps,
+            schedule=schedule, k_start=k_start,
+        )  # fmt: skip
+        run_tiled("denoise", input_path, output, params, tiles,
+                  normal_params=normal_params_for(input_path, estimate, normal_k))  # fmt: skip
+        return
+    t0 = time.perf_counter()
+    method, ps = _read_checked(input_path, output, method, estimate, normal_k)
+    n = ps.n_points
+    clean_model = read_clean(clean) if clean is not None else None
+    t1 = time.perf_counter()
+    res = _run(ps, method, rho=rho, tau=tau, n_iter=n_iter, n_filter_iter=n_filter_iter,
+               max_step=max_step, k=k, eta=eta, eps=eps, schedule=schedule,
+               k_start=k_start)  # fmt: skip
+    seconds = time.perf_counter() - t1
+    ours = _our_fields(res, method)
+    out_ps = ps.replace(points=res.points, normals=res.normals)
+    written = [write_point_output(output, out_ps, ours)]
+    summary = _summary(input_path, res, n, method, seconds, t0, k=k, eta=eta, eps=eps,
+                       schedule=schedule, k_start=k_start, rho=rho, tau=tau,
+                       n_filter_iter=n_filter_iter, max_step=max_step)  # fmt: skip
+    if clean_model is not None:
+        summary.update(_clean_measures(clean, clean_model, ps, res))
+    if render is not None:
+        written.append(_render_result(render, ps, res, method))
     if report is not None:
         written.append(_html_report(report, input_path, ps, out_ps, ours, summary, written))
     write_summary_json(json_path, summary, written)

@@ -1,6 +1,6 @@
 """``pointatlas features``: per-point eigen-features, optimal neighbourhoods, pictures.
 
-Thesis 5.2-5.4 and 6.1-6.2 (GUIDE C1/C2). Writes every feature, the chosen
+Thesis 5.2-5.4 and 6.1-6.2 (docs/decisions/features.md). Writes every feature, the chosen
 (a, b, k) and the reason codes as PLY scalar fields (CloudCompare shows them as
 scalar fields), and with ``--render`` the pictures of Fig. 5.3 and Figs. 6.2/6.5.
 """
@@ -17,39 +17,43 @@ import typer
 
 from .._core import PointAtlasError, as_float_array
 from ..features import (
+    DIMENSION_CLASSES,
     FEATURE_NAMES,
     REASON_CODES,
     THESIS_ANGLE_GRID,
     FeatureResult,
+    classify_dimension,
     covariance_features,
     optimal_k_features,
     optimal_neighbourhood,
 )
-from ._app import app, console, demo_step, err_console, guarded, read_input, say
+from ._app import (
+    HaloOption,
+    MaxMemoryOption,
+    SchedulerOption,
+    TileSizeOption,
+    WorkersOption,
+    app,
+    console,
+    demo_step,
+    err_console,
+    guarded,
+    read_input,
+    run_tiled,
+    say,
+    tile_options,
+)
 from ._cmd_core import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 from ._outputs import check_outputs, check_point_output, write_point_output
 
 __all__ = [
-    "classify_dimension",
     "compute_features_for",
     "demo_features",
+    "feature_picture_paths",
     "feature_statistics",
-    "fig_5_3",
     "features_command",
     "render_feature_pictures",
 ]
-
-#: class names of the dimension classification (Fig. 5.3 bottom row), label -1 = degenerate
-DIMENSION_CLASSES = ("linear", "planar", "scattered")
-
-
-def classify_dimension(result: FeatureResult) -> np.ndarray:
-    """Label 0/1/2 = largest of linearity / planarity / scattering, -1 where undefined."""
-    lps = np.column_stack([result.linearity, result.planarity, result.scattering])
-    ok = np.isfinite(lps).all(axis=1)
-    cls = np.full(result.n_points, -1, dtype=np.int64)
-    cls[ok] = np.argmax(lps[ok], axis=1)
-    return cls
 
 
 def _parse_grid_deg(text: str | None, name: str) -> tuple[float, ...]:
@@ -103,13 +107,22 @@ def compute_features_for(
     return res, f"optimal (a, b, k): {n_pairs} (a, b) pairs x k in {kr[0]}..{kr[1]}"
 
 
+def feature_picture_paths(path) -> tuple[Path, Path, Path]:
+    """The three PNGs of ``features --render PATH.png``: PATH itself (Fig. 5.3) and,
+    beside it, ``<stem>_fig6_5.png`` (Figs. 6.2/6.5) and ``<stem>_flatness.png``."""
+    p = Path(path)
+    return p, p.with_name(f"{p.stem}_fig6_5.png"), p.with_name(f"{p.stem}_flatness.png")
+
+
 def render_feature_pictures(
-    out_dir, points, normals, result: FeatureResult, *, name: str, energies=None, size: int = 800
+    path, points, normals, result: FeatureResult, *, name: str, energies=None, size: int = 800
 ):
     """Fig. 5.3 (E_dim, dimension classes) and Figs. 6.2/6.5 (four energies) as PNGs.
 
-    ``energies`` is the result drawn in the energy pictures; the thesis (6.2) uses
-    equal weights and k = 14, which is computed here when omitted.
+    ``path`` is the Fig. 5.3 picture; the others go beside it
+    (`feature_picture_paths`). ``name`` titles the pictures. ``energies`` is the
+    result drawn in the energy pictures; the thesis (6.2) uses equal weights and
+    k = 14, which is computed here when omitted.
     """
     from ..viz import PointsPanel, render_points, render_side_by_side
 
@@ -117,14 +130,13 @@ def render_feature_pictures(
         energies = covariance_features(points, 14, flatness=result.flatness_exponents)
     k_text = f"k = {int(energies.k.max())}" if energies.k.size else ""
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    fig5_3, fig6_5, flatness = feature_picture_paths(path)
     e_dim = np.where(np.isfinite(result.e_dim), result.e_dim, np.nan)
     cls = classify_dimension(result)
     counts = [int((cls == c).sum()) for c in range(3)]
     written = [
         render_side_by_side(
-            out / f"{name}_fig5_3.png",
+            fig5_3,
             [
                 PointsPanel(
                     points,
@@ -153,7 +165,7 @@ def render_feature_pictures(
     ]
     written.append(
         render_side_by_side(
-            out / f"{name}_fig6_5.png",
+            fig6_5,
             [
                 PointsPanel(
                     points,
@@ -171,7 +183,7 @@ def render_feature_pictures(
     )
     written.append(
         render_points(
-            out / f"{name}_flatness.png",
+            flatness,
             points,
             normals=normals,
             scalars=energies.flatness,
@@ -184,13 +196,90 @@ def render_feature_pictures(
     return written
 
 
+def _read_checked(input_path, output):
+    """Read IN (points without a usable normal left out, with a note) and check that
+    OUT can hold the input's fields and ours, before computing."""
+    ps = read_input(input_path, zero_normals="drop")
+    if "source_index" in ps.attributes:
+        n_total = read_input(input_path, with_normals=False).n_points
+        say(
+            f"note: left out {n_total - ps.n_points:,} of {n_total:,} points without a usable "
+            "normal; the field source_index holds the kept points' original indices",
+            out=err_console,
+        )
+    n = ps.n_points
+    names = [*(f"eigenvalue_{i}" for i in (1, 2, 3)), *FEATURE_NAMES, "k", "a", "b", "reason"]
+    placeholder = {name: np.zeros(n) for name in names}
+    placeholder["dimension_class"] = np.zeros(n, np.int64)
+    check_point_output(output, ps, placeholder)
+    return ps
+
+
+def _print_features(input_path, result, mode: str, elapsed: float, written) -> None:
+    """The console lines of ``features``: size, mode, means, degenerate points."""
+    n = result.n_points
+    say(f"{input_path.name}: {n} points, {mode} ({elapsed:.2f} s)")
+    ok = result.is_valid
+    if ok.any():
+        console.print(
+            f"  E_dim mean {np.mean(result.e_dim[ok]):.4f}, flatness mean "
+            f"{np.mean(result.flatness[ok]):.4f}"
+        )
+    for code, count in _reason_counts(result):
+        console.print(f"  {count} point(s) degenerate: {REASON_CODES[code]} (NaN)")
+    say(f"  wrote {written}")
+
+
+def _write_features_report(
+    report, input_path, ps, result, fields, mode, elapsed, pictures, parameters
+) -> None:
+    """The HTML report of ``features``: counts, per-field statistics, a 3-D view."""
+    from ..viz import write_report
+
+    counts = {"mode": mode, "points": result.n_points, "seconds": round(elapsed, 3)}
+    counts.update(
+        {f"degenerate: {REASON_CODES[int(c)]}": int(m) for c, m in _reason_counts(result)}
+    )
+    write_report(
+        report,
+        title=f"pointatlas features: {Path(input_path).name}",
+        summary=report_summary(input_path, ps),
+        parameters=parameters,
+        tables={"result": counts, "fields": feature_statistics(fields)},
+        pictures=pictures,
+        layers=[report_layer(ps, fields, color_by="dimension_class")],
+        up=report_up(input_path),
+    )
+    say(f"  wrote {report}")
+
+
+#: ``--render PATH.png`` (Fig. 5.3; the other pictures beside it, `feature_picture_paths`)
+_RenderOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--render",
+        help="PNG of Fig. 5.3; Figs. 6.2/6.5 and the flatness go beside it "
+        "(<stem>_fig6_5.png, <stem>_flatness.png).",
+    ),
+]
+_RenderSizeOption = Annotated[
+    int, typer.Option("--render-size", min=64, help="Pixels per picture panel.")
+]
+_ReportOption = Annotated[
+    Path | None,
+    typer.Option("--report", help="Also write an HTML report with a 3-D view (.html)."),
+]
+
+
 @app.command("features")
 @guarded
 def features_command(
     input_path: Annotated[
         Path, typer.Argument(metavar="IN", help="Point set or mesh file, or a bundled model name.")
     ],
-    output: Annotated[Path, typer.Argument(metavar="OUT.ply", help="Output point file.")],
+    output: Annotated[
+        Path, typer.Argument(metavar="OUT", help="Output point file (.ply, .las, .laz).")
+    ],
     k: Annotated[
         int | None, typer.Option("--k", help="Fixed neighbourhood size (default 14).", min=3)
     ] = None,
@@ -208,11 +297,11 @@ def features_command(
     ] = "auto",
     a_grid: Annotated[
         str | None,
-        typer.Option("--a-grid-deg", "--a-grid", help="a values in degrees, e.g. 0,30,60."),
+        typer.Option("--a-grid-deg", help="a values in degrees, e.g. 0,30,60."),
     ] = None,
     b_grid: Annotated[
         str | None,
-        typer.Option("--b-grid-deg", "--b-grid", help="b values in degrees (default as a)."),
+        typer.Option("--b-grid-deg", help="b values in degrees (default as a)."),
     ] = None,
     flatness: Annotated[
         tuple[int, int], typer.Option("--flatness", help="Even exponents M1 M2 of Eq. 6.1.")
@@ -221,16 +310,14 @@ def features_command(
         str,
         typer.Option("--criterion", help="Equal-weight k search: e_dim or eigenentropy."),
     ] = "e_dim",
-    render: Annotated[
-        Path | None, typer.Option("--render", help="Write Fig. 5.3 / 6.5 pictures here.")
-    ] = None,
-    render_size: Annotated[
-        int, typer.Option("--render-size", min=64, help="Pixels per picture panel.")
-    ] = 800,
-    report: Annotated[
-        Path | None,
-        typer.Option("--report", help="Also write an HTML report with a 3-D view (.html)."),
-    ] = None,
+    render: _RenderOption = None,
+    render_size: _RenderSizeOption = 800,
+    report: _ReportOption = None,
+    tile_size: TileSizeOption = None,
+    halo: HaloOption = None,
+    workers: WorkersOption = None,
+    scheduler: SchedulerOption = None,
+    max_memory: MaxMemoryOption = None,
 ) -> None:
     """Eigen-features per point (linearity ... flatness) with the optimal neighbourhood.
 
@@ -240,26 +327,26 @@ def features_command(
     """
     from ..io import POINT_WRITE_EXTENSIONS
 
+    picture_paths = feature_picture_paths(render) if render is not None else (None,) * 3
     check_outputs(
         [input_path],
-        [("OUT", output, POINT_WRITE_EXTENSIONS), ("--report", report, REPORT_EXTENSIONS)],
-        folders=[("--render", render)],
-    )
+        [("OUT", output, POINT_WRITE_EXTENSIONS), ("--report", report, REPORT_EXTENSIONS),
+         *(("--render", p, (".png",)) for p in picture_paths)],
+    )  # fmt: skip
     a_vals = _parse_grid_deg(a_grid, "--a-grid-deg")
     b_vals = _parse_grid_deg(b_grid, "--b-grid-deg") if b_grid is not None else a_vals
-    ps = read_input(input_path, zero_normals="drop")
-    if "source_index" in ps.attributes:
-        n_total = read_input(input_path, with_normals=False).n_points
-        say(
-            f"note: left out {n_total - ps.n_points:,} of {n_total:,} points without a usable "
-            "normal; the field source_index holds the kept points' original indices",
-            out=err_console,
-        )
-    n = ps.n_points
-    names = [*(f"eigenvalue_{i}" for i in (1, 2, 3)), *FEATURE_NAMES, "k", "a", "b", "reason"]
-    placeholder = {name: np.zeros(n) for name in names}
-    placeholder["dimension_class"] = np.zeros(n, np.int64)
-    check_point_output(output, ps, placeholder)
+    tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, render=render,
+                         report=report)  # fmt: skip
+    if tiles is not None:
+        from ..batch._tiles_cli import feature_params, input_has_normals
+
+        params = feature_params(
+            weights=weights, k=k, k_range=k_range, a_grid=a_vals, b_grid=b_vals,
+            flatness=flatness, criterion=criterion, has_normals=input_has_normals(input_path),
+        )  # fmt: skip
+        run_tiled("features", input_path, output, params, tiles)
+        return
+    ps = _read_checked(input_path, output)
     t0 = time.perf_counter()
     result, mode = compute_features_for(
         ps.points,
@@ -276,20 +363,9 @@ def features_command(
     fields = result.scalar_fields()
     fields["dimension_class"] = classify_dimension(result)
     written = write_point_output(output, ps, fields)
-    n = result.n_points
-    say(f"{input_path.name}: {n} points, {mode} ({elapsed:.2f} s)")
-    ok = result.is_valid
-    if ok.any():
-        console.print(
-            f"  E_dim mean {np.mean(result.e_dim[ok]):.4f}, flatness mean "
-            f"{np.mean(result.flatness[ok]):.4f}"
-        )
-    for code, count in _reason_counts(result):
-        console.print(f"  {count} point(s) degenerate: {REASON_CODES[code]} (NaN)")
-    say(f"  wrote {written}")
+    _print_features(input_path, result, mode, elapsed, written)
     pictures = []
     if render is not None:
-        render.mkdir(exist_ok=True)
         fixed_equal = mode.startswith("fixed")
         energies = result if fixed_equal else None
         pictures = render_feature_pictures(
@@ -304,8 +380,6 @@ def features_command(
         for p in pictures:
             say(f"  wrote {p}")
     if report is not None:
-        from ..viz import write_report
-
         parameters = {
             "k": k,
             "k_range": k_range,
@@ -315,21 +389,9 @@ def features_command(
             "flatness": flatness,
             "criterion": criterion,
         }
-        counts = {"mode": mode, "points": n, "seconds": round(elapsed, 3)}
-        counts.update(
-            {f"degenerate: {REASON_CODES[int(c)]}": int(m) for c, m in _reason_counts(result)}
+        _write_features_report(
+            report, input_path, ps, result, fields, mode, elapsed, pictures, parameters
         )
-        write_report(
-            report,
-            title=f"pointatlas features: {Path(input_path).name}",
-            summary=report_summary(input_path, ps),
-            parameters=parameters,
-            tables={"result": counts, "fields": feature_statistics(fields)},
-            pictures=pictures,
-            layers=[report_layer(ps, fields, color_by="dimension_class")],
-            up=report_up(input_path),
-        )
-        say(f"  wrote {report}")
 
 
 def _reason_counts(result: FeatureResult) -> list[tuple[int, int]]:
@@ -354,69 +416,6 @@ def feature_statistics(fields: dict) -> list[dict]:
     return rows
 
 
-def fig_5_3(points, normals, out_dir, *, name: str, console=None) -> tuple[dict, list[Path]]:
-    """Fig. 5.3: equal weights vs cut-off a = b = arccos(0.9) vs optimal (a, b, k).
-
-    Each column minimises E_dim over k = 6..20 for its weights; top picture E_dim,
-    bottom picture the largest of linearity / planarity / scattering (grey:
-    degenerate for every k, the thesis' red points).
-    """
-    from ..viz import PointsPanel, render_side_by_side
-
-    cut = math.acos(0.9)
-    results = {
-        "equal weights [WJM14]": optimal_k_features(points, k_range=(6, 20), criterion="e_dim"),
-        "cut-off a = b = arccos 0.9": optimal_neighbourhood(
-            points, normals, a_grid=[cut], b_grid=[cut]
-        ),
-        "optimal (a, b, k), Eq. 5.9": optimal_neighbourhood(points, normals),
-    }
-    out = Path(out_dir)
-    stats = {}
-    edim_panels = []
-    class_panels = []
-    for title, res in results.items():
-        ok = res.is_valid
-        e = np.where(np.isfinite(res.e_dim), res.e_dim, np.nan)
-        stats[title] = {
-            "mean_e_dim": float(np.mean(res.e_dim[ok])) if ok.any() else float("nan"),
-            "n_degenerate": int((~ok).sum()),
-            "classes": [int((classify_dimension(res) == c).sum()) for c in range(3)],
-        }
-        edim_panels.append(
-            PointsPanel(
-                points,
-                normals=normals,
-                scalars=e,
-                scalar_name="E_dim",
-                clim=(0, 1),
-                title=f"{title}\nmean E_dim {stats[title]['mean_e_dim']:.3f}",
-            )
-        )
-        class_panels.append(
-            PointsPanel(
-                points,
-                normals=normals,
-                labels=classify_dimension(res),
-                title=f"{title}\nlinear / planar / scattered = "
-                + " / ".join(str(c) for c in stats[title]["classes"]),
-            )
-        )
-    written = [
-        render_side_by_side(
-            out / f"{name}_fig5_3_edim.png",
-            edim_panels,
-            title=f"{name}: E_dim (grey = degenerate for every k)",
-        ),
-        render_side_by_side(
-            out / f"{name}_fig5_3_classes.png",
-            class_panels,
-            title=f"{name}: largest of linearity / planarity / scattering",
-        ),
-    ]
-    return stats, written
-
-
 @demo_step
 def demo_features(ps, out_dir: Path, console) -> None:
     """Features: optimal normal-weighted neighbourhoods and the fandisk classification."""
@@ -427,6 +426,8 @@ def demo_features(ps, out_dir: Path, console) -> None:
     if not ps.has_normals:
         raise PointAtlasError("the demo model has no normals")
     t0 = time.perf_counter()
+    from ..experiments.fig_5_3 import fig_5_3
+
     stats, written = fig_5_3(ps.points, ps.normals, out_dir, name=ps.name)
     seconds = time.perf_counter() - t0
     best = optimal_neighbourhood(ps.points, ps.normals)
@@ -444,7 +445,3 @@ def demo_features(ps, out_dir: Path, console) -> None:
             " / ".join(str(c) for c in s["classes"]),
         )
     console.print(table)
-
-
-# the experiment command lives in its own module; importing it registers it
-from . import _exp_features  # noqa: E402, F401

@@ -17,18 +17,36 @@ import numpy as np
 import typer
 
 from .._core import PointAtlasError
-from ..segment import region_growing, vsa_segment
+from ..segment import VSAOptions, region_growing, vsa_segment
 from ._app import (
+    ClassicOption,
     EstimateNormalsOption,
+    EtaOption,
+    HaloOption,
+    MaxAngleDegOption,
+    MaxIterOption,
+    MaxMemoryOption,
+    MergeOption,
     NormalKOption,
+    SchedulerOption,
+    SeedsOption,
+    SplitOption,
+    SwitchOption,
+    TileSizeOption,
+    VSAKOption,
+    VSASeedOption,
+    WeightsOption,
+    WorkersOption,
     angle_deg_option,
     app,
     console,
     demo_step,
     guarded,
-    parse_seeds,
     read_with_normals,
+    run_tiled,
     say,
+    tile_options,
+    vsa_options,
 )
 from ._cmd_core import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 from ._outputs import (
@@ -47,36 +65,20 @@ def segment_point_set(
     normals,
     *,
     method: str = "vsa",
-    eta: float | None = None,
-    max_angle_deg: float | None = None,
-    seeds="all",
-    k: int = 8,
-    split: bool = True,
-    merge: bool = True,
-    switch: str = "batch",
-    classic: bool = False,
-    weights: str = "uniform",
+    options: VSAOptions | None = None,
     smoothness_deg: float = 15.0,
     curvature_threshold: float | None = None,
     min_cluster_size: int = 1,
     seed: int = 0,
 ):
-    """Run the chosen method; returns (result, summary dict)."""
+    """Run the chosen method; returns (result, summary dict).
+
+    ``options`` holds the VSA settings (default ``VSAOptions()``); region growing
+    uses their ``k``; ``seed`` draws VSA's random seeds.
+    """
+    opts = VSAOptions() if options is None else options
     if method == "vsa":
-        res = vsa_segment(
-            points,
-            normals,
-            k=k,
-            weights=weights,
-            seeds=seeds,
-            eta=eta,
-            max_angle=None if max_angle_deg is None else math.radians(max_angle_deg),
-            split=split,
-            merge=merge,
-            switch=switch,
-            classic=classic,
-            rng=seed,
-        )
+        res = vsa_segment(points, normals, options=opts, rng=seed)
         summary = {
             "method": "vsa",
             "n_regions": res.n_regions,
@@ -92,7 +94,7 @@ def segment_point_set(
         res = region_growing(
             points,
             normals,
-            k=k,
+            k=opts.k,
             smoothness_angle=math.radians(smoothness_deg),
             curvature_threshold=curvature_threshold,
             min_cluster_size=min_cluster_size,
@@ -169,27 +171,17 @@ def segment_command(
             metavar="OUT", help="Labelled point set (.ply, .las, .laz), every input field kept."
         ),
     ],
-    eta: Annotated[
-        float | None, typer.Option("--eta", help="L21 threshold for split/merge (thesis: 25).")
-    ] = None,
-    max_angle_deg: Annotated[
-        float | None,
-        typer.Option("--max-angle-deg", "--max-angle", help="Max mean normal deviation (deg)."),
-    ] = None,
-    seeds: Annotated[
-        str, typer.Option("--seeds", help="'all', a number of random seeds, or indices.")
-    ] = "all",
-    k: Annotated[int, typer.Option("--k", help="Neighbours, the point itself included.")] = 8,
-    split: Annotated[bool, typer.Option("--split/--no-split", help="Split step.")] = True,
-    merge: Annotated[bool, typer.Option("--merge/--no-merge", help="Merge step.")] = True,
-    switch: Annotated[str, typer.Option("--switch", help="batch, single or none.")] = "batch",
-    classic: Annotated[
-        bool, typer.Option("--classic", help="Classic VSA loop (flood/update/re-seed).")
-    ] = False,
+    eta: EtaOption = None,
+    max_angle_deg: MaxAngleDegOption = None,
+    seeds: SeedsOption = "all",
+    k: VSAKOption = 8,
+    split: SplitOption = True,
+    merge: MergeOption = True,
+    switch: SwitchOption = "batch",
+    classic: ClassicOption = False,
+    max_iter: MaxIterOption = 1000,
     method: Annotated[str, typer.Option("--method", help="vsa or region-growing.")] = "vsa",
-    weights: Annotated[str, typer.Option("--weights", help="uniform or area (Eq. 4.6).")] = (
-        "uniform"
-    ),
+    weights: WeightsOption = "uniform",
     smoothness_deg: Annotated[
         float, typer.Option("--smoothness-deg", help="Region growing: smoothness angle.")
     ] = 15.0,
@@ -209,7 +201,12 @@ def segment_command(
         Path | None,
         typer.Option("--report", help="Also write an HTML report with a 3-D view (.html)."),
     ] = None,
-    seed: Annotated[int, typer.Option("--seed", help="Seed for random seeds.")] = 0,
+    seed: VSASeedOption = 0,
+    tile_size: TileSizeOption = None,
+    halo: HaloOption = None,
+    workers: WorkersOption = None,
+    scheduler: SchedulerOption = None,
+    max_memory: MaxMemoryOption = None,
 ):
     """Segment a point set into flat regions (VSA, thesis 4.2-4.3) or by region growing.
 
@@ -230,6 +227,7 @@ def segment_command(
         "merge": merge,
         "switch": switch,
         "classic": classic,
+        "max_iter": max_iter,
         "weights": weights,
         "smoothness_deg": smoothness_deg,
         "curvature_threshold": curvature_threshold,
@@ -248,13 +246,29 @@ def segment_command(
             ("--report", report, REPORT_EXTENSIONS),
         ],
     )
-    if switch not in ("batch", "single", "none"):
-        raise PointAtlasError(f"--switch must be batch, single or none; got {switch!r}")
+    options = vsa_options(
+        k=k, eta=eta, max_angle_deg=max_angle_deg, seeds=seeds, split=split, merge=merge,
+        switch=switch, classic=classic, weights=weights, max_iter=max_iter,
+    )  # fmt: skip
     if method not in ("vsa", "region-growing"):
         raise PointAtlasError(f"--method must be vsa or region-growing; got {method!r}")
-    seeds_value = parse_seeds(seeds)
-    angle_deg_option(max_angle_deg, "--max-angle-deg")
     angle_deg_option(smoothness_deg, "--smoothness-deg")
+    tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, render=render,
+                         report=report)  # fmt: skip
+    if tiles is not None:
+        from ..batch._tiles_cli import normal_params_for, segment_params
+        from ..viz import label_colors
+
+        params = segment_params(
+            method=method, seeds=seeds, weights=weights, classic=classic, k=k, eta=eta,
+            max_angle_deg=max_angle_deg, split=split, merge=merge, switch=switch,
+        )  # fmt: skip
+        run_tiled(
+            "segment", input_path, output, params, tiles,
+            normal_params=normal_params_for(input_path, estimate, normal_k),
+            label_colors=lambda lab: (label_colors(lab) * 255).round().astype(np.uint8),
+        )  # fmt: skip
+        return
     t0 = time.perf_counter()
     ps = read_with_normals(
         input_path, estimate=estimate, normal_k=normal_k, min_points=2, what="segment"
@@ -266,15 +280,7 @@ def segment_command(
         ps.points,
         ps.normals,
         method=method,
-        eta=eta,
-        max_angle_deg=max_angle_deg,
-        seeds=seeds_value,
-        k=k,
-        split=split,
-        merge=merge,
-        switch=switch,
-        classic=classic,
-        weights=weights,
+        options=options,
         smoothness_deg=smoothness_deg,
         curvature_threshold=curvature_threshold,
         min_cluster_size=min_cluster_size,

@@ -1,7 +1,7 @@
 """``pointatlas simplify``: VSA segmentation -> surface-like complex -> polygon mesh.
 
-Also registers the demo step (segment and simplify the demo model) and the
-``pointatlas experiment simplify`` reproductions (``_exp_simplify``).
+Also registers the demo step (segment and simplify the demo model); the
+``pointatlas experiment simplify`` reproductions live in `pointatlas.experiments`.
 """
 
 from __future__ import annotations
@@ -19,19 +19,29 @@ from rich.table import Table
 from .._core import PointAtlasError, PointSet
 from ..io import write_mesh
 from ..simplify import SimplifyWarning, simplify_points
-from . import _exp_simplify  # noqa: F401  (registers ``experiment simplify``)
 from ._app import (
+    ClassicOption,
     EstimateNormalsOption,
+    EtaOption,
+    MaxAngleDegOption,
+    MaxIterOption,
+    MergeOption,
     NormalKOption,
+    SeedsOption,
+    SplitOption,
+    SwitchOption,
+    VSAKOption,
+    VSASeedOption,
+    WeightsOption,
     angle_deg_option,
     app,
     console,
     demo_step,
     err_console,
     guarded,
-    parse_seeds,
     read_with_normals,
     say,
+    vsa_options,
 )
 from ._cmd_core import REPORT_EXTENSIONS
 from ._outputs import check_outputs, write_summary_json, write_text
@@ -66,13 +76,16 @@ def simplification_table(mesh, seg=None, *, title: str | None = None) -> Table:
     return table
 
 
-def render_simplification(path: Path, points, normals, mesh, *, title: str | None = None):
+def render_simplification(
+    path: Path, points, normals, mesh, *, title: str | None = None, labels=None
+):
     """Side-by-side picture: the segmented points and the simplified mesh."""
     from ..viz import MeshPanel, PointsPanel, fit_camera, render_side_by_side
 
     camera = fit_camera(points)
+    labels = mesh.labels if labels is None else labels
     panels = [
-        PointsPanel(points, normals=normals, labels=mesh.labels, title="regions meshed"),
+        PointsPanel(points, normals=normals, labels=labels, title="regions meshed"),
         MeshPanel(
             mesh.vertices,
             [p.tolist() for p in mesh.polygons],
@@ -120,13 +133,15 @@ def read_mesh_input(infile):
     return mesh if mesh.n_faces else None
 
 
-def surface_table(res, *, title: str | None = None) -> Table:
+def surface_table(
+    res, *, title: str | None = None, path: str = "mesh (regions of the input's triangles)"
+) -> Table:
     """A rich table of a mesh-path result's quality report."""
     s = res.summary()
     table = Table(title=title, show_header=False, title_justify="left")
     table.add_column("property", style="bold")
     table.add_column("value")
-    table.add_row("path", "mesh (regions of the input's triangles)")
+    table.add_row("path", path)
     table.add_row("faces (regions)", str(s["n_faces"]))
     table.add_row("vertices", str(s["n_vertices"]))
     table.add_row("faces with holes", str(s["n_faces_with_holes"]))
@@ -274,30 +289,17 @@ def simplify_command(
         typer.Argument(help="Point set or mesh (PLY, OBJ, OFF, ...), or a bundled model name."),
     ],
     out: Annotated[Path, typer.Argument(help="Simplified polygon mesh (.obj, .ply, .off).")],
-    k: Annotated[int, typer.Option("--k", help="Neighbourhood size (thesis: 8).")] = 8,
-    eta: Annotated[
-        float | None, typer.Option("--eta", help="L21 threshold for split/merge (4.3.3).")
-    ] = None,
-    max_angle_deg: Annotated[
-        float | None,
-        typer.Option(
-            "--max-angle-deg", "--max-angle", help="Max mean normal deviation per region (deg)."
-        ),
-    ] = None,
-    seeds: Annotated[
-        str, typer.Option("--seeds", help="'all', a number of random seeds, or indices.")
-    ] = "all",
-    split: Annotated[bool, typer.Option("--split/--no-split", help="Split step.")] = True,
-    merge: Annotated[bool, typer.Option("--merge/--no-merge", help="Merge step.")] = True,
-    switch: Annotated[str, typer.Option("--switch", help="batch, single or none.")] = "batch",
-    classic: Annotated[
-        bool, typer.Option("--classic", help="Classic VSA loop (flood/update/re-seed).")
-    ] = False,
-    weights: Annotated[str, typer.Option("--weights", help="uniform or area (Eq. 4.6).")] = (
-        "uniform"
-    ),
-    max_iter: Annotated[int, typer.Option("--max-iter", help="VSA iterations.")] = 1000,
-    seed: Annotated[int, typer.Option("--seed", help="Seed for random VSA seeds.")] = 0,
+    k: VSAKOption = 8,
+    eta: EtaOption = None,
+    max_angle_deg: MaxAngleDegOption = None,
+    seeds: SeedsOption = "all",
+    split: SplitOption = True,
+    merge: MergeOption = True,
+    switch: SwitchOption = "batch",
+    classic: ClassicOption = False,
+    weights: WeightsOption = "uniform",
+    max_iter: MaxIterOption = 1000,
+    seed: VSASeedOption = 0,
     vertices: Annotated[
         str,
         typer.Option(
@@ -370,6 +372,23 @@ def simplify_command(
     smooth: Annotated[int, typer.Option("--smooth", help="Label majority-filter passes.")] = 2,
     estimate: EstimateNormalsOption = None,
     normal_k: NormalKOption = 20,
+    path: Annotated[
+        str,
+        typer.Option(
+            "--path",
+            help="Point input: auto (the thesis' surface-like complex, and the robust path "
+            "when that gives no closed manifold mesh), thesis, or robust (the points' "
+            "surface from the normals on a voxel grid, then the mesh path).",
+        ),
+    ] = "auto",
+    use_labels: Annotated[
+        bool,
+        typer.Option(
+            "--labels/--no-labels",
+            help="Point input with a 'label' field (written by pointatlas segment): use it "
+            "as the segmentation instead of running VSA.",
+        ),
+    ] = True,
     triangles: Annotated[
         Path | None, typer.Option("--triangles", help="Also write the triangulated mesh here.")
     ] = None,
@@ -391,8 +410,12 @@ def simplify_command(
     triangles are segmented (VSA on faces) and each region becomes one face; the
     output is closed and manifold whenever the input is. A point set, or a mesh
     with ``--vertices-only``, takes the thesis' path (VSA on points, surface-like
-    complex, 4.4). With ``--report`` the JSON report is written last and names
-    every file of the run with its SHA-256.
+    complex, 4.4), and the robust path when that gives no closed, manifold mesh
+    (the points' surface from their normals on a voxel grid, then the mesh path;
+    ``--path``); the table and the report say which and why. A point set with a
+    ``label`` field (written by ``pointatlas segment``) is meshed with those regions.
+    With ``--report`` the JSON report is written last and names every file of the
+    run with its SHA-256.
     """
     check_outputs(
         [infile],
@@ -446,7 +469,10 @@ def simplify_command(
                 f"{flag} needs a mesh input (a file with faces); {infile} is a point set "
                 "or --vertices-only was given: use --eta or --max-angle-deg"
             )
-    seed_spec = parse_seeds(seeds)
+    options = vsa_options(
+        k=k, eta=eta, max_angle_deg=max_angle_deg, seeds=seeds, split=split, merge=merge,
+        switch=switch, classic=classic, weights=weights, max_iter=max_iter,
+    )  # fmt: skip
     ps = read_with_normals(
         infile,
         estimate=estimate,
@@ -455,19 +481,15 @@ def simplify_command(
         what=f"simplify with k = {k} (--k)",
     )
     normals = ps.normals
+    given = ps.attributes.get("label") if use_labels else None
+    if given is not None:
+        say("segmentation: the input's 'label' field (--no-labels runs VSA instead)")
     result = _run(
         ps.points,
         normals,
-        k=k,
-        seeds=seed_spec,
-        eta=eta,
-        max_angle=max_angle,
-        split=split,
-        merge=merge,
-        switch=switch,
-        classic=classic,
-        weights=weights,
-        max_iter=max_iter,
+        labels=given,
+        path=path,
+        vsa=options,
         rng=seed,
         vertices=vertices,
         faces=face_method,
@@ -479,21 +501,26 @@ def simplify_command(
         smooth=smooth,
     )
     mesh = result.mesh
+    robust = result.path == "robust"
     polys = [p.tolist() for p in mesh.polygons]
     written = [write_mesh(out, mesh.vertices, polys)]
     if triangles is not None:
         written.append(write_mesh(triangles, mesh.vertices, mesh.triangles))
+    used = ps.points[result.point_index] if result.point_index.size else ps.points
     if render is not None:
-        written.append(render_simplification(render, ps.points, normals, mesh, title=ps.name))
+        picture = render_simplification(
+            render, used, normals[result.point_index], mesh, title=ps.name, labels=result.labels
+        )
+        written.append(picture)
     if report is not None:
-        info = {"input": str(infile), "seed": seed, **mesh.summary()}
-        info["complex"] = mesh.complex.summary()
+        info = {"input": str(infile), "seed": seed, **result.summary()}
+        if not robust:
+            info["complex"] = mesh.complex.summary()
         if Path(report).suffix.lower() in REPORT_EXTENSIONS:
             from ..viz import MeshLayer, PointsLayer
 
-            used = ps.points[mesh.point_index] if mesh.point_index.size else ps.points
             layers = [
-                PointsLayer(used, {"region": np.asarray(mesh.labels)}, name="points by region"),
+                PointsLayer(used, {"region": np.asarray(result.labels)}, name="points by region"),
                 MeshLayer(
                     mesh.vertices,
                     polys,
@@ -504,9 +531,12 @@ def simplify_command(
             written.append(_html_report(report, infile, info, written, layers, seed))
         else:
             written.append(write_summary_json(report, info, written))
-    console.print(simplification_table(mesh, result.segmentation, title=ps.name))
-    for path in written:
-        say(f"written: {path}")
+    if robust:
+        console.print(surface_table(mesh, title=ps.name, path=f"robust ({result.reason})"))
+    else:
+        console.print(simplification_table(mesh, result.segmentation, title=ps.name))
+    for name in written:
+        say(f"written: {name}")
 
 
 @demo_step

@@ -1,9 +1,9 @@
 """Output paths of a command: checked before any work, written as a complete set.
 
-One rule for every command (docs/decisions.md, "CLI: outputs"):
+One rule for every command (docs/decisions/cli.md, "Outputs"):
 
 - an output file needs a supported extension and a folder that exists and is
-  writable; an output folder (``features --render DIR``, ``demo --out DIR``) is
+  writable; an output folder (``demo --out DIR``, ``cloudsurface IN OUT_DIR``) is
   created when missing, but its parent must exist and be writable;
 - no output is an input (same path, symlink or hard link) and no two outputs of a
   command are the same file;
@@ -16,15 +16,12 @@ All checks run before the input is read, so a bad output path costs nothing.
 
 from __future__ import annotations
 
-import hashlib
-import json
-import math
 import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from .._core import PointAtlasError
-from ..io import atomic_write
+from ..io import file_record, write_summary_json, write_text
 from ..io._atomic import remove_stale_temp_files
 
 __all__ = [
@@ -131,53 +128,6 @@ def check_outputs(
     return [p for _, p in checked]
 
 
-def file_record(path: Path, relative_to: Path) -> dict:
-    """Name (relative to the summary's folder when possible), size and SHA-256 of a file."""
-    path = Path(path)
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    try:
-        name = os.path.relpath(path, relative_to)
-    except ValueError:  # another drive (Windows)
-        name = str(path)
-    return {"path": name, "bytes": path.stat().st_size, "sha256": digest.hexdigest()}
-
-
-def _finite(value):
-    """JSON-ready copy: NaN/Inf become None, numpy scalars plain numbers, tuples lists."""
-    if isinstance(value, dict):
-        return {str(k): _finite(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(v) for v in value]
-    if hasattr(value, "item") and not isinstance(value, str | bytes):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
-def write_summary_json(path: Path, payload: dict, written: Sequence[Path]) -> Path:
-    """Write a command's JSON summary last, naming the files of the set it completes.
-
-    Non-finite numbers are written as null.
-
-    ``payload`` gets a ``"files"`` list (path relative to the summary, bytes,
-    sha256) of ``written``; a reader that finds the summary and matching files
-    knows the set is complete and from one run.
-    """
-    path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    body = _finite(dict(payload))
-    body["files"] = [file_record(p, folder) for p in written]
-    text = json.dumps(body, indent=1, allow_nan=False)
-    with atomic_write(path, "w") as fh:
-        fh.write(text)
-        fh.write("\n")
-    return path
-
-
 #: Point formats that store only coordinates and normals.
 XYZ_EXTENSIONS = (".xyz", ".txt")
 
@@ -224,10 +174,3 @@ def write_point_output(path: Path, ps, ours: dict) -> Path:
     from ..io import write_point_set
 
     return write_point_set(path, ps, attributes=point_fields(ps, ours))
-
-
-def write_text(path: Path, text: str) -> Path:
-    """Write a text file atomically (umask permissions); returns its path."""
-    with atomic_write(path, "w", newline="\n") as fh:
-        fh.write(text)
-    return Path(path)

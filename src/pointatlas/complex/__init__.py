@@ -1,7 +1,7 @@
 """Complexes on point sets and their simplicial-surface checks.
 
-The cloud complex of a cloud set (thesis Chapter A, Defs 3-10, GUIDE A1) and the
-surface-like complex K' of a segmentation (section 3, GUIDE B1) share one set of
+The cloud complex of a cloud set (thesis Chapter A, Defs 3-10) and the
+surface-like complex K' of a segmentation (section 3) share one set of
 simplicial-surface checks and one topology report (`surface_report`, Defs 7, 8, 13, 14).
 """
 

@@ -1,4 +1,4 @@
-"""Cloud sets and the cloud complex (thesis Defs 3-10, Prop. 1; GUIDE A1).
+"""Cloud sets and the cloud complex (thesis Defs 3-10, Prop. 1; docs/decisions/cloud_surfaces.md).
 
 A cloud set is a list of index arrays into a point set. Membership is stored both
 ways in CSR form (cloud -> points, point -> clouds). The cloud complex is the
@@ -239,10 +239,10 @@ def cloud_complex(clouds, points=None, *, n_points=None, cloud_points=None) -> C
 
     Notes
     -----
-    K is computed as the downward closure of the distinct membership sets (GUIDE
-    A1), never by testing subsets of clouds. A point in several clouds witnesses one
-    simplex and all its faces (Remark 3 ii). Use `surface_report` for the surface
-    conditions and topology.
+    K is computed as the downward closure of the distinct membership sets
+    (docs/decisions/cloud_surfaces.md), never by testing subsets of clouds. A point
+    in several clouds witnesses one simplex and all its faces (Remark 3 ii). Use
+    `surface_report` for the surface conditions and topology.
 
     Examples
     --------

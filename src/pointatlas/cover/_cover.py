@@ -1,4 +1,7 @@
-"""Ball covers of space and clouds from points (thesis 2.2, Props 4-5, Algorithm 2; GUIDE A3)."""
+"""Ball covers of space and clouds from points (thesis 2.2, Props 4-5, Algorithm 2).
+
+Decisions: docs/decisions/cloud_surfaces.md.
+"""
 
 from __future__ import annotations
 
@@ -411,7 +414,7 @@ def ball_cover(
         starts at the bounding-box corner (Algorithm 2). A plane or cube face lying in
         a lattice layer gives no triangles; a shift (or a rotation) moves it off.
     cloud_points : {"centroid", "centre"}
-        Realisation of each cloud: the centroid of its points (GUIDE A1 default) or
+        Realisation of each cloud: the centroid of its points (the default) or
         its ball centre.
 
     Returns

@@ -15,7 +15,6 @@ from ._measures import (
     chamfer_distance,
     denoise_measures,
     normal_mse,
-    point_to_mesh_distance,
     unit_sphere_transform,
 )
 from ._noise import NOISE_KINDS, add_impulsive_noise, add_noise
@@ -47,6 +46,5 @@ __all__ = [
     "flatness_schedule",
     "normal_mse",
     "normal_voting_denoise",
-    "point_to_mesh_distance",
     "unit_sphere_transform",
 ]

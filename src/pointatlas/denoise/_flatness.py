@@ -7,8 +7,8 @@ import numpy as np
 from .._core import PointAtlasError, as_float, as_int, as_normals, as_points
 from ..features import covariance_features
 from ..neighbors import mean_spacing, query_knn
-from ._kernels import threads_for
 from ._result import DenoiseResult
+from ._threads import threads_for
 
 __all__ = ["FLATNESS_SCHEDULES", "flatness_schedule", "flatness_denoise", "flatness_step"]
 

@@ -1,17 +1,17 @@
-"""numba kernels of the denoise room (STYLE section 7).
+"""numba kernels of the denoise room (STYLE section 7): eigen helpers, the adaptive
+k search, the normal voting step and the point updates.
 
 Kernels assume validated input (finite float64 arrays, unit normals, index tables
 whose rows start with the point itself and are sorted by distance) and never
-validate. Plain-numpy references live in ``tests/denoise/reference.py``.
+validate. Plain-numpy references live in ``tests/denoise/reference.py``. The
+point-to-mesh distance is ``pointatlas.neighbors.point_mesh_distance``, the thread
+rule in ``_threads.py``.
 """
 
 from __future__ import annotations
 
 import math
-import os
-from contextlib import contextmanager
 
-import numba
 import numpy as np
 from numba import njit, prange
 
@@ -19,14 +19,12 @@ __all__ = [
     "CLASS_CORNER",
     "CLASS_EDGE",
     "CLASS_FACE",
-    "PARALLEL_MIN_POINTS",
     "adaptive_k_kernel",
-    "machine_busy",
-    "point_triangle_kernel",
+    "feature_class_kernel",
+    "plane_update_kernel",
     "quadric_update_kernel",
     "sym3_eigh",
     "sym3_eigvals",
-    "threads_for",
     "voting_filter_kernel",
 ]
 
@@ -38,49 +36,10 @@ CLASS_CORNER = 3
 #: neighbours per cached weight pattern of `adaptive_k_kernel` (bits of an int64,
 #: sign bit unused)
 MASK_BITS = 62
-#: below this many points, on a busy machine (1-minute load average >= the number
-#: of CPUs), the denoisers run every numba kernel they call (this room's and those
-#: of the neighbours, normals and features rooms) in one thread (`threads_for`): a
-#: filter step costs about 1 ms per 6,500 points, less than a parallel region
-#: loses when one of its threads waits for a busy core; on an idle machine the
-#: second thread pays (measured both ways: docs/decisions/denoise.md, "Speed").
-#: Outputs are the same bit for bit (per-point loops; tested)
-PARALLEL_MIN_POINTS = 50_000
 #: `_voted_normal` takes the closed-form eigenvector when its eigenvalue is apart
 #: from the others by more than this share of the largest (error ~ 1e-16 / gap, so
 #: below 1e-12); closer pairs go through Jacobi rotations
 EIGEN_GAP_REL = 1e-4
-
-
-# --------------------------------------------------------------------------- threads
-
-
-def machine_busy() -> bool:
-    """True when the 1-minute load average reaches the number of CPUs (Unix; else False)."""
-    try:
-        load = os.getloadavg()[0]
-    except (AttributeError, OSError):
-        return False
-    return load >= (os.cpu_count() or 1)
-
-
-@contextmanager
-def threads_for(n_points: int):
-    """Run the enclosed numba parallel regions in one thread for small inputs on a busy machine.
-
-    Below `PARALLEL_MIN_POINTS` points, when `machine_busy`, sets numba's thread
-    count to 1 for the calling thread (numba's setting is thread-local) and
-    restores it on exit; otherwise changes nothing. Results do not depend on it.
-    """
-    if n_points >= PARALLEL_MIN_POINTS or not machine_busy():
-        yield
-        return
-    before = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(before)
 
 
 # --------------------------------------------------------------------------- 3x3 eigen
@@ -136,111 +95,6 @@ def sym3_eigh(a, lam, vec):
             for r in range(3):
                 vec[r, j - 1], vec[r, j] = vec[r, j], vec[r, j - 1]
             j -= 1
-
-
-# --------------------------------------------------------------------------- distances
-
-
-@njit(cache=True)
-def _segment_d2(px, py, pz, ax, ay, az, bx, by, bz):
-    """Squared distance from p to the segment ab (a point when a == b)."""
-    ux, uy, uz = bx - ax, by - ay, bz - az
-    den = ux * ux + uy * uy + uz * uz
-    t = 0.0
-    if den > 0.0:
-        t = ((px - ax) * ux + (py - ay) * uy + (pz - az) * uz) / den
-        t = min(max(t, 0.0), 1.0)
-    return (px - ax - t * ux) ** 2 + (py - ay - t * uy) ** 2 + (pz - az - t * uz) ** 2
-
-
-@njit(cache=True, error_model="numpy")
-def _closest_on_triangle(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
-    """Squared distance from p to triangle abc (Ericson, Real-Time Collision Detection 5.1.5).
-
-    A zero-area triangle is the union of its three edges.
-    """
-    abx, aby, abz = bx - ax, by - ay, bz - az
-    acx, acy, acz = cx - ax, cy - ay, cz - az
-    nx = aby * acz - abz * acy
-    ny = abz * acx - abx * acz
-    nz = abx * acy - aby * acx
-    scale = (abx * abx + aby * aby + abz * abz) * (acx * acx + acy * acy + acz * acz)
-    if nx * nx + ny * ny + nz * nz <= 1e-24 * scale:
-        return min(
-            _segment_d2(px, py, pz, ax, ay, az, bx, by, bz),
-            _segment_d2(px, py, pz, bx, by, bz, cx, cy, cz),
-            _segment_d2(px, py, pz, cx, cy, cz, ax, ay, az),
-        )
-    apx, apy, apz = px - ax, py - ay, pz - az
-    d1 = abx * apx + aby * apy + abz * apz
-    d2 = acx * apx + acy * apy + acz * apz
-    if d1 <= 0.0 and d2 <= 0.0:
-        qx, qy, qz = ax, ay, az
-    else:
-        bpx, bpy, bpz = px - bx, py - by, pz - bz
-        d3 = abx * bpx + aby * bpy + abz * bpz
-        d4 = acx * bpx + acy * bpy + acz * bpz
-        vc = d1 * d4 - d3 * d2
-        cpx, cpy, cpz = px - cx, py - cy, pz - cz
-        d5 = abx * cpx + aby * cpy + abz * cpz
-        d6 = acx * cpx + acy * cpy + acz * cpz
-        vb = d5 * d2 - d1 * d6
-        va = d3 * d6 - d5 * d4
-        if d3 >= 0.0 and d4 <= d3:
-            qx, qy, qz = bx, by, bz
-        elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-            v = d1 / (d1 - d3)
-            qx, qy, qz = ax + v * abx, ay + v * aby, az + v * abz
-        elif d6 >= 0.0 and d5 <= d6:
-            qx, qy, qz = cx, cy, cz
-        elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-            w = d2 / (d2 - d6)
-            qx, qy, qz = ax + w * acx, ay + w * acy, az + w * acz
-        elif va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
-            w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-            qx, qy, qz = bx + w * (cx - bx), by + w * (cy - by), bz + w * (cz - bz)
-        else:
-            denom = va + vb + vc
-            v = vb / denom
-            w = vc / denom
-            qx = ax + abx * v + acx * w
-            qy = ay + aby * v + acy * w
-            qz = az + abz * v + acz * w
-    return (px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2
-
-
-@njit(parallel=True, cache=True)
-def point_triangle_kernel(points, vertices, faces, indptr, cand, out):
-    """Distance from every point to the nearest of its candidate triangles.
-
-    Parameters
-    ----------
-    points : (N, 3) float64
-    vertices : (V, 3) float64
-    faces : (F, 3) int64
-    indptr : (N + 1,) int64
-        CSR row pointers into ``cand``.
-    cand : (M,) int64
-        Candidate triangle ids of each point (must hold the nearest triangle).
-    out : (N,) float64
-        Distances (+inf for a point without candidates).
-    """
-    n = points.shape[0]
-    for i in prange(n):
-        best = math.inf
-        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-        for c in range(indptr[i], indptr[i + 1]):
-            f = cand[c]
-            a, b, cc = faces[f, 0], faces[f, 1], faces[f, 2]
-            d2 = _closest_on_triangle(
-                px, py, pz,
-                vertices[a, 0], vertices[a, 1], vertices[a, 2],
-                vertices[b, 0], vertices[b, 1], vertices[b, 2],
-                vertices[cc, 0], vertices[cc, 1], vertices[cc, 2],
-            )  # fmt: skip
-            if d2 < best:
-                best = d2
-        out[i] = math.sqrt(best)
 
 
 # --------------------------------------------------------------------------- E_dim choice
@@ -522,20 +376,97 @@ def voting_filter_kernel(normals, idx, k_of, use_cut, cos_rho, tau, out):
 # --------------------------------------------------------------------------- point update
 
 
+@njit(cache=True)
+def _class_tensor(normals, idx, i, kk, tau):
+    """Feature class of point i and its equal-weight voting tensor (6 entries).
+
+    The class is the number of eigenvalues >= tau (scaled by the largest) of
+    sum_j n_j n_j^T over the first ``kk`` neighbours: 1 face, 2 edge, 3 corner.
+    """
+    t00 = t01 = t02 = t11 = t12 = t22 = 0.0
+    for c in range(kk):
+        j = idx[i, c]
+        a, b, cc = normals[j, 0], normals[j, 1], normals[j, 2]
+        t00 += a * a
+        t01 += a * b
+        t02 += a * cc
+        t11 += b * b
+        t12 += b * cc
+        t22 += cc * cc
+    l1, l2, l3 = sym3_eigvals(t00, t01, t02, t11, t12, t22)
+    m = 1
+    if l1 > 0.0:
+        if l2 / l1 >= tau:
+            m += 1
+        if l3 / l1 >= tau:
+            m += 1
+    return m, t00, t01, t02, t11, t12, t22
+
+
+@njit(parallel=True, cache=True)
+def feature_class_kernel(normals, idx, k_of, tau, klass):
+    """[YRS+18] stage 2 as reconstructed: ``klass[i]`` = 1 face, 2 edge, 3 corner
+    (eigenvalues >= tau of the equal-weight voting tensor over ``k_of[i]`` neighbours)."""
+    for i in prange(normals.shape[0]):
+        klass[i] = _class_tensor(normals, idx, i, k_of[i], tau)[0]
+
+
+@njit(parallel=True, cache=True)
+def plane_update_kernel(points, normals, idx, k_of, cos_rho, max_step, inv_sigma2, out):
+    """Move every point along its own normal onto its neighbours' tangent planes.
+
+    x_i = p_i + s n_i with s minimising sum_j w_ij (m_ij . (p_i + s n_i - p_j))^2
+    over the first ``k_of[i]`` neighbours with n_i . n_j >= cos_rho, where
+    m_ij = n_i + n_j (the symmetric form: on a sphere or a cylinder
+    (n_i + n_j) . (p_j - p_i) = 0 exactly, so points on them stay, while the
+    one-sided n_j form pushes convex parts out by about |p_j - p_i|^2 / 2r) and
+    w_ij = exp(-|p_j - p_i|^2 inv_sigma2). |s| is clipped to ``max_step``; s = 0
+    when no plane constrains it.
+
+    Parameters
+    ----------
+    points : (N, 3) float64
+    normals : (N, 3) float64, unit (filtered)
+    idx : (N, K) int64
+    k_of : (N,) int64
+    cos_rho, max_step, inv_sigma2 : float
+    out : (N, 3) float64, out (new positions)
+    """
+    for i in prange(points.shape[0]):
+        nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        a = 0.0
+        b = 0.0
+        for c in range(k_of[i]):
+            j = idx[i, c]
+            ax, ay, az = normals[j, 0], normals[j, 1], normals[j, 2]
+            if nx * ax + ny * ay + nz * az < cos_rho:
+                continue
+            dx, dy, dz = points[j, 0] - px, points[j, 1] - py, points[j, 2] - pz
+            w = math.exp(-(dx * dx + dy * dy + dz * dz) * inv_sigma2)
+            mx, my, mz = nx + ax, ny + ay, nz + az
+            g = mx * nx + my * ny + mz * nz
+            a += w * g * g
+            b += w * g * (mx * dx + my * dy + mz * dz)
+        s = b / a if a > 0.0 else 0.0
+        s = min(max(s, -max_step), max_step)
+        out[i, 0] = px + s * nx
+        out[i, 1] = py + s * ny
+        out[i, 2] = pz + s * nz
+
+
 @njit(parallel=True, cache=True)
 def quadric_update_kernel(points, normals, idx, k_of, cos_rho, tau, max_step, sharpen, out, klass):
     """Restricted quadric point update ([YRS+18] stages 2-3 as reconstructed).
 
-    Stage 2: the class of point i is the number of eigenvalues >= tau (scaled by the
-    largest) of the equal-weight voting tensor sum_j n_j n_j^T over its first
-    ``k_of[i]`` neighbours: 1 face, 2 edge, 3 corner. Stage 3 (``sharpen``; else every
-    point is treated as a face point, moving along its own normal only): p_i moves by
-    x = D s, D = n_i (face) or the dominant eigenvectors (edge: two; corner: all),
-    minimising sum_j w_j (n_j . (p_i + x - p_j))^2 with w_j = [n_i . n_j >= cos_rho]
-    for faces and w_j = [|n_j . d_q| >= cos_rho for a dominant d_q] otherwise (a
-    bevel normal, e.g. the bisector at a mesh edge, casts no plane); the solve
-    drops directions whose eigenvalue is below 1e-6 of the largest, and |x| is
-    clipped to ``max_step``.
+    Stage 2: ``klass[i]`` as in `feature_class_kernel`. Stage 3 (``sharpen``; else
+    every point is treated as a face point, moving along its own normal only): p_i
+    moves by x = D s, D = n_i (face) or the dominant eigenvectors (edge: two;
+    corner: all), minimising sum_j w_j (n_j . (p_i + x - p_j))^2 with
+    w_j = [n_i . n_j >= cos_rho] for faces and w_j = [|n_j . d_q| >= cos_rho for a
+    dominant d_q] otherwise (a bevel normal, e.g. the bisector at a mesh edge,
+    casts no plane); the solve drops directions whose eigenvalue is below 1e-6 of
+    the largest, and |x| is clipped to ``max_step``.
 
     Parameters
     ----------
@@ -551,24 +482,7 @@ def quadric_update_kernel(points, normals, idx, k_of, cos_rho, tau, max_step, sh
     n = points.shape[0]
     for i in prange(n):
         kk = k_of[i]
-        t00 = t01 = t02 = t11 = t12 = t22 = 0.0
-        for c in range(kk):
-            j = idx[i, c]
-            a, b, cc = normals[j, 0], normals[j, 1], normals[j, 2]
-            t00 += a * a
-            t01 += a * b
-            t02 += a * cc
-            t11 += b * b
-            t12 += b * cc
-            t22 += cc * cc
-        l1, l2, l3 = sym3_eigvals(t00, t01, t02, t11, t12, t22)
-        m = 1
-        if l1 > 0.0:
-            m = 1
-            if l2 / l1 >= tau:
-                m += 1
-            if l3 / l1 >= tau:
-                m += 1
+        m, t00, t01, t02, t11, t12, t22 = _class_tensor(normals, idx, i, kk, tau)
         klass[i] = m
         if sharpen and m > 1:
             x0, x1, x2 = _feature_move(points, normals, idx, i, kk, m, cos_rho,

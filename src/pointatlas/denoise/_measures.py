@@ -9,15 +9,13 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .._core import as_int, as_normals, as_points
-from ..neighbors import mean_spacing
-from ._kernels import point_triangle_kernel
+from ..neighbors import mean_spacing, point_mesh_distance
 
 __all__ = [
     "DenoiseMeasures",
     "chamfer_distance",
     "denoise_measures",
     "normal_mse",
-    "point_to_mesh_distance",
     "unit_sphere_transform",
 ]
 
@@ -118,85 +116,6 @@ def chamfer_distance(points, reference, *, normalize: bool = True) -> float:
     d_pq = cKDTree(q).query(p, k=1)[0]
     d_qp = cKDTree(p).query(q, k=1)[0]
     return float(np.mean(d_pq**2) + np.mean(d_qp**2))
-
-
-def _check_faces(faces, n_vertices: int) -> np.ndarray:
-    try:
-        f = np.asarray(faces)
-    except (TypeError, ValueError):
-        raise TypeError(f"faces must be an integer array of shape (F, 3); got {faces!r}") from None
-    if f.ndim != 2 or f.shape[1] != 3 or f.shape[0] < 1:
-        raise ValueError(f"faces must have shape (F, 3) with F >= 1; got {f.shape}")
-    if f.dtype.kind not in "iu":
-        raise ValueError(f"faces must hold integers; got dtype {f.dtype}")
-    if f.min() < 0 or f.max() >= n_vertices:
-        raise ValueError(
-            f"faces must index vertices 0..{n_vertices - 1}; got {int(f.min())}..{int(f.max())}"
-        )
-    return np.ascontiguousarray(f, dtype=np.int64)
-
-
-def point_to_mesh_distance(points, vertices, faces) -> np.ndarray:
-    """Exact Euclidean distance from every point to a triangle mesh.
-
-    Parameters
-    ----------
-    points : array_like of shape (N, 3), float64
-        Query points.
-    vertices : array_like of shape (V, 3), float64
-        Mesh vertices.
-    faces : array_like of shape (F, 3), int
-        Triangles (polygon meshes: fan-triangulate first).
-
-    Returns
-    -------
-    distance : ndarray of shape (N,), float64
-        Distance to the nearest point of the nearest triangle, in the input's units.
-
-    Raises
-    ------
-    ValueError
-        Bad shapes, indices out of range, non-finite coordinates.
-
-    Notes
-    -----
-    Exact, not sampled: the nearest referenced vertex gives an upper bound U_i;
-    every triangle whose bounding sphere (centroid c_t, radius r_t) lies within U_i
-    of the point is a candidate (a k-d tree ball query on the centroids), and the
-    closest point on each candidate triangle is computed (Ericson's region test) in
-    a numba kernel.
-
-    Examples
-    --------
-    >>> tri = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
-    >>> d = point_to_mesh_distance([[0.2, 0.2, 1.0]], tri, [[0, 1, 2]])
-    >>> float(d[0])
-    1.0
-    """
-    pts = as_points(points, min_points=0)
-    verts = as_points(vertices, name="vertices")
-    tri = _check_faces(faces, verts.shape[0])
-    out = np.empty(pts.shape[0])
-    if pts.shape[0] == 0:
-        return out
-    used = np.unique(tri)
-    upper = cKDTree(verts[used]).query(pts, k=1)[0]
-    corners = verts[tri]
-    centroid = corners.mean(axis=1)
-    radius = np.sqrt(((corners - centroid[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
-    rows = cKDTree(centroid).query_ball_point(pts, upper + radius.max() + 1e-12)
-    counts = np.fromiter((len(r) for r in rows), dtype=np.int64, count=len(rows))
-    indptr = np.zeros(pts.shape[0] + 1, dtype=np.int64)
-    np.cumsum(counts, out=indptr[1:])
-    cand = np.fromiter((t for r in rows for t in r), dtype=np.int64, count=int(indptr[-1]))
-    # drop candidates whose bounding sphere is farther than the upper bound
-    owner = np.repeat(np.arange(pts.shape[0]), counts)
-    gap = np.sqrt(((pts[owner] - centroid[cand]) ** 2).sum(axis=1)) - radius[cand]
-    keep = gap <= upper[owner] + 1e-12
-    counts = np.bincount(owner[keep], minlength=pts.shape[0])
-    np.cumsum(counts, out=indptr[1:])
-    point_triangle_kernel(pts, verts, tri, indptr, np.ascontiguousarray(cand[keep]), out)
-    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -321,7 +240,7 @@ def denoise_measures(
         drift = float(np.mean(tangential > ell))
     p2m_mean = p2m_max = p2m_unit = nan
     if clean_faces is not None:
-        d = point_to_mesh_distance(pts, clean, clean_faces)
+        d = point_mesh_distance(pts, clean, clean_faces)
         p2m_mean, p2m_max = float(d.mean()), float(d.max())
         p2m_unit = p2m_mean / unit_sphere_transform(clean)[1]
     return DenoiseMeasures(

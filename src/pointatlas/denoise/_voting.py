@@ -15,11 +15,13 @@ from ..neighbors import mean_spacing, query_knn
 from ..normals import estimate_normals, orient_normals
 from ._kernels import (
     adaptive_k_kernel,
+    feature_class_kernel,
+    plane_update_kernel,
     quadric_update_kernel,
-    threads_for,
     voting_filter_kernel,
 )
 from ._result import DenoiseResult, NormalFilterResult
+from ._threads import threads_for
 
 __all__ = [
     "THESIS_FILTER_PARAMETERS",
@@ -47,9 +49,19 @@ RADIUS_FACTOR = DENOISE_RADIUS_FACTOR
 K_MIN = DENOISE_K_MIN
 K_MAX = DENOISE_K_MAX
 K_WIDTH = DENOISE_K_WIDTH
-#: columns added to the previous outer iteration's need when guessing the next
-#: table's width (`_neighbourhoods` checks the guess and falls back to full width)
-_WIDTH_MARGIN = 4
+#: point update (docs/decisions/denoise.md, "Point update"): Gaussian weight scale
+#: of the neighbours' planes, in l, in the first round and in later rounds
+UPDATE_SIGMA = 1.0
+UPDATE_SIGMA_LATER = 1.5
+#: ``n_update=None``: updates until one moves the points by an RMS below
+#: UPDATE_STOP l, at most MAX_UPDATES per round
+UPDATE_STOP = 0.05
+MAX_UPDATES = 12
+#: ``n_iter=None``: another round (normals re-estimated from the moved points,
+#: filtered, updates) while the last round moved the points by an RMS above
+#: ROUND_MOVE l (high noise), at most MAX_ROUNDS rounds
+ROUND_MOVE = 0.4
+MAX_ROUNDS = 4
 
 
 def _check_common(points, normals, rho, tau, radius_factor, *, optional=False):
@@ -105,29 +117,16 @@ def default_neighbourhoods(
     return idx, k, ell
 
 
-def _neighbourhoods(pts, radius_factor, extra, width=None):
+def _neighbourhoods(pts, radius_factor, extra):
     """`default_neighbourhoods` on validated input; returns (table, idx, k, l).
 
-    ``table`` is the whole queried index table (at least ``min(48, N)`` columns
-    when ``width`` is None, so its first 20 columns can serve normal estimation).
-    ``width`` guesses the number of columns: a query of that many columns gives
-    the same result when every row's last column lies outside the ball (then the
-    ball's count is complete) and max(k) + extra fits; otherwise the full-width
-    query runs. Rows of a narrower query are prefixes of the full one (ties by
-    index), and l is the same mean (docs/decisions/denoise.md, "Speed").
+    ``table`` is the whole queried index table (``min(48 + extra, N)`` columns, so
+    its first 20 columns can serve normal estimation); ``idx`` its first
+    max(k) + extra columns.
     """
     n = pts.shape[0]
     kcap = min(K_MAX, n)
     ncol = min(kcap + extra, n)
-    if width is not None and 6 < width < ncol:
-        idx, dist = query_knn(pts, width)
-        ell = float(np.mean(dist[:, 1:7]))
-        r = radius_factor * ell
-        if width >= kcap or bool((dist[:, width - 1] > r).all()):
-            inside = (dist[:, : min(kcap, width)] <= r).sum(axis=1)
-            k = np.clip(inside, min(K_MIN, n), kcap).astype(np.int64)
-            if int(k.max()) + extra <= width:
-                return idx, np.ascontiguousarray(idx[:, : int(k.max()) + extra]), k, ell
     idx, dist = query_knn(pts, ncol)
     ell = float(np.mean(dist[:, 1:7])) if ncol > 6 else mean_spacing(pts, 6)
     inside = (dist[:, :kcap] <= radius_factor * ell).sum(axis=1)
@@ -135,13 +134,20 @@ def _neighbourhoods(pts, radius_factor, extra, width=None):
     return idx, np.ascontiguousarray(idx[:, : min(int(k.max()) + extra, ncol)]), k, ell
 
 
-def _estimated_normals(pts, table, k):
-    """PCA normals (k-NN) oriented by `orient_normals` (MST, outward; its default
-    10-NN graph), from one table (queried here when ``table`` is too narrow)."""
+def _estimated_normals(pts, table, k, like=None):
+    """PCA normals (k-NN) from one table (queried here when ``table`` is too narrow).
+
+    ``like`` None: oriented by `orient_normals` (MST, outward; its default 10-NN
+    graph). Otherwise each is signed like the row of ``like`` (later rounds).
+    """
     need = min(max(k, 10), pts.shape[0])
     if table is None or table.shape[1] < need:
         table = query_knn(pts, need)[0]
-    return orient_normals(pts, estimate_normals(pts, k, neighbors=table), neighbors=table)
+    nrm = estimate_normals(pts, k, neighbors=table)
+    if like is None:
+        return orient_normals(pts, nrm, neighbors=table)
+    nrm[(nrm * like).sum(axis=1) < 0] *= -1.0
+    return nrm
 
 
 def _filter_steps(pts, nrm, idx, k_def, *, rho, tau, n_iter, adaptive, progress):
@@ -259,14 +265,74 @@ def filter_normals(
     )
 
 
+def _updates(cur, nrm, idx, k_def, *, rho, tau, step, sigma, stop, n_update, sharpen):
+    """Point updates of one round with fixed normals and neighbours (Jacobi).
+
+    ``n_update`` None: until one update moves the points by an RMS below
+    ``stop``, at most MAX_UPDATES (``step``, ``sigma`` and ``stop`` in the
+    input's units). Returns the new positions.
+    """
+    n = cur.shape[0]
+    nxt = np.empty_like(cur)
+    klass = np.empty(n, dtype=np.int64)
+    inv_sigma2 = 1.0 / (sigma * sigma) if sigma > 0.0 else 0.0
+    for _ in range(MAX_UPDATES if n_update is None else n_update):
+        if sharpen:
+            quadric_update_kernel(cur, nrm, idx, k_def, rho, tau, step, True, nxt, klass)
+        else:
+            plane_update_kernel(cur, nrm, idx, k_def, rho, step, inv_sigma2, nxt)
+        moved = float(np.sqrt(((nxt - cur) ** 2).sum(axis=1).mean()))
+        cur, nxt = nxt, cur
+        if n_update is None and moved < stop:
+            break
+    return cur
+
+
+def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filter_iter,
+            n_update, adaptive, max_step, sharpen, normal_k, progress):  # fmt: skip
+    """The rounds of `normal_voting_denoise`, then the returned normals and classes.
+
+    Returns (points, normals, k, is_fallback, feature_class, rounds run).
+    """
+    n = pts.shape[0]
+    cur = pts
+    k_of = np.zeros(n, dtype=np.int64)
+    fallback = np.zeros(n, dtype=bool)
+    klass = np.zeros(n, dtype=np.int64)
+    ran = 0
+    for ran in range(1, rounds + 1):
+        if ran > 1:  # PCA normals of the moved points, signed like the last ones
+            nrm = _estimated_normals(cur, table, normal_k, like=nrm)
+        nrm, k_of, fallback = _filter_steps(
+            cur, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_filter_iter, adaptive=adaptive,
+            progress=progress,
+        )  # fmt: skip
+        sigma = (UPDATE_SIGMA if ran == 1 else UPDATE_SIGMA_LATER) * ell
+        start = cur
+        cur = _updates(cur.copy(), nrm, idx, k_def, rho=rho, tau=tau, step=max_step * ell,
+                       sigma=sigma, stop=UPDATE_STOP * ell, n_update=n_update,
+                       sharpen=sharpen)  # fmt: skip
+        moved = float(np.sqrt(((cur - start) ** 2).sum(axis=1).mean()))
+        if auto and moved <= ROUND_MOVE * ell:
+            break
+    if ran:  # the returned normals: n_filter_iter more steps (sharper edges)
+        nrm, k_of, fallback = _filter_steps(
+            cur, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_filter_iter, adaptive=adaptive,
+            progress=progress,
+        )  # fmt: skip
+        feature_class_kernel(nrm, idx, k_def, tau, klass)
+    return cur, nrm, k_of, fallback, klass, ran
+
+
 def normal_voting_denoise(
     points,
     normals=None,
     *,
     rho: float = 0.9,
     tau: float = 0.3,
-    n_iter: int = 2,
-    n_filter_iter: int = 10,
+    n_iter: int | None = None,
+    n_filter_iter: int = 5,
+    n_update: int | None = None,
     adaptive: bool = True,
     max_step: float = 0.5,
     sharpen: bool = False,
@@ -274,7 +340,7 @@ def normal_voting_denoise(
     normal_k: int = 20,
     progress=None,
 ) -> DenoiseResult:
-    """Denoise points: normal voting filtering, feature classes and a restricted quadric update.
+    """Denoise points: normal voting filtering, then point updates onto the filtered planes.
 
     Parameters
     ----------
@@ -283,42 +349,42 @@ def normal_voting_denoise(
     normals : array_like of shape (N, 3), float64, optional
         Oriented normals of the noisy points. None: PCA normals over ``normal_k``
         neighbours, oriented by `pointatlas.normals.orient_normals` (MST,
-        outward; its default 10 neighbours), both from the first neighbour table
-        (the same normals as `estimate_normals` and `orient_normals` on a fresh
-        ``normal_k``-NN table, without the extra query).
+        outward; its default 10 neighbours), both from the neighbour table.
     rho, tau : float
-        Filter cut-off and eigenvalue threshold (`filter_normals`); tau also
-        separates faces, edges and corners.
-    n_iter : int
-        Outer iterations: neighbourhoods, ``n_filter_iter`` filter steps, one point
-        update (default 2).
+        Filter cut-off and eigenvalue threshold (`filter_normals`); rho also
+        picks the planes of the update, tau separates faces, edges and corners.
+    n_iter : int, optional
+        Rounds. None (default): rounds until one moves the points by an RMS of
+        at most 0.4 l (``ROUND_MOVE``; high noise takes 2-3), at most 4.
     n_filter_iter : int
-        Filter steps per outer iteration (default 10; 2 x 10 beat 4 x 20 in
-        Chamfer and point-to-mesh on most benchmark inputs, docs/decisions/denoise.md).
+        Filter steps per round (default 5).
+    n_update : int, optional
+        Point updates per round. None (default): until one moves the points by
+        an RMS below 0.05 l (``UPDATE_STOP``), at most 12.
     adaptive : bool
         Choose each point's k by least E_dim before every filter step (thesis 5.4);
         False gives the fixed default neighbourhoods of [YRS+18].
     max_step : float
-        Bound on one point's move per iteration, in units of l (mean 6-NN spacing
+        Bound on one point's move per update, in units of l (mean 6-NN spacing
         of the input).
     sharpen : bool
-        Move edge and corner points within the span of the dominant normal
-        directions onto the intersection of their neighbours' planes ([YRS+18]'s
-        restricted update). Off by default: it also pulls face points within about
-        one spacing of an edge onto the edge (tangential drift, measured in
-        docs/decisions/denoise.md); off, every point moves along its own normal.
+        Use [YRS+18]'s restricted quadric update instead (edge and corner points
+        move within the span of the dominant normal directions). Off by default:
+        it also pulls face points near an edge onto the edge
+        (docs/decisions/denoise.md).
     radius_factor : float
         Default neighbourhood radius in units of l.
     normal_k : int
-        Neighbours of the estimated normals (only when ``normals`` is None; 20).
+        Neighbours of the PCA normals: of the input when ``normals`` is None, of
+        the moved points in rounds after the first (default 20).
     progress : callable, optional
         Called with 1 after every filter step.
 
     Returns
     -------
     result : DenoiseResult
-        ``feature_class`` from the last update, ``normals`` the last filtered
-        normals, ``energy`` NaN.
+        ``normals`` the last filtered normals, ``feature_class`` from them,
+        ``n_iter`` the rounds run, ``energy`` NaN.
 
     Raises
     ------
@@ -329,23 +395,21 @@ def normal_voting_denoise(
 
     Notes
     -----
-    Our reconstruction of [YRS+18]'s later stages (docs/decisions/denoise.md): a
-    point is a face, edge or corner point by the number of eigenvalues >= tau
-    (scaled by the largest) of the equal-weight voting tensor of its filtered
-    neighbour normals; it moves within the span D of its own normal (face, and
-    every point unless ``sharpen``) or of the tensor's dominant eigenvectors (edge:
-    2, corner: 3) to minimise
-    sum_j w_j (n_j . (x - p_j))^2 over its neighbours' filtered tangent planes
-    (face points only use neighbours with n_i . n_j >= rho), the move clipped to
-    max_step * l. All points move together; neighbourhoods are recomputed every
-    outer iteration.
+    docs/decisions/denoise.md: one neighbour table of the input serves every
+    round. A round filters the normals (``n_filter_iter`` voting steps), then
+    moves all points together along their own filtered normals:
+    x_i = p_i + s n_i minimising sum_j w_ij ((n_i + n_j) . (x_i - p_j))^2 over
+    neighbours with n_i . n_j >= rho, w_ij Gaussian in |p_j - p_i| (1 l; 1.5 l
+    after the first round), |s| <= max_step l (n_i + n_j keeps spheres and
+    cylinders in place). Later rounds start from PCA normals of the moved
+    points. Classes: eigenvalues >= tau of the voting tensor (face, edge, corner).
 
     Examples
     --------
     >>> from pointatlas.synth import plane_patch, add_normal_noise
     >>> m = plane_patch(16, 16)
     >>> noisy = add_normal_noise(m.points, m.normals, 0.3, rng=0)
-    >>> r = normal_voting_denoise(noisy, m.normals, n_iter=2, n_filter_iter=5)
+    >>> r = normal_voting_denoise(noisy, m.normals)
     >>> bool(abs(r.points[:, 2]).mean() < abs(noisy[:, 2]).mean())
     True
     """
@@ -353,53 +417,34 @@ def normal_voting_denoise(
     pts, nrm, rho, tau, radius_factor = _check_common(
         points, normals, rho, tau, radius_factor, optional=True
     )
-    n_iter = as_int(n_iter, "n_iter", lo=0)
+    rounds = MAX_ROUNDS if n_iter is None else as_int(n_iter, "n_iter", lo=0)
     n_filter_iter = as_int(n_filter_iter, "n_filter_iter", lo=0)
+    if n_update is not None:
+        n_update = as_int(n_update, "n_update", lo=0)
     max_step = as_float(max_step, "max_step", lo=0.0)
     normal_k = min(as_int(normal_k, "normal_k", lo=3), pts.shape[0])
     adaptive = bool(adaptive)
-    extra = K_WIDTH if adaptive else 0
     n = pts.shape[0]
-    ell = None
-    cur = pts.copy()
-    nxt = np.empty_like(cur)
-    klass = np.ones(n, dtype=np.int64)
-    k_of = np.zeros(n, dtype=np.int64)
-    fallback = np.zeros(n, dtype=bool)
-    width = None  # the first query is full width; with estimate=True it also serves
-    table = None  # the normals (its first normal_k columns)
     with threads_for(n):
-        for it in range(n_iter):
-            table, idx, k_def, spacing = _neighbourhoods(cur, radius_factor, extra, width)
-            if ell is None:  # l of the input, from the first table (no extra query)
-                ell = spacing
-            if it == 0 and estimate:
-                nrm = _estimated_normals(cur, table, normal_k)
-            # the next table is a few columns wider than this one's need (checked, exact)
-            width = int(k_def.max()) + extra + _WIDTH_MARGIN
-            nrm, k_of, fallback = _filter_steps(
-                cur, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_filter_iter, adaptive=adaptive,
-                progress=progress,
-            )  # fmt: skip
-            quadric_update_kernel(
-                cur, nrm, idx, k_def, rho, tau, max_step * ell, bool(sharpen), nxt, klass
-            )
-            cur, nxt = nxt, cur
-        if ell is None:
-            ell = mean_spacing(pts, 6)
-        if estimate and table is None:  # n_iter = 0: the normals are still wanted
-            nrm = _estimated_normals(pts, None, normal_k)
+        table, idx, k_def, ell = _neighbourhoods(pts, radius_factor, K_WIDTH if adaptive else 0)
+        if estimate:
+            nrm = _estimated_normals(pts, table, normal_k)
+        cur, nrm, k_of, fallback, klass, ran = _rounds(
+            pts, nrm, table, idx, k_def, ell, rounds=rounds, auto=n_iter is None, rho=rho,
+            tau=tau, n_filter_iter=n_filter_iter, n_update=n_update, adaptive=adaptive,
+            max_step=max_step, sharpen=bool(sharpen), normal_k=normal_k, progress=progress,
+        )  # fmt: skip
     if not np.isfinite(cur).all():
         raise PointAtlasError("normal voting denoising produced non-finite points")
     return DenoiseResult(
         points=cur.copy(),
         normals=nrm,
         displacement=np.sqrt(((cur - pts) ** 2).sum(axis=1)),
-        feature_class=klass.astype(np.int8) if n_iter else np.zeros(n, dtype=np.int8),
+        feature_class=klass.astype(np.int8),
         energy=np.full(n, np.nan),
         k=k_of,
         method="normal-voting-adaptive" if adaptive else "normal-voting",
-        n_iter=n_iter,
+        n_iter=ran,
         n_fallback=int(fallback.sum()),
         spacing=ell,
     )

@@ -1,9 +1,10 @@
 """Cloud dynamics: points follow their clouds' triangle, edge or vertex (thesis 2.3, Algorithm 3).
 
-GUIDE A4. Points are routed by the number of clouds containing them: three -> the
-triangle of those clouds, two -> the edge, one -> the vertex. Every update is built
-from intrinsic coordinates of the time-0 realisation and rebuilt in the time-1 one,
-so the same function with the two realisations swapped is the inverse map.
+Decisions: docs/decisions/cloud_surfaces.md. Points are routed by the number of
+clouds containing them: three -> the triangle of those clouds, two -> the edge, one
+-> the vertex. Every update is built from intrinsic coordinates of the time-0
+realisation and rebuilt in the time-1 one, so the same function with the two
+realisations swapped is the inverse map.
 """
 
 from __future__ import annotations
@@ -137,7 +138,7 @@ def deform_points(
         The points of the cloud set (point i has the clouds of ``complex`` point i).
     complex : CloudComplex
         The cloud set and its complex (a closed oriented cloud surface in the thesis;
-        boundaries are accepted, GUIDE A4).
+        boundaries are accepted).
     new_cloud_points : array_like of shape (C, 3), float64
         Cloud points at time 1.
     cloud_points : array_like of shape (C, 3), float64, optional

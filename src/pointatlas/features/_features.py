@@ -1,4 +1,4 @@
-"""Normal-weighted covariances and eigen-features (thesis 5.3, 6.1, 6.2; GUIDE C1)."""
+"""Normal-weighted covariances and eigen-features (thesis 5.3, 6.1, 6.2)."""
 
 from __future__ import annotations
 
@@ -7,12 +7,16 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from .._core import PointAtlasError, as_int, readonly
+from .._core import PointAtlasError, as_int, check_neighbors, readonly
 from .._core._sort import morton_bits, morton_order
 from ..neighbors import query_knn
 from ._kernels import (
     N_FEATURES,
     N_OUT,
+    OUT_EIGENVALUES,
+    OUT_FEATURES,
+    OUT_VECTOR_1,
+    OUT_VECTOR_3,
     REASON_BAD_INDEX,
     REASON_FEW_DISTINCT,
     REASON_NONFINITE,
@@ -24,7 +28,7 @@ from ._kernels import (
     features_kernel,
     fused_kernel,
 )
-from ._weights import _check_ab, _check_indices, _unit_normals_or_nan, normal_angles
+from ._weights import _check_ab, _unit_normals_or_nan, normal_angles
 
 __all__ = [
     "FEATURE_NAMES",
@@ -187,10 +191,7 @@ def _neighbourhoods(
     """
     n = points.shape[0]
     if neighbors is not None:
-        idx = _check_indices(neighbors, n, check_range=check_range)
-        if idx.shape[1] < kmax:
-            raise ValueError(f"neighbors must have at least {kmax} columns; got {idx.shape[1]}")
-        return np.ascontiguousarray(idx[:, :kmax])
+        return check_neighbors(neighbors, n, k=kmax, check_range=check_range)
     finite = np.isfinite(points).all(axis=1)
     n_finite = int(finite.sum())
     if n_finite < kmax:
@@ -212,6 +213,23 @@ def _spatial_order(points: np.ndarray) -> np.ndarray:
     return morton_order(points, morton_bits(points.shape[0]))
 
 
+def packed_result(out, *, k, a, b, reason, flatness) -> FeatureResult:
+    """The `FeatureResult` of a packed (N, `N_OUT`) kernel output; its arrays are
+    views of the output's columns (one row per point in the kernels)."""
+    feats = out[:, OUT_FEATURES:]
+    return FeatureResult(
+        eigenvalues=out[:, OUT_EIGENVALUES : OUT_EIGENVALUES + 3],
+        eigenvector_1=out[:, OUT_VECTOR_1 : OUT_VECTOR_1 + 3],
+        eigenvector_3=out[:, OUT_VECTOR_3 : OUT_VECTOR_3 + 3],
+        k=k,
+        a=a,
+        b=b,
+        reason=reason,
+        flatness_exponents=flatness,
+        **{name: feats[:, c] for c, name in enumerate(FEATURE_NAMES)},
+    )
+
+
 def _choice_features(points, idx, k_of, angles, a_of, b_of, flatness, order=None) -> FeatureResult:
     """Features at one (a, b, k) per point; ``k_of``, ``a_of``, ``b_of`` of length N or 1.
 
@@ -227,23 +245,14 @@ def _choice_features(points, idx, k_of, angles, a_of, b_of, flatness, order=None
         order = _spatial_order(points)
     fused_kernel(points, idx, order, k_of, ang, use_normals, a_of, b_of, m1, m2, out, reason)
     if (reason == REASON_BAD_INDEX).any():
-        _check_indices(idx, n)  # raises with the index range
-    # one packed (N, 20) array; the result's arrays are views of its columns
-    eig = out[:, 0:3]
-    vec1 = out[:, 3:6]
-    vec3 = out[:, 6:9]
-    feats = out[:, 9:]
-    cols = {name: feats[:, c] for c, name in enumerate(FEATURE_NAMES)}
-    return FeatureResult(
-        eigenvalues=eig,
-        eigenvector_1=vec1,
-        eigenvector_3=vec3,
+        check_neighbors(idx, n)  # raises with the index range
+    return packed_result(
+        out,
         k=np.broadcast_to(np.asarray(k_of, dtype=np.int64), (n,)).copy(),
         a=np.broadcast_to(np.asarray(a_of, dtype=np.float64), (n,)).copy(),
         b=np.broadcast_to(np.asarray(b_of, dtype=np.float64), (n,)).copy(),
         reason=reason,
-        flatness_exponents=(m1, m2),
-        **cols,
+        flatness=(m1, m2),
     )
 
 
@@ -271,6 +280,8 @@ def weighted_covariances(points, neighbors, weights=None) -> tuple[np.ndarray, n
     ------
     ValueError
         Bad shapes, negative weights or indices out of range.
+    TypeError
+        Non-integer ``neighbors``.
 
     Notes
     -----
@@ -285,7 +296,7 @@ def weighted_covariances(points, neighbors, weights=None) -> tuple[np.ndarray, n
     (5.333333, 0)
     """
     pts = _as_points_allow_nan(points)
-    idx = _check_indices(neighbors, pts.shape[0])
+    idx = check_neighbors(neighbors, pts.shape[0])
     if weights is None:
         w = np.empty((0, 0))
         use = False
@@ -438,7 +449,7 @@ def covariance_features(
     double eigenvalues), features of Eqs. 5.6, 5.7, 6.1,
     6.2. Degenerate neighbourhoods (non-finite data, all weights zero, fewer than
     three distinct points with positive weight, eigenvalue sum zero) give NaN and a
-    reason code (docs/decisions.md).
+    reason code (docs/decisions/features.md).
 
     Examples
     --------

@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 
-from .._core import PointAtlasError, as_float
+from .._core import as_float, check_neighbors
 from .._core.tolerances import ANGLE_ZERO
-from ._kernels import angles_kernel, index_range_kernel, unit_normals_kernel
+from ._kernels import angles_kernel, unit_normals_kernel
 
 __all__ = ["cosine_sigmoid", "normal_angles", "normal_weights"]
 
@@ -48,7 +48,7 @@ def cosine_sigmoid(x, a: float, b: float) -> np.ndarray:
     Notes
     -----
     Thesis Def. 15 writes 1 for x < a and the cosine on [a, b]; both agree at x = a
-    (cos 0 = 1). For a = b the printed formula divides by zero; the GUIDE (C1) reads
+    (cos 0 = 1). For a = b the printed formula divides by zero; pointatlas reads
     it as the sharp cut-off "weight 1 iff x <= a", so a = b = pi gives equal weights
     and identical normals keep weight 1 at a = b = 0.
 
@@ -83,26 +83,6 @@ def _unit_normals_or_nan(normals, n_points: int) -> np.ndarray:
     return out
 
 
-def _check_indices(
-    neighbors, n_points: int, name: str = "neighbors", *, check_range: bool = True
-) -> np.ndarray:
-    """(N, k) int64 contiguous table; ``check_range=False`` leaves the index range to
-    a kernel that checks it itself (`fused_kernel`)."""
-    idx = np.asarray(neighbors)
-    if idx.ndim != 2 or idx.shape[0] != n_points or idx.shape[1] < 1:
-        raise ValueError(f"{name} must have shape (N, k) with N = {n_points}; got {idx.shape}")
-    if idx.dtype.kind not in "iu":
-        raise ValueError(f"{name} must be integer indices; got dtype {idx.dtype}")
-    idx = np.ascontiguousarray(idx, dtype=np.int64)
-    if check_range and idx.size:
-        lo, hi = index_range_kernel(idx)
-        if lo < 0 or hi >= n_points:
-            raise PointAtlasError(
-                f"{name} must index points 0..{n_points - 1}; got range {lo}..{hi}"
-            )
-    return idx
-
-
 def normal_angles(normals, neighbors) -> np.ndarray:
     """Angles between each point's normal and its neighbours' normals.
 
@@ -124,6 +104,8 @@ def normal_angles(normals, neighbors) -> np.ndarray:
     ------
     ValueError
         Wrong shapes or indices out of range.
+    TypeError
+        Non-integer ``neighbors``.
 
     Examples
     --------
@@ -132,7 +114,7 @@ def normal_angles(normals, neighbors) -> np.ndarray:
     """
     arr = np.asarray(normals)
     nrm = _unit_normals_or_nan(arr, arr.shape[0] if arr.ndim == 2 else -1)
-    idx = _check_indices(neighbors, nrm.shape[0])
+    idx = check_neighbors(neighbors, nrm.shape[0])
     out = np.empty(idx.shape, dtype=np.float64)
     angles_kernel(nrm, idx, np.arange(idx.shape[0]), out)
     return out
@@ -162,7 +144,7 @@ def normal_weights(normals, neighbors, a: float, b: float) -> np.ndarray:
     ValueError
         Bad shapes, indices or thresholds (a outside [0, pi], b outside [a, pi]).
     TypeError
-        Non-numeric thresholds.
+        Non-numeric thresholds or non-integer ``neighbors``.
 
     Examples
     --------

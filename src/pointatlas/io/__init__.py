@@ -4,20 +4,14 @@ Every read error is a :class:`PointAtlasIOError` naming the file; every write is
 atomic (:func:`atomic_write`).
 """
 
-from ._api import (
-    MESH_EXTENSIONS,
-    POINT_EXTENSIONS,
-    as_point_set,
-    read_mesh,
-    read_point_set,
-    write_mesh,
-    write_point_set,
-)
 from ._atomic import atomic_write
 from ._attrs import merge_attributes
 from ._errors import PointAtlasIOError
 from ._mesh import Mesh, fan_triangulate, vertex_normals
 from ._plan import POINT_WRITE_EXTENSIONS, check_point_set_writable
+from ._read import MESH_EXTENSIONS, POINT_EXTENSIONS, as_point_set, read_mesh, read_point_set
+from ._text import file_record, write_summary_json, write_text
+from ._write import write_mesh, write_point_set
 
 __all__ = [
     "MESH_EXTENSIONS",
@@ -29,10 +23,13 @@ __all__ = [
     "atomic_write",
     "check_point_set_writable",
     "fan_triangulate",
+    "file_record",
     "merge_attributes",
     "read_mesh",
     "read_point_set",
     "vertex_normals",
     "write_mesh",
     "write_point_set",
+    "write_summary_json",
+    "write_text",
 ]

@@ -29,9 +29,10 @@ def merge_attributes(base, ours, *, prefix: str = "pa_") -> dict:
         The fields already there (e.g. ``point_set.attributes`` of a file read);
         every entry is kept unchanged under its own name.
     ours : mapping of str to array_like
-        The new fields. An entry keeps its name unless that name is in ``base``
-        or reserved by the file formats (x, y, z, nx, ny, nz, red, green, blue,
-        alpha, colors); then ``prefix`` is put in front, repeatedly, until the
+        The new fields. An entry keeps its name unless that name (or, for an
+        (N, m) array, one of the column names ``name_0 .. name_{m-1}`` the writers
+        give it) is in ``base`` or reserved by the file formats (x, y, z, nx, ny,
+        nz, red, green, blue, alpha, colors); then ``prefix`` is put in front, repeatedly, until the
         name is free.
     prefix : str
         Non-empty prefix for renamed entries of ``ours``.
@@ -61,6 +62,8 @@ def merge_attributes(base, ours, *, prefix: str = "pa_") -> dict:
     (['label', 'red', 'pa_label', 'e'], [1, 2], [5, 6])
     >>> list(merge_attributes({}, {"nx": [0.0]}))
     ['pa_nx']
+    >>> list(merge_attributes({"n_0": [0.0], "n_1": [0.0]}, {"n": [[1.0, 2.0]]}))
+    ['n_0', 'n_1', 'pa_n']
     """
     if not isinstance(prefix, str) or not prefix:
         raise PointAtlasError(f"prefix must be a non-empty str; got {prefix!r}")
@@ -73,19 +76,35 @@ def merge_attributes(base, ours, *, prefix: str = "pa_") -> dict:
         if bad:
             raise PointAtlasError(f"{label} keys must be str; got {bad[0]!r}")
     merged = dict(base)
-    taken = set(merged) | RESERVED_NAMES
-    clashing = [k for k in ours if k in taken]
-    taken.update(k for k in ours if k not in taken)
+    taken = set(RESERVED_NAMES)
+    for key, value in merged.items():
+        taken.update(_written_names(key, value))
+    clashing = []
+    for key, value in ours.items():
+        names = _written_names(key, value)
+        if names & taken:
+            clashing.append(key)
+        else:
+            taken.update(names)
     renamed = {}
     for key in clashing:
         new = prefix + key
-        while new in taken:
+        while _written_names(new, ours[key]) & taken:
             new = prefix + new
-        taken.add(new)
+        taken.update(_written_names(new, ours[key]))
         renamed[key] = new
     for key, value in ours.items():
         merged[renamed.get(key, key)] = value
     return merged
+
+
+def _written_names(key: str, value) -> set[str]:
+    """The names a field takes in a file: ``key``, plus ``key_0 .. key_{m-1}`` for an
+    (N, m) array (how the PLY and LAS writers spell its columns)."""
+    shape = np.shape(value)
+    if len(shape) == 2:
+        return {key} | {f"{key}_{j}" for j in range(shape[1])}
+    return {key}
 
 
 def ply_name_problem(name: str) -> str | None:

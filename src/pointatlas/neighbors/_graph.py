@@ -6,14 +6,14 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
 
-from .._core import as_int, as_points
+from .._core import as_int, as_points, check_neighbors
 from . import _kernels
 from ._knn import query_knn
 
 __all__ = ["knn_graph", "knn_components", "mean_spacing"]
 
 
-def knn_graph(points, k: int, *, symmetric: bool = True, indices=None) -> sparse.csr_array:
+def knn_graph(points, k: int, *, symmetric: bool = True, neighbors=None) -> sparse.csr_array:
     """The k-NN graph as a sparse matrix of distances.
 
     Parameters
@@ -22,12 +22,12 @@ def knn_graph(points, k: int, *, symmetric: bool = True, indices=None) -> sparse
         Coordinates.
     k : int
         Neighbourhood size including the point itself (self loops are not
-        stored); 1 <= k <= N, only k >= 1 when ``indices`` is given.
+        stored); 1 <= k <= N, only k >= 1 when ``neighbors`` is given.
     symmetric : bool
         If True (default) i ~ j when either is among the other's k nearest.
-    indices : ndarray of shape (N, k), int64, optional
-        Precomputed `query_knn` indices (avoids a second query); column 0 (the
-        point itself) is ignored.
+    neighbors : ndarray of shape (N, m), int, or tuple, optional
+        Precomputed `query_knn` indices (or the tuple it returns; avoids a second
+        query); column 0 (the point itself) is ignored, all m columns are used.
 
     Returns
     -------
@@ -39,9 +39,9 @@ def knn_graph(points, k: int, *, symmetric: bool = True, indices=None) -> sparse
     Raises
     ------
     ValueError
-        Bad points; k outside [1, N]; ``indices`` of the wrong shape or range.
+        Bad points; k outside [1, N]; ``neighbors`` of the wrong shape or range.
     TypeError
-        k not an integer.
+        k not an integer; ``neighbors`` not integer.
 
     Notes
     -----
@@ -57,16 +57,12 @@ def knn_graph(points, k: int, *, symmetric: bool = True, indices=None) -> sparse
     """
     pts = as_points(points)
     n = pts.shape[0]
-    if indices is None:
-        indices, _ = query_knn(pts, k)
+    if neighbors is None:
+        table, _ = query_knn(pts, k)
     else:
         as_int(k, "k", lo=1)
-    nbr = np.asarray(indices, dtype=np.int64)
-    if nbr.ndim != 2 or nbr.shape[0] != n or nbr.shape[1] < 1:
-        raise ValueError(f"indices must have shape ({n}, k) with k >= 1; got {nbr.shape}")
-    if nbr.size and (nbr.min() < 0 or nbr.max() >= n):
-        raise ValueError(f"indices must lie in [0, {n}); got values in [{nbr.min()}, {nbr.max()}]")
-    nbr = np.ascontiguousarray(nbr[:, 1:])
+        table = check_neighbors(neighbors, n)
+    nbr = np.ascontiguousarray(table[:, 1:])
     indptr, cols = _kernels.graph_structure(nbr, n, bool(symmetric))
     # distances on bounding-box-centred coordinates, like query_knn
     centred = pts - 0.5 * np.add(*_kernels.bounds(pts)) if n else pts
@@ -74,7 +70,7 @@ def knn_graph(points, k: int, *, symmetric: bool = True, indices=None) -> sparse
     return sparse.csr_array((dist, cols, indptr), shape=(n, n))
 
 
-def knn_components(points, k: int, *, indices=None) -> tuple[int, np.ndarray]:
+def knn_components(points, k: int, *, neighbors=None) -> tuple[int, np.ndarray]:
     """Connected components of the symmetric k-NN graph.
 
     Parameters
@@ -83,9 +79,9 @@ def knn_components(points, k: int, *, indices=None) -> tuple[int, np.ndarray]:
         Coordinates.
     k : int
         Neighbourhood size including the point itself (1 <= k <= N, only
-        k >= 1 when ``indices`` is given).
-    indices : ndarray of shape (N, k), int64, optional
-        Precomputed `query_knn` indices.
+        k >= 1 when ``neighbors`` is given).
+    neighbors : ndarray of shape (N, m), int, or tuple, optional
+        Precomputed `query_knn` indices (or the tuple it returns).
 
     Returns
     -------
@@ -106,7 +102,7 @@ def knn_components(points, k: int, *, indices=None) -> tuple[int, np.ndarray]:
     >>> knn_components([[0, 0, 0], [1, 0, 0], [9, 0, 0], [10, 0, 0]], 2)[0]
     2
     """
-    graph = knn_graph(points, k, indices=indices)
+    graph = knn_graph(points, k, neighbors=neighbors)
     structure = sparse.csr_array(
         (np.ones_like(graph.data), graph.indices, graph.indptr), shape=graph.shape
     )
@@ -126,7 +122,7 @@ def mean_spacing(points, k: int = 12, *, distances=None) -> float:
     points : array_like of shape (N, 3)
         Coordinates (N >= k + 1).
     k : int
-        Number of neighbours, the point itself excluded (GUIDE: 12; 6 in 5.4's
+        Number of neighbours, the point itself excluded (12 by default; 6 in 5.4's
         denoising application): 1 <= k <= N - 1, or at most the columns of
         ``distances`` minus 1.
     distances : ndarray of shape (N, >= k + 1), float64, optional
@@ -135,7 +131,7 @@ def mean_spacing(points, k: int = 12, *, distances=None) -> float:
     Returns
     -------
     l : float
-        The length unit of "noise of amplitude x %" (GUIDE conventions).
+        The length unit of "noise of amplitude x %" (the mean spacing l).
 
     Raises
     ------

@@ -2,7 +2,7 @@
 
 Private helpers; inputs are validated, centred float64 points.
 
-Cell size for k-NN (decision, docs/decisions.md): the *point-weighted* occupancy
+Cell size for k-NN (decision, docs/decisions/neighbors.md): the *point-weighted* occupancy
 ``W(h) = sum_c n_c**2 / N`` (the mean number of points sharing a query's cell)
 is driven to a target that grows with k. W, unlike the plain mean occupancy,
 bounds the total work of the 3 x 3 x 3 block search even for strongly

@@ -1,7 +1,7 @@
-"""k-nearest and radius neighbourhoods with the GUIDE's deterministic tie-break.
+"""k-nearest and radius neighbourhoods with a deterministic tie-break.
 
-Combinatorial neighbourhood (thesis Example 1 v, GUIDE conventions): the k nearest
-points *including the point itself*. Decision (docs/decisions.md): column 0 is
+Combinatorial neighbourhood (thesis Example 1 v): the k nearest
+points *including the point itself*. Decision (docs/decisions/neighbors.md): column 0 is
 always the point itself, even when exact duplicates with smaller indices exist;
 the other k - 1 columns are the remaining points ordered by (squared distance,
 index), so among equally distant candidates the smaller index wins and N^c is
@@ -70,7 +70,7 @@ class NeighborIndex:
     Coordinates are centred on their bounding-box centre before anything else so
     distances keep their precision for UTM-like inputs (a shift by 1e6 gives the
     same neighbours). Exact ties of the squared distance are broken by smaller
-    index (GUIDE conventions). The one-shot functions `query_knn` and
+    index (docs/decisions/neighbors.md). The one-shot functions `query_knn` and
     `query_radius` wrap this class. Grids depend on k (or the radius) and are
     built per query; the k-d tree is built lazily once.
 
@@ -306,10 +306,11 @@ def query_knn(points, k: int, *, backend: str = "auto") -> tuple[np.ndarray, np.
 
     Notes
     -----
-    Combinatorial neighbourhood of thesis Example 1 (v) with the tie-break of the
-    GUIDE. Duplicate points are allowed: the point itself stays in column 0 and
-    its duplicates follow by index. Ties are exact float64 equality of squared
-    distances on bounding-box-centred coordinates.
+    Combinatorial neighbourhood of thesis Example 1 (v) with the tie-break
+    recorded in docs/decisions/neighbors.md. Duplicate points are allowed: the
+    point itself stays in column 0 and its duplicates follow by index. Ties are
+    exact float64 equality of squared distances on bounding-box-centred
+    coordinates.
 
     Examples
     --------

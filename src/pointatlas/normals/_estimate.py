@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._core import as_int, as_points, describe_indices, readonly
+from .._core import as_int, as_points, check_neighbors, readonly
 from .._core.tolerances import NORMAL_DEGENERATE_RATIO
 from ..neighbors import query_knn
 from ._kernels import pca_normals_kernel
@@ -26,28 +26,9 @@ def _neighbor_indices(points: np.ndarray, k: int, neighbors) -> np.ndarray:
     ``neighbors`` may be an index array of shape (N, m >= k) or the
     ``(indices, distances)`` tuple returned by `query_knn`; k validated (`_check_k`).
     """
-    n = points.shape[0]
     if neighbors is None:
         return query_knn(points, k)[0]
-    if isinstance(neighbors, tuple) and len(neighbors) == 2:
-        neighbors = neighbors[0]
-    idx = np.asarray(neighbors)
-    if idx.dtype.kind not in "iu":
-        raise TypeError(f"neighbors must be an integer index array; got dtype {idx.dtype}")
-    if idx.ndim != 2 or idx.shape[0] != n or idx.shape[1] < k:
-        raise ValueError(
-            f"neighbors must have shape (N, m) with N = {n} points and m >= k = {k}; "
-            f"got {idx.shape}"
-        )
-    idx = np.ascontiguousarray(idx[:, :k], dtype=np.int64)
-    if idx.size:
-        bad = ((idx < 0) | (idx >= n)).any(axis=1)
-        if bad.any():
-            raise ValueError(
-                f"neighbors must hold indices in [0, {n}); out of range in rows "
-                f"{describe_indices(bad)}"
-            )
-    return idx
+    return check_neighbors(neighbors, points.shape[0], k=k)
 
 
 @dataclass(frozen=True, slots=True)
@@ -112,7 +93,7 @@ def pca_normals(points, k: int = 20, *, neighbors=None) -> PCANormalsResult:
     -----
     Covariance of the k-neighbourhood about its mean (thesis 5.2, Eq. 5.4 with
     equal weights), normal = eigenvector of the smallest eigenvalue (Hoppe et al.
-    1992). Degenerate neighbourhoods (decision, docs/decisions.md): all points
+    1992). Degenerate neighbourhoods (decision, docs/decisions/normals.md): all points
     coincident -> normal (0, 0, 1); collinear -> a unit vector orthogonal to the
     line (the one orthogonal to the coordinate axis least aligned with it); both
     are flagged in ``is_degenerate``.

@@ -70,8 +70,8 @@ def _forest_signs(points, normals, idx, edge_penalty):
     kernel tracks these parities in its union-find, so no traversal is needed).
     Returns the signs, the number of trees and the tree of every point.
     """
-    # the graph and the forest on spatially renumbered points (1M points in a
-    # random input order: 1.75 s -> 0.75 s); trees and parities mapped back
+    # the graph and the forest on spatially renumbered points (the union-find
+    # then walks nearby memory); trees and parities mapped back
     order, inv = spatial_renumbering(points)
     graph = _riemannian_graph(
         np.take(points, order, axis=0),
@@ -204,7 +204,7 @@ def orient_normals(
     and n_j is flipped when n_parent . n_j < 0 (in effect: the signs come from
     the parity of such edges on each tree path, tracked while the forest is
     built). Each connected component of the k-NN graph is oriented on its own.
-    Decisions and measurements: docs/decisions.md.
+    Decisions: docs/decisions/normals.md.
 
     Examples
     --------

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import sparse
 
-from .._core import as_int, as_labels, as_points
+from .._core import as_int, as_labels, as_points, check_neighbors
 from .._core._sort import permute_table
 from ..neighbors import query_knn
 from ._kernels import boundary_points, region_pairs, symmetric_csr
@@ -52,8 +52,8 @@ def neighbor_graph(points: np.ndarray, k: int, neighbors=None):
         indptr = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
         return indptr, cols.astype(np.int64), None
-    table = _check_table(neighbors, n)
-    indptr, indices = symmetric_csr(np.ascontiguousarray(table), n)
+    table = check_neighbors(neighbors, n, allow_negative=True)
+    indptr, indices = symmetric_csr(table, n)
     return indptr, indices, table
 
 
@@ -73,26 +73,6 @@ def _check_adjacency(neighbors, n: int):
     return sparse.coo_array(neighbors)
 
 
-def _check_table(neighbors, n: int, *, allow_negative: bool = True) -> np.ndarray:
-    """An (N, c) neighbour index table as int64, validated; entries < 0 mean "none"
-    unless ``allow_negative`` is False (then they raise)."""
-    table = np.asarray(neighbors)
-    if table.ndim != 2 or table.shape[0] != n:
-        raise ValueError(
-            f"neighbors must be an (N, k) index table with N = {n} rows; got shape {table.shape}"
-        )
-    if not np.issubdtype(table.dtype, np.integer):
-        raise TypeError(f"neighbors must hold integer indices; got dtype {table.dtype}")
-    table = table.astype(np.int64, copy=False)
-    if table.size and table.max() >= n:
-        raise ValueError(f"neighbors has indices >= N = {n}; largest is {int(table.max())}")
-    if not allow_negative and table.size and table.min() < 0:
-        raise ValueError(
-            f"neighbors must hold point indices in [0, {n}); smallest is {int(table.min())}"
-        )
-    return table
-
-
 def permuted_neighbors(points: np.ndarray, k: int, neighbors, order: np.ndarray, inv: np.ndarray):
     """``neighbors`` (None, an (N, c) table or a sparse adjacency, as `neighbor_graph`
     takes it) for the points renumbered so that new point r is old point
@@ -107,7 +87,7 @@ def permuted_neighbors(points: np.ndarray, k: int, neighbors, order: np.ndarray,
         rows = inv[np.asarray(coo.row, dtype=np.int64)]
         cols = inv[np.asarray(coo.col, dtype=np.int64)]
         return sparse.coo_array((np.ones(rows.shape[0]), (rows, cols)), shape=(n, n))
-    return permute_table(_check_table(neighbors, n), order, inv)
+    return permute_table(check_neighbors(neighbors, n, allow_negative=True), order, inv)
 
 
 def region_adjacency(points, labels, *, k: int = 8, neighbors=None) -> np.ndarray:
@@ -144,7 +124,7 @@ def region_adjacency(points, labels, *, k: int = 8, neighbors=None) -> np.ndarra
     -----
     Remark 6 collects, for every point, all points within the distance of its
     k-th nearest neighbour; up to exact distance ties that is the k-NN set, whose
-    symmetric closure is used here (decision in docs/decisions.md).
+    symmetric closure is used here (decision in docs/decisions/segment.md).
 
     Examples
     --------

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._core import as_float, as_int, as_normals, as_points, readonly
+from .._core import as_float, as_int, as_normals, as_points, check_neighbors, readonly
 from .._core.tolerances import NORMAL_ZERO_LENGTH
-from ._graph import _check_k, _check_table, neighbor_graph
+from ._graph import _check_k, neighbor_graph
 from ._kernels import region_growing as _grow_kernel
 
 __all__ = ["RegionGrowingResult", "region_growing", "surface_curvature"]
@@ -114,7 +114,7 @@ def surface_curvature(points, *, k: int = 8, neighbors=None) -> np.ndarray:
     if neighbors is None:
         _, _, table = neighbor_graph(pts, k)
     else:
-        table = _check_table(neighbors, pts.shape[0], allow_negative=False)
+        table = check_neighbors(neighbors, pts.shape[0])
     out = np.empty(pts.shape[0])
     chunk = 200_000
     for s in range(0, pts.shape[0], chunk):
@@ -219,7 +219,7 @@ def region_growing(
     if neighbors is None:
         _, _, table = neighbor_graph(pts, k)
     else:
-        table = _check_table(neighbors, n)
+        table = check_neighbors(neighbors, n, allow_negative=True)
     if curvature is None:
         curv = surface_curvature(pts, neighbors=table)
     else:
@@ -230,14 +230,26 @@ def region_growing(
         thr = float(np.percentile(curv, 98.0))
     order = np.lexsort((np.arange(n), curv))
     raw = _grow_kernel(np.ascontiguousarray(table), nrm, curv, order, math.cos(angle), thr)
+    labels, m = _drop_clusters(raw, min_cluster_size, max_cluster_size)
+    return _measures(pts, nrm, labels, m, curv)
+
+
+def _drop_clusters(raw, min_size, max_size):
+    """Labels 0..m-1 (growth order) of the regions of ``raw`` with min_size <=
+    size <= max_size (None: no upper bound), -1 for the others; and m."""
     sizes = np.bincount(raw)
-    keep = sizes >= min_cluster_size
-    if max_cluster_size is not None:
-        keep &= sizes <= max_cluster_size
+    keep = sizes >= min_size
+    if max_size is not None:
+        keep &= sizes <= max_size
     new_id = np.full(sizes.shape[0], -1, dtype=np.int64)
     new_id[keep] = np.arange(int(keep.sum()))
-    labels = new_id[raw]
-    m = int(keep.sum())
+    return new_id[raw], int(keep.sum())
+
+
+def _measures(pts, nrm, labels, m, curv):
+    """`RegionGrowingResult` of the labels: mean normals (NaN where |S| = 0),
+    centroids, L21 and Eq. 4.7 over the assigned points."""
+    n = pts.shape[0]
     sel = labels >= 0
     lab = labels[sel]
     counts = np.bincount(lab, minlength=m).astype(np.int64)

@@ -1,7 +1,7 @@
 """Input checks of the simplify room: point count, k, memory, unusable normals.
 
 Private helpers used once by the public functions (STYLE section 5); the decisions
-are recorded in docs/decisions.md, "Simplify: invariance and input checks".
+are recorded in docs/decisions/simplify.md, "The thesis path".
 """
 
 from __future__ import annotations

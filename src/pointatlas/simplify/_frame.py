@@ -3,8 +3,8 @@
 Every geometric step of the room (proxies, complex, vertices, faces, distances)
 runs on ``(points - center) / scale`` and the results are mapped back, so the
 mesh does not depend on where the model lies or in which units it is given, and
-every tolerance is relative to the model's size (docs/decisions.md, "Simplify:
-invariance and input checks").
+every tolerance is relative to the model's size (docs/decisions/simplify.md, "The
+thesis path").
 """
 
 from __future__ import annotations

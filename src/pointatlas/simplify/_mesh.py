@@ -10,11 +10,10 @@ import numpy as np
 
 from .._core import PointAtlasError, as_labels, as_normals, as_points, readonly
 from ..complex import SurfaceComplex
-from ..neighbors import query_knn
+from ..neighbors import point_mesh_distance, query_knn
 from ._checks import check_memory, check_size, usable_normals
 from ._faces import general_faces, plane_deviation, star_faces
 from ._frame import frame_of
-from ._kernels import point_triangle_distances
 from ._proxies import check_not_parallel, region_proxies
 from ._repair import clean_regions
 from ._vertices import (
@@ -274,48 +273,6 @@ def mesh_checks(n_vertices: int, triangles) -> tuple[bool, bool, bool]:
     return closed, manifold, oriented
 
 
-def point_mesh_distance(points, vertices, triangles) -> np.ndarray:
-    """Distance from every point to a triangle mesh.
-
-    Parameters
-    ----------
-    points : array_like of shape (N, 3), float64
-        Query points.
-    vertices : array_like of shape (V, 3), float64
-        Mesh vertices.
-    triangles : array_like of shape (T, 3), int64
-        Triangles (T >= 1).
-
-    Returns
-    -------
-    distances : ndarray of shape (N,), float64
-        Euclidean distance to the closest point of the closest triangle.
-
-    Raises
-    ------
-    ValueError
-        Bad shapes, no triangles, or out-of-range indices.
-
-    Examples
-    --------
-    >>> point_mesh_distance([[0.2, 0.2, 1.0]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
-    array([1.])
-    """
-    pts = as_points(points, min_points=0)
-    verts = as_points(vertices, name="vertices")
-    tri = np.asarray(triangles)
-    if tri.ndim != 2 or tri.shape[1] != 3 or tri.shape[0] == 0:
-        raise ValueError(f"triangles must have shape (T, 3) with T >= 1; got {tri.shape}")
-    tri = tri.astype(np.int64)
-    if tri.min() < 0 or tri.max() >= verts.shape[0]:
-        raise ValueError(f"triangles must index vertices 0..{verts.shape[0] - 1}")
-    if pts.shape[0] == 0:
-        return np.zeros(0)
-    # differences of coordinates far from the origin lose digits: centre both first
-    center = frame_of(verts).center
-    return point_triangle_distances(pts - center, verts - center, np.ascontiguousarray(tri))
-
-
 def _planarity(vertices, loops):
     return plane_deviation(vertices[np.concatenate(loops)])
 
@@ -430,7 +387,7 @@ def simplify_segmentation(
         point-to-plane distance (both in units of the points' RMS radius). By
         default the loosest of 0.01, 0.1, 1, 10 whose faces are all valid and
         whose mesh is closed, manifold and oriented (`FIT_ANCHOR_WEIGHTS`; else the
-        best of them, see ``docs/decisions.md``).
+        best of them, see ``docs/decisions/simplify.md``).
     max_distance : float, optional
         Bound on the distance of a least-squares vertex from its witness points
         (input units); by default half the distance to the nearest contributing
@@ -498,8 +455,7 @@ def simplify_segmentation(
     runs on centred coordinates scaled by a power of two (at least the bounding-box
     diagonal) and the results are mapped back, so the mesh moves with translations
     and scalings of the input and all tolerances are relative to its size.
-    Decisions in docs/decisions.md (simplify; "Simplify: invariance and input
-    checks").
+    Decisions in docs/decisions/simplify.md ("The thesis path").
 
     Examples
     --------
@@ -714,7 +670,7 @@ def _assemble(frame, q, clean, mv, face_list, faces, used_weight, point_index, n
     triangle_face = np.concatenate(tri_face) if tri_face else np.zeros(0, np.int64)
     closed, manifold, oriented = mesh_checks(verts.shape[0], triangles)
     if triangles.shape[0]:
-        dist = point_triangle_distances(q, np.ascontiguousarray(verts), triangles) * frame.scale
+        dist = point_mesh_distance(q, verts, triangles) * frame.scale
     else:
         dist = np.full(q.shape[0], np.inf)
     with_face = {f.region for f in face_list}

@@ -8,15 +8,17 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._core import as_points, readonly
+from .._core import PointAtlasError, as_labels, as_points, readonly
 from ..neighbors import query_knn
 from ._checks import check_memory, check_size, usable_normals
 from ._frame import frame_of
 from ._mesh import SimplifiedMesh, simplify_segmentation
 from ._proxies import region_proxies
+from ._reconstruct import robust_mesh
+from ._surface import SurfaceSimplification
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..segment import VSAResult
+    from ..segment import VSAOptions, VSAResult
 
 __all__ = ["PointSimplification", "simplify_points"]
 
@@ -27,8 +29,9 @@ class PointSimplification:
 
     Attributes
     ----------
-    segmentation : VSAResult
-        VSA segmentation of the points used (``point_index``).
+    segmentation : VSAResult or None
+        VSA segmentation of the points used (``point_index``); None when the
+        labels were given.
     mesh : SimplifiedMesh
         The simplified mesh; its ``point_index`` and ``n_dropped`` refer to the
         input points too.
@@ -37,31 +40,42 @@ class PointSimplification:
         has a NaN/Inf entry are left out.
     n_dropped : int
         Number of input points left out.
+    path : str
+        ``"thesis"`` (the surface-like complex, thesis 4.4: ``mesh`` is a
+        `SimplifiedMesh`) or ``"robust"`` (the points' surface by inside/outside on a
+        voxel grid, then the mesh path: ``mesh`` is a `SurfaceSimplification` whose
+        ``distances`` are the points').
+    reason : str
+        Why the robust path was taken ("" on the thesis path).
+    labels : ndarray of shape (M,), int64
+        Face region of every point used (the thesis' ``mesh.labels``, or the region
+        of the point's nearest triangle on the robust path).
     """
 
-    segmentation: VSAResult
-    mesh: SimplifiedMesh
+    segmentation: VSAResult | None
+    mesh: SimplifiedMesh | SurfaceSimplification
     point_index: np.ndarray
     n_dropped: int
+    path: str = "thesis"
+    reason: str = ""
+    labels: np.ndarray | None = None
 
     def __post_init__(self):
         readonly(self.point_index)
+        if self.labels is None:
+            object.__setattr__(self, "labels", np.asarray(self.mesh.labels))
+        readonly(self.labels)
+
+    def summary(self) -> dict:
+        """The mesh's report with the path taken and why."""
+        return {**self.mesh.summary(), "path": self.path, "path_reason": self.reason}
 
 
 def simplify_points(
     points,
     normals,
     *,
-    k: int = 8,
-    seeds="all",
-    eta: float | None = None,
-    max_angle: float | None = None,
-    split: bool = True,
-    merge: bool = True,
-    switch: str = "batch",
-    classic: bool = False,
-    weights="uniform",
-    max_iter: int = 1000,
+    vsa: VSAOptions | None = None,
     rng=None,
     vertices: str = "fit",
     faces: str = "general",
@@ -72,6 +86,9 @@ def simplify_points(
     repair: bool = True,
     smooth: int = 2,
     max_boundary_fraction: float = 0.95,
+    path: str = "auto",
+    labels=None,
+    **vsa_settings,
 ) -> PointSimplification:
     """Segment a point set by VSA and build its simplified polygon mesh.
 
@@ -82,21 +99,42 @@ def simplify_points(
     normals : array_like of shape (N, 3), float64
         Oriented normals. Points whose normal is zero-length or has a NaN/Inf entry
         are left out and counted in ``n_dropped``.
-    k : int
-        Neighbourhood size of segmentation and complex (thesis: 8; 12 with noise);
-        1 <= k <= the number of points used.
-    seeds, eta, max_angle, split, merge, switch, classic, weights, max_iter, rng
-        Passed to `pointatlas.segment.vsa_segment`.
+    vsa : VSAOptions, optional
+        The segmentation's settings (`pointatlas.segment.VSAOptions`, default
+        ``VSAOptions()``); its ``k`` (thesis: 8; 12 with noise; 1 <= k <= the
+        number of points used) is also the neighbourhood size of the complex.
+    rng : None, int or numpy.random.Generator
+        Passed to `pointatlas.segment.vsa_segment` (draws a number of random seeds).
     vertices, faces, centers, weight, anchor_weight, min_region_size, repair, smooth,
     max_boundary_fraction
         Passed to `simplify_segmentation`; ``centers="seed"`` uses the VSA seed
         points C_i.
+    path : {"auto", "thesis", "robust"}
+        ``"thesis"``: the surface-like complex only (errors as
+        `simplify_segmentation`). ``"robust"``: the points' surface (inside/outside
+        on a voxel grid from the oriented normals, marching cubes), its triangles
+        labelled by the VSA regions and moved onto their planes, then the mesh
+        path. ``"auto"`` (default): the thesis path, and the robust one when the
+        thesis path fails or gives a mesh that is not manifold and oriented with
+        valid faces, or is open where the points' surface is closed; the result's
+        ``path`` and ``reason`` say which and why.
+    labels : array_like of shape (N,), int, optional
+        A segmentation to use instead of VSA's (e.g. the ``label`` field written by
+        ``pointatlas segment``): regions are renumbered 0..R-1 in order of their
+        values and their proxy planes computed (`region_proxies`);
+        ``segmentation`` is then None. Labels must be >= 0.
+    **vsa_settings
+        Fields of `pointatlas.segment.VSAOptions` given one by one (``k``,
+        ``seeds``, ``eta``, ``max_angle``, ``split``, ``merge``, ``switch``,
+        ``classic``, ``weights``, ``max_iter``); they override those of ``vsa``.
 
     Returns
     -------
     result : PointSimplification
-        ``segmentation`` (VSAResult), ``mesh`` (SimplifiedMesh), ``point_index``
-        and ``n_dropped`` (points left out for want of a usable normal).
+        ``segmentation`` (VSAResult), ``mesh`` (SimplifiedMesh, or
+        SurfaceSimplification on the robust path), ``path``, ``reason``, ``labels``,
+        ``point_index`` and ``n_dropped`` (points left out for want of a usable
+        normal).
 
     Raises
     ------
@@ -127,68 +165,115 @@ def simplify_points(
     (6, 8, True, 0)
     """
     # imported here so the meshing half of the room works on its own
-    from ..segment import vsa_segment
+    from ..segment import VSAOptions, vsa_segment
 
+    if path not in ("auto", "thesis", "robust"):
+        raise ValueError(f"path must be 'auto', 'thesis' or 'robust'; got {path!r}")
+    opts = (VSAOptions() if vsa is None else vsa).replace(**vsa_settings)
+    weights = opts.weights
     pts = as_points(points)
     n_input = pts.shape[0]
-    k = check_size(n_input, k)
+    k = check_size(n_input, opts.k)
     nrm, keep = usable_normals(normals, n_input)
     if not keep.all():
         pts = pts[keep]
         k = check_size(pts.shape[0], k)
         if not isinstance(weights, str):  # given per-point weights follow the points
-            weights = np.asarray(weights, dtype=np.float64)
             if weights.shape != (n_input,):
                 raise ValueError(f"weights must have shape ({n_input},); got {weights.shape}")
             weights = weights[keep]
+            opts = opts.replace(weights=weights)
     check_memory(pts.shape[0], k)
     frame = frame_of(pts)
     q = frame.to_local(pts)
     idx, _ = query_knn(q, k)
-    seg = vsa_segment(
-        pts,
-        nrm,
-        k=k,
-        seeds=seeds,
-        eta=eta,
-        max_angle=max_angle,
-        split=split,
-        merge=merge,
-        switch=switch,
-        classic=classic,
-        weights=weights,
-        max_iter=max_iter,
-        rng=rng,
-    )
-    if isinstance(centers, str) and centers == "seed":
-        ctr = seg.seed_points
-    elif isinstance(centers, str) and centers == "centroid":
-        ctr = _centroids(frame, q, nrm, seg, weights, k, idx)
-    else:
+    if not (isinstance(centers, str) and centers in ("seed", "centroid")):
         raise ValueError(f"centers must be 'centroid' or 'seed'; got {centers!r}")
-    mesh = simplify_segmentation(
-        pts,
-        nrm,
-        seg.labels,
-        k=k,
-        vertices=vertices,
-        faces=faces,
-        centers=ctr,
-        proxy_normals=seg.proxy_normals,
-        weight=weight,
-        anchor_weight=anchor_weight,
-        min_region_size=min_region_size,
-        repair=repair,
-        smooth=smooth,
-        max_boundary_fraction=max_boundary_fraction,
-        indices=idx,
-    )
+    if labels is None:
+        seg = vsa_segment(pts, nrm, options=opts, rng=rng)
+        seg_labels, seg_normals = np.asarray(seg.labels), np.asarray(seg.proxy_normals)
+        if centers == "seed":
+            ctr = seg.seed_points
+        else:
+            ctr = _centroids(frame, q, nrm, seg, weights, k, idx)
+    else:
+        seg = None
+        given = as_labels(labels, n_input)
+        if (given < 0).any():
+            raise ValueError(f"labels must be >= 0; {int((given < 0).sum())} points are unassigned")
+        _, seg_labels = np.unique(given[keep], return_inverse=True)
+        seg_labels = seg_labels.reshape(-1).astype(np.int64)
+        prox = region_proxies(q, nrm, seg_labels)
+        seg_normals = np.asarray(prox.normals)
+        ctr = frame.to_input(prox.seed_points) if centers == "seed" else "centroid"
     point_index = np.flatnonzero(keep)
     n_dropped = n_input - point_index.size
-    mesh = dataclasses.replace(mesh, point_index=point_index, n_dropped=n_dropped)
+    mesh, reason = None, "path='robust' was asked for"
+    if path != "robust":
+        try:
+            mesh = simplify_segmentation(
+                pts,
+                nrm,
+                seg_labels,
+                k=k,
+                vertices=vertices,
+                faces=faces,
+                centers=ctr,
+                proxy_normals=seg_normals,
+                weight=weight,
+                anchor_weight=anchor_weight,
+                min_region_size=min_region_size,
+                repair=repair,
+                smooth=smooth,
+                max_boundary_fraction=max_boundary_fraction,
+                indices=idx,
+            )
+        except PointAtlasError as exc:
+            if path == "thesis":
+                raise
+            reason = f"thesis path: {exc}"
+        else:
+            mesh = dataclasses.replace(mesh, point_index=point_index, n_dropped=n_dropped)
+            reason = _thesis_flaw(mesh) if path == "auto" else ""
+            if not reason:
+                return PointSimplification(
+                    segmentation=seg, mesh=mesh, point_index=point_index, n_dropped=n_dropped
+                )
+    res, rec, point_labels = robust_mesh(q, nrm, seg_labels, seg_normals, frame)
+    if (
+        mesh is not None
+        and reason.startswith("open")
+        and rec.n_trimmed > 0
+        and mesh.mean_distance <= res.mean_distance
+    ):
+        # the points' surface is open too, and the thesis mesh is as near: it stands
+        return PointSimplification(
+            segmentation=seg, mesh=mesh, point_index=point_index, n_dropped=n_dropped
+        )
+    if reason.startswith("open") and rec.n_trimmed == 0:
+        reason = "thesis path: the mesh has boundary edges where the points' surface is closed"
+    elif reason.startswith("open"):
+        reason = "thesis path: the open mesh is farther from the points than the robust one"
     return PointSimplification(
-        segmentation=seg, mesh=mesh, point_index=point_index, n_dropped=n_dropped
+        segmentation=seg,
+        mesh=res,
+        point_index=point_index,
+        n_dropped=n_dropped,
+        path="robust",
+        reason=reason,
+        labels=point_labels,
     )
+
+
+def _thesis_flaw(mesh: SimplifiedMesh) -> str:
+    """Why a thesis-path mesh is not kept ("" when it is)."""
+    if not (mesh.is_manifold and mesh.is_oriented):
+        return "thesis path: the mesh is not manifold and oriented"
+    if not mesh.face_ok.all():
+        return f"thesis path: {int((~mesh.face_ok).sum())} faces are not valid polygons"
+    if not mesh.is_closed:
+        return "open: the thesis mesh has boundary edges"
+    return ""
 
 
 def _centroids(frame, q, normals, seg, weights, k, indices):

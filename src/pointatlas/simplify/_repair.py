@@ -1,4 +1,4 @@
-"""Absorbing regions that cannot become faces (beyond the thesis; docs/decisions.md).
+"""Absorbing regions that cannot become faces (beyond the thesis; docs/decisions/simplify.md).
 
 The thesis removed faulty intersection points and reset face incidences by hand
 (4.4.3, Fandisk). Here a region that is tiny (fewer than ``min_region_size``

@@ -166,14 +166,39 @@ def _incidences(cplx, centers):
 
 
 def _solve_constrained(
-    fun, z0, hess, constraint, cons, max_iter, *, gtol, xtol, refine=None, polish=None
+    fun,
+    z0,
+    hess,
+    constraint,
+    cons,
+    max_iter,
+    *,
+    gtol,
+    xtol,
+    refine=None,
+    polish=None,
+    newton=None,
 ):
-    """trust-constr on ``fun`` (value, gradient) under ``constraint`` (= 0), then the
-    optional ``refine`` (only when trust-constr converged, not at its iteration
-    limit) and ``polish``; returns (z, ok, constraint violation, iterations, message)."""
+    """Solve min ``fun`` (value, gradient) under ``constraint`` (= 0).
+
+    ``newton`` (when given): Newton's method on the KKT system from ``z0`` (`_sqp`),
+    kept when it converges to a feasible local minimum. Otherwise (the reference
+    solver) trust-constr, then the optional ``refine`` (only when trust-constr
+    converged, not at its iteration limit); then ``polish``. Returns (z, ok,
+    constraint violation, iterations, message).
+    """
+    if newton is not None:
+        with _one_blas_thread():
+            z, converged, steps = newton(z0)
+            if converged and polish is not None:
+                z = polish(z)
+        c = cons(z)
+        violation = float(np.max(np.abs(c))) if c.size else 0.0
+        if converged and np.all(np.isfinite(z)) and violation <= SIMPLIFY_CONSTRAINT_TOL:
+            return z, True, violation, steps, f"Newton-KKT converged in {steps} steps"
     z, message, n_iter, violation, ok = z0, "", 0, float("inf"), False
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), _one_blas_thread():
             warnings.simplefilter("ignore")  # scipy's own progress warnings
             res = minimize(
                 fun,
@@ -197,6 +222,16 @@ def _solve_constrained(
     except (ValueError, np.linalg.LinAlgError, ArithmeticError) as exc:
         message = f"optimizer error: {exc}"
     return z, ok, violation, n_iter, message
+
+
+def _newton_solver(solver, fun, hess_obj, cons, cjac, chess):
+    """``solver="newton"``: `_sqp` first (trust-constr only when it does not converge);
+    ``"trust-constr"``: the reference solver alone (None)."""
+    if solver == "trust-constr":
+        return None
+    if solver != "newton":
+        raise ValueError(f"solver must be 'newton' or 'trust-constr'; got {solver!r}")
+    return lambda z: _sqp(z, fun, hess_obj, cons, cjac, chess)
 
 
 def _fallback(base, what, violation, n_iter, message) -> MeshVertices:
@@ -223,7 +258,7 @@ def _fallback(base, what, violation, n_iter, message) -> MeshVertices:
 
 
 def optimize_vertices(
-    cplx, points, normals, centers, *, weight=1.0, max_iter=3000, lsq=None
+    cplx, points, normals, centers, *, weight=1.0, max_iter=3000, lsq=None, solver="newton"
 ) -> MeshVertices:
     """Eq. 4.12 by ``scipy.optimize.minimize(method="trust-constr")`` (private).
 
@@ -319,6 +354,7 @@ def optimize_vertices(
         refine=lambda z: _project_constraints(
             _newton_kkt(z, fun, hess_obj, cons, cjac, chess), cons, cjac
         ),
+        newton=_newton_solver(solver, fun, hess_obj, cons, cjac, chess),
     )
     if not ok:
         base = lsq if lsq is not None else lsq_vertices(cplx, points, normals, centers)
@@ -369,6 +405,88 @@ def _project_constraints(z, cons, cjac, n_steps=8, tol=1e-15):
     return z
 
 
+def _one_blas_thread():
+    """Limit BLAS to one thread around the many small dense solves (on a busy 2-core
+    box the threads cost more than they give)."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
+#: Newton steps of `_sqp` at most, and its KKT residual tolerance (scaled problem)
+_SQP_MAX_STEPS = 50
+_SQP_TOL = 1e-11
+#: size up to which `_sqp` checks that its stationary point is a minimum
+_SQP_CHECK_SIZE = 1500
+
+
+def _sqp(z, fun, hess_obj, cons, cjac, chess):
+    """Newton's method on the KKT conditions of min f(z) s.t. c(z) = 0 from ``z``
+    (private): the fast solver of Eq. 4.12 and of the plane fit.
+
+    The problem's structure makes this cheap: the objective is quadratic (constant
+    sparse Hessian) and the constraints bilinear (plane . vertex) or quadratic
+    (|n|^2 = 1), so the Lagrangian's Hessian and the constraint Jacobian are known in
+    closed form and sparse, and the start (least-squares vertices, proxy planes) is
+    near the optimum. Steps [[W, J^T], [J, 0]] [dz, lam] = -[grad f, c], halved
+    until the squared KKT residual |grad f + J^T lam|^2 + |c|^2 drops. Returns (z,
+    converged, steps); converged means a KKT residual (largest entry) of at most
+    ``_SQP_TOL`` and, up to ``_SQP_CHECK_SIZE`` unknowns, a Hessian of the
+    Lagrangian positive definite on the constraints' tangent space (a minimum, not
+    a saddle).
+    """
+    size = z.size
+
+    def kkt(z, lam):
+        g, jac, c = fun(z)[1], cjac(z), cons(z)
+        return np.concatenate([g + jac.T @ lam, c]), g, jac, c
+
+    g = fun(z)[1]
+    jac = cjac(z)
+    lam = _solve_kkt(sparse.csr_array(jac.T), -g)
+    if lam is None or not np.all(np.isfinite(lam)):  # pragma: no cover - defensive
+        return z, False, 0
+    resid, g, jac, c = kkt(z, lam)
+    merit = float(resid @ resid)
+    steps = 0
+    while steps < _SQP_MAX_STEPS and np.max(np.abs(resid)) > _SQP_TOL * 1e-3:
+        w = sparse.csr_array(hess_obj + chess(z, lam))
+        system = sparse.bmat([[w, jac.T], [jac, None]], format="csr")
+        sol = _solve_kkt(system, -np.concatenate([g, c]))
+        if sol is None or not np.all(np.isfinite(sol)):
+            break
+        dz, dlam = sol[:size], sol[size:] - lam
+        alpha, taken = 1.0, False
+        while alpha >= 1.0 / 64.0:
+            z_new, lam_new = z + alpha * dz, lam + alpha * dlam
+            out = kkt(z_new, lam_new)
+            m_new = float(out[0] @ out[0])
+            if np.isfinite(m_new) and m_new < merit:
+                taken = True
+                break
+            alpha *= 0.5
+        if not taken:
+            break
+        z, lam, merit = z_new, lam_new, m_new
+        resid, g, jac, c = out
+        steps += 1
+    res = float(np.max(np.abs(resid)))
+    if not res <= _SQP_TOL:
+        return z, False, steps
+    if size <= _SQP_CHECK_SIZE:
+        dense = jac.toarray()
+        _, sv, vt = np.linalg.svd(dense)
+        rank = int((sv > 1e-10 * max(sv.max(initial=0.0), 1e-300)).sum())
+        basis = vt[rank:].T  # tangent space of the constraints
+        if basis.shape[1]:
+            w = sparse.csr_array(hess_obj + chess(z, lam)).toarray()
+            reduced = basis.T @ w @ basis
+            eig = np.linalg.eigvalsh(0.5 * (reduced + reduced.T))
+            if eig.min() < -1e-9 * max(float(np.abs(eig).max()), 1.0):
+                return z, False, steps
+    return z, True, steps
+
+
 #: Newton steps on the KKT system after trust-constr (dense solves up to this size)
 _KKT_MAX_STEPS = 10
 _KKT_DENSE_SIZE = 2000
@@ -394,7 +512,7 @@ def _newton_kkt(z, fun, hess_obj, cons, cjac, chess):
     (on round-off in the input); Newton's method on grad f + J^T lam = 0, c = 0
     converges quadratically to the nearby stationary point itself, so the result is
     the solution to round-off, whatever the path (translation and scale invariance,
-    docs/decisions.md). Steps are kept while the KKT residual decreases.
+    docs/decisions/simplify.md). Steps are kept while the KKT residual decreases.
     """
     size = z.size
 
@@ -425,7 +543,7 @@ def _newton_kkt(z, fun, hess_obj, cons, cjac, chess):
 
 
 def fit_vertices(
-    cplx, points, labels, normals, centers, *, lsq, weight=1.0, max_iter=3000
+    cplx, points, labels, normals, centers, *, lsq, weight=1.0, max_iter=3000, solver="newton"
 ) -> MeshVertices:
     """Planes fitted to their points through common vertices (private; beyond the thesis).
 
@@ -534,6 +652,7 @@ def fit_vertices(
         xtol=_FIT_XTOL,
         refine=lambda z: _newton_kkt(z, fun, hess_obj, cons, cjac, chess),
         polish=lambda z: _project_constraints(z, cons, cjac),
+        newton=_newton_solver(solver, fun, hess_obj, cons, cjac, chess),
     )
     if not ok:
         return _fallback(lsq, "plane fit through common vertices", violation, n_iter, message)

@@ -1,17 +1,15 @@
-"""Synthetic test shapes with exact normals, mesh sampling and noise (GUIDE "Test models")."""
+"""Synthetic test shapes with exact normals, mesh sampling and noise (docs/decisions/synth.md)."""
 
 from ._clouds import MeshClouds, clouds_from_mesh, sphere_density, vertex_curvature
 from ._mesh import SynthMesh, face_areas, vertex_normals
 from ._noise import add_gaussian_noise, add_normal_noise
+from ._polyhedra import cube, dodecahedron, octahedron
 from ._sample import MeshSample, sample_mesh
 from ._shapes import (
-    cube,
     cylinder,
-    dodecahedron,
     fibonacci_sphere,
     icosphere,
     line,
-    octahedron,
     plane_patch,
     sphere,
     torus,

@@ -1,4 +1,6 @@
-"""Clouds generated from a triangle mesh (thesis 2.1, Examples 3-4, Algorithm 1; GUIDE A2).
+"""Clouds generated from a triangle mesh (thesis 2.1, Examples 3-4, Algorithm 1).
+
+Decisions: docs/decisions/cloud_surfaces.md.
 
 One cloud per mesh vertex. Every triangle's barycentre goes into the clouds of its
 three vertices; then, for each vertex v and each incident triangle, points are
@@ -64,7 +66,7 @@ def sphere_density(
 
     Notes
     -----
-    GUIDE A2 fixes the forms: d(s) is the angular distance of the azimuth to
+    The forms (docs/decisions/cloud_surfaces.md): d(s) is the angular distance of the azimuth to
     [0, alpha] (pi - alpha/2 at the opposite direction); eta1 has
     delta_h = 1 - d / ((c+1)(pi - alpha/2)) and delta_v = 2t/pi (t < pi/2), 2 - 2t/pi;
     eta2 has delta_h = (c + cos(pi d / (pi - alpha/2))) / (c+1) (the printed form is
@@ -202,7 +204,7 @@ class MeshClouds:
     cloud_indptr, cloud_members : ndarray of int64
         Cloud -> points CSR; cloud v belongs to mesh vertex v (sorted, distinct).
     cloud_points : ndarray of shape (V, 3), float64
-        The mesh vertices (the realisation of the clouds, GUIDE A1).
+        The mesh vertices (the realisation of the clouds).
     source_face, source_vertex : ndarray of shape (P,), int64
         Triangle and ball vertex each point was generated for (-1 vertex for a
         barycentre).
@@ -235,6 +237,71 @@ class MeshClouds:
         return np.split(self.cloud_members, self.cloud_indptr[1:-1])
 
 
+def _ball_radii(verts, tri, t: float, curvature, lo: float, hi: float):
+    """Corner frames, angles and ball radii R (F, 3) of Eq. 2.1 (t scaled by curvature)."""
+    frames, alpha, r_lo, r_hi, dbl_area = _corner_geometry(verts, tri)
+    scale = float(np.linalg.norm(verts.max(axis=0) - verts.min(axis=0))) or 1.0
+    bad = (r_hi <= MESH_CLOUDS_DEGENERATE_RTOL * scale).any(axis=1) | (dbl_area[:, 0] <= 0)
+    if bad.any():
+        from .._core import describe_indices
+
+        raise ValueError(f"faces has degenerate triangles at {describe_indices(bad)}")
+    tw = np.full(verts.shape[0], t)
+    if curvature in ("gaussian", "mean"):
+        k = np.abs(vertex_curvature(verts, tri, curvature))
+        span = k.max() - k.min()
+        w = (k - k.min()) / span if span > 0 else np.ones_like(k)
+        tw = t * (lo + (hi - lo) * w)
+    # where a corner's interval of Eq. 2.1 is empty (an edge at v shorter than |v - b|,
+    # obtuse triangles) R = |v - b|: the ball must still hold the barycentre
+    R = r_lo + tw[tri] * np.maximum(r_hi - r_lo, 0.0)  # (F, 3)
+    return frames, alpha, R
+
+
+def _draw_samples(gen, verts, tri, frames, alpha, R, n_samples: int, *, model, c, c_v, c_h):
+    """Kept samples: (face, corner, world position) and the number drawn.
+
+    ``n_samples`` candidates per corner are drawn in one block (face, corner, sample):
+    a uniform direction, a radius uniform in [0, R], kept with probability eta.
+    """
+    F = tri.shape[0]
+    m = F * 3 * n_samples
+    dirs = gen.normal(size=(m, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    corner = np.repeat(np.arange(F * 3), n_samples)
+    f_of, k_of = corner // 3, corner % 3
+    rad = gen.uniform(0.0, 1.0, size=m) * R[f_of, k_of]
+    local = dirs * rad[:, None]
+    eta = sphere_density(model, local, alpha[f_of, k_of], R[f_of, k_of], c=c, c_v=c_v, c_h=c_h)
+    keep = gen.uniform(0.0, 1.0, size=m) < eta
+    f_of, k_of, local = f_of[keep], k_of[keep], local[keep]
+    world = verts[tri[f_of, k_of]] + np.einsum("pj,pjd->pd", local, frames[f_of, k_of])
+    return f_of, k_of, world, m
+
+
+def _memberships(verts, tri, f_of, k_of, world, R):
+    """Clouds as CSR (indptr, members): barycentre -> its three clouds; a sample -> its
+    own cloud and the other two corners' clouds when inside their balls."""
+    F = tri.shape[0]
+    rows = [np.repeat(np.arange(F), 3)]
+    cols = [tri.reshape(-1)]
+    idx = F + np.arange(world.shape[0])
+    rows.append(idx)
+    cols.append(tri[f_of, k_of])
+    for shift in (1, 2):
+        k2 = (k_of + shift) % 3
+        other = tri[f_of, k2]
+        inside = np.linalg.norm(world - verts[other], axis=1) <= R[f_of, k2]
+        rows.append(idx[inside])
+        cols.append(other[inside])
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    order = np.lexsort((rows, cols))
+    members = rows[order]
+    indptr = np.zeros(verts.shape[0] + 1, dtype=np.int64)
+    np.cumsum(np.bincount(cols, minlength=verts.shape[0]), out=indptr[1:])
+    return indptr, members
+
+
 def clouds_from_mesh(
     vertices,
     faces,
@@ -249,7 +316,7 @@ def clouds_from_mesh(
     curvature_range: tuple = (0.25, 1.0),
     rng=None,
 ) -> MeshClouds:
-    """Generate points and clouds on a triangle mesh (thesis Algorithm 1, GUIDE A2).
+    """Generate points and clouds on a triangle mesh (thesis Algorithm 1).
 
     Parameters
     ----------
@@ -313,57 +380,16 @@ def clouds_from_mesh(
     if hi < lo:
         raise ValueError(f"curvature_range must have lo <= hi; got ({lo}, {hi})")
     gen = np.random.default_rng(rng)
-    frames, alpha, r_lo, r_hi, dbl_area = _corner_geometry(verts, tri)
-    scale = float(np.linalg.norm(verts.max(axis=0) - verts.min(axis=0))) or 1.0
-    bad = (r_hi <= MESH_CLOUDS_DEGENERATE_RTOL * scale).any(axis=1) | (dbl_area[:, 0] <= 0)
-    if bad.any():
-        from .._core import describe_indices
-
-        raise ValueError(f"faces has degenerate triangles at {describe_indices(bad)}")
-    tw = np.full(verts.shape[0], t)
-    if curvature in ("gaussian", "mean"):
-        k = np.abs(vertex_curvature(verts, tri, curvature))
-        span = k.max() - k.min()
-        w = (k - k.min()) / span if span > 0 else np.ones_like(k)
-        tw = t * (lo + (hi - lo) * w)
-    # where a corner's interval of Eq. 2.1 is empty (an edge at v shorter than |v - b|,
-    # obtuse triangles) R = |v - b|: the ball must still hold the barycentre
-    R = r_lo + tw[tri] * np.maximum(r_hi - r_lo, 0.0)  # (F, 3)
+    frames, alpha, R = _ball_radii(verts, tri, t, curvature, lo, hi)
     sphere_density(model, np.zeros((1, 3)), 1.0, 1.0, c=c, c_v=c_v, c_h=c_h)  # validates
     F = tri.shape[0]
-    # candidates: n_samples per corner, drawn in one block (face, corner, sample)
-    m = F * 3 * n_samples
-    dirs = gen.normal(size=(m, 3))
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    corner = np.repeat(np.arange(F * 3), n_samples)
-    f_of, k_of = corner // 3, corner % 3
-    rad = gen.uniform(0.0, 1.0, size=m) * R[f_of, k_of]
-    local = dirs * rad[:, None]
-    eta = sphere_density(model, local, alpha[f_of, k_of], R[f_of, k_of], c=c, c_v=c_v, c_h=c_h)
-    keep = gen.uniform(0.0, 1.0, size=m) < eta
-    f_of, k_of, local = f_of[keep], k_of[keep], local[keep]
-    world = verts[tri[f_of, k_of]] + np.einsum("pj,pjd->pd", local, frames[f_of, k_of])
+    f_of, k_of, world, m = _draw_samples(
+        gen, verts, tri, frames, alpha, R, n_samples, model=model, c=c, c_v=c_v, c_h=c_h
+    )
     bary = verts[tri].mean(axis=1)
     points = np.concatenate([bary, world])
     n_pts = points.shape[0]
-    # memberships: barycentre -> its three clouds; sample -> own cloud, and the other
-    # two corners' clouds when inside their balls (for that triangle)
-    rows = [np.repeat(np.arange(F), 3)]
-    cols = [tri.reshape(-1)]
-    idx = F + np.arange(world.shape[0])
-    rows.append(idx)
-    cols.append(tri[f_of, k_of])
-    for shift in (1, 2):
-        k2 = (k_of + shift) % 3
-        other = tri[f_of, k2]
-        inside = np.linalg.norm(world - verts[other], axis=1) <= R[f_of, k2]
-        rows.append(idx[inside])
-        cols.append(other[inside])
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
-    order = np.lexsort((rows, cols))
-    members = rows[order]
-    indptr = np.zeros(verts.shape[0] + 1, dtype=np.int64)
-    np.cumsum(np.bincount(cols, minlength=verts.shape[0]), out=indptr[1:])
+    indptr, members = _memberships(verts, tri, f_of, k_of, world, R)
     source_vertex = np.concatenate([np.full(F, -1), tri[f_of, k_of]]).astype(np.int64)
     return MeshClouds(
         points=points,

@@ -93,7 +93,7 @@ def vertex_normals(vertices, faces) -> np.ndarray:
     Notes
     -----
     This is the "weighted vertex normal" the thesis uses as ground truth for mesh
-    models (5.4 experiment; GUIDE "Test models").
+    models (5.4 experiment; docs/decisions/synth.md).
 
     Examples
     --------

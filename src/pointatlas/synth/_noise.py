@@ -43,7 +43,7 @@ def add_normal_noise(points, normals, amplitude: float, *, k: int = 12, spacing=
         Noise amplitude as a fraction of l: "noise of amplitude x %" is
         ``amplitude = x / 100``.
     k : int
-        Neighbours for l (GUIDE: 12; the 5.4 denoising experiment uses 6).
+        Neighbours for l (12 by default; the 5.4 denoising experiment uses 6).
     spacing : float, optional
         Use this l instead of measuring it.
     rng : None, int or numpy.random.Generator
@@ -63,7 +63,7 @@ def add_normal_noise(points, normals, amplitude: float, *, k: int = 12, spacing=
     Notes
     -----
     l is the mean distance of all points to their k nearest neighbours
-    (`pointatlas.neighbors.mean_spacing`; GUIDE conventions; thesis 2.2.2, 4.4.3, 5.4,
+    (`pointatlas.neighbors.mean_spacing`; docs/decisions/synth.md; thesis 2.2.2, 4.4.3, 5.4,
     6.2).
 
     Examples
@@ -92,7 +92,7 @@ def add_gaussian_noise(points, amplitude: float, *, k: int = 12, spacing=None, r
     amplitude : float
         Standard deviation of each coordinate's noise as a fraction of l.
     k : int
-        Neighbours for l (GUIDE: 12).
+        Neighbours for l (12 by default).
     spacing : float, optional
         Use this l instead of measuring it.
     rng : None, int or numpy.random.Generator

@@ -14,7 +14,7 @@ bundle ``assets/viewer.min.js`` is built by ``tools/viewer/build.sh``).
 """
 
 from ._camera import Camera, fit_camera
-from ._colors import label_colors, scalar_colors
+from ._colors import label_colors, membership_colors, scalar_colors
 from ._figure import MeshPanel, PointsPanel, render_mesh, render_points, render_side_by_side
 from ._mesh import render_mesh_array
 from ._points import render_points_array
@@ -30,6 +30,7 @@ __all__ = [
     "ReportSection",
     "fit_camera",
     "label_colors",
+    "membership_colors",
     "render_mesh",
     "render_mesh_array",
     "render_points",

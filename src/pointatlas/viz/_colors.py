@@ -14,6 +14,7 @@ __all__ = [
     "NEUTRAL",
     "ScalarLegend",
     "label_colors",
+    "membership_colors",
     "require_matplotlib",
     "scalar_colors",
 ]
@@ -24,6 +25,11 @@ GREY = np.array([0.62, 0.62, 0.62])
 NEUTRAL = np.array([0.70, 0.77, 0.88])
 #: Image background (white).
 BACKGROUND = np.array([1.0, 1.0, 1.0])
+
+#: Example 2 colours by number of clouds: 0 black, 1 light grey, 2 blue, 3 orange, 4+ red.
+_EXAMPLE2 = np.array(
+    [[0, 0, 0], [205, 205, 205], [50, 110, 220], [245, 150, 30], [220, 20, 20]], dtype=np.uint8
+)
 
 _GOLDEN = 0.6180339887498949
 _SATURATION = np.array([0.78, 0.55, 0.92])
@@ -120,6 +126,27 @@ class ScalarLegend:
         if self.n_nan:
             text += f" ({self.n_nan} NaN, grey)"
         return text
+
+
+def membership_colors(n_memberships) -> np.ndarray:
+    """Thesis Example 2 colours of points by their number of clouds.
+
+    Parameters
+    ----------
+    n_memberships : array_like of shape (N,), int
+        Number of clouds of every point.
+
+    Returns
+    -------
+    colors : ndarray of shape (N, 3), uint8
+        RGB: 0 clouds black, 1 light grey, 2 blue, 3 orange, 4 or more red.
+
+    Examples
+    --------
+    >>> membership_colors([0, 1, 5]).tolist()
+    [[0, 0, 0], [205, 205, 205], [220, 20, 20]]
+    """
+    return _EXAMPLE2[np.minimum(np.asarray(n_memberships), 4)]
 
 
 def scalar_colors(scalars, *, cmap: str = "viridis", name: str = "value", clim=None):

@@ -247,6 +247,36 @@ def _section_body(
     return parts
 
 
+def _head_parts(title: str, summary, params, sections) -> list[str]:
+    """The page head, the input and parameter tables, the list of sections."""
+    parts = [
+        "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>",
+        f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head><body>",
+        f"<h1>{html.escape(title)}</h1><header class='pa-header'>",
+        _table_html("input", summary),
+        _table_html("parameters", params),
+        "</header>",
+    ]
+    if sections:
+        links = "".join(
+            f"<li><a href='#section-{i}'>{html.escape(sec.heading)}</a></li>"
+            for i, sec in enumerate(sections, 1)
+        )
+        parts.append(f"<nav><ol>{links}</ol></nav>")
+    return parts
+
+
+def _extra_section(i: int, sec: ReportSection, **kwargs) -> list[str]:
+    """One `ReportSection`: heading, log, tables, pictures, its own view, file links."""
+    parts = [f"<section id='section-{i}'><h2>{html.escape(sec.heading)}</h2>", sec.log_html]
+    parts.extend(_section_body(sec.tables, sec.pictures, sec.layers, f"view-{i}", **kwargs))
+    for name in sec.links:
+        ref = html.escape(str(name), quote=True)
+        parts.append(f"<p>file: <a href='{ref}'>{html.escape(str(name))}</a></p>")
+    parts.append("</section>")
+    return parts
+
+
 def write_report(
     path,
     *,
@@ -345,31 +375,12 @@ def write_report(
         "up": up,
         "link_from": folder if link_pictures else None,
     }
-    parts = [
-        "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>",
-        f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head><body>",
-        f"<h1>{html.escape(title)}</h1><header class='pa-header'>",
-        _table_html("input", summary),
-        _table_html("parameters", params),
-        "</header>",
-    ]
-    if sections:
-        links = "".join(
-            f"<li><a href='#section-{i}'>{html.escape(sec.heading)}</a></li>"
-            for i, sec in enumerate(sections, 1)
-        )
-        parts.append(f"<nav><ol>{links}</ol></nav>")
+    parts = _head_parts(title, summary, params, sections)
     body = _section_body(tables or {}, pictures, layers, "view-0", **kwargs)
     if body:
         parts.extend(["<section id='results'><h2>Results</h2>", *body, "</section>"])
     for i, sec in enumerate(sections, 1):
-        parts.append(f"<section id='section-{i}'><h2>{html.escape(sec.heading)}</h2>")
-        parts.append(sec.log_html)
-        parts.extend(_section_body(sec.tables, sec.pictures, sec.layers, f"view-{i}", **kwargs))
-        for name in sec.links:
-            ref = html.escape(str(name), quote=True)
-            parts.append(f"<p>file: <a href='{ref}'>{html.escape(str(name))}</a></p>")
-        parts.append("</section>")
+        parts.extend(_extra_section(i, sec, **kwargs))
     parts.append(f"<script>{viewer_script()}</script></body></html>")
     out = Path(os.fspath(path))
     with atomic_write(out, "w", newline="\n") as fh:

@@ -1,0 +1,367 @@
+"""LAS/LAZ streamed by chunks through tiled processing (never the whole file at once).
+
+Reading: ``laspy.open(path).chunk_iterator(n)``, decoding only x, y, z (and the
+``nx, ny, nz`` extra bytes when used) for the scan and spill passes. Writing:
+``laspy.open(fh, mode="w", header=...)`` with a copy of the input header plus our
+fields as extra-bytes dimensions; every input dimension is copied record by record
+(the raw bytes, so bit fields and extra bytes survive unchanged). Results between
+the passes live in ``.npy`` memory maps in a temporary folder beside the output.
+"""
+
+from __future__ import annotations
+
+import copy
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from .._core import PointAtlasError, as_normals
+from ._tiles import (
+    TileOptions,
+    _denoise_over,
+    _features_over,
+    _normals_over,
+    _segment_over,
+    clean_tmp,
+    make_tmp,
+    tile_client,
+)
+
+__all__ = ["LAS_EXTENSIONS", "LasSource", "las_tiled"]
+
+#: Extensions streamed by chunks.
+LAS_EXTENSIONS = (".las", ".laz")
+#: Points per chunk read or written.
+CHUNK_POINTS = 1_000_000
+#: Points kept by the scan pass for halo and spacing estimates.
+SAMPLE_POINTS = 4_000_000
+_NORMALS = ("nx", "ny", "nz")
+#: Names our fields never take (as `pointatlas.io.merge_attributes`).
+_RESERVED = {"x", "y", "z", "nx", "ny", "nz", "red", "green", "blue", "alpha", "colors"}
+
+
+class LasSource:
+    """A LAS/LAZ file as a tile source, read by chunks.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+    chunk_points : int
+        Points per chunk.
+    """
+
+    def __init__(self, path, chunk_points: int = CHUNK_POINTS):
+        import laspy
+
+        self.path = Path(path)
+        self.chunk_points = int(chunk_points)
+        try:
+            with laspy.open(self.path) as reader:
+                self.header = reader.header
+        except Exception as exc:  # laspy raises many types on a corrupt file
+            raise PointAtlasError(f"{self.path}: cannot read LAS/LAZ ({exc})") from None
+        self.n = int(self.header.point_count)
+        self.dims = list(self.header.point_format.dimension_names)
+        self.has_normals = all(d in self.dims for d in _NORMALS)
+        self.use_normals = self.has_normals
+        self._bounds = None
+        self.decode_seconds = 0.0
+
+    def _open(self, full: bool):
+        import laspy
+
+        sel = laspy.DecompressionSelection
+        what = None
+        if not full:
+            what = sel.XY_RETURNS_CHANNEL | sel.Z
+            if self.use_normals:
+                what |= sel.ALL_EXTRA_BYTES
+        kwargs = {} if what is None else {"decompression_selection": what}
+        return laspy.open(self.path, **kwargs)
+
+    def records(self, full: bool = True):
+        """(start, laspy point record) chunks in file order."""
+        start = 0
+        with self._open(full) as reader:
+            it = reader.chunk_iterator(self.chunk_points)
+            while True:
+                t0 = time.perf_counter()
+                rec = next(it, None)
+                self.decode_seconds += time.perf_counter() - t0
+                if rec is None or len(rec) == 0:
+                    break
+                yield start, rec
+                start += len(rec)
+
+    @staticmethod
+    def xyz_of(rec) -> np.ndarray:
+        return np.column_stack([np.asarray(rec[c], dtype=np.float64) for c in ("x", "y", "z")])
+
+    def chunks(self):
+        """(start, xyz float64, normals or None) chunks."""
+        for start, rec in self.records(full=False):
+            nrm = None
+            if self.use_normals:
+                nrm = np.column_stack([np.asarray(rec[c], dtype=np.float64) for c in _NORMALS])
+            yield start, self.xyz_of(rec), nrm
+
+    def bounds(self):
+        """Exact minima and maxima of the scaled coordinates (one pass, cached; the
+        same pass keeps a regular subsample for `sample`)."""
+        if self._bounds is None:
+            lo = np.full(3, np.inf)
+            hi = np.full(3, -np.inf)
+            stride = max(1, self.n // SAMPLE_POINTS)
+            parts = []
+            for s, xyz, _ in self.chunks():
+                lo = np.minimum(lo, xyz.min(axis=0))
+                hi = np.maximum(hi, xyz.max(axis=0))
+                parts.append(xyz[(-s) % stride :: stride])
+            if not np.isfinite(lo).all():
+                raise PointAtlasError(f"{self.path}: no points")
+            self._bounds = (tuple(lo.tolist()), tuple(hi.tolist()))
+            self._sample = (np.concatenate(parts), stride)
+        return self._bounds
+
+    def sample(self, max_points: int):
+        """(every stride-th point, stride) with at most about ``max_points`` points."""
+        self.bounds()
+        pts, stride = self._sample
+        step = max(1, pts.shape[0] // max(1, int(max_points)))
+        return pts[::step], stride * step
+
+
+def _free_name(name: str, taken: set) -> str:
+    new = name
+    while new in taken or new in _RESERVED:
+        new = "pa_" + new
+    return new
+
+
+def _plan_fields(src: LasSource, fields: dict, *, normals: bool, keep_input_normals: bool):
+    """Output header and the (name, array, column) list of new dimensions."""
+    import laspy
+
+    header = copy.deepcopy(src.header)
+    taken = set(src.dims) | {d.lower() for d in src.dims}
+    extra = []  # (dimension name, source array, column or None)
+    if normals and not src.has_normals:
+        for c, name in enumerate(_NORMALS):
+            extra.append((name, None, c))
+    if normals and src.has_normals and keep_input_normals:
+        base = _free_name("input_normals", taken)
+        for c in range(3):
+            extra.append((f"{base}_{c}", "input_normals", c))
+    for key, arr in fields.items():
+        if key == "colors":
+            rgb_dims = all(d in src.dims for d in ("red", "green", "blue"))
+            if not rgb_dims:
+                for c, name in enumerate(("red", "green", "blue")):
+                    extra.append((name, key, c))
+                continue
+        name = _free_name(key, taken)
+        taken.add(name)
+        if arr.ndim == 1:
+            extra.append((name, key, None))
+        else:
+            for c in range(arr.shape[1]):
+                extra.append((f"{name}_{c}", key, c))
+    params = []
+    for name, key, _c in extra:
+        if key is None:  # new normals
+            dtype = np.float64
+        elif key == "input_normals":
+            dtype = np.float64
+        elif key == "colors" and name in ("red", "green", "blue"):
+            dtype = np.uint16
+        else:
+            dtype = fields[key].dtype
+            if dtype.kind == "b":
+                dtype = np.dtype(np.uint8)
+        params.append(laspy.ExtraBytesParams(name=name, type=np.dtype(dtype)))
+    if params:
+        header.add_extra_dims(params)
+    return header, extra
+
+
+def write_streamed(src: LasSource, out_path, fields: dict, *, normals=None, points=None,
+                   keep_input_normals: bool = True) -> Path:  # fmt: skip
+    """Write ``src``'s records with our fields (arrays or memory maps of N rows).
+
+    ``normals`` (N, 3) replace the input's ``nx, ny, nz`` (whose values go to
+    ``input_normals_0..2``) or are added; ``points`` (N, 3) move the points
+    (quantised with the header's scales and offsets). Atomic (temporary file and
+    rename).
+    """
+    import laspy
+
+    from ..io import atomic_write
+
+    out_path = Path(out_path)
+    header, extra = _plan_fields(
+        src, fields, normals=normals is not None, keep_input_normals=keep_input_normals
+    )
+    laz = out_path.suffix.lower() == ".laz"
+    names = list(src.header.point_format.dtype().names)
+    with atomic_write(out_path, "wb") as fh:
+        with laspy.open(fh, mode="w", header=header, do_compress=laz, closefd=False) as writer:
+            for start, rec in src.records(full=True):
+                m = len(rec)
+                sl = slice(start, start + m)
+                out = laspy.ScaleAwarePointRecord.zeros(m, header=header)
+                for name in names:
+                    out.array[name] = rec.array[name]
+                if points is not None:
+                    p = np.asarray(points[sl])
+                    out.x, out.y, out.z = p[:, 0], p[:, 1], p[:, 2]
+                if normals is not None:
+                    # unit length exactly as a PointSet stores them (the untiled writer)
+                    nv = as_normals(np.asarray(normals[sl]))
+                    if src.has_normals:
+                        old = {c: np.asarray(rec[c], dtype=np.float64) for c in _NORMALS}
+                    for c, name in enumerate(_NORMALS):
+                        out[name] = nv[:, c]
+                for name, key, c in extra:
+                    if key is None:
+                        continue
+                    if key == "input_normals":
+                        out[name] = old[_NORMALS[c]]
+                        continue
+                    v = np.asarray(fields[key][sl])
+                    if c is not None:
+                        v = v[:, c]
+                    if key == "colors" and name in ("red", "green", "blue"):
+                        v = v.astype(np.uint16) * 257 if v.dtype == np.uint8 else v
+                    if v.dtype.kind == "b":
+                        v = v.astype(np.uint8)
+                    out[name] = v
+                writer.write_points(out)
+    return out_path
+
+
+def _memmap(folder: Path, name: str, dtype, shape):
+    return np.lib.format.open_memmap(folder / f"{name}.npy", mode="w+", dtype=dtype, shape=shape)
+
+
+def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, *,
+              normal_params=None, extra_fields=None):  # fmt: skip
+    """Run one command by tiles on a LAS/LAZ file and write LAS/LAZ, streaming.
+
+    Parameters
+    ----------
+    kind : {"normals", "features", "segment", "denoise"}
+        The command.
+    in_path, out_path : path-like
+        Input and output (.las/.laz).
+    params : dict
+        The command's parameters (see `tiled_normals`, `tiled_features`,
+        `tiled_segment`, `tiled_denoise`).
+    options : TileOptions
+        Tiling and cluster.
+    normal_params : dict, optional
+        ``k`` and ``orient_k`` of normals estimated first (MST) when the command
+        needs normals (segment, normal voting, sigmoid features) and the input has
+        none, or when re-estimation is asked for.
+
+    Returns
+    -------
+    summary : dict
+        Points, tiles, halo, timings (decode, compute, encode), quality measures.
+    """
+    src = LasSource(in_path)
+    t0 = time.perf_counter()
+    tmp = make_tmp(options, Path(out_path))
+    summary = {"points": src.n}
+    try:
+        with tile_client(options) as ci:
+            summary["scheduler"] = ci[1]
+            normals = None
+            if normal_params is not None:
+                normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
+                src.use_normals = False
+                _, run_n = _normals_over(
+                    src, replace(options, halo=None), k=normal_params["k"], orient="mst",
+                    orient_k=normal_params.get("orient_k", 10), viewpoint=None, out=normals,
+                    spill_dir=tmp, client_info=ci, label="normals",
+                )  # fmt: skip
+                summary["normals_tiles"] = run_n.summary()
+            fields = {}
+            write_kwargs = {}
+            if kind == "normals":
+                normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
+                src.use_normals = False
+                _, run = _normals_over(src, options, out=normals, spill_dir=tmp, client_info=ci,
+                                       **params)  # fmt: skip
+                write_kwargs["normals"] = normals
+            elif kind == "features":
+                src.use_normals = params["mode"] == "optimal" and normals is None
+                alloc = _Alloc(tmp, src.n)
+                fields, run = _features_over(
+                    src, options, params, out=alloc, spill_dir=tmp, client_info=ci,
+                    normals_array=normals,
+                )  # fmt: skip
+                fields = dict(alloc.arrays)
+            elif kind == "segment":
+                src.use_normals = normals is None
+                labels = _memmap(tmp, "label", np.int64, (src.n,))
+                labels, quality, run = _segment_over(
+                    src, options, params, labels_out=labels, spill_dir=tmp, client_info=ci,
+                    normals_array=normals,
+                )  # fmt: skip
+                summary["quality"] = {k: quality[k] for k in ("n_regions", "energy", "mse")}
+                summary["regions"] = quality
+                fields = {"label": labels}
+                if extra_fields is not None:
+                    fields.update(extra_fields(labels, tmp))
+                if normals is not None:
+                    write_kwargs["normals"] = normals
+            elif kind == "denoise":
+                src.use_normals = normals is None
+                alloc = _Alloc(tmp, src.n)
+                outs = alloc.dict_with(points=(np.float64, 3), normals=(np.float64, 3))
+                out, run = _denoise_over(src, options, params, spill_dir=tmp, client_info=ci,
+                                         outs=outs, normals_array=normals)  # fmt: skip
+                summary["spacing"] = out["spacing"]
+                fields = {k: v for k, v in out.items() if k not in ("points", "normals", "spacing")}
+                write_kwargs.update(points=out["points"], normals=out["normals"])
+            else:
+                raise ValueError(f"unknown kind {kind!r}")
+            summary["tiles"] = run.summary()
+            summary.update({f"tiles_{k}": v for k, v in run.extra.items() if np.isscalar(v)})
+        t1 = time.perf_counter()
+        write_streamed(src, out_path, fields, **write_kwargs)
+        t2 = time.perf_counter()
+        summary["seconds"] = {
+            "total": round(t2 - t0, 3),
+            "tiles (incl. reading)": round(t1 - t0, 3),
+            "writing (incl. reading)": round(t2 - t1, 3),
+        }
+    finally:
+        clean_tmp(tmp)
+    return summary
+
+
+class _Alloc(dict):
+    """Lazy memory maps of N rows in the temporary folder (a dict of arrays)."""
+
+    def __init__(self, folder: Path, n: int):
+        super().__init__()
+        self.folder = folder
+        self.n = n
+
+    @property
+    def arrays(self):
+        return dict(self)
+
+    def new(self, name, dtype, width=None):
+        shape = (self.n,) if width is None else (self.n, width)
+        self[name] = _memmap(self.folder, f"out_{name}", dtype, shape)  # not "normals.npy"
+        return self[name]
+
+    def dict_with(self, **spec):
+        for name, (dtype, width) in spec.items():
+            self.new(name, dtype, width)
+        return self

@@ -1,0 +1,51 @@
+"""Layer 5: the thesis' reproductions, one module per study.
+
+Each study has a pure per-model (or per-case) function, an aggregate and a writer;
+``pointatlas experiment ...`` (the CLI) wraps them. Nothing but the CLI imports
+this package.
+
+- `table_4_1`: Table 4.1 and Fig. 4.5 (region growing against VSA);
+- `simplify_cases`: thesis 4.4.3, Figs. 4.10-4.14 (simplified meshes);
+- `fig_5_3`: Fig. 5.3 (three weightings side by side);
+- `neighbourhoods`: Tables 5.1/5.2, Figs. 5.4-5.6, 6.3, 6.6-6.8;
+- `denoise`: Table 5.3 and Fig. 6.9 (normal filtering, flatness denoising);
+- `cloud_surfaces`: Chapter A, Figs. 2.2-2.21 (cloud surfaces).
+
+The names below are the entry points of each study; the CLI imports the study
+modules inside its commands (``from pointatlas.experiments.table_4_1 import
+run_vsa_experiment``), so ``pointatlas --help`` stays fast.
+"""
+
+from .cloud_surfaces import run_cloud_surfaces
+from .denoise import fig_6_9, table_5_3, write_denoise_outputs
+from .fig_5_3 import fig_5_3
+from .neighbourhoods import (
+    aggregate_neighbourhoods,
+    decrease_cases,
+    energy_histogram,
+    neighbourhood_model,
+    run_neighbourhoods,
+    write_neighbourhood_outputs,
+)
+from .simplify_cases import run_case, write_simplify_outputs
+from .table_4_1 import aggregate_vsa, run_vsa_experiment, vsa_model, write_vsa_outputs
+
+__all__ = [
+    "aggregate_neighbourhoods",
+    "aggregate_vsa",
+    "decrease_cases",
+    "energy_histogram",
+    "fig_5_3",
+    "fig_6_9",
+    "neighbourhood_model",
+    "run_case",
+    "run_cloud_surfaces",
+    "run_neighbourhoods",
+    "run_vsa_experiment",
+    "table_5_3",
+    "vsa_model",
+    "write_denoise_outputs",
+    "write_neighbourhood_outputs",
+    "write_simplify_outputs",
+    "write_vsa_outputs",
+]

@@ -1,0 +1,31 @@
+"""numba kernels of the neighbour queries, one module per stage (STYLE section 7).
+
+* `grid`: the compact sorted-cell grid (keys, occupied cells, occupancy levels);
+* `knn`: k nearest neighbours on the grid, and the k-d tree path's selection;
+* `radius`: closed-ball queries and row sorting;
+* `graph`: CSR structure and edge lengths of the k-NN graph.
+
+All kernels assume validated input: finite float64 coordinates that are already
+centred (``_knn.NeighborIndex``), int64 indices, and the grid built by
+``_grid.build_grid``.
+"""
+
+from .graph import edge_lengths, graph_structure
+from .grid import bounds, cell_starts, gather_sorted, grid_keys, occupancy_levels
+from .knn import knn_grid, select_candidates, sqrt_inplace
+from .radius import radius_grid, sort_rows
+
+__all__ = [
+    "bounds",
+    "cell_starts",
+    "edge_lengths",
+    "gather_sorted",
+    "graph_structure",
+    "grid_keys",
+    "knn_grid",
+    "occupancy_levels",
+    "radius_grid",
+    "select_candidates",
+    "sort_rows",
+    "sqrt_inplace",
+]

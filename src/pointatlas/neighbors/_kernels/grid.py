@@ -1,0 +1,224 @@
+"""The sorted-cell grid of the neighbour queries (numba kernels, STYLE section 7).
+
+All kernels assume validated input: finite float64 coordinates that are already
+centred (``_knn.NeighborIndex``), int64 indices, and the sorted-cell grid built by
+``_grid.build_grid``. Nothing here allocates per point in Python.
+
+Ordering convention shared by every kernel: a neighbour j of query q is keyed by
+``(d2, j)`` where ``d2 = dx*dx + dy*dy + dz*dz`` is the squared distance in
+float64 (evaluated in exactly this order), so exact ties are broken by the smaller
+index. Column 0 of a k-NN row is always the query itself.
+
+The grid is a *compact* sorted-cell array: points are ordered by the int64 key
+``(i * ny + j) * nz + kz`` of their cell (stable, so equal keys keep index order),
+``ukeys`` lists the occupied keys and ``cstart`` their point ranges. A run of cells
+along z with fixed (i, j) is contiguous in that order, so a 3 x 3 x 3 block is read
+as nine contiguous ranges found by binary search; no dense 3-D array exists.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+__all__ = [
+    "bounds",
+    "cell_coords",
+    "cell_starts",
+    "column_range",
+    "gather_sorted",
+    "grid_keys",
+    "interleaved_chunks",
+    "lower_bound",
+    "occupancy_levels",
+]
+
+
+@njit(cache=True)
+def bounds(pts):
+    """Per-axis minimum and maximum of an (N >= 1, 3) array (``pts.min(axis=0)``,
+    ``pts.max(axis=0)`` in one pass; numpy's strided axis-0 reductions are slow)."""
+    lo = pts[0].copy()
+    hi = pts[0].copy()
+    for p in range(1, pts.shape[0]):
+        for d in range(3):
+            v = pts[p, d]
+            if v < lo[d]:
+                lo[d] = v
+            if v > hi[d]:
+                hi[d] = v
+    return lo, hi
+
+
+@njit(cache=True, parallel=True)
+def grid_keys(pts, lo, inv_h, nx, ny, nz):
+    """Cell key of every point, clamped into the grid."""
+    n = pts.shape[0]
+    keys = np.empty(n, dtype=np.int64)
+    for p in prange(n):
+        i = np.int64(np.floor((pts[p, 0] - lo[0]) * inv_h))
+        j = np.int64(np.floor((pts[p, 1] - lo[1]) * inv_h))
+        kz = np.int64(np.floor((pts[p, 2] - lo[2]) * inv_h))
+        i = min(max(i, 0), nx - 1)
+        j = min(max(j, 0), ny - 1)
+        kz = min(max(kz, 0), nz - 1)
+        keys[p] = (i * ny + j) * nz + kz
+    return keys
+
+
+@njit(cache=True)
+def cell_starts(sorted_keys):
+    """Occupied cell keys and their point ranges from sorted keys."""
+    n = sorted_keys.shape[0]
+    n_cells = 0
+    for p in range(n):
+        if p == 0 or sorted_keys[p] != sorted_keys[p - 1]:
+            n_cells += 1
+    ukeys = np.empty(n_cells, dtype=np.int64)
+    cstart = np.empty(n_cells + 1, dtype=np.int64)
+    c = 0
+    for p in range(n):
+        if p == 0 or sorted_keys[p] != sorted_keys[p - 1]:
+            ukeys[c] = sorted_keys[p]
+            cstart[c] = p
+            c += 1
+    cstart[n_cells] = n
+    return ukeys, cstart
+
+
+@njit(cache=True, parallel=True)
+def gather_sorted(pts, order):
+    """Coordinates in cell order as three contiguous arrays (structure of arrays)."""
+    n = order.shape[0]
+    xs = np.empty(n)
+    ys = np.empty(n)
+    zs = np.empty(n)
+    for p in prange(n):
+        o = order[p]
+        xs[p] = pts[o, 0]
+        ys[p] = pts[o, 1]
+        zs[p] = pts[o, 2]
+    return xs, ys, zs
+
+
+@njit(cache=True, parallel=True)
+def occupancy_levels(xs, ys, zs, ukeys, cstart, lo, h, ny, nz):
+    """Point-weighted occupancy sums at cell sizes h, h/2 and h/4.
+
+    Returns ``sum over cells of n_c**2`` for the three levels, where a cell whose
+    points all coincide counts ``n_c`` instead (exact duplicates are answered in
+    O(k) per query by the k-NN kernel, so they must not shrink the cells).
+    """
+    n_cells = ukeys.shape[0]
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    inv_q = 4.0 / h
+    for c in prange(n_cells):
+        cnt = np.zeros(64, dtype=np.int64)
+        same = np.ones(64, dtype=np.bool_)
+        fx = np.empty(64)
+        fy = np.empty(64)
+        fz = np.empty(64)
+        key = ukeys[c]
+        kz = key % nz
+        t = key // nz
+        j = t % ny
+        i = t // ny
+        for p in range(cstart[c], cstart[c + 1]):
+            si = min(max(np.int64(np.floor((xs[p] - lo[0]) * inv_q)) - 4 * i, 0), 3)
+            sj = min(max(np.int64(np.floor((ys[p] - lo[1]) * inv_q)) - 4 * j, 0), 3)
+            sk = min(max(np.int64(np.floor((zs[p] - lo[2]) * inv_q)) - 4 * kz, 0), 3)
+            s = (si * 4 + sj) * 4 + sk
+            if cnt[s] == 0:
+                fx[s] = xs[p]
+                fy[s] = ys[p]
+                fz[s] = zs[p]
+            elif xs[p] != fx[s] or ys[p] != fy[s] or zs[p] != fz[s]:
+                same[s] = False
+            cnt[s] += 1
+        a2 = 0.0
+        for s in range(64):
+            m = cnt[s]
+            a2 += m if same[s] else m * m
+        a1 = 0.0
+        n_nonempty_all = 0
+        last_all = -1
+        for g in range(8):
+            gi = g >> 2
+            gj = (g >> 1) & 1
+            gk = g & 1
+            m = 0
+            n_nonempty = 0
+            last = -1
+            for d in range(8):
+                s = ((2 * gi + (d >> 2)) * 4 + 2 * gj + ((d >> 1) & 1)) * 4 + 2 * gk + (d & 1)
+                if cnt[s] > 0:
+                    m += cnt[s]
+                    n_nonempty += 1
+                    last = s
+                    n_nonempty_all += 1
+                    last_all = s
+            if n_nonempty == 1 and same[last]:
+                a1 += m
+            else:
+                a1 += m * m
+        m = cstart[c + 1] - cstart[c]
+        if n_nonempty_all == 1 and same[last_all]:
+            a0 = 1.0 * m
+        else:
+            a0 = 1.0 * m * m
+        s0 += a0
+        s1 += a1
+        s2 += a2
+    return s0, s1, s2
+
+
+@njit(cache=True)
+def _gcd(a, b):
+    while b:
+        a, b = b, a % b
+    return a
+
+
+@njit(cache=True)
+def interleaved_chunks(n_cells):
+    """``(n_chunks, stride)``: cells split into at most 4096 chunks, chunk
+    ``(t * stride) % n_chunks`` run by parallel iteration t, so the static thread
+    blocks interleave dense and sparse regions (load balance)."""
+    n_chunks = min(n_cells, 4096)
+    stride = 2654435761 % n_chunks if n_chunks > 1 else 1
+    while n_chunks > 1 and _gcd(stride, n_chunks) != 1:
+        stride += 1
+    return n_chunks, stride
+
+
+@njit(cache=True, inline="always")
+def cell_coords(key, ny, nz):
+    """(i, j, k) of the cell with key ``(i * ny + j) * nz + k``."""
+    ck = key % nz
+    tt = key // nz
+    return tt // ny, tt % ny, ck
+
+
+@njit(cache=True, inline="always")
+def lower_bound(a, x):
+    """First position in the sorted ``a`` whose value is >= x."""
+    lo = 0
+    hi = a.shape[0]
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if a[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True)
+def column_range(ukeys, cstart, i, j, z0, z1, ny, nz):
+    """Point range of cells (i, j, z0..z1) (inclusive, already clipped)."""
+    base = (i * ny + j) * nz
+    a = lower_bound(ukeys, base + z0)
+    b = lower_bound(ukeys, base + z1 + 1)
+    return cstart[a], cstart[b]

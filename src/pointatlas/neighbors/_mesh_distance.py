@@ -1,0 +1,104 @@
+"""Exact distance from points to a triangle mesh (`point_mesh_distance`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._core import as_points
+from ._kernels.mesh_distance import build_bvh, bvh_distances
+
+__all__ = ["point_mesh_distance"]
+
+#: most triangles in a leaf of the hierarchy
+_LEAF_SIZE = 8
+#: round-off margin of the box bound: a box is skipped only when its squared
+#: distance exceeds best * (1 + _PRUNE_RTOL) + (_PRUNE_RTOL * extent)^2, far above
+#: the rounding error of a computed point-triangle distance, so the minimum found
+#: is the minimum over all triangles
+_PRUNE_RTOL = 1e-9
+
+
+def _as_triangles(triangles, n_vertices: int) -> np.ndarray:
+    try:
+        tri = np.asarray(triangles)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"triangles must be an integer array of shape (T, 3); got {triangles!r}"
+        ) from None
+    if tri.ndim != 2 or tri.shape[1] != 3 or tri.shape[0] < 1:
+        raise ValueError(f"triangles must have shape (T, 3) with T >= 1; got {tri.shape}")
+    if tri.dtype.kind not in "iu":
+        raise ValueError(f"triangles must hold integers; got dtype {tri.dtype}")
+    if tri.min() < 0 or tri.max() >= n_vertices:
+        raise ValueError(
+            f"triangles must index vertices 0..{n_vertices - 1}; "
+            f"got {int(tri.min())}..{int(tri.max())}"
+        )
+    return np.ascontiguousarray(tri, dtype=np.int64)
+
+
+def point_mesh_distance(points, vertices, triangles) -> np.ndarray:
+    """Exact Euclidean distance from every point to a triangle mesh.
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3), float64
+        Query points (N >= 0).
+    vertices : array_like of shape (V, 3), float64
+        Mesh vertices.
+    triangles : array_like of shape (T, 3), int
+        Triangles (T >= 1; polygon meshes: triangulate first). Zero-area triangles
+        (repeated or collinear corners) count as the union of their edges.
+
+    Returns
+    -------
+    distances : ndarray of shape (N,), float64
+        Unsigned distance to the closest point of the closest triangle, in the
+        input's units.
+
+    Raises
+    ------
+    ValueError
+        Bad shapes, no triangles, indices out of range, non-integer triangles,
+        non-finite coordinates.
+    TypeError
+        Triangles that are not an array.
+
+    Notes
+    -----
+    Exact, not sampled: the triangles go into a bounding-volume hierarchy (median
+    splits of the centroids, axis-aligned boxes, leaves of 8); every point descends
+    it nearest box first and skips every box farther than the closest triangle found
+    so far (plus a round-off margin of 1e-9 relative), so the result is the minimum
+    over all triangles of the closest-point distance (Ericson, Real-Time Collision
+    Detection 5.1.5) -- the same value a scan over every triangle returns. Both sets
+    are first centred on the mesh's bounding box, so coordinates far from the origin
+    keep their digits. Cost: about O((N + T) log T) for points near the surface.
+
+    Examples
+    --------
+    >>> point_mesh_distance([[0.2, 0.2, 1.0]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    array([1.])
+    """
+    pts = as_points(points, min_points=0)
+    verts = as_points(vertices, name="vertices")
+    tri = _as_triangles(triangles, verts.shape[0])
+    out = np.empty(pts.shape[0])
+    if pts.shape[0] == 0:
+        return out
+    lo, hi = verts.min(axis=0), verts.max(axis=0)
+    center = lo + 0.5 * (hi - lo)
+    corners = np.ascontiguousarray((verts - center)[tri].reshape(-1, 9))
+    boxes, first, count, order = build_bvh(corners, _LEAF_SIZE)
+    extent = float(np.linalg.norm(hi - lo))
+    bvh_distances(
+        np.ascontiguousarray(pts - center),
+        np.ascontiguousarray(corners[order]),
+        boxes,
+        first,
+        count,
+        _PRUNE_RTOL,
+        (_PRUNE_RTOL * extent) ** 2,
+        out,
+    )
+    return out

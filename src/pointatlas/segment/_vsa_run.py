@@ -1,0 +1,410 @@
+"""The steps of one `vsa_segment` run: flood, split, merge, switch, the classic
+loop and the final relabelling (thesis 4.2-4.3). Private; inputs validated.
+
+`_VSARun` holds the state a run shares between its steps (labels, per-region
+sums, the switch's and the merge's bookkeeping, the energy history); every
+step is one method. `vsa_segment` builds one, runs it and turns it into a
+`VSAResult`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .._core.tolerances import VSA_MERGE_FULL_SCAN_SHARE, VSA_MERGE_ROUNDS, VSA_SWITCH_MIN_GAIN
+from ._kernels import (
+    apply_moves,
+    batch_switch_bounded,
+    best_points,
+    best_single_move,
+    boundary_points,
+    canonical_labels,
+    connected_label_components,
+    edge_pairs,
+    flood,
+    foreign_counts,
+    forget_around,
+    greedy_merge,
+    merge_candidate_pairs,
+    recount_foreign,
+    region_pairs,
+    renumber_memo,
+    touched_points,
+)
+from ._sums import (
+    energy_fixed,
+    energy_opt,
+    labels_key,
+    over_threshold,
+    proxy_normals,
+    region_costs,
+    region_sums,
+    row_norms,
+)
+
+
+def split_regions(points, w, labels, m, over):
+    """Cut every region over the threshold by the plane through its weighted
+    centroid orthogonal to its direction of largest weighted spread (4.3.3 a).
+
+    ``over`` flags the regions to cut; returns the points that move, their new
+    labels (new regions m, m+1, ...) and the number of cuts (regions that cannot
+    be cut, e.g. all points coincide, are left alone).
+    """
+    idx = np.flatnonzero(over[labels])
+    lab = labels[idx]
+    ww = w[idx].copy()
+    wr = np.bincount(lab, weights=ww, minlength=m)
+    ww[wr[lab] <= 0.0] = 1.0  # all-zero weights: plain PCA
+    wr = np.bincount(lab, weights=ww, minlength=m)
+    counts = np.bincount(lab, minlength=m)
+    p = points[idx]
+    regs = np.flatnonzero(over & (wr > 0.0))  # a region without points has no centroid
+    cen = np.zeros((m, 3))
+    for d in range(3):
+        cen[:, d] = np.bincount(lab, weights=ww * p[:, d], minlength=m)
+    cen[regs] /= wr[regs, None]
+    q = p - cen[lab]
+    cov = np.zeros((m, 3, 3))
+    for a in range(3):
+        for b in range(a, 3):
+            cov[:, a, b] = np.bincount(lab, weights=ww * q[:, a] * q[:, b], minlength=m)
+            cov[:, b, a] = cov[:, a, b]
+    _, vecs = np.linalg.eigh(cov[regs])
+    direction = np.zeros((m, 3))
+    direction[regs] = vecs[:, :, 2]
+    side = np.einsum("ij,ij->i", q, direction[lab]) > 0.0
+    n_pos = np.bincount(lab, weights=side.astype(np.float64), minlength=m)
+    ok = over & (n_pos > 0) & (n_pos < counts)
+    n_new = int(ok.sum())
+    new_id = np.full(m, -1, dtype=np.int64)
+    new_id[ok] = m + np.arange(n_new)
+    move = side & ok[lab]
+    return idx[move], new_id[lab[move]], n_new
+
+
+def merge_regions(indptr, indices, labels, wsum, ssum, counts, pairs, subset, eta, min_cos):
+    """Greedy cheapest-first merging on the region adjacency graph (4.3.3 b).
+
+    ``pairs`` are the candidate region pairs of the first pass. In eta mode one
+    pass is exhaustive (a rejected union stays rejected as regions grow, since
+    L21 only grows with the point set). In max_angle mode (``eta`` None) a
+    rejected union may become acceptable after a neighbour absorbed well-aligned
+    points, so passes repeat, with the pairs joined by an edge at a point of
+    ``subset`` (a superset of the boundary), until none merges. Returns labels,
+    W, S, counts, the number of merges and the map from old to new region ids
+    (None when nothing merged).
+    """
+    use_angle = eta is None
+    total = 0
+    remap_total = None
+    while True:
+        roots, n_merges = greedy_merge(
+            pairs,
+            wsum,
+            ssum,
+            float(eta) if eta is not None else 0.0,
+            float(min_cos) if min_cos is not None else 0.0,
+            use_angle,
+        )
+        if n_merges == 0:
+            return labels, wsum, ssum, counts, total, remap_total
+        total += int(n_merges)
+        remap, m = canonical_labels(roots)
+        remap_total = remap if remap_total is None else remap[remap_total]
+        labels = remap[labels]
+        wsum = np.bincount(remap, weights=wsum, minlength=m)
+        ssum = np.stack([np.bincount(remap, weights=ssum[:, d], minlength=m) for d in range(3)], 1)
+        counts = np.bincount(remap, weights=counts, minlength=m).astype(np.int64)
+        if not use_angle:
+            return labels, wsum, ssum, counts, total, remap_total
+        pairs = region_pairs(indptr, indices, labels, subset)
+
+
+class _VSARun:
+    """State of one VSA run on the spatially renumbered points.
+
+    ``indptr, indices`` the symmetric graph, ``points, normals, w`` the points,
+    unit normals and weights; ``eta`` or ``min_cos`` the split/merge threshold.
+    After `start` the run holds ``labels`` (0..m-1), the per-region sums
+    ``wsum, ssum, counts`` and the energy history (``names, history``); the
+    loop steps keep, besides, the switch's bookkeeping (``foreign`` counts, the
+    ``memo`` and ``drift`` of `batch_switch_bounded`, the previous proxies) and
+    the merge's (``dirty_merge``: regions whose W, S changed since the merge
+    last looked at them).
+    """
+
+    def __init__(self, indptr, indices, points, normals, w, eta, min_cos):
+        self.indptr, self.indices = indptr, indices
+        self.points, self.normals, self.w = points, normals, w
+        self.wn = w[:, None] * normals
+        self.eta, self.min_cos = eta, min_cos
+        self.names: list[str] = []
+        self.history: list[float] = []
+        self.timings: dict[str, float] = {}
+        self.n_iter = 0
+        self.converged = False
+        self.stop_reason = "max_iter"
+
+    def record(self, name, value):
+        self.names.append(name)
+        self.history.append(value)
+
+    def _resum(self):
+        self.wsum, self.ssum, self.counts = region_sums(self.labels, self.m, self.w, self.wn)
+
+    # ------------------------------------------------------------------ start
+
+    def start(self, seed_idx, all_seeds):
+        """Initial flood from the seeds (every point its own region with
+        ``all_seeds``) and proxy update."""
+        t0 = time.perf_counter()
+        n = self.w.shape[0]
+        if all_seeds:
+            self.labels = np.arange(n, dtype=np.int64)
+            self.m = n
+            # the sums of singletons (+ 0.0: as bincount, no -0.0)
+            self.wsum, self.ssum = self.w + 0.0, self.wn + 0.0
+            self.counts = np.ones(n, dtype=np.int64)
+            self.record("flood", 0.0)
+        else:
+            self.m = seed_idx.shape[0]
+            seed_normals = np.ascontiguousarray(self.normals[seed_idx])
+            self.labels = flood(self.indptr, self.indices, self.normals, seed_idx, seed_normals)
+            self._resum()
+            self.record("flood", energy_fixed(self.wsum, self.ssum, self.normals[seed_idx]))
+        self.record("update", energy_opt(self.wsum, self.ssum))
+        self.timings["flood"] = time.perf_counter() - t0
+        self.seen = {labels_key(self.labels): 0}
+        self.singletons = all_seeds
+
+    # ------------------------------------------------------------------ classic loop
+
+    def run_classic(self, max_iter):
+        """Classic VSA (4.2.2): re-seed at the best points, flood, update, until
+        nothing changes or a labelling repeats."""
+        t_flood = {}
+        for it in range(max_iter):
+            prox = proxy_normals(self.labels, self.wsum, self.ssum, self.counts, self.normals)
+            best = best_points(self.labels, self.m, self.normals, prox)
+            t0 = time.perf_counter()
+            new = flood(self.indptr, self.indices, self.normals, best, prox)
+            t_flood["flood"] = t_flood.get("flood", 0.0) + time.perf_counter() - t0
+            self.wsum, self.ssum, self.counts = region_sums(new, self.m, self.w, self.wn)
+            self.record("flood", energy_fixed(self.wsum, self.ssum, prox))
+            self.record("update", energy_opt(self.wsum, self.ssum))
+            self.n_iter = it + 1
+            if np.array_equal(new, self.labels):
+                self.converged, self.stop_reason = True, "converged"
+                break
+            key = labels_key(new)
+            self.labels = new
+            if key in self.seen:
+                self.stop_reason = "cycle"
+                break
+            self.seen[key] = self.n_iter
+        self._add_timings(t_flood)
+
+    # ------------------------------------------------------------------ main loop
+
+    def run_loop(self, max_iter, *, split, merge, switch):
+        """Split, merge, switch and update until an iteration changes nothing.
+
+        Merges may raise the energy, so they run only while a round of split +
+        merge reduces the number of regions (at most ``VSA_MERGE_ROUNDS``
+        rounds); while they run a repeated labelling ends the loop ("cycle").
+        """
+        n = self.w.shape[0]
+        self.foreign = foreign_counts(self.indptr, self.indices, self.labels)
+        self.dirty_merge = np.ones(self.m, dtype=np.bool_)
+        # batch switch bookkeeping (see batch_switch_bounded): per point the
+        # margin by which it last stayed, per region the summed proxy movement
+        self.memo = np.full((n, 6), np.nan)
+        self.drift = np.zeros(self.m)
+        self.prev_prox = None
+        merging = merge
+        merge_rounds = 0
+        spent = {"split": 0.0, "merge": 0.0, "switch": 0.0, "update": 0.0}
+        for it in range(max_iter):
+            n_merge = 0
+            t0 = time.perf_counter()
+            n_split = self.split_step() if split else 0
+            spent["split"] += time.perf_counter() - t0
+            t0 = time.perf_counter()
+            if merging:
+                merge_rounds += 1
+                n_merge = self.merge_step()
+            spent["merge"] += time.perf_counter() - t0
+            switched = switch != "none" and self.switch_step(switch, spent)
+            self.n_iter = it + 1
+            if not (n_split or n_merge or switched):
+                self.converged, self.stop_reason = True, "converged"
+                break
+            if merging:
+                # only merges can raise the energy, so only while they run can a
+                # labelling repeat; afterwards the energy strictly decreases
+                key = labels_key(self.labels)
+                if key in self.seen:
+                    self.stop_reason = "cycle"
+                    break
+                self.seen[key] = self.n_iter
+                if n_merge <= n_split or merge_rounds >= VSA_MERGE_ROUNDS:
+                    # split and merge no longer shrink the region count (they only
+                    # trade regions, or changed nothing): from now on only split,
+                    # switch and update run, which never raise the energy
+                    merging = False
+        self._add_timings(spent)
+
+    def split_step(self):
+        """Split every region over the threshold (4.3.3 a); returns the number of cuts."""
+        over = over_threshold(self.wsum, self.ssum, self.eta, self.min_cos)
+        if not over.any():
+            return 0
+        moved, new, n_split = split_regions(self.points, self.w, self.labels, self.m, over)
+        if n_split:
+            self.m += n_split
+            self.wsum = np.concatenate([self.wsum, np.zeros(n_split)])
+            self.ssum = np.concatenate([self.ssum, np.zeros((n_split, 3))])
+            self.counts = np.concatenate([self.counts, np.zeros(n_split, dtype=np.int64)])
+            grow = np.ones(n_split, dtype=np.bool_)
+            self.dirty_merge = np.concatenate([self.dirty_merge, grow])
+            self.dirty_merge[self.labels[moved]] = True
+            self.drift = np.concatenate([self.drift, np.zeros(n_split)])
+            self._move(moved, new)
+            self.record("split", energy_opt(self.wsum, self.ssum))
+        return n_split
+
+    def _merge_pairs(self):
+        """Candidate pairs of this merge round and the points whose edges give
+        the pairs of later passes (max_angle mode)."""
+        indptr, indices, labels, foreign = self.indptr, self.indices, self.labels, self.foreign
+        if self.singletons:  # every point its own region: the pairs are the graph edges
+            subset = np.arange(labels.shape[0], dtype=np.int64)
+            return edge_pairs(indptr, indices), subset
+        if self.eta is None:
+            subset = np.flatnonzero(foreign)
+            return region_pairs(indptr, indices, labels, subset), subset
+        cost = region_costs(self.wsum, self.ssum)
+        if np.count_nonzero(self.dirty_merge) > VSA_MERGE_FULL_SCAN_SHARE * self.m:
+            # most regions changed: scanning every boundary point is cheaper
+            # than filtering them
+            near = np.flatnonzero(foreign)
+        else:
+            near = touched_points(indptr, indices, labels, foreign, self.dirty_merge)
+        pairs = merge_candidate_pairs(
+            indptr, indices, labels, foreign, self.dirty_merge, cost, self.eta, near
+        )
+        return pairs, None
+
+    def merge_step(self):
+        """One merge round (4.3.3 b); returns the number of merges."""
+        pairs, subset = self._merge_pairs()
+        labels, wsum, ssum, counts, n_merge, remap = merge_regions(
+            self.indptr, self.indices, self.labels, self.wsum, self.ssum, self.counts,
+            pairs, subset, self.eta, self.min_cos,
+        )  # fmt: skip
+        self.labels, self.wsum, self.ssum, self.counts = labels, wsum, ssum, counts
+        self.singletons = False
+        if n_merge:
+            self._renumber_after_merge(remap)
+            self.record("merge", energy_opt(self.wsum, self.ssum))
+        # after a pass every neighbouring pair was (re)evaluated
+        self.dirty_merge = np.zeros(self.m, dtype=np.bool_)
+        return n_merge
+
+    def _renumber_after_merge(self, remap):
+        """Carry the switch's bookkeeping over to the merged regions ``remap``."""
+        self.m = m = self.wsum.shape[0]
+        # only boundary points next to a union change their count of foreign
+        # neighbours; they (and only they) are examined again by the switch, the
+        # others keep their memo with the regions renumbered
+        joined = np.bincount(remap, minlength=m) > 1
+        near = touched_points(self.indptr, self.indices, self.labels, self.foreign, joined)
+        recount_foreign(self.indptr, self.indices, self.labels, self.foreign, near)
+        self.memo[near, 0] = np.nan
+        renumber_memo(self.memo, remap)
+        self.drift = np.bincount(remap, weights=self.drift, minlength=m)
+        if self.prev_prox is not None:
+            mp = self.prev_prox.shape[0]
+            moved_prox = np.zeros((m, 3))
+            moved_prox[remap[:mp]] = self.prev_prox
+            self.prev_prox = moved_prox
+
+    def switch_step(self, mode, spent):
+        """Switch (4.3.2) and proxy update; returns whether a point moved."""
+        t0 = time.perf_counter()
+        prox = proxy_normals(self.labels, self.wsum, self.ssum, self.counts, self.normals)
+        if mode == "batch":
+            if self.prev_prox is not None:
+                mp = self.prev_prox.shape[0]
+                self.drift[:mp] += row_norms(prox[:mp] - self.prev_prox)
+            self.prev_prox = prox
+            moved, new = batch_switch_bounded(
+                self.indptr, self.indices, self.normals, self.w, self.labels, prox,
+                self.foreign, VSA_SWITCH_MIN_GAIN, self.drift, self.memo,
+            )  # fmt: skip
+        else:
+            point, target, gain = best_single_move(
+                self.indptr, self.indices, self.normals, self.w, self.labels, prox, self.foreign
+            )
+            moved = new = np.empty(0, dtype=np.int64)
+            if point >= 0 and gain > VSA_SWITCH_MIN_GAIN:
+                moved = np.array([point], dtype=np.int64)
+                new = np.array([target], dtype=np.int64)
+        spent["switch"] += time.perf_counter() - t0
+        if not moved.size:
+            return False
+        t0 = time.perf_counter()
+        self.dirty_merge[self.labels[moved]] = True
+        self.dirty_merge[new] = True
+        self._move(moved, new)
+        self.record("switch", energy_fixed(self.wsum, self.ssum, prox))
+        self.record("update", energy_opt(self.wsum, self.ssum))
+        spent["update"] += time.perf_counter() - t0
+        return True
+
+    def _move(self, moved, new):
+        """Move points to new regions: sums, counts, foreign counts in place; the
+        switch memo of the points and their neighbours forgotten."""
+        forget_around(self.indptr, self.indices, moved, self.memo)
+        apply_moves(
+            self.indptr, self.indices, self.labels, self.wsum, self.ssum, self.counts,
+            self.foreign, self.w, self.wn, moved, new,
+        )  # fmt: skip
+
+    # ------------------------------------------------------------------ end
+
+    def connected_pieces(self):
+        """Split every region into its connected pieces (end of 4.3.2)."""
+        n_before = int((self.counts > 0).sum())
+        self.labels, self.m = connected_label_components(self.indptr, self.indices, self.labels)
+        self._resum()
+        if self.m != n_before:
+            self.record("relabel", energy_opt(self.wsum, self.ssum))
+
+    def final_merge(self):
+        """Merge (cheapest first) every pair of neighbouring regions whose union
+        has L21 < eta (eta mode), so no such pair remains.
+
+        The switch moved points after the last merge round, and pieces cut off by
+        the relabelling are regions of their own; unions of adjacent connected
+        regions stay connected. Not in max_angle mode: the mean-deviation test
+        lets a large region absorb a small perpendicular one, which no later
+        split would undo.
+        """
+        subset = boundary_points(self.indptr, self.indices, self.labels)
+        pairs = region_pairs(self.indptr, self.indices, self.labels, subset)
+        labels, _, _, _, n_final, _ = merge_regions(
+            self.indptr, self.indices, self.labels, self.wsum, self.ssum, self.counts,
+            pairs, subset, self.eta, self.min_cos,
+        )  # fmt: skip
+        if n_final:
+            self.labels, self.m = canonical_labels(labels)
+            self._resum()
+            self.record("final_merge", energy_opt(self.wsum, self.ssum))
+
+    def _add_timings(self, spent):
+        for key, value in spent.items():
+            self.timings[key] = self.timings.get(key, 0.0) + value

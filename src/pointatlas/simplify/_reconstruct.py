@@ -1,0 +1,352 @@
+"""The points path's robust step: a triangle surface from oriented points (private).
+
+Inside/outside on a voxel grid from the oriented normals, then marching cubes
+(scikit-image, Lewiner's tables); the triangles are handed to `simplify_mesh`.
+Decisions in docs/decisions/simplify.md ("The points path's robust path").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from .._core import PointAtlasError
+
+__all__ = [
+    "MAX_CELLS",
+    "Reconstruction",
+    "reconstruct_surface",
+    "robust_mesh",
+    "snap_to_planes",
+    "transfer_labels",
+]
+
+#: Largest number of grid cells along the bounding box's longest side.
+MAX_CELLS = 192
+#: Grid step in point spacings (median nearest-neighbour distance).
+SPACING_STEPS = 2.0
+#: Band around the points where the field is the tangent-plane distance (grid steps,
+#: Chebyshev); beyond it every connected region of nodes takes one sign by a vote.
+BAND = 3
+#: Gaussian smoothing of the field (grid steps).
+SMOOTH_STEPS = 1.0
+#: Points whose tangent planes are averaged into the field at a node.
+FIELD_K = 8
+#: A triangle farther than this from every point (grid steps), or farther than one
+#: step and facing away from its nearest point's normal, lies beyond an open boundary
+#: of the input and is cut away ...
+TRIM_STEPS = 4.5
+#: ... unless its piece of far triangles is this small (a gap of the sampling).
+TRIM_MIN_PIECE = 24
+#: ... or this share of all triangles.
+TRIM_MIN_SHARE = 0.01
+
+
+@dataclass(frozen=True, slots=True)
+class Reconstruction:
+    """Triangle surface of a point set (private): ``vertices`` (working frame),
+    ``triangles`` (outward), ``step`` (grid step), ``shape`` (grid nodes) and
+    ``n_trimmed`` (triangles cut away beyond open boundaries: 0 for a closed one)."""
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    step: float
+    shape: tuple
+    n_trimmed: int
+
+
+def _spacing(q: np.ndarray, tree: cKDTree) -> float:
+    """Median nearest-neighbour distance of (at most 20,000, evenly strided) points."""
+    stride = max(1, q.shape[0] // 20000)
+    d, _ = tree.query(q[::stride], k=2)
+    return float(np.median(d[:, 1]))
+
+
+def _field(q, normals, tree, step, spacing, origin, shape):
+    """Signed field on the grid nodes: tangent-plane distance in the band, +-band
+    beyond it (one sign per connected region of nodes, by a vote of its band border)."""
+    cells = np.floor((q - origin) / step).astype(np.int64)
+    occupied = np.zeros(shape, dtype=bool)
+    occupied[cells[:, 0], cells[:, 1], cells[:, 2]] = True
+    band = ndimage.binary_dilation(occupied, structure=np.ones((3, 3, 3), bool), iterations=BAND)
+    band[[0, -1], :, :] = band[:, [0, -1], :] = band[:, :, [0, -1]] = False
+    nodes = np.argwhere(band)
+    x = origin + nodes * step
+    k = min(FIELD_K, q.shape[0])
+    d, j = tree.query(x, k=k, workers=-1)
+    if k == 1:
+        d, j = d[:, None], j[:, None]
+    # only the neighbours about as near as the nearest one speak (the far side of a
+    # thin wall is left out)
+    near = d <= d[:, :1] + spacing
+    w = np.where(near, np.exp(-((d / step) ** 2)) + 1e-300, 0.0)
+    w /= w.sum(axis=1, keepdims=True)
+    signed = np.einsum("nkd,nkd->nk", normals[j], x[:, None, :] - q[j])
+    values = (w * signed).sum(axis=1)
+    # where the neighbours' planes disagree on the side (near an edge or a corner,
+    # where a plane extended past its face is wrong), the distance to the nearest
+    # point with the weighted vote's sign
+    side = np.sign(signed) * (np.abs(signed) > 1e-9 * step) * near  # on a plane: abstains
+    split = (side > 0).any(axis=1) & (side < 0).any(axis=1)
+    vote = side[split].sum(axis=1) + (w[split] * side[split]).sum(axis=1)
+    values[split] = np.where(vote >= 0.0, 1.0, -1.0) * d[split, 0]
+    f = np.zeros(shape, dtype=np.float64)
+    f[band] = values
+    # regions of nodes beyond the band: one sign each, by the band nodes next to them
+    comp, n_comp = ndimage.label(~band)
+    votes = np.zeros(n_comp + 1)
+    sign = np.where(f > 0.0, 1.0, -1.0)
+    for axis in range(3):
+        for shift in (1, -1):
+            nb = np.roll(comp, shift, axis=axis)
+            pair = band & (nb > 0)
+            votes += np.bincount(nb[pair], weights=sign[pair], minlength=n_comp + 1)
+    outside = np.where(votes >= 0.0, 1.0, -1.0) * (BAND + 1) * step
+    f[~band] = outside[comp[~band]]
+    # a smoothing of one grid step removes sign noise near edges and corners (which
+    # gives small tunnels); a linear field (a flat face) is left as it is
+    f = ndimage.gaussian_filter(f, sigma=SMOOTH_STEPS, mode="nearest")
+    # the grid's outer layer is outside: the surface is closed inside the grid
+    f[[0, -1], :, :] = f[:, [0, -1], :] = f[:, :, [0, -1]] = (BAND + 1) * step
+    f[f == 0.0] = 1e-12 * step  # no node exactly on the level: no degenerate triangles
+    return f
+
+
+def _trim(tri, far):
+    """Far triangles to cut: those in pieces (edge-connected) of at least TRIM_MIN_PIECE
+    triangles and TRIM_MIN_SHARE of all."""
+    if not far.any():
+        return far
+    from scipy.sparse import coo_array, csgraph
+
+    idx = np.flatnonzero(far)
+    sub = tri[idx]
+    edges = np.sort(np.stack([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]], 1), axis=2)
+    edges = edges.reshape(-1, 2)
+    owner = np.repeat(np.arange(idx.size), 3)
+    _, inv = np.unique(edges, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    order = np.argsort(inv, kind="stable")
+    same = inv[order[1:]] == inv[order[:-1]]
+    a, b = owner[order[1:]][same], owner[order[:-1]][same]
+    g = coo_array((np.ones(a.size), (a, b)), shape=(idx.size, idx.size))
+    _, piece = csgraph.connected_components(g, directed=False)
+    size = np.bincount(piece)
+    cut = np.zeros_like(far)
+    cut[idx[size[piece] >= max(TRIM_MIN_PIECE, TRIM_MIN_SHARE * tri.shape[0])]] = True
+    return cut
+
+
+def _split_pinches(verts, tri):
+    """Every vertex whose triangles form several fans (joined through edges at the
+    vertex) becomes one vertex per fan, so the surface is manifold at its vertices."""
+    from scipy.sparse import coo_array, csgraph
+
+    n_t = tri.shape[0]
+    corner = np.arange(3 * n_t).reshape(n_t, 3)  # corner (t, k) holds vertex tri[t, k]
+    a_rows, b_rows = [], []
+    for k in range(3):
+        u, v = tri[:, k], tri[:, (k + 1) % 3]
+        key = np.minimum(u, v) * (int(tri.max()) + 1) + np.maximum(u, v)
+        order = np.argsort(key, kind="stable")
+        ks = key[order]
+        a_rows.append(np.stack([order, np.full(n_t, k), u[order], v[order], ks], axis=1))
+    e = np.concatenate(a_rows)
+    e = e[np.argsort(e[:, 4], kind="stable")]
+    pair = np.flatnonzero(e[1:, 4] == e[:-1, 4])
+    first, second = e[pair], e[pair + 1]
+    for end in (2, 3):  # the edge's two vertices: join their corners in both triangles
+        ca = corner[first[:, 0], np.argmax(tri[first[:, 0]] == first[:, end][:, None], axis=1)]
+        cb = corner[second[:, 0], np.argmax(tri[second[:, 0]] == first[:, end][:, None], axis=1)]
+        b_rows.append(np.stack([ca, cb], axis=1))
+    joins = np.concatenate(b_rows)
+    g = coo_array(
+        (np.ones(joins.shape[0], np.int8), (joins[:, 0], joins[:, 1])), shape=(3 * n_t, 3 * n_t)
+    )
+    _, fan = csgraph.connected_components(g, directed=False)
+    new_id, first_corner = np.unique(fan, return_index=True)[0:2]
+    remap = np.empty(fan.max() + 1, dtype=np.int64)
+    remap[new_id] = np.arange(new_id.size)
+    out_tri = remap[fan].reshape(n_t, 3)
+    out_verts = verts[tri.reshape(-1)[first_corner]]
+    return out_verts, out_tri
+
+
+def _bubbles(tri, far):
+    """Triangles of closed pieces (vertex-connected) that lie wholly far from the points:
+    small spurious surfaces where the field's sign flips away from the points."""
+    from scipy.sparse import coo_array, csgraph
+
+    n = int(tri.max()) + 1
+    a = np.concatenate([tri[:, 0], tri[:, 1]])
+    b = np.concatenate([tri[:, 1], tri[:, 2]])
+    g = coo_array((np.ones(a.size), (a, b)), shape=(n, n))
+    _, comp = csgraph.connected_components(g, directed=False)
+    piece = comp[tri[:, 0]]
+    near = np.bincount(piece, weights=~far, minlength=comp.max() + 1)
+    return near[piece] == 0
+
+
+def reconstruct_surface(q: np.ndarray, normals: np.ndarray) -> Reconstruction:
+    """Triangle surface of points ``q`` (working frame) with oriented ``normals``.
+
+    Closed where the sampled surface is closed and sampled within about two grid
+    steps everywhere; cut open beyond the input's open boundaries.
+    """
+    from skimage.measure import marching_cubes
+
+    tree = cKDTree(q)
+    spacing = _spacing(q, tree)
+    lo, hi = q.min(axis=0), q.max(axis=0)
+    extent = float((hi - lo).max())
+    if not extent > 0.0:
+        raise PointAtlasError("simplify needs points that span a volume or a surface")
+    step = max(SPACING_STEPS * spacing, extent / MAX_CELLS)
+    pad = BAND + 2
+    origin = lo - pad * step
+    shape = tuple(int(x) for x in np.ceil((hi - lo) / step).astype(np.int64) + 2 * pad + 1)
+    f = _field(q, normals, tree, step, spacing, origin, shape)
+    verts, tri, _, _ = marching_cubes(f, level=0.0, spacing=(step, step, step), method="lewiner")
+    verts = verts.astype(np.float64) + origin
+    tri = tri.astype(np.int64)
+    d, j = tree.query(verts[tri].mean(axis=1), workers=-1)
+    tn = np.cross(verts[tri[:, 1]] - verts[tri[:, 0]], verts[tri[:, 2]] - verts[tri[:, 0]])
+    facing = np.einsum("ij,ij->i", tn, normals[j]) / (np.linalg.norm(tn, axis=1) + 1e-300)
+    # beyond an open boundary the surface folds back: far, or facing away from the points
+    cut = _trim(tri, (d > TRIM_STEPS * step) | ((d > step) & (facing < -0.5)))
+    cut |= _bubbles(tri, d > 2.0 * step)
+    if cut.any():
+        tri = tri[~cut]
+        used = np.zeros(verts.shape[0], dtype=bool)
+        used[tri] = True
+        remap = np.cumsum(used) - 1
+        verts, tri = verts[used], remap[tri]
+    if tri.shape[0] == 0:
+        raise PointAtlasError("simplify could not build a surface from these points")
+    if cut.any():  # cutting can leave pieces touching at a vertex: give each its own
+        verts, tri = _split_pinches(verts, tri)
+    return Reconstruction(
+        vertices=verts, triangles=tri, step=step, shape=shape, n_trimmed=int(cut.sum())
+    )
+
+
+def transfer_labels(s, graph, point_labels, nearest) -> np.ndarray:
+    """Regions of the triangles from the points' regions: each triangle takes its
+    nearest point's region; only the largest connected piece of every region keeps
+    it, the other triangles take a neighbour's region (flooded, most neighbours
+    first), so every region is connected in the edge graph. Numbered 0..R-1."""
+    from scipy.sparse import csgraph
+
+    lab = np.asarray(point_labels, dtype=np.int64)[nearest]
+    coo = graph.tocoo()
+    same = lab[coo.row] == lab[coo.col]
+    n = lab.size
+    g = _adjacency(coo.row[same], coo.col[same], n)
+    _, piece = csgraph.connected_components(g, directed=False)
+    area = np.bincount(piece, weights=s.areas + 1e-300)
+    first = _first_of(piece)  # a triangle of every piece
+    best = np.full(int(lab.max()) + 1, -1)
+    order = np.argsort(area, kind="stable")  # largest last: it wins
+    best[lab[first[order]]] = order
+    keep = best[lab] == piece
+    out = np.where(keep, lab, -1)
+    rows, cols = coo.row, coo.col
+    while (out < 0).any():
+        open_ = out[rows] < 0
+        src = open_ & (out[cols] >= 0)
+        if not src.any():  # a piece with no labelled neighbour: its own region
+            rest = out < 0
+            out[rest] = int(lab.max()) + 1 + piece[rest]
+            break
+        r, c = rows[src], out[cols[src]]
+        key = r * (int(lab.max()) + 1) + c
+        uk, cnt = np.unique(key, return_counts=True)
+        o = np.lexsort((-cnt, uk // (int(lab.max()) + 1)))
+        uk = uk[o]
+        tri_id = uk // (int(lab.max()) + 1)
+        first = np.r_[True, tri_id[1:] != tri_id[:-1]]
+        out[tri_id[first]] = uk[first] % (int(lab.max()) + 1)
+    _, renum = np.unique(out, return_inverse=True)
+    return renum.reshape(-1)
+
+
+def _first_of(piece):
+    """A (the first) triangle of every piece."""
+    _, first = np.unique(piece, return_index=True)
+    return first
+
+
+def _adjacency(a, b, n):
+    """The (n, n) graph with edges (a, b)."""
+    from scipy.sparse import coo_array
+
+    return coo_array((np.ones(a.size, np.int8), (a, b)), shape=(n, n))
+
+
+def snap_to_planes(verts, tri, labels, normals, offsets, pull=1e-2):
+    """Move every vertex to the least-squares point of its regions' planes
+    ``normals[r] . x = offsets[r]`` with a pull of ``pull`` to where it was: inside a
+    region onto its plane, on a two-region boundary onto (near) the planes' line, at
+    a corner near the planes' common point."""
+    pairs = np.unique(np.stack([tri.reshape(-1), np.repeat(labels, 3)], axis=1), axis=0)
+    v, r = pairs[:, 0], pairs[:, 1]
+    nn = normals[r]
+    a = np.zeros((verts.shape[0], 3, 3))
+    b = pull * verts.copy()
+    np.add.at(a, v, nn[:, :, None] * nn[:, None, :])
+    np.add.at(b, v, nn * offsets[r][:, None])
+    a += pull * np.eye(3)
+    return np.linalg.solve(a, b[:, :, None])[:, :, 0]
+
+
+def robust_mesh(q, normals, labels, proxy_normals, frame, *, chord_tolerance=None):
+    """The robust path: the points' surface (`reconstruct_surface`), its triangles
+    labelled by the points' regions (`transfer_labels`), vertices moved onto the
+    regions' planes (`snap_to_planes`), then the mesh path's `simplify_surface`.
+
+    Returns ``(result, reconstruction, point_labels)``: the `SurfaceSimplification`
+    in input coordinates (``distances`` are those of the points), the surface and
+    the face of every point (its nearest triangle's region).
+    """
+    import dataclasses
+
+    from ._mesh import point_mesh_distance
+    from ._surface import _face_graph, _surface, simplify_surface
+
+    rec = reconstruct_surface(q, normals)
+    s = _surface(rec.vertices, rec.triangles)
+    tree = cKDTree(q)
+    _, nearest = tree.query(s.centroids, workers=-1)
+    lab = transfer_labels(s, _face_graph(s), labels, nearest)
+    n_reg = int(lab.max()) + 1
+    source = np.zeros(n_reg, dtype=np.int64)
+    source[lab] = np.asarray(labels)[nearest]
+    labels = np.asarray(labels, dtype=np.int64)
+    n_in = int(labels.max()) + 1
+    count = np.bincount(labels, minlength=n_in).astype(np.float64)
+    centroid = (
+        np.stack([np.bincount(labels, weights=q[:, d], minlength=n_in) for d in range(3)], axis=1)
+        / np.maximum(count, 1.0)[:, None]
+    )
+    pn = np.asarray(proxy_normals, dtype=np.float64)[source]
+    offsets = np.einsum("ij,ij->i", pn, centroid[source])
+    verts = snap_to_planes(rec.vertices, rec.triangles, lab, pn, offsets)
+    diag = float(np.linalg.norm(q.max(axis=0) - q.min(axis=0)))
+    tol = 0.005 * diag if chord_tolerance is None else chord_tolerance / frame.scale
+    res = simplify_surface(verts, rec.triangles, lab, pn, chord_tolerance=tol)
+    out_v = frame.to_input(res.vertices)
+    d = point_mesh_distance(q, res.vertices, res.triangles) * frame.scale
+    res = dataclasses.replace(
+        res,
+        vertices=out_v,
+        distances=d,
+        mean_distance=float(d.mean()),
+        max_distance=float(d.max()),
+        chord_tolerance=tol * frame.scale,
+        planarity_error=res.planarity_error * frame.scale,
+    )
+    _, near_tri = cKDTree(s.centroids).query(q, workers=-1)
+    return res, rec, lab[near_tri]
