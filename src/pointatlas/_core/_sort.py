@@ -17,7 +17,7 @@ __all__ = [
 ]
 
 #: bits per radix digit: 256 buckets keep the scatter targets in L1 (the fastest of
-#: 8, 11 and 16 bits; timings in docs/benchmarks/archive.md, "Radix digit width")
+#: 8, 11 and 16 bits; measured when the sort was written; see git history)
 _DIGIT_BITS = 8
 _N_PASSES = 8  # 64 / 8
 
