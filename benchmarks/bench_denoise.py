@@ -5,11 +5,12 @@ clean mesh), CAD models and one organic model (fertility) with 1 %, 2 %, 3 % Gau
 noise of the bounding-sphere radius (the literature's protocol), and optionally a
 100,000-point noisy scene (``benchmarks/scene.py``; no mesh there). Every
 method gets the raw noisy points: ours estimates and orients PCA normals first
-(timed), peers use their own. Normal MSE: ours its filtered normals (column
-``nMSE``) and PCA normals (k = 20) of its output (``pca``); peers PCA normals of
-their output; all signed like the clean normals. ``edge5``: on mesh inputs, the
-share of face points (all incident triangles within 1 degree) within 2 l of a
-feature vertex (incident triangles more than 30 degrees apart) whose normal is
+(timed), peers use their own. Normal MSE: ours its returned normals (column
+``nMSE``; estimated normals come back refitted to their faces) and PCA normals
+(k = 20) of its output (``pca``); peers PCA normals of their output; all signed
+like the clean normals. ``edge5``: on mesh inputs, the share of face points (all
+incident triangles within 1 degree) within 2 l of a feature vertex (incident
+triangles more than 30 degrees apart) whose normal is
 within 5 degrees of the clean one (the issue's "sharp edges kept").
 
     python benchmarks/bench_denoise.py [--data ../shared/data] [--no-scene]

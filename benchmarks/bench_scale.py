@@ -13,6 +13,9 @@
    must be identical on every point, segmentation quality measures within 1 %.
 4. ``--halo-cost``: tiled / untiled compute time as tiles shrink (in one process, one
    worker thread at a time, no I/O), with the points sent per point.
+5. ``--stages features,normals``: seconds of every stage of a tiled run (decode,
+   bounds pass, halo estimate, spill, tile tasks, encode, dask start/first tile/close)
+   beside the untiled floor (one k-NN query and kernel call over all points).
 
 Run (the issue's measures; the 10M case takes minutes on 2 cores):
 
@@ -273,6 +276,101 @@ def halo_cost(laz: Path, sizes) -> list:
     return rows
 
 
+def _timed(out: dict, name: str, func, *args, **kwargs):
+    t0 = time.perf_counter()
+    result = func(*args, **kwargs)
+    out[name] = round(time.perf_counter() - t0, 3)
+    return result
+
+
+def _dask_costs(kind: str, params: dict) -> dict:
+    """Seconds of dask's fixed costs: import (when not yet imported), a local cluster
+    of 2 worker processes, their first `warm_task` (imports, kernels), close."""
+    import logging
+    import warnings
+
+    out: dict = {}
+    t0 = time.perf_counter()
+    import distributed
+
+    from pointatlas.batch._tiles_tasks import warm_task
+
+    out["dask: import"] = round(time.perf_counter() - t0, 3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cluster = _timed(out, "dask: cluster start", distributed.LocalCluster, n_workers=2,
+                         threads_per_worker=1, processes=True, dashboard_address=None,
+                         silence_logs=logging.ERROR)  # fmt: skip
+        client = distributed.Client(cluster)
+        t0 = time.perf_counter()
+        client.gather([client.submit(warm_task, kind, params, 1, pure=False, workers=[w])
+                       for w in client.nthreads()])  # fmt: skip
+        out["dask: first tile per worker"] = round(time.perf_counter() - t0, 3)
+        t0 = time.perf_counter()
+        client.close()
+        cluster.close()
+        out["dask: close"] = round(time.perf_counter() - t0, 3)
+    return out
+
+
+def stages(laz: Path, tile: float, kind: str) -> dict:
+    """Seconds of every stage of a tiled ``kind`` run ("features": k = 20, equal
+    weights; "normals": k = 20, MST) in one process, tiles one after the other, beside
+    the untiled floor (one k-NN query and one kernel call over all points). The
+    dask costs (import, cluster start, a worker's first tile, close) come from a
+    local cluster of 2 workers running a trivial task."""
+    import laspy
+
+    from pointatlas.batch import TileOptions
+    from pointatlas.batch import _tiles as T
+    from pointatlas.batch._tiles_las import LasSource, write_streamed
+    from pointatlas.batch._tiles_tasks import features_dispatch, run_task, warm_task
+    from pointatlas.features import covariance_features
+    from pointatlas.neighbors import query_knn
+    from pointatlas.normals import estimate_normals, orient_normals
+
+    if kind == "features":
+        params = {"mode": "fixed", "k": 20, "flatness": (8, 8)}
+    else:
+        params = {"k": 20, "orient": "mst", "orient_k": 10, "viewpoint": None}
+    out: dict = {"kind": kind, "tile_size": tile}
+    sel = laspy.DecompressionSelection.XY_RETURNS_CHANNEL | laspy.DecompressionSelection.Z
+    with laspy.open(laz, decompression_selection=sel) as reader:
+        rec = _timed(out, "decode x, y, z", reader.read_points, -1)
+    xyz = np.column_stack([np.asarray(rec[c], dtype=np.float64) for c in "xyz"])
+    src = LasSource(laz)
+    src.use_normals = False
+    opts = TileOptions(tile_size=tile, progress=False)
+    grid = _timed(out, "bounds + subsample pass", T._grid_for, src, opts)
+    warm_task(kind, params, None)  # this process's kernels loaded (as a warm worker)
+    halo, _ = _timed(out, "halo estimate", T._auto_halo, src, 20, opts)
+    spill = T._Spill(None)
+    _, sent = _timed(out, "spill pass (tile cut)", T._spill, src, grid,
+                     dict.fromkeys(range(grid.n_tiles), halo), spill)  # fmt: skip
+    out["tiles"], out["sent per point"] = len(spill.pieces), round(sum(sent.values()) / src.n, 3)
+    t0 = time.perf_counter()
+    for t in sorted(spill.pieces):
+        spec = {"grid": grid, "tile": t, "halo": halo, "params": params, "threads": None}
+        assert run_task(kind, spec, spill.load(t))["status"] == "ok"
+    out["tile tasks (sum)"] = round(time.perf_counter() - t0, 3)
+    table, _ = _timed(out, "untiled: k-NN query", query_knn, xyz, 20)
+    if kind == "features":
+        covariance_features(xyz[:1000], 20)
+        _timed(out, "untiled: features kernel", features_dispatch, xyz, None, params, table)
+        fields = {f"f{i}": np.random.default_rng(i).random(src.n) for i in range(19)}
+        _timed(out, "LAZ encode (write pass, 19 fields)", write_streamed, src,
+               laz.with_name("stages.laz"), fields)  # fmt: skip
+    else:
+        nrm = _timed(out, "untiled: PCA normals", estimate_normals, xyz, 20, neighbors=table)
+        _timed(out, "untiled: MST orientation", orient_normals, xyz, nrm, k=10, method="mst",
+               neighbors=table)  # fmt: skip
+        _timed(out, "LAZ encode (write pass, normals)", write_streamed, src,
+               laz.with_name("stages.laz"), {}, normals=nrm)  # fmt: skip
+    laz.with_name("stages.laz").unlink(missing_ok=True)
+    out.update(_dask_costs(kind, params))
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=1_000_000)
@@ -283,6 +381,11 @@ def main() -> None:
     parser.add_argument("--compare", action="store_true", help="Tiled vs untiled runs.")
     parser.add_argument("--halo-cost", action="store_true", help="Halo cost as tiles shrink.")
     parser.add_argument("--no-scale", action="store_true", help="Skip the tiled end-to-end runs.")
+    parser.add_argument("--steps", default="normals,features,segment",
+                        help="Tiled end-to-end runs to do (comma-separated).")  # fmt: skip
+    parser.add_argument("--stages", default=None,
+                        help="Per-stage seconds of tiled KIND runs in one process (features, "
+                             "normals; comma-separated), beside the untiled floor.")  # fmt: skip
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(dir=args.data) as tmp_name:
         tmp = Path(tmp_name)
@@ -307,11 +410,17 @@ def main() -> None:
                               "equal"]),
                 ("segment", ["segment", tmp / "n.laz", tmp / "s.laz"]),
             ]  # fmt: skip
+            wanted = set(args.steps.split(","))
+            if wanted & {"features", "segment"}:
+                wanted.add("normals")  # they read the normals' output
             for name, cmd in steps:
+                if name not in wanted:
+                    continue
                 r = run_cli([*cmd, "--tile-size", ts, "--workers", w], w)
                 r["points_per_s_per_core"] = round(n / r["seconds"] / w)
                 results[name] = r
                 print(json.dumps({name: r}), flush=True)
+        if not args.no_scale and {"normals", "features"} <= set(results):
             both = results["normals"]["seconds"] + results["features"]["seconds"]
             results["normals+features"] = {
                 "seconds": round(both, 2),
@@ -322,6 +431,11 @@ def main() -> None:
             print(json.dumps({"normals+features": results["normals+features"]}), flush=True)
         if args.compare:
             results["compare"] = compare(laz, tmp, args.tile_size, args.workers, n)
+        if args.stages:
+            results["stages"] = [stages(laz, args.tile_size, kind)
+                                 for kind in args.stages.split(",")]  # fmt: skip
+            for row in results["stages"]:
+                print(json.dumps(row, indent=1), flush=True)
         if args.halo_cost:
             side = math.sqrt(n / DENSITY)
             results["halo_cost"] = halo_cost(laz, [side / 2, side / 4, side / 8, side / 16])

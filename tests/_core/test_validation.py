@@ -1,7 +1,15 @@
 import numpy as np
 import pytest
 
-from pointatlas._core import PointAtlasError, PointSet, as_labels, as_normals, as_points
+from pointatlas._core import (
+    PointAtlasError,
+    PointSet,
+    as_k,
+    as_labels,
+    as_normals,
+    as_points,
+    as_vectors,
+)
 
 
 def test_as_points_shape_and_dtype():
@@ -81,3 +89,30 @@ def test_pointset_rejects_bad_attribute_and_bad_normals():
 
 def test_pointatlas_error_is_value_error():
     assert issubclass(PointAtlasError, ValueError)
+
+
+def test_as_vectors_keeps_non_finite_rows_and_checks_shape():
+    arr = np.array([[0.0, np.nan, 1.0], [np.inf, 2.0, 3.0]])
+    out = as_vectors(arr, 2, name="normals")
+    assert out.dtype == np.float64 and np.array_equal(out, arr, equal_nan=True)
+    with pytest.raises(ValueError, match=r"^normals must have shape \(N, 3\); got \(2, 2\)$"):
+        as_vectors(np.zeros((2, 2)), name="normals")
+    with pytest.raises(ValueError, match=r"^normals must have one row per point \(3\); got 2$"):
+        as_vectors(arr, 3, name="normals")
+    with pytest.raises(TypeError, match=r"^points must be an array of shape \(N, 3\); got None$"):
+        as_vectors(None, name="points")
+
+
+@pytest.mark.parametrize(
+    ("k", "minimum", "message"),
+    [
+        (0, 1, r"^k must be an integer in \[1, 5\] \(the number of points\); got 0$"),
+        (6, 1, r"^k must be an integer in \[1, 5\] \(the number of points\); got 6$"),
+        (2, 3, r"^k must be an integer in \[3, 5\] \(the number of points\); got 2$"),
+    ],
+)
+def test_as_k_counts_the_point_itself(k, minimum, message):
+    assert as_k(5, 5, minimum=minimum) == 5
+    assert as_k(np.int64(minimum), 5, minimum=minimum) == minimum
+    with pytest.raises(PointAtlasError, match=message):
+        as_k(k, 5, minimum=minimum)

@@ -207,12 +207,25 @@ def test_tiled_segment_quality_within_one_percent(client, points, oriented, tile
 
 
 def test_tiled_segment_eta_regions_stay_under_eta(client, points, oriented):
+    from pointatlas.segment import VSAOptions
+
     params = {"k": 8, "split": True, "merge": True, "switch": "batch", "eta": 25.0,
               "max_angle": None}  # fmt: skip
-    labels, q, _ = tiled_segment(points, oriented, TileOptions(tile_size=12.0, scheduler=client),
-                                 params)  # fmt: skip
+    tiles = TileOptions(tile_size=12.0, scheduler=client)
+    labels, q, _ = tiled_segment(points, oriented, tiles, params)
     assert np.all(q["region_l21"] < 25.0)
     assert np.array_equal(np.bincount(labels), q["region_counts"])
+    # one VSAOptions is forwarded as is: the same run as its fields given as a dict
+    labels_o, q_o, _ = tiled_segment(points, oriented, tiles, VSAOptions(k=8, eta=25.0))
+    assert np.array_equal(labels_o, labels) and q_o["energy"] == q["energy"]
+    refused = [
+        ({"seeds": 50}, "--seeds must be 'all'"),
+        ({"weights": "area"}, "--weights must be uniform"),
+        ({"classic": True, "eta": None}, "--classic needs every point"),
+    ]
+    for bad, message in refused:
+        with pytest.raises(PointAtlasError, match=message):
+            tiled_segment(points, oriented, tiles, VSAOptions(k=8, eta=25.0).replace(**bad))
 
 
 def test_tiled_flatness_denoising_matches_untiled(client, points):
@@ -228,6 +241,27 @@ def test_tiled_flatness_denoising_matches_untiled(client, points):
     assert np.mean(np.all(out["points"] == ref.points, axis=1)) > 0.999
     with pytest.raises(PointAtlasError, match="smaller than the reach of 3 denoising"):
         tiled_denoise(pts, None, TileOptions(tile_size=15.0, halo=0.01, scheduler=client), params)
+
+
+@pytest.mark.parametrize("method", ["normal-voting", "normal-voting-adaptive"])
+def test_tiled_normal_voting_with_fixed_counts_equals_untiled_bit_for_bit(client, method):
+    from pointatlas.denoise import denoise_halo, normal_voting_denoise
+    from pointatlas.normals import estimate_normals, orient_normals
+
+    # nine scenes side by side (120 x 90): tiles of 30, halo of several 48-neighbour rings
+    pts = np.vstack([scan(5_000, seed=s) + [40.0 * (s % 3), 30.0 * (s // 3), 0] for s in range(9)])
+    nrm = orient_normals(pts, estimate_normals(pts, 16), k=10, method="mst")
+    params = {"method": method, "rho": 0.9, "tau": 0.3, "n_iter": 1, "filter_iter": 1,
+              "max_step": 0.5, "n_update": 1}  # fmt: skip
+    assert denoise_halo(method, n_iter=1, n_filter_iter=1, n_update=1).exact
+    out, run = tiled_denoise(pts, nrm, TileOptions(tile_size=30.0, scheduler=client), params)
+    ref = normal_voting_denoise(pts, nrm, n_iter=1, n_filter_iter=1, n_update=1,
+                                adaptive=method.endswith("adaptive"))  # fmt: skip
+    assert run.n_tiles >= 8 and max(run.tile_points.values()) < 0.8 * len(pts)  # real tiles
+    assert np.array_equal(out["points"], ref.points)
+    assert np.array_equal(out["normals"], ref.normals)
+    assert np.array_equal(out["feature_class"], ref.feature_class)
+    assert np.array_equal(out["denoise_k"], ref.k)
 
 
 @pytest.mark.parametrize(
@@ -259,3 +293,28 @@ def test_unreachable_scheduler_is_a_one_line_error(points, monkeypatch):
 def test_outward_orientation_is_refused_by_tiles(points):
     with pytest.raises(PointAtlasError, match="--orient outward needs the whole surface"):
         tiled_normals(points, TileOptions(tile_size=9.0), orient="outward")
+
+
+def test_stitching_refuses_a_small_offset_plane_joining_a_huge_one():
+    from pointatlas.batch._tiles_segment import _Regions
+    from pointatlas.batch._tiles_tasks import region_stats
+
+    rng = np.random.default_rng(5)
+    # rough ground (plane MSE 0.25 m^2, like the benchmark scan's curved ground) cut
+    # in two halves, and a small flat roof 6 m above it
+    xy = rng.uniform(0, 200, (40_000, 2))
+    ground = np.column_stack([xy, 0.01 * xy[:, 0] + rng.normal(0, 0.5, 40_000)])
+    roof = np.column_stack([rng.uniform(50, 55, (300, 2)), 6.5 + rng.normal(0, 0.02, 300)])
+    pts = np.vstack([ground, roof])
+    labels = np.r_[(ground[:, 0] > 100).astype(np.int64), np.full(300, 2)]
+    normals = np.tile([-0.01, 0.0, 1.0], (pts.shape[0], 1))
+    st, first = region_stats(labels, 3, pts, normals, np.zeros(3), np.arange(pts.shape[0]))
+    regions = _Regions(st, first, None, math.cos(math.radians(10)), tau2=0.01)
+    assert regions.ok(0, 1)  # the two halves of the ground: one surface
+    union = st[0] + st[2]
+    # the roof is parallel (the normal tests pass) and the ground's MSE stays within
+    # 4 x its own (300 x 36 / 40,000 = 0.27 m^2 more), but its points lie 6 m off
+    assert regions.plane_mse(union) < 4.0 * regions.plane_mse(st[0])
+    assert not regions.ok(0, 2) and not regions.ok(1, 2)
+    regions.union(0, 1)
+    assert not regions.ok(regions.find(0), 2)

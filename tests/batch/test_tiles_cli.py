@@ -190,3 +190,37 @@ def test_unreachable_scheduler_is_one_line_error(tmp_path, laz, monkeypatch):
     result = run("normals", laz, tmp_path / "o.laz", "--tile-size", 10, "--scheduler",
                  "tcp://127.0.0.1:9")  # fmt: skip
     assert_user_error(result, "--scheduler tcp://127.0.0.1:9: cannot connect within 1 s")
+
+
+def test_empty_laz_is_a_one_line_error(tmp_path, scheduler):
+    # the first pass over the file runs in a thread while the cluster starts: its
+    # error still reaches the user as one line, and nothing is written
+    empty = tmp_path / "empty.laz"
+    laspy.LasData(laspy.LasHeader(point_format=6, version="1.4")).write(empty)
+    result = run("features", empty, tmp_path / "o.laz", "--tile-size", 10, "--scheduler",
+                 scheduler)  # fmt: skip
+    assert_user_error(result, "no points")
+    assert not (tmp_path / "o.laz").exists()
+    assert not list(tmp_path.glob(".pointatlas-tiles-*"))
+
+
+def test_bundled_model_name_runs_by_tiles_like_a_file(tmp_path, scheduler):
+    from pointatlas.io import read_point_set
+
+    tiled, untiled = tmp_path / "t.ply", tmp_path / "u.ply"
+    result = run("normals", "fandisk", tiled, "--k", 12, "--orient", "none", "--tile-size", 0.4,
+                 "--scheduler", scheduler)  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "tiles of 0.4" in result.output
+    assert run("normals", "fandisk", untiled, "--k", 12, "--orient", "none").exit_code == 0
+    got, ref = read_point_set(tiled), read_point_set(untiled)
+    assert np.array_equal(got.points, ref.points)
+    assert np.array_equal(got.normals, ref.normals)  # bit for bit, as for a file
+
+
+def test_report_and_render_are_refused_with_the_reason(tmp_path, laz, scheduler):
+    for flag, name in (("--report", "r.html"), ("--render", "r.png")):
+        result = run("features", laz, tmp_path / "o.laz", "--tile-size", 10, flag,
+                     tmp_path / name, "--scheduler", scheduler)  # fmt: skip
+        assert_user_error(result, f"{flag} needs every point in one process",
+                          "a tiled run never holds", "leave out --tile-size")  # fmt: skip

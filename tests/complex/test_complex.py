@@ -109,7 +109,7 @@ def test_q_tuples_match_brute_force_eq_3_1(seed, n_regions):
     lab = np.argmin(((pts[:, None] - centres[None]) ** 2).sum(-1), axis=1)
     lab = np.unique(lab, return_inverse=True)[1].astype(np.int64)
     idx, _ = query_knn(pts, 6)
-    K = surface_complex(pts, lab, k=6, indices=idx)
+    K = surface_complex(pts, lab, k=6, neighbors=idx)
     assert K.q_tuples == q_tuples_reference(lab, idx)
     # every vertex's region set lies inside one Eq. 3.1 tuple
     for regs in K.vertex_regions:
@@ -120,7 +120,7 @@ def test_q_tuples_match_brute_force_eq_3_1(seed, n_regions):
 def test_seen_sets_are_the_labels_of_the_neighbours():
     m = cube(4)
     idx, _ = query_knn(m.vertices, 8)
-    K = surface_complex(m.vertices, m.labels, k=8, indices=idx)
+    K = surface_complex(m.vertices, m.labels, k=8, neighbors=idx)
     for p in (0, 7, 50):
         assert K.seen(p).tolist() == sorted(set(m.labels[idx[p]].tolist()))
     assert K.seen_regions.dtype == np.int64 and K.seen_indptr.shape == (m.n_vertices + 1,)
@@ -134,5 +134,33 @@ def test_bad_input_messages():
         surface_complex(m.vertices, -np.ones(m.n_vertices, dtype=np.int64))
     with pytest.raises(ValueError, match="one entry per point"):
         surface_complex(m.vertices, m.labels[:-1])
-    with pytest.raises(ValueError, match="indices"):
-        surface_complex(m.vertices, m.labels, k=8, indices=np.zeros((3, 8), dtype=np.int64))
+    with pytest.raises(ValueError, match="neighbors"):
+        surface_complex(m.vertices, m.labels, k=8, neighbors=np.zeros((3, 8), dtype=np.int64))
+    with pytest.raises(ValueError, match="neighbors must have shape"):
+        surface_complex(m.vertices, m.labels, k=8, neighbors=np.zeros((m.n_vertices, 4), int))
+    with pytest.raises(TypeError, match="integer"):
+        surface_complex(m.vertices, m.labels, k=8, neighbors=np.zeros((m.n_vertices, 8)))
+    with pytest.raises(ValueError, match="points 0..25; got range 26..26"):
+        surface_complex(m.vertices, m.labels, k=8, neighbors=np.full((m.n_vertices, 8), 26))
+    idx, _ = query_knn(m.vertices, 8)
+    with pytest.raises(ValueError, match="not both"):
+        surface_complex(m.vertices, m.labels, k=8, neighbors=idx, indices=idx)
+
+
+def test_neighbour_table_forms_give_the_same_complex():
+    # neighbors= takes query_knn's table, its (indices, distances) tuple or a wider
+    # table (first k columns); indices= is the old name of the same argument
+    m = cube(4)
+    own = surface_complex(m.vertices, m.labels, k=8)
+    idx, dist = query_knn(m.vertices, 12)
+    for kwargs in (
+        {"neighbors": idx[:, :8]},
+        {"neighbors": (idx[:, :8], dist[:, :8])},
+        {"neighbors": idx},
+        {"indices": idx[:, :8]},
+    ):
+        K = surface_complex(m.vertices, m.labels, k=8, **kwargs)
+        assert K.q_tuples == own.q_tuples
+        np.testing.assert_array_equal(K.edges, own.edges)
+        np.testing.assert_array_equal(K.seen_regions, own.seen_regions)
+        assert K.vertex_regions == own.vertex_regions

@@ -1,4 +1,4 @@
-"""Slow, obvious plain-numpy references for the denoise kernels (STYLE section 7)."""
+"""Slow, obvious plain-numpy references for the denoise kernels."""
 
 from __future__ import annotations
 
@@ -168,3 +168,22 @@ def neighbourhoods(pts, radius_factor=2.0):
     ell = float(np.sort(d, axis=1)[:, 1:7].mean())
     k = np.clip((d <= radius_factor * ell).sum(axis=1), min(7, n), min(48, n))
     return k.astype(np.int64), ell
+
+
+def face_normals(points, normals, idx, k_of, cos_rho):
+    """Per point: numpy eigh of the covariance of its neighbours with n_i . n_j >=
+    cos_rho about their barycentre; least eigenvector signed like n_i (kept n_i when
+    fewer than three or no plane)."""
+    out = normals.copy()
+    for i in range(len(points)):
+        nb = idx[i, : k_of[i]]
+        nb = nb[normals[nb] @ normals[i] >= cos_rho]
+        if nb.size < 3:
+            continue
+        y = points[nb] - points[nb].mean(axis=0)
+        lam, vec = np.linalg.eigh(y.T @ y / nb.size)
+        if not lam[1] > lam[0]:
+            continue
+        v = vec[:, 0]
+        out[i] = -v if v @ normals[i] < 0 else v
+    return out

@@ -133,7 +133,8 @@ def test_one_thread_and_parallel_give_the_same_bits(monkeypatch):
             flatness_denoise(pts, k=10, n_iter=3),
         )
         assert numba.get_num_threads() == threads  # restored
-    assert seen == [1] * 9 + [threads] * 9  # 2 rounds + the last normals, 3 steps each
+    # 2 rounds of 3 steps each (estimated normals: the last ones refitted, not filtered)
+    assert seen == [1] * 6 + [threads] * 6
     (one, flat_one), (par, flat_par) = out[True], out[False]
     assert np.array_equal(one.points, par.points) and np.array_equal(one.normals, par.normals)
     assert np.array_equal(flat_one.points, flat_par.points)
@@ -152,6 +153,40 @@ def test_estimated_normals_from_the_first_table():
     for normal_k in (20, 60):
         knn = query_knn(pts, normal_k)
         want = orient_normals(pts, estimate_normals(pts, normal_k, neighbors=knn), neighbors=knn)
-        for n_iter in (0, 1):
-            r = normal_voting_denoise(pts, None, n_iter=n_iter, n_filter_iter=0, normal_k=normal_k)
-            assert np.array_equal(r.normals, want)
+        r = normal_voting_denoise(pts, None, n_iter=0, normal_k=normal_k)
+        assert np.array_equal(r.normals, want)
+        # a round on them moves the points as on the normals given (up to their
+        # rescaling to unit length); only estimated normals are refitted at the end
+        r = normal_voting_denoise(pts, None, n_iter=1, n_filter_iter=0, normal_k=normal_k)
+        given = normal_voting_denoise(pts, want, n_iter=1, n_filter_iter=0, normal_k=normal_k)
+        np.testing.assert_allclose(r.points, given.points, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(given.normals, want, rtol=0, atol=1e-9)
+
+
+def test_default_filter_steps_follow_the_returned_normals(monkeypatch):
+    """n_filter_iter None: 1 step per round when the returned normals are refitted
+    (estimated), 5 per round and 5 more when they are filtered (given)."""
+    from pointatlas.denoise import default_filter_iter, denoise_halo
+
+    assert (default_filter_iter(True), default_filter_iter(False)) == (1, 5)
+    pts = _blob(np.random.default_rng(3), 500)
+    calls = []
+    orig = _voting.voting_filter_kernel
+
+    def spy(*args):
+        calls.append(1)
+        return orig(*args)
+
+    monkeypatch.setattr(_voting, "voting_filter_kernel", spy)
+    est = normal_voting_denoise(pts, None, n_iter=2, n_update=1, adaptive=False)
+    assert len(calls) == 2
+    calls.clear()
+    given = normal_voting_denoise(pts, est.normals, n_iter=2, n_update=1, adaptive=False)
+    assert len(calls) == 2 * 5 + 5
+    calls.clear()
+    normal_voting_denoise(pts, est.normals, n_iter=2, n_update=1, refit_normals=True)
+    assert len(calls) == 2
+    assert given.n_iter == est.n_iter == 2
+    # the halo counts the same steps
+    assert denoise_halo(n_iter=2, n_update=1).rings == 2 * 5 + 1 + 2 + 5 + 1
+    assert denoise_halo(n_iter=2, n_update=1, estimate=True).rings == 2 * 1 + 1 + 2 + 1 + 1

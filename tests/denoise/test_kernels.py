@@ -9,8 +9,6 @@ from pointatlas.denoise._flatness import flatness_step
 from pointatlas.denoise._kernels import (
     adaptive_k_kernel,
     quadric_update_kernel,
-    sym3_eigh,
-    sym3_eigvals,
     voting_filter_kernel,
 )
 from pointatlas.neighbors import point_mesh_distance, query_knn
@@ -45,27 +43,6 @@ def test_point_to_mesh_empty_and_on_surface():
 def test_point_to_mesh_bad_faces():
     with pytest.raises(ValueError, match="triangles must index vertices 0..2; got 0..3"):
         point_mesh_distance([[0, 0, 0]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 3]])
-
-
-@pytest.mark.parametrize("seed", [0, 1])
-def test_eigen_helpers_match_numpy(seed):
-    rng = np.random.default_rng(seed)
-    for _ in range(50):
-        m = rng.normal(size=(3, 3))
-        a = m @ m.T
-        a[2] *= 1e-3 if seed else 1.0
-        a = (a + a.T) / 2
-        lam = np.empty(3)
-        vec = np.empty((3, 3))
-        sym3_eigh(a.copy(), lam, vec)
-        want = np.linalg.eigvalsh(a)
-        np.testing.assert_allclose(lam, want, atol=1e-12 * abs(want).max())
-        np.testing.assert_allclose(a @ vec, vec * lam, atol=1e-10 * abs(want).max())
-        got = sym3_eigvals(a[0, 0], a[0, 1], a[0, 2], a[1, 1], a[1, 2], a[2, 2])
-        np.testing.assert_allclose(got, want[::-1], atol=1e-9 * abs(want).max())
-    # diagonal and zero matrices
-    assert sym3_eigvals(1.0, 0.0, 0.0, 3.0, 0.0, 2.0) == (3.0, 2.0, 1.0)
-    assert sym3_eigvals(0.0, 0.0, 0.0, 0.0, 0.0, 0.0) == (0.0, 0.0, 0.0)
 
 
 def _table(seed, n=30, k=12, duplicates=False):
@@ -138,8 +115,8 @@ def test_voting_filter_matches_reference(seed):
 
 @pytest.mark.parametrize("tau", [0.05, 0.3, 0.9])
 def test_voting_filter_near_degenerate_tensors(tau):
-    """Tensors of two or three nearly equal eigenvalues (the Jacobi fallback) and of
-    well-separated ones (closed-form eigenvector) both match the reference."""
+    """Tensors of two or three nearly equal eigenvalues and of well-separated ones
+    match the reference (the shared `eigh3_accurate` eigenvectors)."""
     rng = np.random.default_rng(7)
     n = 24
     base = np.eye(3)[rng.integers(0, 3, size=n)]

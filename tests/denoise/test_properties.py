@@ -1,5 +1,5 @@
-"""Invariants of the denoisers (STYLE section 8): determinism, permutation and
-rigid-motion equivariance of the point update."""
+"""Invariants of the denoisers: determinism, permutation and rigid-motion
+equivariance of the point update."""
 
 import numpy as np
 from hypothesis import given, settings

@@ -205,3 +205,28 @@ def test_bounds_kernel_matches_numpy(n, seed):
     lo, hi = bounds(pts)
     np.testing.assert_array_equal(lo, pts.min(axis=0))
     np.testing.assert_array_equal(hi, pts.max(axis=0))
+
+
+@pytest.mark.parametrize("backend", ["grid", "kdtree"])
+def test_index_over_a_part_with_the_whole_centre_gives_the_whole_distances(backend):
+    # a part of a cloud, indexed with the centre of the whole cloud: wherever its rows
+    # are the whole set's rows, the distances are equal bit for bit (centred on its own
+    # box, most of them differ in the last bits)
+    rng = np.random.default_rng(5)
+    pts = rng.random((3000, 3)) * [40.0, 30.0, 5.0] - [3.0, 7.0, 1.0]
+    whole = NeighborIndex(pts, backend=backend)
+    part = np.flatnonzero(pts[:, 0] < 17.0)
+    own = NeighborIndex(pts[part], backend=backend, center=whole.center_)
+    np.testing.assert_array_equal(own.center_, whole.center_)
+    np.testing.assert_array_equal(own.points_, pts[part] - whole.center_)
+    t_whole, d_whole = whole.knn(8)
+    t_part, d_part = own.knn(8)
+    same = (part[t_part] == t_whole[part]).all(axis=1)
+    assert same.mean() > 0.9
+    np.testing.assert_array_equal(d_part[same], d_whole[part][same])
+    _, d_own_centre = NeighborIndex(pts[part], backend=backend).knn(8)
+    assert (d_own_centre[same] != d_whole[part][same]).any(axis=1).mean() > 0.3
+    with pytest.raises(ValueError, match="center must be 3 finite numbers"):
+        NeighborIndex(pts, center=[0.0, np.nan, 0.0])
+    with pytest.raises(ValueError, match="center must be 3 finite numbers"):
+        NeighborIndex(pts, center=[0.0, 0.0])

@@ -197,3 +197,11 @@ def test_demo_step_segments_and_simplifies_fandisk(tmp_path):
     assert summary["is_closed"] and summary["n_faces"] >= 15
     assert summary["is_manifold"] and summary["is_oriented"] and summary["faces_not_ok"] == []
     assert summary["vertex_method"] == "fit" and summary["max_planarity_error"] < 1e-9
+
+
+def test_usage_names_the_arguments_in_and_out():
+    # the same IN OUT pattern as the other commands (pointatlas segment --help)
+    for command in ("simplify", "segment"):
+        res = runner.invoke(app, [command, "--help"], terminal_width=200)
+        assert res.exit_code == 0, res.output
+        assert f"pointatlas {command} [OPTIONS] {{IN}} {{OUT}}" in " ".join(res.output.split())

@@ -205,8 +205,9 @@ def test_noisy_dodecahedron_gives_one_planar_face_per_side(vertices):
     # thesis 4.4.3 / Fig. 4.14: 962 points, 25 % normal noise, k = 12, 12 random seeds,
     # split and merge; eta = 30 here (eta = 50 merges neighbouring sides with this noise
     # model, see docs/reproduction.md)
+    from pointatlas.io import vertex_normals
     from pointatlas.simplify import simplify_points
-    from pointatlas.synth import add_normal_noise, vertex_normals
+    from pointatlas.synth import add_normal_noise
 
     m = dodecahedron(4)
     noisy = add_normal_noise(m.vertices, m.normals, 0.25, k=12, rng=1)
@@ -320,14 +321,14 @@ def test_fit_planes_are_total_least_squares_planes_where_three_planes_meet():
 
 
 def test_failed_plane_fit_falls_back_with_a_warning(monkeypatch):
-    import pointatlas.simplify._vertices as vert
+    import pointatlas.simplify._solver as solver
 
     def broken(*args, **kwargs):
         raise ValueError("broken solver")
 
-    monkeypatch.setattr(vert, "minimize", broken)
+    monkeypatch.setattr(solver, "minimize", broken)
     # the Newton solver tried first does not converge either: the reference runs
-    monkeypatch.setattr(vert, "_sqp", lambda z, *problem: (z, False, 0))
+    monkeypatch.setattr(solver, "sqp", lambda z, *problem: (z, False, 0))
     m = octahedron(16)
     with pytest.warns(SimplifyWarning, match="plane intersection"):
         s = simplify_segmentation(m.vertices, m.normals, m.labels)
@@ -339,7 +340,7 @@ def test_default_anchor_weight_is_the_loosest_with_valid_faces():
     # meet move so far that faces self-intersect; the default tightens it
     from pointatlas import data
     from pointatlas.segment import vsa_segment
-    from pointatlas.simplify._mesh import FIT_ANCHOR_WEIGHTS
+    from pointatlas.simplify._assemble import FIT_ANCHOR_WEIGHTS
 
     ps = data.load("fandisk")
     pts, nrm = np.asarray(ps.points), np.asarray(ps.normals)

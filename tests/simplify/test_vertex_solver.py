@@ -9,6 +9,7 @@ import warnings
 import numpy as np
 import pytest
 
+import pointatlas.simplify._solver as solver_module
 import pointatlas.simplify._vertices as vertices_module
 from pointatlas import synth
 from pointatlas.simplify import simplify_points
@@ -21,18 +22,18 @@ CASES = {
 
 
 def _run(monkeypatch, model, options, method, solver):
-    real = vertices_module._newton_solver
+    real = solver_module.newton_solver
     calls = []
-    real_sqp = vertices_module._sqp
+    real_sqp = solver_module.sqp
 
     def spy(*args):
         out = real_sqp(*args)
         calls.append(out[1])
         return out
 
-    monkeypatch.setattr(vertices_module, "_sqp", spy)
+    monkeypatch.setattr(solver_module, "sqp", spy)
     monkeypatch.setattr(
-        vertices_module, "_newton_solver", lambda _solver, *rest: real(solver, *rest)
+        vertices_module, "newton_solver", lambda _solver, *rest: real(solver, *rest)
     )
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # no fallback to plane intersection
@@ -67,4 +68,4 @@ def test_newton_solver_equals_the_reference_solver(monkeypatch, name, method):
 
 def test_unknown_solver_is_rejected():
     with pytest.raises(ValueError, match="solver must be"):
-        vertices_module._newton_solver("fast", None, None, None, None, None)
+        solver_module.newton_solver("fast", None, None, None, None, None)

@@ -233,3 +233,37 @@ def test_demo_report_has_a_working_view_per_step(open_report, tmp_path):
     fields = page.page.locator(".pa-field").nth(1).locator("option").all_inner_texts()
     assert "normal_error_deg" in fields
     assert page.errors == []
+
+
+def test_info_report_shows_components_in_the_legend_and_the_json_numbers(open_report, tmp_path):
+    # two far-apart grids: two k-NN components, each a legend entry with its colour drawn
+    g = np.stack(np.meshgrid(*[np.arange(4.0)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    src = tmp_path / "two.ply"
+    write_point_set(src, np.concatenate([g, g[:27] * 0.5 + 50.0]))
+    report = tmp_path / "info.html"
+    res = CliRunner().invoke(app, ["info", str(src), "--json", "--report", str(report)])
+    assert res.exit_code == 0, res.output
+    info = json.loads(res.stdout)
+    page = open_report(report)
+    result = page.page.evaluate(
+        """() => Object.fromEntries(Array.from(
+             document.querySelectorAll("table[data-table='result'] tr"),
+             tr => [tr.querySelector('th').innerText, tr.querySelector('td').dataset.value]))"""
+    )
+    for key in ("points", "knn_components", "largest_component", "mean_spacing"):
+        assert json.loads(result[key]) == info[key]
+    swatches = page.page.evaluate(
+        "Array.from(document.querySelectorAll('.pa-legend .pa-swatch'), "
+        "s => getComputedStyle(s).backgroundColor)"
+    )
+    assert len(swatches) == info["knn_components"] == 2
+    pixels = page.canvas_pixels()
+    colours = {tuple(c) for c in pixels[drawn(pixels)].tolist()}
+    for swatch in swatches:
+        assert tuple(int(c) for c in swatch[swatch.index("(") + 1 : -1].split(",")) in colours
+    page.page.select_option(".pa-field", "spacing")
+    page.page.wait_for_function(
+        "document.querySelector('.pa-legend-title').textContent === 'spacing'"
+    )
+    assert page.page.locator(".pa-colorbar").count() == 1
+    assert page.errors == []

@@ -15,10 +15,12 @@ __all__ = [
     "as_float",
     "as_float_array",
     "as_int",
+    "as_k",
     "as_labels",
     "as_normals",
     "as_points",
     "as_rng",
+    "as_vectors",
     "check_neighbors",
     "describe_indices",
 ]
@@ -58,6 +60,47 @@ def _as_float_array(values, name: str) -> np.ndarray:
     return arr
 
 
+def as_vectors(values, n_points: int | None = None, *, name: str = "vectors") -> np.ndarray:
+    """Convert an (N, 3) array to float64, checking only its shape (NaN/Inf allowed).
+
+    The shape checks shared by `as_points` and `as_normals`, for callers that flag
+    non-finite rows instead of refusing them.
+
+    Parameters
+    ----------
+    values : array_like of shape (N, 3)
+        Numbers, converted to float64.
+    n_points : int, optional
+        Required N (the number of points the rows belong to).
+    name : str
+        Parameter name used in error messages.
+
+    Returns
+    -------
+    values : ndarray of shape (N, 3), float64
+        A view of the input when no conversion was needed (not necessarily
+        C-contiguous).
+
+    Raises
+    ------
+    ValueError
+        Wrong shape, or not one row per point.
+    TypeError
+        Non-numeric input or None.
+
+    Examples
+    --------
+    >>> as_vectors([[0, 0, float("nan")]], 1).shape
+    (1, 3)
+    """
+    arr = _as_float_array(values, name)
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (N, 3); got {arr.shape}")
+    if n_points is not None and arr.shape[0] != n_points:
+        raise ValueError(f"{name} must have one row per point ({n_points}); got {arr.shape[0]}")
+    return arr
+
+
 def as_points(points, *, name: str = "points", min_points: int = 1) -> np.ndarray:
     """Validate and convert a point array.
 
@@ -88,9 +131,7 @@ def as_points(points, *, name: str = "points", min_points: int = 1) -> np.ndarra
     >>> as_points([[0, 0, 0], [1, 0, 0]]).shape
     (2, 3)
     """
-    arr = _as_float_array(points, name)
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"{name} must have shape (N, 3); got {arr.shape}")
+    arr = as_vectors(points, name=name)
     if arr.shape[0] < min_points:
         raise ValueError(f"{name} must hold at least {min_points} point(s); got {arr.shape[0]}")
     bad = ~np.isfinite(arr).all(axis=1)
@@ -131,11 +172,7 @@ def as_normals(
     >>> as_normals([[0, 0, 2.0]])
     array([[0., 0., 1.]])
     """
-    arr = _as_float_array(normals, name)
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"{name} must have shape (N, 3); got {arr.shape}")
-    if n_points is not None and arr.shape[0] != n_points:
-        raise ValueError(f"{name} must have one row per point ({n_points}); got {arr.shape[0]}")
+    arr = as_vectors(normals, n_points, name=name)
     bad = ~np.isfinite(arr).all(axis=1)
     if bad.any():
         raise ValueError(f"{name} has non-finite (NaN/Inf) entries at {describe_indices(bad)}")
@@ -378,6 +415,39 @@ def as_int(
             f"{name} must be an integer{_range_text(lo, hi, False, False)}{extra}; got {out}"
         )
     return int(out)
+
+
+def as_k(k, n_points: int, *, name: str = "k", minimum: int = 1) -> int:
+    """Validate a neighbourhood size that counts the point itself.
+
+    Parameters
+    ----------
+    k : int
+        Number of neighbours, the point itself included.
+    n_points : int
+        Number of points N (the largest k).
+    name : str
+        Parameter name used in error messages.
+    minimum : int
+        Smallest accepted k (3 for a PCA plane, 2 for an orientation graph).
+
+    Returns
+    -------
+    k : int
+
+    Raises
+    ------
+    TypeError
+        Not an integer.
+    PointAtlasError
+        k outside [minimum, N] (a ``ValueError``).
+
+    Examples
+    --------
+    >>> as_k(8, 100)
+    8
+    """
+    return as_int(k, name, lo=minimum, hi=n_points, note="the number of points")
 
 
 def as_float(

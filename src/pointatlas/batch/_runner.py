@@ -379,20 +379,8 @@ def run_batch(
             complete = True
     finally:
         elapsed = time.perf_counter() - start
-        summary = {
-            "name": label,
-            "seed": int(seed),
-            "scheduler": where,
-            "complete": complete,
-            "n_inputs": len(items),
-            "n_done": n_done,
-            "n_skipped": n_skipped,
-            "n_failed": len(failures),
-            "elapsed_s": round(elapsed, 3),
-            "failures": dict(sorted(failures.items())),
-            "models": dict(sorted(models.items())),
-        }
-        _write_json(out / "summary.json", summary)
+        counts = {"n_inputs": len(items), "n_done": n_done, "n_skipped": n_skipped}
+        _write_summary(out, label, seed, where, complete, counts, elapsed, failures, models)
     return BatchReport(
         results=dict(sorted(results.items())),
         failures=dict(sorted(failures.items())),
@@ -402,6 +390,22 @@ def run_batch(
         out_dir=out,
         elapsed_s=elapsed,
     )
+
+
+def _write_summary(out, label, seed, where, complete, counts, elapsed, failures, models):
+    """``summary.json``: name, seed, scheduler, counts, seconds, failures, per model."""
+    summary = {
+        "name": label,
+        "seed": int(seed),
+        "scheduler": where,
+        "complete": complete,
+        **counts,
+        "n_failed": len(failures),
+        "elapsed_s": round(elapsed, 3),
+        "failures": dict(sorted(failures.items())),
+        "models": dict(sorted(models.items())),
+    }
+    _write_json(out / "summary.json", summary)
 
 
 def _consume(client, func, todo, children, results_dir, results, failures, models, advance):

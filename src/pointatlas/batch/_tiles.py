@@ -3,16 +3,19 @@
 Points are cut into an x/y grid of tiles (`TileGrid`), every tile is sent with a
 halo of neighbouring points to a dask worker, and the owned points' results are
 gathered (normals and features bit for bit those of the untiled run; decisions in
-docs/decisions/batch.md). Sources are in-memory arrays (`ArraySource`) or LAS/LAZ
-files streamed by chunks (`pointatlas.batch._tiles_las`).
+docs/decisions/batch.md). This module holds what every method shares: options,
+sources (in-memory arrays, `ArraySource`; LAS/LAZ files streamed by chunks are in
+`pointatlas.batch._tiles_las`), spilling, the cluster and the dask loop. The
+methods are in ``_tiles_normals``, ``_tiles_features``, ``_tiles_denoise`` and
+``_tiles_segment``.
 """
 
 from __future__ import annotations
 
 import contextlib
-import heapq
 import logging
 import math
+import mmap
 import os
 import shutil
 import tempfile
@@ -25,18 +28,18 @@ import numpy as np
 
 from .._core import PointAtlasError
 from ._tiles_grid import TileGrid, make_grid
-from ._tiles_tasks import denoise_halo, feature_kmax, run_task
+from ._tiles_tasks import run_task
 
 __all__ = [
     "ArraySource",
     "TileOptions",
     "TiledRun",
+    "clean_tmp",
+    "make_tmp",
+    "release_pages",
     "parse_memory",
+    "run_tiles",
     "tile_client",
-    "tiled_denoise",
-    "tiled_features",
-    "tiled_normals",
-    "tiled_segment",
 ]
 
 #: Seconds to wait for ``--scheduler ADDRESS`` before giving up.
@@ -47,12 +50,6 @@ _HALO_GROWTH = 1.25
 _MAX_HALO_TILES = 64
 #: Points per chunk of the in-memory source when spilling (bounds temporary masks).
 _ARRAY_CHUNK = 1 << 22
-#: Automatic segmentation halos are at least this many typical (median) k-NN halos
-#: wide: VSA near a tile edge sees truncated regions; wider context makes the owned
-#: labels those of the untiled run more often.
-SEGMENT_HALO_FACTOR = 15.0
-#: Normal voting's l is the mean 6-NN spacing over at most this many points.
-SPACING_SAMPLE = 4_000_000
 
 
 def _allocate(store, name, n, like):
@@ -62,6 +59,20 @@ def _allocate(store, name, n, like):
         return store.new(name, like.dtype, width)
     store[name] = np.zeros((n,) if width is None else (n, width), dtype=like.dtype)
     return store[name]
+
+
+def release_pages(*arrays) -> None:
+    """Drop the pages of result memory maps from this process's resident memory.
+
+    The maps are shared file mappings: their pages (written or not) stay in the
+    page cache and in the file, and come back on the next access; unmapping them
+    keeps the client's resident memory at one tile's results instead of N rows of
+    every field (``MADV_DONTNEED``; a no-op for plain arrays).
+    """
+    for arr in arrays:
+        mm = getattr(arr, "_mmap", None) if isinstance(arr, np.memmap) else None
+        if mm is not None and hasattr(mm, "madvise"):
+            mm.madvise(mmap.MADV_DONTNEED)
 
 
 def _chunked(n: int):
@@ -395,7 +406,7 @@ def _estimate_spacing(source, k: int, *, sample: int = 100_000, typical: bool = 
     return spacing, float(np.quantile(dist[:, kk], 0.9999))
 
 
-def _run(kind, source, grid, params, options, client_info, on_result, *, halo0, fixed, label,
+def run_tiles(kind, source, grid, params, options, client_info, on_result, *, halo0, fixed, label,
          normals_array=None, spill_dir=None, memory_per_point=0.0):  # fmt: skip
     """Spill, submit and collect every tile; grow automatic halos where needed."""
     client, where, threads = client_info
@@ -480,7 +491,9 @@ def _round(client, kind, specs, spill, in_flight):
     def submit_next():
         t = next(queue, None)
         if t is not None:
-            fut = client.submit(run_task, kind, specs[t], spill.load(t), pure=False)
+            # the points go to the cluster as data (scatter), not inside the task graph
+            (data,) = client.scatter([spill.load(t)], hash=False)
+            fut = client.submit(run_task, kind, specs[t], data, pure=False)
             futures[fut] = t
             ac.add(fut)
 
@@ -507,175 +520,6 @@ def _grid_for(source, options: TileOptions):
     return make_grid(lo, hi, options.tile_size)
 
 
-# --------------------------------------------------------------------------- normals
-
-
-#: Weight of a tile's links between pieces across sharp edges (below any halo vote).
-_SHARP_WEIGHT = 1e-6
-
-
-def _piece_key(tile, comp):
-    """Key of a tile's orientation component (tile in the high bits)."""
-    return (np.int64(tile) << np.int64(32)) + np.asarray(comp, dtype=np.int64)
-
-
-def _normal_signs(halo_parts, tops, piece_of, normals, tile_links):
-    """Sign flips of the tiles' MST components making orientations agree across tiles.
-
-    A piece is one smooth component of one tile's orientation graph (its signs are
-    consistent). Every halo point votes between the piece it lies in and its
-    owner's piece (+1 when the two normals agree, -1 when opposed); the tile's MST
-    links between its pieces across sharp edges count ``_SHARP_WEIGHT`` times their
-    summed dot products, so they only join what no halo joins (as an MST prefers
-    smooth edges). Pieces are joined along a maximum spanning forest of |vote| and,
-    in every tree, signs are
-    fixed so that its topmost owned point (largest z, then smallest index) has
-    nz >= 0: Hoppe's root rule of `orient_normals`, applied to the stitched
-    component. Returns sorted piece keys and their flips (+1 / -1).
-    """
-    votes = defaultdict(float)
-    for b, (hg, _ho, hn, hp) in halo_parts.items():
-        if not hg.size:
-            continue
-        mine = _piece_key(b, hp)
-        theirs = np.asarray(piece_of[hg])
-        s = np.sign(np.einsum("ij,ij->i", hn, normals[hg]))
-        pairs = np.column_stack([np.minimum(mine, theirs), np.maximum(mine, theirs)])
-        uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
-        sums = np.bincount(inv.ravel(), weights=s, minlength=uniq.shape[0])
-        for (a, c), v in zip(uniq.tolist(), sums.tolist(), strict=True):
-            votes[(a, c)] += v
-    for t, links in tile_links.items():
-        for a, b, v in links.tolist():
-            key = (int(_piece_key(t, int(a))), int(_piece_key(t, int(b))))
-            votes[key] += _SHARP_WEIGHT * v
-    keys = sorted(tops)
-    parent = {key: key for key in keys}
-
-    def find(x):
-        while parent[x] != x:
-            parent[x] = parent[parent[x]]
-            x = parent[x]
-        return x
-
-    adj = defaultdict(list)
-    for (a, b), v in sorted(votes.items(), key=lambda kv: (-abs(kv[1]), kv[0])):
-        if a not in parent or b not in parent or v == 0.0:
-            continue
-        ra, rb = find(a), find(b)
-        if ra != rb:
-            parent[rb] = ra
-            sign = 1.0 if v > 0 else -1.0
-            adj[a].append((b, sign))
-            adj[b].append((a, sign))
-    flips = {}
-    for key in keys:
-        if key in flips:
-            continue
-        comp, stack, rel = [], [key], {key: 1.0}
-        while stack:
-            u = stack.pop()
-            comp.append(u)
-            for w, s in adj[u]:
-                if w not in rel:
-                    rel[w] = rel[u] * s
-                    stack.append(w)
-        best = max(comp, key=lambda u: (tops[u][0], -tops[u][1]))
-        root_sign = 1.0 if tops[best][2] * rel[best] >= 0.0 else -1.0
-        for u in comp:
-            flips[u] = rel[u] * root_sign
-    return np.array(keys, dtype=np.int64), np.array([flips[k] for k in keys])
-
-
-def tiled_normals(points, options: TileOptions, *, k=20, orient="mst", orient_k=10,
-                  viewpoint=None):  # fmt: skip
-    """PCA normals by tiles, bit for bit those of the untiled ``pointatlas normals``.
-
-    Parameters
-    ----------
-    points : array_like of shape (N, 3)
-        Coordinates.
-    options : TileOptions
-        Tiling and cluster.
-    k : int
-        PCA neighbourhood size (the point itself included).
-    orient : {"mst", "viewpoint", "none"}
-        Orientation; "mst" orients every tile and makes signs agree across tiles
-        (see Notes). "outward" needs the whole closed surface and is refused.
-    orient_k : int
-        k of the orientation graph.
-    viewpoint : array_like of shape (3,), optional
-        Sensor position for "viewpoint".
-
-    Returns
-    -------
-    normals : ndarray of shape (N, 3)
-    run : TiledRun
-
-    Raises
-    ------
-    PointAtlasError
-        Bad options, a given halo too narrow, an unreachable scheduler.
-
-    Notes
-    -----
-    Unoriented normals, "none" and "viewpoint" equal the untiled ones bit for bit.
-    With "mst" every tile is oriented by Hoppe's MST propagation and tiles are
-    flipped as wholes to agree on the points they share (`_normal_signs`); the
-    unoriented direction is still bit for bit the untiled one, the sign agrees
-    with the untiled MST wherever the untiled propagation itself is consistent.
-    """
-    source = ArraySource(points)
-    return _normals_over(source, options, k=k, orient=orient, orient_k=orient_k,
-                         viewpoint=viewpoint)  # fmt: skip
-
-
-def _normals_over(source, options, *, k, orient, orient_k, viewpoint, out=None, spill_dir=None,
-                  client_info=None, label="normals"):  # fmt: skip
-    if orient not in ("mst", "viewpoint", "none"):
-        raise PointAtlasError(
-            f"--orient {orient} needs the whole surface at once; with --tile-size use mst, "
-            "viewpoint or none"
-        )
-    n = source.n
-    if k < 3 or k > n:
-        raise PointAtlasError(f"--k must lie in [3, number of points = {n}]; got {k}")
-    grid = _grid_for(source, options)
-    halo0, fixed = _auto_halo(source, k, options)
-    normals = np.zeros((n, 3)) if out is None else out
-    halo_parts, tops, tile_links = {}, {}, {}
-    piece_of = None
-    if orient == "mst":
-        piece_of = (
-            np.zeros(n, dtype=np.int64)
-            if spill_dir is None
-            else np.lib.format.open_memmap(spill_dir / "piece.npy", "w+", np.int64, (n,))
-        )
-
-    def on_result(t, res):
-        normals[res["gidx"]] = res["normals"]
-        if piece_of is not None:
-            piece_of[res["gidx"]] = _piece_key(t, res["piece"])
-            halo_parts[t] = (res["halo_gidx"], res["halo_owner"], res["halo_normals"],
-                             res["halo_piece"])  # fmt: skip
-            tops.update({int(_piece_key(t, c)): v for c, v in res["tops"].items()})
-            tile_links[t] = res["links"]
-
-    params = {"k": int(k), "orient": orient, "orient_k": int(orient_k), "viewpoint": viewpoint}
-    with _maybe_client(options, client_info) as ci:
-        run = _run("normals", source, grid, params, options, ci, on_result, halo0=halo0,
-                   fixed=fixed, label=label, spill_dir=spill_dir,
-                   memory_per_point=8.0 * (3 * (k + 8) + 40))  # fmt: skip
-    if orient == "mst":
-        keys, flips = _normal_signs(halo_parts, tops, piece_of, normals, tile_links)
-        run.extra["orientation_pieces"] = int(keys.size)
-        run.extra["flipped_pieces"] = int(np.count_nonzero(flips < 0))
-        for sl in _chunked(n):
-            f = flips[np.searchsorted(keys, piece_of[sl])]
-            normals[sl] = normals[sl] * f[:, None]
-    return normals, run
-
-
 @contextlib.contextmanager
 def _maybe_client(options, client_info):
     if client_info is not None:
@@ -683,371 +527,6 @@ def _maybe_client(options, client_info):
         return
     with tile_client(options) as ci:
         yield ci
-
-
-# --------------------------------------------------------------------------- features
-
-
-def tiled_features(points, normals, options: TileOptions, params: dict):
-    """Features by tiles, bit for bit those of the untiled run.
-
-    Parameters
-    ----------
-    points : array_like of shape (N, 3)
-        Coordinates.
-    normals : array_like of shape (N, 3) or None
-        Oriented normals (needed by ``mode="optimal"``).
-    options : TileOptions
-        Tiling and cluster.
-    params : dict
-        ``mode`` "fixed" (``k``), "optimal_k" (``k_range``, ``criterion``) or
-        "optimal" (``k_range``, ``a_grid``, ``b_grid``), and ``flatness``.
-
-    Returns
-    -------
-    fields : dict of str to ndarray
-        The ``FeatureResult.scalar_fields()`` and ``dimension_class``.
-    run : TiledRun
-    """
-    return _features_over(ArraySource(points, normals), options, params)
-
-
-def _features_over(source, options, params, *, out=None, spill_dir=None, client_info=None,
-                   normals_array=None, label="features"):  # fmt: skip
-    kmax = feature_kmax(params)
-    if kmax > source.n:
-        raise PointAtlasError(f"k = {kmax} exceeds the number of points ({source.n})")
-    if params["mode"] == "optimal" and not source.has_normals and normals_array is None:
-        raise PointAtlasError("sigmoid weights need normals; the input has none")
-    grid = _grid_for(source, options)
-    halo0, fixed = _auto_halo(source, kmax, options)
-    fields = {} if out is None else out
-
-    def on_result(t, res):
-        for name, v in res["fields"].items():
-            if name not in fields:
-                _allocate(fields, name, source.n, v)
-            fields[name][res["gidx"]] = v
-
-    with _maybe_client(options, client_info) as ci:
-        run = _run("features", source, grid, params, options, ci, on_result, halo0=halo0,
-                   fixed=fixed, label=label, spill_dir=spill_dir, normals_array=normals_array,
-                   memory_per_point=8.0 * (kmax + 60))  # fmt: skip
-    return fields, run
-
-
-# --------------------------------------------------------------------------- denoise
-
-
-def tiled_denoise(points, normals, options: TileOptions, params: dict):
-    """Denoising by tiles with a halo covering every iteration's reach.
-
-    Parameters
-    ----------
-    points, normals : ndarray of shape (N, 3)
-        Noisy points and (for normal voting) oriented normals.
-    options : TileOptions
-        Tiling and cluster; an automatic halo is `denoise_halo` of the parameters
-        (a given smaller halo is refused).
-    params : dict
-        ``method`` "flatness" (``k``, ``eta``, ``eps``, ``n_iter``, ``schedule``,
-        ``k_start``) or "normal-voting[-adaptive]" (``rho``, ``tau``, ``n_iter``,
-        ``filter_iter``, ``max_step``).
-
-    Returns
-    -------
-    result : dict
-        ``points``, ``normals`` and the per-point fields (``displacement``,
-        ``feature_class``, ``denoise_k``, ``flatness``), ``spacing`` (global l).
-    run : TiledRun
-    """
-    return _denoise_over(ArraySource(points, normals), options, params)
-
-
-def _denoise_over(source, options, params, *, spill_dir=None, client_info=None, outs=None,
-                  normals_array=None, label="denoise"):  # fmt: skip
-    # l of normal voting: the mean 6-NN spacing (exact below SPACING_SAMPLE points)
-    spacing, _ = _estimate_spacing(source, 6, sample=SPACING_SAMPLE)
-    p = dict(params)
-    if p["method"] == "flatness":
-        kk = max(int(p["k"]), int(p.get("k_start") or 0))
-        _, r_k = _estimate_spacing(source, kk)
-    else:
-        r_k = 0.0
-        p["spacing"] = spacing
-    need = denoise_halo(p, spacing, r_k)
-    if options.halo is not None and options.halo < need:
-        raise PointAtlasError(
-            f"--halo {options.halo:g} is smaller than the reach of {p['n_iter']} denoising "
-            f"iterations ({need:.4g}); use --halo {need * 1.05:.4g} or more, or leave it out"
-        )
-    halo = float(options.halo) if options.halo is not None else need * 1.05
-    grid = _grid_for(source, options)
-    n = source.n
-    out = outs or {"points": np.zeros((n, 3)), "normals": np.zeros((n, 3))}
-    n_fallback = [0]
-
-    def on_result(t, res):
-        out["points"][res["gidx"]] = res["points"]
-        out["normals"][res["gidx"]] = res["normals"]
-        for name, v in res["fields"].items():
-            if name not in out:
-                _allocate(out, name, n, v)
-            out[name][res["gidx"]] = v
-        n_fallback[0] += res["n_fallback"]
-
-    with _maybe_client(options, client_info) as ci:
-        run = _run("denoise", source, grid, p, options, ci, on_result, halo0=halo, fixed=True,
-                   label=label, spill_dir=spill_dir, normals_array=normals_array,
-                   memory_per_point=8.0 * 200)  # fmt: skip
-    out["spacing"] = spacing
-    run.extra["n_fallback"] = n_fallback[0]
-    return out, run
-
-
-# --------------------------------------------------------------------------- segment
-
-
-class _Regions:
-    """Stitched regions: union-find over tile regions with summed statistics."""
-
-    def __init__(self, stats, first, eta, min_cos, tau2=0.0):
-        self.st = stats.copy()
-        self.first = first.copy()
-        self.parent = np.arange(stats.shape[0])
-        self.eta = eta
-        self.min_cos = min_cos
-        self.tau2 = tau2
-
-    def find(self, x):
-        p = self.parent
-        root = x
-        while p[root] != root:
-            root = p[root]
-        while p[x] != root:
-            p[x], x = root, p[x]
-        return root
-
-    @staticmethod
-    def l21(st):
-        return max(0.0, 2.0 * (st[0] - math.sqrt(st[1] ** 2 + st[2] ** 2 + st[3] ** 2)))
-
-    @staticmethod
-    def plane_mse(st) -> float:
-        """Mean squared distance to the region's proxy plane (through the centroid)."""
-        length = math.sqrt(st[1] ** 2 + st[2] ** 2 + st[3] ** 2)
-        if st[0] <= 0 or length == 0.0:
-            return 0.0
-        nrm = st[1:4] / length
-        mean = st[4:7] / st[0]
-        cov = np.empty((3, 3))
-        c = 7
-        for i in range(3):
-            for j in range(i, 3):
-                cov[i, j] = cov[j, i] = st[c] - st[0] * mean[i] * mean[j]
-                c += 1
-        return max(0.0, float(nrm @ cov @ nrm) / st[0])
-
-    def ok(self, a, b) -> bool:
-        """The VSA merge test on the union (eta: L21 < eta; else mean deviation <=
-        max angle and the two proxies within the max angle), and the union's plane
-        no worse than 4 x its parts' plus tau^2 (parallel but offset planes, a roof
-        and the ground, pass the normal tests: they must not join)."""
-        sa, sb = self.st[a], self.st[b]
-        u = sa + sb
-        mse_u = self.plane_mse(u)
-        if mse_u > 4.0 * max(self.plane_mse(sa), self.plane_mse(sb)) + self.tau2:
-            return False
-        if self.eta is not None:
-            return self.l21(u) < self.eta
-        la = math.sqrt(sa[1] ** 2 + sa[2] ** 2 + sa[3] ** 2)
-        lb = math.sqrt(sb[1] ** 2 + sb[2] ** 2 + sb[3] ** 2)
-        lu = math.sqrt(u[1] ** 2 + u[2] ** 2 + u[3] ** 2)
-        if la == 0.0 or lb == 0.0:
-            return False
-        cos_ab = (sa[1] * sb[1] + sa[2] * sb[2] + sa[3] * sb[3]) / (la * lb)
-        return cos_ab >= self.min_cos and lu >= self.min_cos * u[0]
-
-    def union(self, a, b):
-        ra, rb = self.find(a), self.find(b)
-        if ra == rb:
-            return ra
-        if rb < ra:
-            ra, rb = rb, ra
-        self.parent[rb] = ra
-        self.st[ra] += self.st[rb]
-        self.first[ra] = min(self.first[ra], self.first[rb])
-        return ra
-
-
-def _greedy_merge(regions: _Regions, pairs: np.ndarray) -> int:
-    """Cheapest-first merging of neighbouring stitched regions (energy increase
-    first) while the VSA test holds; returns the number of merges."""
-    heap = []
-    l21 = regions.l21
-    for a, b in pairs.tolist():
-        ra, rb = regions.find(a), regions.find(b)
-        if ra != rb:
-            cost = l21(regions.st[ra] + regions.st[rb]) - l21(regions.st[ra]) - l21(regions.st[rb])
-            heapq.heappush(heap, (cost, min(ra, rb), max(ra, rb)))
-    merged = 0
-    while heap:
-        cost, a, b = heapq.heappop(heap)
-        ra, rb = regions.find(a), regions.find(b)
-        if ra == rb:
-            continue
-        now = l21(regions.st[ra] + regions.st[rb]) - l21(regions.st[ra]) - l21(regions.st[rb])
-        if (min(ra, rb), max(ra, rb)) != (a, b) or now != cost:  # stale entry
-            heapq.heappush(heap, (now, min(ra, rb), max(ra, rb)))
-            continue
-        if regions.ok(ra, rb):
-            regions.union(ra, rb)
-            merged += 1
-    return merged
-
-
-def _quality(st) -> dict:
-    """n_regions, energy (sum of L21) and plane MSE of stitched region statistics."""
-    w = st[:, 0]
-    s = st[:, 1:4]
-    length = np.sqrt((s * s).sum(axis=1))
-    energy = float(np.maximum(2.0 * (w - length), 0.0).sum())
-    prox = np.where(length[:, None] > 0, s / np.where(length > 0, length, 1.0)[:, None], 0.0)
-    mean = st[:, 4:7] / w[:, None]
-    cov = np.empty((st.shape[0], 3, 3))
-    c = 7
-    for a in range(3):
-        for b in range(a, 3):
-            cov[:, a, b] = cov[:, b, a] = st[:, c] - w * mean[:, a] * mean[:, b]
-            c += 1
-    sq = np.einsum("ri,rij,rj->r", prox, cov, prox)
-    return {
-        "n_regions": int(st.shape[0]),
-        "energy": energy,
-        "mse": float(np.maximum(sq, 0.0).sum() / w.sum()),
-        "proxy_normals": prox,
-        "centroids": mean,
-        "region_l21": np.maximum(2.0 * (w - length), 0.0),
-        "region_counts": w.astype(np.int64),
-    }
-
-
-def tiled_segment(points, normals, options: TileOptions, params: dict):
-    """VSA segmentation by tiles, stitched across tile borders.
-
-    Parameters
-    ----------
-    points, normals : ndarray of shape (N, 3)
-        Coordinates and oriented normals.
-    options : TileOptions
-        Tiling and cluster.
-    params : dict
-        ``k``, ``eta`` or ``max_angle`` (radians; neither: 10 degrees), ``split``,
-        ``merge``, ``switch`` (the `pointatlas.segment.vsa_segment` options; seeds
-        are every point, weights uniform).
-
-    Returns
-    -------
-    labels : ndarray of shape (N,), int64
-        Regions numbered by smallest member index.
-    quality : dict
-        ``n_regions``, ``energy`` (total L21), ``mse`` (plane MSE), per region
-        ``proxy_normals``, ``centroids``, ``region_l21``, ``region_counts``.
-    run : TiledRun
-
-    Notes
-    -----
-    Each tile runs `vsa_segment` on its points and halo with the owned points'
-    exact k-NN graph. A halo point carries two labels, its owner's and the
-    neighbour tile's: these pairs join regions by a union-find when the union
-    passes the VSA merge test (and, in angle mode, the two proxy normals lie
-    within the max angle). With ``eta``, a final cheapest-first merge pass over all
-    neighbouring regions (tile adjacency and halo links) then applies the same
-    test, as VSA's own final merge does (VSA runs none in angle mode).
-    """
-    return _segment_over(ArraySource(points, normals), options, params)
-
-
-def _segment_over(source, options, params, *, labels_out=None, spill_dir=None, client_info=None,
-                  normals_array=None, label="segment"):  # fmt: skip
-    k = int(params["k"])
-    grid = _grid_for(source, options)
-    halo0, fixed = _auto_halo(source, k, options)
-    if not fixed:  # context for VSA near the tile edges: a multiple of the typical r_k
-        typical = _estimate_spacing(source, k, typical=True)[1]
-        halo0 = max(halo0, SEGMENT_HALO_FACTOR * 1.25 * typical)
-    n = source.n
-    labels = np.zeros(n, dtype=np.int64) if labels_out is None else labels_out
-    per_tile = {}
-
-    def on_result(t, res):
-        per_tile[t] = res
-
-    with _maybe_client(options, client_info) as ci:
-        run = _run("segment", source, grid, params, options, ci, on_result, halo0=halo0,
-                   fixed=fixed, label=label, spill_dir=spill_dir, normals_array=normals_array,
-                   memory_per_point=8.0 * (4 * k + 80))  # fmt: skip
-    tiles = sorted(per_tile)
-    offsets, total = {}, 0
-    for t in tiles:
-        offsets[t] = total
-        total += per_tile[t]["n_regions"]
-    stats = np.zeros((total, 14))
-    first = np.full(total, np.iinfo(np.int64).max, dtype=np.int64)
-    for t in tiles:
-        r = per_tile[t]
-        o = offsets[t]
-        stats[o : o + r["n_regions"]] = r["stats"]
-        first[o : o + r["n_regions"]] = r["first"]
-        labels[r["gidx"]] = o + r["labels"]
-    # links: a halo point's label in its neighbour tile and in its owner tile
-    links, adjacency = [], []
-    for t in tiles:
-        r = per_tile[t]
-        if r["halo_gidx"].size:
-            links.append(np.column_stack([labels[r["halo_gidx"]], offsets[t] + r["halo_labels"]]))
-        if r["adjacency"].size:
-            adjacency.append(offsets[t] + r["adjacency"])
-    eta = params.get("eta")
-    max_angle = params.get("max_angle")
-    if eta is None and max_angle is None:
-        from .._core.tolerances import VSA_DEFAULT_MAX_ANGLE
-
-        max_angle = VSA_DEFAULT_MAX_ANGLE
-    tau2 = float(_estimate_spacing(source, k, typical=True)[1]) ** 2
-    regions = _Regions(stats, first, eta, None if eta is not None else math.cos(max_angle), tau2)
-    has_points = stats[:, 0] > 0
-    n_links = 0
-    if links:
-        pairs, counts = np.unique(np.concatenate(links), axis=0, return_counts=True)
-        keep = has_points[pairs[:, 0]] & has_points[pairs[:, 1]] & (pairs[:, 0] != pairs[:, 1])
-        pairs, counts = pairs[keep], counts[keep]
-        order = np.lexsort((pairs[:, 1], pairs[:, 0], -counts))
-        for a, b in pairs[order].tolist():
-            if regions.find(a) != regions.find(b) and regions.ok(regions.find(a), regions.find(b)):
-                regions.union(a, b)
-                n_links += 1
-    else:
-        pairs = np.zeros((0, 2), dtype=np.int64)
-    cand = [pairs]
-    if adjacency:
-        adj = np.concatenate(adjacency)
-        cand.append(adj[has_points[adj[:, 0]] & has_points[adj[:, 1]]])
-    # VSA's own final merge runs only with eta (in angle mode the mean-deviation test
-    # lets a large region absorb a small perpendicular one); so does this one
-    final_pass = params.get("merge", True) and eta is not None
-    n_final = _greedy_merge(regions, np.concatenate(cand)) if final_pass else 0
-    roots = np.array([regions.find(i) for i in range(total)], dtype=np.int64)
-    live = np.unique(roots[has_points])
-    live = live[np.argsort(regions.first[live], kind="stable")]
-    rank = np.full(total, -1, dtype=np.int64)
-    rank[live] = np.arange(live.size)
-    final = rank[roots]
-    for sl in _chunked(n):
-        labels[sl] = final[labels[sl]]
-    quality = _quality(regions.st[live])
-    run.extra.update(tile_regions=int(has_points.sum()), halo_unions=n_links, final_merges=n_final)
-    return labels, quality, run
 
 
 def clean_tmp(folder: Path) -> None:

@@ -20,13 +20,14 @@ from .._core import PointAtlasError
 from ._tiles import (
     ArraySource,
     TileOptions,
-    _denoise_over,
-    _features_over,
-    _normals_over,
-    _segment_over,
+    release_pages,
     tile_client,
 )
+from ._tiles_denoise import denoise_over
+from ._tiles_features import features_over
 from ._tiles_las import LAS_EXTENSIONS, las_tiled
+from ._tiles_normals import normals_over
+from ._tiles_segment import segment_over
 
 __all__ = [
     "denoise_params",
@@ -41,6 +42,13 @@ __all__ = [
 
 #: What each command refuses with --tile-size (needs every point in one process).
 _REFUSED = "needs every point in one process; leave out --tile-size or this option"
+#: Why the pictures are refused: a tiled run never holds the whole result in one process.
+_WHY = {
+    "report": "(the report embeds the result of every point, which a tiled run never holds "
+    "in one process); leave out --tile-size, or run untiled on a cropped part for a report",
+    "render": "(the picture draws the result of every point, which a tiled run never holds "
+    "in one process); leave out --tile-size, or run untiled on a cropped part for a picture",
+}
 
 
 def tile_options(tile_size, halo=None, workers=None, scheduler=None, max_memory=None,
@@ -75,6 +83,9 @@ def refuse(options: TileOptions | None, **flags) -> None:
         return
     for flag, value in flags.items():
         if value:
+            why = _WHY.get(flag)
+            if why is not None:
+                raise PointAtlasError(f"--{flag} needs every point in one process {why}")
             raise PointAtlasError(f"--{flag.replace('_', '-')} {_REFUSED}")
 
 
@@ -174,6 +185,7 @@ def run_tiled_command(kind: str, in_path, out_path, params: dict, options: TileO
                 cols = np.lib.format.open_memmap(tmp / "colors.npy", "w+", np.uint8, (n, 3))
                 for s in range(0, n, 1 << 22):
                     cols[s : s + (1 << 22)] = label_colors(np.asarray(labels[s : s + (1 << 22)]))
+                    release_pages(cols, labels)
                 return {"colors": cols}
 
         summary = las_tiled(kind, in_path, out_path, params, options, normal_params=normal_params,
@@ -186,15 +198,30 @@ def run_tiled_command(kind: str, in_path, out_path, params: dict, options: TileO
     return summary, written
 
 
+def _read_whole(path, *, with_normals: bool = True):
+    """IN read whole: a point file, or a bundled model name (``pointatlas data list``)
+    where no such file exists (bundled models are small; they run by tiles like a file)."""
+    from ..io import read_point_set
+
+    p = Path(path)
+    if not p.exists():
+        from .. import data
+
+        if str(path) in data.names():
+            ps = data.load(str(path))
+            return ps if with_normals else ps.replace(normals=None)
+    return read_point_set(p, with_normals=with_normals)
+
+
 def _in_memory(kind, in_path, out_path, params, options, normal_params, label_colors):
-    from ..io import merge_attributes, read_point_set, write_point_set
+    from ..io import merge_attributes, write_point_set
 
     need_normals = kind in ("segment", "denoise", "features")
-    ps = read_point_set(in_path, with_normals=False)
+    ps = _read_whole(in_path, with_normals=False)
     given = None
     if kind == "normals" or need_normals:
         try:
-            given = read_point_set(in_path).normals
+            given = _read_whole(in_path).normals
         except PointAtlasError:
             given = None
     summary = {"points": ps.n_points}
@@ -204,7 +231,7 @@ def _in_memory(kind, in_path, out_path, params, options, normal_params, label_co
         summary["scheduler"] = ci[1]
         normals = given
         if normal_params is not None:
-            normals, run_n = _normals_over(
+            normals, run_n = normals_over(
                 ArraySource(ps.points), replace(options, halo=None), k=normal_params["k"],
                 orient="mst",
                 orient_k=normal_params.get("orient_k", 10), viewpoint=None, client_info=ci,
@@ -214,16 +241,16 @@ def _in_memory(kind, in_path, out_path, params, options, normal_params, label_co
                 ours["input_normals"] = given
             out_normals = normals
         if kind == "normals":
-            out_normals, run = _normals_over(ArraySource(ps.points), options, client_info=ci,
+            out_normals, run = normals_over(ArraySource(ps.points), options, client_info=ci,
                                              **params)  # fmt: skip
             if given is not None:
                 ours["input_normals"] = given
         elif kind == "features":
             src = ArraySource(ps.points, normals if params["mode"] == "optimal" else None)
-            fields, run = _features_over(src, options, params, client_info=ci)
+            fields, run = features_over(src, options, params, client_info=ci)
             ours.update(fields)
         elif kind == "segment":
-            labels, quality, run = _segment_over(ArraySource(ps.points, normals), options, params,
+            labels, quality, run = segment_over(ArraySource(ps.points, normals), options, params,
                                                  client_info=ci)  # fmt: skip
             summary["quality"] = {k: quality[k] for k in ("n_regions", "energy", "mse")}
             summary["regions"] = quality
@@ -232,7 +259,7 @@ def _in_memory(kind, in_path, out_path, params, options, normal_params, label_co
                 ours["colors"] = label_colors(labels)
         elif kind == "denoise":
             src = ArraySource(ps.points, normals)
-            out, run = _denoise_over(src, options, params, client_info=ci)
+            out, run = denoise_over(src, options, params, client_info=ci)
             summary["spacing"] = out["spacing"]
             out_points, out_normals = out["points"], out["normals"]
             ours.update({k: v for k, v in out.items() if k not in ("points", "normals", "spacing")})
@@ -255,10 +282,8 @@ def input_has_normals(path) -> bool:
         from ._tiles_las import LasSource
 
         return LasSource(p).has_normals
-    from ..io import read_point_set
-
     try:
-        return read_point_set(p).normals is not None
+        return _read_whole(p).normals is not None
     except PointAtlasError:
         return False
 
@@ -304,35 +329,39 @@ def feature_params(*, weights, k, k_range, a_grid, b_grid, flatness, criterion, 
             "flatness": flat}  # fmt: skip
 
 
-def segment_params(*, method, seeds, weights, classic, k, eta, max_angle_deg, split, merge,
-                   switch):  # fmt: skip
-    """``pointatlas segment``'s flags for the tiled path (VSA from every point,
-    uniform weights: what can be stitched), or a one-line error."""
+def segment_params(*, method, options=None, seeds="all", weights="uniform", classic=False,
+                   k=8, eta=None, max_angle_deg=None, split=True, merge=True,
+                   switch="batch"):  # fmt: skip
+    """``pointatlas segment``'s settings for the tiled path: one
+    `pointatlas.segment.VSAOptions` (``options``, as the untiled command builds it;
+    or built here from the flags), checked to be stitchable (VSA from every point,
+    uniform weights), or a one-line error."""
+    from ..segment import VSAOptions
+    from ._tiles_segment import vsa_options
+
     if method != "vsa":
         raise PointAtlasError(f"--method {method} cannot run by tiles; only vsa is stitched")
-    if seeds != "all":
-        raise PointAtlasError("--seeds must be 'all' with --tile-size (regions grow per tile)")
-    if weights != "uniform":
-        raise PointAtlasError("--weights must be uniform with --tile-size")
-    if classic:
-        raise PointAtlasError(f"--classic {_REFUSED}")
-    return {
-        "k": int(k),
-        "eta": eta,
-        "max_angle": None if max_angle_deg is None else math.radians(max_angle_deg),
-        "split": bool(split),
-        "merge": bool(merge),
-        "switch": switch,
-    }
+    if options is None:
+        if classic:
+            raise PointAtlasError(f"--classic {_REFUSED}")
+        if seeds != "all":
+            raise PointAtlasError("--seeds must be 'all' with --tile-size (regions grow per tile)")
+        if weights != "uniform":
+            raise PointAtlasError("--weights must be uniform with --tile-size")
+        angle = None if max_angle_deg is None else math.radians(max_angle_deg)
+        options = VSAOptions(k=int(k), eta=eta, max_angle=angle, split=bool(split),
+                             merge=bool(merge), switch=switch)  # fmt: skip
+    return vsa_options(options)
 
 
 def denoise_params(path, *, method, estimate, rho, tau, n_iter, filter_iter, max_step, k, eta,
                    eps, schedule, k_start):  # fmt: skip
-    """``pointatlas denoise``'s flags for the tiled path ("auto": adaptive normal voting
-    when IN has normals or they are estimated, else flatness)."""
+    """``pointatlas denoise``'s flags for the tiled path ("auto": the method the untiled
+    command runs, `pointatlas.denoise.choose_method`: normal voting)."""
     if method == "auto":
-        has = bool(estimate) or (estimate is None and input_has_normals(path))
-        method = "normal-voting-adaptive" if has else "flatness"
+        from ..denoise import choose_method
+
+        method = choose_method(np.zeros((1, 3)))
     if method == "flatness":
         return {"method": method, "k": int(k), "eta": eta, "eps": eps,
                 "n_iter": 60 if n_iter is None else int(n_iter), "schedule": schedule,

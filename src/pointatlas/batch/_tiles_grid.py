@@ -16,10 +16,8 @@ from .._core import PointAtlasError
 
 __all__ = ["TileGrid", "exact_tile_knn", "make_grid"]
 
-#: Candidates beyond k asked of the tile's own k-NN query before the exact re-sort.
-_EXTRA_CANDIDATES = 4
 #: Absolute distance tolerance, in units of eps x the largest centred coordinate, by
-#: which a certified k-th distance must stay below the candidate / halo bound.
+#: which a certified k-th distance must stay below the distance to the halo box.
 _TOL_ULPS = 64.0
 
 
@@ -161,9 +159,8 @@ def exact_tile_knn(xyz, rows, k: int, center, bdist, *, min_cols: int = 0):
     Returns
     -------
     table : ndarray of shape (n, kq), int64
-        The tile's own k-NN table (kq >= k columns) with the certified ``rows``
-        replaced by the exact global order: self first, then by (squared distance in
-        the global arithmetic, index).
+        The tile's k-NN table (kq = max(k, min_cols) columns, at most n): self
+        first, then by (squared distance in the global arithmetic, index).
     bad : ndarray of int
         Rows whose k-th neighbour may lie outside the halo box.
     r_k : ndarray of shape (len(rows),)
@@ -172,58 +169,24 @@ def exact_tile_knn(xyz, rows, k: int, center, bdist, *, min_cols: int = 0):
     Notes
     -----
     `query_knn` compares ``dx*dx + dy*dy + dz*dz`` on coordinates minus the
-    bounding-box centre and breaks ties by index. The tile's query centres on its
-    own box, so its distances may differ in the last bits; the candidates (k + 4)
-    are therefore re-sorted here with the global centring and the global index
-    order (the tile keeps points in global order, so local order = global order).
-    A row is certified when its k-th distance plus a rounding tolerance is below
-    (a) the distance of the last candidate (no point left out can be nearer) and
-    (b) its distance to the halo box (no point outside the tile can be nearer).
-    Rows failing (a) are re-queried with twice the candidates; rows failing (b)
-    are returned in ``bad``.
+    bounding-box centre of all points and breaks ties by index. The tile is
+    queried in the same frame (a `NeighborIndex` with ``center`` = the global
+    centre): its squared distances are the global ones bit for bit, and its
+    local index order is the global one.
+    A row is certified when its k-th distance plus a tolerance (for the rounding
+    of the halo box distance) is below its distance to the halo box: no point
+    outside the tile can then be nearer, and the row equals the untiled row.
+    Rows that are not certified are returned in ``bad``.
     """
-    from ..neighbors import query_knn
-
     n = xyz.shape[0]
     rows = np.asarray(rows, dtype=np.int64)
     if n < k:
         return None, rows, np.full(rows.size, np.inf)
-    P = xyz - center
-    tol = _TOL_ULPS * np.finfo(np.float64).eps * max(1.0, float(np.abs(P).max()))
-    extra = _EXTRA_CANDIDATES
-    todo = rows
-    r_k = np.empty(rows.size)
-    pos = np.empty(n, dtype=np.int64)
-    pos[rows] = np.arange(rows.size)
-    table = None
-    while True:
-        kq = min(max(k + extra, min_cols), n)
-        idx = query_knn(xyz, kq)[0]
-        if table is None:
-            table = idx
-        elif table.shape[1] < kq:
-            grown = np.empty((n, kq), dtype=np.int64)
-            grown[:, : table.shape[1]] = table
-            grown[:, table.shape[1] :] = idx[:, table.shape[1] :]
-            grown[todo] = idx[todo]
-            table = grown
-        cand = idx[todo]
-        d = P[cand] - P[todo][:, None, :]
-        d2 = d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2]
-        d2[cand == todo[:, None]] = -1.0  # the point itself first, even before duplicates
-        order = np.lexsort((cand, d2), axis=-1)
-        cand = np.take_along_axis(cand, order, axis=1)
-        d2 = np.take_along_axis(d2, order, axis=1)
-        rk = np.sqrt(np.maximum(d2[:, k - 1], 0.0))
-        table[todo, :kq] = cand
-        r_k[pos[todo]] = rk
-        if kq >= n:
-            break
-        last = np.sqrt(d2[:, -1])
-        unsure = rk + 2.0 * tol >= last
-        if not unsure.any():
-            break
-        todo = todo[unsure]
-        extra *= 2
+    from ..neighbors import NeighborIndex
+
+    index = NeighborIndex(xyz, center=center)
+    tol = _TOL_ULPS * np.finfo(np.float64).eps * max(1.0, float(np.abs(index.points_).max()))
+    table, dist = index.knn(min(max(k, min_cols), n))
+    r_k = dist[rows, k - 1]
     bad = rows[~(r_k + 2.0 * tol < bdist[rows])]
     return table, bad, r_k

@@ -20,14 +20,15 @@ import numpy as np
 from .._core import PointAtlasError, as_normals
 from ._tiles import (
     TileOptions,
-    _denoise_over,
-    _features_over,
-    _normals_over,
-    _segment_over,
     clean_tmp,
     make_tmp,
+    release_pages,
     tile_client,
 )
+from ._tiles_denoise import denoise_over
+from ._tiles_features import features_over
+from ._tiles_normals import normals_over
+from ._tiles_segment import segment_over
 
 __all__ = ["LAS_EXTENSIONS", "LasSource", "las_tiled"]
 
@@ -70,22 +71,25 @@ class LasSource:
         self._bounds = None
         self.decode_seconds = 0.0
 
-    def _open(self, full: bool):
+    def _open(self, full: bool, normals: bool):
         import laspy
 
         sel = laspy.DecompressionSelection
         what = None
         if not full:
             what = sel.XY_RETURNS_CHANNEL | sel.Z
-            if self.use_normals:
+            if normals:
                 what |= sel.ALL_EXTRA_BYTES
         kwargs = {} if what is None else {"decompression_selection": what}
         return laspy.open(self.path, **kwargs)
 
-    def records(self, full: bool = True):
-        """(start, laspy point record) chunks in file order."""
+    def records(self, full: bool = True, *, normals: bool | None = None):
+        """(start, laspy point record) chunks in file order (``full``: every
+        dimension; else x, y, z and, with ``normals`` (default `use_normals`),
+        the extra bytes)."""
         start = 0
-        with self._open(full) as reader:
+        normals = self.use_normals if normals is None else normals
+        with self._open(full, normals) as reader:
             it = reader.chunk_iterator(self.chunk_points)
             while True:
                 t0 = time.perf_counter()
@@ -116,7 +120,8 @@ class LasSource:
             hi = np.full(3, -np.inf)
             stride = max(1, self.n // SAMPLE_POINTS)
             parts = []
-            for s, xyz, _ in self.chunks():
+            for s, rec in self.records(full=False, normals=False):
+                xyz = self.xyz_of(rec)
                 lo = np.minimum(lo, xyz.min(axis=0))
                 hi = np.maximum(hi, xyz.max(axis=0))
                 parts.append(xyz[(-s) % stride :: stride])
@@ -239,6 +244,7 @@ def write_streamed(src: LasSource, out_path, fields: dict, *, normals=None, poin
                         v = v.astype(np.uint8)
                     out[name] = v
                 writer.write_points(out)
+                release_pages(*fields.values(), normals, points)
     return out_path
 
 
@@ -276,13 +282,14 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
     tmp = make_tmp(options, Path(out_path))
     summary = {"points": src.n}
     try:
+        src.bounds()  # the first pass (bounds, subsample): an empty file fails here
         with tile_client(options) as ci:
             summary["scheduler"] = ci[1]
             normals = None
             if normal_params is not None:
                 normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
                 src.use_normals = False
-                _, run_n = _normals_over(
+                _, run_n = normals_over(
                     src, replace(options, halo=None), k=normal_params["k"], orient="mst",
                     orient_k=normal_params.get("orient_k", 10), viewpoint=None, out=normals,
                     spill_dir=tmp, client_info=ci, label="normals",
@@ -293,13 +300,13 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
             if kind == "normals":
                 normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
                 src.use_normals = False
-                _, run = _normals_over(src, options, out=normals, spill_dir=tmp, client_info=ci,
+                _, run = normals_over(src, options, out=normals, spill_dir=tmp, client_info=ci,
                                        **params)  # fmt: skip
                 write_kwargs["normals"] = normals
             elif kind == "features":
                 src.use_normals = params["mode"] == "optimal" and normals is None
                 alloc = _Alloc(tmp, src.n)
-                fields, run = _features_over(
+                fields, run = features_over(
                     src, options, params, out=alloc, spill_dir=tmp, client_info=ci,
                     normals_array=normals,
                 )  # fmt: skip
@@ -307,7 +314,7 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
             elif kind == "segment":
                 src.use_normals = normals is None
                 labels = _memmap(tmp, "label", np.int64, (src.n,))
-                labels, quality, run = _segment_over(
+                labels, quality, run = segment_over(
                     src, options, params, labels_out=labels, spill_dir=tmp, client_info=ci,
                     normals_array=normals,
                 )  # fmt: skip
@@ -322,7 +329,7 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
                 src.use_normals = normals is None
                 alloc = _Alloc(tmp, src.n)
                 outs = alloc.dict_with(points=(np.float64, 3), normals=(np.float64, 3))
-                out, run = _denoise_over(src, options, params, spill_dir=tmp, client_info=ci,
+                out, run = denoise_over(src, options, params, spill_dir=tmp, client_info=ci,
                                          outs=outs, normals_array=normals)  # fmt: skip
                 summary["spacing"] = out["spacing"]
                 fields = {k: v for k, v in out.items() if k not in ("points", "normals", "spacing")}

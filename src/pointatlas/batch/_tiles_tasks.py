@@ -103,30 +103,22 @@ def _smooth_pieces(table, normals):
     (|n_i . n_j| >= `SMOOTH_COS`), and the links between pieces over the other edges.
 
     Returns the piece of every point and an (m, 3) array of (piece a, piece b, sum of
-    n_i . n_j over the a-b edges): how the tile's MST oriented neighbouring pieces
-    across sharp edges, used only where no halo joins them.
+    n_i . n_j over the a-b edges), sorted by (a, b): how the tile's MST oriented
+    neighbouring pieces across sharp edges, used only where no halo joins them.
     """
-    from scipy import sparse
-    from scipy.sparse import csgraph
+    from ._kernels import smooth_pieces_kernel
 
-    n, k = table.shape
-    rows = np.repeat(np.arange(n, dtype=np.int64), k)
-    cols = table.reshape(-1)
-    dots = np.einsum("ij,ij->i", normals[rows], normals[cols])
-    smooth = np.abs(dots) >= SMOOTH_COS
-    graph = sparse.csr_array(
-        (np.ones(int(smooth.sum()), dtype=np.int8), (rows[smooth], cols[smooth])), (n, n)
-    )
-    _, labels = csgraph.connected_components(graph, directed=True, connection="weak")
-    labels = labels.astype(np.int64)
-    a, b = labels[rows[~smooth]], labels[cols[~smooth]]
-    cross = a != b
-    if not cross.any():
+    table = np.ascontiguousarray(table, dtype=np.int64)
+    normals = np.ascontiguousarray(normals, dtype=np.float64)
+    labels, a, b, dots = smooth_pieces_kernel(table, normals, SMOOTH_COS)
+    if not a.size:
         return labels, np.zeros((0, 3))
-    pairs = np.column_stack([np.minimum(a, b), np.maximum(a, b)])[cross]
-    uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
-    sums = np.bincount(inv.ravel(), weights=dots[~smooth][cross], minlength=uniq.shape[0])
-    return labels, np.column_stack([uniq.astype(np.float64), sums])
+    key = a * (int(labels.max()) + 1) + b
+    order = np.argsort(key, kind="stable")
+    key = key[order]
+    start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    sums = np.add.reduceat(dots[order], start)
+    return labels, np.column_stack([a[order][start], b[order][start], sums]).astype(np.float64)
 
 
 def _piece_tops(comp, owned, z, gidx, nz) -> dict:
@@ -206,36 +198,15 @@ def features_task(spec, data):
 # --------------------------------------------------------------------------- denoise
 
 
-def denoise_halo(params, spacing: float, r_k: float) -> float:
-    """Halo that keeps every owned point's result free of the tile border.
-
-    One iteration moves a point with its neighbours' positions: after t
-    iterations a point depends on points up to t neighbourhood radii (plus the
-    moves) away. Flatness: ``n_iter * (r_k + spacing)`` (r_k the k-th neighbour
-    distance at the largest k of the schedule). Normal voting: every filter step
-    reads a ball of ``radius_factor * l`` and each outer iteration runs
-    ``filter_iter`` steps and one update: ``n_iter * (filter_iter + 1) *
-    (radius_factor * l + max_step * l)``.
-    """
-    if params["method"] == "flatness":
-        return float(params["n_iter"]) * (r_k + spacing)
-    from .._core.tolerances import DENOISE_RADIUS_FACTOR
-
-    radius = DENOISE_RADIUS_FACTOR * spacing
-    steps = float(params["n_iter"]) * (float(params["filter_iter"]) + 1.0)
-    return steps * (radius + float(params["max_step"]) * spacing)
-
-
 def denoise_task(spec, data):
     """Denoise the whole tile and keep the owned points.
 
-    Normal voting measures lengths in l, the mean 6-NN spacing of its input; the
-    tile's l differs from the global one, so the radius factor and the step bound
-    are rescaled by ``l_global / l_tile`` (the radius and step in coordinates are
-    then those of the untiled run up to rounding).
+    Normal voting reads the tile's exact k-NN table (``columns`` of
+    `pointatlas.denoise.denoise_halo`, owned rows certified) and the global l
+    (``spacing``), so its owned points are those of the untiled run wherever the
+    counts are fixed. Flatness re-queries its neighbours on the moved points.
     """
     from ..denoise import flatness_denoise, normal_voting_denoise
-    from ..neighbors import mean_spacing
 
     _threads(spec)
     p = spec["params"]
@@ -247,13 +218,16 @@ def denoise_task(spec, data):
             schedule=p["schedule"], k_start=p["k_start"], normals=nrm,
         )  # fmt: skip
     else:
-        from .._core.tolerances import DENOISE_RADIUS_FACTOR
-
-        scale = p["spacing"] / mean_spacing(xyz, 6)
+        table = None
+        if xyz.shape[0] >= p["columns"]:
+            table, fail = _certified_table(spec, xyz, owned, bdist, p["columns"])
+            if fail:
+                return fail
         res = normal_voting_denoise(
             xyz, nrm, rho=p["rho"], tau=p["tau"], n_iter=p["n_iter"],
-            n_filter_iter=p["filter_iter"], adaptive=p["method"] == "normal-voting-adaptive",
-            max_step=p["max_step"] * scale, radius_factor=DENOISE_RADIUS_FACTOR * scale,
+            n_filter_iter=p["filter_iter"], n_update=p.get("n_update"),
+            adaptive=p["method"] == "normal-voting-adaptive", max_step=p["max_step"],
+            neighbors=table, spacing=p["spacing"],
         )  # fmt: skip
     fields = {
         "displacement": res.displacement[owned],
@@ -307,15 +281,13 @@ def segment_task(spec, data):
     _threads(spec)
     p = spec["params"]
     grid, xyz, owner, owned, bdist = _setup(spec, data)
-    k = p["k"]
+    vsa = p["vsa"]
+    k = vsa.k
     table, fail = _certified_table(spec, xyz, owned, bdist, k)
     if fail:
         return fail
     nrm = data["normals"]
-    res = vsa_segment(
-        xyz, nrm, k=k, eta=p["eta"], max_angle=p["max_angle"], split=p["split"],
-        merge=p["merge"], switch=p["switch"], neighbors=np.ascontiguousarray(table[:, :k]),
-    )  # fmt: skip
+    res = vsa_segment(xyz, nrm, options=vsa, neighbors=np.ascontiguousarray(table[:, :k]))
     labels = np.asarray(res.labels, dtype=np.int64)
     m = res.n_regions
     gidx = data["gidx"]

@@ -1,8 +1,9 @@
 """Command-line interface ``pointatlas`` (typer + rich).
 
 Command modules register themselves on import; add one name per module to
-``_COMMAND_MODULES`` (keep it sorted). They are imported on first use of ``app``,
-so that ``main`` can install its Ctrl-C handler before the heavy imports.
+``_COMMAND_MODULES`` (``_cmd_core`` first, the rest sorted): the help lists the
+commands and ``demo`` runs the steps in that order. They are imported on first use
+of ``app``, so that ``main`` can install its Ctrl-C handler before the heavy imports.
 """
 
 from __future__ import annotations
@@ -16,13 +17,14 @@ __all__ = ["app", "main"]
 
 # command modules (each registers on ``app`` / sub-apps when imported)
 _COMMAND_MODULES = (
-    "_cmd_cloudsurface",
     "_cmd_core",
+    "_cmd_cloudsurface",
     "_cmd_data",
     "_cmd_deform",
     "_cmd_denoise",
     "_cmd_experiment",
     "_cmd_features",
+    "_cmd_info",
     "_cmd_render",
     "_cmd_segment",
     "_cmd_simplify",

@@ -12,6 +12,7 @@ import signal
 import sys
 import threading
 from collections.abc import Callable
+from pathlib import Path
 from typing import Annotated
 
 import numpy as np
@@ -215,8 +216,6 @@ def demo_step(func: Callable) -> Callable:
 def read_input(path, *, with_normals: bool = True, zero_normals: str = "raise"):
     """Read IN: a point set or mesh file, or, where no such file exists, a bundled
     model name (``pointatlas data list``: ``fandisk``, ``synth:cube``, ...)."""
-    from pathlib import Path
-
     from ..io import read_point_set
 
     p = Path(path)
@@ -295,6 +294,17 @@ WeightsOption = Annotated[str, typer.Option("--weights", help="uniform or area (
 MaxIterOption = Annotated[int, typer.Option("--max-iter", help="VSA iterations.")]
 #: ``--seed``: draws the random VSA seeds; recorded with the outputs (default 0).
 VSASeedOption = Annotated[int, typer.Option("--seed", help="Seed for random VSA seeds.")]
+
+#: ``IN``: a point-set or mesh file, or a bundled model name (`read_input`).
+InputArgument = Annotated[
+    Path, typer.Argument(metavar="IN", help="Point set or mesh file, or a bundled model name.")
+]
+#: ``--report``: an HTML report with a 3-D view of the result (`pointatlas.viz`), the
+#: same flag on normals, features and segment.
+ReportOption = Annotated[
+    Path | None,
+    typer.Option("--report", help="Also write an HTML report with a 3-D view (.html)."),
+]
 
 #: Tiled processing (`pointatlas.batch`), the same five flags on normals, features,
 #: segment and denoise; `tile_options` turns them into a ``TileOptions`` (None

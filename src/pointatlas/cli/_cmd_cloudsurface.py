@@ -32,7 +32,6 @@ from .._core import PointAtlasError, as_float, as_int
 from ..complex import cloud_complex, curve_report, realise_complex, surface_report
 from ..cover import ball_cover, search_cover_scale
 from ._app import app, console, guarded, progress_bar, read_input, say
-from ._cmd_core import REPORT_EXTENSIONS
 from ._outputs import (
     check_outputs,
     check_point_output,
@@ -41,6 +40,7 @@ from ._outputs import (
     write_summary_json,
     write_text,
 )
+from ._reports import REPORT_EXTENSIONS
 
 __all__ = [
     "cloudsurface_command",

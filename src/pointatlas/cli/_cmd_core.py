@@ -1,4 +1,4 @@
-"""Core commands: ``info``, ``normals``, ``demo`` (``render``, ``data``: own modules).
+"""Core commands: ``normals``, ``demo`` (``info``, ``render``, ``data``: own modules).
 
 Conventions (docs/decisions/cli.md): user errors print one red line and exit
 1, usage errors exit 2 (typer); outputs are written atomically; angles on the
@@ -20,7 +20,6 @@ from rich.table import Table
 
 from .._core import PointAtlasError, PointSet
 from ..io import (
-    MESH_EXTENSIONS,
     POINT_WRITE_EXTENSIONS,
     read_mesh,
     read_point_set,
@@ -32,6 +31,7 @@ from ._app import (
     DEMO_STEPS,
     HaloOption,
     MaxMemoryOption,
+    ReportOption,
     SchedulerOption,
     TileSizeOption,
     WorkersOption,
@@ -45,17 +45,18 @@ from ._app import (
     say,
     tile_options,
 )
+from ._cmd_info import info_table
 from ._outputs import (
     check_outputs,
     check_point_output,
     write_point_output,
     write_text,
 )
+from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 
 __all__ = [
     "DEMO_STEPS",
     "REPORT_EXTENSIONS",
-    "info_table",
     "report_layer",
     "report_summary",
     "report_up",
@@ -66,64 +67,11 @@ __all__ = [
 
 #: Orientation methods of ``pointatlas normals`` (``none`` keeps PCA signs).
 ORIENT_METHODS = ("mst", "outward", "viewpoint", "none")
-#: Point-only formats whose data are conventionally z-up (LiDAR / GIS).
-Z_UP_EXTENSIONS = (".las", ".laz")
 #: Model used by ``pointatlas demo``.
 DEMO_MODEL = "fandisk"
 
 
 # --------------------------------------------------------------------------- helpers
-
-
-def _fmt(x: float) -> str:
-    return f"{x:.6g}"
-
-
-def _vec(v) -> str:
-    return "(" + ", ".join(_fmt(float(c)) for c in v) + ")"
-
-
-def info_table(info: dict, *, title: str | None = None) -> Table:
-    """A rich table of :func:`point_set_info`'s dict."""
-    table = Table(title=title, show_header=False, title_justify="left")
-    table.add_column("property", style="bold")
-    table.add_column("value")
-    table.add_row("points", f"{info['points']:,}")
-    if info["faces"] is not None:
-        kind = f" ({info['face_kind']})" if info.get("face_kind") else ""
-        table.add_row("faces", f"{info['faces']:,}{kind}")
-    table.add_row("normals", "yes" if info["normals"] else "no")
-    if info["bbox_min"] is not None:
-        table.add_row("bounding box min", _vec(info["bbox_min"]))
-        table.add_row("bounding box max", _vec(info["bbox_max"]))
-        table.add_row("bounding box size", _vec(info["bbox_size"]))
-    if info["mean_spacing"] is not None:
-        table.add_row(f"mean spacing l ({info['mean_spacing_k']}-NN)", _fmt(info["mean_spacing"]))
-    comp = f"{info['knn_components']:,}"
-    if info["knn_components"] > 1:
-        comp += f" (largest {info['largest_component']:,} points)"
-    table.add_row(f"{info['knn_k']}-NN components", comp)
-    table.add_row("duplicate points", f"{info['duplicates']:,}")
-    attrs = info["attributes"]
-    listed = ", ".join(
-        f"{name} ({a['dtype']}{'x' + 'x'.join(map(str, a['shape'])) if a['shape'] else ''})"
-        for name, a in attrs.items()
-    )
-    table.add_row("attributes", escape(listed) or "none")
-    return table
-
-
-def _read_for_info(path: Path):
-    """Read a file for ``info``: all points, normals if usable, faces if a mesh."""
-    n_faces = face_sizes = None
-    if path.suffix.lower() in MESH_EXTENSIONS:
-        mesh = read_mesh(path)
-        if mesh.n_faces or path.suffix.lower() != ".ply":
-            n_faces, face_sizes = mesh.n_faces, mesh.face_sizes
-    ps = read_point_set(path, zero_normals="drop")
-    if "source_index" in ps.attributes:  # some points lack a normal: keep them all
-        ps = read_point_set(path, with_normals=False)
-    return ps, n_faces, face_sizes
 
 
 def _compute_normals(points, *, k: int, orient: str, orient_k: int, viewpoint, advance):
@@ -157,79 +105,6 @@ def _compute_normals(points, *, k: int, orient: str, orient_k: int, viewpoint, a
     return oriented
 
 
-# --------------------------------------------------------------------------- reports
-
-#: Extensions of ``--report``.
-REPORT_EXTENSIONS = (".html", ".htm")
-
-
-def report_summary(path, ps: PointSet) -> dict:
-    """The input part of a command's ``--report``: file, size, normals, fields, box."""
-    summary = {
-        "file": str(path),
-        "points": int(ps.n_points),
-        "normals": "yes" if ps.has_normals else "no",
-        "input fields": ", ".join(sorted(ps.attributes)) or "none",
-    }
-    if ps.n_points:
-        summary["bounding box min"] = ps.points.min(axis=0).tolist()
-        summary["bounding box max"] = ps.points.max(axis=0).tolist()
-    return summary
-
-
-def report_layer(ps: PointSet, ours: dict, *, color_by: str | None = None):
-    """A `PointsLayer` of our per-point fields, then the input's numeric ones.
-
-    Only one value per point is drawn (vectors such as colours are left out); an
-    input field whose name one of ours uses is shown as ``input <name>``.
-    """
-    from ..viz import PointsLayer
-
-    fields = {}
-    for prefix, source in (("", ours), ("input ", ps.attributes)):
-        for name, values in source.items():
-            arr = np.asarray(values)
-            if arr.shape != (ps.n_points,) or arr.dtype.kind not in "biuf":
-                continue
-            fields[name if name not in fields else prefix + name] = arr
-    return PointsLayer(ps.points, fields, color_by=color_by if color_by in fields else None)
-
-
-def report_up(path) -> str:
-    """Up axis of a report's 3-D view: z for LAS/LAZ (lidar), else y."""
-    return "z" if Path(path).suffix.lower() in Z_UP_EXTENSIONS else "y"
-
-
-# --------------------------------------------------------------------------- info
-
-
-@app.command("info")
-@guarded
-def info_command(
-    file: Annotated[
-        Path,
-        typer.Argument(metavar="IN", help="Point set or mesh (PLY, OBJ, OFF, STL, XYZ, LAS)."),
-    ],
-    k: Annotated[
-        int, typer.Option("--k", help="k of the k-NN graph whose components are counted.")
-    ] = 8,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")] = False,
-):
-    """Summary of a point set: size, bounding box, spacing, k-NN components, attributes."""
-    with progress_bar(f"reading {file.name}") as advance:
-        ps, n_faces, face_sizes = _read_for_info(file)
-        advance()
-    with progress_bar("neighbourhoods") as advance:
-        info = point_set_info(ps, k=k, n_faces=n_faces, face_sizes=face_sizes)
-        advance()
-    info = {"file": str(file), **info}
-    if as_json:
-        typer.echo(json.dumps(info, indent=2))
-    else:
-        say(f"file: {file}")
-        console.print(info_table(info))
-
-
 # --------------------------------------------------------------------------- normals
 
 
@@ -253,10 +128,7 @@ def normals_command(
         tuple[float, float, float] | None,
         typer.Option("--viewpoint", help="Sensor position X Y Z for --orient viewpoint."),
     ] = None,
-    report: Annotated[
-        Path | None,
-        typer.Option("--report", help="Also write an HTML report with a 3-D view (.html)."),
-    ] = None,
+    report: ReportOption = None,
     tile_size: TileSizeOption = None,
     halo: HaloOption = None,
     workers: WorkersOption = None,

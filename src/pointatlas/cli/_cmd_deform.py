@@ -13,8 +13,9 @@ from .._core import PointAtlasError
 from ..complex import cloud_complex
 from ._app import app, console, guarded, read_input, say
 from ._outputs import check_outputs, write_summary_json
+from ._reports import REPORT_EXTENSIONS, report_layer
 
-__all__ = ["deform_command", "load_cloudsurface"]
+__all__ = ["deform_command", "deform_report_table", "load_cloudsurface"]
 
 
 def load_cloudsurface(folder: Path):
@@ -57,20 +58,30 @@ def deform_command(
         Path | None,
         typer.Option("--points", help="Points to move (default: the cloud surface's points)."),
     ] = None,
+    report: Annotated[
+        Path | None,
+        typer.Option(
+            "--report",
+            help="Also write an HTML report with a 3-D view of the moved points "
+            "(coloured by displacement) and the moved complex (.html).",
+        ),
+    ] = None,
 ):
     """Move the points of a cloud surface with its cloud points (Algorithm 3).
 
     Points in three clouds follow their triangle, in two clouds their edge, in one
     cloud their vertex; points that cannot be routed keep their position and are
-    counted (field ``route`` = 0). Writes OUT and, last, OUT.json.
+    counted (field ``route`` = 0). Writes OUT, with ``--report`` an HTML report and,
+    last, OUT.json.
     """
     from ..dynamics import deform_points
 
     json_path = output.with_suffix(".json")
     check_outputs(
         [surface_dir / "cloudsurface.npz", new_cloud_points, points_path],
-        [("OUT", output, (".ply",)), ("OUT's summary", json_path, None)],
-    )
+        [("OUT", output, (".ply",)), ("OUT's summary", json_path, None),
+         ("--report", report, REPORT_EXTENSIONS)],
+    )  # fmt: skip
     K, pts0, faces = load_cloudsurface(surface_dir)
     new_cp = read_input(new_cloud_points, with_normals=False).points
     if new_cp.shape[0] != K.n_clouds:
@@ -102,6 +113,13 @@ def deform_command(
         "unroutable": [int(i) for i in res.unroutable[:1000]],
         "seconds": round(time.perf_counter() - t0, 3),
     }
+    if report is not None:
+        moved_cp = np.asarray(K.cloud_points) if inverse else new_cp
+        written.append(
+            _write_deform_report(report, surface_dir, new_cloud_points, pts, res, K, payload,
+                                 mesh=(moved_cp, faces), parameters={"inverse": inverse,
+                                 "points": None if points_path is None else str(points_path)})
+        )  # fmt: skip
     write_summary_json(json_path, payload, written)
     c = res.counts()
     console.print(
@@ -111,3 +129,45 @@ def deform_command(
     )
     for path in [*written, json_path]:
         say(f"wrote {path}")
+
+
+def deform_report_table(payload: dict, displacement) -> dict:
+    """The result table of ``deform --report``: OUT.json's numbers and the displacements."""
+    table = {key: payload[key] for key in ("n_points", "inverse", "seconds")}
+    table.update({f"routes: {key}": n for key, n in payload["routes"].items()})
+    d = np.asarray(displacement, dtype=np.float64)
+    table["mean displacement"] = float(d.mean()) if d.size else None
+    table["max displacement"] = float(d.max()) if d.size else None
+    return table
+
+
+def _write_deform_report(path, surface_dir, new_cloud_points, pts, res, K, payload, *, mesh,
+                         parameters) -> Path:  # fmt: skip
+    """``deform --report``: the routes, the moved points coloured by displacement, and the
+    complex at the moved cloud points as a surface (no surface when it has no triangles)."""
+    from .._core import PointSet
+    from ..viz import MeshLayer, write_report
+
+    moved = PointSet(res.points, name=Path(surface_dir).name)
+    displacement = np.linalg.norm(res.points - pts, axis=1)
+    fields = {"displacement": displacement, "route": res.route.astype(np.int64),
+              "n_clouds": np.asarray(K.n_memberships)}  # fmt: skip
+    layers = [report_layer(moved, fields, color_by="displacement")]
+    vertices, faces = mesh
+    if len(faces):
+        layers.append(MeshLayer(vertices, faces, name="complex at the new cloud points",
+                                opacity=0.35))  # fmt: skip
+    summary = {
+        "cloud surface": str(surface_dir),
+        "new cloud points": str(new_cloud_points),
+        "points": int(pts.shape[0]),
+        "clouds": int(K.n_clouds),
+    }
+    return write_report(
+        path,
+        title=f"pointatlas deform: {Path(surface_dir).name}",
+        summary=summary,
+        parameters=parameters,
+        tables={"result": deform_report_table(payload, displacement)},
+        layers=layers,
+    )

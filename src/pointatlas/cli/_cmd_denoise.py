@@ -20,6 +20,7 @@ from ..denoise import (
     DENOISE_METHODS,
     FLATNESS_SCHEDULES,
     choose_method,
+    default_filter_iter,
     denoise_measures,
     flatness_denoise,
     normal_voting_denoise,
@@ -27,6 +28,7 @@ from ..denoise import (
 from ._app import (
     EstimateNormalsOption,
     HaloOption,
+    InputArgument,
     MaxMemoryOption,
     NormalKOption,
     SchedulerOption,
@@ -86,8 +88,9 @@ def read_clean(path: Path):
 
 
 def _run(ps, method, *, rho, tau, n_iter, n_filter_iter, max_step, k, eta, eps, schedule,
-         k_start):  # fmt: skip
-    """Run the method with a progress bar; returns the DenoiseResult."""
+         k_start, refit):  # fmt: skip
+    """Run the method with a progress bar; returns the DenoiseResult (``refit``: the
+    normals were estimated, normal voting refits the returned ones to their faces)."""
     if method == "flatness":
         n_iter = 60 if n_iter is None else n_iter
         with progress_bar("flatness iterations", total=n_iter) as advance:
@@ -102,8 +105,9 @@ def _run(ps, method, *, rho, tau, n_iter, n_filter_iter, max_step, k, eta, eps, 
                 normals=ps.normals,
                 progress=advance,
             )
-    # n_iter None: rounds until the points settle (normal_voting_denoise); total unknown
-    total = None if n_iter is None else (n_iter + (n_iter > 0)) * n_filter_iter
+    # n_iter None: rounds until the points settle (normal_voting_denoise); total unknown;
+    # the returned normals take n_filter_iter more steps unless refitted
+    total = None if n_iter is None else (n_iter + (n_iter > 0 and not refit)) * n_filter_iter
     with progress_bar("normal filter steps", total=total) as advance:
         return normal_voting_denoise(
             ps.points,
@@ -114,6 +118,7 @@ def _run(ps, method, *, rho, tau, n_iter, n_filter_iter, max_step, k, eta, eps, 
             n_filter_iter=n_filter_iter,
             adaptive=method == "normal-voting-adaptive",
             max_step=max_step,
+            refit_normals=refit,
             progress=advance,
         )
 
@@ -176,7 +181,8 @@ def _check_options(method, schedule, *, rho, tau, max_step, eta, eps, n_filter_i
     as_float(max_step, "--max-step", lo=0.0)
     as_float(eta, "--eta", lo=0.0, hi=1.0)
     as_float(eps, "--eps", lo=0.0, lo_open=True)
-    as_int(n_filter_iter, "--filter-iter", lo=0)
+    if n_filter_iter is not None:
+        as_int(n_filter_iter, "--filter-iter", lo=0)
     if n_iter is not None:
         as_int(n_iter, "--n-iter", lo=0)
     if clean is not None and not Path(clean).is_file():
@@ -184,14 +190,18 @@ def _check_options(method, schedule, *, rho, tau, max_step, eta, eps, n_filter_i
 
 
 def _read_checked(input_path, output, method, estimate, normal_k):
-    """The method (``auto`` decided on the input as given) and the input with normals,
-    after checking that OUT can hold the input's fields and ours."""
-    if method == "auto" and estimate is None:
+    """The method (``auto`` decided on the input as given), the input with normals
+    and whether they were estimated, after checking that OUT can hold the input's
+    fields and ours."""
+    estimated = bool(estimate)
+    if estimate is None:
         # auto decides on the input as given (choose_method)
         from ._app import read_input
 
         probe = read_input(input_path, zero_normals="drop")
-        method = choose_method(probe.points, probe.normals)
+        estimated = probe.normals is None
+        if method == "auto":
+            method = choose_method(probe.points, probe.normals)
     elif method == "auto":
         method = choose_method([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
     ps = read_with_normals(input_path, estimate=estimate, normal_k=normal_k)
@@ -204,7 +214,7 @@ def _read_checked(input_path, output, method, estimate, normal_k):
     if method == "flatness":
         ours["flatness"] = np.zeros(n)
     check_point_output(output, ps, ours)
-    return method, ps
+    return method, ps, estimated
 
 
 def _our_fields(res, method) -> dict:
@@ -313,9 +323,7 @@ _ReportOption = Annotated[
 @app.command("denoise")
 @guarded
 def denoise_command(
-    input_path: Annotated[
-        Path, typer.Argument(metavar="IN", help="Point set or mesh file, or a bundled model name.")
-    ],
+    input_path: InputArgument,
     output: Annotated[
         Path,
         typer.Argument(
@@ -330,8 +338,13 @@ def denoise_command(
     ] = 0.3,
     n_iter: _NIterOption = None,
     n_filter_iter: Annotated[
-        int, typer.Option("--filter-iter", help="Normal voting: filter steps per round.")
-    ] = 5,
+        int | None,
+        typer.Option(
+            "--filter-iter",
+            help="Normal voting: filter steps per round (default: 1 when the normals are "
+            "estimated, 5 when IN has them).",
+        ),
+    ] = None,
     max_step: Annotated[
         float, typer.Option("--max-step", help="Normal voting: largest move per iteration, in l.")
     ] = 0.5,
@@ -384,20 +397,23 @@ def denoise_command(
 
         params = denoise_params(
             input_path, method=method, estimate=estimate, rho=rho, tau=tau, n_iter=n_iter,
-            filter_iter=n_filter_iter, max_step=max_step, k=k, eta=eta, eps=eps,
+            filter_iter=default_filter_iter(refit=False) if n_filter_iter is None
+            else n_filter_iter, max_step=max_step, k=k, eta=eta, eps=eps,
             schedule=schedule, k_start=k_start,
         )  # fmt: skip
         run_tiled("denoise", input_path, output, params, tiles,
                   normal_params=normal_params_for(input_path, estimate, normal_k))  # fmt: skip
         return
     t0 = time.perf_counter()
-    method, ps = _read_checked(input_path, output, method, estimate, normal_k)
+    method, ps, estimated = _read_checked(input_path, output, method, estimate, normal_k)
+    if n_filter_iter is None:  # estimated normals are refitted: one step per round
+        n_filter_iter = default_filter_iter(refit=estimated)
     n = ps.n_points
     clean_model = read_clean(clean) if clean is not None else None
     t1 = time.perf_counter()
     res = _run(ps, method, rho=rho, tau=tau, n_iter=n_iter, n_filter_iter=n_filter_iter,
                max_step=max_step, k=k, eta=eta, eps=eps, schedule=schedule,
-               k_start=k_start)  # fmt: skip
+               k_start=k_start, refit=estimated)  # fmt: skip
     seconds = time.perf_counter() - t1
     ours = _our_fields(res, method)
     out_ps = ps.replace(points=res.points, normals=res.normals)

@@ -16,6 +16,7 @@ import typer
 from .._core import PointAtlasError
 from ._app import console, experiment_app, guarded, progress_bar, say
 from ._outputs import check_outputs
+from ._reports import REPORT_EXTENSIONS
 
 __all__ = [
     "cloudsurfaces_command",
@@ -33,6 +34,13 @@ _TABLE_5_3_MODELS = (
 _Workers = Annotated[int, typer.Option("--workers", min=1, help="Dask workers.")]
 _Scheduler = Annotated[
     str | None, typer.Option("--scheduler", help="Address of a running dask scheduler.")
+]
+_Report = Annotated[
+    Path | None,
+    typer.Option(
+        "--report",
+        help="Also write an HTML report of the study's tables and pictures (.html).",
+    ),
 ]
 
 
@@ -54,6 +62,34 @@ def _output_folder(out: Path) -> Path:
     return out
 
 
+def _check_report(report: Path | None, out: Path) -> None:
+    """Check ``--report`` before any work; inside a ``--out`` the run creates, only its
+    name is checked here (the folder is made by the run)."""
+    if report is None:
+        return
+    made_by_the_run = not out.exists() and report.parent.resolve() == out.resolve()
+    if made_by_the_run and report.suffix.lower() in REPORT_EXTENSIONS:
+        return
+    check_outputs([], [("--report", report, REPORT_EXTENSIONS)])
+
+
+def _files_since(out: Path, start: float) -> list[Path]:
+    """The files in ``out`` written since ``start`` (time.time()), by name."""
+    return sorted(p for p in out.iterdir() if p.is_file() and p.stat().st_mtime >= start)
+
+
+def _write_report(report, study, out, files, summary, parameters, seed=0) -> None:
+    """``--report`` of an experiment command (`pointatlas.experiments.write_experiment_report`)."""
+    if report is None:
+        return
+    from ..experiments import write_experiment_report
+
+    files = [Path(f) for f in files if Path(f).resolve() != report.resolve()]
+    write_experiment_report(report, study=study, out=out, files=files, summary=summary,
+                            parameters=parameters, seed=seed)  # fmt: skip
+    say(f"wrote {report}")
+
+
 def _print_failures(failures: dict) -> None:
     for stem, msg in failures.items():
         console.print(f"  [yellow]failed[/] {stem}: {msg}")
@@ -67,10 +103,12 @@ def vsa_command(
     n_workers: _Workers = 2,
     scheduler: _Scheduler = None,
     seed: Annotated[int, typer.Option("--seed", help="Root seed.")] = 0,
+    report: _Report = None,
 ) -> None:
     """Table 4.1 and Fig. 4.5: region growing vs VSA with and without split/merge."""
     from ..experiments.table_4_1 import COLUMN_TITLES, COLUMNS, format_value, run_vsa_experiment
 
+    _check_report(report, out)
     files = _model_files(models)
     _output_folder(out)
     say(f"{models.name}: {len(files)} models -> {out}")
@@ -89,6 +127,8 @@ def vsa_command(
             f"avg m {format_value(cols[col]['m']['avg'], 'm')}"
         )
     console.print(f"  wrote {len(written)} files")
+    _write_report(report, "vsa", out, written, {"models": str(models), "files": len(files)},
+                  {"workers": n_workers, "scheduler": scheduler}, seed)  # fmt: skip
 
 
 @experiment_app.command("neighbourhoods")
@@ -112,10 +152,12 @@ def neighbourhoods_command(
     dodecahedron: Annotated[
         bool, typer.Option(help="Also run Figs. 6.7/6.8 on the noisy dodecahedron.")
     ] = True,
+    report: _Report = None,
 ) -> None:
     """Tables 5.1/5.2, Figs. 5.4-5.6 and the flatness histograms on a collection."""
     from ..experiments.neighbourhoods import run_neighbourhoods
 
+    _check_report(report, out)
     files = _model_files(models, pattern)
     name = label or models.name
     _output_folder(out)
@@ -144,6 +186,10 @@ def neighbourhoods_command(
     )
     console.print(f"  k*: mean {summary['k_mean']:.3f}, sd {summary['k_sd']:.3f}")
     console.print(f"  wrote {len(written)} files")
+    _write_report(report, "neighbourhoods", out, written,
+                  {"models": str(models), "files": len(files), "collection": name},
+                  {"glob": pattern, "workers": n_workers, "scheduler": scheduler,
+                   "dodecahedron": dodecahedron})  # fmt: skip
 
 
 @experiment_app.command("simplify")
@@ -157,12 +203,15 @@ def simplify_experiment_command(
         typer.Option("--case", help=f"Run only these: {', '.join(_SIMPLIFY_CASES)}."),
     ] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed for random VSA seeds/noise.")] = 0,
+    report: _Report = None,
 ):
     """Reproduce thesis 4.4.3: sphere eta sweep, Fandisk, torus with a hole, 2-torus,
     noisy dodecahedron."""
     from ..experiments.simplify_cases import CASES, run_case, write_simplify_outputs
 
+    _check_report(report, Path(out))
     out = _output_folder(Path(out))
+    start = time.time() - 1.0
     rows = []
     for name in case or list(CASES):
         console.rule(f"[bold]{name}", align="left")
@@ -172,6 +221,8 @@ def simplify_experiment_command(
         console.print(f"{name}: {len(case_rows)} meshes in {time.perf_counter() - t0:.1f} s")
     console.print(write_simplify_outputs(rows, out))
     say(f"outputs in {out.resolve()}")
+    _write_report(report, "simplify", out, _files_since(out, start),
+                  {"cases": ", ".join(case or list(CASES))}, {}, seed)  # fmt: skip
 
 
 @experiment_app.command("denoise")
@@ -187,8 +238,10 @@ def denoise_experiment_command(
     table: Annotated[bool, typer.Option(help="Run Table 5.3.")] = True,
     figures: Annotated[bool, typer.Option(help="Run Figs. 6.7-6.9.")] = True,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the noise.")] = 0,
+    report: _Report = None,
 ) -> None:
     """Table 5.3 (normal filtering, fixed vs adaptive k) and Figs. 6.7-6.9 (flatness)."""
+    _check_report(report, out)
     chosen = tuple(models) if models else _TABLE_5_3_MODELS
     unknown = [m for m in chosen if m not in _TABLE_5_3_MODELS]
     if unknown:
@@ -214,6 +267,8 @@ def denoise_experiment_command(
         )
     for path in written:
         say(f"wrote {path}")
+    _write_report(report, "denoise", out, written, {"data": str(data), "models": ", ".join(chosen)},
+                  {"table": table, "figures": figures}, seed)  # fmt: skip
 
 
 @experiment_app.command("cloudsurfaces")
@@ -223,10 +278,12 @@ def cloudsurfaces_command(
         "experiment-cloudsurfaces"
     ),
     seed: Annotated[int, typer.Option("--seed", help="Seed of sampling, noise, rotations.")] = 0,
+    report: _Report = None,
 ) -> None:
     """Chapter A: density models, Fig. 2.9 curvature, curves, noisy covers, dynamics."""
     from ..experiments.cloud_surfaces import FIGURES, run_cloud_surfaces
 
+    _check_report(report, out)
     _output_folder(out)
     check_outputs([], [(name, out / name, (".png",)) for name in FIGURES]
                   + [("cloudsurfaces.csv", out / "cloudsurfaces.csv", None),
@@ -237,3 +294,4 @@ def cloudsurfaces_command(
                       f"{r['thesis'] or '-'})", markup=False, highlight=False)  # fmt: skip
     for path in written:
         say(f"wrote {path}")
+    _write_report(report, "cloudsurfaces", out, written, {"figures": len(FIGURES)}, {}, seed)

@@ -29,7 +29,9 @@ from ..features import (
 )
 from ._app import (
     HaloOption,
+    InputArgument,
     MaxMemoryOption,
+    ReportOption,
     SchedulerOption,
     TileSizeOption,
     WorkersOption,
@@ -43,8 +45,8 @@ from ._app import (
     say,
     tile_options,
 )
-from ._cmd_core import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 from ._outputs import check_outputs, check_point_output, write_point_output
+from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 
 __all__ = [
     "compute_features_for",
@@ -265,18 +267,12 @@ _RenderOption = Annotated[
 _RenderSizeOption = Annotated[
     int, typer.Option("--render-size", min=64, help="Pixels per picture panel.")
 ]
-_ReportOption = Annotated[
-    Path | None,
-    typer.Option("--report", help="Also write an HTML report with a 3-D view (.html)."),
-]
 
 
 @app.command("features")
 @guarded
 def features_command(
-    input_path: Annotated[
-        Path, typer.Argument(metavar="IN", help="Point set or mesh file, or a bundled model name.")
-    ],
+    input_path: InputArgument,
     output: Annotated[
         Path, typer.Argument(metavar="OUT", help="Output point file (.ply, .las, .laz).")
     ],
@@ -312,7 +308,7 @@ def features_command(
     ] = "e_dim",
     render: _RenderOption = None,
     render_size: _RenderSizeOption = 800,
-    report: _ReportOption = None,
+    report: ReportOption = None,
     tile_size: TileSizeOption = None,
     halo: HaloOption = None,
     workers: WorkersOption = None,

@@ -21,10 +21,10 @@ from ._app import (
     progress_bar,
     say,
 )
-from ._cmd_core import Z_UP_EXTENSIONS
 from ._outputs import (
     check_outputs,
 )
+from ._reports import Z_UP_EXTENSIONS
 
 __all__ = ["render_command", "render_file"]
 

@@ -23,11 +23,13 @@ from ._app import (
     EstimateNormalsOption,
     EtaOption,
     HaloOption,
+    InputArgument,
     MaxAngleDegOption,
     MaxIterOption,
     MaxMemoryOption,
     MergeOption,
     NormalKOption,
+    ReportOption,
     SchedulerOption,
     SeedsOption,
     SplitOption,
@@ -48,7 +50,6 @@ from ._app import (
     tile_options,
     vsa_options,
 )
-from ._cmd_core import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 from ._outputs import (
     check_outputs,
     check_point_output,
@@ -56,6 +57,7 @@ from ._outputs import (
     write_point_output,
     write_summary_json,
 )
+from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 
 __all__ = ["region_table", "segment_command", "segment_point_set", "table_paths"]
 
@@ -162,9 +164,7 @@ def _write_tables(output: Path, rows: list[dict]) -> tuple[Path, dict]:
 @app.command("segment")
 @guarded
 def segment_command(
-    input_path: Annotated[
-        Path, typer.Argument(metavar="IN", help="Point set or mesh file, or a bundled model name.")
-    ],
+    input_path: InputArgument,
     output: Annotated[
         Path,
         typer.Argument(
@@ -197,10 +197,7 @@ def segment_command(
     render: Annotated[
         Path | None, typer.Option("--render", help="Also write a PNG picture.")
     ] = None,
-    report: Annotated[
-        Path | None,
-        typer.Option("--report", help="Also write an HTML report with a 3-D view (.html)."),
-    ] = None,
+    report: ReportOption = None,
     seed: VSASeedOption = 0,
     tile_size: TileSizeOption = None,
     halo: HaloOption = None,
@@ -215,8 +212,6 @@ def segment_command(
     last, OUT_regions.json (summary, regions and the files of this run with their
     SHA-256).
     """
-    from ..io import POINT_WRITE_EXTENSIONS
-
     parameters = {
         "method": method,
         "eta": eta,
@@ -235,17 +230,7 @@ def segment_command(
         "estimate_normals": estimate,
         "normal_k": normal_k,
     }
-    csv_path, json_path = table_paths(output)
-    check_outputs(
-        [input_path],
-        [
-            ("OUT", output, POINT_WRITE_EXTENSIONS),
-            ("OUT's region table", csv_path, None),
-            ("OUT's summary", json_path, None),
-            ("--render", render, (".png",)),
-            ("--report", report, REPORT_EXTENSIONS),
-        ],
-    )
+    json_path = _check_segment_outputs(input_path, output, render, report)
     options = vsa_options(
         k=k, eta=eta, max_angle_deg=max_angle_deg, seeds=seeds, split=split, merge=merge,
         switch=switch, classic=classic, weights=weights, max_iter=max_iter,
@@ -256,26 +241,10 @@ def segment_command(
     tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, render=render,
                          report=report)  # fmt: skip
     if tiles is not None:
-        from ..batch._tiles_cli import normal_params_for, segment_params
-        from ..viz import label_colors
-
-        params = segment_params(
-            method=method, seeds=seeds, weights=weights, classic=classic, k=k, eta=eta,
-            max_angle_deg=max_angle_deg, split=split, merge=merge, switch=switch,
-        )  # fmt: skip
-        run_tiled(
-            "segment", input_path, output, params, tiles,
-            normal_params=normal_params_for(input_path, estimate, normal_k),
-            label_colors=lambda lab: (label_colors(lab) * 255).round().astype(np.uint8),
-        )  # fmt: skip
+        _segment_tiled(input_path, output, parameters, options, tiles)
         return
     t0 = time.perf_counter()
-    ps = read_with_normals(
-        input_path, estimate=estimate, normal_k=normal_k, min_points=2, what="segment"
-    )
-    n = ps.n_points
-    placeholder = {"label": np.zeros(n, np.int64), "colors": np.zeros((n, 3), np.uint8)}
-    check_point_output(output, ps, placeholder)
+    ps = _read_segment_input(input_path, output, estimate=estimate, normal_k=normal_k)
     res, summary = segment_point_set(
         ps.points,
         ps.normals,
@@ -289,12 +258,74 @@ def segment_command(
     summary.update(
         {
             "input": str(input_path),
-            "n_points": int(n),
+            "n_points": int(ps.n_points),
             "k": k,
             "seed": seed,
             "seconds": round(time.perf_counter() - t0, 3),
         }
     )
+    labels = np.asarray(res.labels)
+    written, payload = _write_segment_files(output, ps, res, summary, render=render)
+    if report is not None:
+        written.append(
+            _write_segment_report(report, input_path, ps, labels, payload, parameters, seed,
+                                  render=render)
+        )  # fmt: skip
+    write_summary_json(json_path, payload, written)
+    _print_segment(summary, [*written, json_path])
+
+
+def _check_segment_outputs(input_path: Path, output: Path, render, report) -> Path:
+    """Refuse unusable outputs of ``segment`` before any work; returns OUT_regions.json."""
+    from ..io import POINT_WRITE_EXTENSIONS
+
+    csv_path, json_path = table_paths(output)
+    check_outputs(
+        [input_path],
+        [
+            ("OUT", output, POINT_WRITE_EXTENSIONS),
+            ("OUT's region table", csv_path, None),
+            ("OUT's summary", json_path, None),
+            ("--render", render, (".png",)),
+            ("--report", report, REPORT_EXTENSIONS),
+        ],
+    )
+    return json_path
+
+
+def _segment_tiled(input_path: Path, output: Path, parameters: dict, options, tiles) -> None:
+    """``segment`` on tiles (`pointatlas.batch`): the command's `VSAOptions`, its
+    normal settings from ``parameters``."""
+    from ..batch._tiles_cli import normal_params_for, segment_params
+    from ..viz import label_colors
+
+    params = segment_params(method=parameters["method"], options=options)
+    run_tiled(
+        "segment", input_path, output, params, tiles,
+        normal_params=normal_params_for(
+            input_path, parameters["estimate_normals"], parameters["normal_k"]
+        ),
+        label_colors=lambda lab: (label_colors(lab) * 255).round().astype(np.uint8),
+    )  # fmt: skip
+
+
+def _read_segment_input(input_path: Path, output: Path, *, estimate, normal_k: int):
+    """Read IN with normals and check that OUT can hold its fields plus ``label`` and colours."""
+    ps = read_with_normals(
+        input_path, estimate=estimate, normal_k=normal_k, min_points=2, what="segment"
+    )
+    n = ps.n_points
+    placeholder = {"label": np.zeros(n, np.int64), "colors": np.zeros((n, 3), np.uint8)}
+    check_point_output(output, ps, placeholder)
+    return ps
+
+
+def _write_segment_files(output: Path, ps, res, summary: dict, *, render):
+    """Write OUT, OUT_regions.csv and the ``--render`` picture.
+
+    Returns the paths written and the JSON payload (summary and region rows); adds
+    the names of OUT's new fields to ``summary``.
+    """
     from ..viz import label_colors
 
     labels = np.asarray(res.labels)
@@ -320,29 +351,36 @@ def segment_command(
         "summary": {key: _json_safe(val) for key, val in summary.items()},
         "regions": json_rows,
     }
-    if report is not None:
-        from ..viz import write_report
+    return written, payload
 
-        written.append(
-            write_report(
-                report,
-                title=f"pointatlas segment: {Path(input_path).name}",
-                summary=report_summary(input_path, ps),
-                parameters=parameters,
-                seed=seed,
-                tables={"result": payload["summary"], "regions": json_rows},
-                pictures=[render] if render is not None else [],
-                layers=[report_layer(ps, {"label": labels}, color_by="label")],
-                up=report_up(input_path),
-            )
-        )
-    write_summary_json(json_path, payload, written)
+
+def _write_segment_report(
+    report: Path, input_path, ps, labels, payload: dict, parameters: dict, seed: int, *, render
+) -> Path:
+    """``segment --report``: the summary, the region table and the points coloured by label."""
+    from ..viz import write_report
+
+    return write_report(
+        report,
+        title=f"pointatlas segment: {Path(input_path).name}",
+        summary=report_summary(input_path, ps),
+        parameters=parameters,
+        seed=seed,
+        tables={"result": payload["summary"], "regions": payload["regions"]},
+        pictures=[render] if render is not None else [],
+        layers=[report_layer(ps, {"label": labels}, color_by="label")],
+        up=report_up(input_path),
+    )
+
+
+def _print_segment(summary: dict, written) -> None:
+    """The console lines of ``segment``: the headline numbers, then the files written."""
     console.print(
-        f"{summary['method']}: {summary['n_regions']} regions on {n:,} points, "
-        f"MSE {summary['mse']:.3e}, assigned {summary['assigned_fraction']:.1%} "
+        f"{summary['method']}: {summary['n_regions']} regions on {summary['n_points']:,} "
+        f"points, MSE {summary['mse']:.3e}, assigned {summary['assigned_fraction']:.1%} "
         f"({summary['seconds']:.1f} s)"
     )
-    for path in [*written, json_path]:
+    for path in written:
         say(f"wrote {path}")
 
 

@@ -281,151 +281,120 @@ def _run(points, normals, **kw):
     return result
 
 
-@app.command("simplify")
-@guarded
-def simplify_command(
-    infile: Annotated[
-        Path,
-        typer.Argument(help="Point set or mesh (PLY, OBJ, OFF, ...), or a bundled model name."),
-    ],
-    out: Annotated[Path, typer.Argument(help="Simplified polygon mesh (.obj, .ply, .off).")],
-    k: VSAKOption = 8,
-    eta: EtaOption = None,
-    max_angle_deg: MaxAngleDegOption = None,
-    seeds: SeedsOption = "all",
-    split: SplitOption = True,
-    merge: MergeOption = True,
-    switch: SwitchOption = "batch",
-    classic: ClassicOption = False,
-    weights: WeightsOption = "uniform",
-    max_iter: MaxIterOption = 1000,
-    seed: VSASeedOption = 0,
-    vertices: Annotated[
-        str,
-        typer.Option(
-            "--vertices",
-            help="fit (planes refitted through common vertices: planar faces), "
-            "lsq (plane intersection) or optimize (Eq. 4.12).",
-        ),
-    ] = "fit",
-    face_method: Annotated[
-        str,
-        typer.Option(
-            "--face-method", help="Points path: general (cycles, holes) or star ([SZP20])."
-        ),
-    ] = "general",
-    n_faces: Annotated[
-        int | None,
-        typer.Option("--faces", help="Target number of faces (mesh input; found by bisection)."),
-    ] = None,
-    max_error: Annotated[
-        str | None,
-        typer.Option(
-            "--max-error",
-            help="Largest distance of an input vertex to the output (mesh input): a length, "
-            "or a percentage of the bounding-box diagonal such as 0.5%.",
-        ),
-    ] = None,
-    chord_tolerance: Annotated[
-        str | None,
-        typer.Option(
-            "--chord-tolerance",
-            help="Mesh input: largest distance of a boundary arc to its chords (a length or "
-            "a percentage of the diagonal; default 0.5%).",
-        ),
-    ] = None,
-    planarize: Annotated[
-        bool,
-        typer.Option(
-            "--planarize",
-            help="Mesh input: move vertices towards their faces' planes (at most the chord "
-            "tolerance): flatter faces, larger distance to the input.",
-        ),
-    ] = False,
-    vertices_only: Annotated[
-        bool,
-        typer.Option(
-            "--vertices-only",
-            help="Use a mesh input's vertices only, as a point set (the thesis' path).",
-        ),
-    ] = False,
-    centers: Annotated[
-        str, typer.Option("--centers", help="Proxy plane point: centroid or seed (C_i).")
-    ] = "centroid",
-    weight: Annotated[
-        float, typer.Option("--weight", help="w~ of Eq. 4.11 (--vertices optimize).")
-    ] = 1.0,
-    anchor_weight: Annotated[
-        float | None,
-        typer.Option(
-            "--anchor-weight",
-            help="Pull of the vertices to plane intersection (--vertices fit; default: "
-            "the loosest of 0.01, 0.1, 1, 10 with valid faces).",
-        ),
-    ] = None,
-    min_region_size: Annotated[
-        int | None, typer.Option("--min-region-size", help="Merge smaller regions (default k).")
-    ] = None,
-    repair: Annotated[
-        bool, typer.Option("--repair/--no-repair", help="Merge regions that cannot be meshed.")
-    ] = True,
-    smooth: Annotated[int, typer.Option("--smooth", help="Label majority-filter passes.")] = 2,
-    estimate: EstimateNormalsOption = None,
-    normal_k: NormalKOption = 20,
-    path: Annotated[
-        str,
-        typer.Option(
-            "--path",
-            help="Point input: auto (the thesis' surface-like complex, and the robust path "
-            "when that gives no closed manifold mesh), thesis, or robust (the points' "
-            "surface from the normals on a voxel grid, then the mesh path).",
-        ),
-    ] = "auto",
-    use_labels: Annotated[
-        bool,
-        typer.Option(
-            "--labels/--no-labels",
-            help="Point input with a 'label' field (written by pointatlas segment): use it "
-            "as the segmentation instead of running VSA.",
-        ),
-    ] = True,
-    triangles: Annotated[
-        Path | None, typer.Option("--triangles", help="Also write the triangulated mesh here.")
-    ] = None,
-    report: Annotated[
-        Path | None,
-        typer.Option(
-            "--report",
-            help="Write the quality report: .json (numbers, written last) or .html (with a "
-            "3-D view of the input and the simplified mesh).",
-        ),
-    ] = None,
-    render: Annotated[
-        Path | None, typer.Option("--render", help="PNG: segmentation and mesh side by side.")
-    ] = None,
-):
-    """Simplify a mesh or a point set into a polygon mesh with planar faces.
+# ------------------------------------------------------------------ the command's options
 
-    A mesh input (a file with faces, or a bundled model) takes the mesh path: its
-    triangles are segmented (VSA on faces) and each region becomes one face; the
-    output is closed and manifold whenever the input is. A point set, or a mesh
-    with ``--vertices-only``, takes the thesis' path (VSA on points, surface-like
-    complex, 4.4), and the robust path when that gives no closed, manifold mesh
-    (the points' surface from their normals on a voxel grid, then the mesh path;
-    ``--path``); the table and the report say which and why. A point set with a
-    ``label`` field (written by ``pointatlas segment``) is meshed with those regions.
-    With ``--report`` the JSON report is written last and names every file of the
-    run with its SHA-256.
-    """
-    check_outputs(
-        [infile],
-        [
-            ("OUT", out, MESH_OUT),
-            ("--triangles", triangles, MESH_OUT),
-            ("--render", render, (".png",)),
-            ("--report", report, (".json", *REPORT_EXTENSIONS)),
-        ],
-    )
+InArgument = Annotated[
+    Path,
+    typer.Argument(
+        metavar="IN", help="Point set or mesh (PLY, OBJ, OFF, ...), or a bundled model name."
+    ),
+]
+OutArgument = Annotated[
+    Path, typer.Argument(metavar="OUT", help="Simplified polygon mesh (.obj, .ply, .off).")
+]
+VerticesOption = Annotated[
+    str,
+    typer.Option(
+        "--vertices",
+        help="fit (planes refitted through common vertices: planar faces), "
+        "lsq (plane intersection) or optimize (Eq. 4.12).",
+    ),
+]
+FaceMethodOption = Annotated[
+    str,
+    typer.Option("--face-method", help="Points path: general (cycles, holes) or star ([SZP20])."),
+]
+FacesOption = Annotated[
+    int | None,
+    typer.Option("--faces", help="Target number of faces (mesh input; found by bisection)."),
+]
+MaxErrorOption = Annotated[
+    str | None,
+    typer.Option(
+        "--max-error",
+        help="Largest distance of an input vertex to the output (mesh input): a length, "
+        "or a percentage of the bounding-box diagonal such as 0.5%.",
+    ),
+]
+ChordToleranceOption = Annotated[
+    str | None,
+    typer.Option(
+        "--chord-tolerance",
+        help="Mesh input: largest distance of a boundary arc to its chords (a length or "
+        "a percentage of the diagonal; default 0.5%).",
+    ),
+]
+PlanarizeOption = Annotated[
+    bool,
+    typer.Option(
+        "--planarize",
+        help="Mesh input: move vertices towards their faces' planes (at most the chord "
+        "tolerance): flatter faces, larger distance to the input.",
+    ),
+]
+VerticesOnlyOption = Annotated[
+    bool,
+    typer.Option(
+        "--vertices-only",
+        help="Use a mesh input's vertices only, as a point set (the thesis' path).",
+    ),
+]
+CentersOption = Annotated[
+    str, typer.Option("--centers", help="Proxy plane point: centroid or seed (C_i).")
+]
+WeightOption = Annotated[
+    float, typer.Option("--weight", help="w~ of Eq. 4.11 (--vertices optimize).")
+]
+AnchorWeightOption = Annotated[
+    float | None,
+    typer.Option(
+        "--anchor-weight",
+        help="Pull of the vertices to plane intersection (--vertices fit; default: "
+        "the loosest of 0.01, 0.1, 1, 10 with valid faces).",
+    ),
+]
+MinRegionSizeOption = Annotated[
+    int | None, typer.Option("--min-region-size", help="Merge smaller regions (default k).")
+]
+RepairOption = Annotated[
+    bool, typer.Option("--repair/--no-repair", help="Merge regions that cannot be meshed.")
+]
+SmoothOption = Annotated[int, typer.Option("--smooth", help="Label majority-filter passes.")]
+PathOption = Annotated[
+    str,
+    typer.Option(
+        "--path",
+        help="Point input: auto (the thesis' surface-like complex, and the robust path "
+        "when that gives no closed manifold mesh), thesis, or robust (the points' "
+        "surface from the normals on a voxel grid, then the mesh path).",
+    ),
+]
+LabelsOption = Annotated[
+    bool,
+    typer.Option(
+        "--labels/--no-labels",
+        help="Point input with a 'label' field (written by pointatlas segment): use it "
+        "as the segmentation instead of running VSA.",
+    ),
+]
+TrianglesOption = Annotated[
+    Path | None, typer.Option("--triangles", help="Also write the triangulated mesh here.")
+]
+ReportOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--report",
+        help="Write the quality report: .json (numbers, written last) or .html (with a "
+        "3-D view of the input and the simplified mesh).",
+    ),
+]
+RenderOption = Annotated[
+    Path | None, typer.Option("--render", help="PNG: segmentation and mesh side by side.")
+]
+
+
+def _level_angle(eta, max_angle_deg, n_faces, max_error) -> float | None:
+    """Check that one level of detail is given at most; the angle in radians or None."""
     levels = [
         ("--eta", eta),
         ("--max-angle-deg", max_angle_deg),
@@ -437,27 +406,13 @@ def simplify_command(
         raise PointAtlasError(
             f"give one of --eta, --max-angle-deg, --faces, --max-error; got {', '.join(given)}"
         )
-    max_angle = None
-    if max_angle_deg is not None:
-        max_angle = math.radians(angle_deg_option(max_angle_deg, "--max-angle-deg"))
-    mesh_in = None if vertices_only else read_mesh_input(infile)
-    if mesh_in is not None:
-        _simplify_mesh_command(
-            infile,
-            mesh_in,
-            out,
-            max_angle=max_angle,
-            eta=eta,
-            n_faces=n_faces,
-            max_error=max_error,
-            chord_tolerance=chord_tolerance,
-            planarize=planarize,
-            seed=seed,
-            triangles=triangles,
-            report=report,
-            render=render,
-        )
-        return
+    if max_angle_deg is None:
+        return None
+    return math.radians(angle_deg_option(max_angle_deg, "--max-angle-deg"))
+
+
+def _refuse_mesh_flags(infile, *, planarize, n_faces, max_error, chord_tolerance) -> None:
+    """The mesh path's flags, given with a point input: one clear error."""
     for flag, value in (
         ("--planarize", planarize or None),
         ("--faces", n_faces),
@@ -469,10 +424,12 @@ def simplify_command(
                 f"{flag} needs a mesh input (a file with faces); {infile} is a point set "
                 "or --vertices-only was given: use --eta or --max-angle-deg"
             )
-    options = vsa_options(
-        k=k, eta=eta, max_angle_deg=max_angle_deg, seeds=seeds, split=split, merge=merge,
-        switch=switch, classic=classic, weights=weights, max_iter=max_iter,
-    )  # fmt: skip
+
+
+def _simplify_points_command(
+    infile, out, *, k, estimate, normal_k, use_labels, settings, seed, triangles, report, render
+):
+    """The points path of ``simplify``: read, simplify_points, write the outputs."""
     ps = read_with_normals(
         infile,
         estimate=estimate,
@@ -484,22 +441,7 @@ def simplify_command(
     given = ps.attributes.get("label") if use_labels else None
     if given is not None:
         say("segmentation: the input's 'label' field (--no-labels runs VSA instead)")
-    result = _run(
-        ps.points,
-        normals,
-        labels=given,
-        path=path,
-        vsa=options,
-        rng=seed,
-        vertices=vertices,
-        faces=face_method,
-        centers=centers,
-        weight=weight,
-        anchor_weight=anchor_weight,
-        min_region_size=min_region_size,
-        repair=repair,
-        smooth=smooth,
-    )
+    result = _run(ps.points, normals, labels=given, rng=seed, **settings)
     mesh = result.mesh
     robust = result.path == "robust"
     polys = [p.tolist() for p in mesh.polygons]
@@ -537,6 +479,103 @@ def simplify_command(
         console.print(simplification_table(mesh, result.segmentation, title=ps.name))
     for name in written:
         say(f"written: {name}")
+
+
+@app.command("simplify")
+@guarded
+def simplify_command(
+    infile: InArgument,
+    out: OutArgument,
+    k: VSAKOption = 8,
+    eta: EtaOption = None,
+    max_angle_deg: MaxAngleDegOption = None,
+    seeds: SeedsOption = "all",
+    split: SplitOption = True,
+    merge: MergeOption = True,
+    switch: SwitchOption = "batch",
+    classic: ClassicOption = False,
+    weights: WeightsOption = "uniform",
+    max_iter: MaxIterOption = 1000,
+    seed: VSASeedOption = 0,
+    vertices: VerticesOption = "fit",
+    face_method: FaceMethodOption = "general",
+    n_faces: FacesOption = None,
+    max_error: MaxErrorOption = None,
+    chord_tolerance: ChordToleranceOption = None,
+    planarize: PlanarizeOption = False,
+    vertices_only: VerticesOnlyOption = False,
+    centers: CentersOption = "centroid",
+    weight: WeightOption = 1.0,
+    anchor_weight: AnchorWeightOption = None,
+    min_region_size: MinRegionSizeOption = None,
+    repair: RepairOption = True,
+    smooth: SmoothOption = 2,
+    estimate: EstimateNormalsOption = None,
+    normal_k: NormalKOption = 20,
+    path: PathOption = "auto",
+    use_labels: LabelsOption = True,
+    triangles: TrianglesOption = None,
+    report: ReportOption = None,
+    render: RenderOption = None,
+):
+    """Simplify a mesh or a point set into a polygon mesh with planar faces.
+
+    A mesh input (a file with faces, or a bundled model) takes the mesh path: its
+    triangles are segmented (VSA on faces) and each region becomes one face; the
+    output is closed and manifold whenever the input is. A point set, or a mesh
+    with ``--vertices-only``, takes the thesis' path (VSA on points, surface-like
+    complex, 4.4), and the robust path when that gives no closed, manifold mesh
+    (the points' surface from their normals on a voxel grid, then the mesh path;
+    ``--path``); the table and the report say which and why. A point set with a
+    ``label`` field (written by ``pointatlas segment``) is meshed with those regions.
+    With ``--report`` the JSON report is written last and names every file of the
+    run with its SHA-256.
+    """
+    check_outputs(
+        [infile],
+        [
+            ("OUT", out, MESH_OUT),
+            ("--triangles", triangles, MESH_OUT),
+            ("--render", render, (".png",)),
+            ("--report", report, (".json", *REPORT_EXTENSIONS)),
+        ],
+    )
+    max_angle = _level_angle(eta, max_angle_deg, n_faces, max_error)
+    mesh_in = None if vertices_only else read_mesh_input(infile)
+    if mesh_in is not None:
+        _simplify_mesh_command(
+            infile, mesh_in, out, max_angle=max_angle, eta=eta, n_faces=n_faces,
+            max_error=max_error, chord_tolerance=chord_tolerance, planarize=planarize,
+            seed=seed, triangles=triangles, report=report, render=render,
+        )  # fmt: skip
+        return
+    _refuse_mesh_flags(
+        infile,
+        planarize=planarize,
+        n_faces=n_faces,
+        max_error=max_error,
+        chord_tolerance=chord_tolerance,
+    )
+    options = vsa_options(
+        k=k, eta=eta, max_angle_deg=max_angle_deg, seeds=seeds, split=split, merge=merge,
+        switch=switch, classic=classic, weights=weights, max_iter=max_iter,
+    )  # fmt: skip
+    settings = {
+        "path": path,
+        "vsa": options,
+        "vertices": vertices,
+        "faces": face_method,
+        "centers": centers,
+        "weight": weight,
+        "anchor_weight": anchor_weight,
+        "min_region_size": min_region_size,
+        "repair": repair,
+        "smooth": smooth,
+    }
+    _simplify_points_command(
+        infile, out, k=k, estimate=estimate, normal_k=normal_k, use_labels=use_labels,
+        settings=settings, seed=seed, triangles=triangles, report=report, render=render,
+    )  # fmt: skip
 
 
 @demo_step

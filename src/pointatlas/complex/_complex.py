@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._core import as_labels, as_points, readonly
+from .._core import as_labels, as_points, check_neighbors, readonly
 from ..neighbors import query_knn
 from ._complex_steps import (
     _Builder,
@@ -42,6 +42,7 @@ from ._complex_steps import (
 )
 
 __all__ = ["SurfaceComplex", "surface_complex"]
+
 
 @dataclass(frozen=True, slots=True)
 class SurfaceComplex:
@@ -240,7 +241,20 @@ class SurfaceComplex:
 # ----------------------------------------------------------------------------------
 
 
-def surface_complex(points, labels, *, k: int = 8, indices=None) -> SurfaceComplex:
+def _neighbour_table(pts: np.ndarray, k: int, neighbors, indices) -> np.ndarray:
+    """The (N, k) k-NN table of `surface_complex`: given (``indices=`` is the former
+    name of ``neighbors=``) and checked, or queried."""
+    if neighbors is not None and indices is not None:
+        raise ValueError(
+            "give the neighbour table as neighbors= (indices= is its old name), not both"
+        )
+    table, name = (indices, "indices") if indices is not None else (neighbors, "neighbors")
+    if table is None:
+        return query_knn(pts, k)[0]
+    return check_neighbors(table, pts.shape[0], k=k, name=name)
+
+
+def surface_complex(points, labels, *, k: int = 8, neighbors=None, indices=None) -> SurfaceComplex:
     """Build the surface-like complex K' of a segmentation (thesis section 3).
 
     Parameters
@@ -251,8 +265,12 @@ def surface_complex(points, labels, *, k: int = 8, indices=None) -> SurfaceCompl
         Region of every point, 0..R-1 (every point assigned).
     k : int
         Neighbourhood size including the point itself (Remark 6; thesis uses 8).
-    indices : ndarray of shape (N, k), int64, optional
-        Precomputed `pointatlas.neighbors.query_knn` indices.
+    neighbors : ndarray of shape (N, m), int, or tuple, optional
+        Precomputed neighbour table, e.g. `pointatlas.neighbors.query_knn`'s result
+        (m >= k; its first k columns are used; checked by
+        `pointatlas._core.check_neighbors`). None queries the k nearest neighbours.
+    indices : ndarray, optional
+        The former name of ``neighbors``, still accepted; give one of the two.
 
     Returns
     -------
@@ -263,7 +281,10 @@ def surface_complex(points, labels, *, k: int = 8, indices=None) -> SurfaceCompl
     Raises
     ------
     ValueError
-        Bad shapes, non-finite points, negative labels, bad ``indices``.
+        Bad shapes, non-finite points, negative labels, a bad ``neighbors`` table,
+        or both ``neighbors`` and ``indices``.
+    TypeError
+        A non-integer ``neighbors`` table.
     PointAtlasError
         ``k`` larger than the number of points.
 
@@ -292,15 +313,7 @@ def surface_complex(points, labels, *, k: int = 8, indices=None) -> SurfaceCompl
             f"labels must be >= 0 (every point in a region); "
             f"{int((lab < 0).sum())} points are unassigned"
         )
-    if indices is None:
-        idx, _ = query_knn(pts, k)
-    else:
-        idx = np.asarray(indices)
-        if idx.ndim != 2 or idx.shape != (n, k):
-            raise ValueError(f"indices must have shape ({n}, {k}); got {idx.shape}")
-        if idx.dtype.kind not in "iu" or idx.size and (idx.min() < 0 or idx.max() >= n):
-            raise ValueError(f"indices must be integers in [0, {n}); got out-of-range values")
-        idx = idx.astype(np.int64)
+    idx = _neighbour_table(pts, k, neighbors, indices)
     n_regions = int(lab.max()) + 1
     seen_indptr, seen_regions, counts, padded = _region_sets(lab, idx)
 
@@ -319,8 +332,8 @@ def surface_complex(points, labels, *, k: int = 8, indices=None) -> SurfaceCompl
     )
     E, ER, EA = split_parallel_edges(b)
     n_v = len(b.vregions)
-    cycles, cycle_edges, cycle_region, open_edges, regions_open, region_cycles = (
-        boundary_cycles(E, ER, n_regions)
+    cycles, cycle_edges, cycle_region, open_edges, regions_open, region_cycles = boundary_cycles(
+        E, ER, n_regions
     )
     edge_count, no_cycle, not_fan, not_simple = cycle_checks(n_v, E, cycles, cycle_edges)
     n_cyc_region = np.array([len(rc) for rc in region_cycles], dtype=np.int64)

@@ -1,15 +1,18 @@
 """Denoising: normal voting filtering with adaptive k, point updates, flatness denoising.
 
-Thesis 5.4 (application scenario, Table 5.3) and 6.2 (Eq. 6.3, Figs 6.7-6.9);
-GUIDE C3. The normal voting tensor stage of [YRS+18] (reconstructed), the thesis'
-variant choosing every point's k by least E_dim, a restricted quadric point update
-driven by the filtered normals, the flatness update of Eq. 6.3 (with the
-large-k-first schedule of 6.2's outlook), noise models and the measures of the
-denoising literature (normal MSE, Chamfer, point-to-mesh, tangential drift).
+Thesis 5.4 (application scenario, Table 5.3) and 6.2 (Eq. 6.3, Figs 6.7-6.9):
+the normal voting tensor stage of [YRS+18] (reconstructed), the thesis'
+variant choosing every point's k by least E_dim, a point update driven by the
+filtered normals (the halo a tiled run needs: `denoise_halo`), the flatness
+update of Eq. 6.3 (with the large-k-first schedule of 6.2's outlook), noise
+models and the measures of the denoising literature (normal MSE, Chamfer,
+point-to-mesh, tangential drift).
 """
 
 from ._api import DENOISE_METHODS, choose_method, denoise
+from ._defaults import default_filter_iter
 from ._flatness import FLATNESS_SCHEDULES, flatness_denoise, flatness_schedule
+from ._halo import DenoiseHalo, denoise_halo
 from ._measures import (
     DenoiseMeasures,
     chamfer_distance,
@@ -31,6 +34,7 @@ __all__ = [
     "FLATNESS_SCHEDULES",
     "NOISE_KINDS",
     "THESIS_FILTER_PARAMETERS",
+    "DenoiseHalo",
     "DenoiseMeasures",
     "DenoiseResult",
     "NormalFilterResult",
@@ -38,8 +42,10 @@ __all__ = [
     "add_noise",
     "chamfer_distance",
     "choose_method",
+    "default_filter_iter",
     "default_neighbourhoods",
     "denoise",
+    "denoise_halo",
     "denoise_measures",
     "filter_normals",
     "flatness_denoise",

@@ -1,8 +1,11 @@
-"""Flatness-driven point denoising (thesis 6.2, Eq. 6.3; GUIDE C3)."""
+"""Flatness-driven point denoising (thesis 6.2, Eq. 6.3)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit, prange
 
 from .._core import PointAtlasError, as_float, as_int, as_normals, as_points
 from ..features import covariance_features
@@ -10,7 +13,13 @@ from ..neighbors import mean_spacing, query_knn
 from ._result import DenoiseResult
 from ._threads import threads_for
 
-__all__ = ["FLATNESS_SCHEDULES", "flatness_schedule", "flatness_denoise", "flatness_step"]
+__all__ = [
+    "FLATNESS_SCHEDULES",
+    "flatness_denoise",
+    "flatness_move_kernel",
+    "flatness_schedule",
+    "flatness_step",
+]
 
 #: "constant": k and eta fixed (thesis Fig. 6.9); "decreasing": the future work of
 #: 6.2 -- start with a large k and eta = 1, lower both as the iterations go
@@ -66,6 +75,56 @@ def flatness_schedule(
     return ks, etas
 
 
+@njit(parallel=True, cache=True)
+def flatness_move_kernel(points, idx, v1, v3, energy, valid, eta, eps, out, moved):
+    """One Jacobi step of thesis Eq. 6.3 from the features of the k-NN (``idx``).
+
+    p <- p + eps (eta (2 - E_p) (-d v3) + (1 - eta) E_p (p_bar - p)), b the
+    barycentre of the row's points (equal weights, the point included),
+    d = (p - b) . v3 and p_bar the projection of p on the line (b, v1). Points
+    whose features are invalid (``valid`` False) or whose step is not finite stay;
+    ``moved[i]`` tells which moved.
+
+    Parameters
+    ----------
+    points : (N, 3) float64
+    idx : (N, k) int64
+    v1, v3 : (N, 3) float64, unit (largest and smallest eigenvector)
+    energy : (N,) float64, the flatness E_p (Eq. 6.1)
+    valid : (N,) bool
+    eta, eps : float
+    out : (N, 3) float64, out
+    moved : (N,) bool, out
+    """
+    k = idx.shape[1]
+    for i in prange(points.shape[0]):
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        out[i, 0], out[i, 1], out[i, 2] = px, py, pz
+        moved[i] = False
+        if not valid[i]:
+            continue
+        bx = by = bz = 0.0
+        for c in range(k):
+            j = idx[i, c]
+            bx += points[j, 0]
+            by += points[j, 1]
+            bz += points[j, 2]
+        rx, ry, rz = px - bx / k, py - by / k, pz - bz / k
+        d = rx * v3[i, 0] + ry * v3[i, 1] + rz * v3[i, 2]
+        t = rx * v1[i, 0] + ry * v1[i, 1] + rz * v1[i, 2]
+        e = energy[i]
+        a = eps * eta * (2.0 - e)
+        b = eps * (1.0 - eta) * e
+        sx = a * (-d * v3[i, 0]) + b * (t * v1[i, 0] - rx)
+        sy = a * (-d * v3[i, 1]) + b * (t * v1[i, 1] - ry)
+        sz = a * (-d * v3[i, 2]) + b * (t * v1[i, 2] - rz)
+        if math.isfinite(sx) and math.isfinite(sy) and math.isfinite(sz):
+            out[i, 0] = px + sx
+            out[i, 1] = py + sy
+            out[i, 2] = pz + sz
+            moved[i] = True
+
+
 def flatness_step(points, k: int, eta: float, eps: float, *, flatness=(8, 8)):
     """One Jacobi step of Eq. 6.3 for every point (private helper, validated input).
 
@@ -73,21 +132,15 @@ def flatness_step(points, k: int, eta: float, eps: float, *, flatness=(8, 8)):
     """
     idx = query_knn(points, k)[0]
     fr = covariance_features(points, k, neighbors=idx, flatness=flatness)
-    bary = points[idx].mean(axis=1)
-    rel = points - bary
-    v1 = np.asarray(fr.eigenvector_1)
-    v3 = np.asarray(fr.eigenvector_3)
-    energy = np.asarray(fr.flatness)
-    d = (rel * v3).sum(axis=1)
-    to_plane = -d[:, None] * v3
-    # p_bar - p: projection of p on the line (barycentre, v1) minus p
-    to_line = (rel * v1).sum(axis=1)[:, None] * v1 - rel
-    step = eps * (
-        eta * (2.0 - energy)[:, None] * to_plane + (1.0 - eta) * energy[:, None] * to_line
-    )
-    valid = fr.is_valid & np.isfinite(step).all(axis=1)
-    step[~valid] = 0.0
-    return points + step, energy, v3, valid
+    v3 = np.ascontiguousarray(fr.eigenvector_3, dtype=np.float64)
+    energy = np.ascontiguousarray(fr.flatness, dtype=np.float64)
+    out = np.empty_like(points)
+    valid = np.empty(points.shape[0], dtype=bool)
+    flatness_move_kernel(
+        points, idx, np.ascontiguousarray(fr.eigenvector_1, dtype=np.float64), v3, energy,
+        np.ascontiguousarray(fr.is_valid, dtype=bool), float(eta), float(eps), out, valid,
+    )  # fmt: skip
+    return out, energy, v3, valid
 
 
 def flatness_denoise(

@@ -1,11 +1,13 @@
-"""numba kernels of the denoise room (STYLE section 7): eigen helpers, the adaptive
-k search, the normal voting step and the point updates.
+"""numba kernels of the denoise room: the adaptive k search (thesis 5.4, Eq. 5.7),
+the normal voting step and the point updates (docs/decisions/denoise.md).
 
 Kernels assume validated input (finite float64 arrays, unit normals, index tables
 whose rows start with the point itself and are sorted by distance) and never
-validate. Plain-numpy references live in ``tests/denoise/reference.py``. The
-point-to-mesh distance is ``pointatlas.neighbors.point_mesh_distance``, the thread
-rule in ``_threads.py``.
+validate. The 3 x 3 eigensolvers are the shared ones of
+``pointatlas.normals._kernels.eig3`` (also used by the features room).
+Plain-numpy references live in ``tests/denoise/reference.py``. The point-to-mesh
+distance is ``pointatlas.neighbors.point_mesh_distance``, the thread rule in
+``_threads.py``, the flatness step's kernel in ``_flatness.py``.
 """
 
 from __future__ import annotations
@@ -15,16 +17,25 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ..features._kernels.covariance import add_moments
+from ..normals._kernels.eig3 import (
+    eig3_jacobi,
+    eigh3_accurate,
+    lanes_stage1,
+    lanes_stage2,
+    lanes_stage3,
+)
+
 __all__ = [
     "CLASS_CORNER",
     "CLASS_EDGE",
     "CLASS_FACE",
     "adaptive_k_kernel",
+    "face_normals_kernel",
     "feature_class_kernel",
     "plane_update_kernel",
     "quadric_update_kernel",
-    "sym3_eigh",
-    "sym3_eigvals",
+    "table_distances_kernel",
     "voting_filter_kernel",
 ]
 
@@ -36,112 +47,17 @@ CLASS_CORNER = 3
 #: neighbours per cached weight pattern of `adaptive_k_kernel` (bits of an int64,
 #: sign bit unused)
 MASK_BITS = 62
-#: `_voted_normal` takes the closed-form eigenvector when its eigenvalue is apart
-#: from the others by more than this share of the largest (error ~ 1e-16 / gap, so
-#: below 1e-12); closer pairs go through Jacobi rotations
-EIGEN_GAP_REL = 1e-4
-
-
-# --------------------------------------------------------------------------- 3x3 eigen
-
-
-@njit(cache=True)
-def sym3_eigh(a, lam, vec):
-    """Eigen-decomposition of a symmetric 3x3 matrix by cyclic Jacobi rotations.
-
-    ``a`` is overwritten. Writes the eigenvalues ascending into ``lam`` (3,) and the
-    unit eigenvectors as the columns of ``vec`` (3, 3), like ``numpy.linalg.eigh``.
-    """
-    for r in range(3):
-        for s in range(3):
-            vec[r, s] = 1.0 if r == s else 0.0
-    scale = abs(a[0, 0]) + abs(a[1, 1]) + abs(a[2, 2]) + abs(a[0, 1]) + abs(a[0, 2]) + abs(a[1, 2])
-    for _ in range(50):
-        off = abs(a[0, 1]) + abs(a[0, 2]) + abs(a[1, 2])
-        if off <= 1e-18 * scale or off == 0.0:
-            break
-        for p, q in ((0, 1), (0, 2), (1, 2)):
-            apq = a[p, q]
-            if apq == 0.0:
-                continue
-            theta = (a[q, q] - a[p, p]) / (2.0 * apq)
-            t = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
-            if theta < 0.0:
-                t = -t
-            c = 1.0 / math.sqrt(t * t + 1.0)
-            s_ = t * c
-            for r in range(3):
-                arp = a[r, p]
-                arq = a[r, q]
-                a[r, p] = c * arp - s_ * arq
-                a[r, q] = s_ * arp + c * arq
-            for r in range(3):
-                apr = a[p, r]
-                aqr = a[q, r]
-                a[p, r] = c * apr - s_ * aqr
-                a[q, r] = s_ * apr + c * aqr
-            for r in range(3):
-                vrp = vec[r, p]
-                vrq = vec[r, q]
-                vec[r, p] = c * vrp - s_ * vrq
-                vec[r, q] = s_ * vrp + c * vrq
-    # sort ascending (insertion sort on 3 entries), carrying the vectors
-    for r in range(3):
-        lam[r] = a[r, r]
-    for i in range(1, 3):
-        j = i
-        while j > 0 and lam[j - 1] > lam[j]:
-            lam[j - 1], lam[j] = lam[j], lam[j - 1]
-            for r in range(3):
-                vec[r, j - 1], vec[r, j] = vec[r, j], vec[r, j - 1]
-            j -= 1
+#: points per task of `adaptive_k_kernel` (its scratch arrays are allocated per task)
+ADAPTIVE_BLOCK = 256
 
 
 # --------------------------------------------------------------------------- E_dim choice
 
 
-@njit(cache=True)
-def sym3_eigvals(c00, c01, c02, c11, c12, c22):
-    """Eigenvalues (l1 >= l2 >= l3) of a symmetric 3x3 matrix, closed form (Smith 1961)."""
-    p1 = c01 * c01 + c02 * c02 + c12 * c12
-    q = (c00 + c11 + c22) / 3.0
-    if p1 <= 1e-300:
-        a, b, c = c00, c11, c22
-    else:
-        d0, d1, d2 = c00 - q, c11 - q, c22 - q
-        p2 = d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * p1
-        p = math.sqrt(p2 / 6.0)
-        # det((C - q I) / p) / 2
-        b00, b11, b22 = d0 / p, d1 / p, d2 / p
-        b01, b02, b12 = c01 / p, c02 / p, c12 / p
-        r = 0.5 * (
-            b00 * (b11 * b22 - b12 * b12)
-            - b01 * (b01 * b22 - b12 * b02)
-            + b02 * (b01 * b12 - b11 * b02)
-        )
-        r = min(max(r, -1.0), 1.0)
-        phi = math.acos(r) / 3.0
-        a = q + 2.0 * p * math.cos(phi)
-        c = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)
-        b = 3.0 * q - a - c
-    # sort descending
-    if a < b:
-        a, b = b, a
-    if b < c:
-        b, c = c, b
-    if a < b:
-        a, b = b, a
-    return a, b, c
-
-
-@njit(cache=True)
-def _edim_from_cov(c00, c01, c02, c11, c12, c22):
-    """E_dim (Eq. 5.7, 0 ln 0 = 0) of a symmetric 3x3 matrix; +inf when lambda_1 <= 0."""
-    l1, l2, l3 = sym3_eigvals(c00, c01, c02, c11, c12, c22)
-    l1 = max(l1, 0.0)
-    l2 = max(l2, 0.0)
-    l3 = max(l3, 0.0)
-    if not l1 > 0.0 or not (l1 + l2 + l3) > 0.0:
+@njit(cache=True, inline="always", error_model="numpy")
+def _edim_of(l1, l2, l3):
+    """E_dim (Eq. 5.7, 0 ln 0 = 0) of eigenvalues l1 >= l2 >= l3 >= 0; +inf when l1 <= 0."""
+    if not l1 > 0.0:
         return math.inf
     e = 0.0
     for x in ((l1 - l2) / l1, (l2 - l3) / l1, l3 / l1):
@@ -150,7 +66,7 @@ def _edim_from_cov(c00, c01, c02, c11, c12, c22):
     return e
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, error_model="numpy")
 def adaptive_k_kernel(points, normals, idx, k_lo, k_hi, cos_a, best_k, best_edim, masks):
     """Per point the k in [k_lo[i], k_hi[i]] of least E_dim with cut-off weights.
 
@@ -167,6 +83,11 @@ def adaptive_k_kernel(points, normals, idx, k_lo, k_hi, cos_a, best_k, best_edim
     call are kept, which is the same result. Callers pass -1 to force the search
     and reset the masks whenever ``points`` or ``idx`` change.
 
+    A point's candidates are gathered first (running sums over k), then their
+    eigenvalues go through the shared closed form's three stages as flat loops
+    (`lanes_stage1` to `lanes_stage3`, bit for bit `eig3_fast`), which the
+    compiler vectorises, as the features room's optimal-neighbourhood search does.
+
     Parameters
     ----------
     points : (N, 3) float64
@@ -179,159 +100,116 @@ def adaptive_k_kernel(points, normals, idx, k_lo, k_hi, cos_a, best_k, best_edim
     masks : (N,) int64, in/out (-1: no cached pattern)
     """
     n = points.shape[0]
-    for i in prange(n):
-        nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
-        kh = k_hi[i]
-        if kh <= MASK_BITS:
-            mask = 0
-            for c in range(kh):
-                j = idx[i, c]
-                if nx * normals[j, 0] + ny * normals[j, 1] + nz * normals[j, 2] >= cos_a:
-                    mask |= 1 << c
-            if mask == masks[i]:
-                continue
-            masks[i] = mask
-        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-        su0 = su1 = su2 = 0.0  # unweighted sum of y = p_j - p_i
-        sw = 0.0
-        sy0 = sy1 = sy2 = 0.0  # weighted sum of y
-        s00 = s01 = s02 = s11 = s12 = s22 = 0.0  # weighted sum of y y^T
-        nw = 0
-        bk = -1
-        be = math.inf
-        for kk in range(1, kh + 1):
-            j = idx[i, kk - 1]
-            y0 = points[j, 0] - px
-            y1 = points[j, 1] - py
-            y2 = points[j, 2] - pz
-            su0 += y0
-            su1 += y1
-            su2 += y2
-            if nx * normals[j, 0] + ny * normals[j, 1] + nz * normals[j, 2] >= cos_a:
-                nw += 1
-                sw += 1.0
-                sy0 += y0
-                sy1 += y1
-                sy2 += y2
-                s00 += y0 * y0
-                s01 += y0 * y1
-                s02 += y0 * y2
-                s11 += y1 * y1
-                s12 += y1 * y2
-                s22 += y2 * y2
-            if kk < k_lo[i] or nw < 3:
-                continue
-            m0, m1, m2 = su0 / kk, su1 / kk, su2 / kk
-            # sum_j w_j (y_j - m)(y_j - m)^T expanded
-            e = _edim_from_cov(
-                s00 - 2.0 * m0 * sy0 + sw * m0 * m0,
-                s01 - m0 * sy1 - sy0 * m1 + sw * m0 * m1,
-                s02 - m0 * sy2 - sy0 * m2 + sw * m0 * m2,
-                s11 - 2.0 * m1 * sy1 + sw * m1 * m1,
-                s12 - m1 * sy2 - sy1 * m2 + sw * m1 * m2,
-                s22 - 2.0 * m2 * sy2 + sw * m2 * m2,
+    width = idx.shape[1]
+    nblocks = (n + ADAPTIVE_BLOCK - 1) // ADAPTIVE_BLOCK
+    for blk in prange(nblocks):
+        cov = np.empty((6, width))
+        cand = np.empty(width, dtype=np.int64)
+        st = np.empty((4, width))
+        lanes = np.empty((4, width))
+        for i in range(blk * ADAPTIVE_BLOCK, min(n, (blk + 1) * ADAPTIVE_BLOCK)):
+            nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+            kh = k_hi[i]
+            if kh <= MASK_BITS:
+                mask = 0
+                for c in range(kh):
+                    j = idx[i, c]
+                    if nx * normals[j, 0] + ny * normals[j, 1] + nz * normals[j, 2] >= cos_a:
+                        mask |= 1 << c
+                if mask == masks[i]:
+                    continue
+                masks[i] = mask
+            m = _gather_candidates(points, normals, idx, i, k_lo[i], kh, cos_a, cov, cand)
+            for t in range(m):
+                st[0, t], st[1, t], st[2, t], st[3, t] = lanes_stage1(
+                    cov[0, t], cov[1, t], cov[2, t], cov[3, t], cov[4, t], cov[5, t]
+                )
+            for t in range(m):
+                lanes[0, t], lanes[1, t], lanes[2, t], lanes[3, t] = lanes_stage2(st[3, t])
+            bk = -1
+            be = math.inf
+            for t in range(m):
+                l1, l2, l3 = lanes_stage3(
+                    st[0, t], st[1, t], st[2, t], lanes[0, t], lanes[1, t], lanes[2, t],
+                    lanes[3, t],
+                )  # fmt: skip
+                e = _edim_of(l1, l2, l3)
+                if e < be:
+                    be = e
+                    bk = cand[t]
+            best_k[i] = bk
+            best_edim[i] = be
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _gather_candidates(points, normals, idx, i, klo, kh, cos_a, cov, cand):
+    """The covariances (Eq. 5.4, cut-off weights) of point i for k = klo .. kh with
+    at least three weighted neighbours, into ``cov`` (6 rows) and their k into
+    ``cand``; returns their number. Running sums over k: one pass."""
+    nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+    px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+    su0 = su1 = su2 = 0.0  # unweighted sum of y = p_j - p_i
+    sw = 0.0
+    sy0 = sy1 = sy2 = 0.0  # weighted sum of y
+    s00 = s01 = s02 = s11 = s12 = s22 = 0.0  # weighted sum of y y^T
+    nw = 0
+    m = 0
+    for kk in range(1, kh + 1):
+        j = idx[i, kk - 1]
+        y0 = points[j, 0] - px
+        y1 = points[j, 1] - py
+        y2 = points[j, 2] - pz
+        su0 += y0
+        su1 += y1
+        su2 += y2
+        if nx * normals[j, 0] + ny * normals[j, 1] + nz * normals[j, 2] >= cos_a:
+            nw += 1
+            sw, sy0, sy1, sy2, s00, s01, s02, s11, s12, s22 = add_moments(
+                1.0, y0, y1, y2, sw, sy0, sy1, sy2, s00, s01, s02, s11, s12, s22
             )
-            if e < be:
-                be = e
-                bk = kk
-        best_k[i] = bk
-        best_edim[i] = be
+        if kk < klo or nw < 3:
+            continue
+        m0, m1, m2 = su0 / kk, su1 / kk, su2 / kk
+        # sum_j w_j (y_j - m)(y_j - m)^T expanded
+        cov[0, m] = s00 - 2.0 * m0 * sy0 + sw * m0 * m0
+        cov[1, m] = s01 - m0 * sy1 - sy0 * m1 + sw * m0 * m1
+        cov[2, m] = s02 - m0 * sy2 - sy0 * m2 + sw * m0 * m2
+        cov[3, m] = s11 - 2.0 * m1 * sy1 + sw * m1 * m1
+        cov[4, m] = s12 - m1 * sy2 - sy1 * m2 + sw * m1 * m2
+        cov[5, m] = s22 - 2.0 * m2 * sy2 + sw * m2 * m2
+        cand[m] = kk
+        m += 1
+    return m
 
 
 # --------------------------------------------------------------------------- voting
 
 
 @njit(cache=True)
-def _binarised_projector(t, tau, proj):
-    """Eigen-decompose T, scale eigenvalues by the largest, keep those >= tau (set 1).
-
-    Writes sum over kept eigenvectors of v v^T into ``proj``; returns the number of
-    kept eigenvalues (0 when T is zero). ``t`` is overwritten.
-    """
-    lam = np.empty(3)
-    vec = np.empty((3, 3))
-    sym3_eigh(t, lam, vec)
-    top = lam[2]
-    proj[:, :] = 0.0
-    if not top > 0.0:
-        return 0
-    kept = 0
-    for e in range(3):
-        if lam[e] / top >= tau:
-            kept += 1
-            for r in range(3):
-                for s in range(3):
-                    proj[r, s] += vec[r, e] * vec[s, e]
-    return kept
-
-
-@njit(cache=True)
-def _eigenvector_of(c00, c01, c02, c11, c12, c22, lam):
-    """Unit eigenvector of a symmetric 3x3 matrix for a simple eigenvalue ``lam``.
-
-    The largest cross product of two rows of C - lam I (exact for a simple
-    eigenvalue; the caller checks the gap). Returns (x, y, z).
-    """
-    a0, a1, a2 = c00 - lam, c01, c02
-    b0, b1, b2 = c01, c11 - lam, c12
-    d0, d1, d2 = c02, c12, c22 - lam
-    u0, u1, u2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
-    v0, v1, v2 = a1 * d2 - a2 * d1, a2 * d0 - a0 * d2, a0 * d1 - a1 * d0
-    w0, w1, w2 = b1 * d2 - b2 * d1, b2 * d0 - b0 * d2, b0 * d1 - b1 * d0
-    nu = u0 * u0 + u1 * u1 + u2 * u2
-    nv = v0 * v0 + v1 * v1 + v2 * v2
-    nw = w0 * w0 + w1 * w1 + w2 * w2
-    if nv > nu and nv >= nw:
-        u0, u1, u2, nu = v0, v1, v2, nv
-    elif nw > nu:
-        u0, u1, u2, nu = w0, w1, w2, nw
-    s = 1.0 / math.sqrt(nu)
-    return u0 * s, u1 * s, u2 * s
-
-
-@njit(cache=True)
 def _voted_normal(t00, t01, t02, t11, t12, t22, nx, ny, nz, tau):
     """T~ n for the voting tensor T (6 entries) and normal n, not normalised.
 
-    Eigenvalues in closed form; the one eigenvector the projector needs (the
-    largest's when one eigenvalue is kept, the smallest's when two are) from
-    `_eigenvector_of` when it is separated from the others by more than
-    EIGEN_GAP_REL of the largest, else by Jacobi rotations (`_binarised_projector`).
+    T~ keeps the eigenvectors whose eigenvalue is >= tau times the largest (with
+    eigenvalue 1) and drops the others. Only one eigenvector is needed: the
+    largest's when one eigenvalue is kept (T~ n = (v1 . n) v1), the smallest's when
+    two are (T~ n = n - (v3 . n) v3); both come from the shared closed form refined
+    by deflation (`eigh3_accurate`, a few ulps of lambda_1). Zero for T = 0.
     """
-    l1, l2, l3 = sym3_eigvals(t00, t01, t02, t11, t12, t22)
+    l1, l2, l3, e1x, e1y, e1z, e3x, e3y, e3z = eigh3_accurate(t00, t01, t02, t11, t12, t22)
     if not l1 > 0.0:
         return 0.0, 0.0, 0.0
-    kept = 1
-    if l2 / l1 >= tau:
-        kept += 1
     if l3 / l1 >= tau:
-        kept += 1
-    if kept == 3:
         return nx, ny, nz
-    if kept == 1 and l1 - l2 > EIGEN_GAP_REL * l1:
-        v0, v1, v2 = _eigenvector_of(t00, t01, t02, t11, t12, t22, l1)
-        s = v0 * nx + v1 * ny + v2 * nz
-        return s * v0, s * v1, s * v2
-    if kept == 2 and l2 - l3 > EIGEN_GAP_REL * l1:
-        v0, v1, v2 = _eigenvector_of(t00, t01, t02, t11, t12, t22, l3)
-        s = v0 * nx + v1 * ny + v2 * nz
-        return nx - s * v0, ny - s * v1, nz - s * v2
-    t = np.empty((3, 3))
-    t[0, 0], t[0, 1], t[0, 2] = t00, t01, t02
-    t[1, 0], t[1, 1], t[1, 2] = t01, t11, t12
-    t[2, 0], t[2, 1], t[2, 2] = t02, t12, t22
-    proj = np.empty((3, 3))
-    _binarised_projector(t, tau, proj)
-    return (
-        proj[0, 0] * nx + proj[0, 1] * ny + proj[0, 2] * nz,
-        proj[1, 0] * nx + proj[1, 1] * ny + proj[1, 2] * nz,
-        proj[2, 0] * nx + proj[2, 1] * ny + proj[2, 2] * nz,
-    )
+    if l2 / l1 >= tau:
+        s = e3x * nx + e3y * ny + e3z * nz
+        return nx - s * e3x, ny - s * e3y, nz - s * e3z
+    s = e1x * nx + e1y * ny + e1z * nz
+    return s * e1x, s * e1y, s * e1z
 
 
 @njit(parallel=True, cache=True)
 def voting_filter_kernel(normals, idx, k_of, use_cut, cos_rho, tau, out):
-    """One normal voting tensor step ([YRS+18] stage 1, GUIDE C3) for every point.
+    """One normal voting tensor step ([YRS+18] stage 1, thesis 5.4) for every point.
 
     T_i = sum_j w_ij n_j n_j^T over the first ``k_of[i]`` neighbours, w_ij = 1 if
     n_i . n_j >= cos_rho else 0 (all 1 where ``use_cut[i]`` is False); eigenvalues
@@ -393,7 +271,7 @@ def _class_tensor(normals, idx, i, kk, tau):
         t11 += b * b
         t12 += b * cc
         t22 += cc * cc
-    l1, l2, l3 = sym3_eigvals(t00, t01, t02, t11, t12, t22)
+    l1, l2, l3 = eigh3_accurate(t00, t01, t02, t11, t12, t22)[:3]
     m = 1
     if l1 > 0.0:
         if l2 / l1 >= tau:
@@ -534,13 +412,14 @@ def _feature_move(points, normals, idx, i, kk, m, cos_rho, t00, t01, t02, t11, t
     t[0, 0], t[0, 1], t[0, 2] = t00, t01, t02
     t[1, 0], t[1, 1], t[1, 2] = t01, t11, t12
     t[2, 0], t[2, 1], t[2, 2] = t02, t12, t22
+    scratch = np.empty((3, 3))
     lam = np.empty(3)
     vec = np.empty((3, 3))
-    sym3_eigh(t, lam, vec)
+    eig3_jacobi(t, scratch, lam, vec)  # descending
     d = np.empty((3, m))
     for c in range(m):
         for r in range(3):
-            d[r, c] = vec[r, 2 - c]
+            d[r, c] = vec[r, c]
     a = np.zeros((m, m))
     b = np.zeros(m)
     g = np.zeros(m)
@@ -564,16 +443,15 @@ def _feature_move(points, normals, idx, i, kk, m, cos_rho, t00, t01, t02, t11, t
     for q in range(m):
         for s in range(m):
             a3[q, s] = a[q, s]
-    mu3 = np.empty(3)
-    w3 = np.empty((3, 3))
-    sym3_eigh(a3, mu3, w3)
-    # the m x m block's eigenpairs are the last m of the padded 3 x 3 (zeros first)
-    mu = mu3[3 - m :]
-    w = w3[:m, 3 - m :]
+    mu = np.empty(3)
+    w = np.empty((3, 3))
+    eig3_jacobi(a3, scratch, mu, w)  # descending
+    # the zero padding stays exact (Jacobi never rotates a zero row), so the padded
+    # directions carry eigenvalue 0 and are dropped below
     s_vec = np.zeros(m)
-    if mu[m - 1] > 0.0:
-        for e in range(m):
-            if mu[e] > 1e-6 * mu[m - 1]:
+    if mu[0] > 0.0:
+        for e in range(3):
+            if mu[e] > 1e-6 * mu[0]:
                 proj = 0.0
                 for q in range(m):
                     proj += w[q, e] * b[q]
@@ -587,3 +465,81 @@ def _feature_move(points, normals, idx, i, kk, m, cos_rho, t00, t01, t02, t11, t
         x1 += d[1, q] * s_vec[q]
         x2 += d[2, q] * s_vec[q]
     return x0, x1, x2
+
+
+# --------------------------------------------------------------------------- neighbourhoods
+
+
+@njit(parallel=True, cache=True)
+def table_distances_kernel(points, idx, out):
+    """``out[i, c]`` = |p_idx[i, c] - p_i| for a neighbour table (default neighbourhoods).
+
+    The same arithmetic for a whole point set and for a tile of it, so the
+    neighbourhood sizes k_i of `default_neighbourhoods` agree bit for bit wherever
+    the tables do.
+
+    Parameters
+    ----------
+    points : (N, 3) float64
+    idx : (N, K) int64
+    out : (N, K) float64, out
+    """
+    for i in prange(idx.shape[0]):
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        for c in range(idx.shape[1]):
+            j = idx[i, c]
+            dx = points[j, 0] - px
+            dy = points[j, 1] - py
+            dz = points[j, 2] - pz
+            out[i, c] = math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+# --------------------------------------------------------------------------- returned normals
+
+
+@njit(parallel=True, cache=True)
+def face_normals_kernel(points, normals, idx, k_of, cos_rho, out):
+    """PCA normal of each point's face: the neighbours that share its filtered normal.
+
+    Over the first ``k_of[i]`` neighbours j with n_i . n_j >= cos_rho (the planes
+    the point update used), the eigenvector of the least eigenvalue of their
+    covariance about their barycentre, signed like n_i. Fewer than three such
+    neighbours, or a covariance whose two smallest eigenvalues coincide (no plane),
+    keep n_i.
+
+    Parameters
+    ----------
+    points : (N, 3) float64
+    normals : (N, 3) float64, unit (filtered)
+    idx : (N, K) int64
+    k_of : (N,) int64
+    cos_rho : float
+    out : (N, 3) float64, out (unit)
+    """
+    for i in prange(points.shape[0]):
+        nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        out[i, 0], out[i, 1], out[i, 2] = nx, ny, nz
+        cnt = 0
+        s0 = s1 = s2 = 0.0
+        c00 = c01 = c02 = c11 = c12 = c22 = 0.0
+        for c in range(k_of[i]):
+            j = idx[i, c]
+            if nx * normals[j, 0] + ny * normals[j, 1] + nz * normals[j, 2] < cos_rho:
+                continue
+            y0, y1, y2 = points[j, 0] - px, points[j, 1] - py, points[j, 2] - pz
+            cnt, s0, s1, s2, c00, c01, c02, c11, c12, c22 = add_moments(
+                1, y0, y1, y2, cnt, s0, s1, s2, c00, c01, c02, c11, c12, c22
+            )
+        if cnt < 3:
+            continue
+        m0, m1, m2 = s0 / cnt, s1 / cnt, s2 / cnt
+        l1, l2, l3, _, _, _, vx, vy, vz = eigh3_accurate(
+            c00 / cnt - m0 * m0, c01 / cnt - m0 * m1, c02 / cnt - m0 * m2,
+            c11 / cnt - m1 * m1, c12 / cnt - m1 * m2, c22 / cnt - m2 * m2,
+        )  # fmt: skip
+        if not l2 > l3 or not (math.isfinite(vx) and math.isfinite(vy) and math.isfinite(vz)):
+            continue
+        if vx * nx + vy * ny + vz * nz < 0.0:
+            vx, vy, vz = -vx, -vy, -vz
+        out[i, 0], out[i, 1], out[i, 2] = vx, vy, vz

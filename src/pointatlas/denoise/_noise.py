@@ -102,7 +102,7 @@ def add_noise(
         Gaussian along the normals (thesis 5.4, 6.2), impulsive (`add_impulsive_noise`)
         or Gaussian in every coordinate.
     k : int
-        Neighbours for l: 6 (thesis 5.4) or 12 (6.2, GUIDE).
+        Neighbours for l: 6 (thesis 5.4) or 12 (thesis 6.2).
     spacing : float, optional
         Use this length instead of l (e.g. the bounding-sphere radius, with
         ``amplitude`` 0.01 for the literature's "1 % noise").

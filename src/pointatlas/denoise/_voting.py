@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._core import PointAtlasError, as_float, as_int, as_normals, as_points
+from .._core import PointAtlasError, as_float, as_int, as_normals, as_points, check_neighbors
 from .._core.tolerances import (
     DENOISE_K_MAX,
     DENOISE_K_MIN,
@@ -13,11 +13,14 @@ from .._core.tolerances import (
 )
 from ..neighbors import mean_spacing, query_knn
 from ..normals import estimate_normals, orient_normals
+from ._defaults import MAX_ROUNDS, MAX_UPDATES, default_filter_iter
 from ._kernels import (
     adaptive_k_kernel,
+    face_normals_kernel,
     feature_class_kernel,
     plane_update_kernel,
     quadric_update_kernel,
+    table_distances_kernel,
     voting_filter_kernel,
 )
 from ._result import DenoiseResult, NormalFilterResult
@@ -56,12 +59,17 @@ UPDATE_SIGMA_LATER = 1.5
 #: ``n_update=None``: updates until one moves the points by an RMS below
 #: UPDATE_STOP l, at most MAX_UPDATES per round
 UPDATE_STOP = 0.05
-MAX_UPDATES = 12
 #: ``n_iter=None``: another round (normals re-estimated from the moved points,
 #: filtered, updates) while the last round moved the points by an RMS above
 #: ROUND_MOVE l (high noise), at most MAX_ROUNDS rounds
 ROUND_MOVE = 0.4
-MAX_ROUNDS = 4
+#: `normal_voting_denoise`'s filter ball (docs/decisions/denoise.md, "Filter steps per
+#: round and ball"): POINT_RADIUS_FACTOR l (clamped to [7, 48] points); its filter steps
+#: per round are `default_filter_iter`. `filter_normals` keeps the thesis' 2 l ball.
+POINT_RADIUS_FACTOR = 3.5
+#: PCA neighbours of the normals of later rounds (at least; the moved points are
+#: smoother, a wider fit helps curved parts; docs/decisions/denoise.md)
+LATER_NORMAL_K = 30
 
 
 def _check_common(points, normals, rho, tau, radius_factor, *, optional=False):
@@ -117,35 +125,59 @@ def default_neighbourhoods(
     return idx, k, ell
 
 
-def _neighbourhoods(pts, radius_factor, extra):
+def _neighbourhoods(pts, radius_factor, extra, neighbors=None, spacing=None):
     """`default_neighbourhoods` on validated input; returns (table, idx, k, l).
 
-    ``table`` is the whole queried index table (``min(48 + extra, N)`` columns, so
-    its first 20 columns can serve normal estimation); ``idx`` its first
-    max(k) + extra columns.
+    ``table`` is the whole index table (queried: ``min(48 + extra, N)`` columns,
+    so its first 20 columns can serve normal estimation; or ``neighbors``, a
+    validated table of at least that many columns); ``idx`` its first
+    max(k) + extra columns. The distances behind k and l are recomputed from the
+    table (`table_distances_kernel`), so a tile with the same rows gets the same
+    k; ``spacing`` given replaces l.
     """
     n = pts.shape[0]
     kcap = min(K_MAX, n)
     ncol = min(kcap + extra, n)
-    idx, dist = query_knn(pts, ncol)
-    ell = float(np.mean(dist[:, 1:7])) if ncol > 6 else mean_spacing(pts, 6)
-    inside = (dist[:, :kcap] <= radius_factor * ell).sum(axis=1)
+    table = query_knn(pts, ncol)[0] if neighbors is None else neighbors
+    dist = np.empty((n, kcap))
+    table_distances_kernel(pts, np.ascontiguousarray(table[:, :kcap]), dist)
+    if spacing is not None:
+        ell = spacing
+    else:
+        ell = float(np.mean(dist[:, 1:7])) if ncol > 6 else mean_spacing(pts, 6)
+    inside = (dist <= radius_factor * ell).sum(axis=1)
     k = np.clip(inside, min(K_MIN, n), kcap).astype(np.int64)
-    return idx, np.ascontiguousarray(idx[:, : min(int(k.max()) + extra, ncol)]), k, ell
+    return table, np.ascontiguousarray(table[:, : min(int(k.max()) + extra, ncol)]), k, ell
+
+
+def _check_table(neighbors, n, adaptive):
+    """The ``neighbors=`` table of `normal_voting_denoise`: at least min(48 (+10
+    adaptive), N) columns, each row starting with its point."""
+    need = min(K_MAX + (K_WIDTH if adaptive else 0), n)
+    table = check_neighbors(neighbors, n)
+    if table.shape[1] < need:
+        raise ValueError(
+            f"neighbors must have at least {need} columns (min(48, N), +10 for the "
+            f"adaptive k); got {table.shape[1]}"
+        )
+    if not (table[:, 0] == np.arange(n)).all():
+        raise ValueError("neighbors must list every point first in its own row")
+    return table
 
 
 def _estimated_normals(pts, table, k, like=None):
     """PCA normals (k-NN) from one table (queried here when ``table`` is too narrow).
 
     ``like`` None: oriented by `orient_normals` (MST, outward; its default 10-NN
-    graph). Otherwise each is signed like the row of ``like`` (later rounds).
+    graph, all points when there are fewer). Otherwise each is signed like the row
+    of ``like`` (later rounds).
     """
     need = min(max(k, 10), pts.shape[0])
     if table is None or table.shape[1] < need:
         table = query_knn(pts, need)[0]
     nrm = estimate_normals(pts, k, neighbors=table)
     if like is None:
-        return orient_normals(pts, nrm, neighbors=table)
+        return orient_normals(pts, nrm, k=min(10, pts.shape[0]), neighbors=table)
     nrm[(nrm * like).sum(axis=1) < 0] *= -1.0
     return nrm
 
@@ -230,7 +262,7 @@ def filter_normals(
 
     Notes
     -----
-    Reconstruction of [YRS+18] (GUIDE C3; docs/decisions/denoise.md): per point
+    Reconstruction of [YRS+18] as thesis 5.4 uses it (docs/decisions/denoise.md): per point
     T_i = sum_j w_ij n_j n_j^T, w_ij = [n_i . n_j >= rho]; eigenvalues scaled by the
     largest and set to 1 if >= tau else 0; n_i <- normalise(T~_i n_i). All points
     are updated together. In the adaptive variant, points where every k in the
@@ -289,8 +321,12 @@ def _updates(cur, nrm, idx, k_def, *, rho, tau, step, sigma, stop, n_update, sha
 
 
 def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filter_iter,
-            n_update, adaptive, max_step, sharpen, normal_k, progress):  # fmt: skip
+            n_update, adaptive, max_step, sharpen, normal_k, refit, progress):  # fmt: skip
     """The rounds of `normal_voting_denoise`, then the returned normals and classes.
+
+    The returned normals: ``n_filter_iter`` more filter steps on the final
+    positions, or with ``refit`` (estimated normals) the last filtered normals
+    refitted to the points of each point's face (`face_normals_kernel`).
 
     Returns (points, normals, k, is_fallback, feature_class, rounds run).
     """
@@ -300,9 +336,10 @@ def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filte
     fallback = np.zeros(n, dtype=bool)
     klass = np.zeros(n, dtype=np.int64)
     ran = 0
+    later_k = max(normal_k, min(LATER_NORMAL_K, n))
     for ran in range(1, rounds + 1):
         if ran > 1:  # PCA normals of the moved points, signed like the last ones
-            nrm = _estimated_normals(cur, table, normal_k, like=nrm)
+            nrm = _estimated_normals(cur, table, later_k, like=nrm)
         nrm, k_of, fallback = _filter_steps(
             cur, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_filter_iter, adaptive=adaptive,
             progress=progress,
@@ -315,12 +352,17 @@ def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filte
         moved = float(np.sqrt(((cur - start) ** 2).sum(axis=1).mean()))
         if auto and moved <= ROUND_MOVE * ell:
             break
-    if ran:  # the returned normals: n_filter_iter more steps (sharper edges)
+    if ran and not refit:  # the returned normals: n_filter_iter more steps (sharper edges)
         nrm, k_of, fallback = _filter_steps(
             cur, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_filter_iter, adaptive=adaptive,
             progress=progress,
         )  # fmt: skip
+    if ran:
         feature_class_kernel(nrm, idx, k_def, tau, klass)
+    if ran and refit:  # estimated normals: each point's plane fitted to its face's points
+        face = np.empty_like(nrm)
+        face_normals_kernel(cur, nrm, idx, k_def, rho, face)
+        nrm = face
     return cur, nrm, k_of, fallback, klass, ran
 
 
@@ -331,13 +373,16 @@ def normal_voting_denoise(
     rho: float = 0.9,
     tau: float = 0.3,
     n_iter: int | None = None,
-    n_filter_iter: int = 5,
+    n_filter_iter: int | None = None,
     n_update: int | None = None,
     adaptive: bool = True,
     max_step: float = 0.5,
     sharpen: bool = False,
-    radius_factor: float = RADIUS_FACTOR,
+    radius_factor: float = POINT_RADIUS_FACTOR,
     normal_k: int = 20,
+    neighbors=None,
+    spacing: float | None = None,
+    refit_normals: bool | None = None,
     progress=None,
 ) -> DenoiseResult:
     """Denoise points: normal voting filtering, then point updates onto the filtered planes.
@@ -356,8 +401,9 @@ def normal_voting_denoise(
     n_iter : int, optional
         Rounds. None (default): rounds until one moves the points by an RMS of
         at most 0.4 l (``ROUND_MOVE``; high noise takes 2-3), at most 4.
-    n_filter_iter : int
-        Filter steps per round (default 5).
+    n_filter_iter : int, optional
+        Filter steps per round (and of unrefitted returned normals); None:
+        `default_filter_iter` (1 when the returned normals are refitted, else 5).
     n_update : int, optional
         Point updates per round. None (default): until one moves the points by
         an RMS below 0.05 l (``UPDATE_STOP``), at most 12.
@@ -365,39 +411,49 @@ def normal_voting_denoise(
         Choose each point's k by least E_dim before every filter step (thesis 5.4);
         False gives the fixed default neighbourhoods of [YRS+18].
     max_step : float
-        Bound on one point's move per update, in units of l (mean 6-NN spacing
-        of the input).
+        Bound on one point's move per update, in units of l.
     sharpen : bool
-        Use [YRS+18]'s restricted quadric update instead (edge and corner points
-        move within the span of the dominant normal directions). Off by default:
-        it also pulls face points near an edge onto the edge
-        (docs/decisions/denoise.md).
+        Use [YRS+18]'s restricted quadric update instead (off by default: it also
+        pulls face points near an edge onto it, docs/decisions/denoise.md).
     radius_factor : float
-        Default neighbourhood radius in units of l.
+        Neighbourhood radius in l (default 3.5; [7, 48] points, `default_neighbourhoods`).
     normal_k : int
-        Neighbours of the PCA normals: of the input when ``normals`` is None, of
-        the moved points in rounds after the first (default 20).
+        Neighbours of the PCA normals of the input when ``normals`` is None
+        (default 20); rounds after the first fit max(normal_k, 30) moved points.
+    neighbors : array_like of shape (N, K), int, optional
+        The input's k-NN table (point itself first, then by distance and index,
+        as `pointatlas.neighbors.query_knn` gives it), K >= min(48, N) (+10 with
+        ``adaptive``); None: queried here.
+    spacing : float, optional
+        l, the unit of the radius, the step bound and the stops; None: the mean
+        6-NN spacing of the input. Tiles pass the untiled run's l
+        (``DenoiseResult.spacing``; with fixed counts: the untiled result, `denoise_halo`).
+    refit_normals : bool, optional
+        Return each point's normal refitted to the points of its face (the
+        neighbours within the cut-off rho) instead of ``n_filter_iter`` more
+        filter steps; None: when the normals are estimated (PCA normals blend
+        across edges; docs/decisions/denoise.md).
     progress : callable, optional
         Called with 1 after every filter step.
 
     Returns
     -------
     result : DenoiseResult
-        ``normals`` the last filtered normals, ``feature_class`` from them,
-        ``n_iter`` the rounds run, ``energy`` NaN.
+        ``normals`` the returned normals, ``feature_class`` from the filtered
+        ones, ``n_iter`` the rounds run, ``energy`` NaN, ``spacing`` l.
 
     Raises
     ------
     ValueError
-        Bad shapes or values, fewer than 8 points.
+        Bad shapes or values, fewer than 8 points, a bad ``neighbors`` table.
     TypeError
         Non-integer counts.
 
     Notes
     -----
     docs/decisions/denoise.md: one neighbour table of the input serves every
-    round. A round filters the normals (``n_filter_iter`` voting steps), then
-    moves all points together along their own filtered normals:
+    round. A round filters the normals, then moves all points together along
+    their own filtered normals:
     x_i = p_i + s n_i minimising sum_j w_ij ((n_i + n_j) . (x_i - p_j))^2 over
     neighbours with n_i . n_j >= rho, w_ij Gaussian in |p_j - p_i| (1 l; 1.5 l
     after the first round), |s| <= max_step l (n_i + n_j keeps spheres and
@@ -413,27 +469,27 @@ def normal_voting_denoise(
     >>> bool(abs(r.points[:, 2]).mean() < abs(noisy[:, 2]).mean())
     True
     """
-    estimate = normals is None
-    pts, nrm, rho, tau, radius_factor = _check_common(
-        points, normals, rho, tau, radius_factor, optional=True
-    )
-    rounds = MAX_ROUNDS if n_iter is None else as_int(n_iter, "n_iter", lo=0)
-    n_filter_iter = as_int(n_filter_iter, "n_filter_iter", lo=0)
-    if n_update is not None:
-        n_update = as_int(n_update, "n_update", lo=0)
-    max_step = as_float(max_step, "max_step", lo=0.0)
-    normal_k = min(as_int(normal_k, "normal_k", lo=3), pts.shape[0])
-    adaptive = bool(adaptive)
-    n = pts.shape[0]
-    with threads_for(n):
-        table, idx, k_def, ell = _neighbourhoods(pts, radius_factor, K_WIDTH if adaptive else 0)
-        if estimate:
-            nrm = _estimated_normals(pts, table, normal_k)
-        cur, nrm, k_of, fallback, klass, ran = _rounds(
-            pts, nrm, table, idx, k_def, ell, rounds=rounds, auto=n_iter is None, rho=rho,
-            tau=tau, n_filter_iter=n_filter_iter, n_update=n_update, adaptive=adaptive,
-            max_step=max_step, sharpen=bool(sharpen), normal_k=normal_k, progress=progress,
+    pts, nrm, opt = _voting_options(
+        points, normals, rho=rho, tau=tau, n_iter=n_iter, n_filter_iter=n_filter_iter,
+        n_update=n_update, adaptive=adaptive, max_step=max_step, sharpen=sharpen,
+        radius_factor=radius_factor, normal_k=normal_k, neighbors=neighbors, spacing=spacing,
+        refit_normals=refit_normals,
+    )  # fmt: skip
+    with threads_for(pts.shape[0]):
+        table, idx, k_def, ell = _neighbourhoods(
+            pts, opt.pop("radius_factor"), K_WIDTH if opt["adaptive"] else 0,
+            opt.pop("neighbors"), opt.pop("spacing"),
         )  # fmt: skip
+        if nrm is None:
+            nrm = _estimated_normals(pts, table, opt["normal_k"])
+        cur, nrm, k_of, fallback, klass, ran = _rounds(
+            pts, nrm, table, idx, k_def, ell, progress=progress, **opt
+        )
+    return _voting_result(pts, cur, nrm, k_of, fallback, klass, ran, ell, opt["adaptive"])
+
+
+def _voting_result(pts, cur, nrm, k_of, fallback, klass, ran, ell, adaptive):
+    """The `DenoiseResult` of `normal_voting_denoise` (non-finite points raise)."""
     if not np.isfinite(cur).all():
         raise PointAtlasError("normal voting denoising produced non-finite points")
     return DenoiseResult(
@@ -441,10 +497,47 @@ def normal_voting_denoise(
         normals=nrm,
         displacement=np.sqrt(((cur - pts) ** 2).sum(axis=1)),
         feature_class=klass.astype(np.int8),
-        energy=np.full(n, np.nan),
+        energy=np.full(pts.shape[0], np.nan),
         k=k_of,
         method="normal-voting-adaptive" if adaptive else "normal-voting",
         n_iter=ran,
         n_fallback=int(fallback.sum()),
         spacing=ell,
     )
+
+
+def _voting_options(points, normals, *, rho, tau, n_iter, n_filter_iter, n_update, adaptive,
+                    max_step, sharpen, radius_factor, normal_k, neighbors, spacing,
+                    refit_normals):  # fmt: skip
+    """Validated input of `normal_voting_denoise`: (points, normals or None, options).
+
+    The options are the keywords of `_rounds` plus ``radius_factor``,
+    ``neighbors`` (a checked table or None) and ``spacing`` (or None).
+    """
+    pts, nrm, rho, tau, radius_factor = _check_common(
+        points, normals, rho, tau, radius_factor, optional=True
+    )
+    n = pts.shape[0]
+    adaptive = bool(adaptive)
+    if spacing is not None:
+        spacing = as_float(spacing, "spacing", lo=0.0, lo_open=True)
+    refit = nrm is None if refit_normals is None else bool(refit_normals)
+    if n_filter_iter is None:
+        n_filter_iter = default_filter_iter(refit)
+    opt = {
+        "rounds": MAX_ROUNDS if n_iter is None else as_int(n_iter, "n_iter", lo=0),
+        "auto": n_iter is None,
+        "rho": rho,
+        "tau": tau,
+        "n_filter_iter": as_int(n_filter_iter, "n_filter_iter", lo=0),
+        "n_update": None if n_update is None else as_int(n_update, "n_update", lo=0),
+        "adaptive": adaptive,
+        "max_step": as_float(max_step, "max_step", lo=0.0),
+        "sharpen": bool(sharpen),
+        "normal_k": min(as_int(normal_k, "normal_k", lo=3), n),
+        "refit": refit,
+        "radius_factor": radius_factor,
+        "neighbors": None if neighbors is None else _check_table(neighbors, n, adaptive),
+        "spacing": spacing,
+    }
+    return pts, nrm, opt

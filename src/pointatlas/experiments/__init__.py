@@ -9,13 +9,15 @@ this package.
 - `fig_5_3`: Fig. 5.3 (three weightings side by side);
 - `neighbourhoods`: Tables 5.1/5.2, Figs. 5.4-5.6, 6.3, 6.6-6.8;
 - `denoise`: Table 5.3 and Fig. 6.9 (normal filtering, flatness denoising);
-- `cloud_surfaces`: Chapter A, Figs. 2.2-2.21 (cloud surfaces).
+- `cloud_surfaces`: Chapter A, Figs. 2.2-2.21 (cloud surfaces);
+- `write_experiment_report`: the HTML report of any study (its tables and pictures).
 
 The names below are the entry points of each study; the CLI imports the study
 modules inside its commands (``from pointatlas.experiments.table_4_1 import
 run_vsa_experiment``), so ``pointatlas --help`` stays fast.
 """
 
+from ._report import experiment_tables, write_experiment_report
 from .cloud_surfaces import run_cloud_surfaces
 from .denoise import fig_6_9, table_5_3, write_denoise_outputs
 from .fig_5_3 import fig_5_3
@@ -35,6 +37,7 @@ __all__ = [
     "aggregate_vsa",
     "decrease_cases",
     "energy_histogram",
+    "experiment_tables",
     "fig_5_3",
     "fig_6_9",
     "neighbourhood_model",
@@ -45,6 +48,7 @@ __all__ = [
     "table_5_3",
     "vsa_model",
     "write_denoise_outputs",
+    "write_experiment_report",
     "write_neighbourhood_outputs",
     "write_simplify_outputs",
     "write_vsa_outputs",

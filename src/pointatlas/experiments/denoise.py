@@ -118,7 +118,7 @@ def table_5_3(
         Per model and noise level: the normal MSE (Eq. 5.10) of the noisy normals, of
         [YRS+18] and of ours, the thesis' values, mean k and timings.
     """
-    from ..synth import vertex_normals
+    from ..io import vertex_normals
 
     rows = []
     with _progress(progress, 2 * len(models)) as advance:

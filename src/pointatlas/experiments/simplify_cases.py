@@ -43,7 +43,8 @@ def _torus_points():
 
 
 def _noisy_dodecahedron(seed):
-    from ..synth import add_normal_noise, dodecahedron, vertex_normals
+    from ..io import vertex_normals
+    from ..synth import add_normal_noise, dodecahedron
 
     m = dodecahedron(4)  # 962 points
     noisy = add_normal_noise(m.vertices, m.normals, 0.25, k=12, rng=seed)

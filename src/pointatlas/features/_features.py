@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from .._core import PointAtlasError, as_int, check_neighbors, readonly
+from .._core import PointAtlasError, as_int, as_k, as_vectors, check_neighbors, readonly
 from .._core._sort import morton_bits, morton_order
 from ..neighbors import query_knn
 from ._kernels import (
@@ -151,18 +151,8 @@ class FeatureResult:
 
 
 def _as_points_allow_nan(points) -> np.ndarray:
-    try:
-        arr = np.asarray(points, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"points must be numeric; got {type(points).__name__}: {exc}") from None
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"points must have shape (N, 3); got {arr.shape}")
-    return np.ascontiguousarray(arr)
-
-
-def _check_k(k, n_points: int, name: str = "k") -> int:
-    """The room's rule for k: an integer counting the point itself, 1 <= k <= N."""
-    return as_int(k, name, lo=1, hi=n_points, note="the number of points")
+    """(N, 3) float64 points, C-contiguous; non-finite rows are flagged by the kernels."""
+    return np.ascontiguousarray(as_vectors(points, name="points"))
 
 
 def _check_flatness(flatness) -> tuple[int, int]:
@@ -461,7 +451,7 @@ def covariance_features(
     """
     pts = _as_points_allow_nan(points)
     n = pts.shape[0]
-    k = _check_k(k, n)
+    k = as_k(k, n)
     a, b = _check_ab(a, b)
     flat = _check_flatness(flatness)
     idx = _neighbourhoods(pts, k, neighbors, check_range=False)

@@ -7,12 +7,11 @@ import math
 
 import numpy as np
 
-from .._core import PointAtlasError, as_float_array
+from .._core import PointAtlasError, as_float_array, as_k
 from ._features import (
     FeatureResult,
     _as_points_allow_nan,
     _check_flatness,
-    _check_k,
     _neighbourhoods,
     _spatial_order,
     _unit_normals_or_nan,
@@ -70,8 +69,8 @@ def _check_k_range(k_range, n_points: int) -> tuple[int, int]:
         kmin, kmax = k_range
     except (TypeError, ValueError):
         raise TypeError(f"k_range must be a pair (k_min, k_max); got {k_range!r}") from None
-    kmin = _check_k(kmin, n_points, "k_range[0]")
-    kmax = _check_k(kmax, n_points, "k_range[1]")
+    kmin = as_k(kmin, n_points, name="k_range[0]")
+    kmax = as_k(kmax, n_points, name="k_range[1]")
     if kmin > kmax:
         raise PointAtlasError(f"k_range must have k_min <= k_max; got {k_range!r}")
     return kmin, kmax

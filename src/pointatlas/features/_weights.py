@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .._core import as_float, check_neighbors
+from .._core import as_float, as_vectors, check_neighbors
 from .._core.tolerances import ANGLE_ZERO
 from ._kernels import angles_kernel, unit_normals_kernel
 
@@ -71,13 +71,9 @@ def cosine_sigmoid(x, a: float, b: float) -> np.ndarray:
     return out
 
 
-def _unit_normals_or_nan(normals, n_points: int) -> np.ndarray:
+def _unit_normals_or_nan(normals, n_points: int | None = None) -> np.ndarray:
     """Unit normals; rows that are non-finite or of zero length become NaN (flagged later)."""
-    arr = np.asarray(normals, dtype=np.float64)
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"normals must have shape (N, 3); got {arr.shape}")
-    if arr.shape[0] != n_points:
-        raise ValueError(f"normals must have one row per point ({n_points}); got {arr.shape[0]}")
+    arr = as_vectors(normals, n_points, name="normals")
     out = np.empty(arr.shape)
     unit_normals_kernel(np.ascontiguousarray(arr), out)
     return out
@@ -112,8 +108,7 @@ def normal_angles(normals, neighbors) -> np.ndarray:
     >>> normal_angles([[0, 0, 1], [0, 1, 0]], [[0, 1], [1, 0]]).round(4).tolist()
     [[0.0, 1.5708], [0.0, 1.5708]]
     """
-    arr = np.asarray(normals)
-    nrm = _unit_normals_or_nan(arr, arr.shape[0] if arr.ndim == 2 else -1)
+    nrm = _unit_normals_or_nan(normals)
     idx = check_neighbors(neighbors, nrm.shape[0])
     out = np.empty(idx.shape, dtype=np.float64)
     angles_kernel(nrm, idx, np.arange(idx.shape[0]), out)

@@ -25,3 +25,13 @@ def describe_exception(exc: BaseException) -> str:
     """One-line description of a third-party exception for wrapping."""
     text = str(exc).strip().splitlines()
     return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
+
+
+def first_non_number(tokens):
+    """The first token ``float`` cannot parse (for a "non-numeric value" message), or None."""
+    for token in tokens:
+        try:
+            float(token)
+        except ValueError:
+            return token
+    return None

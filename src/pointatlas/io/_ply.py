@@ -9,7 +9,7 @@ import numpy as np
 from numpy.lib import recfunctions as rfn
 from plyfile import PlyData, PlyListProperty
 
-from ._errors import describe_exception, fail
+from ._errors import describe_exception, fail, first_non_number
 from ._raw import RawData, colors_to_uint8
 
 __all__ = ["read_ply", "write_ply", "ply_type_name"]
@@ -335,7 +335,7 @@ class _AsciiBody:
         try:
             return np.array(tokens, dtype=np.float64)
         except ValueError:
-            bad = next(t for t in tokens if not _is_number(t))
+            bad = first_non_number(tokens)
             raise fail(
                 self.path, f"non-numeric value {bad[:40]!r} in PLY element {elt.name!r}"
             ) from None
@@ -404,14 +404,6 @@ class _AsciiBody:
 def _describe_counts(elements) -> str:
     """``"vertex: 50 declared, face: 10 declared"`` for an error message."""
     return ", ".join(f"{e.name}: {e.count} declared" for e in elements)
-
-
-def _is_number(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
 
 
 # --------------------------------------------------------------------------- writing

@@ -7,7 +7,7 @@ import re
 
 import numpy as np
 
-from ._errors import describe_exception, fail
+from ._errors import describe_exception, fail, first_non_number
 from ._raw import RawData
 
 __all__ = ["read_xyz", "write_xyz"]
@@ -95,18 +95,10 @@ def _find_bad_row(text: str, delimiter: str | None, first_line: int) -> str | No
                 f"line {lineno}: {len(fields)} columns, but the first data row "
                 f"(line {first_line}) has {width} ({style}-separated)"
             )
-        bad = next((f for f in fields if not _is_number(f)), None)
+        bad = first_non_number(fields)
         if bad is not None:
             return f"line {lineno}: non-numeric value {bad[:40]!r}"
     return None
-
-
-def _is_number(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
 
 
 def write_xyz(fh, points: np.ndarray, normals: np.ndarray | None) -> None:

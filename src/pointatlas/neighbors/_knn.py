@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._core import as_float, as_int, as_points, readonly
+from .._core import as_float, as_k, as_points, readonly
 from .._core.tolerances import RADIUS_QUERY_WIDEN
 from . import _kernels as K
 from ._grid import knn_grid_for, radius_grid_for
@@ -38,11 +38,6 @@ _MAX_RING = {"auto": 3, "grid": 16}
 
 #: Candidate entries per k-d tree query chunk (bounds temporary memory).
 _CHUNK_ENTRIES = 1 << 22
-
-
-def _check_k(k, n_points: int) -> int:
-    """k counts the point itself: an integer with 1 <= k <= N."""
-    return as_int(k, "k", lo=1, hi=n_points, note="the number of points")
 
 
 def _check_backend(backend) -> str:
@@ -64,15 +59,20 @@ class NeighborIndex:
         exact re-selection; ``"auto"`` (default): the grid with 3 rings. Queries
         the grid cannot certify within its rings (far outliers) are answered by
         the k-d tree path. All give identical results.
+    center : array_like of shape (3,), optional
+        The point subtracted from every coordinate (default: the centre of the
+        bounding box). An index over part of a point set built with the centre of
+        the whole set computes the whole set's squared distances bit for bit (the
+        tiles of `pointatlas.batch`).
 
     Notes
     -----
-    Coordinates are centred on their bounding-box centre before anything else so
-    distances keep their precision for UTM-like inputs (a shift by 1e6 gives the
-    same neighbours). Exact ties of the squared distance are broken by smaller
-    index (docs/decisions/neighbors.md). The one-shot functions `query_knn` and
-    `query_radius` wrap this class. Grids depend on k (or the radius) and are
-    built per query; the k-d tree is built lazily once.
+    Coordinates are centred (on their bounding-box centre unless ``center`` is
+    given) before anything else so distances keep their precision for UTM-like
+    inputs (a shift by 1e6 gives the same neighbours). Exact ties of the squared
+    distance are broken by smaller index (docs/decisions/neighbors.md). The one-shot
+    functions `query_knn` and `query_radius` wrap this class. Grids depend on k (or
+    the radius) and are built per query; the k-d tree is built lazily once.
 
     Examples
     --------
@@ -81,11 +81,16 @@ class NeighborIndex:
     [[0, 1], [1, 0], [2, 1]]
     """
 
-    def __init__(self, points, *, backend: str = "auto"):
+    def __init__(self, points, *, backend: str = "auto", center=None):
         pts = as_points(points, min_points=1)
         self.backend = _check_backend(backend)
-        lo, hi = K.bounds(pts)
-        self.center_ = 0.5 * (lo + hi)
+        if center is None:
+            lo, hi = K.bounds(pts)
+            self.center_ = 0.5 * (lo + hi)
+        else:
+            self.center_ = np.array(center, dtype=np.float64)
+            if self.center_.shape != (3,) or not np.isfinite(self.center_).all():
+                raise ValueError(f"center must be 3 finite numbers; got {center!r}")
         self.points_ = readonly(pts - self.center_)
         self._tree = None
 
@@ -124,7 +129,7 @@ class NeighborIndex:
             k not an integer (bool and floats included).
         """
         n = self.n_points
-        k = _check_k(k, n)
+        k = as_k(k, n)
         if k == 1:
             return np.arange(n, dtype=np.int64)[:, None], np.zeros((n, 1))
         if self.backend == "kdtree":

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._core import as_int, as_points, check_neighbors, readonly
+from .._core import as_k, as_points, check_neighbors, readonly
 from .._core.tolerances import NORMAL_DEGENERATE_RATIO
 from ..neighbors import query_knn
 from ._kernels import pca_normals_kernel
@@ -14,17 +14,11 @@ from ._kernels import pca_normals_kernel
 __all__ = ["PCANormalsResult", "estimate_normals", "pca_normals"]
 
 
-def _check_k(k, n_points: int, *, minimum: int) -> int:
-    """The room's rule for k: an integer counting the point itself, minimum <= k <= N
-    (3 for a PCA plane, 2 for an orientation graph)."""
-    return as_int(k, "k", lo=minimum, hi=n_points, note="the number of points")
-
-
 def _neighbor_indices(points: np.ndarray, k: int, neighbors) -> np.ndarray:
     """The first k columns of validated neighbour indices, or one `query_knn` call.
 
     ``neighbors`` may be an index array of shape (N, m >= k) or the
-    ``(indices, distances)`` tuple returned by `query_knn`; k validated (`_check_k`).
+    ``(indices, distances)`` tuple returned by `query_knn`; k validated (`as_k`).
     """
     if neighbors is None:
         return query_knn(points, k)[0]
@@ -108,7 +102,7 @@ def pca_normals(points, k: int = 20, *, neighbors=None) -> PCANormalsResult:
     (np.float64(1.0), 0)
     """
     pts = as_points(points)
-    k = _check_k(k, pts.shape[0], minimum=3)
+    k = as_k(k, pts.shape[0], minimum=3)
     idx = _neighbor_indices(pts, k, neighbors)
     n = pts.shape[0]
     normals = np.empty((n, 3))

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._core import as_float, as_normals, as_points
+from .._core import as_float, as_k, as_normals, as_points
 from .._core._sort import permute_table, spatial_renumbering
 from .._core.tolerances import MST_WEIGHT_EPS, OUTWARD_VOTE_RTOL
-from ._estimate import _check_k, _neighbor_indices
+from ._estimate import _neighbor_indices
 from ._kernels import (
     component_tops_kernel,
     offsets_kernel,
@@ -227,7 +227,7 @@ def orient_normals(
         facing = np.einsum("ij,ij->i", vp - pts, nrm)
         nrm[facing < 0] *= -1.0
         return nrm
-    k = _check_k(k, n, minimum=2)
+    k = as_k(k, n, minimum=2)
     idx = _neighbor_indices(pts, k, neighbors)
     signs, n_comp, labels = _forest_signs(pts, nrm, idx, edge_penalty)
     nrm *= signs[:, None]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import sparse
 
-from .._core import as_int, as_labels, as_points, check_neighbors
+from .._core import as_int, as_k, as_labels, as_points, check_neighbors
 from .._core._sort import permute_table
 from ..neighbors import query_knn
 from ._kernels import boundary_points, region_pairs, symmetric_csr
@@ -20,7 +20,7 @@ def _check_k(k, n_points: int, neighbors=None) -> int:
     graph, so only k >= 1 is required.
     """
     if neighbors is None:
-        return as_int(k, "k", lo=1, hi=n_points, note="the number of points")
+        return as_k(k, n_points)
     return as_int(k, "k", lo=1)
 
 

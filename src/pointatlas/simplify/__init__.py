@@ -1,9 +1,10 @@
-"""Simplified polygon meshes from segmented point sets (thesis 4.4, GUIDE B3)."""
+"""Simplified polygon meshes from segmented point sets (thesis 4.4)."""
 
-from ._mesh import SimplifiedMesh, mesh_checks, point_mesh_distance, simplify_segmentation
+from ._mesh import SimplifiedMesh, mesh_checks, point_mesh_distance
 from ._mesh_path import simplify_mesh
 from ._pipeline import PointSimplification, simplify_points
 from ._proxies import RegionProxies, region_proxies
+from ._segmentation import simplify_segmentation
 from ._surface import SurfaceSimplification
 from ._vertices import MeshVertices, SimplifyWarning
 

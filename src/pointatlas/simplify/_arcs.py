@@ -259,5 +259,3 @@ def separate_parallel_chords(arcs: list[Arc], positions) -> None:
                 full_arc(arc)
             else:
                 simplify_arc(arc, positions)
-
-

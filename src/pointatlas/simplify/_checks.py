@@ -1,7 +1,7 @@
 """Input checks of the simplify room: point count, k, memory, unusable normals.
 
-Private helpers used once by the public functions (STYLE section 5); the decisions
-are recorded in docs/decisions/simplify.md, "The thesis path".
+Private helpers of the public functions; the decisions are recorded in
+docs/decisions/simplify.md, "The thesis path".
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import os
 
 import numpy as np
 
-from .._core import PointAtlasError, as_int, as_normals, describe_indices
+from .._core import PointAtlasError, as_int, as_normals, as_vectors, describe_indices
 from .._core.tolerances import NORMAL_ZERO_LENGTH
 
 __all__ = [
@@ -99,14 +99,7 @@ def usable_normals(normals, n_points: int) -> tuple[np.ndarray, np.ndarray]:
     ``n_dropped``). Returns (unit normals (M, 3), keep mask (N,)). Raises on a
     wrong shape or when no point keeps a normal.
     """
-    try:
-        arr = np.asarray(normals, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"normals must be numeric; got {type(normals).__name__}: {exc}") from None
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"normals must have shape (N, 3); got {arr.shape}")
-    if arr.shape[0] != n_points:
-        raise ValueError(f"normals must have one row per point ({n_points}); got {arr.shape[0]}")
+    arr = as_vectors(normals, n_points, name="normals")
     with np.errstate(invalid="ignore", over="ignore"):
         length = np.linalg.norm(arr, axis=1)
     bad = ~(np.isfinite(arr).all(axis=1) & np.isfinite(length) & (length >= NORMAL_ZERO_LENGTH))

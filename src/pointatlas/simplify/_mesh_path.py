@@ -154,32 +154,7 @@ def simplify_mesh(
         max_angle = as_float(max_angle, "max_angle", lo=0.0, hi=np.pi, what="angle", unit="radians")
     if eta is not None:
         eta = as_float(eta, "eta", lo=0.0)
-    s = _surface(verts, tri)
-    graph = _face_graph(s)
-
-    def run(angle, eta_=None, tol_=tol):
-        labels, normals = _segment_faces(s, graph, max_angle=angle, eta=eta_, rng=rng)
-        if angle is not None:
-            labels = _merge_flat(s, graph, labels, min(angle, FLAT_MERGE_ANGLE))
-            normals = _region_normals(s, labels, int(labels.max()) + 1)
-        res = simplify_surface(
-            verts, tri, labels, normals, chord_tolerance=tol_, planarize=planarize
-        )
-        for _ in range(_SPLIT_ROUNDS):
-            if not res.face_kept_input.any():
-                break
-            # a region whose loops bound no planar polygon (it folds over in its plane,
-            # or its chords cross) is cut in two and the mesh rebuilt
-            labels = _split_regions(s, graph, labels, np.flatnonzero(res.face_kept_input))
-            normals = _region_normals(s, labels, int(labels.max()) + 1)
-            again = simplify_surface(
-                verts, tri, labels, normals, chord_tolerance=tol_, planarize=planarize
-            )
-            if again.face_kept_input.sum() >= res.face_kept_input.sum():
-                break
-            res = again
-        return res
-
+    run = _MeshRun(verts, tri, tol=tol, planarize=planarize, rng=rng)
     if n_faces is not None:
         from .._core import as_int
 
@@ -191,6 +166,46 @@ def simplify_mesh(
     if eta is not None:
         return run(None, eta)
     return run(MAX_ANGLE if max_angle is None else max_angle)
+
+
+class _MeshRun:
+    """One segmentation and simplification of the mesh at a level of detail (the step
+    of `simplify_mesh` that its level searches repeat)."""
+
+    def __init__(self, verts, tri, *, tol, planarize, rng):
+        self.verts, self.tri, self.tol, self.planarize, self.rng = verts, tri, tol, planarize, rng
+        self.s = _surface(verts, tri)
+        self.graph = _face_graph(self.s)
+
+    def __call__(self, angle, eta_=None, tol_=None) -> SurfaceSimplification:
+        """VSA on the faces with ``max_angle=angle`` (or ``eta=eta_``), the flat
+        regions merged, then `simplify_surface` with chord tolerance ``tol_`` (default
+        the run's); regions that kept their input triangles are cut in two and the
+        mesh rebuilt (`_SPLIT_ROUNDS` times at most, while that helps)."""
+        s, graph = self.s, self.graph
+        tol_ = self.tol if tol_ is None else tol_
+        labels, normals = _segment_faces(s, graph, max_angle=angle, eta=eta_, rng=self.rng)
+        if angle is not None:
+            labels = _merge_flat(s, graph, labels, min(angle, FLAT_MERGE_ANGLE))
+            normals = _region_normals(s, labels, int(labels.max()) + 1)
+        res = self._surface(labels, normals, tol_)
+        for _ in range(_SPLIT_ROUNDS):
+            if not res.face_kept_input.any():
+                break
+            # a region whose loops bound no planar polygon (it folds over in its plane,
+            # or its chords cross) is cut in two and the mesh rebuilt
+            labels = _split_regions(s, graph, labels, np.flatnonzero(res.face_kept_input))
+            normals = _region_normals(s, labels, int(labels.max()) + 1)
+            again = self._surface(labels, normals, tol_)
+            if again.face_kept_input.sum() >= res.face_kept_input.sum():
+                break
+            res = again
+        return res
+
+    def _surface(self, labels, normals, tol_) -> SurfaceSimplification:
+        return simplify_surface(
+            self.verts, self.tri, labels, normals, chord_tolerance=tol_, planarize=self.planarize
+        )
 
 
 def _search_faces(run, target: int) -> SurfaceSimplification:
@@ -283,8 +298,9 @@ def _merge_flat(s: _Surface, graph, labels: np.ndarray, max_angle: float) -> np.
     most ``max_angle`` (VSA with a max_angle threshold has no final merge pass; on flat
     CAD faces its agglomeration can stop with a face in several pieces).
 
-    Cheapest union first (largest |S| / W), with the regions' (W, S) summaries of
-    GUIDE B2; merged regions stay connected because only neighbours merge.
+    Cheapest union first (largest |S| / W), with the regions' summaries W = sum w_j,
+    S = sum w_j n_j (for unit normals the L^{2,1} energy of Eq. 4.4 is 2 (W - |S|));
+    merged regions stay connected because only neighbours merge.
     """
     import heapq
 

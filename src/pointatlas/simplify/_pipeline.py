@@ -11,10 +11,11 @@ import numpy as np
 from .._core import PointAtlasError, as_labels, as_points, readonly
 from ..neighbors import query_knn
 from ._checks import check_memory, check_size, usable_normals
-from ._frame import frame_of
-from ._mesh import SimplifiedMesh, simplify_segmentation
+from ._frame import Frame, frame_of
+from ._mesh import SimplifiedMesh
 from ._proxies import region_proxies
 from ._reconstruct import robust_mesh
+from ._segmentation import simplify_segmentation
 from ._surface import SurfaceSimplification
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -165,11 +166,60 @@ def simplify_points(
     (6, 8, True, 0)
     """
     # imported here so the meshing half of the room works on its own
-    from ..segment import VSAOptions, vsa_segment
+    from ..segment import VSAOptions
 
     if path not in ("auto", "thesis", "robust"):
         raise ValueError(f"path must be 'auto', 'thesis' or 'robust'; got {path!r}")
-    opts = (VSAOptions() if vsa is None else vsa).replace(**vsa_settings)
+    inp = _prepare(points, normals, (VSAOptions() if vsa is None else vsa).replace(**vsa_settings))
+    if not (isinstance(centers, str) and centers in ("seed", "centroid")):
+        raise ValueError(f"centers must be 'centroid' or 'seed'; got {centers!r}")
+    seg, seg_labels, seg_normals, ctr = _segment(inp, labels, centers, rng)
+    mesh, reason = None, "path='robust' was asked for"
+    if path != "robust":
+        settings = {
+            "vertices": vertices, "faces": faces, "centers": ctr, "weight": weight,
+            "anchor_weight": anchor_weight, "min_region_size": min_region_size,
+            "repair": repair, "smooth": smooth, "max_boundary_fraction": max_boundary_fraction,
+        }  # fmt: skip
+        mesh, reason = _thesis_mesh(inp, seg_labels, seg_normals, path, settings)
+        if mesh is not None and not reason:
+            return inp.result(seg, mesh)
+    return _robust_result(inp, seg, seg_labels, seg_normals, mesh, reason)
+
+
+@dataclass(frozen=True, slots=True)
+class _Input:
+    """The points used by `simplify_points`, in input and working coordinates."""
+
+    points: np.ndarray  # the points with a usable normal
+    normals: np.ndarray
+    keep: np.ndarray  # (N_input,) bool: the point is used
+    n_input: int
+    k: int
+    options: VSAOptions  # weights given per point follow the points used
+    frame: Frame
+    q: np.ndarray  # the points in the working frame
+    indices: np.ndarray  # their k-NN table (working frame)
+
+    @property
+    def point_index(self) -> np.ndarray:
+        return np.flatnonzero(self.keep)
+
+    def result(self, seg, mesh, **robust) -> PointSimplification:
+        """The `PointSimplification` of ``mesh`` with the points used."""
+        point_index = self.point_index
+        return PointSimplification(
+            segmentation=seg,
+            mesh=mesh,
+            point_index=point_index,
+            n_dropped=self.n_input - point_index.size,
+            **robust,
+        )
+
+
+def _prepare(points, normals, opts) -> _Input:
+    """Check the input, leave out points without a usable normal, find the working
+    frame and the k-NN table (memory checked first)."""
     weights = opts.weights
     pts = as_points(points)
     n_input = pts.shape[0]
@@ -181,65 +231,66 @@ def simplify_points(
         if not isinstance(weights, str):  # given per-point weights follow the points
             if weights.shape != (n_input,):
                 raise ValueError(f"weights must have shape ({n_input},); got {weights.shape}")
-            weights = weights[keep]
-            opts = opts.replace(weights=weights)
+            opts = opts.replace(weights=weights[keep])
     check_memory(pts.shape[0], k)
     frame = frame_of(pts)
     q = frame.to_local(pts)
     idx, _ = query_knn(q, k)
-    if not (isinstance(centers, str) and centers in ("seed", "centroid")):
-        raise ValueError(f"centers must be 'centroid' or 'seed'; got {centers!r}")
+    return _Input(pts, nrm, keep, n_input, k, opts, frame, q, idx)
+
+
+def _segment(inp: _Input, labels, centers, rng):
+    """VSA (or the given labels): (VSAResult or None, labels, proxy normals, centers)."""
+    from ..segment import vsa_segment
+
     if labels is None:
-        seg = vsa_segment(pts, nrm, options=opts, rng=rng)
+        seg = vsa_segment(inp.points, inp.normals, options=inp.options, rng=rng)
         seg_labels, seg_normals = np.asarray(seg.labels), np.asarray(seg.proxy_normals)
         if centers == "seed":
             ctr = seg.seed_points
         else:
-            ctr = _centroids(frame, q, nrm, seg, weights, k, idx)
-    else:
-        seg = None
-        given = as_labels(labels, n_input)
-        if (given < 0).any():
-            raise ValueError(f"labels must be >= 0; {int((given < 0).sum())} points are unassigned")
-        _, seg_labels = np.unique(given[keep], return_inverse=True)
-        seg_labels = seg_labels.reshape(-1).astype(np.int64)
-        prox = region_proxies(q, nrm, seg_labels)
-        seg_normals = np.asarray(prox.normals)
-        ctr = frame.to_input(prox.seed_points) if centers == "seed" else "centroid"
-    point_index = np.flatnonzero(keep)
-    n_dropped = n_input - point_index.size
-    mesh, reason = None, "path='robust' was asked for"
-    if path != "robust":
-        try:
-            mesh = simplify_segmentation(
-                pts,
-                nrm,
-                seg_labels,
-                k=k,
-                vertices=vertices,
-                faces=faces,
-                centers=ctr,
-                proxy_normals=seg_normals,
-                weight=weight,
-                anchor_weight=anchor_weight,
-                min_region_size=min_region_size,
-                repair=repair,
-                smooth=smooth,
-                max_boundary_fraction=max_boundary_fraction,
-                indices=idx,
+            ctr = _centroids(
+                inp.frame, inp.q, inp.normals, seg, inp.options.weights, inp.k, inp.indices
             )
-        except PointAtlasError as exc:
-            if path == "thesis":
-                raise
-            reason = f"thesis path: {exc}"
-        else:
-            mesh = dataclasses.replace(mesh, point_index=point_index, n_dropped=n_dropped)
-            reason = _thesis_flaw(mesh) if path == "auto" else ""
-            if not reason:
-                return PointSimplification(
-                    segmentation=seg, mesh=mesh, point_index=point_index, n_dropped=n_dropped
-                )
-    res, rec, point_labels = robust_mesh(q, nrm, seg_labels, seg_normals, frame)
+        return seg, seg_labels, seg_normals, ctr
+    given = as_labels(labels, inp.n_input)
+    if (given < 0).any():
+        raise ValueError(f"labels must be >= 0; {int((given < 0).sum())} points are unassigned")
+    _, seg_labels = np.unique(given[inp.keep], return_inverse=True)
+    seg_labels = seg_labels.reshape(-1).astype(np.int64)
+    prox = region_proxies(inp.q, inp.normals, seg_labels)
+    ctr = inp.frame.to_input(prox.seed_points) if centers == "seed" else "centroid"
+    return None, seg_labels, np.asarray(prox.normals), ctr
+
+
+def _thesis_mesh(inp: _Input, seg_labels, seg_normals, path, settings):
+    """The thesis path's mesh and why it is not kept: (mesh or None, reason; "" when
+    it is kept)."""
+    try:
+        mesh = simplify_segmentation(
+            inp.points,
+            inp.normals,
+            seg_labels,
+            k=inp.k,
+            proxy_normals=seg_normals,
+            indices=inp.indices,
+            **settings,
+        )
+    except PointAtlasError as exc:
+        if path == "thesis":
+            raise
+        return None, f"thesis path: {exc}"
+    point_index = inp.point_index
+    mesh = dataclasses.replace(
+        mesh, point_index=point_index, n_dropped=inp.n_input - point_index.size
+    )
+    return mesh, (_thesis_flaw(mesh) if path == "auto" else "")
+
+
+def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason):
+    """The robust path's result, or the open thesis mesh where the points' surface is
+    open too and the thesis mesh is as near to the points."""
+    res, rec, point_labels = robust_mesh(inp.q, inp.normals, seg_labels, seg_normals, inp.frame)
     if (
         mesh is not None
         and reason.startswith("open")
@@ -247,22 +298,12 @@ def simplify_points(
         and mesh.mean_distance <= res.mean_distance
     ):
         # the points' surface is open too, and the thesis mesh is as near: it stands
-        return PointSimplification(
-            segmentation=seg, mesh=mesh, point_index=point_index, n_dropped=n_dropped
-        )
+        return inp.result(seg, mesh)
     if reason.startswith("open") and rec.n_trimmed == 0:
         reason = "thesis path: the mesh has boundary edges where the points' surface is closed"
     elif reason.startswith("open"):
         reason = "thesis path: the open mesh is farther from the points than the robust one"
-    return PointSimplification(
-        segmentation=seg,
-        mesh=res,
-        point_index=point_index,
-        n_dropped=n_dropped,
-        path="robust",
-        reason=reason,
-        labels=point_labels,
-    )
+    return inp.result(seg, res, path="robust", reason=reason, labels=point_labels)
 
 
 def _thesis_flaw(mesh: SimplifiedMesh) -> str:

@@ -1,4 +1,4 @@
-"""Linear proxies (N_i, centroid, C_i) of labelled regions (thesis 4.2-4.3, GUIDE B2)."""
+"""Linear proxies (N_i, centroid, C_i) of labelled regions (thesis 4.2-4.3, Eqs. 4.4-4.7)."""
 
 from __future__ import annotations
 
@@ -29,7 +29,8 @@ class RegionProxies:
     sizes : ndarray of shape (R,), int64
         Number of points per region.
     energy : ndarray of shape (R,), float64
-        L^{2,1}(P_i, N_i) = 2 (W_i - |S_i|) (GUIDE B2).
+        L^{2,1}(P_i, N_i) of Eq. 4.4 at the optimal N_i = S_i / |S_i|: for unit normals
+        2 (W_i - |S_i|) with W_i = sum w_j and S_i = sum w_j n_j.
     """
 
     normals: np.ndarray

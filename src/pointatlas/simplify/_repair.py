@@ -213,61 +213,17 @@ def clean_regions(
     """Smooth the labels, merge tiny/strip regions, then (``repair``) regions whose
     boundary does not close into simple cycles, and build the complex (private;
     validated input, working coordinates; see `simplify_segmentation`)."""
-    n = points.shape[0]
     n_regions = int(labels.max()) + 1
-    cur = labels
-    base_valid = np.ones(n_regions, dtype=bool)
-    # points the majority filter relabelled to another input region stay out of the
-    # plane fit of vertices="fit"
-    fit_mask = np.ones(n, dtype=bool)
-    # every region connected in the k-NN graph (issue 14 item 6): the majority filter
-    # splits into pieces itself; without it, disconnected regions are split here
-    cur = smooth_labels(labels, indices, smooth) if smooth else split_disconnected(labels, indices)
-    is_piece = np.zeros(int(cur.max()) + 1, dtype=bool)
-    if not smooth:
-        is_piece[n_regions:] = True
-    if int(cur.max()) + 1 != n_regions or not np.array_equal(cur, labels):
-        # a piece keeps its input region's proxy unless the region was split
-        pair_counts = np.zeros((int(cur.max()) + 1, n_regions), dtype=np.int64)
-        np.add.at(pair_counts, (cur, labels), 1)
-        owner = pair_counts.argmax(axis=1)
-        base_valid = np.bincount(owner, minlength=n_regions)[owner] == 1
-        pn0, ctr0 = pn0[owner], ctr0[owner]
-        fit_mask = owner[cur] == labels
-        if smooth:  # pieces: all but the largest base piece of an input region
-            nb = owner.size
-            sizes_b = np.bincount(cur, minlength=nb)
-            order = np.lexsort((np.arange(nb), -sizes_b, owner))
-            head = np.ones(nb, dtype=bool)
-            head[1:] = owner[order][1:] != owner[order][:-1]
-            is_piece[order[~head]] = True
+    cur, is_piece, base_valid, pn0, ctr0, fit_mask = _base_pieces(
+        labels, indices, smooth, pn0, ctr0
+    )
     region_map = np.arange(int(cur.max()) + 1)  # base piece -> current region
-    n_cur0 = int(cur.max()) + 1
     reasons = [""] * n_regions
-    sizes0 = np.bincount(cur, minlength=n_cur0)
-    bad = sizes0 < int(min_region_size)
-    why = [f"fewer than min_region_size = {int(min_region_size)} points ({int(c)})" for c in sizes0]
-    for c in np.flatnonzero(is_piece & bad):
-        why[c] = (
-            f"a disconnected piece of {int(sizes0[c])} points (fewer than {int(min_region_size)})"
-        )
+    strips = repair and max_boundary_fraction < 1.0
+    bad, why = _small_regions(
+        cur, indices, is_piece, min_region_size, max_boundary_fraction if strips else None
+    )
     by_contacts = is_piece.copy()
-    if repair and max_boundary_fraction < 1.0:
-        # thin regions: (almost) every point sees another region; their two sides
-        # see each other across them and the complex cannot separate them
-        on_boundary = (cur[indices] != cur[:, None]).any(axis=1)
-        frac = np.bincount(cur, weights=on_boundary, minlength=n_cur0) / np.maximum(
-            np.bincount(cur, minlength=n_cur0), 1
-        )
-        # only regions smaller than half the largest count as strips (on a coarse
-        # sampling every region may have all its points near a boundary)
-        strip = (frac > max_boundary_fraction) & (sizes0 < 0.5 * sizes0.max()) & ~bad
-        for c in np.flatnonzero(strip):
-            why[c] = (
-                f"a thin strip ({100 * frac[c]:.0f} % of its points see another region "
-                f"among their k = {indices.shape[1]} neighbours)"
-            )
-        bad |= strip
     for _round in range(31):
         stop = False
         if bad.any():
@@ -286,7 +242,7 @@ def clean_regions(
                 f"vertex); got {n_cur} after merging regions too small to mesh"
             )
         check_not_parallel(pn)
-        cplx = surface_complex(points, cur, k=k, indices=indices)
+        cplx = surface_complex(points, cur, k=k, neighbors=indices)
         if not any(len(r) >= 3 for r in cplx.vertex_regions):
             raise PointAtlasError(
                 f"no vertex where three or more regions meet (k = {k}); the {n_cur} "
@@ -294,17 +250,7 @@ def clean_regions(
             )
         if not repair or stop:
             break
-        no_cycle = np.array([len(rc) == 0 for rc in cplx.region_cycles])
-        bad_now = no_cycle.copy()
-        why = ["no closed boundary cycle in the complex" if x else "" for x in no_cycle]
-        for c in cplx.regions_open:
-            bad_now[c] = True
-            why[c] = why[c] or "its boundary does not close into cycles"
-        for c in cplx.cycles_not_simple:
-            bad_now[cplx.cycle_region[c]] = True
-            why[cplx.cycle_region[c]] = (
-                why[cplx.cycle_region[c]] or "a boundary cycle is not simple"
-            )
+        bad_now, why = _unmeshable_regions(cplx)
         if not bad_now.any():
             break
         by_contacts = None
@@ -326,6 +272,85 @@ def clean_regions(
         fit_mask=fit_mask,
         input_reasons=tuple(reasons),
     )
+
+
+def _base_pieces(labels, indices, smooth, pn0, ctr0):
+    """The labels smoothed (or split into k-NN-connected pieces) and what the pieces
+    keep of their input region: (labels, is_piece, base_valid, pn0, ctr0, fit_mask).
+
+    Every region ends up connected in the k-NN graph (issue 14 item 6): the majority
+    filter splits into pieces itself; without it, disconnected regions are split
+    here. A piece keeps its input region's proxy unless the region was split
+    (``base_valid``); points the majority filter relabelled to another input region
+    stay out of the plane fit of ``vertices="fit"`` (``fit_mask``).
+    """
+    n_regions = int(labels.max()) + 1
+    base_valid = np.ones(n_regions, dtype=bool)
+    fit_mask = np.ones(labels.shape[0], dtype=bool)
+    cur = smooth_labels(labels, indices, smooth) if smooth else split_disconnected(labels, indices)
+    is_piece = np.zeros(int(cur.max()) + 1, dtype=bool)
+    if not smooth:
+        is_piece[n_regions:] = True
+    if int(cur.max()) + 1 != n_regions or not np.array_equal(cur, labels):
+        pair_counts = np.zeros((int(cur.max()) + 1, n_regions), dtype=np.int64)
+        np.add.at(pair_counts, (cur, labels), 1)
+        owner = pair_counts.argmax(axis=1)
+        base_valid = np.bincount(owner, minlength=n_regions)[owner] == 1
+        pn0, ctr0 = pn0[owner], ctr0[owner]
+        fit_mask = owner[cur] == labels
+        if smooth:  # pieces: all but the largest base piece of an input region
+            nb = owner.size
+            sizes_b = np.bincount(cur, minlength=nb)
+            order = np.lexsort((np.arange(nb), -sizes_b, owner))
+            head = np.ones(nb, dtype=bool)
+            head[1:] = owner[order][1:] != owner[order][:-1]
+            is_piece[order[~head]] = True
+    return cur, is_piece, base_valid, pn0, ctr0, fit_mask
+
+
+def _small_regions(cur, indices, is_piece, min_region_size, max_boundary_fraction):
+    """Regions merged before the first complex, and why: fewer than
+    ``min_region_size`` points, and (``max_boundary_fraction`` given) thin strips."""
+    n_cur0 = int(cur.max()) + 1
+    sizes0 = np.bincount(cur, minlength=n_cur0)
+    bad = sizes0 < int(min_region_size)
+    why = [f"fewer than min_region_size = {int(min_region_size)} points ({int(c)})" for c in sizes0]
+    for c in np.flatnonzero(is_piece & bad):
+        why[c] = (
+            f"a disconnected piece of {int(sizes0[c])} points (fewer than {int(min_region_size)})"
+        )
+    if max_boundary_fraction is not None:
+        # thin regions: (almost) every point sees another region; their two sides
+        # see each other across them and the complex cannot separate them
+        on_boundary = (cur[indices] != cur[:, None]).any(axis=1)
+        frac = np.bincount(cur, weights=on_boundary, minlength=n_cur0) / np.maximum(
+            np.bincount(cur, minlength=n_cur0), 1
+        )
+        # only regions smaller than half the largest count as strips (on a coarse
+        # sampling every region may have all its points near a boundary)
+        strip = (frac > max_boundary_fraction) & (sizes0 < 0.5 * sizes0.max()) & ~bad
+        for c in np.flatnonzero(strip):
+            why[c] = (
+                f"a thin strip ({100 * frac[c]:.0f} % of its points see another region "
+                f"among their k = {indices.shape[1]} neighbours)"
+            )
+        bad |= strip
+    return bad, why
+
+
+def _unmeshable_regions(cplx):
+    """Regions of the complex without a closed boundary cycle, with an open boundary
+    or a boundary cycle that is not simple, and why: (bad (R,) bool, reasons)."""
+    no_cycle = np.array([len(rc) == 0 for rc in cplx.region_cycles])
+    bad_now = no_cycle.copy()
+    why = ["no closed boundary cycle in the complex" if x else "" for x in no_cycle]
+    for c in cplx.regions_open:
+        bad_now[c] = True
+        why[c] = why[c] or "its boundary does not close into cycles"
+    for c in cplx.cycles_not_simple:
+        bad_now[cplx.cycle_region[c]] = True
+        why[cplx.cycle_region[c]] = why[cplx.cycle_region[c]] or "a boundary cycle is not simple"
+    return bad_now, why
 
 
 def _record(reasons, labels, cur, bad, why):

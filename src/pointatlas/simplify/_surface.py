@@ -20,7 +20,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import mapbox_earcut
 import numpy as np
 from scipy import sparse
 
@@ -34,7 +33,8 @@ from ._arcs import (
     simplify_arc,
     split_arcs,
 )
-from ._faces import _signed_area, plane_deviation
+from ._faces import plane_deviation
+from ._surface_faces import bad_regions, face_of_loops, loop_vertices
 
 __all__ = ["SurfaceSimplification", "simplify_surface"]
 
@@ -149,9 +149,7 @@ class SurfaceSimplification:
             "n_triangles": int(self.triangles.shape[0]),
             "n_faces_with_holes": int((self.n_holes > 0).sum()),
             "n_faces_kept_as_input_triangles": int(self.face_kept_input.sum()),
-            "faces_kept_as_input_triangles": [
-                int(x) for x in np.flatnonzero(self.face_kept_input)
-            ],
+            "faces_kept_as_input_triangles": [int(x) for x in np.flatnonzero(self.face_kept_input)],
             "n_regions_refined": self.n_refined,
             "chord_tolerance": self.chord_tolerance,
             "is_closed": self.is_closed,
@@ -242,114 +240,6 @@ def _face_graph(s: _Surface) -> sparse.csr_array:
     return sparse.csr_array((np.ones(rows.size, dtype=np.int8), (rows, cols)), shape=(n, n))
 
 
-# --------------------------------------------------------------------------- faces
-
-
-def _loop_vertices(uses, arcs) -> list[int]:
-    out: list[int] = []
-    for aid, rev in uses:
-        kept = arcs[aid].kept
-        seq = kept[::-1] if rev else kept
-        out.extend(seq[:-1])
-    return out
-
-
-def _basis(normal):
-    axis = np.eye(3)[int(np.argmin(np.abs(normal)))]
-    u = axis - (axis @ normal) * normal
-    u /= np.linalg.norm(u)
-    return u, np.cross(normal, u)
-
-
-def _segments_cross(xy_loops) -> bool:
-    """True when two edges of the loops (not sharing an end) touch or cross."""
-    segs, ids = [], []
-    for lp in xy_loops:
-        m = lp.shape[0]
-        segs.append(np.stack([lp, np.roll(lp, -1, axis=0)], axis=1))
-        ids.append(np.arange(m))
-    p = np.concatenate(segs)
-    m = p.shape[0]
-    if m > 4000:  # too many pairs to test: not a face worth making
-        return True
-    a, b = p[:, 0], p[:, 1]
-    i, j = np.triu_indices(m, 1)
-    a1, b1, a2, b2 = a[i], b[i], a[j], b[j]
-    shares = (
-        np.all(a1 == a2, 1) | np.all(a1 == b2, 1) | np.all(b1 == a2, 1) | np.all(b1 == b2, 1)
-    )
-
-    def orient(p0, p1, q):
-        return (p1[:, 0] - p0[:, 0]) * (q[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (
-            q[:, 0] - p0[:, 0]
-        )
-
-    d1, d2 = orient(a1, b1, a2), orient(a1, b1, b2)
-    d3, d4 = orient(a2, b2, a1), orient(a2, b2, b1)
-    proper = (d1 * d2 < 0) & (d3 * d4 < 0)
-    return bool((proper & ~shares).any())
-
-
-def _edges_match(tri: np.ndarray, loops) -> bool:
-    """The triangles' boundary is exactly the loops' edges, in the loops' direction, and
-    every inner edge joins two triangles in opposite directions."""
-    d = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-    want = np.concatenate([np.stack([lp, np.roll(lp, -1)], 1) for lp in loops])
-    n = int(max(d.max(initial=0), want.max(initial=0))) + 1
-    dk = d[:, 0] * n + d[:, 1]
-    rk = d[:, 1] * n + d[:, 0]
-    wk = want[:, 0] * n + want[:, 1]
-    if np.unique(dk).size != dk.size or np.unique(wk).size != wk.size:
-        return False
-    inner = np.isin(dk, rk)
-    return bool(np.array_equal(np.sort(dk[~inner]), np.sort(wk)))
-
-
-def _face(loops_v, positions, normal):
-    """Triangulate one region's loops in its plane; None when they bound no polygon.
-
-    A loop may touch itself or another loop at a vertex (a region pinched at a
-    vertex); the triangulation is accepted when its boundary is exactly the loops'
-    edges and it covers the loops' area once.
-    """
-    if any(len(lp) < 3 for lp in loops_v):
-        return None
-    flat = np.concatenate([np.asarray(lp, dtype=np.int64) for lp in loops_v])
-    u, v = _basis(normal)
-    origin = positions[flat].mean(axis=0)
-    xy = [
-        np.stack([(positions[lp] - origin) @ u, (positions[lp] - origin) @ v], 1) for lp in loops_v
-    ]
-    areas = np.array([_signed_area(c) for c in xy])
-    outer = int(np.argmax(areas))
-    if areas[outer] <= 0.0 or (np.delete(areas, outer) >= 0.0).any():
-        return None  # the region folds over in its plane: no single outer loop
-    if _segments_cross(xy):
-        return None
-    order = [outer] + [t for t in range(len(loops_v)) if t != outer]
-    loops_o = [np.asarray(loops_v[t], dtype=np.int64) for t in order]
-    xy_o = [xy[t] for t in order]
-    ends = np.cumsum([len(lp) for lp in loops_o]).astype(np.uint32)
-    pts2 = np.concatenate(xy_o)
-    tri = np.asarray(mapbox_earcut.triangulate_float64(pts2, ends), dtype=np.int64).reshape(-1, 3)
-    if tri.shape[0] == 0:
-        return None
-    p0, p1, p2 = pts2[tri[:, 0]], pts2[tri[:, 1]], pts2[tri[:, 2]]
-    cross = (p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (
-        p2[:, 0] - p0[:, 0]
-    )
-    flip = cross < 0
-    tri[flip] = tri[flip][:, [0, 2, 1]]
-    covered = np.abs(cross).sum() / 2.0
-    want = areas[outer] + areas[np.arange(areas.size) != outer].sum()
-    if abs(covered - want) > 1e-9 * max(areas[outer], 1e-300):
-        return None
-    ids = np.concatenate(loops_o)[tri]
-    if not _edges_match(ids, loops_o):
-        return None
-    return tuple(loops_o), ids
-
-
 # --------------------------------------------------------------------------- the path
 
 
@@ -357,9 +247,7 @@ def _vertex_label_count(s: _Surface, labels: np.ndarray) -> np.ndarray:
     """Number of distinct regions around every vertex (the input's boundary counts one)."""
     n = s.vertices.shape[0]
     t = s.triangles
-    pairs = np.unique(
-        np.stack([t.reshape(-1), np.repeat(labels, 3)], axis=1), axis=0
-    )
+    pairs = np.unique(np.stack([t.reshape(-1), np.repeat(labels, 3)], axis=1), axis=0)
     count = np.bincount(pairs[:, 0], minlength=n)
     open_edges = s.edge_verts[s.edge_faces[:, 1] < 0]
     on_border = np.zeros(n, dtype=bool)
@@ -372,10 +260,16 @@ def _plane_offsets(s: _Surface, labels: np.ndarray, normals: np.ndarray) -> np.n
     n_regions = normals.shape[0]
     w = s.areas + 1e-300
     wsum = np.bincount(labels, weights=w, minlength=n_regions)
-    cen = np.stack(
-        [np.bincount(labels, weights=w * s.centroids[:, d], minlength=n_regions) for d in range(3)],
-        axis=1,
-    ) / np.maximum(wsum, 1e-300)[:, None]
+    cen = (
+        np.stack(
+            [
+                np.bincount(labels, weights=w * s.centroids[:, d], minlength=n_regions)
+                for d in range(3)
+            ],
+            axis=1,
+        )
+        / np.maximum(wsum, 1e-300)[:, None]
+    )
     return np.einsum("ij,ij->i", normals, cen)
 
 
@@ -427,42 +321,6 @@ def _triangle_normals(v, tri):
     return c / np.maximum(length, 1e-300)[:, None]
 
 
-def _bad_regions(tri: np.ndarray, tface: np.ndarray, closed_input: bool) -> set[int]:
-    """Regions owning a triangle at a non-manifold (or, for closed inputs, open) edge or
-    at a vertex whose triangles do not form one fan."""
-    d = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-    owner = np.concatenate([tface, tface, tface])
-    und = np.sort(d, axis=1)
-    _, inv, cnt = np.unique(und, axis=0, return_inverse=True, return_counts=True)
-    inv = inv.reshape(-1)
-    bad_edge = (cnt > 2) | ((cnt != 2) if closed_input else np.zeros_like(cnt, dtype=bool))
-    bad = set(owner[bad_edge[inv]].tolist())
-    _, dcnt_inv, dcnt = np.unique(d, axis=0, return_inverse=True, return_counts=True)
-    bad |= set(owner[(dcnt > 1)[dcnt_inv.reshape(-1)]].tolist())
-    link: dict[int, list[tuple[int, int, int]]] = {}
-    for (a, b, c), f in zip(tri.tolist(), tface.tolist(), strict=True):
-        link.setdefault(a, []).append((b, c, f))
-        link.setdefault(b, []).append((c, a, f))
-        link.setdefault(c, []).append((a, b, f))
-    for edges in link.values():
-        deg: dict[int, int] = {}
-        parent: dict[int, int] = {}
-
-        def find(x, parent=parent):
-            while parent.setdefault(x, x) != x:
-                parent[x] = parent[parent[x]]
-                x = parent[x]
-            return x
-
-        for p_, q_, _ in edges:
-            deg[p_] = deg.get(p_, 0) + 1
-            deg[q_] = deg.get(q_, 0) + 1
-            parent[find(p_)] = find(q_)
-        if len({find(x) for x in deg}) != 1 or max(deg.values()) > 2:
-            bad |= {f for _, _, f in edges}
-    return bad
-
-
 def simplify_surface(
     vertices,
     triangles,
@@ -480,8 +338,6 @@ def simplify_surface(
     chords (input units); ``planarize`` moves the output vertices towards the
     planes of their faces (at most ``chord_tolerance`` each, see `_planarize`).
     """
-    from ._mesh import mesh_checks, point_mesh_distance
-
     verts = as_points(vertices, name="vertices")
     tri = np.asarray(triangles, dtype=np.int64)
     lab = np.asarray(labels, dtype=np.int64)
@@ -489,93 +345,9 @@ def simplify_surface(
     tol = as_float(chord_tolerance, "chord_tolerance", lo=0.0)
     s = _surface(verts, tri)
     closed_input = bool((s.edge_faces >= 0).all())
-    loops = region_loops(s, lab)
-    counts = _vertex_label_count(s, lab)
-    arcs, loops_of_region = split_arcs(loops, counts, s, lab, tol)
-    for arc in arcs:
-        simplify_arc(arc, verts)
-    separate_parallel_chords(arcs, verts)
-    n_regions = int(lab.max()) + 1 if lab.size else 0
-    arcs_of = {
-        r: sorted({aid for loop in loops_of_region[r] for aid, _ in loop}) for r in loops_of_region
-    }
-    kept_input = np.zeros(n_regions, dtype=bool)
-    kept_input[[r for r in range(n_regions) if r not in loops_of_region]] = True  # no boundary
-    refined: set[int] = set()
-    faces: dict[int, tuple] = {}
-
-    def loops_of(r):
-        return [_loop_vertices(uses, arcs) for uses in loops_of_region[r]]
-
-    def build(regions) -> list[int]:
-        failed = []
-        for r in regions:
-            if kept_input[r]:
-                continue
-            got = _face(loops_of(r), verts, normals[r])
-            if got is None:
-                failed.append(r)
-            else:
-                faces[r] = got
-        return failed
-
-    def keep_input(regions) -> set[int]:
-        """Give regions their input triangles and full arcs; returns the neighbours."""
-        touched = set()
-        for r in regions:
-            kept_input[r] = True
-            for aid in arcs_of.get(r, []):
-                if len(arcs[aid].kept) != len(arcs[aid].verts):
-                    full_arc(arcs[aid])
-                    touched.update(x for x in arcs[aid].regions if x >= 0 and x != r)
-        return touched
-
-    todo = sorted(loops_of_region)
-    for _ in range(MAX_REFINE + 2):
-        failed = build(todo)
-        if not failed:
-            break
-        touched: set[int] = set()
-        for r in failed:
-            refined.add(r)
-            progressed = False
-            for aid in arcs_of[r]:
-                if refine_arc(arcs[aid]):
-                    simplify_arc(arcs[aid], verts)
-                    progressed = True
-                    touched.update(x for x in arcs[aid].regions if x >= 0)
-            if not progressed:
-                touched |= keep_input([r])
-        separate_parallel_chords(arcs, verts)
-        todo = sorted(touched | set(failed))
-    else:
-        touched = keep_input([r for r in todo if r not in faces])
-    while True:
-        # neighbours of regions that took their input triangles see full arcs now
-        todo = sorted(r for r in range(n_regions) if not kept_input[r])
-        failed = build(todo)
-        if failed:
-            keep_input(failed)
-            continue
-        tris, tface, loops_out = [], [], []
-        for r in range(n_regions):
-            if kept_input[r]:
-                tris.append(tri[lab == r])
-                loops_out.append(
-                    tuple(np.asarray(lp, dtype=np.int64) for lp in loops_of(r))
-                    if r in loops_of_region
-                    else ()
-                )
-            else:
-                loops_out.append(faces[r][0])
-                tris.append(faces[r][1])
-            tface.append(np.full(tris[-1].shape[0], r, dtype=np.int64))
-        all_t = np.concatenate(tris) if tris else np.zeros((0, 3), np.int64)
-        all_f = np.concatenate(tface) if tface else np.zeros(0, np.int64)
-        bad = [r for r in _bad_regions(all_t, all_f, closed_input) if not kept_input[r]]
-        if not bad:
-            break
-        keep_input(bad)
+    run = _RegionFaces(s, lab, normals, tol)
+    run.refine()
+    all_t, all_f, loops_out = run.settle(closed_input)
     used = np.unique(all_t)
     remap = np.full(verts.shape[0], -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
@@ -583,11 +355,132 @@ def simplify_surface(
     out_v = verts[used]
     if planarize and tol > 0.0:
         offsets = _plane_offsets(s, lab, normals)
-        out_v = _planarize(out_v, out_t, all_f, kept_input, normals, offsets, tol)
-    polygons, polygon_face, face_loops, planarity = [], [], [], []
-    for r in range(n_regions):
-        lps = tuple(remap[lp] for lp in loops_out[r])
-        face_loops.append(lps)
+        out_v = _planarize(out_v, out_t, all_f, run.kept_input, normals, offsets, tol)
+    face_loops = [tuple(remap[lp] for lp in loops) for loops in loops_out]
+    return _result(run, verts, out_v, out_t, all_f, used, face_loops)
+
+
+class _RegionFaces:
+    """The steps of `simplify_surface` from the labels to one face per region: the
+    boundary arcs (split at anchors and simplified once, so neighbours share their
+    chords), the faces built from them, the arcs refined where a face fails, and the
+    regions that keep their input triangles (private)."""
+
+    def __init__(self, s: _Surface, lab: np.ndarray, normals: np.ndarray, tol: float):
+        self.s, self.lab, self.normals, self.tol = s, lab, normals, tol
+        verts = s.vertices
+        loops = region_loops(s, lab)
+        counts = _vertex_label_count(s, lab)
+        self.arcs, self.loops_of_region = split_arcs(loops, counts, s, lab, tol)
+        for arc in self.arcs:
+            simplify_arc(arc, verts)
+        separate_parallel_chords(self.arcs, verts)
+        self.n_regions = n_regions = int(lab.max()) + 1 if lab.size else 0
+        self.arcs_of = {
+            r: sorted({aid for loop in self.loops_of_region[r] for aid, _ in loop})
+            for r in self.loops_of_region
+        }
+        self.kept_input = np.zeros(n_regions, dtype=bool)
+        no_boundary = [r for r in range(n_regions) if r not in self.loops_of_region]
+        self.kept_input[no_boundary] = True
+        self.refined: set[int] = set()
+        self.faces: dict[int, tuple] = {}
+
+    def loops_of(self, r):
+        """Region ``r``'s loops as lists of kept arc vertices."""
+        return [loop_vertices(uses, self.arcs) for uses in self.loops_of_region[r]]
+
+    def build(self, regions) -> list[int]:
+        """Build the faces of ``regions`` (not kept as input); returns those that fail."""
+        failed = []
+        for r in regions:
+            if self.kept_input[r]:
+                continue
+            got = face_of_loops(self.loops_of(r), self.s.vertices, self.normals[r])
+            if got is None:
+                failed.append(r)
+            else:
+                self.faces[r] = got
+        return failed
+
+    def keep_input(self, regions) -> set[int]:
+        """Give regions their input triangles and full arcs; returns the neighbours."""
+        arcs = self.arcs
+        touched = set()
+        for r in regions:
+            self.kept_input[r] = True
+            for aid in self.arcs_of.get(r, []):
+                if len(arcs[aid].kept) != len(arcs[aid].verts):
+                    full_arc(arcs[aid])
+                    touched.update(x for x in arcs[aid].regions if x >= 0 and x != r)
+        return touched
+
+    def refine(self) -> None:
+        """Build every face; refine the arcs of failing regions (tolerance halved, up
+        to `MAX_REFINE` times) and rebuild them and their neighbours; regions that
+        still fail keep their input triangles."""
+        arcs, verts = self.arcs, self.s.vertices
+        todo = sorted(self.loops_of_region)
+        for _ in range(MAX_REFINE + 2):
+            failed = self.build(todo)
+            if not failed:
+                break
+            touched: set[int] = set()
+            for r in failed:
+                self.refined.add(r)
+                progressed = False
+                for aid in self.arcs_of[r]:
+                    if refine_arc(arcs[aid]):
+                        simplify_arc(arcs[aid], verts)
+                        progressed = True
+                        touched.update(x for x in arcs[aid].regions if x >= 0)
+                if not progressed:
+                    touched |= self.keep_input([r])
+            separate_parallel_chords(arcs, verts)
+            todo = sorted(touched | set(failed))
+        else:
+            self.keep_input([r for r in todo if r not in self.faces])
+
+    def settle(self, closed_input: bool):
+        """Rebuild until every face is valid and the faces together are manifold
+        (neighbours of regions that took their input triangles see full arcs now);
+        returns (triangles, their regions, loops of every region) in input vertices."""
+        tri, lab = self.s.triangles, self.lab
+        while True:
+            todo = sorted(r for r in range(self.n_regions) if not self.kept_input[r])
+            failed = self.build(todo)
+            if failed:
+                self.keep_input(failed)
+                continue
+            tris, tface, loops_out = [], [], []
+            for r in range(self.n_regions):
+                if self.kept_input[r]:
+                    tris.append(tri[lab == r])
+                    loops_out.append(
+                        tuple(np.asarray(lp, dtype=np.int64) for lp in self.loops_of(r))
+                        if r in self.loops_of_region
+                        else ()
+                    )
+                else:
+                    loops_out.append(self.faces[r][0])
+                    tris.append(self.faces[r][1])
+                tface.append(np.full(tris[-1].shape[0], r, dtype=np.int64))
+            all_t = np.concatenate(tris) if tris else np.zeros((0, 3), np.int64)
+            all_f = np.concatenate(tface) if tface else np.zeros(0, np.int64)
+            bad = [r for r in bad_regions(all_t, all_f, closed_input) if not self.kept_input[r]]
+            if not bad:
+                return all_t, all_f, loops_out
+            self.keep_input(bad)
+
+
+def _result(run: _RegionFaces, verts, out_v, out_t, all_f, used, face_loops):
+    """The `SurfaceSimplification` of the settled faces: polygons, checks, distances."""
+    from ._mesh import mesh_checks, point_mesh_distance
+
+    kept_input, lab = run.kept_input, run.lab
+    polygons, polygon_face, planarity = [], [], []
+    for r in range(run.n_regions):
+        lps = face_loops[r]
         mine = out_t[all_f == r]
         if kept_input[r] or len(lps) != 1:
             polygons.extend(t.copy() for t in mine)
@@ -605,7 +498,7 @@ def simplify_surface(
         vertex_source=used,
         polygons=tuple(polygons),
         polygon_face=np.asarray(polygon_face, dtype=np.int64),
-        face_region=np.arange(n_regions, dtype=np.int64),
+        face_region=np.arange(run.n_regions, dtype=np.int64),
         face_loops=tuple(face_loops),
         face_kept_input=kept_input.copy(),
         planarity_error=np.asarray(planarity, dtype=np.float64),
@@ -619,8 +512,6 @@ def simplify_surface(
         distances=dist,
         mean_distance=float(dist.mean()) if dist.size else 0.0,
         max_distance=float(dist.max()) if dist.size else 0.0,
-        chord_tolerance=tol,
-        n_refined=len(refined),
+        chord_tolerance=run.tol,
+        n_refined=len(run.refined),
     )
-
-

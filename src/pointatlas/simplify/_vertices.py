@@ -7,14 +7,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import sparse
-from scipy.optimize import NonlinearConstraint, minimize
+from scipy.optimize import NonlinearConstraint
 
 from .._core import readonly
-from .._core.tolerances import (
-    SIMPLIFY_CONSTRAINT_TOL,
-    SIMPLIFY_PLANE_SV_RTOL,
-    SIMPLIFY_VERTEX_BOUND,
-)
+from .._core.tolerances import SIMPLIFY_PLANE_SV_RTOL, SIMPLIFY_VERTEX_BOUND
+from ._solver import newton_kkt, newton_solver, project_constraints, solve_constrained
 
 __all__ = ["MeshVertices", "SimplifyWarning"]
 
@@ -165,75 +162,6 @@ def _incidences(cplx, centers):
     )
 
 
-def _solve_constrained(
-    fun,
-    z0,
-    hess,
-    constraint,
-    cons,
-    max_iter,
-    *,
-    gtol,
-    xtol,
-    refine=None,
-    polish=None,
-    newton=None,
-):
-    """Solve min ``fun`` (value, gradient) under ``constraint`` (= 0).
-
-    ``newton`` (when given): Newton's method on the KKT system from ``z0`` (`_sqp`),
-    kept when it converges to a feasible local minimum. Otherwise (the reference
-    solver) trust-constr, then the optional ``refine`` (only when trust-constr
-    converged, not at its iteration limit); then ``polish``. Returns (z, ok,
-    constraint violation, iterations, message).
-    """
-    if newton is not None:
-        with _one_blas_thread():
-            z, converged, steps = newton(z0)
-            if converged and polish is not None:
-                z = polish(z)
-        c = cons(z)
-        violation = float(np.max(np.abs(c))) if c.size else 0.0
-        if converged and np.all(np.isfinite(z)) and violation <= SIMPLIFY_CONSTRAINT_TOL:
-            return z, True, violation, steps, f"Newton-KKT converged in {steps} steps"
-    z, message, n_iter, violation, ok = z0, "", 0, float("inf"), False
-    try:
-        with warnings.catch_warnings(), _one_blas_thread():
-            warnings.simplefilter("ignore")  # scipy's own progress warnings
-            res = minimize(
-                fun,
-                z0,
-                jac=True,
-                hess=hess,
-                method="trust-constr",
-                constraints=[constraint],
-                options={"maxiter": int(max_iter), "gtol": gtol, "xtol": xtol},
-            )
-        z = res.x
-        if refine is not None and res.status != 0:  # 0: iteration limit reached
-            z = refine(z)
-        if polish is not None:
-            z = polish(z)
-        c = cons(z)
-        violation = float(np.max(np.abs(c))) if c.size else 0.0
-        n_iter = int(res.nit)
-        message = str(res.message)
-        ok = bool(np.all(np.isfinite(z))) and violation <= SIMPLIFY_CONSTRAINT_TOL
-    except (ValueError, np.linalg.LinAlgError, ArithmeticError) as exc:
-        message = f"optimizer error: {exc}"
-    return z, ok, violation, n_iter, message
-
-
-def _newton_solver(solver, fun, hess_obj, cons, cjac, chess):
-    """``solver="newton"``: `_sqp` first (trust-constr only when it does not converge);
-    ``"trust-constr"``: the reference solver alone (None)."""
-    if solver == "trust-constr":
-        return None
-    if solver != "newton":
-        raise ValueError(f"solver must be 'newton' or 'trust-constr'; got {solver!r}")
-    return lambda z: _sqp(z, fun, hess_obj, cons, cjac, chess)
-
-
 def _fallback(base, what, violation, n_iter, message) -> MeshVertices:
     """Warn that ``what`` failed and return the plane-intersection vertices ``base``."""
     warnings.warn(
@@ -342,7 +270,7 @@ def optimize_vertices(
         return sparse.csr_array((vals, (r, c)), shape=(size, size))
 
     constraint = NonlinearConstraint(cons, 0.0, 0.0, jac=cjac, hess=chess)
-    z, ok, violation, n_iter, message = _solve_constrained(
+    z, ok, violation, n_iter, message = solve_constrained(
         fun,
         z0,
         hess,
@@ -351,10 +279,10 @@ def optimize_vertices(
         max_iter,
         gtol=1e-12,
         xtol=1e-14,
-        refine=lambda z: _project_constraints(
-            _newton_kkt(z, fun, hess_obj, cons, cjac, chess), cons, cjac
+        refine=lambda z: project_constraints(
+            newton_kkt(z, fun, hess_obj, cons, cjac, chess), cons, cjac
         ),
-        newton=_newton_solver(solver, fun, hess_obj, cons, cjac, chess),
+        newton=newton_solver(solver, fun, hess_obj, cons, cjac, chess),
     )
     if not ok:
         base = lsq if lsq is not None else lsq_vertices(cplx, points, normals, centers)
@@ -383,163 +311,62 @@ _FIT_XTOL = 1e-14
 _FIT_MIN_ENERGY = 1e-6
 
 
-def _project_constraints(z, cons, cjac, n_steps=8, tol=1e-15):
-    """Gauss-Newton min-norm steps z <- z - J^+ c(z) onto {c = 0} (a feasibility polish)."""
-    for _ in range(n_steps):
-        c = cons(z)
-        if not c.size or np.max(np.abs(c)) <= tol:
-            break
-        jac = cjac(z)
-        if jac.shape[1] <= 1500:
-            step = np.linalg.lstsq(jac.toarray(), c, rcond=None)[0]
-        else:  # pragma: no cover - large complexes only
-            from scipy.sparse.linalg import lsqr
-
-            step = lsqr(jac, c, atol=1e-16, btol=1e-16, iter_lim=10 * jac.shape[1])[0]
-        z_new = z - step
-        if not np.all(np.isfinite(z_new)):
-            break
-        if np.max(np.abs(cons(z_new))) >= np.max(np.abs(c)):
-            break
-        z = z_new
-    return z
+def _plane_moments(points, labels, n_reg):
+    """Centre mu and RMS radius s of the points, and the per-region moments M_i of
+    (q, -1), q = (p - mu) / s: the plane energy of region i is y_i^T M_i y_i with
+    y_i = (n_i, d_i) (divided by the number of points)."""
+    n_pts = points.shape[0]
+    mu = points.mean(axis=0)
+    scale = float(np.sqrt(np.mean(np.sum((points - mu) ** 2, axis=1))))
+    scale = scale if scale > 0 else 1.0
+    q = (points - mu) / scale
+    qh = np.concatenate([q, -np.ones((n_pts, 1))], axis=1)
+    mom = np.zeros((n_reg, 4, 4))
+    for a in range(4):
+        for b in range(a, 4):
+            col = np.bincount(labels, weights=qh[:, a] * qh[:, b], minlength=n_reg) / n_pts
+            mom[:, a, b] = mom[:, b, a] = col
+    return mu, scale, mom
 
 
-def _one_blas_thread():
-    """Limit BLAS to one thread around the many small dense solves (on a busy 2-core
-    box the threads cost more than they give)."""
-    from threadpoolctl import threadpool_limits
+def _incidence_constraints(jj, ii, nv, n_reg):
+    """The plane fit's constraints n_i . x_j - d_i = 0 (incidence (j, i)) and
+    |n_i|^2 - 1 = 0 on z = (x, n, d): the values, the sparse Jacobian and the
+    Hessian of lam . c (functions of z)."""
+    m = jj.size
+    nx = 3 * nv
+    nn_off = nx
+    d_off = nx + 3 * n_reg
+    size = d_off + n_reg
 
-    return threadpool_limits(limits=1, user_api="blas")
+    def cons(z):
+        x = z[:nx].reshape(nv, 3)
+        nn = z[nn_off:d_off].reshape(n_reg, 3)
+        d = z[d_off:]
+        g = np.einsum("ij,ij->i", nn[ii], x[jj]) - d[ii]
+        h = np.einsum("ij,ij->i", nn, nn) - 1.0
+        return np.concatenate([g, h])
 
+    col_x = (3 * jj[:, None] + np.arange(3)).ravel()
+    col_n = (nn_off + 3 * ii[:, None] + np.arange(3)).ravel()
+    r3 = np.repeat(np.arange(m), 3)
+    jac_rows = np.concatenate([r3, r3, np.arange(m), m + np.repeat(np.arange(n_reg), 3)])
+    jac_cols = np.concatenate([col_x, col_n, d_off + ii, nn_off + np.arange(3 * n_reg)])
 
-#: Newton steps of `_sqp` at most, and its KKT residual tolerance (scaled problem)
-_SQP_MAX_STEPS = 50
-_SQP_TOL = 1e-11
-#: size up to which `_sqp` checks that its stationary point is a minimum
-_SQP_CHECK_SIZE = 1500
+    def cjac(z):
+        x = z[:nx].reshape(nv, 3)
+        nn = z[nn_off:d_off].reshape(n_reg, 3)
+        v = np.concatenate([nn[ii].ravel(), x[jj].ravel(), -np.ones(m), 2.0 * z[nn_off:d_off]])
+        return sparse.csr_array((v, (jac_rows, jac_cols)), shape=(m + n_reg, size))
 
+    def chess(z, lam):
+        v = np.repeat(lam[:m], 3)
+        r = np.concatenate([col_x, col_n, nn_off + np.arange(3 * n_reg)])
+        c = np.concatenate([col_n, col_x, nn_off + np.arange(3 * n_reg)])
+        vals = np.concatenate([v, v, np.repeat(2.0 * lam[m:], 3)])
+        return sparse.csr_array((vals, (r, c)), shape=(size, size))
 
-def _sqp(z, fun, hess_obj, cons, cjac, chess):
-    """Newton's method on the KKT conditions of min f(z) s.t. c(z) = 0 from ``z``
-    (private): the fast solver of Eq. 4.12 and of the plane fit.
-
-    The problem's structure makes this cheap: the objective is quadratic (constant
-    sparse Hessian) and the constraints bilinear (plane . vertex) or quadratic
-    (|n|^2 = 1), so the Lagrangian's Hessian and the constraint Jacobian are known in
-    closed form and sparse, and the start (least-squares vertices, proxy planes) is
-    near the optimum. Steps [[W, J^T], [J, 0]] [dz, lam] = -[grad f, c], halved
-    until the squared KKT residual |grad f + J^T lam|^2 + |c|^2 drops. Returns (z,
-    converged, steps); converged means a KKT residual (largest entry) of at most
-    ``_SQP_TOL`` and, up to ``_SQP_CHECK_SIZE`` unknowns, a Hessian of the
-    Lagrangian positive definite on the constraints' tangent space (a minimum, not
-    a saddle).
-    """
-    size = z.size
-
-    def kkt(z, lam):
-        g, jac, c = fun(z)[1], cjac(z), cons(z)
-        return np.concatenate([g + jac.T @ lam, c]), g, jac, c
-
-    g = fun(z)[1]
-    jac = cjac(z)
-    lam = _solve_kkt(sparse.csr_array(jac.T), -g)
-    if lam is None or not np.all(np.isfinite(lam)):  # pragma: no cover - defensive
-        return z, False, 0
-    resid, g, jac, c = kkt(z, lam)
-    merit = float(resid @ resid)
-    steps = 0
-    while steps < _SQP_MAX_STEPS and np.max(np.abs(resid)) > _SQP_TOL * 1e-3:
-        w = sparse.csr_array(hess_obj + chess(z, lam))
-        system = sparse.bmat([[w, jac.T], [jac, None]], format="csr")
-        sol = _solve_kkt(system, -np.concatenate([g, c]))
-        if sol is None or not np.all(np.isfinite(sol)):
-            break
-        dz, dlam = sol[:size], sol[size:] - lam
-        alpha, taken = 1.0, False
-        while alpha >= 1.0 / 64.0:
-            z_new, lam_new = z + alpha * dz, lam + alpha * dlam
-            out = kkt(z_new, lam_new)
-            m_new = float(out[0] @ out[0])
-            if np.isfinite(m_new) and m_new < merit:
-                taken = True
-                break
-            alpha *= 0.5
-        if not taken:
-            break
-        z, lam, merit = z_new, lam_new, m_new
-        resid, g, jac, c = out
-        steps += 1
-    res = float(np.max(np.abs(resid)))
-    if not res <= _SQP_TOL:
-        return z, False, steps
-    if size <= _SQP_CHECK_SIZE:
-        dense = jac.toarray()
-        _, sv, vt = np.linalg.svd(dense)
-        rank = int((sv > 1e-10 * max(sv.max(initial=0.0), 1e-300)).sum())
-        basis = vt[rank:].T  # tangent space of the constraints
-        if basis.shape[1]:
-            w = sparse.csr_array(hess_obj + chess(z, lam)).toarray()
-            reduced = basis.T @ w @ basis
-            eig = np.linalg.eigvalsh(0.5 * (reduced + reduced.T))
-            if eig.min() < -1e-9 * max(float(np.abs(eig).max()), 1.0):
-                return z, False, steps
-    return z, True, steps
-
-
-#: Newton steps on the KKT system after trust-constr (dense solves up to this size)
-_KKT_MAX_STEPS = 10
-_KKT_DENSE_SIZE = 2000
-
-
-def _solve_kkt(mat, rhs):
-    """Least-squares (dense) or sparse LU solution of a KKT system; None on failure."""
-    if mat.shape[0] <= _KKT_DENSE_SIZE:
-        return np.linalg.lstsq(mat.toarray(), rhs, rcond=None)[0]
-    from scipy.sparse.linalg import spsolve  # pragma: no cover - large complexes only
-
-    with warnings.catch_warnings():  # pragma: no cover
-        warnings.simplefilter("ignore")  # a singular system: MatrixRankWarning, NaNs
-        sol = spsolve(sparse.csc_array(mat), rhs)
-    return sol if np.all(np.isfinite(sol)) else None  # pragma: no cover
-
-
-def _newton_kkt(z, fun, hess_obj, cons, cjac, chess):
-    """Newton steps on the first-order conditions of min f(z) s.t. c(z) = 0 from a
-    near-optimal ``z`` (private).
-
-    trust-constr stops where its tolerances say, which depends on the path it took
-    (on round-off in the input); Newton's method on grad f + J^T lam = 0, c = 0
-    converges quadratically to the nearby stationary point itself, so the result is
-    the solution to round-off, whatever the path (translation and scale invariance,
-    docs/decisions/simplify.md). Steps are kept while the KKT residual decreases.
-    """
-    size = z.size
-
-    def residual(z, lam):
-        g = fun(z)[1]
-        jac = cjac(z)
-        c = cons(z)
-        return max(float(np.max(np.abs(g + jac.T @ lam))), float(np.max(np.abs(c)))), g, jac, c
-
-    g = fun(z)[1]
-    jac = cjac(z)
-    lam = _solve_kkt(sparse.csr_array(jac.T), -g)
-    if lam is None or not np.all(np.isfinite(lam)):  # pragma: no cover - defensive
-        return z
-    res, g, jac, c = residual(z, lam)
-    for _ in range(_KKT_MAX_STEPS):
-        w = sparse.csr_array(hess_obj + chess(z, lam))
-        kkt = sparse.bmat([[w, jac.T], [jac, None]], format="csr")
-        sol = _solve_kkt(kkt, -np.concatenate([g, c]))
-        if sol is None or not np.all(np.isfinite(sol)):
-            break
-        z_new, lam_new = z + sol[:size], sol[size:]
-        res_new, g_new, jac_new, c_new = residual(z_new, lam_new)
-        if not res_new < res:
-            break
-        z, lam, res, g, jac, c = z_new, lam_new, res_new, g_new, jac_new, c_new
-    return z
+    return cons, cjac, chess
 
 
 def fit_vertices(
@@ -559,20 +386,8 @@ def fit_vertices(
     """
     nv = cplx.n_vertices
     n_reg = normals.shape[0]
-    n_pts = points.shape[0]
-    mu = points.mean(axis=0)
-    scale = float(np.sqrt(np.mean(np.sum((points - mu) ** 2, axis=1))))
-    scale = scale if scale > 0 else 1.0
-    q = (points - mu) / scale
-    # per-region moments of (q, -1): the plane energy is y_i^T M_i y_i, y_i = (n_i, d_i)
-    qh = np.concatenate([q, -np.ones((n_pts, 1))], axis=1)
-    mom = np.zeros((n_reg, 4, 4))
-    for a in range(4):
-        for b in range(a, 4):
-            col = np.bincount(labels, weights=qh[:, a] * qh[:, b], minlength=n_reg) / n_pts
-            mom[:, a, b] = mom[:, b, a] = col
+    mu, scale, mom = _plane_moments(points, labels, n_reg)
     jj, ii, _ = _incidences(cplx, centers)
-    m = jj.size
     nx = 3 * nv
     nn_off = nx
     d_off = nx + 3 * n_reg
@@ -613,35 +428,9 @@ def fit_vertices(
     def hess(z):
         return hess_obj
 
-    def cons(z):
-        x = z[:nx].reshape(nv, 3)
-        nn = z[nn_off:d_off].reshape(n_reg, 3)
-        d = z[d_off:]
-        g = np.einsum("ij,ij->i", nn[ii], x[jj]) - d[ii]
-        h = np.einsum("ij,ij->i", nn, nn) - 1.0
-        return np.concatenate([g, h])
-
-    col_x = (3 * jj[:, None] + np.arange(3)).ravel()
-    col_n = (nn_off + 3 * ii[:, None] + np.arange(3)).ravel()
-    r3 = np.repeat(np.arange(m), 3)
-    jac_rows = np.concatenate([r3, r3, np.arange(m), m + np.repeat(np.arange(n_reg), 3)])
-    jac_cols = np.concatenate([col_x, col_n, d_off + ii, nn_off + np.arange(3 * n_reg)])
-
-    def cjac(z):
-        x = z[:nx].reshape(nv, 3)
-        nn = z[nn_off:d_off].reshape(n_reg, 3)
-        v = np.concatenate([nn[ii].ravel(), x[jj].ravel(), -np.ones(m), 2.0 * z[nn_off:d_off]])
-        return sparse.csr_array((v, (jac_rows, jac_cols)), shape=(m + n_reg, size))
-
-    def chess(z, lam):
-        v = np.repeat(lam[:m], 3)
-        r = np.concatenate([col_x, col_n, nn_off + np.arange(3 * n_reg)])
-        c = np.concatenate([col_n, col_x, nn_off + np.arange(3 * n_reg)])
-        vals = np.concatenate([v, v, np.repeat(2.0 * lam[m:], 3)])
-        return sparse.csr_array((vals, (r, c)), shape=(size, size))
-
+    cons, cjac, chess = _incidence_constraints(jj, ii, nv, n_reg)
     constraint = NonlinearConstraint(cons, 0.0, 0.0, jac=cjac, hess=chess)
-    z, ok, violation, n_iter, message = _solve_constrained(
+    z, ok, violation, n_iter, message = solve_constrained(
         fun,
         z0,
         hess,
@@ -650,9 +439,9 @@ def fit_vertices(
         max_iter,
         gtol=_FIT_GTOL,
         xtol=_FIT_XTOL,
-        refine=lambda z: _newton_kkt(z, fun, hess_obj, cons, cjac, chess),
-        polish=lambda z: _project_constraints(z, cons, cjac),
-        newton=_newton_solver(solver, fun, hess_obj, cons, cjac, chess),
+        refine=lambda z: newton_kkt(z, fun, hess_obj, cons, cjac, chess),
+        polish=lambda z: project_constraints(z, cons, cjac),
+        newton=newton_solver(solver, fun, hess_obj, cons, cjac, chess),
     )
     if not ok:
         return _fallback(lsq, "plane fit through common vertices", violation, n_iter, message)

@@ -1,7 +1,8 @@
 """Synthetic test shapes with exact normals, mesh sampling and noise (docs/decisions/synth.md)."""
 
+from ..io import vertex_normals  # the one implementation, re-exported for synth users
 from ._clouds import MeshClouds, clouds_from_mesh, sphere_density, vertex_curvature
-from ._mesh import SynthMesh, face_areas, vertex_normals
+from ._mesh import SynthMesh, face_areas
 from ._noise import add_gaussian_noise, add_normal_noise
 from ._polyhedra import cube, dodecahedron, octahedron
 from ._sample import MeshSample, sample_mesh

@@ -8,7 +8,7 @@ import numpy as np
 
 from .._core import PointSet, as_normals, as_points, readonly
 
-__all__ = ["SynthMesh", "vertex_normals", "face_areas"]
+__all__ = ["SynthMesh", "face_areas"]
 
 
 def _as_faces(faces, n_vertices: int, *, name: str = "faces") -> np.ndarray:
@@ -66,48 +66,17 @@ def face_areas(vertices, faces) -> np.ndarray:
     return 0.5 * np.linalg.norm(_face_cross(verts, tri), axis=1)
 
 
-def vertex_normals(vertices, faces) -> np.ndarray:
-    """Area-weighted vertex normals of a triangle mesh.
-
-    Each vertex gets the normalised sum of the (area-weighted) normals of its
-    incident triangles; triangles are assumed counter-clockwise seen from outside.
-
-    Parameters
-    ----------
-    vertices : array_like of shape (V, 3)
-        Vertex coordinates.
-    faces : array_like of shape (F, 3), int
-        Triangles as vertex indices.
-
-    Returns
-    -------
-    normals : ndarray of shape (V, 3), float64
-        Unit normals; a vertex in no triangle (or only in degenerate ones, or whose
-        incident normals cancel) gets NaN.
-
-    Raises
-    ------
-    ValueError
-        Wrong shapes, non-finite coordinates or out-of-range indices.
-
-    Notes
-    -----
-    This is the "weighted vertex normal" the thesis uses as ground truth for mesh
-    models (5.4 experiment; docs/decisions/synth.md).
-
-    Examples
-    --------
-    >>> v = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
-    >>> vertex_normals(v, [[0, 1, 2]])[0].tolist()
-    [0.0, 0.0, 1.0]
-    """
-    verts = as_points(vertices, name="vertices", min_points=0)
-    tri = _as_faces(faces, verts.shape[0])
-    return _vertex_normals(verts, tri)
-
-
 def _vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Area-weighted vertex normals; validated input, NaN where undefined."""
+    """Area-weighted vertex normals of the generated models' sharp vertices (private).
+
+    The public function is `pointatlas.io.vertex_normals` (thesis 2.3, 4.4: the
+    area-weighted vertex normal). This copy sums the face vectors corner by corner
+    (``np.add.at``) where io sums them face by face (``np.bincount``); the two differ
+    in the last bit (up to 3.3e-16). It stays only so that the stored normals of the
+    generated models (the sharp vertices of `dodecahedron`, `cylinder`, ...), which
+    feed the experiments, benchmarks and tests, keep their bits. Validated
+    triangles; NaN where the sum has zero length.
+    """
     cross = _face_cross(vertices, faces)
     acc = np.zeros_like(vertices)
     for c in range(3):

@@ -340,9 +340,7 @@ def render_points(
         clim=clim,
         colors=colors,
     )
-    prepared = [_prepare(panel)]
-    camera = _shared_camera(view, prepared)
-    return _compose(path, prepared, camera=camera, size=size, title=title)
+    return render_side_by_side(path, [panel], title=title, view=view, size=size)
 
 
 def render_mesh(
@@ -416,9 +414,7 @@ def render_mesh(
         lighting=lighting,
         face_offsets=face_offsets,
     )
-    prepared = [_prepare(panel)]
-    camera = _shared_camera(view, prepared)
-    return _compose(path, prepared, camera=camera, size=size, title=title)
+    return render_side_by_side(path, [panel], title=title, view=view, size=size)
 
 
 def render_side_by_side(path, panels, *, title: str | None = None, view=None, size=None) -> Path:

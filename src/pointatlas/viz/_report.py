@@ -31,7 +31,7 @@ __all__ = ["ReportSection", "viewer_script", "write_report"]
 MAX_VIEW_POINTS = 100_000
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
-_STYLE = """
+_CSS = """
 body{font-family:system-ui,sans-serif;max-width:1400px;margin:1.5em auto;padding:0 1em;
  color:#222}
 h1{font-size:1.6em}h2{font-size:1.25em;border-bottom:1px solid #ddd;padding-bottom:.2em}
@@ -251,7 +251,7 @@ def _head_parts(title: str, summary, params, sections) -> list[str]:
     """The page head, the input and parameter tables, the list of sections."""
     parts = [
         "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>",
-        f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head><body>",
+        f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
         f"<h1>{html.escape(title)}</h1><header class='pa-header'>",
         _table_html("input", summary),
         _table_html("parameters", params),

@@ -1,7 +1,7 @@
 """Weighted covariances of neighbourhoods (thesis Eq. 5.4; numba, validated input).
 
 `choice_cov` (one point at one (a, b, k) choice) and the search's running sums
-share `cov_from_sums`, so both form the same covariance bit for bit.
+share `add_moments` and `cov_from_sums`, so both form the same covariance bit for bit.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from .layout import (
 from .math_helpers import cosine_sigmoid_scalar
 
 __all__ = [
+    "add_moments",
     "choice_cov",
     "count_distinct",
     "cov_from_sums",
@@ -157,7 +158,8 @@ def three_distinct_k(ws, pr, ys, kmax):
 def count_distinct(ys, j, nd, d1, d2):
     """Count weighted point j (row of ``ys``) among the distinct points seen so far:
     ``nd`` (up to 3) of them, the first two at rows ``d1``, ``d2``; returns the
-    updated (nd, d1, d2)."""
+    updated (nd, d1, d2). ``ys`` holds offsets (the search) or absolute coordinates
+    (`choice_cov`, rows = point indices)."""
     if nd == 0:
         return 1, j, d2
     if nd == 1:
@@ -167,6 +169,25 @@ def count_distinct(ys, j, nd, d1, d2):
     if nd == 2 and not _same(ys, j, d1) and not _same(ys, j, d2):
         return 3, d1, d2
     return nd, d1, d2
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def add_moments(w, yx, yy, yz, sw, sx, sy, sz, sxx, sxy, sxz, syy, syz, szz):
+    """The ten moment sums about the point (sum w, sum w y, the six sums of
+    w y y^T) with neighbour offset y = (yx, yy, yz) of weight w added; shared by
+    `choice_cov` and `optimal_kernel` (the search), so both add in the same order."""
+    return (
+        sw + w,
+        sx + w * yx,
+        sy + w * yy,
+        sz + w * yz,
+        sxx + w * yx * yx,
+        sxy + w * yx * yy,
+        sxz + w * yx * yz,
+        syy + w * yy * yy,
+        syz + w * yy * yz,
+        szz + w * yz * yz,
+    )
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -199,8 +220,8 @@ def choice_cov(points, idx, i, kk, ang, arow, use_normals, a, b):
     distinct weighted points are counted on absolute coordinates. Codes in order of
     precedence: bad index, non-finite, zero weights, fewer than 3 distinct points
     (covariance 0 then). `optimal_kernel` (the search) forms the same sums in the same order
-    and the covariance with the same formula (`cov_from_sums`), so both give the
-    same covariance bit for bit.
+    (`add_moments`) and the covariance with the same formula (`cov_from_sums`), so
+    both give the same covariance bit for bit.
     """
     px = points[i, 0]
     py = points[i, 1]
@@ -241,34 +262,11 @@ def choice_cov(points, idx, i, kk, ang, arow, use_normals, a, b):
                 finite = False
             w = cosine_sigmoid_scalar(x, a, b)
         if w > 0.0:
-            sw += w
-            sx += w * yx
-            sy += w * yy
-            sz += w * yz
-            sxx += w * yx * yx
-            sxy += w * yx * yy
-            sxz += w * yx * yz
-            syy += w * yy * yy
-            syz += w * yy * yz
-            szz += w * yz * yz
+            sw, sx, sy, sz, sxx, sxy, sxz, syy, syz, szz = add_moments(
+                w, yx, yy, yz, sw, sx, sy, sz, sxx, sxy, sxz, syy, syz, szz
+            )
             if n_distinct < 3:
-                if n_distinct == 0:
-                    first = m
-                    n_distinct = 1
-                elif not (
-                    points[m, 0] == points[first, 0]
-                    and points[m, 1] == points[first, 1]
-                    and points[m, 2] == points[first, 2]
-                ):
-                    if n_distinct == 1:
-                        second = m
-                        n_distinct = 2
-                    elif not (
-                        points[m, 0] == points[second, 0]
-                        and points[m, 1] == points[second, 1]
-                        and points[m, 2] == points[second, 2]
-                    ):
-                        n_distinct = 3
+                n_distinct, first, second = count_distinct(points, m, n_distinct, first, second)
     code = REASON_OK
     if bad_index:
         code = REASON_BAD_INDEX

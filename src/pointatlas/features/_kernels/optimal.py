@@ -14,7 +14,8 @@ code is the loop written out, so the stages cost no calls):
    E_dim, the certified table bound (`edim_table`) that rules most out;
 5. `_survivor_ratios`: the closed form's last stages and the criterion's ratios;
 6. `_best_choice`: log-free chord bounds, then the exact criterion where needed;
-7. the winner's features (`eigen_features_row`, as in the fixed-k kernel).
+7. `_winner_row`: the winner's features (`eigen_features_row`, as in the fixed-k
+   kernel).
 
 Plain-numpy reference: ``tests/features/reference.py``.
 """
@@ -28,7 +29,7 @@ from numba import njit, prange
 
 from ..._core._prefetch import prefetch_read, prefetch_write
 from ...normals._kernels.eig3 import lanes_stage1, lanes_stage2, lanes_stage3
-from .covariance import cov_from_sums, gather_offsets, three_distinct_k
+from .covariance import add_moments, cov_from_sums, gather_offsets, three_distinct_k
 from .formulas import edim_of, eigen_features_row, lps_ratios
 from .layout import (
     AHEAD,
@@ -235,16 +236,9 @@ def _candidate_covariances(
             yx = offsets[j, 0]
             yy = offsets[j, 1]
             yz = offsets[j, 2]
-            s0 += w
-            s1 += w * yx
-            s2 += w * yy
-            s3 += w * yz
-            s4 += w * yx * yx
-            s5 += w * yx * yy
-            s6 += w * yx * yz
-            s7 += w * yy * yy
-            s8 += w * yy * yz
-            s9 += w * yz * yz
+            s0, s1, s2, s3, s4, s5, s6, s7, s8, s9 = add_moments(
+                w, yx, yy, yz, s0, s1, s2, s3, s4, s5, s6, s7, s8, s9
+            )
             if j + 1 >= ks:
                 q = n_cand
                 n_cand += 1
@@ -406,6 +400,36 @@ def _best_choice(
     return code, bk, bp, bq
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _winner_row(out, i, cand_cov, bq, finite, m1, m2):
+    """Stage 7: row i of ``out`` from the winning candidate ``bq``; returns the reason.
+
+    The winner's covariance is its stored one (`cov_from_sums`): the very numbers
+    `choice_cov` (`fused_kernel`) computes at this choice (same weights, sums and
+    formula); its eigen-decomposition and features follow (`eigen_features_row`).
+    Non-finite when the barycentre's sums at the winner's k are not finite.
+    """
+    if not finite:
+        return REASON_NONFINITE
+    if not eigen_features_row(
+        out, i,
+        cand_cov[0, bq], cand_cov[1, bq], cand_cov[2, bq],
+        cand_cov[3, bq], cand_cov[4, bq], cand_cov[5, bq],
+        m1, m2,
+    ):  # fmt: skip
+        return REASON_ZERO_EIGENSUM
+    return REASON_OK
+
+
+@njit(cache=True, error_model="numpy")
+def _flat_table(tab):
+    """`edim_table` flat, with -inf (no bound) at its end for choices outside it."""
+    n_cells = tab.shape[0] * tab.shape[1]
+    tab_flat = np.full(n_cells + 1, -np.inf)
+    tab_flat[:n_cells] = tab.ravel()
+    return tab_flat
+
+
 @njit(parallel=True, cache=True, error_model="numpy")
 def optimal_kernel(
     points,
@@ -428,35 +452,32 @@ def optimal_kernel(
 ):
     """Optimal (a, b, k) per point (Eq. 5.9) by running moment sums over k, and its features.
 
-    Per point the angles to the kmax sorted neighbours' normals are computed once;
-    the weights of every (a, b) pair follow (duplicates dropped), then k grows by
-    one neighbour at a time while the weighted moments (sum w, sum w y,
-    sum w y y^T about the point itself) of every pair and the unweighted sum of y
-    are updated, so each covariance costs O(1); the covariances of all choices are
-    stored. Their eigenvalues are `eig3_fast`'s values, from a branch-free copy in
-    three flat loops the compiler vectorises (`lanes_stage1` to `lanes_stage3`).
-    For E_dim (criterion 0) with a table ``tab`` (`edim_table`) only the choices
-    that its certified bounds do not rule out go past the first stage; chord
-    bounds then spare most of the rest their logarithms. Every choice skipped is
-    certified worse, so the result is the exact argmin of the criterion over all
-    choices. Ties: smallest k, then a, then b. Criterion 0: E_dim; 1:
-    eigenentropy (``tab`` of shape (0, 0): every choice goes through all stages).
-    Without normals there is one pair with all weights 1. The stages are the
-    functions above, in order.
+    Points are visited in blocks, in ``order`` (`pointatlas._core._sort.morton_order`);
+    per point the stages of the module docstring run in order: the angles to the
+    kmax sorted neighbours' normals once; the weights of every (a, b) pair
+    (duplicates dropped); weighted moments (sum w, sum w y, sum w y y^T about the
+    point) growing by one neighbour per k, so each covariance costs O(1); the
+    eigenvalues of all stored covariances by `eig3_fast`'s closed form, copied
+    branch-free into three flat loops the compiler vectorises (`lanes_stage1` to
+    `lanes_stage3`). For E_dim (criterion 0) with a table ``tab`` (`edim_table`)
+    only the choices its certified bounds do not rule out go past the first stage;
+    chord bounds then spare most of the rest their logarithms. Every choice skipped
+    is certified worse, so the result is the exact argmin of the criterion over all
+    choices. Ties: smallest k, then a, then b. Criterion 1: eigenentropy (``tab`` of
+    shape (0, 0): every choice goes through all stages). Without normals there is
+    one pair with all weights 1.
 
-    The winner's covariance is the one stored for it (`cov_from_sums`): the
-    weights are those of `cosine_sigmoid_scalar`, the sums and the formula those
-    of `choice_cov`, so it is the covariance `fused_kernel` builds at that choice,
-    bit for bit; row i of ``out`` (N, `N_OUT`) receives its eigen-decomposition
-    and features (`eigen_features_row`), so the result equals the search followed
-    by `fused_kernel` at the chosen triple bit for bit, without the angle table and
+    Row i of ``out`` (N, `N_OUT`) receives the winner's eigen-decomposition and
+    features (`_winner_row`), so the result equals the search followed by
+    `fused_kernel` at the chosen triple bit for bit, without the angle table and
     the second pass. ``reason``, ``best_k`` (-1: none) and ``best_pair`` (-1) per
-    point; rows without a valid choice are NaN (E_dim +inf). Points are visited in
-    ``order`` (see `pointatlas._core._sort.morton_order`); indices must lie in
+    point; rows without a valid choice are NaN (E_dim +inf). Indices must lie in
     [0, N).
+
+    Length: the body is the per-block scratch arrays, each named with its role
+    (allocated inside the ``prange`` loop, so one set per thread), and the stage
+    calls; a helper returning the twenty arrays would only move their names.
     """
-    # (this function's length is its docstring and the named per-block scratch
-    # arrays; the per-point body is the stage calls, in order)
     n = idx.shape[0]
     n_pairs = pair_a.shape[0] if use_normals else 1
     dedupe = use_normals and kmax <= 64
@@ -465,11 +486,8 @@ def optimal_kernel(
     nk = kmax - kmin + 1
     n_choices = nk * n_pairs
     nblocks = (n + BLOCK - 1) // BLOCK
-    # the table flat, with -inf (no bound) at its end for choices outside it
-    n_rho = tab.shape[0]
-    n_v = tab.shape[1]
-    tab_flat = np.full(n_rho * n_v + 1, -np.inf)
-    tab_flat[: n_rho * n_v] = tab.ravel()
+    n_rho, n_v = tab.shape
+    tab_flat = _flat_table(tab)
     use_tab = criterion == 0 and n_rho * n_v > 0
     for blk in prange(nblocks):
         # per point: neighbour offsets from the point, their normals, their angles
@@ -527,21 +545,8 @@ def optimal_kernel(
             code, bk, bp, bq = _best_choice(
                 surv_eig, surv_ratios, n_surv, criterion, survivors, cand_k, cand_pair, surv_bound
             )
-            if bk < 0:
-                reason[i] = code
-                _no_choice(out, i)
-                continue
-            # the winner's covariance from its stored moments: the very numbers
-            # `choice_cov` (`fused_kernel`) computes at this choice (same weights,
-            # sums and formula), and its features
-            code = REASON_OK if finite_k[bk - kmin] else REASON_NONFINITE
-            if code == REASON_OK and not eigen_features_row(
-                out, i,
-                cand_cov[0, bq], cand_cov[1, bq], cand_cov[2, bq],
-                cand_cov[3, bq], cand_cov[4, bq], cand_cov[5, bq],
-                m1, m2,
-            ):  # fmt: skip
-                code = REASON_ZERO_EIGENSUM
+            if bk >= 0:  # else code is the reason no choice is valid
+                code = _winner_row(out, i, cand_cov, bq, finite_k[bk - kmin], m1, m2)
             reason[i] = code
             if code == REASON_OK:
                 best_k[i] = bk

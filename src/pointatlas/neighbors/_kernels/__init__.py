@@ -1,9 +1,15 @@
-"""numba kernels of the neighbour queries, one module per stage (STYLE section 7).
+"""numba kernels of the neighbour queries, one module per stage (validated input assumed).
 
 * `grid`: the compact sorted-cell grid (keys, occupied cells, occupancy levels);
 * `knn`: k nearest neighbours on the grid, and the k-d tree path's selection;
 * `radius`: closed-ball queries and row sorting;
-* `graph`: CSR structure and edge lengths of the k-NN graph.
+* `graph`: CSR structure and edge lengths of the k-NN graph;
+* `mesh_distance`: the bounding-volume hierarchy of the exact point-to-mesh distance
+  (imported from its module by ``_mesh_distance``).
+
+The decisions behind them (column 0 is the point itself, ties by index, the grid
+layout) are in docs/decisions/neighbors.md; their plain-numpy references in
+``tests/neighbors/reference.py``.
 
 All kernels assume validated input: finite float64 coordinates that are already
 centred (``_knn.NeighborIndex``), int64 indices, and the grid built by

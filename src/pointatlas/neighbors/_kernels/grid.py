@@ -1,4 +1,4 @@
-"""The sorted-cell grid of the neighbour queries (numba kernels, STYLE section 7).
+"""The sorted-cell grid of the neighbour queries (numba kernels; docs/decisions/neighbors.md).
 
 All kernels assume validated input: finite float64 coordinates that are already
 centred (``_knn.NeighborIndex``), int64 indices, and the sorted-cell grid built by
@@ -25,12 +25,14 @@ __all__ = [
     "bounds",
     "cell_coords",
     "cell_starts",
+    "chunk_cells",
     "column_range",
     "gather_sorted",
     "grid_keys",
     "interleaved_chunks",
     "lower_bound",
     "occupancy_levels",
+    "sq_dist",
 ]
 
 
@@ -191,6 +193,24 @@ def interleaved_chunks(n_cells):
     while n_chunks > 1 and _gcd(stride, n_chunks) != 1:
         stride += 1
     return n_chunks, stride
+
+
+@njit(cache=True, inline="always")
+def chunk_cells(t, stride, n_chunks, n_cells):
+    """Cells ``c0 .. c1 - 1`` of parallel iteration t (chunk ``(t * stride) % n_chunks``
+    of `interleaved_chunks`)."""
+    chunk = (t * stride) % n_chunks
+    return chunk * n_cells // n_chunks, (chunk + 1) * n_cells // n_chunks
+
+
+@njit(cache=True, inline="always")
+def sq_dist(xs, ys, zs, p, qx, qy, qz):
+    """The squared distance d2 of grid point p from the query (qx, qy, qz), summed in
+    the order of the module's ordering convention."""
+    dx = xs[p] - qx
+    dy = ys[p] - qy
+    dz = zs[p] - qz
+    return dx * dx + dy * dy + dz * dz
 
 
 @njit(cache=True, inline="always")

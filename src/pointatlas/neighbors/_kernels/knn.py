@@ -13,7 +13,14 @@ import numpy as np
 from numba import njit, prange
 
 from ..._core.tolerances import GRID_CELL_MARGIN, KDTREE_CERTIFY_RTOL
-from .grid import cell_coords, column_range, interleaved_chunks, lower_bound
+from .grid import (
+    cell_coords,
+    chunk_cells,
+    column_range,
+    interleaved_chunks,
+    lower_bound,
+    sq_dist,
+)
 
 __all__ = ["knn_grid", "select_candidates", "sqrt_inplace"]
 
@@ -54,10 +61,7 @@ def _scan(xs, ys, zs, ids, a, b, qx, qy, qz, qid, bd, bi):
     """Offer the points a..b (cell order) to the buffer of query ``qid``."""
     last = bd.shape[0] - 1
     for p in range(a, b):
-        dx = xs[p] - qx
-        dy = ys[p] - qy
-        dz = zs[p] - qz
-        d2 = dx * dx + dy * dy + dz * dz
+        d2 = sq_dist(xs, ys, zs, p, qx, qy, qz)
         w = bd[last]
         if d2 < w or (d2 == w and ids[p] < bi[last]):
             j = ids[p]
@@ -217,10 +221,7 @@ def _knn_of_point(
     for pp in range(s, e):
         if bd[m - 1] == 0.0:
             break
-        dx = xs[pp] - qx
-        dy = ys[pp] - qy
-        dz = zs[pp] - qz
-        d2 = dx * dx + dy * dy + dz * dz
+        d2 = sq_dist(xs, ys, zs, pp, qx, qy, qz)
         w = bd[m - 1]
         if d2 < w or (d2 == w and ids[pp] < bi[m - 1]):
             if ids[pp] != qid:
@@ -277,9 +278,7 @@ def knn_grid(
     n_cells = ukeys.shape[0]
     n_chunks, stride = interleaved_chunks(n_cells)
     for t in prange(n_chunks):
-        chunk = (t * stride) % n_chunks
-        c0 = chunk * n_cells // n_chunks
-        c1 = (chunk + 1) * n_cells // n_chunks
+        c0, c1 = chunk_cells(t, stride, n_chunks, n_cells)
         # the query's buffer of its m best (squared distance, index), sorted
         bd = np.empty(max(m, 1))
         bi = np.empty(max(m, 1), dtype=np.int64)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .grid import cell_coords, column_range, interleaved_chunks
+from .grid import cell_coords, chunk_cells, column_range, interleaved_chunks, sq_dist
 
 __all__ = ["radius_grid", "sort_rows"]
 
@@ -72,9 +72,7 @@ def radius_grid(
     n_cells = ukeys.shape[0]
     n_chunks, stride = interleaved_chunks(n_cells)
     for t in prange(n_chunks):
-        chunk = (t * stride) % n_chunks
-        c0 = chunk * n_cells // n_chunks
-        c1 = (chunk + 1) * n_cells // n_chunks
+        c0, c1 = chunk_cells(t, stride, n_chunks, n_cells)
         col_a = np.empty(9, dtype=np.int64)
         col_b = np.empty(9, dtype=np.int64)
         for c in range(c0, c1):
@@ -101,10 +99,7 @@ def radius_grid(
                     pos += 1
                     for cc in range(n_col):
                         for pp in range(col_a[cc], col_b[cc]):
-                            dx = xs[pp] - qx
-                            dy = ys[pp] - qy
-                            dz = zs[pp] - qz
-                            d2 = dx * dx + dy * dy + dz * dz
+                            d2 = sq_dist(xs, ys, zs, pp, qx, qy, qz)
                             if d2 <= r2 and pp != p:
                                 out_idx[pos] = ids[pp]
                                 out_d2[pos] = d2
@@ -114,10 +109,7 @@ def radius_grid(
                     cnt = 0
                     for cc in range(n_col):
                         for pp in range(col_a[cc], col_b[cc]):
-                            dx = xs[pp] - qx
-                            dy = ys[pp] - qy
-                            dz = zs[pp] - qz
-                            d2 = dx * dx + dy * dy + dz * dz
+                            d2 = sq_dist(xs, ys, zs, pp, qx, qy, qz)
                             if d2 <= r2:
                                 cnt += 1
                     counts[qid] = cnt

@@ -343,6 +343,16 @@ def _null_vector(c00, c01, c02, c11, c12, c22, lam):
     return x * s, y * s, z * s, True
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _sym_mul(c00, c01, c02, c11, c12, c22, x, y, z):
+    """C (x, y, z) for the symmetric C given by its upper triangle."""
+    return (
+        c00 * x + c01 * y + c02 * z,
+        c01 * x + c11 * y + c12 * z,
+        c02 * x + c12 * y + c22 * z,
+    )
+
+
 @njit(cache=True, error_model="numpy")
 def eigh3_accurate(c00, c01, c02, c11, c12, c22):
     """Eigenvalues (descending, >= 0) and the eigenvectors of lambda_1 and lambda_3.
@@ -378,16 +388,9 @@ def eigh3_accurate(c00, c01, c02, c11, c12, c22):
     wx = vy * uz - vz * uy
     wy = vz * ux - vx * uz
     wz = vx * uy - vy * ux
-    # C v, C u, C w
-    cvx = c00 * vx + c01 * vy + c02 * vz
-    cvy = c01 * vx + c11 * vy + c12 * vz
-    cvz = c02 * vx + c12 * vy + c22 * vz
-    cux = c00 * ux + c01 * uy + c02 * uz
-    cuy = c01 * ux + c11 * uy + c12 * uz
-    cuz = c02 * ux + c12 * uy + c22 * uz
-    cwx = c00 * wx + c01 * wy + c02 * wz
-    cwy = c01 * wx + c11 * wy + c12 * wz
-    cwz = c02 * wx + c12 * wy + c22 * wz
+    cvx, cvy, cvz = _sym_mul(c00, c01, c02, c11, c12, c22, vx, vy, vz)
+    cux, cuy, cuz = _sym_mul(c00, c01, c02, c11, c12, c22, ux, uy, uz)
+    cwx, cwy, cwz = _sym_mul(c00, c01, c02, c11, c12, c22, wx, wy, wz)
     ls = vx * cvx + vy * cvy + vz * cvz
     a = ux * cux + uy * cuy + uz * cuz
     b = ux * cwx + uy * cwy + uz * cwz

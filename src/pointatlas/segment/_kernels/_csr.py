@@ -63,7 +63,9 @@ def symmetric_csr(nbr, n):
 
 
 @njit(cache=True)
-def _find(parent, i):
+def find_root(parent, i):
+    """Root of i in the union-find forest ``parent`` (roots: ``parent[r] == r``),
+    with path compression."""
     root = i
     while parent[root] != root:
         root = parent[root]
@@ -72,6 +74,18 @@ def _find(parent, i):
         parent[i] = root
         i = nxt
     return root
+
+
+@njit(cache=True, inline="always")
+def union_min(parent, i, j):
+    """Join the sets of i and j under the smaller of their two roots."""
+    ri = find_root(parent, i)
+    rj = find_root(parent, j)
+    if ri != rj:
+        if ri < rj:
+            parent[rj] = ri
+        else:
+            parent[ri] = rj
 
 
 @njit(cache=True)
@@ -106,16 +120,10 @@ def connected_label_components(indptr, indices, labels):
         for t in range(indptr[i], indptr[i + 1]):
             j = indices[t]
             if j > i and labels[j] == labels[i]:
-                ri = _find(parent, i)
-                rj = _find(parent, j)
-                if ri != rj:
-                    if ri < rj:
-                        parent[rj] = ri
-                    else:
-                        parent[ri] = rj
+                union_min(parent, i, j)
     roots = np.empty(n, dtype=np.int64)
     for i in range(n):
-        roots[i] = _find(parent, i)
+        roots[i] = find_root(parent, i)
     return canonical_labels(roots)
 
 
@@ -181,18 +189,24 @@ def edge_pairs(indptr, indices):
     return out
 
 
+@njit(cache=True, inline="always")
+def _foreign_count(indptr, indices, labels, i):
+    """Number of graph neighbours of point i that lie in another region."""
+    li = labels[i]
+    c = 0
+    for t in range(indptr[i], indptr[i + 1]):
+        if labels[indices[t]] != li:
+            c += 1
+    return c
+
+
 @njit(cache=True, parallel=True)
 def foreign_counts(indptr, indices, labels):
     """Number of graph neighbours of every point that lie in another region."""
     n = labels.shape[0]
     out = np.zeros(n, dtype=np.int64)
     for i in prange(n):
-        li = labels[i]
-        c = 0
-        for t in range(indptr[i], indptr[i + 1]):
-            if labels[indices[t]] != li:
-                c += 1
-        out[i] = c
+        out[i] = _foreign_count(indptr, indices, labels, i)
     return out
 
 
@@ -201,12 +215,7 @@ def recount_foreign(indptr, indices, labels, foreign, points):
     """`foreign_counts` recomputed in place for ``points`` only."""
     for s in prange(points.shape[0]):
         i = points[s]
-        li = labels[i]
-        c = 0
-        for t in range(indptr[i], indptr[i + 1]):
-            if labels[indices[t]] != li:
-                c += 1
-        foreign[i] = c
+        foreign[i] = _foreign_count(indptr, indices, labels, i)
 
 
 @njit(cache=True)

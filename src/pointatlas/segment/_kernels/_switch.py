@@ -37,6 +37,13 @@ def _dot_proxy(normals, proxy_normals, i, h):
 
 
 @njit(cache=True, inline="always")
+def _beats(d, h, li, best, best_label):
+    """Whether region h with n_i . N_h = d beats the best so far: a larger d, or an
+    equal one with the smaller label (the own region li is kept on a tie with it)."""
+    return d > best or (d == best and best_label != li and h < best_label)
+
+
+@njit(cache=True, inline="always")
 def _consider(d, h, li, best, best_label, top, low):
     """One foreign region h with n_i . N_h = d: the best label (largest d, ties to
     the smaller label, own region li kept on a tie with it), the largest and the
@@ -45,7 +52,7 @@ def _consider(d, h, li, best, best_label, top, low):
         top = d
     if d < low:
         low = d
-    if d > best or (d == best and best_label != li and h < best_label):
+    if _beats(d, h, li, best, best_label):
         best = d
         best_label = h
     return best, best_label, top, low
@@ -72,23 +79,15 @@ def batch_switch(
         if foreign[i] == 0:
             continue
         li = labels[i]
-        cur = (
-            normals[i, 0] * proxy_normals[li, 0]
-            + normals[i, 1] * proxy_normals[li, 1]
-            + normals[i, 2] * proxy_normals[li, 2]
-        )
+        cur = _dot_proxy(normals, proxy_normals, i, li)
         best = cur
         best_label = li
         for t in range(indptr[i], indptr[i + 1]):
             h = labels[indices[t]]
             if h == li:
                 continue
-            d = (
-                normals[i, 0] * proxy_normals[h, 0]
-                + normals[i, 1] * proxy_normals[h, 1]
-                + normals[i, 2] * proxy_normals[h, 2]
-            )
-            if d > best or (d == best and best_label != li and h < best_label):
+            d = _dot_proxy(normals, proxy_normals, i, h)
+            if _beats(d, h, li, best, best_label):
                 best = d
                 best_label = h
         if best_label != li and 2.0 * weights[i] * (best - cur) > min_gain:
@@ -242,20 +241,12 @@ def best_single_move(indptr, indices, normals, weights, labels, proxy_normals, f
         if foreign[i] == 0:
             continue
         li = labels[i]
-        cur = (
-            normals[i, 0] * proxy_normals[li, 0]
-            + normals[i, 1] * proxy_normals[li, 1]
-            + normals[i, 2] * proxy_normals[li, 2]
-        )
+        cur = _dot_proxy(normals, proxy_normals, i, li)
         for t in range(indptr[i], indptr[i + 1]):
             h = labels[indices[t]]
             if h == li:
                 continue
-            d = (
-                normals[i, 0] * proxy_normals[h, 0]
-                + normals[i, 1] * proxy_normals[h, 1]
-                + normals[i, 2] * proxy_normals[h, 2]
-            )
+            d = _dot_proxy(normals, proxy_normals, i, h)
             gain = 2.0 * weights[i] * (d - cur)
             if gain > best_gain or (
                 gain == best_gain and gain > 0.0 and best_point == i and h < best_label

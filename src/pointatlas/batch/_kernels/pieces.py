@@ -1,0 +1,87 @@
+"""Orientation pieces of a tile: components of its k-NN graph over smooth edges (numba).
+
+A tile's MST orientation (Hoppe) is reliable within a piece, where neighbouring
+normals make less than 10 degrees; across sharp edges (a wall on the ground) it
+guesses, so the stitching joins pieces by halo votes (docs/decisions/batch.md,
+"Tiles — normals"). Validated input assumed. Tested against scipy's
+``connected_components`` (`tests/batch/test_kernels.py`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ...segment._kernels._csr import find_root, union_min
+
+__all__ = ["smooth_pieces_kernel"]
+
+
+@njit(cache=True, inline="always")
+def _dot(normals, i, j):
+    d = normals[i, 0] * normals[j, 0] + normals[i, 1] * normals[j, 1]
+    return d + normals[i, 2] * normals[j, 2]
+
+
+@njit(cache=True)
+def smooth_pieces_kernel(table, normals, min_cos):
+    """Pieces over smooth edges and the sharp edges between pieces.
+
+    Parameters
+    ----------
+    table : ndarray of shape (n, k), int64
+        The tile's k-NN graph (row i: neighbours of point i).
+    normals : ndarray of shape (n, 3), float64
+        Oriented normals of the tile's points.
+    min_cos : float
+        An edge (i, j) is smooth when ``|n_i . n_j| >= min_cos``.
+
+    Returns
+    -------
+    labels : ndarray of shape (n,), int64
+        Piece of every point, numbered in the order of their smallest point
+        (the numbering of scipy's ``connected_components``).
+    a, b : ndarray of shape (m,), int64
+        Pieces (a < b) of every sharp edge between two different pieces, in
+        edge order (row, then column).
+    dots : ndarray of shape (m,), float64
+        ``n_i . n_j`` of those edges.
+    """
+    n, k = table.shape
+    parent = np.arange(n)
+    for i in range(n):
+        for c in range(k):
+            j = table[i, c]
+            d = _dot(normals, i, j)
+            if abs(d) >= min_cos:
+                union_min(parent, i, j)
+    labels = np.empty(n, dtype=np.int64)
+    rank = np.full(n, -1, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        r = find_root(parent, i)
+        if rank[r] < 0:
+            rank[r] = m
+            m += 1
+        labels[i] = rank[r]
+    count = 0
+    for i in range(n):
+        for c in range(k):
+            j = table[i, c]
+            d = _dot(normals, i, j)
+            if not abs(d) >= min_cos and labels[i] != labels[j]:
+                count += 1
+    a = np.empty(count, dtype=np.int64)
+    b = np.empty(count, dtype=np.int64)
+    dots = np.empty(count, dtype=np.float64)
+    e = 0
+    for i in range(n):
+        for c in range(k):
+            j = table[i, c]
+            d = _dot(normals, i, j)
+            if not abs(d) >= min_cos and labels[i] != labels[j]:
+                a[e] = min(labels[i], labels[j])
+                b[e] = max(labels[i], labels[j])
+                dots[e] = d
+                e += 1
+    return labels, a, b, dots

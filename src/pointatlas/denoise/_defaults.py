@@ -1,0 +1,47 @@
+"""Defaults of `normal_voting_denoise` shared with `denoise_halo` (no kernels here).
+
+docs/decisions/denoise.md, "Point update" and "Filter steps per round and ball".
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "FILTER_ITER_ESTIMATED",
+    "FILTER_ITER_GIVEN",
+    "MAX_ROUNDS",
+    "MAX_UPDATES",
+    "default_filter_iter",
+]
+
+#: ``n_update=None``: at most this many point updates per round
+MAX_UPDATES = 12
+#: ``n_iter=None``: at most this many rounds
+MAX_ROUNDS = 4
+#: filter steps per round when the returned normals are refitted (estimated normals)
+#: and when they are filtered (given normals; also their final steps)
+FILTER_ITER_ESTIMATED = 1
+FILTER_ITER_GIVEN = 5
+
+
+def default_filter_iter(refit: bool) -> int:
+    """Filter steps per round of `normal_voting_denoise` when ``n_filter_iter`` is None.
+
+    Parameters
+    ----------
+    refit : bool
+        Whether the returned normals are refitted to their faces (``refit_normals``;
+        by default when the normals are estimated).
+
+    Returns
+    -------
+    steps : int
+        1 when refitted (one step facets curved parts less; the refit gives the
+        sharp normals), 5 otherwise (the returned normals take as many steps
+        more and keep edges sharp); docs/decisions/denoise.md.
+
+    Examples
+    --------
+    >>> default_filter_iter(True), default_filter_iter(False)
+    (1, 5)
+    """
+    return FILTER_ITER_ESTIMATED if refit else FILTER_ITER_GIVEN

@@ -1,0 +1,157 @@
+"""One planar face per region of a labelled triangle mesh, and the checks of the
+faces (the mesh path, docs/decisions/simplify.md; private).
+
+A region's boundary loops (chains of kept arc vertices) are projected to the
+region's plane and triangulated by earcut; the face is accepted only when its
+triangulation covers the loops' area once and its boundary is exactly the loops'
+edges (`face_of_loops`). `bad_regions` finds the regions whose faces break the
+output's manifoldness.
+"""
+
+from __future__ import annotations
+
+import mapbox_earcut
+import numpy as np
+
+from ._faces import _signed_area
+
+__all__ = ["bad_regions", "face_of_loops", "loop_vertices"]
+
+
+def loop_vertices(uses, arcs) -> list[int]:
+    out: list[int] = []
+    for aid, rev in uses:
+        kept = arcs[aid].kept
+        seq = kept[::-1] if rev else kept
+        out.extend(seq[:-1])
+    return out
+
+
+def _basis(normal):
+    axis = np.eye(3)[int(np.argmin(np.abs(normal)))]
+    u = axis - (axis @ normal) * normal
+    u /= np.linalg.norm(u)
+    return u, np.cross(normal, u)
+
+
+def _segments_cross(xy_loops) -> bool:
+    """True when two edges of the loops (not sharing an end) touch or cross."""
+    segs, ids = [], []
+    for lp in xy_loops:
+        m = lp.shape[0]
+        segs.append(np.stack([lp, np.roll(lp, -1, axis=0)], axis=1))
+        ids.append(np.arange(m))
+    p = np.concatenate(segs)
+    m = p.shape[0]
+    if m > 4000:  # too many pairs to test: not a face worth making
+        return True
+    a, b = p[:, 0], p[:, 1]
+    i, j = np.triu_indices(m, 1)
+    a1, b1, a2, b2 = a[i], b[i], a[j], b[j]
+    shares = np.all(a1 == a2, 1) | np.all(a1 == b2, 1) | np.all(b1 == a2, 1) | np.all(b1 == b2, 1)
+
+    def orient(p0, p1, q):
+        return (p1[:, 0] - p0[:, 0]) * (q[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (
+            q[:, 0] - p0[:, 0]
+        )
+
+    d1, d2 = orient(a1, b1, a2), orient(a1, b1, b2)
+    d3, d4 = orient(a2, b2, a1), orient(a2, b2, b1)
+    proper = (d1 * d2 < 0) & (d3 * d4 < 0)
+    return bool((proper & ~shares).any())
+
+
+def _edges_match(tri: np.ndarray, loops) -> bool:
+    """The triangles' boundary is exactly the loops' edges, in the loops' direction, and
+    every inner edge joins two triangles in opposite directions."""
+    d = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    want = np.concatenate([np.stack([lp, np.roll(lp, -1)], 1) for lp in loops])
+    n = int(max(d.max(initial=0), want.max(initial=0))) + 1
+    dk = d[:, 0] * n + d[:, 1]
+    rk = d[:, 1] * n + d[:, 0]
+    wk = want[:, 0] * n + want[:, 1]
+    if np.unique(dk).size != dk.size or np.unique(wk).size != wk.size:
+        return False
+    inner = np.isin(dk, rk)
+    return bool(np.array_equal(np.sort(dk[~inner]), np.sort(wk)))
+
+
+def face_of_loops(loops_v, positions, normal):
+    """Triangulate one region's loops in its plane; None when they bound no polygon.
+
+    A loop may touch itself or another loop at a vertex (a region pinched at a
+    vertex); the triangulation is accepted when its boundary is exactly the loops'
+    edges and it covers the loops' area once.
+    """
+    if any(len(lp) < 3 for lp in loops_v):
+        return None
+    flat = np.concatenate([np.asarray(lp, dtype=np.int64) for lp in loops_v])
+    u, v = _basis(normal)
+    origin = positions[flat].mean(axis=0)
+    xy = [
+        np.stack([(positions[lp] - origin) @ u, (positions[lp] - origin) @ v], 1) for lp in loops_v
+    ]
+    areas = np.array([_signed_area(c) for c in xy])
+    outer = int(np.argmax(areas))
+    if areas[outer] <= 0.0 or (np.delete(areas, outer) >= 0.0).any():
+        return None  # the region folds over in its plane: no single outer loop
+    if _segments_cross(xy):
+        return None
+    order = [outer] + [t for t in range(len(loops_v)) if t != outer]
+    loops_o = [np.asarray(loops_v[t], dtype=np.int64) for t in order]
+    xy_o = [xy[t] for t in order]
+    ends = np.cumsum([len(lp) for lp in loops_o]).astype(np.uint32)
+    pts2 = np.concatenate(xy_o)
+    tri = np.asarray(mapbox_earcut.triangulate_float64(pts2, ends), dtype=np.int64).reshape(-1, 3)
+    if tri.shape[0] == 0:
+        return None
+    p0, p1, p2 = pts2[tri[:, 0]], pts2[tri[:, 1]], pts2[tri[:, 2]]
+    cross = (p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (
+        p2[:, 0] - p0[:, 0]
+    )
+    flip = cross < 0
+    tri[flip] = tri[flip][:, [0, 2, 1]]
+    covered = np.abs(cross).sum() / 2.0
+    want = areas[outer] + areas[np.arange(areas.size) != outer].sum()
+    if abs(covered - want) > 1e-9 * max(areas[outer], 1e-300):
+        return None
+    ids = np.concatenate(loops_o)[tri]
+    if not _edges_match(ids, loops_o):
+        return None
+    return tuple(loops_o), ids
+
+
+def bad_regions(tri: np.ndarray, tface: np.ndarray, closed_input: bool) -> set[int]:
+    """Regions owning a triangle at a non-manifold (or, for closed inputs, open) edge or
+    at a vertex whose triangles do not form one fan."""
+    d = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    owner = np.concatenate([tface, tface, tface])
+    und = np.sort(d, axis=1)
+    _, inv, cnt = np.unique(und, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.reshape(-1)
+    bad_edge = (cnt > 2) | ((cnt != 2) if closed_input else np.zeros_like(cnt, dtype=bool))
+    bad = set(owner[bad_edge[inv]].tolist())
+    _, dcnt_inv, dcnt = np.unique(d, axis=0, return_inverse=True, return_counts=True)
+    bad |= set(owner[(dcnt > 1)[dcnt_inv.reshape(-1)]].tolist())
+    link: dict[int, list[tuple[int, int, int]]] = {}
+    for (a, b, c), f in zip(tri.tolist(), tface.tolist(), strict=True):
+        link.setdefault(a, []).append((b, c, f))
+        link.setdefault(b, []).append((c, a, f))
+        link.setdefault(c, []).append((a, b, f))
+    for edges in link.values():
+        deg: dict[int, int] = {}
+        parent: dict[int, int] = {}
+
+        def find(x, parent=parent):
+            while parent.setdefault(x, x) != x:
+                parent[x] = parent[parent[x]]
+                x = parent[x]
+            return x
+
+        for p_, q_, _ in edges:
+            deg[p_] = deg.get(p_, 0) + 1
+            deg[q_] = deg.get(q_, 0) + 1
+            parent[find(p_)] = find(q_)
+        if len({find(x) for x in deg}) != 1 or max(deg.values()) > 2:
+            bad |= {f for _, _, f in edges}
+    return bad
