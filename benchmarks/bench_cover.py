@@ -47,7 +47,7 @@ def gudhi_nerve(cov, max_points: int):
         import gudhi
     except ImportError:
         return None
-    K = cov.complex
+    K = cov.cloud_complex
     sel = range(min(K.n_points, max_points))
     t0 = time.perf_counter()
     st = gudhi.SimplexTree()
@@ -71,7 +71,7 @@ def main() -> None:
 
     def run():
         cov = ball_cover(pts, 1.0)
-        return cov, surface_report(cov.complex)
+        return cov, surface_report(cov.cloud_complex)
 
     t, (cov, rep) = best_of(run, args.repeat)
     print(f"cover + complex + report, {args.n:,} points: {t:.2f} s "

@@ -71,8 +71,8 @@ def run_model(path: Path, n_points: int) -> dict:
         manifold=manifold,
         oriented=oriented,
         euler=_euler(m.n_vertices, np.asarray(m.triangles)),
-        mean_distance_pct=100.0 * m.mean_distance / diag,
-        max_distance_pct=100.0 * m.max_distance / diag,
+        mean_distance_pct=100.0 * m.distance_mean / diag,
+        max_distance_pct=100.0 * m.distance_max / diag,
         seconds=seconds,
     )
     return row

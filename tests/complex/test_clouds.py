@@ -182,7 +182,7 @@ def _covers_for_betti():
         yield name, cloud_complex(clouds, n_points=n)
     tor = torus(n_major=48, n_minor=24)
     for s in (0.15, 0.2, 0.3):
-        yield f"torus cover s={s}", ball_cover(tor.vertices, s).complex
+        yield f"torus cover s={s}", ball_cover(tor.vertices, s).cloud_complex
 
 
 @pytest.mark.parametrize("case", list(range(7)))

@@ -22,7 +22,7 @@ from .reference import cubic_membership_reference, tiling_membership_reference
 
 def _counts(points, scale, **kw):
     cov = ball_cover(points, scale, **kw)
-    return cov.complex.n_memberships
+    return cov.cloud_complex.n_memberships
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -122,7 +122,7 @@ def test_algorithm2_clouds_are_the_non_empty_balls():
     pts = fibonacci_sphere(3000).vertices * 2.0
     cov = ball_cover(pts, 0.5)
     assert isinstance(cov, BallCover)
-    K = cov.complex
+    K = cov.cloud_complex
     assert K.uncovered_points.size == 0 and K.empty_clouds.size == 0
     assert cov.centres.shape == (cov.n_clouds, 3) and cov.ball_radius.shape == (cov.n_clouds,)
     # every cloud is exactly the points within its ball
@@ -167,7 +167,7 @@ def test_rotation_changes_the_cover_but_not_the_coverage():
     R = random_rotations(1, rng=3)[1]
     a = ball_cover(pts, 0.5)
     b = ball_cover(pts, 0.5, rotation=R)
-    assert b.complex.uncovered_points.size == 0
+    assert b.cloud_complex.uncovered_points.size == 0
     # the ball centres of the rotated cover sit on the rotated lattice
     lat = (b.centres @ R.T - (pts @ R.T).min(axis=0)) / 0.5
     np.testing.assert_allclose(lat, np.round(lat), atol=1e-9)
@@ -180,22 +180,22 @@ def test_curve_cover_in_the_plane_is_a_one_manifold():
     res = search_cover_scale(ellipse, [0.3, 0.6, 1.0], dim=2)
     assert res.is_accepted.tolist() == [False, True, True]
     assert not res.reports[0].is_one_manifold and res.reports[0].n_endpoints == 4
-    rep = curve_report(ball_cover(ellipse, 0.6, dim=2).complex)
+    rep = curve_report(ball_cover(ellipse, 0.6, dim=2).cloud_complex)
     assert rep.is_closed and rep.n_components == 1 and rep.euler_characteristic == 0
 
 
 def test_cloud_points_centre_option():
     pts = fibonacci_sphere(500).vertices
     cov = ball_cover(pts, 0.6, cloud_points="centre")
-    np.testing.assert_array_equal(cov.complex.cloud_points, cov.centres)
+    np.testing.assert_array_equal(cov.cloud_complex.cloud_points, cov.centres)
 
 
 def test_same_input_same_output():
     pts = np.random.default_rng(4).normal(size=(5000, 3))
     a, b = ball_cover(pts, 0.8), ball_cover(pts.copy(), 0.8)
-    assert np.array_equal(a.complex.point_clouds, b.complex.point_clouds)
-    assert np.array_equal(a.complex.triangles, b.complex.triangles)
-    ra, rb = surface_report(a.complex), surface_report(b.complex)
+    assert np.array_equal(a.cloud_complex.point_clouds, b.cloud_complex.point_clouds)
+    assert np.array_equal(a.cloud_complex.triangles, b.cloud_complex.triangles)
+    ra, rb = surface_report(a.cloud_complex), surface_report(b.cloud_complex)
     assert ra.summary() == rb.summary()
 
 
@@ -234,11 +234,12 @@ def test_offset_shifts_the_lattice_against_the_bounding_box():
     np.testing.assert_array_equal(cov.offset, off)
     lat = (cov.centres - pts.min(axis=0)) / 0.5 + off
     np.testing.assert_allclose(lat, np.round(lat), atol=1e-9)
-    assert cov.complex.uncovered_points.size == 0
+    assert cov.cloud_complex.uncovered_points.size == 0
     # every cloud is exactly the points within its ball
     for c in range(0, cov.n_clouds, 5):
         d = np.linalg.norm(pts - cov.centres[c], axis=1)
-        assert cov.complex.cloud(c).tolist() == np.flatnonzero(d <= cov.ball_radius[c]).tolist()
+        inside = np.flatnonzero(d <= cov.ball_radius[c]).tolist()
+        assert cov.cloud_complex.cloud(c).tolist() == inside
     o = random_offsets(3, dim=2, rng=1)
     assert o.shape == (4, 3) and (o[0] == 0).all() and (o[:, 2] == 0).all()
     assert ((o >= 0) & (o < 1)).all()
@@ -259,7 +260,7 @@ def test_search_over_offsets_accepts_an_open_plane_and_rebuilds_the_chosen_setti
     assert res.n_unsupported[0] == pts.shape[0]
     i = res.chosen
     assert i == res.accepted[0] and res.n_unsupported[i] == 0
-    rep = surface_report(ball_cover(pts, **res.setting(i)).complex)
+    rep = surface_report(ball_cover(pts, **res.setting(i)).cloud_complex)
     assert rep.summary() == res.reports[i].summary()
     assert rep.is_cloud_surface and not rep.is_closed and rep.n_boundary_loops == 1
     closed = search_cover_scale(pts, [0.25], n_offsets=24, rng=0)  # accept="closed"
@@ -275,7 +276,7 @@ def test_unsupported_points_match_a_plain_reference():
     rng = np.random.default_rng(3)
     pts = rng.uniform(0.0, 3.0, size=(3000, 3))
     pts[:, 2] *= 0.2  # a slab: some edges and vertices on no triangle
-    K = ball_cover(pts, 0.6).complex
+    K = ball_cover(pts, 0.6).cloud_complex
     tris = {tuple(t) for t in K.triangles.tolist()}
     tri_edges = {e for a, b, c in tris for e in ((a, b), (b, c), (a, c))}
     tri_verts = {v for t in tris for v in t}

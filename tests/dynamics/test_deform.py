@@ -16,9 +16,9 @@ from .reference import triangle_update_reference
 def _sphere_cover():
     pts = fibonacci_sphere(6000).vertices
     cov = ball_cover(pts, 1.0)
-    rep = surface_report(cov.complex)
+    rep = surface_report(cov.cloud_complex)
     assert rep.is_closed and rep.is_cloud_surface
-    return pts, cov.complex
+    return pts, cov.cloud_complex
 
 
 PTS, K = _sphere_cover()
@@ -110,7 +110,7 @@ def _searched_cover(pts, scale, accept):
 def test_lifted_planar_grid_fig_2_20_routes_every_point():
     pts = plane_patch(65, 65, width=1.0, height=1.0).vertices  # 4,225 points as in 2.3.2
     cov, res = _searched_cover(pts, 0.25, "open")
-    Kp = cov.complex
+    Kp = cov.cloud_complex
     rep = surface_report(Kp)
     assert res.is_accepted[res.chosen] and rep.is_cloud_surface
     assert rep.n_boundary_loops == 1 and rep.genus == 0 and rep.n_components == 1
@@ -133,19 +133,20 @@ def test_plane_in_a_lattice_layer_routes_every_point_with_an_offset():
     # balls form a triangulated square lattice
     pts = plane_patch(65, 65, width=4.0, height=4.0).vertices
     flat = ball_cover(pts, 0.25)
-    assert flat.complex.triangles.shape[0] == 0
-    assert (deform_points(pts, flat.complex, flat.complex.cloud_points).route > 0).sum() == 0
+    assert flat.cloud_complex.triangles.shape[0] == 0
+    K = flat.cloud_complex
+    assert (deform_points(pts, K, K.cloud_points).route > 0).sum() == 0
     cov = ball_cover(pts, 0.25, offset=[0.13, 0.37, 0.4])
-    rep = surface_report(cov.complex)
+    rep = surface_report(cov.cloud_complex)
     assert rep.is_cloud_surface and rep.n_boundary_loops == 1 and rep.genus == 0
-    fwd = deform_points(pts, cov.complex, np.asarray(cov.complex.cloud_points) * 1.5)
+    fwd = deform_points(pts, cov.cloud_complex, np.asarray(cov.cloud_complex.cloud_points) * 1.5)
     assert fwd.unroutable.size == 0
 
 
 def test_cube_points_pushed_onto_the_unit_sphere_fig_2_21():
     pts = cube(16, size=2.0).vertices  # 1,538 points
     cov, res = _searched_cover(pts, 1.0, "closed")
-    Kc = cov.complex
+    Kc = cov.cloud_complex
     cp0 = np.asarray(Kc.cloud_points)
     cp1 = cp0 / np.linalg.norm(cp0, axis=1, keepdims=True)
     fwd = deform_points(pts, Kc, cp1)

@@ -41,7 +41,7 @@ def test_sampled_closed_shapes_give_closed_meshes_of_the_right_genus(shape, eule
     assert m.is_closed and m.is_manifold and m.is_oriented
     assert _euler(m.n_vertices, m.triangles) == euler == m.euler_characteristic
     diag = float(np.linalg.norm(np.ptp(p, axis=0)))
-    assert m.max_distance < 0.02 * diag
+    assert m.distance_max < 0.02 * diag
     assert r.labels.shape == (p.shape[0],)
     assert r.summary()["path"] == "robust"
 
@@ -67,7 +67,7 @@ def test_open_sheet_keeps_its_boundary():
     lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
     np.testing.assert_allclose(lo[:2], [0.0, 0.0], atol=0.1)
     np.testing.assert_allclose(hi[:2], [2.0, 1.0], atol=0.1)
-    assert m.max_distance < 1e-3
+    assert m.distance_max < 1e-3
 
 
 def test_thesis_path_kept_where_it_closes_and_path_choices():

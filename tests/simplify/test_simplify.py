@@ -30,7 +30,7 @@ def test_cube_gives_closed_mesh_of_six_planar_quads(vertices, faces):
     assert s.face_ok.all() and not s.fallback
     assert s.planarity_error.max() < 1e-12
     np.testing.assert_allclose(np.sort(np.abs(s.vertices).ravel()), np.ones(24), atol=1e-12)
-    assert s.max_distance < 1e-12
+    assert s.distance_max < 1e-12
     # outward orientation: signed volume of the triangulation is +8
     v = s.vertices[s.triangles]
     vol = np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum() / 6
@@ -95,7 +95,7 @@ def test_plate_with_square_hole_gives_a_face_with_one_hole():
     assert s.n_holes[top] == 1 and len(s.face_loops[top]) == 2
     assert s.n_holes.tolist().count(1) == 2  # top and bottom
     assert s.is_closed and s.is_manifold and s.is_oriented and s.face_ok.all()
-    assert s.n_vertices == 16 and s.max_distance < 1e-9
+    assert s.n_vertices == 16 and s.distance_max < 1e-9
     # a face with a hole is written as its triangles
     assert all(len(p) == 3 for p, f in zip(s.polygons, s.polygon_face, strict=True) if f == top)
     # the star method cannot represent the hole
@@ -127,7 +127,7 @@ def test_rigid_motion_moves_the_mesh_the_same_way(motion):
     faces_a = {frozenset(match[p].tolist()) for p in a.polygons}
     faces_b = {frozenset(p.tolist()) for p in b.polygons}
     assert faces_a == faces_b
-    assert b.mean_distance == pytest.approx(a.mean_distance, abs=1e-9 * scale)
+    assert b.distance_mean == pytest.approx(a.distance_mean, abs=1e-9 * scale)
 
 
 def test_two_regions_give_a_clear_message():
@@ -237,7 +237,7 @@ def test_given_proxies_without_normals_are_used_as_they_are():
     pts, nrm, lab = box(1.0, 0.7, 0.5, n=8)
     prox = region_proxies(pts, nrm, lab)
     s = simplify_segmentation(pts, None, lab, proxy_normals=prox.normals, centers=prox.centroids)
-    assert s.n_faces == 6 and s.is_closed and s.max_distance < 1e-9
+    assert s.n_faces == 6 and s.is_closed and s.distance_max < 1e-9
     assert s.region_map.tolist() == list(range(6))
     with pytest.raises(ValueError, match="normals must be given"):
         simplify_segmentation(pts, None, lab, proxy_normals=prox.normals)
@@ -279,7 +279,7 @@ def test_fandisk_default_path_gives_closed_mesh_with_planar_faces():
         proxy_normals=r.segmentation.proxy_normals,
     )
     assert lsq.n_faces == s.n_faces and lsq.planarity_error.max() > 1e3 * s.planarity_error.max()
-    assert s.mean_distance < lsq.mean_distance and s.mean_distance < 0.01 * scale
+    assert s.distance_mean < lsq.distance_mean and s.distance_mean < 0.01 * scale
 
 
 @pytest.mark.parametrize(
@@ -296,7 +296,7 @@ def test_default_path_gives_closed_planar_polyhedra(name, n_faces, n_vertices):
     s = simplify_points(ps.points, ps.normals, eta=20.0).mesh
     _assert_closed_planar(s, 2.0)
     assert s.n_faces == n_faces and s.n_vertices == n_vertices
-    assert s.mean_distance < 0.005  # circumradius 1
+    assert s.distance_mean < 0.005  # circumradius 1
 
 
 def test_fit_planes_are_total_least_squares_planes_where_three_planes_meet():
@@ -314,7 +314,7 @@ def test_fit_planes_are_total_least_squares_planes_where_three_planes_meet():
         np.testing.assert_allclose(s.plane_normals[i], n, atol=1e-8)
         assert s.plane_offsets[i] == pytest.approx(n @ c, abs=1e-8)
     # the vertices are the intersections of the fitted planes
-    for j, regs in enumerate(s.complex.vertex_regions):
+    for j, regs in enumerate(s.surface_complex.vertex_regions):
         r = list(regs)
         x = np.linalg.solve(s.plane_normals[r], s.plane_offsets[r])
         np.testing.assert_allclose(s.vertices[s.vertex_ids == j][0], x, atol=1e-12)
@@ -359,4 +359,4 @@ def test_default_anchor_weight_is_the_loosest_with_valid_faces():
     assert auto.summary()["anchor_weight"] == auto.anchor_weight
     lsq = simplify_segmentation(pts, nrm, seg.labels, vertices="lsq", **kw)
     assert np.isnan(lsq.anchor_weight) and lsq.summary()["anchor_weight"] is None
-    assert auto.mean_distance < lsq.mean_distance
+    assert auto.distance_mean < lsq.distance_mean

@@ -39,7 +39,7 @@ def test_cad_parts_give_closed_manifold_meshes_of_the_right_genus(name, n_faces,
     assert not res.face_kept_input.any()
     if n_faces is not None:
         assert res.n_faces == n_faces
-        assert res.max_distance < 1e-12  # flat faces: the output is the part itself
+        assert res.distance_max < 1e-12  # flat faces: the output is the part itself
         assert res.planarity_error.max() < 1e-12
     # every output vertex is an input vertex, unmoved
     np.testing.assert_array_equal(res.vertices, v[res.vertex_source])
@@ -146,7 +146,7 @@ def test_max_error_bounds_the_distance():
     v = mesh.vertices
     bound = 0.002 * float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
     res = simplify_mesh(v, mesh.triangles, max_error=bound)
-    assert res.max_distance <= bound
+    assert res.distance_max <= bound
     assert res.is_closed and res.is_manifold
     coarse = simplify_mesh(v, mesh.triangles)
     assert res.n_faces >= coarse.n_faces  # a tighter bound needs at least as many faces

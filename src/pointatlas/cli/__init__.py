@@ -59,4 +59,14 @@ def main() -> None:
     command runs, ``guarded`` handles it (outputs stay as they were).
     """
     signal.signal(signal.SIGINT, _interrupted_while_starting)
-    _load_app()()
+    try:
+        _load_app()()
+    except SystemExit as exc:
+        if exc.code != 130:
+            raise
+        # interrupted: the command has cleaned up and said so; leave without the
+        # interpreter's teardown, which can crash (SIGSEGV) when a numba parallel
+        # kernel's threads were stopped part-way
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(130)

@@ -199,7 +199,7 @@ def _write_cover_files(out, ps, cov, chosen, report, res, dim):
 
     Returns the files written and the complex's realisation (vertices, faces).
     """
-    K = cov.complex
+    K = cov.cloud_complex
     written = []
     verts, faces = realise_complex(K, report) if dim == 3 else (np.asarray(K.cloud_points), None)
     written.append(_write_clouds(out["clouds"], ps, K.n_memberships))
@@ -229,7 +229,7 @@ def _is_accepted(report, accept, dim) -> bool:
 
 def _cover_payload(in_path, ps, cov, chosen, report, res, accepted, seed, placeholder, dim):
     """The numbers of report.json for a ball-cover run (the seconds are added after)."""
-    K = cov.complex
+    K = cov.cloud_complex
     payload = {
         "input": str(in_path),
         "n_points": int(ps.n_points),
@@ -361,7 +361,7 @@ def cloudsurface_command(
         accept=accept, dim=dim, layout=layout, radius=radius, seed=seed,
         cloud_points=cloud_points,
     )  # fmt: skip
-    K = cov.complex
+    K = cov.cloud_complex
     report = surface_report(K) if dim == 3 else curve_report(K)
     written, verts, faces = _write_cover_files(out, ps, cov, chosen, report, res, dim)
     accepted = _is_accepted(report, accept, dim)

@@ -72,7 +72,7 @@ def simplification_table(mesh, seg=None, *, title: str | None = None) -> Table:
     )
     table.add_row("faces not ok", str(s["faces_not_ok"]))
     table.add_row("max planarity error", f"{s['max_planarity_error']:.3g}")
-    table.add_row("mean / max distance", f"{s['mean_distance']:.4g} / {s['max_distance']:.4g}")
+    table.add_row("mean / max distance", f"{s['distance_mean']:.4g} / {s['distance_max']:.4g}")
     return table
 
 
@@ -152,7 +152,7 @@ def surface_table(
     )
     table.add_row("Euler characteristic", str(s["euler_characteristic"]))
     table.add_row("max planarity error", f"{s['max_planarity_error']:.3g}")
-    table.add_row("mean / max distance", f"{s['mean_distance']:.4g} / {s['max_distance']:.4g}")
+    table.add_row("mean / max distance", f"{s['distance_mean']:.4g} / {s['distance_max']:.4g}")
     return table
 
 
@@ -457,7 +457,7 @@ def _simplify_points_command(
     if report is not None:
         info = {"input": str(infile), "seed": seed, **result.summary()}
         if not robust:
-            info["complex"] = mesh.complex.summary()
+            info["complex"] = mesh.surface_complex.summary()
         if Path(report).suffix.lower() in REPORT_EXTENSIONS:
             from ..viz import MeshLayer, PointsLayer
 

@@ -136,12 +136,12 @@ def surface_report(complex_or_faces, *, n_vertices: int | None = None) -> Surfac
     return surface_report_core(n, edges, f, e, src, dst, n_faces=tri.shape[0], present=present)
 
 
-def realise_complex(complex: CloudComplex, report: SurfaceReport | None = None):
+def realise_complex(cloud_complex: CloudComplex, report: SurfaceReport | None = None):
     """Geometric realisation of a cloud complex as a triangle mesh (Def. 10).
 
     Parameters
     ----------
-    complex : CloudComplex
+    cloud_complex : CloudComplex
         The complex; its ``cloud_points`` are the mesh vertices.
     report : SurfaceReport, optional
         Its `surface_report` (computed when not given).
@@ -163,17 +163,20 @@ def realise_complex(complex: CloudComplex, report: SurfaceReport | None = None):
     >>> f.tolist()
     [[0, 1, 2]]
     """
-    if not isinstance(complex, CloudComplex):
-        raise TypeError(f"complex must be a CloudComplex; got {type(complex).__name__}")
-    rep = surface_report(complex) if report is None else report
-    faces = complex.triangles.copy()
+    if not isinstance(cloud_complex, CloudComplex):
+        raise TypeError(f"cloud_complex must be a CloudComplex; got {type(cloud_complex).__name__}")
+    rep = surface_report(cloud_complex) if report is None else report
+    faces = cloud_complex.triangles.copy()
     flip = np.asarray(rep.face_flip, dtype=bool)
     faces[flip] = faces[flip][:, [0, 2, 1]]
-    verts = np.array(complex.cloud_points, dtype=np.float64)
+    verts = np.array(cloud_complex.cloud_points, dtype=np.float64)
     if rep.is_orientable and faces.shape[0] and rep.boundary_edges.shape[0] == 0:
-        n = complex.n_clouds
+        n = cloud_complex.n_clouds
         g = sparse.csr_array(
-            (np.ones(complex.edges.shape[0]), (complex.edges[:, 0], complex.edges[:, 1])),
+            (
+                np.ones(cloud_complex.edges.shape[0]),
+                (cloud_complex.edges[:, 0], cloud_complex.edges[:, 1]),
+            ),
             shape=(n, n),
         )
         comp = csgraph.connected_components(g, directed=False)[1][faces[:, 0]]
@@ -224,9 +227,7 @@ class CurveReport:
     @property
     def is_one_manifold(self) -> bool:
         """Every vertex on one or two edges and no triangle."""
-        return (
-            self.n_edges > 0 and self.vertices_bad_degree.size == 0 and self.n_triangles == 0
-        )
+        return self.n_edges > 0 and self.vertices_bad_degree.size == 0 and self.n_triangles == 0
 
     @property
     def is_closed(self) -> bool:
@@ -254,12 +255,12 @@ class CurveReport:
         return "\n".join(f"{k:<28} {v}" for k, v in self.summary().items()) + "\n"
 
 
-def curve_report(complex: CloudComplex) -> CurveReport:
+def curve_report(cloud_complex: CloudComplex) -> CurveReport:
     """Whether a cloud complex is a 1-manifold (a curve's cover, thesis 2.2.2).
 
     Parameters
     ----------
-    complex : CloudComplex
+    cloud_complex : CloudComplex
         The cloud complex of a 2-D cover (`pointatlas.cover.ball_cover`, ``dim=2``).
 
     Returns
@@ -275,27 +276,32 @@ def curve_report(complex: CloudComplex) -> CurveReport:
     >>> r.is_one_manifold, r.is_closed, r.n_components
     (True, True, 1)
     """
-    if not isinstance(complex, CloudComplex):
-        raise TypeError(f"complex must be a CloudComplex; got {type(complex).__name__}")
-    n = complex.n_clouds
+    if not isinstance(cloud_complex, CloudComplex):
+        raise TypeError(f"cloud_complex must be a CloudComplex; got {type(cloud_complex).__name__}")
+    n = cloud_complex.n_clouds
     present = np.ones(n, dtype=bool)
-    present[complex.empty_clouds] = False
-    deg = np.bincount(complex.edges.reshape(-1), minlength=n)
+    present[cloud_complex.empty_clouds] = False
+    deg = np.bincount(cloud_complex.edges.reshape(-1), minlength=n)
     bad = np.flatnonzero(present & ((deg > 2) | (deg == 0)))
     g = sparse.csr_array(
-        (np.ones(complex.edges.shape[0]), (complex.edges[:, 0], complex.edges[:, 1])),
+        (
+            np.ones(cloud_complex.edges.shape[0]),
+            (cloud_complex.edges[:, 0], cloud_complex.edges[:, 1]),
+        ),
         shape=(n, n),
     )
     comp = csgraph.connected_components(g, directed=False)[1]
     n_v = int(present.sum())
     return CurveReport(
         n_vertices=n_v,
-        n_edges=int(complex.edges.shape[0]),
-        n_triangles=int(complex.triangles.shape[0]),
-        dimension=complex.dimension,
+        n_edges=int(cloud_complex.edges.shape[0]),
+        n_triangles=int(cloud_complex.triangles.shape[0]),
+        dimension=cloud_complex.dimension,
         vertices_bad_degree=bad,
-        triangles=complex.triangles.copy(),
+        triangles=cloud_complex.triangles.copy(),
         n_components=int(np.unique(comp[present]).size),
         n_endpoints=int((present & (deg == 1)).sum()),
-        euler_characteristic=n_v - int(complex.edges.shape[0]) + int(complex.triangles.shape[0]),
+        euler_characteristic=n_v
+        - int(cloud_complex.edges.shape[0])
+        + int(cloud_complex.triangles.shape[0]),
     )

@@ -247,7 +247,7 @@ class BallCover:
     lattice_index : ndarray of shape (C, 3), int64
         Lattice coordinates of every ball (tiling: (i, j, 0) with vertex
         (i + j/2, j sqrt(3)/2) s).
-    complex : CloudComplex
+    cloud_complex : CloudComplex
         The clouds (non-empty balls, ordered by lattice index) and their cloud
         complex; cloud points are the clouds' centroids (or the ball centres).
     """
@@ -262,7 +262,7 @@ class BallCover:
     centres: np.ndarray
     ball_radius: np.ndarray
     lattice_index: np.ndarray
-    complex: CloudComplex
+    cloud_complex: CloudComplex
 
     def __post_init__(self):
         for name in ("rotation", "offset", "origin", "centres", "ball_radius", "lattice_index"):
@@ -375,7 +375,7 @@ def cover_prepared(
         centres=centres,
         ball_radius=radius(idx) * scale,
         lattice_index=idx.astype(np.int64),
-        complex=K,
+        cloud_complex=K,
     )
 
 
@@ -448,7 +448,7 @@ def ball_cover(
     >>> circle = np.column_stack([4 * np.cos(t), 4 * np.sin(t)])
     >>> cov = ball_cover(circle, 1.0, dim=2)
     >>> from pointatlas.complex import curve_report
-    >>> r = curve_report(cov.complex)
+    >>> r = curve_report(cov.cloud_complex)
     >>> r.is_one_manifold, r.is_closed, r.n_components
     (True, True, 1)
     """

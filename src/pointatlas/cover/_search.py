@@ -234,11 +234,11 @@ def search_cover_scale(
                 off = as_offset(offs[o], dim)
                 cov = cover_prepared(pts, s, dim, layout, r_even, r_odd, rots[r], "centroid", off)
                 if dim == 3:
-                    rep = surface_report(cov.complex)
+                    rep = surface_report(cov.cloud_complex)
                     good = rep.is_cloud_surface and (rep.is_closed or accept == "open")
-                    uns = int(unsupported_mask(cov.complex).sum())
+                    uns = int(unsupported_mask(cov.cloud_complex).sum())
                 else:
-                    rep = curve_report(cov.complex)
+                    rep = curve_report(cov.cloud_complex)
                     good = rep.is_one_manifold and (rep.is_closed or accept == "open")
                     uns = 0
                 for key, val in zip(cols, (s, r, o, cov.n_clouds, _n_offending(rep, dim), uns,

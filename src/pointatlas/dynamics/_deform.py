@@ -123,7 +123,7 @@ class _Frame:
 
 def deform_points(
     points,
-    complex: CloudComplex,
+    cloud_complex: CloudComplex,
     new_cloud_points,
     *,
     cloud_points=None,
@@ -135,16 +135,16 @@ def deform_points(
     Parameters
     ----------
     points : array_like of shape (N, 3), float64
-        The points of the cloud set (point i has the clouds of ``complex`` point i).
-    complex : CloudComplex
+        The points of the cloud set (point i has the clouds of ``cloud_complex`` point i).
+    cloud_complex : CloudComplex
         The cloud set and its complex (a closed oriented cloud surface in the thesis;
         boundaries are accepted).
     new_cloud_points : array_like of shape (C, 3), float64
         Cloud points at time 1.
     cloud_points : array_like of shape (C, 3), float64, optional
-        Cloud points at time 0 (default ``complex.cloud_points``).
+        Cloud points at time 0 (default ``cloud_complex.cloud_points``).
     faces : array_like of shape (F, 3), int64, optional
-        The triangles of ``complex`` with a coherent orientation (default: from
+        The triangles of ``cloud_complex`` with a coherent orientation (default: from
         `pointatlas.complex.realise_complex`).
     inverse : bool
         Map points at time 1 back to time 0 (the two realisations swap roles).
@@ -191,9 +191,9 @@ def deform_points(
     >>> bool(np.allclose(back.points, pts, rtol=0, atol=1e-12))
     True
     """
-    if not isinstance(complex, CloudComplex):
-        raise TypeError(f"complex must be a CloudComplex; got {type(complex).__name__}")
-    K = complex
+    if not isinstance(cloud_complex, CloudComplex):
+        raise TypeError(f"cloud_complex must be a CloudComplex; got {type(cloud_complex).__name__}")
+    K = cloud_complex
     p = as_points(points, min_points=0)
     if p.shape[0] != K.n_points:
         raise ValueError(f"points must have shape ({K.n_points}, 3); got {p.shape}")

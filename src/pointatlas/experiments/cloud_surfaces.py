@@ -143,10 +143,10 @@ def _curve_panel(ax, pts, cov, rep, title):
 
     for c, r in zip(cov.centres, cov.ball_radius, strict=True):
         ax.add_patch(Circle(c[:2], r, fill=False, lw=0.4, color="0.6"))
-    col = membership_colors(cov.complex.n_memberships) / 255.0
+    col = membership_colors(cov.cloud_complex.n_memberships) / 255.0
     ax.scatter(pts[:, 0], pts[:, 1], s=1.5, c=col)
-    cp = np.asarray(cov.complex.cloud_points)
-    for a, b in cov.complex.edges:
+    cp = np.asarray(cov.cloud_complex.cloud_points)
+    for a, b in cov.cloud_complex.edges:
         ax.plot(cp[[a, b], 0], cp[[a, b], 1], "k-", lw=1.0)
     ax.plot(cp[:, 0], cp[:, 1], "k.", ms=3)
     ax.set_aspect("equal")
@@ -161,8 +161,8 @@ def curve_figures(out: Path, rows: list) -> list[Path]:
     t = np.linspace(0.0, 2 * math.pi, 2000, endpoint=False)
     fig8 = np.column_stack([np.cos(t), np.sin(2 * t)])
     cov = ball_cover(fig8, 0.2, dim=2, radius=0.8)
-    rep = curve_report(cov.complex)
-    deg = np.bincount(cov.complex.edges.ravel(), minlength=cov.n_clouds)
+    rep = curve_report(cov.cloud_complex)
+    deg = np.bincount(cov.cloud_complex.edges.ravel(), minlength=cov.n_clouds)
     _row(rows, "2.14", "curve (cos t, sin 2t), s = 0.2, r = 0.8: V / E / triangles",
          f"{rep.n_vertices} / {rep.n_edges} / {rep.n_triangles}", "a 1-D complex (picture)")
     _row(rows, "2.14", "vertices of degree != 2 (the crossing at 0) / chi",
@@ -177,8 +177,8 @@ def curve_figures(out: Path, rows: list) -> list[Path]:
     fig = Figure(figsize=(10, 4.2))
     for k, s in enumerate((0.3, 1.4)):
         cov = ball_cover(ell, s, dim=2)
-        rep = curve_report(cov.complex)
-        deg = np.bincount(cov.complex.edges.ravel(), minlength=cov.n_clouds)
+        rep = curve_report(cov.cloud_complex)
+        deg = np.bincount(cov.cloud_complex.edges.ravel(), minlength=cov.n_clouds)
         what = "missing information" if k == 0 else "false information"
         _row(rows, "2.15", f"ellipse 3 x 1, s = {s}: V / E / endpoints / degree > 2 / 1-manifold",
              f"{rep.n_vertices} / {rep.n_edges} / {rep.n_endpoints} / {int((deg > 2).sum())} / "
@@ -195,8 +195,8 @@ def curve_figures(out: Path, rows: list) -> list[Path]:
 def _cover_picture(path, pts, cov, rep, title):
     from ..viz import MeshPanel, PointsPanel, render_side_by_side
 
-    verts, faces = realise_complex(cov.complex, rep)
-    panels = [PointsPanel(pts, colors=membership_colors(cov.complex.n_memberships),
+    verts, faces = realise_complex(cov.cloud_complex, rep)
+    panels = [PointsPanel(pts, colors=membership_colors(cov.cloud_complex.n_memberships),
                           title="points by number of clouds"),
               MeshPanel(np.nan_to_num(verts), faces, title=f"complex: {faces.shape[0]} triangles")]
     return render_side_by_side(path, panels, size=(1000, 520), title=title)  # fmt: skip
@@ -238,7 +238,7 @@ def _dynamics_case(points, scale, accept, *, seed, n_offsets=24):
 
 
 def _dynamics_rows(rows, fig, name, points, cov, rep, res, i, cp1):
-    K = cov.complex
+    K = cov.cloud_complex
     fwd = deform_points(points, K, cp1)
     back = deform_points(fwd.points, K, cp1, inverse=True)
     err = float(np.abs(back.points - points).max() / np.abs(points).max())
@@ -270,7 +270,7 @@ def dynamics_figures(out: Path, rows: list, *, seed: int) -> tuple[list[Path], d
         ("2.21", "cube 1,538 (edge 2)", cube_pts, 1.0, "closed", FIGURES[9]),
     ):
         cov, rep, res, i = _dynamics_case(pts, s, accept, seed=seed)
-        verts, faces = realise_complex(cov.complex, rep)
+        verts, faces = realise_complex(cov.cloud_complex, rep)
         cp0 = np.nan_to_num(verts)
         if fig == "2.20":  # lift every cloud point off the boundary
             inner = np.ones(cov.n_clouds, dtype=bool)
@@ -282,7 +282,7 @@ def dynamics_figures(out: Path, rows: list, *, seed: int) -> tuple[list[Path], d
             cp1 = cp0 / np.linalg.norm(cp0, axis=1, keepdims=True)
         fwd, share = _dynamics_rows(rows, fig, name, pts, cov, rep, res, i, cp1)
         shares[fig] = share
-        col = membership_colors(cov.complex.n_memberships)
+        col = membership_colors(cov.cloud_complex.n_memberships)
         panels = [PointsPanel(pts, colors=col, title="(a) clouds"),
                   MeshPanel(cp0, faces, title="(b) complex"),
                   MeshPanel(cp1, faces, title="(c) moved cloud points"),

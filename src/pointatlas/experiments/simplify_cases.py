@@ -350,8 +350,8 @@ def results_markdown(rows: list[dict]) -> str:
         lines.append(
             f"| {r['case']} | {setting} | {r['vsa_regions']} | {r['n_faces']} | "
             f"{r['n_vertices']} | {r['n_faces_with_holes']} | {method} | {r['is_closed']} | "
-            f"{r['is_oriented']} | {r['max_planarity_error']:.2g} | {r['mean_distance']:.4f} | "
-            f"{r['max_distance']:.4f} |"
+            f"{r['is_oriented']} | {r['max_planarity_error']:.2g} | {r['distance_mean']:.4f} | "
+            f"{r['distance_max']:.4f} |"
         )
     return "\n".join(lines) + "\n"
 

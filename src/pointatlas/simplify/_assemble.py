@@ -66,7 +66,7 @@ def place_vertices(
     clean, q, *, vertices, faces, weight, anchor_weight, max_distance, max_iter
 ) -> tuple[MeshVertices, list, float]:
     """Vertices by the chosen method and the faces (working coordinates)."""
-    cplx, pn, ctr = clean.complex, clean.proxy_normals, clean.centers
+    cplx, pn, ctr = clean.surface_complex, clean.proxy_normals, clean.centers
     lsq = lsq_vertices(cplx, q, pn, ctr, max_distance=max_distance)
     builder = general_faces if faces == "general" else star_faces
     if vertices == "fit":
@@ -96,7 +96,7 @@ def assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, keep, labe
 
     ``keep`` (N_input,) marks the points used, ``labels`` are their input regions
     (for `regions_report`)."""
-    cplx = clean.complex
+    cplx = clean.surface_complex
     if not face_list:
         raise PointAtlasError(
             "no region has a closed boundary cycle; cannot build faces "
@@ -147,8 +147,8 @@ def assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, keep, labe
         is_manifold=manifold,
         is_oriented=oriented,
         distances=dist,
-        mean_distance=float(dist.mean()),
-        max_distance=float(dist.max()),
+        distance_mean=float(dist.mean()),
+        distance_max=float(dist.max()),
         vertex_method=mv.method,
         face_method=faces,
         fallback=mv.fallback,
@@ -161,7 +161,7 @@ def assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, keep, labe
         plane_offsets=frame.offsets_to_input(plane_n, mv.plane_offsets),
         labels=clean.labels,
         region_map=clean.input_map,
-        complex=dataclasses.replace(cplx, vertex_anchor=frame.to_input(cplx.vertex_anchor)),
+        surface_complex=dataclasses.replace(cplx, vertex_anchor=frame.to_input(cplx.vertex_anchor)),
         anchor_weight=used_weight,
         point_index=point_index,
         n_dropped=int(keep.size - point_index.size),
@@ -189,7 +189,7 @@ def regions_report(labels, clean, face_list) -> tuple:
     # main input region of every final region: most points, then smaller id
     main = np.argmax(both, axis=0)
     faces = {f.region: f for f in face_list}
-    cplx = clean.complex
+    cplx = clean.surface_complex
     reasons = clean.input_reasons or ("",) * n_in
     out = []
     for r in range(n_in):

@@ -57,7 +57,7 @@ class SimplifiedMesh:
         triangle fan per vertex; no directed edge used twice.
     distances : ndarray of shape (M,), float64
         Distance of every point used (``point_index``) to the triangulated mesh.
-    mean_distance, max_distance : float
+    distance_mean, distance_max : float
         Mean and largest of ``distances``.
     vertex_method, face_method : str
         Methods used (``vertex_method`` is ``"lsq"`` after a fallback).
@@ -79,7 +79,7 @@ class SimplifiedMesh:
     region_map : ndarray of shape (R_in,), int64
         Input region -> region of ``labels`` holding most of its points (several
         map together when merged).
-    complex : SurfaceComplex
+    surface_complex : SurfaceComplex
         The surface-like complex the mesh was built from.
     anchor_weight : float
         Anchor weight ``vertices="fit"`` used (NaN for the other methods).
@@ -109,8 +109,8 @@ class SimplifiedMesh:
     is_manifold: bool
     is_oriented: bool
     distances: np.ndarray
-    mean_distance: float
-    max_distance: float
+    distance_mean: float
+    distance_max: float
     vertex_method: str
     face_method: str
     fallback: bool
@@ -121,7 +121,7 @@ class SimplifiedMesh:
     plane_offsets: np.ndarray
     labels: np.ndarray
     region_map: np.ndarray
-    complex: SurfaceComplex
+    surface_complex: SurfaceComplex
     anchor_weight: float = float("nan")
     point_index: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int64))
     n_dropped: int = 0
@@ -183,8 +183,8 @@ class SimplifiedMesh:
             "is_oriented": self.is_oriented,
             "faces_not_ok": [int(x) for x in np.flatnonzero(~self.face_ok)],
             "max_planarity_error": float(self.planarity_error.max(initial=0.0)),
-            "mean_distance": self.mean_distance,
-            "max_distance": self.max_distance,
+            "distance_mean": self.distance_mean,
+            "distance_max": self.distance_max,
             "regions_without_face": [int(x) for x in self.regions_without_face],
             "anchor_weight": None if np.isnan(self.anchor_weight) else self.anchor_weight,
             "n_input_regions": int(self.region_map.shape[0]),

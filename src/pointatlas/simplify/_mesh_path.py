@@ -233,12 +233,12 @@ def _search_error(run, bound: float, tol: float) -> SurfaceSimplification:
     """The largest max_angle whose output is within ``bound`` of every input vertex."""
     lo, hi = np.log(np.radians(0.01)), np.log(np.radians(60.0))
     best = run(float(np.exp(lo)), None, tol)
-    if best.max_distance > bound:
+    if best.distance_max > bound:
         return best  # even the finest segmentation misses the bound: report it
     for _ in range(12):
         mid = 0.5 * (lo + hi)
         res = run(float(np.exp(mid)), None, tol)
-        if res.max_distance <= bound:
+        if res.distance_max <= bound:
             best, lo = res, mid
         else:
             hi = mid

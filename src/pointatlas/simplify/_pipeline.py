@@ -295,7 +295,7 @@ def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason):
         mesh is not None
         and reason.startswith("open")
         and rec.n_trimmed > 0
-        and mesh.mean_distance <= res.mean_distance
+        and mesh.distance_mean <= res.distance_mean
     ):
         # the points' surface is open too, and the thesis mesh is as near: it stands
         return inp.result(seg, mesh)

@@ -343,8 +343,8 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, chord_tolerance=Non
         res,
         vertices=out_v,
         distances=d,
-        mean_distance=float(d.mean()),
-        max_distance=float(d.max()),
+        distance_mean=float(d.mean()),
+        distance_max=float(d.max()),
         chord_tolerance=tol * frame.scale,
         planarity_error=res.planarity_error * frame.scale,
     )

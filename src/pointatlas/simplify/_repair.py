@@ -191,7 +191,7 @@ class CleanRegions:
     proxy_normals: np.ndarray
     centers: np.ndarray
     centroids: np.ndarray
-    complex: SurfaceComplex
+    surface_complex: SurfaceComplex
     fit_mask: np.ndarray
     input_reasons: tuple = ()
 
@@ -268,7 +268,7 @@ def clean_regions(
         proxy_normals=pn,
         centers=ctr,
         centroids=np.asarray(cprox.centroids),
-        complex=cplx,
+        surface_complex=cplx,
         fit_mask=fit_mask,
         input_reasons=tuple(reasons),
     )

@@ -79,7 +79,7 @@ class SurfaceSimplification:
         Region of every input triangle.
     distances : ndarray of shape (N_in,), float64
         Distance of every input vertex to the output triangles.
-    mean_distance, max_distance : float
+    distance_mean, distance_max : float
         Mean and largest of ``distances``.
     chord_tolerance : float
         Chord tolerance used (input units).
@@ -103,8 +103,8 @@ class SurfaceSimplification:
     euler_characteristic: int
     face_labels: np.ndarray
     distances: np.ndarray
-    mean_distance: float
-    max_distance: float
+    distance_mean: float
+    distance_max: float
     chord_tolerance: float
     n_refined: int
 
@@ -158,8 +158,8 @@ class SurfaceSimplification:
             "euler_characteristic": self.euler_characteristic,
             "max_planarity_error": float(self.planarity_error.max(initial=0.0)),
             "planarity_error": [float(x) for x in self.planarity_error],
-            "mean_distance": self.mean_distance,
-            "max_distance": self.max_distance,
+            "distance_mean": self.distance_mean,
+            "distance_max": self.distance_max,
             "n_regions": self.n_faces,
         }
 
@@ -510,8 +510,8 @@ def _result(run: _RegionFaces, verts, out_v, out_t, all_f, used, face_loops):
         euler_characteristic=int(out_v.shape[0] - n_edges + out_t.shape[0]),
         face_labels=lab.copy(),
         distances=dist,
-        mean_distance=float(dist.mean()) if dist.size else 0.0,
-        max_distance=float(dist.max()) if dist.size else 0.0,
+        distance_mean=float(dist.mean()) if dist.size else 0.0,
+        distance_max=float(dist.max()) if dist.size else 0.0,
         chord_tolerance=run.tol,
         n_refined=len(run.refined),
     )
