@@ -325,6 +325,13 @@ def test_sigint_during_segment_exits_130_and_keeps_previous_outputs(tmp_path):
     out = tmp_path / "seg.ply"
     outputs = [out, tmp_path / "seg_regions.csv", tmp_path / "seg_regions.json"]
     cmd = [sys.executable, "-m", "pointatlas.cli", "segment", str(src), str(out), "--eta", "25"]
+    # compile (and cache) the kernels first on a small input: this test interrupts the
+    # computation; an interrupt during numba's compilation is covered by
+    # test_interrupt_inside_a_finaliser_is_not_printed
+    small = tmp_path / "small.ply"
+    write_point_set(small, pts[:3000], normals=pts[:3000])
+    warm = [*cmd[:4], str(small), str(tmp_path / "warm.ply"), "--eta", "25"]
+    subprocess.run(warm, capture_output=True, text=True, timeout=600, check=True)
     n_kept = 0
     for delay in (0.3, 1.5, 3.0, 4.5):
         for p in outputs:  # a run that finished replaced them
@@ -431,3 +438,25 @@ def test_too_few_points_name_the_user_facing_option(tmp_path):
     )
     result = run("simplify", src, tmp_path / "o.obj", "--k", "4")
     assert_user_error(result, "--normal-k")
+
+
+def test_interrupt_inside_a_finaliser_is_not_printed():
+    """Our handler's KeyboardInterrupt raised inside a finaliser (llvmlite's, while
+    numba compiles) is dropped once the request is recorded; others still print."""
+    from types import SimpleNamespace
+
+    from pointatlas._core._interrupt import clear_interrupt, request_interrupt
+    from pointatlas.cli._app import _quiet_interrupts
+
+    seen = []
+    hook = _quiet_interrupts(seen.append)
+    interrupt = SimpleNamespace(exc_type=KeyboardInterrupt)
+    other = SimpleNamespace(exc_type=RuntimeError)
+    try:
+        hook(interrupt)  # no request recorded: not ours, printed
+        request_interrupt()
+        hook(interrupt)
+        hook(other)
+    finally:
+        clear_interrupt()
+    assert seen == [interrupt, other]

@@ -125,6 +125,19 @@ def _on_sigint(signum, frame):
     raise KeyboardInterrupt
 
 
+def _quiet_interrupts(previous):
+    """An ``unraisablehook`` that drops the ``KeyboardInterrupt`` our handler raised
+    inside a finaliser (e.g. llvmlite's while numba compiles): the request is
+    recorded, so the command still ends with the one "interrupted" line."""
+
+    def hook(unraisable):
+        if unraisable.exc_type is KeyboardInterrupt and interrupt_requested():
+            return
+        previous(unraisable)
+
+    return hook
+
+
 def guarded(func):
     """Turn user errors into one red line on stderr and exit status 1.
 
@@ -142,8 +155,10 @@ def guarded(func):
     def wrapper(*args, **kwargs):
         clear_interrupt()
         previous = None
+        previous_hook = sys.unraisablehook
         if threading.current_thread() is threading.main_thread():
             previous = signal.signal(signal.SIGINT, _on_sigint)
+            sys.unraisablehook = _quiet_interrupts(previous_hook)
         try:
             result = func(*args, **kwargs)
             if interrupt_requested():
@@ -166,6 +181,7 @@ def guarded(func):
         finally:
             if previous is not None:
                 signal.signal(signal.SIGINT, previous)
+                sys.unraisablehook = previous_hook
             clear_interrupt()  # the request belonged to this command
 
     return wrapper
