@@ -165,7 +165,7 @@ def test_tiled_ply_in_and_out(tmp_path, scheduler):
          ["--halo 0.001 is too small for k = 20", "or leave --halo out"]),
         (("normals", "--tile-size", 10, "--orient", "outward"), ["needs the whole surface"]),
         (("segment", "--tile-size", 10, "--method", "region-growing"), ["only vsa is stitched"]),
-        (("features", "--tile-size", 10, "--report", "r.html"), ["--report needs every point"]),
+        (("features", "--tile-size", 10, "--render", "r.png"), ["--render needs every point"]),
         (("denoise", "--tile-size", 10, "--halo", 0.01, "--method", "flatness"),
          ["smaller than the reach of 60 denoising iterations"]),
         (("denoise", "--tile-size", 10, "--method", "normal-voting"),
@@ -218,9 +218,29 @@ def test_bundled_model_name_runs_by_tiles_like_a_file(tmp_path, scheduler):
     assert np.array_equal(got.normals, ref.normals)  # bit for bit, as for a file
 
 
-def test_report_and_render_are_refused_with_the_reason(tmp_path, laz, scheduler):
-    for flag, name in (("--report", "r.html"), ("--render", "r.png")):
-        result = run("features", laz, tmp_path / "o.laz", "--tile-size", 10, flag,
-                     tmp_path / name, "--scheduler", scheduler)  # fmt: skip
-        assert_user_error(result, f"{flag} needs every point in one process",
-                          "a tiled run never holds", "leave out --tile-size")  # fmt: skip
+def test_render_is_refused_with_the_reason(tmp_path, laz, scheduler):
+    result = run("features", laz, tmp_path / "o.laz", "--tile-size", 10, "--render",
+                 tmp_path / "r.png", "--scheduler", scheduler)  # fmt: skip
+    assert_user_error(result, "--render needs every point in one process",
+                      "a tiled run never holds", "leave out --tile-size")  # fmt: skip
+
+
+def test_tiled_report_views_every_nth_point_of_out(tmp_path, laz, scheduler, monkeypatch):
+    from pointatlas.cli import _reports
+
+    monkeypatch.setattr(_reports, "MAX_TILED_VIEW_POINTS", 5_000)
+    out, report = tmp_path / "o.laz", tmp_path / "r.html"
+    result = run("segment", laz, out, "--tile-size", 10, "--report", report,
+                 "--scheduler", scheduler)  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert f"wrote {report}" in result.output
+    n = laspy.read(out).header.point_count
+    step = -(-n // 5_000)
+    points, fields, n_total, got_step = _reports.read_back_view(out, 5_000)
+    assert (n_total, got_step) == (n, step)
+    ref = laspy.read(out)
+    assert np.array_equal(fields["label"], np.asarray(ref["label"])[::step])
+    assert np.allclose(points, np.column_stack([ref.x, ref.y, ref.z])[::step])
+    html = report.read_text()
+    assert f"1 point in {step} of OUT" in html and "<script" in html
+    assert "http://" not in html.split("<script", 1)[0]  # self-contained head

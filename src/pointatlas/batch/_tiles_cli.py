@@ -44,8 +44,6 @@ __all__ = [
 _REFUSED = "needs every point in one process; leave out --tile-size or this option"
 #: Why the pictures are refused: a tiled run never holds the whole result in one process.
 _WHY = {
-    "report": "(the report embeds the result of every point, which a tiled run never holds "
-    "in one process); leave out --tile-size, or run untiled on a cropped part for a report",
     "render": "(the picture draws the result of every point, which a tiled run never holds "
     "in one process); leave out --tile-size, or run untiled on a cropped part for a picture",
 }

@@ -381,12 +381,18 @@ def tile_options(tile_size, halo, workers, scheduler, max_memory, **refused):
     return options
 
 
-def run_tiled(kind: str, in_path, out_path, params: dict, options, **kwargs) -> dict:
+def run_tiled(kind: str, in_path, out_path, params: dict, options, *, report=None,
+              **kwargs) -> dict:  # fmt: skip
     """Run a command by tiles (`pointatlas.batch.run_tiled_command`), print a summary
-    line and the files written; returns the summary."""
+    line and the files written; returns the summary. ``report``: also an HTML report
+    whose 3-D view reads every n-th point back from OUT (`write_tiled_report`)."""
     from ..batch import run_tiled_command
 
     summary, written = run_tiled_command(kind, in_path, out_path, params, options, **kwargs)
+    if report is not None:
+        from ._reports import write_tiled_report
+
+        written = [*written, write_tiled_report(report, kind, in_path, out_path, params, summary)]
     tiles = summary["tiles"]
     line = (
         f"{kind}: {summary['points']:,} points in {tiles['tiles']} tiles of "

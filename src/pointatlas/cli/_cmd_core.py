@@ -149,10 +149,10 @@ def normals_command(
         raise PointAtlasError(
             f"--orient must be one of {', '.join(ORIENT_METHODS)}; got {orient!r}"
         )
-    tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, report=report)
+    tiles = tile_options(tile_size, halo, workers, scheduler, max_memory)
     if tiles is not None:
         params = {"k": k, "orient": orient, "orient_k": orient_k, "viewpoint": viewpoint}
-        run_tiled("normals", in_path, out_path, params, tiles)
+        run_tiled("normals", in_path, out_path, params, tiles, report=report)
         return
     ps = read_input(in_path, with_normals=False)
     try:

@@ -391,7 +391,7 @@ def denoise_command(
     _check_options(method, schedule, rho=rho, tau=tau, max_step=max_step, eta=eta, eps=eps,
                    n_filter_iter=n_filter_iter, n_iter=n_iter, clean=clean)  # fmt: skip
     tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, clean=clean,
-                         render=render, report=report)  # fmt: skip
+                         render=render)  # fmt: skip
     if tiles is not None:
         from ..batch._tiles_cli import denoise_params, normal_params_for
 
@@ -401,7 +401,7 @@ def denoise_command(
             else n_filter_iter, max_step=max_step, k=k, eta=eta, eps=eps,
             schedule=schedule, k_start=k_start,
         )  # fmt: skip
-        run_tiled("denoise", input_path, output, params, tiles,
+        run_tiled("denoise", input_path, output, params, tiles, report=report,
                   normal_params=normal_params_for(input_path, estimate, normal_k))  # fmt: skip
         return
     t0 = time.perf_counter()

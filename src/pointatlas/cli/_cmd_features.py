@@ -331,8 +331,7 @@ def features_command(
     )  # fmt: skip
     a_vals = _parse_grid_deg(a_grid, "--a-grid-deg")
     b_vals = _parse_grid_deg(b_grid, "--b-grid-deg") if b_grid is not None else a_vals
-    tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, render=render,
-                         report=report)  # fmt: skip
+    tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, render=render)
     if tiles is not None:
         from ..batch._tiles_cli import feature_params, input_has_normals
 
@@ -340,7 +339,7 @@ def features_command(
             weights=weights, k=k, k_range=k_range, a_grid=a_vals, b_grid=b_vals,
             flatness=flatness, criterion=criterion, has_normals=input_has_normals(input_path),
         )  # fmt: skip
-        run_tiled("features", input_path, output, params, tiles)
+        run_tiled("features", input_path, output, params, tiles, report=report)
         return
     ps = _read_checked(input_path, output)
     t0 = time.perf_counter()

@@ -238,10 +238,9 @@ def segment_command(
     if method not in ("vsa", "region-growing"):
         raise PointAtlasError(f"--method must be vsa or region-growing; got {method!r}")
     angle_deg_option(smoothness_deg, "--smoothness-deg")
-    tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, render=render,
-                         report=report)  # fmt: skip
+    tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, render=render)
     if tiles is not None:
-        _segment_tiled(input_path, output, parameters, options, tiles)
+        _segment_tiled(input_path, output, parameters, options, tiles, report)
         return
     t0 = time.perf_counter()
     ps = _read_segment_input(input_path, output, estimate=estimate, normal_k=normal_k)
@@ -293,15 +292,16 @@ def _check_segment_outputs(input_path: Path, output: Path, render, report) -> Pa
     return json_path
 
 
-def _segment_tiled(input_path: Path, output: Path, parameters: dict, options, tiles) -> None:
+def _segment_tiled(input_path: Path, output: Path, parameters: dict, options, tiles,
+                   report) -> None:  # fmt: skip
     """``segment`` on tiles (`pointatlas.batch`): the command's `VSAOptions`, its
-    normal settings from ``parameters``."""
+    normal settings from ``parameters``, ``--report`` read back from OUT."""
     from ..batch._tiles_cli import normal_params_for, segment_params
     from ..viz import label_colors
 
     params = segment_params(method=parameters["method"], options=options)
     run_tiled(
-        "segment", input_path, output, params, tiles,
+        "segment", input_path, output, params, tiles, report=report,
         normal_params=normal_params_for(
             input_path, parameters["estimate_normals"], parameters["normal_k"]
         ),
