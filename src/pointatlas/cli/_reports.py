@@ -46,6 +46,16 @@ def report_summary(path, ps: PointSet) -> dict:
     return summary
 
 
+def _scalar_fields(source, n_points: int) -> dict:
+    """The fields of ``source`` with one number per point (what a view can colour by)."""
+    arrays = {name: np.asarray(values) for name, values in source.items()}
+    return {
+        name: arr
+        for name, arr in arrays.items()
+        if arr.shape == (n_points,) and arr.dtype.kind in "biuf"
+    }
+
+
 def report_layer(ps: PointSet, ours: dict, *, color_by: str | None = None):
     """A `PointsLayer` of our per-point fields, then the input's numeric ones.
 
@@ -56,10 +66,7 @@ def report_layer(ps: PointSet, ours: dict, *, color_by: str | None = None):
 
     fields = {}
     for prefix, source in (("", ours), ("input ", ps.attributes)):
-        for name, values in source.items():
-            arr = np.asarray(values)
-            if arr.shape != (ps.n_points,) or arr.dtype.kind not in "biuf":
-                continue
+        for name, arr in _scalar_fields(source, ps.n_points).items():
             fields[name if name not in fields else prefix + name] = arr
     return PointsLayer(ps.points, fields, color_by=color_by if color_by in fields else None)
 
@@ -102,11 +109,7 @@ def read_back_view(path, max_points: int | None = None):
 
     ps = read_point_set(path)
     step = max(1, -(-ps.n_points // max_points))
-    fields = {
-        name: np.asarray(values)[::step]
-        for name, values in ps.attributes.items()
-        if np.asarray(values).shape == (ps.n_points,) and np.asarray(values).dtype.kind in "biuf"
-    }
+    fields = {k: v[::step] for k, v in _scalar_fields(ps.attributes, ps.n_points).items()}
     return ps.points[::step], fields, ps.n_points, step
 
 

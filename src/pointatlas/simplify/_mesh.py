@@ -194,6 +194,37 @@ class SimplifiedMesh:
         }
 
 
+def vertex_links(tri: np.ndarray) -> dict[int, list[tuple[int, int, int]]]:
+    """The link of every vertex of a triangle list: for each triangle (a, b, c) the
+    opposite edge (b, c) under a, (c, a) under b, (a, b) under c, with the triangle's
+    index (``(p, q, t)``)."""
+    link: dict[int, list[tuple[int, int, int]]] = {}
+    for t, (a, b, c) in enumerate(np.asarray(tri).tolist()):
+        link.setdefault(a, []).append((b, c, t))
+        link.setdefault(b, []).append((c, a, t))
+        link.setdefault(c, []).append((a, b, t))
+    return link
+
+
+def link_is_one_fan(edges) -> bool:
+    """Whether a vertex's link edges (``(p, q, ...)`` tuples) form one path or cycle:
+    connected, every link vertex of degree <= 2 (the triangles make one fan)."""
+    deg: dict[int, int] = {}
+    parent: dict[int, int] = {}
+
+    def find(x):
+        while parent.setdefault(x, x) != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for p, q, *_ in edges:
+        deg[p] = deg.get(p, 0) + 1
+        deg[q] = deg.get(q, 0) + 1
+        parent[find(p)] = find(q)
+    return len({find(x) for x in deg}) == 1 and max(deg.values()) <= 2
+
+
 def mesh_checks(n_vertices: int, triangles) -> tuple[bool, bool, bool]:
     """Closed, manifold and consistently oriented tests of a triangle mesh.
 
@@ -235,27 +266,5 @@ def mesh_checks(n_vertices: int, triangles) -> tuple[bool, bool, bool]:
     if manifold:
         # link of every vertex: the opposite edges of its triangles must form one
         # path or cycle (connected, degrees <= 2)
-        link: dict[int, list[tuple[int, int]]] = {}
-        for a, b, c in tri.tolist():
-            link.setdefault(a, []).append((b, c))
-            link.setdefault(b, []).append((c, a))
-            link.setdefault(c, []).append((a, b))
-        for edges in link.values():
-            deg: dict[int, int] = {}
-            parent: dict[int, int] = {}
-
-            def find(x, parent=parent):
-                while parent.setdefault(x, x) != x:
-                    parent[x] = parent[parent[x]]
-                    x = parent[x]
-                return x
-
-            for p, q in edges:
-                deg[p] = deg.get(p, 0) + 1
-                deg[q] = deg.get(q, 0) + 1
-                parent[find(p)] = find(q)
-            roots = {find(x) for x in deg}
-            if len(roots) != 1 or max(deg.values()) > 2:
-                manifold = False
-                break
+        manifold = all(link_is_one_fan(edges) for edges in vertex_links(tri).values())
     return closed, manifold, oriented

@@ -14,6 +14,7 @@ import mapbox_earcut
 import numpy as np
 
 from ._faces import _signed_area
+from ._mesh import link_is_one_fan, vertex_links
 
 __all__ = ["bad_regions", "face_of_loops", "loop_vertices"]
 
@@ -133,25 +134,7 @@ def bad_regions(tri: np.ndarray, tface: np.ndarray, closed_input: bool) -> set[i
     bad = set(owner[bad_edge[inv]].tolist())
     _, dcnt_inv, dcnt = np.unique(d, axis=0, return_inverse=True, return_counts=True)
     bad |= set(owner[(dcnt > 1)[dcnt_inv.reshape(-1)]].tolist())
-    link: dict[int, list[tuple[int, int, int]]] = {}
-    for (a, b, c), f in zip(tri.tolist(), tface.tolist(), strict=True):
-        link.setdefault(a, []).append((b, c, f))
-        link.setdefault(b, []).append((c, a, f))
-        link.setdefault(c, []).append((a, b, f))
-    for edges in link.values():
-        deg: dict[int, int] = {}
-        parent: dict[int, int] = {}
-
-        def find(x, parent=parent):
-            while parent.setdefault(x, x) != x:
-                parent[x] = parent[parent[x]]
-                x = parent[x]
-            return x
-
-        for p_, q_, _ in edges:
-            deg[p_] = deg.get(p_, 0) + 1
-            deg[q_] = deg.get(q_, 0) + 1
-            parent[find(p_)] = find(q_)
-        if len({find(x) for x in deg}) != 1 or max(deg.values()) > 2:
-            bad |= {f for _, _, f in edges}
+    for edges in vertex_links(tri).values():
+        if not link_is_one_fan(edges):
+            bad |= {int(tface[t]) for _, _, t in edges}
     return bad
