@@ -11,6 +11,17 @@ same float64 points (float32 for pgeof, which requires it). Peers that fail to
 import are reported as "not installed". The table lists seconds and the ratio to
 the fastest peer. Also provides asv-style ``TimeKnn`` classes (``setup``,
 ``time_*``) at several N.
+
+CPU time per point (``--cpu``; run with ``NUMBA_NUM_THREADS=1``): user + sys seconds
+of ``NeighborIndex(p).knn(k)`` beside scipy ``cKDTree`` (build + query, workers=1) and
+Open3D ``KDTreeFlann`` (build + one ``search_knn_vector_3d`` per point), least of
+``--repeat``, on the synthetic lidar scan of ``bench_scale.py`` (``--lidar N``, read
+back from its LAZ, millimetre coordinates) and on mesh vertices (``--model PATH``)::
+
+    NUMBA_NUM_THREADS=1 .venv/bin/python benchmarks/bench_neighbors.py --cpu \
+        --lidar 1000000 --k 20
+    NUMBA_NUM_THREADS=1 .venv/bin/python benchmarks/bench_neighbors.py --cpu --k 48 \
+        --model ../shared/data/models/fandisk_6475.obj
 """
 
 from __future__ import annotations
@@ -123,13 +134,115 @@ def _table(title: str, times: dict[str, float | None]) -> str:
     return "\n".join(lines)
 
 
+def lidar_scan(n: int, seed: int = 0) -> np.ndarray:
+    """The synthetic lidar scan of ``bench_scale.py`` (about n points), as read back
+    from its LAZ (millimetre coordinates, UTM-like offsets)."""
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from bench_scale import generate_scan
+
+    from pointatlas.io import read_point_set
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = generate_scan(Path(tmp) / "scan.laz", n, seed)
+        return np.asarray(read_point_set(path, with_normals=False).points)
+
+
+def _cpu_best(run, repeat: int) -> float:
+    run()  # warm-up
+    best = np.inf
+    for _ in range(repeat):
+        t0 = time.process_time()
+        run()
+        best = min(best, time.process_time() - t0)
+    return best
+
+
+def cpu_compare(points: np.ndarray, k: int, repeat: int, *, flann: bool) -> dict:
+    """CPU seconds (user + sys, least of ``repeat``) of ours, cKDTree (workers=1) and,
+    with ``flann``, Open3D's KDTreeFlann, all from the points (index build included)."""
+    from scipy.spatial import cKDTree
+
+    from pointatlas.neighbors import NeighborIndex
+
+    centred = points - 0.5 * (points.min(axis=0) + points.max(axis=0))
+    times = {
+        "pointatlas NeighborIndex.knn": _cpu_best(lambda: NeighborIndex(points).knn(k), repeat),
+        "scipy cKDTree (workers=1)": _cpu_best(
+            lambda: cKDTree(centred).query(centred, k=k, workers=1), repeat
+        ),
+    }
+    if flann:
+        try:
+            import open3d as o3d
+        except ImportError:
+            times["Open3D KDTreeFlann"] = None
+        else:
+
+            def run_flann():
+                pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(centred))
+                tree = o3d.geometry.KDTreeFlann(pcd)
+                for q in centred:
+                    tree.search_knn_vector_3d(q, k)
+
+            times[f"Open3D {o3d.__version__} KDTreeFlann"] = _cpu_best(run_flann, repeat)
+    return times
+
+
+def _cpu_table(title: str, n: int, times: dict) -> str:
+    ours = times["pointatlas NeighborIndex.knn"]
+    lines = [f"### {title}", "", "| method | CPU s | us per point | points per CPU-s | "
+             "time / ours |", "|---|---:|---:|---:|---:|"]  # fmt: skip
+    for name, t in times.items():
+        if t is None:
+            lines.append(f"| {name} | not installed | | | |")
+        else:
+            lines.append(
+                f"| {name} | {t:.4f} | {t / n * 1e6:.2f} | {n / t:,.0f} | {t / ours:.2f} |"
+            )
+    return "\n".join(lines)
+
+
+def main_cpu(args) -> None:
+    """The ``--cpu`` tables."""
+    import numba
+
+    print(f"CPU time, k = {args.k}, least of {args.repeat}; numba threads "
+          f"{numba.get_num_threads()}, load average {os.getloadavg()}")  # fmt: skip
+    cases = []
+    if args.lidar:
+        cases.append(
+            (f"synthetic lidar scan (bench_scale), N = {args.lidar}", lidar_scan(args.lidar))
+        )
+    for path in args.model or []:
+        from pointatlas.io import read_point_set
+
+        cases.append(
+            (f"{path} vertices", np.asarray(read_point_set(path, with_normals=False).points))
+        )
+    for title, pts in cases:
+        times = cpu_compare(pts, args.k, args.repeat, flann=len(pts) <= 200_000)
+        print()
+        print(_cpu_table(f"{title} ({len(pts)} points), k = {args.k}", len(pts), times))
+    print(f"\nload average after: {os.getloadavg()}")
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=1_000_000)
     parser.add_argument("--k", type=int, default=20)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--cpu", action="store_true", help="CPU time per point (see above).")
+    parser.add_argument("--lidar", type=int, default=0, help="--cpu: the lidar scan's N.")
+    parser.add_argument("--model", action="append", help="--cpu: mesh or point file (repeatable).")
     args = parser.parse_args(argv)
+    if args.cpu:
+        main_cpu(args)
+        return
     import numba
 
     print(

@@ -5,10 +5,11 @@
    tanks and poles, scattered vegetation-like noise, intensity and ASPRS
    classification, millimetre scales, UTM-like offsets, ~16 points per square metre.
 2. Runs the commands end to end as a user would (``pointatlas normals``, ``features``,
-   ``segment`` with ``--tile-size`` on a local dask cluster, LAZ decode and encode
-   included) and reports wall time, throughput in points/s per core and the peak
-   memory of the whole process tree (the command plus its dask workers, sampled with
-   psutil every 0.1 s).
+   ``segment``, and ``features --normals``, both in one pass, with ``--tile-size`` on a
+   local dask cluster, LAZ decode and encode included) and reports wall time,
+   throughput in points/s per core and points per CPU-second (user + sys of the
+   command and its dask workers) and the peak memory of the whole process tree (the
+   command plus its dask workers, sampled with psutil every 0.1 s).
 3. ``--compare``: the same commands untiled on the same file; features and normals
    must be identical on every point, segmentation quality measures within 1 %.
 4. ``--halo-cost``: tiled / untiled compute time as tiles shrink (in one process, one
@@ -20,7 +21,8 @@
 Run (the issue's measures; the 10M case takes minutes on 2 cores):
 
     .venv/bin/python benchmarks/bench_scale.py --points 1000000 --compare --halo-cost
-    .venv/bin/python benchmarks/bench_scale.py --points 10000000 --tile-size 100
+    .venv/bin/python benchmarks/bench_scale.py --points 10000000 --tile-size 200 \
+        --steps normals,features,one-pass
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import argparse
 import json
 import math
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -135,14 +138,17 @@ def generate_scan(path: Path, n_points: int, seed: int = 0) -> Path:
 
 
 class TreeMemory:
-    """Peak of the summed RSS of a process and its descendants (psutil, 0.1 s)."""
+    """Peak of the summed RSS of a process and its descendants, and their CPU seconds
+    (psutil, sampled every 0.1 s; a process's last sampled user + sys counts)."""
 
     def __init__(self, pid: int):
         import psutil
 
         self.proc = psutil.Process(pid)
+        self.root = (pid, self.proc.create_time())
         self.peak = 0
         self.peak_single = 0
+        self.cpu = {}  # pid -> last (user + sys) seen
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
@@ -157,6 +163,8 @@ class TreeMemory:
                 for p in procs:
                     try:
                         rss.append(p.memory_info().rss)
+                        t = p.cpu_times()
+                        self.cpu[(p.pid, p.create_time())] = t.user + t.system
                     except psutil.Error:
                         pass
                 self.peak = max(self.peak, sum(rss))
@@ -170,9 +178,24 @@ class TreeMemory:
         self._thread.join()
 
 
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def run_cli(args: list, cores: int) -> dict:
-    """Run ``pointatlas ARGS``; wall time, peak tree memory, its summary line."""
+    """Run ``pointatlas ARGS``: wall time, CPU seconds, peak tree memory, summary line.
+
+    ``cpu_s``: user + sys of the command and every descendant it waited for (its dask
+    workers: ``getrusage(RUSAGE_CHILDREN)`` after it ended), the honest per-core cost on
+    a shared box: ``points_per_cpu_s`` does not fall when other jobs take the cores
+    (``points_per_s_per_core`` = points / wall / cores does). ``cpu_s_sampled``: the
+    same from psutil samples of the live tree (a lower bound; a check that no worker
+    escaped the rusage count), ``cpu_s_command_process`` its share of the command's own
+    process (passes, LAZ decode and encode, the scheduler); the rest is the workers'.
+    """
     exe = Path(sys.executable).with_name("pointatlas")
+    c0 = _children_cpu()
     t0 = time.perf_counter()
     proc = subprocess.Popen([str(exe), *map(str, args)], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)  # fmt: skip
@@ -180,16 +203,28 @@ def run_cli(args: list, cores: int) -> dict:
     out, err = proc.communicate()
     mem.stop()
     wall = time.perf_counter() - t0
+    cpu = _children_cpu() - c0
     if proc.returncode:
         raise SystemExit(f"pointatlas {' '.join(map(str, args))} failed:\n{err}")
     return {
         "cmd": " ".join(map(str, args)),
         "seconds": round(wall, 2),
+        "cpu_s": round(cpu, 2),
+        "cpu_s_sampled": round(sum(mem.cpu.values()), 2),
+        "cpu_s_command_process": round(mem.cpu.get(mem.root, 0.0), 2),
         "peak_gib_tree": round(mem.peak / 2**30, 3),
         "peak_gib_one_process": round(mem.peak_single / 2**30, 3),
         "cores": cores,
+        "load": round(os.getloadavg()[0], 2),
         "stdout": out.strip().splitlines()[:2],
     }
+
+
+def _rates(r: dict, n: int, cores: int) -> dict:
+    """Points/s per core (wall) and points per CPU-second of a run."""
+    r["points_per_s_per_core"] = round(n / r["seconds"] / cores)
+    r["points_per_cpu_s"] = round(n / max(r["cpu_s"], 1e-9))
+    return r
 
 
 def _las_fields(path, names):
@@ -217,7 +252,8 @@ def compare(laz: Path, tmp: Path, tile: float, workers: int, n: int) -> dict:
         a, b = _las_fields(t_path, names), _las_fields(u_path, names)
         same = all(np.array_equal(a[k], b[k], equal_nan=True) for k in names)
         out[what] = {"tiled": rt, "untiled": ru, "identical": same, "fields": len(names),
-                     "time_ratio": round(rt["seconds"] / ru["seconds"], 3)}  # fmt: skip
+                     "time_ratio": round(rt["seconds"] / ru["seconds"], 3),
+                     "cpu_ratio": round(rt["cpu_s"] / ru["cpu_s"], 3)}  # fmt: skip
         print(json.dumps({what: out[what]}, indent=1), flush=True)
     t_path, u_path = tmp / "seg_t.laz", tmp / "seg_u.laz"
     # the same normals for both: the untiled normals file (PCA + MST)
@@ -276,24 +312,48 @@ def halo_cost(laz: Path, sizes) -> list:
     return rows
 
 
+def _cpu_self() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)  # every thread of this process (numba's)
+    return r.ru_utime + r.ru_stime
+
+
 def _timed(out: dict, name: str, func, *args, **kwargs):
-    t0 = time.perf_counter()
+    """Run ``func``; ``out[name]`` = its wall seconds, ``out["cpu"][name]`` its CPU
+    seconds (user + sys of this process)."""
+    t0, c0 = time.perf_counter(), _cpu_self()
     result = func(*args, **kwargs)
     out[name] = round(time.perf_counter() - t0, 3)
+    out.setdefault("cpu", {})[name] = round(_cpu_self() - c0, 3)
     return result
+
+
+def warm_task(kind: str, params: dict, threads) -> None:
+    """What a worker's first tile loads: imports and numba kernels (a tiny input)."""
+    from pointatlas.batch._tiles_tasks import features_dispatch
+    from pointatlas.normals import estimate_normals, orient_normals
+
+    if threads:
+        import numba
+
+        numba.set_num_threads(int(threads))
+    pts = np.random.default_rng(0).random((2000, 3))
+    if kind == "features":
+        features_dispatch(pts, None, params)
+    else:
+        orient_normals(pts, estimate_normals(pts, params["k"]), k=params["orient_k"],
+                       method="mst")  # fmt: skip
 
 
 def _dask_costs(kind: str, params: dict) -> dict:
     """Seconds of dask's fixed costs: import (when not yet imported), a local cluster
-    of 2 worker processes, their first `warm_task` (imports, kernels), close."""
+    of 2 worker processes, their first tile's loading (`warm_task`), close; CPU
+    seconds of this process per step and of the workers (start to close, together)."""
     import logging
     import warnings
 
     out: dict = {}
-    t0 = time.perf_counter()
+    t0, w0 = time.perf_counter(), _children_cpu()
     import distributed
-
-    from pointatlas.batch._tiles_tasks import warm_task
 
     out["dask: import"] = round(time.perf_counter() - t0, 3)
     with warnings.catch_warnings():
@@ -310,6 +370,7 @@ def _dask_costs(kind: str, params: dict) -> dict:
         client.close()
         cluster.close()
         out["dask: close"] = round(time.perf_counter() - t0, 3)
+    out["cpu"]["dask: workers (start to close)"] = round(_children_cpu() - w0, 3)
     return out
 
 
@@ -323,9 +384,9 @@ def stages(laz: Path, tile: float, kind: str) -> dict:
 
     from pointatlas.batch import TileOptions
     from pointatlas.batch import _tiles as T
-    from pointatlas.batch._tiles_las import LasSource, write_streamed
-    from pointatlas.batch._tiles_tasks import features_dispatch, run_task, warm_task
-    from pointatlas.features import covariance_features
+    from pointatlas.batch._tiles_las import LAS_FEATURE_FLOAT, LasSource, write_streamed
+    from pointatlas.batch._tiles_tasks import features_dispatch, run_task
+    from pointatlas.features import classify_dimension, covariance_features
     from pointatlas.neighbors import query_knn
     from pointatlas.normals import estimate_normals, orient_normals
 
@@ -348,18 +409,21 @@ def stages(laz: Path, tile: float, kind: str) -> dict:
     _, sent = _timed(out, "spill pass (tile cut)", T._spill, src, grid,
                      dict.fromkeys(range(grid.n_tiles), halo), spill)  # fmt: skip
     out["tiles"], out["sent per point"] = len(spill.pieces), round(sum(sent.values()) / src.n, 3)
-    t0 = time.perf_counter()
-    for t in sorted(spill.pieces):
-        spec = {"grid": grid, "tile": t, "halo": halo, "params": params, "threads": None}
-        assert run_task(kind, spec, spill.load(t))["status"] == "ok"
-    out["tile tasks (sum)"] = round(time.perf_counter() - t0, 3)
+
+    def tasks():
+        for t in sorted(spill.pieces):
+            spec = {"grid": grid, "tile": t, "halo": halo, "params": params, "threads": None}
+            assert run_task(kind, spec, spill.load(t))["status"] == "ok"
+
+    _timed(out, "tile tasks (sum)", tasks)
     table, _ = _timed(out, "untiled: k-NN query", query_knn, xyz, 20)
     if kind == "features":
         covariance_features(xyz[:1000], 20)
-        _timed(out, "untiled: features kernel", features_dispatch, xyz, None, params, table)
-        fields = {f"f{i}": np.random.default_rng(i).random(src.n) for i in range(19)}
-        _timed(out, "LAZ encode (write pass, 19 fields)", write_streamed, src,
-               laz.with_name("stages.laz"), fields)  # fmt: skip
+        res = _timed(out, "untiled: features kernel", features_dispatch, xyz, None, params,
+                     table)  # fmt: skip
+        fields = {**res.scalar_fields(), "dimension_class": classify_dimension(res)}
+        _timed(out, "LAZ encode (write pass, 19 fields, float32)", write_streamed, src,
+               laz.with_name("stages.laz"), fields, float_type=LAS_FEATURE_FLOAT)  # fmt: skip
     else:
         nrm = _timed(out, "untiled: PCA normals", estimate_normals, xyz, 20, neighbors=table)
         _timed(out, "untiled: MST orientation", orient_normals, xyz, nrm, k=10, method="mst",
@@ -367,7 +431,9 @@ def stages(laz: Path, tile: float, kind: str) -> dict:
         _timed(out, "LAZ encode (write pass, normals)", write_streamed, src,
                laz.with_name("stages.laz"), {}, normals=nrm)  # fmt: skip
     laz.with_name("stages.laz").unlink(missing_ok=True)
-    out.update(_dask_costs(kind, params))
+    dask = _dask_costs(kind, params)
+    out["cpu"].update(dask.pop("cpu"))
+    out.update(dask)
     return out
 
 
@@ -382,7 +448,9 @@ def main() -> None:
     parser.add_argument("--halo-cost", action="store_true", help="Halo cost as tiles shrink.")
     parser.add_argument("--no-scale", action="store_true", help="Skip the tiled end-to-end runs.")
     parser.add_argument("--steps", default="normals,features,segment",
-                        help="Tiled end-to-end runs to do (comma-separated).")  # fmt: skip
+                        help="Tiled end-to-end runs to do (comma-separated): normals, "
+                             "features, segment, one-pass (features --normals: both in one "
+                             "command, one k-NN).")  # fmt: skip
     parser.add_argument("--stages", default=None,
                         help="Per-stage seconds of tiled KIND runs in one process (features, "
                              "normals; comma-separated), beside the untiled floor.")  # fmt: skip
@@ -409,6 +477,8 @@ def main() -> None:
                 ("features", ["features", tmp / "n.laz", tmp / "f.laz", "--k", 20, "--weights",
                               "equal"]),
                 ("segment", ["segment", tmp / "n.laz", tmp / "s.laz"]),
+                ("one-pass", ["features", laz, tmp / "nf.laz", "--k", 20, "--weights", "equal",
+                              "--normals"]),
             ]  # fmt: skip
             wanted = set(args.steps.split(","))
             if wanted & {"features", "segment"}:
@@ -416,15 +486,17 @@ def main() -> None:
             for name, cmd in steps:
                 if name not in wanted:
                     continue
-                r = run_cli([*cmd, "--tile-size", ts, "--workers", w], w)
-                r["points_per_s_per_core"] = round(n / r["seconds"] / w)
+                r = _rates(run_cli([*cmd, "--tile-size", ts, "--workers", w], w), n, w)
                 results[name] = r
                 print(json.dumps({name: r}), flush=True)
         if not args.no_scale and {"normals", "features"} <= set(results):
             both = results["normals"]["seconds"] + results["features"]["seconds"]
+            cpu = results["normals"]["cpu_s"] + results["features"]["cpu_s"]
             results["normals+features"] = {
                 "seconds": round(both, 2),
+                "cpu_s": round(cpu, 2),
                 "points_per_s_per_core": round(n / both / w),
+                "points_per_cpu_s": round(n / cpu),
                 "peak_gib_tree": max(results["normals"]["peak_gib_tree"],
                                      results["features"]["peak_gib_tree"]),
             }  # fmt: skip

@@ -165,6 +165,75 @@ def test_auto_hands_far_outliers_to_kdtree(monkeypatch):
     assert calls[0].size < len(pts) // 2  # the bulk stayed on the grid
 
 
+@pytest.mark.parametrize("n_brute", [0, 64])
+def test_far_path_scan_and_tree_agree(monkeypatch, n_brute):
+    # the queries the grid leaves go to a scan of all points (a few) or the k-d tree
+    import pointatlas.neighbors._knn as knn_module
+
+    monkeypatch.setattr(knn_module, "_BRUTE_ROWS", n_brute)
+    rng = np.random.default_rng(11)
+    pts = np.concatenate([rng.random((2000, 3)), (rng.random((40, 3)) - 0.5) * 1e4])
+    pts = np.concatenate([pts, pts[-5:]])  # far duplicates: ties at the k-th place
+    ref_idx, ref_dist = knn_reference(pts, 9)
+    for backend in ("auto", "grid"):
+        idx, dist = query_knn(pts, 9, backend=backend)
+        np.testing.assert_array_equal(idx, ref_idx)
+        np.testing.assert_array_equal(dist, ref_dist)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("name", CLOUDS)
+def test_rows_are_the_full_query_rows(name, backend):
+    pts = _cloud(name)
+    index = NeighborIndex(pts, backend=backend)
+    rng = np.random.default_rng(len(pts))
+    for k in (1, 5, 20):
+        full_idx, full_dist = index.knn(k)
+        for rows in (rng.permutation(len(pts))[: len(pts) // 3], rng.integers(0, len(pts), 50),
+                     np.arange(len(pts)), np.array([len(pts) - 1, 0, 0])):  # fmt: skip
+            idx, dist = index.knn(k, rows=rows)
+            assert idx.shape == (len(rows), k) and dist.shape == (len(rows), k)
+            assert idx.dtype == np.int64 and dist.dtype == np.float64
+            np.testing.assert_array_equal(idx, full_idx[rows])
+            np.testing.assert_array_equal(dist, full_dist[rows])
+
+
+def test_rows_on_a_lidar_like_scan():
+    # ground with mm-quantised coordinates (ties), walls and sparse vegetation
+    rng = np.random.default_rng(2)
+    ground = np.c_[rng.random((6000, 2)) * 40.0, rng.normal(0, 0.02, 6000)]
+    wall = np.c_[rng.random(1500) * 40.0, np.full(1500, 20.0), rng.random(1500) * 8.0]
+    veg = np.c_[rng.random((300, 2)) * 40.0, 0.5 + rng.random(300) * 9.5]
+    pts = np.round(np.concatenate([ground, wall, veg]) * 1000.0) / 1000.0
+    ref_idx, ref_dist = knn_reference(pts, 20)
+    index = NeighborIndex(pts)
+    idx, dist = index.knn(20)
+    np.testing.assert_array_equal(idx, ref_idx)
+    np.testing.assert_array_equal(dist, ref_dist)
+    rows = np.flatnonzero(pts[:, 0] < 13.0)[::-1]
+    idx, dist = index.knn(20, rows=rows)
+    np.testing.assert_array_equal(idx, ref_idx[rows])
+    np.testing.assert_array_equal(dist, ref_dist[rows])
+
+
+@pytest.mark.parametrize(
+    ("rows", "exc", "match"),
+    [([0.5, 1.0], TypeError, "rows must be an array of integer indices"),
+     ([True, False], TypeError, "rows must be an array of integer indices"),
+     ([[0, 1]], ValueError, "rows must be one-dimensional"),
+     ([0, 5], ValueError, r"rows must be indices in \[0, 5\); got 1 outside, e.g. 5"),
+     ([-1], ValueError, r"rows must be indices in \[0, 5\)")],
+)  # fmt: skip
+def test_bad_rows(rows, exc, match):
+    with pytest.raises(exc, match=match):
+        NeighborIndex(np.random.default_rng(0).random((5, 3))).knn(2, rows=rows)
+
+
+def test_empty_rows():
+    idx, dist = NeighborIndex(np.random.default_rng(0).random((30, 3))).knn(4, rows=[])
+    assert idx.shape == (0, 4) and dist.shape == (0, 4) and idx.dtype == np.int64
+
+
 def test_index_reused_for_several_k():
     pts = _cloud("random")
     index = NeighborIndex(pts)

@@ -481,7 +481,8 @@ def run_tiles(kind, source, grid, params, options, client_info, on_result, *, ha
 
 def _round(client, kind, specs, spill, in_flight):
     """Submit the tiles of ``specs`` (at most ``in_flight`` at once, in tile order) and
-    yield ``(tile, result)`` as they finish; a tile's spilled points are dropped then."""
+    yield ``(tile, result)`` as they finish; a tile's spilled points are dropped then.
+    ``kind``: a name of `run_task`'s, or a task function ``(spec, data) -> dict``."""
     from distributed import as_completed
 
     queue = iter(sorted(specs))
@@ -493,7 +494,10 @@ def _round(client, kind, specs, spill, in_flight):
         if t is not None:
             # the points go to the cluster as data (scatter), not inside the task graph
             (data,) = client.scatter([spill.load(t)], hash=False)
-            fut = client.submit(run_task, kind, specs[t], data, pure=False)
+            if callable(kind):  # a task function of its own (module-level, picklable)
+                fut = client.submit(kind, specs[t], data, pure=False)
+            else:
+                fut = client.submit(run_task, kind, specs[t], data, pure=False)
             futures[fut] = t
             ac.add(fut)
 

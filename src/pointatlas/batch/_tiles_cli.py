@@ -25,7 +25,7 @@ from ._tiles import (
 )
 from ._tiles_denoise import denoise_over
 from ._tiles_features import features_over
-from ._tiles_las import LAS_EXTENSIONS, las_tiled
+from ._tiles_las import LAS_EXTENSIONS, las_feature_fields, las_tiled
 from ._tiles_normals import normals_over
 from ._tiles_segment import segment_over
 
@@ -161,8 +161,9 @@ def run_tiled_command(kind: str, in_path, out_path, params: dict, options: TileO
         The command's resolved parameters.
     options : TileOptions
     normal_params : dict, optional
-        ``k`` (and ``orient_k``) of MST normals estimated first by tiles (segment,
-        normal voting, sigmoid features on an input without normals).
+        ``k`` (and ``orient_k``) of MST normals estimated by tiles: first (segment,
+        normal voting on an input without normals), or with the equal-weight features
+        from the same k-NN (``features --normals``).
     label_colors : callable, optional
         ``labels -> (N, 3) uint8`` colours written with segment labels.
 
@@ -246,7 +247,8 @@ def _in_memory(kind, in_path, out_path, params, options, normal_params, label_co
         elif kind == "features":
             src = ArraySource(ps.points, normals if params["mode"] == "optimal" else None)
             fields, run = features_over(src, options, params, client_info=ci)
-            ours.update(fields)
+            las_out = Path(out_path).suffix.lower() in LAS_EXTENSIONS
+            ours.update(las_feature_fields(fields) if las_out else fields)
         elif kind == "segment":
             labels, quality, run = segment_over(ArraySource(ps.points, normals), options, params,
                                                  client_info=ci)  # fmt: skip

@@ -138,7 +138,7 @@ def make_grid(lo, hi, tile_size: float) -> TileGrid:
     return TileGrid(lo=lo, hi=hi, size=float(tile_size), nx=nx, ny=ny)
 
 
-def exact_tile_knn(xyz, rows, k: int, center, bdist, *, min_cols: int = 0):
+def exact_tile_knn(xyz, rows, k: int, center, bdist, *, min_cols: int = 0, rows_only=False):
     """k-NN rows of a tile's points, identical to `query_knn` on all points.
 
     Parameters
@@ -155,10 +155,13 @@ def exact_tile_knn(xyz, rows, k: int, center, bdist, *, min_cols: int = 0):
         Distance of every tile point to its halo box (`TileGrid.boundary_distance`).
     min_cols : int
         Least number of columns of the returned table (e.g. an orientation graph's k).
+    rows_only : bool
+        Query only ``rows`` (`NeighborIndex.knn` with ``rows``): for callers that read
+        no halo row (features; normals without a tile-wide orientation).
 
     Returns
     -------
-    table : ndarray of shape (n, kq), int64
+    table : ndarray of shape (n, kq), or (len(rows), kq) with ``rows_only``, int64
         The tile's k-NN table (kq = max(k, min_cols) columns, at most n): self
         first, then by (squared distance in the global arithmetic, index).
     bad : ndarray of int
@@ -186,7 +189,11 @@ def exact_tile_knn(xyz, rows, k: int, center, bdist, *, min_cols: int = 0):
 
     index = NeighborIndex(xyz, center=center)
     tol = _TOL_ULPS * np.finfo(np.float64).eps * max(1.0, float(np.abs(index.points_).max()))
-    table, dist = index.knn(min(max(k, min_cols), n))
-    r_k = dist[rows, k - 1]
+    if rows_only:
+        table, dist = index.knn(min(max(k, min_cols), n), rows=rows)
+        r_k = dist[:, k - 1]
+    else:
+        table, dist = index.knn(min(max(k, min_cols), n))
+        r_k = dist[rows, k - 1]
     bad = rows[~(r_k + 2.0 * tol < bdist[rows])]
     return table, bad, r_k

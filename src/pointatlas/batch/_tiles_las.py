@@ -25,12 +25,13 @@ from ._tiles import (
     release_pages,
     tile_client,
 )
+from ._tiles_combined import normals_features_over
 from ._tiles_denoise import denoise_over
 from ._tiles_features import features_over
 from ._tiles_normals import normals_over
 from ._tiles_segment import segment_over
 
-__all__ = ["LAS_EXTENSIONS", "LasSource", "las_tiled"]
+__all__ = ["LAS_EXTENSIONS", "LasSource", "las_feature_fields", "las_tiled"]
 
 #: Extensions streamed by chunks.
 LAS_EXTENSIONS = (".las", ".laz")
@@ -139,6 +140,18 @@ class LasSource:
         return pts[::step], stride * step
 
 
+#: Type of the float feature fields in LAS/LAZ extra bytes (docs/decisions/io.md,
+#: "LAS/LAZ: feature fields as float32").
+LAS_FEATURE_FLOAT = np.float32
+
+
+def las_feature_fields(fields: dict) -> dict:
+    """``pointatlas features``'s fields as written to LAS/LAZ: float64 as float32 (the
+    rounding of ``astype``); integer and uint8 fields unchanged."""
+    return {k: v.astype(LAS_FEATURE_FLOAT) if v.dtype == np.float64 else v
+            for k, v in fields.items()}  # fmt: skip
+
+
 def _free_name(name: str, taken: set) -> str:
     new = name
     while new in taken or new in _RESERVED:
@@ -146,8 +159,10 @@ def _free_name(name: str, taken: set) -> str:
     return new
 
 
-def _plan_fields(src: LasSource, fields: dict, *, normals: bool, keep_input_normals: bool):
-    """Output header and the (name, array, column) list of new dimensions."""
+def _plan_fields(src: LasSource, fields: dict, *, normals: bool, keep_input_normals: bool,
+                 float_type=None):  # fmt: skip
+    """Output header and the (name, array, column) list of new dimensions
+    (``float_type``: the type of float64 fields, default float64)."""
     import laspy
 
     header = copy.deepcopy(src.header)
@@ -186,20 +201,45 @@ def _plan_fields(src: LasSource, fields: dict, *, normals: bool, keep_input_norm
             dtype = fields[key].dtype
             if dtype.kind == "b":
                 dtype = np.dtype(np.uint8)
+            elif dtype == np.float64 and float_type is not None:
+                dtype = np.dtype(float_type)
         params.append(laspy.ExtraBytesParams(name=name, type=np.dtype(dtype)))
     if params:
         header.add_extra_dims(params)
     return header, extra
 
 
+def _copy_input(out: np.ndarray, rec: np.ndarray) -> None:
+    """Every input dimension of ``rec`` into ``out`` (structured point arrays).
+
+    The output's point format is the input's with our extra bytes appended, so the
+    input record is the first bytes of every output record: one strided block copy
+    of the raw bytes (bit fields and extra bytes unchanged); a field-by-field copy
+    where the layouts differ.
+    """
+    fin, fout = rec.dtype.fields, out.dtype.fields
+    if (
+        rec.flags.c_contiguous
+        and out.flags.c_contiguous
+        and all(fout.get(name) == fin[name] for name in fin)
+    ):
+        m, size = rec.shape[0], rec.dtype.itemsize
+        raw = out.view(np.uint8).reshape(m, out.dtype.itemsize)
+        raw[:, :size] = rec.view(np.uint8).reshape(m, size)
+        return
+    for name in rec.dtype.names:
+        out[name] = rec[name]
+
+
 def write_streamed(src: LasSource, out_path, fields: dict, *, normals=None, points=None,
-                   keep_input_normals: bool = True) -> Path:  # fmt: skip
+                   keep_input_normals: bool = True, float_type=None) -> Path:  # fmt: skip
     """Write ``src``'s records with our fields (arrays or memory maps of N rows).
 
     ``normals`` (N, 3) replace the input's ``nx, ny, nz`` (whose values go to
     ``input_normals_0..2``) or are added; ``points`` (N, 3) move the points
-    (quantised with the header's scales and offsets). Atomic (temporary file and
-    rename).
+    (quantised with the header's scales and offsets); ``float_type`` is the type of
+    float64 fields in the file (features: `LAS_FEATURE_FLOAT`). Atomic (temporary
+    file and rename).
     """
     import laspy
 
@@ -207,18 +247,17 @@ def write_streamed(src: LasSource, out_path, fields: dict, *, normals=None, poin
 
     out_path = Path(out_path)
     header, extra = _plan_fields(
-        src, fields, normals=normals is not None, keep_input_normals=keep_input_normals
-    )
+        src, fields, normals=normals is not None, keep_input_normals=keep_input_normals,
+        float_type=float_type,
+    )  # fmt: skip
     laz = out_path.suffix.lower() == ".laz"
-    names = list(src.header.point_format.dtype().names)
     with atomic_write(out_path, "wb") as fh:
         with laspy.open(fh, mode="w", header=header, do_compress=laz, closefd=False) as writer:
             for start, rec in src.records(full=True):
                 m = len(rec)
                 sl = slice(start, start + m)
                 out = laspy.ScaleAwarePointRecord.zeros(m, header=header)
-                for name in names:
-                    out.array[name] = rec.array[name]
+                _copy_input(out.array, rec.array)
                 if points is not None:
                     p = np.asarray(points[sl])
                     out.x, out.y, out.z = p[:, 0], p[:, 1], p[:, 2]
@@ -269,8 +308,9 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
         Tiling and cluster.
     normal_params : dict, optional
         ``k`` and ``orient_k`` of normals estimated first (MST) when the command
-        needs normals (segment, normal voting, sigmoid features) and the input has
-        none, or when re-estimation is asked for.
+        needs normals (segment, normal voting) and the input has none, or when
+        re-estimation is asked for; with "features" and equal weights, estimated in
+        the features' tasks from the same k-NN (`normals_features_over`) and written.
 
     Returns
     -------
@@ -286,7 +326,10 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
         with tile_client(options) as ci:
             summary["scheduler"] = ci[1]
             normals = None
-            if normal_params is not None:
+            # features --normals: one k-NN per tile for both (equal weights)
+            combined = kind == "features" and normal_params is not None
+            combined = combined and params["mode"] != "optimal"
+            if normal_params is not None and not combined:
                 normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
                 src.use_normals = False
                 _, run_n = normals_over(
@@ -304,13 +347,22 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
                                        **params)  # fmt: skip
                 write_kwargs["normals"] = normals
             elif kind == "features":
-                src.use_normals = params["mode"] == "optimal" and normals is None
-                alloc = _Alloc(tmp, src.n)
-                fields, run = features_over(
-                    src, options, params, out=alloc, spill_dir=tmp, client_info=ci,
-                    normals_array=normals,
-                )  # fmt: skip
+                alloc = _Alloc(tmp, src.n, float_type=LAS_FEATURE_FLOAT)
+                if combined:
+                    normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
+                    src.use_normals = False
+                    normals, _, run = normals_features_over(
+                        src, options, params, normal_params, normals_out=normals,
+                        fields_out=alloc, spill_dir=tmp, client_info=ci,
+                    )  # fmt: skip
+                else:
+                    src.use_normals = params["mode"] == "optimal" and normals is None
+                    _, run = features_over(src, options, params, out=alloc, spill_dir=tmp,
+                                           client_info=ci, normals_array=normals)  # fmt: skip
                 fields = dict(alloc.arrays)
+                write_kwargs["float_type"] = LAS_FEATURE_FLOAT
+                if normals is not None:
+                    write_kwargs["normals"] = normals
             elif kind == "segment":
                 src.use_normals = normals is None
                 labels = _memmap(tmp, "label", np.int64, (src.n,))
@@ -352,12 +404,15 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
 
 
 class _Alloc(dict):
-    """Lazy memory maps of N rows in the temporary folder (a dict of arrays)."""
+    """Lazy memory maps of N rows in the temporary folder (a dict of arrays);
+    ``float_type``: float64 results are stored (and rounded) as that type, the type
+    they are written in (features: float32, as `las_feature_fields` rounds)."""
 
-    def __init__(self, folder: Path, n: int):
+    def __init__(self, folder: Path, n: int, float_type=None):
         super().__init__()
         self.folder = folder
         self.n = n
+        self.float_type = float_type
 
     @property
     def arrays(self):
@@ -365,6 +420,8 @@ class _Alloc(dict):
 
     def new(self, name, dtype, width=None):
         shape = (self.n,) if width is None else (self.n, width)
+        if self.float_type is not None and np.dtype(dtype) == np.float64:
+            dtype = self.float_type
         self[name] = _memmap(self.folder, f"out_{name}", dtype, shape)  # not "normals.npy"
         return self[name]
 

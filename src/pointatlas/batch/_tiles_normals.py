@@ -6,15 +6,13 @@ normals").
 
 from __future__ import annotations
 
-from collections import defaultdict
-
 import numpy as np
 
 from .._core import PointAtlasError
 from . import _tiles as T
 from ._tiles import ArraySource, TileOptions
 
-__all__ = ["normals_over", "tiled_normals"]
+__all__ = ["check_normal_options", "normals_over", "tiled_normals"]
 
 
 #: Weight of a tile's links between pieces across sharp edges (below any halo vote).
@@ -34,64 +32,55 @@ def _normal_signs(halo_parts, tops, piece_of, normals, tile_links):
     owner's piece (+1 when the two normals agree, -1 when opposed); the tile's MST
     links between its pieces across sharp edges count ``_SHARP_WEIGHT`` times their
     summed dot products, so they only join what no halo joins (as an MST prefers
-    smooth edges). Pieces are joined along a maximum spanning forest of |vote| and,
-    in every tree, signs are
+    smooth edges). Pieces are joined along a maximum spanning forest of |vote| (ties
+    by piece keys) and, in every tree, signs are
     fixed so that its topmost owned point (largest z, then smallest index) has
     nz >= 0: Hoppe's root rule of `orient_normals`, applied to the stitched
-    component. Returns sorted piece keys and their flips (+1 / -1).
+    component. ``tops`` maps a tile to its pieces' (keys, (z, index, nz) rows).
+    Returns sorted piece keys and their flips (+1 / -1).
     """
-    votes = defaultdict(float)
+    from ._kernels.signs import signed_forest_kernel
+
+    firsts, seconds, votes = [], [], []
     for b, (hg, _ho, hn, hp) in halo_parts.items():
         if not hg.size:
             continue
         mine = _piece_key(b, hp)
         theirs = np.asarray(piece_of[hg])
-        s = np.sign(np.einsum("ij,ij->i", hn, normals[hg]))
-        pairs = np.column_stack([np.minimum(mine, theirs), np.maximum(mine, theirs)])
-        uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
-        sums = np.bincount(inv.ravel(), weights=s, minlength=uniq.shape[0])
-        for (a, c), v in zip(uniq.tolist(), sums.tolist(), strict=True):
-            votes[(a, c)] += v
-    for t, links in tile_links.items():
-        for a, b, v in links.tolist():
-            key = (int(_piece_key(t, int(a))), int(_piece_key(t, int(b))))
-            votes[key] += _SHARP_WEIGHT * v
-    keys = sorted(tops)
-    parent = {key: key for key in keys}
-
-    def find(x):
-        while parent[x] != x:
-            parent[x] = parent[parent[x]]
-            x = parent[x]
-        return x
-
-    adj = defaultdict(list)
-    for (a, b), v in sorted(votes.items(), key=lambda kv: (-abs(kv[1]), kv[0])):
-        if a not in parent or b not in parent or v == 0.0:
-            continue
-        ra, rb = find(a), find(b)
-        if ra != rb:
-            parent[rb] = ra
-            sign = 1.0 if v > 0 else -1.0
-            adj[a].append((b, sign))
-            adj[b].append((a, sign))
-    flips = {}
-    for key in keys:
-        if key in flips:
-            continue
-        comp, stack, rel = [], [key], {key: 1.0}
-        while stack:
-            u = stack.pop()
-            comp.append(u)
-            for w, s in adj[u]:
-                if w not in rel:
-                    rel[w] = rel[u] * s
-                    stack.append(w)
-        best = max(comp, key=lambda u: (tops[u][0], -tops[u][1]))
-        root_sign = 1.0 if tops[best][2] * rel[best] >= 0.0 else -1.0
-        for u in comp:
-            flips[u] = rel[u] * root_sign
-    return np.array(keys, dtype=np.int64), np.array([flips[k] for k in keys])
+        firsts.append(np.minimum(mine, theirs))
+        seconds.append(np.maximum(mine, theirs))
+        votes.append(np.sign(np.einsum("ij,ij->i", hn, normals[hg])))
+    for t, links in tile_links.items():  # keys within one tile: never a halo pair
+        if links.size:
+            firsts.append(_piece_key(t, links[:, 0].astype(np.int64)))
+            seconds.append(_piece_key(t, links[:, 1].astype(np.int64)))
+            votes.append(_SHARP_WEIGHT * links[:, 2])
+    parts = [(k, np.asarray(v, dtype=np.float64).reshape(-1, 3)) for k, v in tops.values()]
+    keys = np.concatenate([k for k, _ in parts]) if parts else np.zeros(0, np.int64)
+    top = np.concatenate([v for _, v in parts]) if parts else np.zeros((0, 3))
+    order = np.argsort(keys, kind="stable")
+    keys, top = keys[order], top[order]
+    a = np.concatenate(firsts) if firsts else np.zeros(0, np.int64)
+    c = np.concatenate(seconds) if seconds else np.zeros(0, np.int64)
+    v = np.concatenate(votes) if votes else np.zeros(0)
+    # one vote per (a, c): halo votes are sums of +-1 (exact in any order)
+    if a.size:
+        o = np.lexsort((c, a))
+        a, c, v = a[o], c[o], v[o]
+        head = np.flatnonzero(np.r_[True, (a[1:] != a[:-1]) | (c[1:] != c[:-1])])
+        a, c, v = a[head], c[head], np.add.reduceat(v, head)
+    ia = np.searchsorted(keys, a)
+    ic = np.searchsorted(keys, c)
+    ok = (v != 0.0) & (ia < keys.size) & (ic < keys.size)
+    ok[ok] &= (keys[ia[ok]] == a[ok]) & (keys[ic[ok]] == c[ok])
+    a, c, v, ia, ic = a[ok], c[ok], v[ok], ia[ok], ic[ok]
+    o = np.lexsort((c, a, -np.abs(v)))  # strongest first, then by keys
+    comp, rel = signed_forest_kernel(keys.size, ia[o], ic[o], v[o] > 0)
+    # every tree's topmost owned point: largest z, then smallest index
+    o = np.lexsort((top[:, 1], -top[:, 0], comp))
+    first = o[np.r_[True, comp[o][1:] != comp[o][:-1]]] if o.size else o
+    root = np.where(top[first, 2] * rel[first] >= 0.0, 1.0, -1.0)
+    return keys, rel * root[comp]
 
 
 def tiled_normals(points, options: TileOptions, *, k=20, orient="mst", orient_k=10,
@@ -137,51 +126,73 @@ def tiled_normals(points, options: TileOptions, *, k=20, orient="mst", orient_k=
                          viewpoint=viewpoint)  # fmt: skip
 
 
-def normals_over(source, options, *, k, orient, orient_k, viewpoint, out=None, spill_dir=None,
-                  client_info=None, label="normals"):  # fmt: skip
+class _Stitch:
+    """The client's side of tiled normals: owned normals into ``normals`` and, for
+    "mst", what `_normal_signs` needs; `finish` flips the pieces."""
+
+    def __init__(self, normals, orient, spill_dir):
+        n = normals.shape[0]
+        self.normals = normals
+        self.halo_parts, self.tops, self.tile_links = {}, {}, {}
+        self.piece_of = None
+        if orient == "mst":
+            self.piece_of = (
+                np.zeros(n, dtype=np.int64)
+                if spill_dir is None
+                else np.lib.format.open_memmap(spill_dir / "piece.npy", "w+", np.int64, (n,))
+            )
+
+    def on_result(self, t, res):
+        self.normals[res["gidx"]] = res["normals"]
+        if self.piece_of is not None:
+            self.piece_of[res["gidx"]] = _piece_key(t, res["piece"])
+            self.halo_parts[t] = (res["halo_gidx"], res["halo_owner"], res["halo_normals"],
+                                  res["halo_piece"])  # fmt: skip
+            tops = res["tops"]
+            self.tops[t] = (_piece_key(t, np.fromiter(tops, np.int64, len(tops))),
+                            list(tops.values()))  # fmt: skip
+            self.tile_links[t] = res["links"]
+        T.release_pages(self.normals, self.piece_of)
+
+    def finish(self, run) -> None:
+        if self.piece_of is None:
+            return
+        normals, piece_of = self.normals, self.piece_of
+        keys, flips = _normal_signs(self.halo_parts, self.tops, piece_of, normals,
+                                    self.tile_links)  # fmt: skip
+        T.release_pages(normals, piece_of)
+        run.extra["orientation_pieces"] = int(keys.size)
+        run.extra["flipped_pieces"] = int(np.count_nonzero(flips < 0))
+        for sl in T._chunked(normals.shape[0]):
+            f = flips[np.searchsorted(keys, piece_of[sl])]
+            normals[sl] = normals[sl] * f[:, None]
+            T.release_pages(normals, piece_of)
+
+
+def check_normal_options(n: int, k: int, orient: str) -> None:
+    """One-line errors for tiled normals' options."""
     if orient not in ("mst", "viewpoint", "none"):
         raise PointAtlasError(
             f"--orient {orient} needs the whole surface at once; with --tile-size use mst, "
             "viewpoint or none"
         )
-    n = source.n
     if k < 3 or k > n:
         raise PointAtlasError(f"--k must lie in [3, number of points = {n}]; got {k}")
+
+
+def normals_over(source, options, *, k, orient, orient_k, viewpoint, out=None, spill_dir=None,
+                  client_info=None, label="normals"):  # fmt: skip
+    n = source.n
+    check_normal_options(n, k, orient)
     grid = T._grid_for(source, options)
     halo0, fixed = T._auto_halo(source, k, options)
-    normals = np.zeros((n, 3)) if out is None else out
-    halo_parts, tops, tile_links = {}, {}, {}
-    piece_of = None
-    if orient == "mst":
-        piece_of = (
-            np.zeros(n, dtype=np.int64)
-            if spill_dir is None
-            else np.lib.format.open_memmap(spill_dir / "piece.npy", "w+", np.int64, (n,))
-        )
-
-    def on_result(t, res):
-        normals[res["gidx"]] = res["normals"]
-        if piece_of is not None:
-            piece_of[res["gidx"]] = _piece_key(t, res["piece"])
-            halo_parts[t] = (res["halo_gidx"], res["halo_owner"], res["halo_normals"],
-                             res["halo_piece"])  # fmt: skip
-            tops.update({int(_piece_key(t, c)): v for c, v in res["tops"].items()})
-            tile_links[t] = res["links"]
-        T.release_pages(normals, piece_of)
-
+    stitch = _Stitch(np.zeros((n, 3)) if out is None else out, orient, spill_dir)
     params = {"k": int(k), "orient": orient, "orient_k": int(orient_k), "viewpoint": viewpoint}
     with T._maybe_client(options, client_info) as ci:
         run = T.run_tiles(
-            "normals", source, grid, params, options, ci, on_result, halo0=halo0, fixed=fixed,
-            label=label, spill_dir=spill_dir, memory_per_point=8.0 * (3 * (k + 8) + 40)
+            "normals", source, grid, params, options, ci, stitch.on_result, halo0=halo0,
+            fixed=fixed, label=label, spill_dir=spill_dir,
+            memory_per_point=8.0 * (3 * (k + 8) + 40)
         )  # fmt: skip
-    if orient == "mst":
-        keys, flips = _normal_signs(halo_parts, tops, piece_of, normals, tile_links)
-        T.release_pages(normals, piece_of)
-        run.extra["orientation_pieces"] = int(keys.size)
-        run.extra["flipped_pieces"] = int(np.count_nonzero(flips < 0))
-        for sl in T._chunked(n):
-            f = flips[np.searchsorted(keys, piece_of[sl])]
-            normals[sl] = normals[sl] * f[:, None]
-            T.release_pages(normals, piece_of)
-    return normals, run
+    stitch.finish(run)
+    return stitch.normals, run

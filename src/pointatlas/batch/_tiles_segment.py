@@ -20,6 +20,9 @@ __all__ = ["segment_over", "tiled_segment"]
 #: wide: VSA near a tile edge sees truncated regions; wider context makes the owned
 #: labels those of the untiled run more often.
 SEGMENT_HALO_FACTOR = 15.0
+#: A strong halo link (at least the smaller tile region's point count of halo points
+#: labelled with both regions) allows proxies this many max angles apart.
+STRONG_ANGLE_FACTOR = 2.0
 
 
 class _Regions:
@@ -32,6 +35,11 @@ class _Regions:
         self.eta = eta
         self.min_cos = min_cos
         self.tau2 = tau2
+        # the angle test of strong links (angle mode only)
+        self.strong_cos = None
+        if min_cos is not None:
+            angle = min(math.acos(min(1.0, min_cos)) * STRONG_ANGLE_FACTOR, math.pi / 2)
+            self.strong_cos = math.cos(angle)
 
     def find(self, x):
         p = self.parent
@@ -62,7 +70,7 @@ class _Regions:
                 c += 1
         return max(0.0, float(nrm @ cov @ nrm) / st[0])
 
-    def ok(self, a, b) -> bool:
+    def ok(self, a, b, strong: bool = False) -> bool:
         """The VSA merge test on the union (eta: L21 < eta; else mean deviation <=
         max angle and the two proxies within the max angle), and two plane tests:
         parallel but offset planes (a roof and the ground) pass the normal tests and
@@ -71,7 +79,13 @@ class _Regions:
         adds per point of the *smaller* part (the union's squared distances minus the
         parts' own, over the smaller count): a huge region (the ground of a whole
         scan) barely changes its MSE when it swallows a small roof, but the roof's
-        points then lie metres from the plane."""
+        points then lie metres from the plane.
+
+        A ``strong`` link (the tiles put at least the smaller part's count of halo
+        points in both regions) skips the per-point test and allows the proxies
+        ``STRONG_ANGLE_FACTOR`` x the max angle apart: a border piece of a curved
+        surface lies as far off the union's plane as a roof, and each tile's VSA
+        shaped its own part (docs/decisions/batch.md)."""
         sa, sb = self.st[a], self.st[b]
         u = sa + sb
         mse_a, mse_b, mse_u = self.plane_mse(sa), self.plane_mse(sb), self.plane_mse(u)
@@ -79,7 +93,7 @@ class _Regions:
         if mse_u > bound:
             return False
         added = mse_u * u[0] - mse_a * sa[0] - mse_b * sb[0]
-        if added > bound * min(sa[0], sb[0]):
+        if not strong and added > bound * min(sa[0], sb[0]):
             return False
         if self.eta is not None:
             return self.l21(u) < self.eta
@@ -89,7 +103,7 @@ class _Regions:
         if la == 0.0 or lb == 0.0:
             return False
         cos_ab = (sa[1] * sb[1] + sa[2] * sb[2] + sa[3] * sb[3]) / (la * lb)
-        return cos_ab >= self.min_cos and lu >= self.min_cos * u[0]
+        return cos_ab >= (self.strong_cos if strong else self.min_cos) and lu >= self.min_cos * u[0]
 
     def union(self, a, b):
         ra, rb = self.find(a), self.find(b)
@@ -313,16 +327,27 @@ def stitch(per_tile: dict, vsa, tau2: float, labels: np.ndarray):
 
 def _halo_unions(regions: _Regions, links: list, has_points: np.ndarray):
     """Union the region pairs a halo point links (strongest first) where the VSA
-    test holds; returns the distinct pairs and the number of unions."""
+    test holds; returns the distinct pairs and the number of unions.
+
+    A pair is *strong* when its halo points (both directions: a's owner and b's
+    neighbour tile, and the reverse) number at least the smaller tile region's
+    owned count; see `_Regions.ok`."""
     if not links:
         return np.zeros((0, 2), dtype=np.int64), 0
     pairs, counts = np.unique(np.concatenate(links), axis=0, return_counts=True)
     keep = has_points[pairs[:, 0]] & has_points[pairs[:, 1]] & (pairs[:, 0] != pairs[:, 1])
     pairs, counts = pairs[keep], counts[keep]
+    _, inv = np.unique(np.sort(pairs, axis=1), axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    both = np.bincount(inv, weights=counts)[inv]
+    sizes = regions.st[:, 0].copy()  # the tile regions' own counts, before any union
+    strong = both >= np.minimum(sizes[pairs[:, 0]], sizes[pairs[:, 1]])
     order = np.lexsort((pairs[:, 1], pairs[:, 0], -counts))
     n_links = 0
-    for a, b in pairs[order].tolist():
-        if regions.find(a) != regions.find(b) and regions.ok(regions.find(a), regions.find(b)):
+    for i in order.tolist():
+        a, b = int(pairs[i, 0]), int(pairs[i, 1])
+        ra, rb = regions.find(a), regions.find(b)
+        if ra != rb and regions.ok(ra, rb, bool(strong[i])):
             regions.union(a, b)
             n_links += 1
     return pairs, n_links

@@ -43,6 +43,24 @@ def _certified_table(spec, xyz, owned, bdist, k, min_cols=0):
     grid = spec["grid"]
     rows = np.flatnonzero(owned)
     table, bad, r_k = exact_tile_knn(xyz, rows, k, grid.center, bdist, min_cols=min_cols)
+    return _halo_check(spec, table, rows, bad, r_k, bdist, k)
+
+
+def _owned_table(spec, xyz, owned, bdist, k):
+    """`_certified_table` for tasks that read only the owned rows: the owned points'
+    exact k-NN rows (queried alone), the halo rows the point itself only."""
+    grid = spec["grid"]
+    rows = np.flatnonzero(owned)
+    part, bad, r_k = exact_tile_knn(xyz, rows, k, grid.center, bdist, rows_only=True)
+    table = None
+    if part is not None:
+        table = np.repeat(np.arange(xyz.shape[0], dtype=np.int64)[:, None], part.shape[1], axis=1)
+        table[rows] = part
+    return _halo_check(spec, table, rows, bad, r_k, bdist, k)
+
+
+def _halo_check(spec, table, rows, bad, r_k, bdist, k):
+    """The table, or the halo the tile would need when rows ``bad`` are not certified."""
     if bad.size:
         pos = np.searchsorted(rows, bad)
         short = float(np.max(r_k[pos] - bdist[bad]))
@@ -63,8 +81,9 @@ def _halo_part(data, owner, owned):
 def normals_task(spec, data):
     """PCA normals of the owned points (exact), oriented like the untiled command.
 
-    ``orient`` "none" and "viewpoint" are per point, hence exact. "mst" orients the
-    whole tile (owned + halo) by Hoppe's propagation; the halo normals go back so
+    ``orient`` "none" and "viewpoint" are per point, hence exact; they query the
+    owned rows only. "mst" orients the whole tile (owned + halo) by Hoppe's
+    propagation over the k-NN rows of every tile point; the halo normals go back so
     that the client can make signs agree across tiles.
     """
     from ..normals import estimate_normals, orient_normals
@@ -73,24 +92,39 @@ def normals_task(spec, data):
     p = spec["params"]
     grid, xyz, owner, owned, bdist = _setup(spec, data)
     k, orient, orient_k = p["k"], p["orient"], p["orient_k"]
-    cols = max(k, orient_k) if orient == "mst" else k
-    table, fail = _certified_table(spec, xyz, owned, bdist, k, min_cols=cols)
+    if orient == "mst":  # the orientation graph reads the halo rows too
+        table, fail = _certified_table(spec, xyz, owned, bdist, k, min_cols=max(k, orient_k))
+    else:
+        table, fail = _owned_table(spec, xyz, owned, bdist, k)
     if fail:
         return fail
-    normals = estimate_normals(xyz, k, neighbors=table)
     out = {"status": "ok", "gidx": data["gidx"][owned]}
+    if orient == "mst":
+        normals, parts = mst_tile_normals(xyz, table, k, orient_k, data, owner, owned)
+        out.update(parts)
+    else:
+        normals = estimate_normals(xyz, k, neighbors=table)
     if orient == "viewpoint":
         normals = orient_normals(xyz, normals, method="viewpoint", viewpoint=p["viewpoint"])
-    elif orient == "mst":
-        ok = min(orient_k, xyz.shape[0])
-        normals = orient_normals(xyz, normals, k=ok, method="mst", neighbors=table)
-        comp, links = _smooth_pieces(table[:, :ok], normals)
-        hg, ho = _halo_part(data, owner, owned)
-        out.update(halo_gidx=hg, halo_owner=ho, halo_normals=normals[~owned],
-                   halo_piece=comp[~owned], piece=comp[owned], links=links)  # fmt: skip
-        out["tops"] = _piece_tops(comp, owned, xyz[:, 2], data["gidx"], normals[:, 2])
     out["normals"] = normals[owned]
     return out
+
+
+def mst_tile_normals(xyz, table, k, orient_k, data, owner, owned):
+    """PCA normals of a tile (owned + halo) oriented by Hoppe's MST over ``table``,
+    and what the client needs to make signs agree across tiles (halo normals, the
+    orientation pieces and their links and tops): ``(normals, parts)``."""
+    from ..normals import estimate_normals, orient_normals
+
+    normals = estimate_normals(xyz, k, neighbors=table)
+    ok = min(orient_k, xyz.shape[0])
+    normals = orient_normals(xyz, normals, k=ok, method="mst", neighbors=table)
+    comp, links = _smooth_pieces(table[:, :ok], normals)
+    hg, ho = _halo_part(data, owner, owned)
+    parts = {"halo_gidx": hg, "halo_owner": ho, "halo_normals": normals[~owned],
+             "halo_piece": comp[~owned], "piece": comp[owned], "links": links,
+             "tops": _piece_tops(comp, owned, xyz[:, 2], data["gidx"], normals[:, 2])}  # fmt: skip
+    return normals, parts
 
 
 #: Graph edges whose normals make a larger angle than this do not join orientation
@@ -174,19 +208,16 @@ def feature_kmax(params) -> int:
 def features_task(spec, data):
     """Features of the owned points, bit for bit those of the untiled run.
 
-    Halo rows get a table of the point itself only (degenerate, cheap): their
-    results are not returned.
+    Only the owned rows are queried (`_owned_table`); halo rows get a table of the
+    point itself only (degenerate, cheap): their results are not returned.
     """
     _threads(spec)
     p = spec["params"]
     grid, xyz, owner, owned, bdist = _setup(spec, data)
     kmax = feature_kmax(p)
-    table, fail = _certified_table(spec, xyz, owned, bdist, kmax)
+    table, fail = _owned_table(spec, xyz, owned, bdist, kmax)
     if fail:
         return fail
-    table = np.ascontiguousarray(table[:, :kmax])
-    halo = np.flatnonzero(~owned)
-    table[halo] = halo[:, None]
     from ..features import classify_dimension
 
     res = features_dispatch(xyz, data.get("normals"), p, neighbors=table)

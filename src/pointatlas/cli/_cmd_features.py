@@ -82,8 +82,10 @@ def compute_features_for(
     b_grid=THESIS_ANGLE_GRID,
     flatness=(8, 8),
     criterion: str = "e_dim",
+    neighbors=None,
 ) -> tuple[FeatureResult, str]:
-    """Dispatch to fixed-k / optimal-k / optimal (a, b, k); returns (result, mode text)."""
+    """Dispatch to fixed-k / optimal-k / optimal (a, b, k); returns (result, mode text).
+    ``neighbors``: a k-NN table of at least the largest k (equal weights only)."""
     if weights not in ("auto", "sigmoid", "equal"):
         raise PointAtlasError(f"--weights must be sigmoid, equal or auto; got {weights!r}")
     if weights == "auto":
@@ -98,8 +100,13 @@ def compute_features_for(
     if weights == "equal":
         if k_range is None:
             kk = 14 if k is None else k
-            return covariance_features(points, kk, flatness=flatness), f"fixed k = {kk}"
-        res = optimal_k_features(points, k_range=k_range, criterion=criterion, flatness=flatness)
+            nb = None if neighbors is None else np.ascontiguousarray(neighbors[:, :kk])
+            res = covariance_features(points, kk, flatness=flatness, neighbors=nb)
+            return res, f"fixed k = {kk}"
+        nb = None if neighbors is None else np.ascontiguousarray(neighbors[:, : k_range[1]])
+        res = optimal_k_features(
+            points, k_range=k_range, criterion=criterion, flatness=flatness, neighbors=nb
+        )
         return res, f"optimal k in {k_range[0]}..{k_range[1]} by {criterion}, equal weights"
     kr = k_range if k_range is not None else ((k, k) if k is not None else (6, 20))
     res = optimal_neighbourhood(
@@ -209,12 +216,81 @@ def _read_checked(input_path, output):
             "normal; the field source_index holds the kept points' original indices",
             out=err_console,
         )
-    n = ps.n_points
-    names = [*(f"eigenvalue_{i}" for i in (1, 2, 3)), *FEATURE_NAMES, "k", "a", "b", "reason"]
-    placeholder = {name: np.zeros(n) for name in names}
-    placeholder["dimension_class"] = np.zeros(n, np.int64)
-    check_point_output(output, ps, placeholder)
+    check_point_output(output, ps, _placeholder(ps.n_points))
     return ps
+
+
+def _placeholder(n: int) -> dict:
+    """Zero arrays named and typed as the fields ``features`` writes (output checks)."""
+    names = [*(f"eigenvalue_{i}" for i in (1, 2, 3)), *FEATURE_NAMES, "k", "a", "b", "reason"]
+    fields = {name: np.zeros(n) for name in names}
+    fields["dimension_class"] = np.zeros(n, np.int64)
+    return fields
+
+
+def _weights_with_normals(weights: str, estimate: bool) -> str:
+    """``--normals`` computes the normals in the features' pass: equal weights only."""
+    if not estimate:
+        return weights
+    if weights == "sigmoid":
+        raise PointAtlasError(
+            "--normals computes the normals in the same pass as the features; sigmoid "
+            "weights need them first: run `pointatlas normals`, then `features`"
+        )
+    return "equal" if weights == "auto" else weights
+
+
+def _read_for_normals(input_path, output):
+    """IN for ``--normals``: every point (as `normals` reads it), the input's normals
+    kept as ``input_normals``; OUT checked for them, the normals and the features."""
+    ps = read_input(input_path, with_normals=False)
+    try:
+        given = read_input(input_path).normals
+    except PointAtlasError:  # some points without a normal: nothing to keep
+        given = None
+    ours = {} if given is None else {"input_normals": given}
+    n = ps.n_points
+    check_point_output(output, ps.replace(normals=np.ones((n, 3))), {**ours, **_placeholder(n)})
+    return ps, ours
+
+
+def _read_for(input_path, output, estimate: bool, k, k_range):
+    """(point set, fields kept, shared k-NN table or None, start time) of an untiled run;
+    with ``estimate`` the normals are computed here (timed with the features)."""
+    if not estimate:
+        ps = _read_checked(input_path, output)
+        return ps, {}, None, time.perf_counter()
+    ps, ours = _read_for_normals(input_path, output)
+    t0 = time.perf_counter()
+    kf = (14 if k is None else k) if k_range is None else k_range[1]
+    ps, table = _normals_and_table(ps, 14 if k is None else k, kf)
+    return ps, ours, table, t0
+
+
+def _normals_and_table(ps, k: int, kf: int):
+    """MST-oriented PCA normals at ``k`` (orientation graph k = 10, as `normals`) and
+    the k-NN table they share with the features (``kf`` columns at least)."""
+    from ..neighbors import query_knn
+    from ..normals import estimate_normals, orient_normals
+
+    n = ps.n_points
+    if k < 3 or k > n or kf > n:
+        raise PointAtlasError(f"--k must lie in [3, number of points = {n}]; got {max(k, kf)}")
+    orient_k = min(10, n)
+    table, _ = query_knn(ps.points, max(k, orient_k, kf))
+    normals = estimate_normals(ps.points, k, neighbors=table)
+    normals = orient_normals(ps.points, normals, k=orient_k, method="mst", neighbors=table)
+    return ps.replace(normals=normals), table
+
+
+def _as_written(output, fields: dict) -> dict:
+    """The fields as OUT stores them: LAS/LAZ keeps the float features as float32
+    extra bytes (docs/decisions/io.md, "LAS/LAZ: feature fields as float32")."""
+    if Path(output).suffix.lower() not in (".las", ".laz"):
+        return fields
+    from ..batch._tiles_las import las_feature_fields
+
+    return las_feature_fields(fields)
 
 
 def _print_features(input_path, result, mode: str, elapsed: float, written) -> None:
@@ -306,6 +382,14 @@ def features_command(
         str,
         typer.Option("--criterion", help="Equal-weight k search: e_dim or eigenentropy."),
     ] = "e_dim",
+    estimate_normals: Annotated[
+        bool,
+        typer.Option(
+            "--normals",
+            help="Also estimate MST-oriented PCA normals at --k (default 14), from the same "
+            "k-NN table as the features (equal weights); written as nx, ny, nz.",
+        ),
+    ] = False,
     render: _RenderOption = None,
     render_size: _RenderSizeOption = 800,
     report: ReportOption = None,
@@ -319,7 +403,9 @@ def features_command(
 
     Writes OUT with every input field kept and the features added (a feature whose
     name the input already uses gets the prefix ``pa_``); with ``--report`` also an
-    HTML report with per-field statistics and a 3-D view.
+    HTML report with per-field statistics and a 3-D view. ``--normals`` does the work
+    of ``normals --k K`` then ``features --k K --weights equal`` in one pass (one
+    k-NN query); the input's normals are kept as ``input_normals``.
     """
     from ..io import POINT_WRITE_EXTENSIONS
 
@@ -331,33 +417,30 @@ def features_command(
     )  # fmt: skip
     a_vals = _parse_grid_deg(a_grid, "--a-grid-deg")
     b_vals = _parse_grid_deg(b_grid, "--b-grid-deg") if b_grid is not None else a_vals
+    weights = _weights_with_normals(weights, estimate_normals)
     tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, render=render)
     if tiles is not None:
         from ..batch._tiles_cli import feature_params, input_has_normals
 
         params = feature_params(
             weights=weights, k=k, k_range=k_range, a_grid=a_vals, b_grid=b_vals,
-            flatness=flatness, criterion=criterion, has_normals=input_has_normals(input_path),
+            flatness=flatness, criterion=criterion,
+            has_normals=not estimate_normals and input_has_normals(input_path),
         )  # fmt: skip
-        run_tiled("features", input_path, output, params, tiles, report=report)
+        normal_params = {"k": 14 if k is None else k, "orient_k": 10} if estimate_normals else None
+        run_tiled("features", input_path, output, params, tiles, report=report,
+                  normal_params=normal_params)  # fmt: skip
         return
-    ps = _read_checked(input_path, output)
-    t0 = time.perf_counter()
+    ps, ours, table, t0 = _read_for(input_path, output, estimate_normals, k, k_range)
     result, mode = compute_features_for(
-        ps.points,
-        ps.normals,
-        k=k,
-        k_range=tuple(k_range) if k_range is not None else None,
-        weights=weights,
-        a_grid=a_vals,
-        b_grid=b_vals,
-        flatness=tuple(flatness),
-        criterion=criterion,
-    )
+        ps.points, ps.normals, k=k, k_range=tuple(k_range) if k_range is not None else None,
+        weights=weights, a_grid=a_vals, b_grid=b_vals, flatness=tuple(flatness),
+        criterion=criterion, neighbors=table,
+    )  # fmt: skip
     elapsed = time.perf_counter() - t0
     fields = result.scalar_fields()
     fields["dimension_class"] = classify_dimension(result)
-    written = write_point_output(output, ps, fields)
+    written = write_point_output(output, ps, {**ours, **_as_written(output, fields)})
     _print_features(input_path, result, mode, elapsed, written)
     pictures = []
     if render is not None:
@@ -375,15 +458,9 @@ def features_command(
         for p in pictures:
             say(f"  wrote {p}")
     if report is not None:
-        parameters = {
-            "k": k,
-            "k_range": k_range,
-            "weights": weights,
-            "a_grid_deg": a_grid,
-            "b_grid_deg": b_grid,
-            "flatness": flatness,
-            "criterion": criterion,
-        }
+        parameters = {"k": k, "k_range": k_range, "weights": weights, "a_grid_deg": a_grid,
+                      "b_grid_deg": b_grid, "flatness": flatness, "criterion": criterion,
+                      "normals": estimate_normals}  # fmt: skip
         _write_features_report(
             report, input_path, ps, result, fields, mode, elapsed, pictures, parameters
         )

@@ -25,6 +25,10 @@ from . import _kernels as K
 #: Largest number of grid cells (nx * ny * nz) so cell keys fit in int64.
 _MAX_CELLS = 2.0**60
 
+#: The x/y column index (`Grid.colptr`, nx * ny + 1 entries) is built when it has at
+#: most this many entries per point (a 2.5-D scan has about 0.1-0.5).
+_MAX_COLUMNS_PER_POINT = 4
+
 
 @dataclass(frozen=True, slots=True)
 class Grid:
@@ -65,11 +69,12 @@ def min_cell_size(ext: np.ndarray) -> float:
     return hi_h
 
 
-def build_grid(pts: np.ndarray, h: float) -> Grid:
-    """Sort ``pts`` into cells of size ``h`` (enlarged if keys would overflow)."""
+def build_grid(pts: np.ndarray, h: float, h_min: float | None = None) -> Grid:
+    """Sort ``pts`` into cells of size ``h`` (enlarged if keys would overflow; ``h_min``:
+    `min_cell_size` of the points' extent when the caller has it)."""
     lo, hi = K.bounds(pts)
     ext = hi - lo
-    h = max(float(h), min_cell_size(ext))
+    h = max(float(h), min_cell_size(ext) if h_min is None else h_min)
     nx, ny, nz = _dims(ext, h)
     keys = K.grid_keys(pts, lo, 1.0 / h, nx, ny, nz)
     # stable radix sort of the (non-negative) cell keys: np.argsort(kind="stable")
@@ -80,6 +85,33 @@ def build_grid(pts: np.ndarray, h: float) -> Grid:
     ukeys, cstart = K.cell_starts(sorted_keys.view(np.int64))
     xs, ys, zs = K.gather_sorted(pts, order)
     return Grid(xs, ys, zs, order, ukeys, cstart, lo, h, nx, ny, nz)
+
+
+def column_index(grid: Grid) -> np.ndarray:
+    """The grid's x/y column index (`_kernels.column_starts`), or an empty array when
+    it would hold more than `_MAX_COLUMNS_PER_POINT` entries per point (the kernels
+    then bisect all cells)."""
+    n_cols = grid.nx * grid.ny
+    if n_cols > _MAX_COLUMNS_PER_POINT * grid.xs.shape[0] + 1024:
+        return np.empty(0, dtype=np.int64)
+    return K.column_starts(grid.ukeys, n_cols, grid.nz)
+
+
+def group_queries(grid: Grid, queries: np.ndarray):
+    """Point indices ``queries`` grouped by grid cell for `_kernels.knn_grid`:
+    ``(qcells, qstart, qpos, qout)``: group g is cell ``qcells[g]`` with the cell-order
+    positions ``qpos[qstart[g]:qstart[g + 1]]``, answered into rows ``qout`` (the
+    queries' places in ``queries``)."""
+    n = grid.ids.size
+    pos_of = np.empty(n, dtype=np.int64)
+    pos_of[grid.ids] = np.arange(n, dtype=np.int64)
+    qp = pos_of[queries]
+    qout = np.argsort(qp, kind="stable").astype(np.int64)
+    qpos = qp[qout]
+    cell = np.searchsorted(grid.cstart, qpos, side="right") - 1
+    first = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]]) if cell.size else cell
+    qstart = np.append(first, cell.size).astype(np.int64)
+    return cell[first].astype(np.int64), qstart, qpos, qout
 
 
 def _volume_cell_size(ext: np.ndarray, n: int, target: float) -> float:
@@ -105,11 +137,14 @@ def _volume_cell_size(ext: np.ndarray, n: int, target: float) -> float:
 
 
 def knn_target(k: int) -> float:
-    """Target point-weighted occupancy for k nearest neighbours."""
-    return max(2.0, 0.5 * (k - 1))
+    """Target point-weighted occupancy for k nearest neighbours: half the k - 1 other
+    neighbours, plus up to 4 for small k (fewer queries then search past the 3 x 3 x 3
+    block; measured in docs/decisions/neighbors.md)."""
+    half = 0.5 * (k - 1)
+    return max(2.0, half, min(half + 4.0, 16.0))
 
 
-def knn_grid_for(pts: np.ndarray, k: int, *, max_rounds: int = 4) -> Grid:
+def knn_grid_for(pts: np.ndarray, k: int, *, max_rounds: int = 6) -> Grid:
     """A grid whose point-weighted occupancy is close to `knn_target` (k)."""
     n = pts.shape[0]
     target = knn_target(k)
@@ -117,7 +152,7 @@ def knn_grid_for(pts: np.ndarray, k: int, *, max_rounds: int = 4) -> Grid:
     ext = hi - lo
     h_min = min_cell_size(ext)
     h = max(_volume_cell_size(ext, n, target), h_min)
-    grid = build_grid(pts, h)
+    grid = build_grid(pts, h, h_min)
     for _ in range(max_rounds):
         s0, s1, s2 = K.occupancy_levels(
             grid.xs, grid.ys, grid.zs, grid.ukeys, grid.cstart, grid.lo, grid.h, grid.ny, grid.nz
@@ -130,7 +165,9 @@ def knn_grid_for(pts: np.ndarray, k: int, *, max_rounds: int = 4) -> Grid:
             # still too coarse at h/4: extrapolate along the measured slope
             slope = math.log2(max(w[1], 1e-300) / max(w[2], 1e-300))
             slope = min(max(slope, 0.5), 3.0)
-            h_new = hs[2] * (target / w[2]) ** (1.0 / slope)
+            # at most 8x finer per round: a flat slope (one cluster in one cell at all
+            # three levels, far outliers around it) says nothing about the finer levels
+            h_new = max(hs[2] * (target / w[2]) ** (1.0 / slope), hs[2] / 8.0)
         else:
             # interpolate log W linearly in log h between bracketing levels
             a = 0 if w[1] <= target else 1
@@ -140,7 +177,7 @@ def knn_grid_for(pts: np.ndarray, k: int, *, max_rounds: int = 4) -> Grid:
         h_new = max(h_new, h_min)
         if h_new >= grid.h * 0.98:
             return grid
-        grid = build_grid(pts, h_new)
+        grid = build_grid(pts, h_new, h_min)
         if w[2] <= target:
             return grid
     return grid

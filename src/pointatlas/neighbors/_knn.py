@@ -11,9 +11,9 @@ coordinates centred on their bounding-box centre; exact equality is a tie.
 Two backends give identical results (tested): ``"grid"``, a numba kernel on a
 compact sorted-cell grid (``_grid.py``, ``_kernels.py``), and ``"kdtree"``, scipy's
 ``cKDTree`` followed by an exact numba re-selection of its candidates. ``"auto"``
-(default) runs the grid and hands the few queries it cannot certify within 3
-cell rings (isolated outliers far from the bulk) to the k-d tree; ``"grid"`` does
-the same after 16 rings.
+(default) runs the grid and hands the few queries it cannot certify within 8
+cell rings (isolated outliers far from the bulk) to an exact scan of all points
+(a few) or the k-d tree; ``"grid"`` does the same after 16 rings.
 """
 
 from __future__ import annotations
@@ -26,18 +26,37 @@ from scipy.spatial import cKDTree
 from .._core import as_float, as_k, as_points, readonly
 from .._core.tolerances import RADIUS_QUERY_WIDEN
 from . import _kernels as K
-from ._grid import knn_grid_for, radius_grid_for
+from ._grid import column_index, group_queries, knn_grid_for, radius_grid_for
 
 __all__ = ["NeighborIndex", "RadiusNeighbors", "query_knn", "query_radius"]
 
 _BACKENDS = ("auto", "grid", "kdtree")
 
-#: Rings of cells the grid kernel searches before handing a query to the k-d tree
-#: (backend "auto"; "grid" searches further, bounding the cost of a far outlier).
-_MAX_RING = {"auto": 3, "grid": 16}
+#: Rings of cells the grid kernel searches at most before handing a query to the far
+#: path (`NeighborIndex._knn_far`); after 5 rings it hands over the queries these rings
+#: cannot certify (far outliers). Measured in docs/decisions/neighbors.md.
+_MAX_RING = {"auto": 8, "grid": 16}
+
+#: Queries left by the grid up to which a scan of all points answers them (beyond, the
+#: k-d tree; its build over N points costs about as much as this many scans).
+_BRUTE_ROWS = 64
 
 #: Candidate entries per k-d tree query chunk (bounds temporary memory).
 _CHUNK_ENTRIES = 1 << 22
+
+
+def _check_rows(rows, n: int) -> np.ndarray:
+    """``rows`` as a 1-D int64 array of point indices in [0, n)."""
+    arr = np.asarray(rows)
+    if arr.dtype == np.bool_ or not (np.issubdtype(arr.dtype, np.integer) or arr.size == 0):
+        raise TypeError(f"rows must be an array of integer indices; got dtype {arr.dtype}")
+    if arr.ndim != 1:
+        raise ValueError(f"rows must be one-dimensional; got shape {arr.shape}")
+    arr = arr.astype(np.int64)
+    if arr.size and (arr.min() < 0 or arr.max() >= n):
+        bad = arr[(arr < 0) | (arr >= n)]
+        raise ValueError(f"rows must be indices in [0, {n}); got {bad.size} outside, e.g. {bad[0]}")
+    return arr
 
 
 def _check_backend(backend) -> str:
@@ -56,9 +75,9 @@ class NeighborIndex:
     backend : {"auto", "grid", "kdtree"}
         ``"grid"``: numba kernel on a compact sorted-cell grid, searching up to
         16 rings of cells around a query; ``"kdtree"``: scipy ``cKDTree`` plus an
-        exact re-selection; ``"auto"`` (default): the grid with 3 rings. Queries
-        the grid cannot certify within its rings (far outliers) are answered by
-        the k-d tree path. All give identical results.
+        exact re-selection; ``"auto"`` (default): the grid with 8 rings. Queries
+        the grid cannot certify within its rings (far outliers) are answered by a
+        scan of all points (a few) or the k-d tree path. All give identical results.
     center : array_like of shape (3,), optional
         The point subtracted from every coordinate (default: the centre of the
         bounding box). An index over part of a point set built with the centre of
@@ -106,19 +125,23 @@ class NeighborIndex:
             self._tree = cKDTree(self.points_, balanced_tree=False, compact_nodes=False)
         return self._tree
 
-    def knn(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """k nearest neighbours of every indexed point, the point itself first.
+    def knn(self, k: int, *, rows=None) -> tuple[np.ndarray, np.ndarray]:
+        """k nearest neighbours of every indexed point (or of ``rows``), itself first.
 
         Parameters
         ----------
         k : int
             Neighbourhood size including the point itself (1 <= k <= N).
+        rows : array_like of int, optional
+            Indices of the points to query (any order, repeats allowed). Row r of
+            the result is then row ``rows[r]`` of the full query, bit for bit, at a
+            cost proportional to ``len(rows)`` (plus the grid's build).
 
         Returns
         -------
-        indices : ndarray of shape (N, k), int64
+        indices : ndarray of shape (N, k) or (len(rows), k), int64
             Column 0 is the point itself; the rest by (distance, index).
-        distances : ndarray of shape (N, k), float64
+        distances : ndarray of shape (N, k) or (len(rows), k), float64
             Euclidean distances, non-decreasing along each row.
 
         Raises
@@ -126,28 +149,60 @@ class NeighborIndex:
         PointAtlasError
             k outside [1, N] (a ``ValueError``).
         TypeError
-            k not an integer (bool and floats included).
+            k not an integer (bool and floats included); ``rows`` not integers.
+        ValueError
+            ``rows`` not one-dimensional or outside [0, N).
         """
         n = self.n_points
         k = as_k(k, n)
+        queries = None if rows is None else _check_rows(rows, n)
+        n_out = n if queries is None else queries.size
         if k == 1:
-            return np.arange(n, dtype=np.int64)[:, None], np.zeros((n, 1))
+            self_col = np.arange(n, dtype=np.int64) if queries is None else queries.copy()
+            return self_col[:, None], np.zeros((n_out, 1))
         if self.backend == "kdtree":
-            out_idx, out_d2 = self._knn_kdtree(np.arange(n, dtype=np.int64), k)
+            all_rows = np.arange(n, dtype=np.int64) if queries is None else queries
+            out_idx, out_d2 = self._knn_kdtree(all_rows, k)
         else:
-            grid = knn_grid_for(self.points_, k)
-            out_idx = np.empty((n, k), dtype=np.int64)
-            out_d2 = np.empty((n, k), dtype=np.float64)
-            failed = np.zeros(n, dtype=np.bool_)
-            max_ring = _MAX_RING[self.backend]
-            K.knn_grid(
-                grid.xs, grid.ys, grid.zs, grid.ids, grid.ukeys, grid.cstart, grid.lo,
-                grid.h, grid.nx, grid.ny, grid.nz, k, max_ring, out_idx, out_d2, failed,
-            )  # fmt: skip
-            rows = np.flatnonzero(failed)
-            if rows.size:
-                out_idx[rows], out_d2[rows] = self._knn_kdtree(rows, k)
+            out_idx, out_d2 = self._knn_grid(k, queries)
         K.sqrt_inplace(out_d2)
+        return out_idx, out_d2
+
+    def _knn_grid(self, k: int, queries) -> tuple[np.ndarray, np.ndarray]:
+        """k-NN rows (squared distances) of all points (``queries`` None) or of the
+        given point indices, on the grid; the rows it cannot certify within its rings
+        from the k-d tree path."""
+        grid = knn_grid_for(self.points_, k)
+        if queries is None:
+            qcells = np.arange(grid.ukeys.size, dtype=np.int64)
+            qstart, qpos, qout = grid.cstart, np.arange(grid.ids.size, dtype=np.int64), grid.ids
+            n_out = grid.ids.size
+        else:
+            qcells, qstart, qpos, qout = group_queries(grid, queries)
+            n_out = queries.size
+        out_idx = np.empty((n_out, k), dtype=np.int64)
+        out_d2 = np.empty((n_out, k), dtype=np.float64)
+        failed = np.zeros(n_out, dtype=np.bool_)
+        K.knn_grid(
+            grid.xs, grid.ys, grid.zs, grid.ids, grid.ukeys, grid.cstart, column_index(grid),
+            grid.lo, grid.h, grid.nx, grid.ny, grid.nz, k, _MAX_RING[self.backend],
+            qcells, qstart, qpos, qout, out_idx, out_d2, failed,
+        )  # fmt: skip
+        bad = np.flatnonzero(failed)
+        if bad.size:
+            point = bad if queries is None else queries[bad]
+            out_idx[bad], out_d2[bad] = self._knn_far(point, k)
+        return out_idx, out_d2
+
+    def _knn_far(self, rows: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Exact k-NN rows (squared distances) of the queries the grid left: a scan of
+        all points for a few of them, else the k-d tree path (its build costs about as
+        much as `_BRUTE_ROWS` scans)."""
+        if self._tree is not None or rows.size > _BRUTE_ROWS:
+            return self._knn_kdtree(rows, k)
+        out_idx = np.empty((rows.size, k), dtype=np.int64)
+        out_d2 = np.empty((rows.size, k), dtype=np.float64)
+        K.knn_brute(self.points_, rows, k, out_idx, out_d2)
         return out_idx, out_d2
 
     def _knn_kdtree(self, rows: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:

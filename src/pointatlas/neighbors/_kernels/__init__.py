@@ -1,7 +1,9 @@
 """numba kernels of the neighbour queries, one module per stage (validated input assumed).
 
-* `grid`: the compact sorted-cell grid (keys, occupied cells, occupancy levels);
-* `knn`: k nearest neighbours on the grid, and the k-d tree path's selection;
+* `grid`: the compact sorted-cell grid (keys, occupied cells, column index, occupancy
+  levels);
+* `knn`: k nearest neighbours on the grid, the k-d tree path's selection, the scan of
+  all points for far queries;
 * `radius`: closed-ball queries and row sorting;
 * `graph`: CSR structure and edge lengths of the k-NN graph;
 * `mesh_distance`: the bounding-volume hierarchy of the exact point-to-mesh distance
@@ -17,17 +19,19 @@ centred (``_knn.NeighborIndex``), int64 indices, and the grid built by
 """
 
 from .graph import edge_lengths, graph_structure
-from .grid import bounds, cell_starts, gather_sorted, grid_keys, occupancy_levels
-from .knn import knn_grid, select_candidates, sqrt_inplace
+from .grid import bounds, cell_starts, column_starts, gather_sorted, grid_keys, occupancy_levels
+from .knn import knn_brute, knn_grid, select_candidates, sqrt_inplace
 from .radius import radius_grid, sort_rows
 
 __all__ = [
     "bounds",
     "cell_starts",
+    "column_starts",
     "edge_lengths",
     "gather_sorted",
     "graph_structure",
     "grid_keys",
+    "knn_brute",
     "knn_grid",
     "occupancy_levels",
     "radius_grid",

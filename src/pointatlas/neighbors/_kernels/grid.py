@@ -25,8 +25,10 @@ __all__ = [
     "bounds",
     "cell_coords",
     "cell_starts",
+    "cells_in_column",
     "chunk_cells",
     "column_range",
+    "column_starts",
     "gather_sorted",
     "grid_keys",
     "interleaved_chunks",
@@ -233,6 +235,46 @@ def lower_bound(a, x):
         else:
             hi = mid
     return lo
+
+
+@njit(cache=True)
+def column_starts(ukeys, n_cols, nz):
+    """``colptr`` (n_cols + 1,): the occupied cells of column ``col = i * ny + j`` are
+    ``colptr[col]:colptr[col + 1]`` (positions in ``ukeys``)."""
+    colptr = np.empty(n_cols + 1, dtype=np.int64)
+    c = 0
+    n_cells = ukeys.shape[0]
+    for col in range(n_cols + 1):
+        while c < n_cells and ukeys[c] < col * nz:
+            c += 1
+        colptr[col] = c
+    return colptr
+
+
+@njit(cache=True, inline="always")
+def _lower_bound_in(a, lo, hi, x):
+    """First position in ``lo:hi`` of the sorted ``a`` whose value is >= x."""
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if a[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True, inline="always")
+def cells_in_column(ukeys, colptr, i, j, z0, z1, ny, nz):
+    """Positions ``ca:cb`` in ``ukeys`` of the occupied cells (i, j, z0..z1) (inclusive,
+    already clipped). With a column index ``colptr`` (`column_starts`) the search runs
+    inside the column; with an empty ``colptr`` it bisects all cells."""
+    col = i * ny + j
+    base = col * nz
+    if colptr.shape[0] == 0:
+        return lower_bound(ukeys, base + z0), lower_bound(ukeys, base + z1 + 1)
+    a = colptr[col]
+    b = colptr[col + 1]
+    return _lower_bound_in(ukeys, a, b, base + z0), _lower_bound_in(ukeys, a, b, base + z1 + 1)
 
 
 @njit(cache=True)

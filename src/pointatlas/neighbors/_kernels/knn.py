@@ -1,10 +1,12 @@
-"""k nearest neighbours on the grid, and the exact selection of the k-d tree path
-(numba kernels; validated input assumed).
+"""k nearest neighbours on the grid, the exact selection of the k-d tree path and the
+scan of all points for far queries (numba kernels; validated input assumed).
 
 Ordering convention: a neighbour j of query q is keyed by ``(d2, j)`` with
 ``d2 = dx*dx + dy*dy + dz*dz`` in float64 (evaluated in exactly this order), so
 exact ties are broken by the smaller index; column 0 of a row is the query itself.
-See `grid` for the sorted-cell grid.
+See `grid` for the sorted-cell grid and its column index. Every path computes the
+same d2 of the same pairs and certifies its rows, so all give the same rows bit for
+bit (docs/decisions/neighbors.md, "Backends").
 """
 
 from __future__ import annotations
@@ -13,16 +15,9 @@ import numpy as np
 from numba import njit, prange
 
 from ..._core.tolerances import GRID_CELL_MARGIN, KDTREE_CERTIFY_RTOL
-from .grid import (
-    cell_coords,
-    chunk_cells,
-    column_range,
-    interleaved_chunks,
-    lower_bound,
-    sq_dist,
-)
+from .grid import cell_coords, cells_in_column, interleaved_chunks, sq_dist
 
-__all__ = ["knn_grid", "select_candidates", "sqrt_inplace"]
+__all__ = ["knn_brute", "knn_grid", "select_candidates", "sqrt_inplace"]
 
 #: an empty buffer slot (larger than every index)
 _SENTINEL = np.iinfo(np.int64).max
@@ -101,30 +96,12 @@ def _done(bd, bi, qx, qy, qz, lo, h, ci, cj, ck, r, nx, ny, nz, margin):
 
 @njit(cache=True)
 def _scan_shell(
-    xs,
-    ys,
-    zs,
-    ids,
-    ukeys,
-    cstart,
-    lo,
-    h,
-    ci,
-    cj,
-    ck,
-    r,
-    nx,
-    ny,
-    nz,
-    margin,
-    qx,
-    qy,
-    qz,
-    qid,
-    bd,
-    bi,
-):
-    """Scan the cells at Chebyshev distance exactly r from cell (ci, cj, ck)."""
+    xs, ys, zs, ids, ukeys, cstart, colptr, lo, h, ci, cj, ck, r, nx, ny, nz, margin,
+    qx, qy, qz, qid, bd, bi,
+):  # fmt: skip
+    """Scan the cells at Chebyshev distance exactly r from cell (ci, cj, ck): the
+    columns of the ring's rim over z ``ck - r .. ck + r`` (skipped when their box is
+    farther than the current last candidate), the inner columns at z ``ck +- r``."""
     last = bd.shape[0] - 1
     for i in range(max(ci - r, 0), min(ci + r, nx - 1) + 1):
         x0 = lo[0] + i * h
@@ -134,34 +111,31 @@ def _scan_shell(
                 z0 = max(ck - r, 0)
                 z1 = min(ck + r, nz - 1)
                 if bi[last] != _SENTINEL:
-                    bx = _box_d2(
-                        qx,
-                        qy,
-                        qz,
-                        x0,
-                        x0 + h,
-                        y0,
-                        y0 + h,
-                        lo[2] + z0 * h,
-                        lo[2] + (z1 + 1) * h,
-                        margin,
-                    )
+                    z_lo = lo[2] + z0 * h
+                    z_hi = lo[2] + (z1 + 1) * h
+                    bx = _box_d2(qx, qy, qz, x0, x0 + h, y0, y0 + h, z_lo, z_hi, margin)
                     if bx > bd[last]:
                         continue
-                a, b = column_range(ukeys, cstart, i, j, z0, z1, ny, nz)
-                _scan(xs, ys, zs, ids, a, b, qx, qy, qz, qid, bd, bi)
+                ca, cb = cells_in_column(ukeys, colptr, i, j, z0, z1, ny, nz)
+                if ca < cb:
+                    _scan(xs, ys, zs, ids, cstart[ca], cstart[cb], qx, qy, qz, qid, bd, bi)
             else:
                 for z in (ck - r, ck + r):
                     if z < 0 or z > nz - 1:
                         continue
-                    a, b = column_range(ukeys, cstart, i, j, z, z, ny, nz)
-                    if a < b:
-                        _scan(xs, ys, zs, ids, a, b, qx, qy, qz, qid, bd, bi)
+                    if bi[last] != _SENTINEL:
+                        z_lo = lo[2] + z * h
+                        bx = _box_d2(qx, qy, qz, x0, x0 + h, y0, y0 + h, z_lo, z_lo + h, margin)
+                        if bx > bd[last]:
+                            continue
+                    ca, cb = cells_in_column(ukeys, colptr, i, j, z, z, ny, nz)
+                    if ca < cb:
+                        _scan(xs, ys, zs, ids, cstart[ca], cstart[cb], qx, qy, qz, qid, bd, bi)
 
 
 @njit(cache=True, inline="always")
 def _block_cells(
-    ukeys, cstart, lo, h, ci, cj, ck, nx, ny, nz,
+    ukeys, cstart, colptr, lo, h, ci, cj, ck, nx, ny, nz,
     cell_c, cell_cls, lst_a, lst_b, lst_x, lst_y, lst_z,
 ):  # fmt: skip
     """The occupied cells of the 3 x 3 x 3 block around cell (ci, cj, ck), each once:
@@ -174,8 +148,7 @@ def _block_cells(
     for i in range(max(ci - 1, 0), min(ci + 1, nx - 1) + 1):
         for j in range(max(cj - 1, 0), min(cj + 1, ny - 1) + 1):
             base = (i * ny + j) * nz
-            ca = lower_bound(ukeys, base + z0)
-            cb = lower_bound(ukeys, base + z1 + 1)
+            ca, cb = cells_in_column(ukeys, colptr, i, j, z0, z1, ny, nz)
             for cc in range(ca, cb):
                 cell_c[n_blk] = cc
                 cell_cls[n_blk] = abs(i - ci) + abs(j - cj) + abs(ukeys[cc] - base - ck)
@@ -197,19 +170,19 @@ def _block_cells(
 
 
 @njit(cache=True, inline="always")
-def _knn_of_point(
-    xs, ys, zs, ids, ukeys, cstart, lo, h, nx, ny, nz, m, max_ring, margin,
-    p, s, e, ci, cj, ck, n_lst, lst_a, lst_b, lst_x, lst_y, lst_z, ord_d, ord_u, bd, bi,
+def _scan_block(
+    xs, ys, zs, ids, h, margin, p, s, e, n_lst, lst_a, lst_b, lst_x, lst_y, lst_z,
+    ord_d, ord_u, bd, bi,
 ):  # fmt: skip
-    """The m nearest other points of the point at cell-order position p (in cell
-    ``s:e`` at (ci, cj, ck)) into the buffer (``bd``, ``bi``), sorted by (d2, index);
-    returns False when its m-th neighbour is not certified after ``max_ring`` rings.
+    """The m = len(bd) nearest other points of the point at cell-order position p
+    (own cell ``s:e``) among the block's cells into the buffer (``bd``, ``bi``), sorted
+    by (d2, index); the path for blocks too large to gather (`_gather_block`).
 
     Own cell first, in index order, stopping once m exact duplicates are found;
-    then the other block cells (`_block_cells`) sorted by their box distance,
-    stopping at the first box farther than the current m-th candidate; then
-    further rings (`_scan_shell`) until `_done`.
+    then the other block cells sorted by their box distance, stopping at the first
+    box farther than the current m-th candidate.
     """
+    m = bd.shape[0]
     qid = ids[p]
     qx = xs[p]
     qy = ys[p]
@@ -217,7 +190,6 @@ def _knn_of_point(
     for u in range(m):
         bd[u] = np.inf
         bi[u] = _SENTINEL
-    # own cell, in index order: stop once m exact duplicates are found
     for pp in range(s, e):
         if bd[m - 1] == 0.0:
             break
@@ -227,9 +199,7 @@ def _knn_of_point(
             if ids[pp] != qid:
                 _insert(bd, bi, d2, ids[pp])
     if bd[m - 1] == 0.0:
-        return True
-    # the other block cells nearest first (insertion sort by box distance); stop
-    # at the first box farther than the current m-th candidate
+        return
     n_ord = 0
     for u in range(1, n_lst):
         x0 = lst_x[u]
@@ -249,40 +219,152 @@ def _knn_of_point(
             break
         u = ord_u[v]
         _scan(xs, ys, zs, ids, lst_a[u], lst_b[u], qx, qy, qz, qid, bd, bi)
-    r = 1
-    while not _done(bd, bi, qx, qy, qz, lo, h, ci, cj, ck, r, nx, ny, nz, margin):
-        if r >= max_ring:
-            return False
-        r += 1
-        _scan_shell(
-            xs, ys, zs, ids, ukeys, cstart, lo, h, ci, cj, ck, r, nx, ny, nz, margin,
-            qx, qy, qz, qid, bd, bi,
-        )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _count_within(dd, n, tau):
+    """How many of ``dd[:n]`` are <= tau (branch-free)."""
+    c = 0
+    for t in range(n):
+        c += dd[t] <= tau
+    return c
+
+
+@njit(cache=True, inline="always")
+def _select_gathered(dd, gi, n, t_self, tau, sd, si, bd, bi):
+    """The m = len(bd) smallest (d2, index) of the gathered block (``dd[:n]``,
+    ``gi[:n]``; entry ``t_self`` is the query) into the buffer, sorted.
+
+    A threshold ``tau`` (a guess: the previous query's m-th d2) is widened or
+    narrowed (by the ratio a surface's count changes with, count ~ d2) until at least
+    m and, where a try allows, at most `_SELECT_SLACK` m others lie within it (at most
+    8 narrowing tries; exact ties can keep more inside); those are placed
+    at their rank among themselves (rank = how many of them precede by (d2, index)),
+    which is their rank among all entries. Returns False (buffer untouched) when
+    more than 4m + 16 entries tie inside every tried threshold (exact duplicates).
+    """
+    m = bd.shape[0]
+    cnt = _count_within(dd, n, tau) - 1
+    it = 0
+    while cnt < m and cnt < n - 1:
+        # widen, by the ratio a surface's count grows with (count ~ d2), at least 1.25x
+        grow = min(max(1.1 * m / max(cnt, 1), 1.25), 4.0)
+        tau = tau * grow if tau > 0.0 else 1e-300
+        it += 1
+        if it > 64:
+            tau = np.inf
+        cnt = _count_within(dd, n, tau) - 1
+    it = 0
+    while cnt > _SELECT_SLACK * m and it < 8:
+        narrower = tau * min(max(1.1 * m / cnt, 0.5), 0.95)
+        c2 = _count_within(dd, n, narrower) - 1
+        if c2 < m:
+            break
+        tau = narrower
+        cnt = c2
+        it += 1
+    if cnt > 4 * m + 16:
+        return False
+    c = 0
+    for t in range(n):
+        sd[c] = dd[t]
+        si[c] = gi[t]
+        c += (dd[t] <= tau) & (t != t_self)
+    for a in range(c):
+        da = sd[a]
+        ia = si[a]
+        rank = 0
+        for b in range(c):
+            db = sd[b]
+            rank += (db < da) | ((db == da) & (si[b] < ia))
+        if rank < m:
+            bd[rank] = da
+            bi[rank] = ia
+    for u in range(c, m):
+        bd[u] = np.inf
+        bi[u] = _SENTINEL
     return True
+
+
+@njit(cache=True, inline="always")
+def _gather_block(xs, ys, zs, ids, n_lst, lst_a, lst_b, gx, gy, gz, gi):
+    """Copy the block's points (own cell first) into ``gx, gy, gz, gi``; returns their
+    number, or -1 when they do not fit."""
+    n = 0
+    for u in range(n_lst):
+        n += lst_b[u] - lst_a[u]
+    if n > gx.shape[0]:
+        return -1
+    n = 0
+    for u in range(n_lst):
+        for p in range(lst_a[u], lst_b[u]):
+            gx[n] = xs[p]
+            gy[n] = ys[p]
+            gz[n] = zs[p]
+            gi[n] = ids[p]
+            n += 1
+    return n
+
+
+@njit(cache=True, inline="always")
+def _block_distances(gx, gy, gz, n, qx, qy, qz, dd):
+    """``dd[:n]``: d2 of the gathered points from the query (the ordering convention)."""
+    for t in range(n):
+        dx = gx[t] - qx
+        dy = gy[t] - qy
+        dz = gz[t] - qz
+        dd[t] = dx * dx + dy * dy + dz * dz
+
+
+#: `_select_gathered` narrows its threshold while more than this many times m others
+#: lie within it (their ranking costs the square of their number).
+_SELECT_SLACK = 1.2
+
+#: Rings searched before `_hopeless` may hand a query to the caller's far path.
+_PATIENCE = 5
+
+
+@njit(cache=True, inline="always")
+def _hopeless(bd, bi, h, max_ring):
+    """Whether ``max_ring`` rings cannot certify the query: its buffer is not full, or
+    its current m-th distance exceeds ``max_ring + 1`` cells (far outliers, sparse
+    halos; the caller's exact far path answers them sooner)."""
+    last = bd.shape[0] - 1
+    reach = (max_ring + 1) * h
+    return bi[last] == _SENTINEL or bd[last] >= reach * reach
+
+
+#: Gathered block size: blocks with more points take the per-query path (`_scan_block`).
+_GATHER = 512
 
 
 @njit(cache=True, parallel=True)
 def knn_grid(
-    xs, ys, zs, ids, ukeys, cstart, lo, h, nx, ny, nz, k, max_ring, out_idx, out_d2, failed
-):
-    """k nearest neighbours (itself in column 0) of every point, on the grid.
+    xs, ys, zs, ids, ukeys, cstart, colptr, lo, h, nx, ny, nz, k, max_ring,
+    qcells, qstart, qpos, qout, out_idx, out_d2, failed,
+):  # fmt: skip
+    """k nearest neighbours (itself in column 0) of the queried points, on the grid.
 
-    Per occupied cell, the occupied cells of its 3 x 3 x 3 block are listed once
-    (`_block_cells`); every query of the cell then runs `_knn_of_point`. Rows are
-    written at the points' original indices. A query whose k-th neighbour is not
-    certified after ``max_ring`` rings sets ``failed`` (the caller answers those
-    rows with the k-d tree path).
+    Queries come grouped by cell: group g is cell ``qcells[g]`` with the cell-order
+    positions ``qpos[qstart[g]:qstart[g + 1]]``, written to output rows ``qout``
+    (all points: ``qcells = arange``, ``qstart = cstart``, ``qpos = arange``,
+    ``qout = ids``). Per group the occupied cells of its 3 x 3 x 3 block are listed
+    once (`_block_cells`) and their points gathered (`_gather_block`); each query
+    then takes its m = k - 1 best from the gathered block (`_select_gathered`; too
+    large a block: `_scan_block`) and searches further rings (`_scan_shell`) until
+    `_done`. A query not certified after ``max_ring`` rings, or `_hopeless` after
+    `_PATIENCE`, sets ``failed`` (the caller answers those rows exactly elsewhere).
     """
     m = k - 1
     margin = GRID_CELL_MARGIN * h
-    n_cells = ukeys.shape[0]
-    n_chunks, stride = interleaved_chunks(n_cells)
+    n_groups = qcells.shape[0]
+    n_chunks, stride = interleaved_chunks(n_groups)
     for t in prange(n_chunks):
-        c0, c1 = chunk_cells(t, stride, n_chunks, n_cells)
-        # the query's buffer of its m best (squared distance, index), sorted
+        chunk = (t * stride) % n_chunks
+        g0 = chunk * n_groups // n_chunks
+        g1 = (chunk + 1) * n_groups // n_chunks
         bd = np.empty(max(m, 1))
         bi = np.empty(max(m, 1), dtype=np.int64)
-        # the block's cells: scratch, then point ranges and box corners in order
         cell_c = np.empty(27, dtype=np.int64)
         cell_cls = np.empty(27, dtype=np.int64)
         lst_a = np.empty(27, dtype=np.int64)
@@ -290,32 +372,60 @@ def knn_grid(
         lst_x = np.empty(27)
         lst_y = np.empty(27)
         lst_z = np.empty(27)
-        # the block's cells by box distance from the query
         ord_d = np.empty(27)
         ord_u = np.empty(27, dtype=np.int64)
-        for c in range(c0, c1):
+        gx = np.empty(_GATHER)
+        gy = np.empty(_GATHER)
+        gz = np.empty(_GATHER)
+        gi = np.empty(_GATHER, dtype=np.int64)
+        dd = np.empty(_GATHER)
+        sd = np.empty(_GATHER)
+        si = np.empty(_GATHER, dtype=np.int64)
+        tau = 0.25 * h * h
+        for g in range(g0, g1):
+            c = qcells[g]
             ci, cj, ck = cell_coords(ukeys[c], ny, nz)
             n_lst = _block_cells(
-                ukeys, cstart, lo, h, ci, cj, ck, nx, ny, nz,
+                ukeys, cstart, colptr, lo, h, ci, cj, ck, nx, ny, nz,
                 cell_c, cell_cls, lst_a, lst_b, lst_x, lst_y, lst_z,
             )  # fmt: skip
             s = cstart[c]
             e = cstart[c + 1]
-            for p in range(s, e):
-                qid = ids[p]
-                out_idx[qid, 0] = qid
-                out_d2[qid, 0] = 0.0
+            n_g = _gather_block(xs, ys, zs, ids, n_lst, lst_a, lst_b, gx, gy, gz, gi)
+            for w in range(qstart[g], qstart[g + 1]):
+                p = qpos[w]
+                row = qout[w]
+                out_idx[row, 0] = ids[p]
+                out_d2[row, 0] = 0.0
                 if m == 0:
                     continue
-                if not _knn_of_point(
-                    xs, ys, zs, ids, ukeys, cstart, lo, h, nx, ny, nz, m, max_ring, margin,
-                    p, s, e, ci, cj, ck, n_lst, lst_a, lst_b, lst_x, lst_y, lst_z,
-                    ord_d, ord_u, bd, bi,
-                ):  # fmt: skip
-                    failed[qid] = True
+                qx = xs[p]
+                qy = ys[p]
+                qz = zs[p]
+                done = False
+                if n_g >= 0:
+                    _block_distances(gx, gy, gz, n_g, qx, qy, qz, dd)
+                    done = _select_gathered(dd, gi, n_g, p - s, tau, sd, si, bd, bi)
+                if not done:
+                    _scan_block(
+                        xs, ys, zs, ids, h, margin, p, s, e, n_lst, lst_a, lst_b,
+                        lst_x, lst_y, lst_z, ord_d, ord_u, bd, bi,
+                    )  # fmt: skip
+                if bi[m - 1] != _SENTINEL and bd[m - 1] > 0.0:
+                    tau = bd[m - 1] * 1.05
+                r = 1
+                while not _done(bd, bi, qx, qy, qz, lo, h, ci, cj, ck, r, nx, ny, nz, margin):
+                    if r >= max_ring or (r >= _PATIENCE and _hopeless(bd, bi, h, max_ring)):
+                        failed[row] = True
+                        break
+                    r += 1
+                    _scan_shell(
+                        xs, ys, zs, ids, ukeys, cstart, colptr, lo, h, ci, cj, ck, r,
+                        nx, ny, nz, margin, qx, qy, qz, ids[p], bd, bi,
+                    )  # fmt: skip
                 for u in range(m):
-                    out_idx[qid, u + 1] = bi[u]
-                    out_d2[qid, u + 1] = bd[u]
+                    out_idx[row, u + 1] = bi[u]
+                    out_d2[row, u + 1] = bd[u]
 
 
 # ------------------------------------------------------------------- k-d tree path
@@ -357,6 +467,32 @@ def select_candidates(pts, rows, cand, last_d2, k, all_points, out_idx, out_d2, 
             out_d2[r, c + 1] = bd[c]
         full = bi[m - 1] != _SENTINEL
         resolved[r] = all_points or (full and last_d2[r] * (1.0 - KDTREE_CERTIFY_RTOL) > bd[m - 1])
+
+
+@njit(cache=True, parallel=True)
+def knn_brute(pts, rows, k, out_idx, out_d2):
+    """Exact k-NN rows (squared distances) of ``rows`` by a scan of all points: the
+    path for the few queries the grid leaves (far outliers)."""
+    m = k - 1
+    for r in prange(rows.shape[0]):
+        q = rows[r]
+        bd = np.full(m, np.inf)
+        bi = np.full(m, _SENTINEL, dtype=np.int64)
+        qx = pts[q, 0]
+        qy = pts[q, 1]
+        qz = pts[q, 2]
+        for j in range(pts.shape[0]):
+            dx = pts[j, 0] - qx
+            dy = pts[j, 1] - qy
+            dz = pts[j, 2] - qz
+            d2 = dx * dx + dy * dy + dz * dz
+            if (d2 < bd[m - 1] or (d2 == bd[m - 1] and j < bi[m - 1])) and j != q:
+                _insert(bd, bi, d2, j)
+        out_idx[r, 0] = q
+        out_d2[r, 0] = 0.0
+        for c in range(m):
+            out_idx[r, c + 1] = bi[c]
+            out_d2[r, c + 1] = bd[c]
 
 
 @njit(cache=True, parallel=True)

@@ -1,0 +1,100 @@
+"""Tiled normals and features from one k-NN table per tile (``pointatlas features
+--normals``): MST-oriented PCA normals stitched across tiles as `tiled_normals` does,
+equal-weight features of the owned points bit for bit those of the untiled run.
+
+Private to `pointatlas.batch` (decisions in docs/decisions/batch.md, "Tiles — normals
+and features in one pass").
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .._core import PointAtlasError
+from . import _tiles as T
+from ._tiles_normals import _Stitch, check_normal_options
+from ._tiles_tasks import (
+    _certified_table,
+    _setup,
+    _threads,
+    feature_kmax,
+    features_dispatch,
+    mst_tile_normals,
+)
+
+__all__ = ["normals_features_over", "normals_features_task"]
+
+
+def normals_features_task(spec, data):
+    """One tile: its certified k-NN table (``max(k, kf)`` rows exact, ``orient_k``
+    columns for the orientation graph), PCA normals oriented by MST as `normals_task`
+    (halo parts for the stitching), and the features of the owned rows from the same
+    table (halo rows get a table of the point itself, as `features_task`)."""
+    from ..features import classify_dimension
+
+    os.environ.setdefault("PYTHONHASHSEED", "0")
+    _threads(spec)
+    p = spec["params"]
+    k, orient_k, fp = p["k"], p["orient_k"], p["features"]
+    kf = feature_kmax(fp)
+    grid, xyz, owner, owned, bdist = _setup(spec, data)
+    table, fail = _certified_table(spec, xyz, owned, bdist, max(k, kf),
+                                   min_cols=max(k, kf, orient_k))  # fmt: skip
+    if fail:
+        return fail
+    normals, parts = mst_tile_normals(xyz, table, k, orient_k, data, owner, owned)
+    out = {"status": "ok", "gidx": data["gidx"][owned], "normals": normals[owned], **parts}
+    ftable = np.ascontiguousarray(table[:, :kf])
+    halo = np.flatnonzero(~owned)
+    ftable[halo] = halo[:, None]
+    res = features_dispatch(xyz, None, fp, neighbors=ftable)
+    fields = {name: np.asarray(v)[owned] for name, v in res.scalar_fields().items()}
+    fields["dimension_class"] = classify_dimension(res)[owned]
+    out["fields"] = fields
+    return out
+
+
+def normals_features_over(source, options, params, normal_params, *, normals_out=None,
+                          fields_out=None, spill_dir=None, client_info=None,
+                          label="normals + features"):  # fmt: skip
+    """Normals (``normal_params``: ``k``, ``orient_k``; MST) and equal-weight features
+    (``params``: mode "fixed" or "optimal_k") of every point, one k-NN per tile.
+
+    Returns ``(normals, fields, run)``.
+    """
+    if params["mode"] == "optimal":
+        raise PointAtlasError(
+            "--normals computes the normals in the same pass as the features; sigmoid "
+            "weights need them first: run `pointatlas normals`, then `features`"
+        )
+    n = source.n
+    k, orient_k = int(normal_params["k"]), int(normal_params.get("orient_k", 10))
+    check_normal_options(n, k, "mst")
+    kf = feature_kmax(params)
+    if kf > n:
+        raise PointAtlasError(f"k = {kf} exceeds the number of points ({n})")
+    grid = T._grid_for(source, options)
+    halo0, fixed = T._auto_halo(source, max(k, kf), options)
+    stitch = _Stitch(np.zeros((n, 3)) if normals_out is None else normals_out, "mst", spill_dir)
+    fields = {} if fields_out is None else fields_out
+
+    def on_result(t, res):
+        stitch.on_result(t, res)
+        for name, v in res["fields"].items():
+            if name not in fields:
+                T._allocate(fields, name, n, v)
+            fields[name][res["gidx"]] = v
+        T.release_pages(*fields.values())
+
+    task_params = {"k": k, "orient_k": orient_k, "features": params}
+    cols = max(k, kf, orient_k)
+    with T._maybe_client(options, client_info) as ci:
+        run = T.run_tiles(
+            normals_features_task, source, grid, task_params, options, ci, on_result,
+            halo0=halo0, fixed=fixed, label=label, spill_dir=spill_dir,
+            memory_per_point=8.0 * (3 * (cols + 8) + 60)
+        )  # fmt: skip
+    stitch.finish(run)
+    return stitch.normals, fields, run
