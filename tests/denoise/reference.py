@@ -120,20 +120,55 @@ def quadric_update(points, normals, idx, k_of, cos_rho, tau, max_step, sharpen=T
     return out, klass
 
 
-def plane_update(points, normals, idx, k_of, cos_rho, max_step, sigma):
+def plane_lists(normals, idx, k_of, cos_rho):
+    """Per point the first k_of[i] neighbours with n_i . n_j >= cos_rho, in table
+    order, left-aligned in an (N, K) table (-1 after them), and their counts."""
+    lists = np.full(idx.shape, -1, dtype=np.int64)
+    counts = np.zeros(len(idx), dtype=np.int64)
+    for i in range(len(idx)):
+        nb = idx[i, : k_of[i]]
+        nb = nb[normals[nb] @ normals[i] >= cos_rho]
+        lists[i, : nb.size] = nb
+        counts[i] = nb.size
+    return lists, counts
+
+
+def plane_update(points, normals, idx, k_of, cos_rho, max_step, sigma, beta=1.0):
     """Each point along its normal by the weighted least squares over the planes
-    (n_i + n_j) . (x - p_j) = 0 of its neighbours with n_i . n_j >= cos_rho."""
+    ((2 - beta) n_i + beta n_j) . (x - p_j) = 0 of its neighbours with
+    n_i . n_j >= cos_rho."""
     out = points.copy()
     for i in range(len(points)):
         nb = idx[i, : k_of[i]]
         nb = nb[normals[nb] @ normals[i] >= cos_rho]
         d = points[nb] - points[i]
         w = np.exp(-(d**2).sum(axis=1) / sigma**2)
-        m = normals[i] + normals[nb]
+        m = (2 - beta) * normals[i] + beta * normals[nb]
         g = m @ normals[i]
         a = float((w * g * g).sum())
         s = float((w * g * (m * d).sum(axis=1)).sum()) / a if a > 0 else 0.0
         out[i] = points[i] + min(max(s, -max_step), max_step) * normals[i]
+    return out
+
+
+def lonely_normals(points, normals, idx, k_of, cos_rho, min_count, sigma):
+    """Normals of points with fewer than min_count neighbours (itself included) within
+    the cut-off: the Gaussian-weighted sum of the other neighbours' normals, each
+    signed like the own one, normalised, when at least min_count of the neighbours'
+    normals (itself included) are within the cut-off of it."""
+    out = normals.copy()
+    for i in range(len(points)):
+        nb = idx[i, : k_of[i]]
+        if (normals[nb] @ normals[i] >= cos_rho).sum() >= min_count:
+            continue
+        nb = nb[1:]
+        w = np.exp(-((points[nb] - points[i]) ** 2).sum(axis=1) / sigma**2)
+        w = np.where(normals[nb] @ normals[i] < 0, -w, w)
+        v = (w[:, None] * normals[nb]).sum(axis=0)
+        if np.linalg.norm(v) > 0:
+            v = v / np.linalg.norm(v)
+            if (normals[idx[i, : k_of[i]]] @ v >= cos_rho).sum() >= min_count:
+                out[i] = v
     return out
 
 

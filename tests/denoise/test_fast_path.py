@@ -5,7 +5,11 @@ import numpy as np
 import pytest
 
 from pointatlas.denoise import _threads, _voting, add_noise, normal_voting_denoise
-from pointatlas.denoise._kernels import feature_class_kernel, plane_update_kernel
+from pointatlas.denoise._kernels import (
+    feature_class_kernel,
+    plane_lists_kernel,
+    plane_update_kernel,
+)
 from pointatlas.neighbors import query_knn
 from pointatlas.synth import cube
 from tests.denoise import reference as ref
@@ -18,6 +22,13 @@ def _blob(rng, n):
     pts = np.column_stack([uv, z]) + rng.normal(scale=0.01, size=(n, 3))
     pts[: n // 50] += rng.normal(scale=0.2, size=(n // 50, 3))  # a few far points
     return pts
+
+
+def _plane_lists(nrm, idx, k_of, cos_rho):
+    lists = np.empty_like(idx)
+    counts = np.empty(len(idx), np.int64)
+    plane_lists_kernel(nrm, idx, k_of, cos_rho, lists, counts)
+    return lists, counts
 
 
 @pytest.mark.parametrize("extra", [0, 10])
@@ -41,9 +52,16 @@ def test_plane_update_matches_reference(seed):
     idx = query_knn(pts, 16)[0]
     k_of = rng.integers(1, 17, size=300).astype(np.int64)
     out = np.empty_like(pts)
-    plane_update_kernel(pts, nrm, idx, k_of, 0.95, 0.02, 1.0 / 0.05**2, out)
+    plane_update_kernel(pts, nrm, *_plane_lists(nrm, idx, k_of, 0.95), 0.02, 1.0 / 0.05**2,
+                        1.0, out, np.empty(300))  # fmt: skip
     want = ref.plane_update(pts, nrm, idx, k_of, 0.95, 0.02, 0.05)
     np.testing.assert_allclose(out, want, atol=1e-12)
+    leaning = np.empty_like(pts)  # later rounds: (2 - beta) n_i + beta n_j
+    plane_update_kernel(pts, nrm, *_plane_lists(nrm, idx, k_of, 0.95), 0.02, 1.0 / 0.05**2,
+                        0.75, leaning, np.empty(300))  # fmt: skip
+    want = ref.plane_update(pts, nrm, idx, k_of, 0.95, 0.02, 0.05, beta=0.75)
+    np.testing.assert_allclose(leaning, want, atol=1e-12)
+    assert not np.allclose(leaning, out, atol=1e-6)
     step = np.linalg.norm(out - pts, axis=1)
     assert step.max() <= 0.02 + 1e-15 and (step > 0).any()
     assert np.allclose(np.cross(out - pts, nrm), 0.0, atol=1e-12)  # along the own normal
@@ -64,16 +82,17 @@ def test_points_on_spheres_and_cylinders_stay(shape):
     idx = query_knn(pts, 20)[0]
     k_of = np.full(2000, 20, np.int64)
     out = np.empty_like(pts)
-    plane_update_kernel(pts, nrm, idx, k_of, 0.9, 1.0, 1.0 / 0.1**2, out)
+    plane_update_kernel(pts, nrm, *_plane_lists(nrm, idx, k_of, 0.9), 1.0, 1.0 / 0.1**2, 1.0,
+                        out, np.empty(2000))  # fmt: skip
     np.testing.assert_allclose(out, pts, atol=1e-13)
-    from pointatlas.denoise._kernels import quadric_update_kernel
+    from pointatlas.denoise._sharpen import quadric_update_kernel
 
     quadric_update_kernel(pts, nrm, idx, k_of, 0.9, 0.3, 1.0, False, out, np.empty(2000, np.int64))
     assert ((out - pts) * nrm).sum(axis=1).mean() > 1e-4  # outwards
 
 
 def test_feature_classes_match_the_quadric_kernel():
-    from pointatlas.denoise._kernels import quadric_update_kernel
+    from pointatlas.denoise._sharpen import quadric_update_kernel
 
     m = cube(8)
     idx = query_knn(m.points, 12)[0]
@@ -187,6 +206,28 @@ def test_default_filter_steps_follow_the_returned_normals(monkeypatch):
     normal_voting_denoise(pts, est.normals, n_iter=2, n_update=1, refit_normals=True)
     assert len(calls) == 2
     assert given.n_iter == est.n_iter == 2
-    # the halo counts the same steps
-    assert denoise_halo(n_iter=2, n_update=1).rings == 2 * 5 + 1 + 2 + 5 + 1
-    assert denoise_halo(n_iter=2, n_update=1, estimate=True).rings == 2 * 1 + 1 + 2 + 1 + 1
+    # the halo counts the same steps (and the lonely-normal pass of each round)
+    assert denoise_halo(n_iter=2, n_update=1).rings == 2 * (5 + 1) + 1 + 2 + 5 + 1
+    assert denoise_halo(n_iter=2, n_update=1, estimate=True).rings == 2 * (1 + 1) + 1 + 2 + 1 + 1
+
+
+def test_lonely_points_take_their_neighbours_normals(monkeypatch):
+    """Points far off a plane with sideways normals have no plane within the cut-off;
+    the lonely pass gives them the plane's normal and the update pulls them back
+    (docs/decisions/denoise.md, "Lonely points"); without it they stay off."""
+    from pointatlas.synth import add_normal_noise, plane_patch
+
+    m = plane_patch(20, 20)
+    pts = add_normal_noise(m.points, m.normals, 0.2, rng=1)
+    nrm = m.normals.copy()
+    far = np.random.default_rng(0).choice(len(pts), 12, replace=False)
+    pts[far, 2] += 0.8 * np.linalg.norm(pts[1] - pts[0])
+    nrm[far] = [np.sin(np.radians(80)), 0.0, np.cos(np.radians(80))]
+    r = normal_voting_denoise(pts, nrm, n_iter=1, adaptive=False)
+    rest = np.delete(np.abs(r.points[:, 2]), far)
+    assert np.abs(r.points[far, 2]).max() <= 1.1 * rest.max()
+    assert (r.normals[far, 2] > 0.999).all()
+    monkeypatch.setattr(_voting, "LONELY_PASSES", 0)
+    off = normal_voting_denoise(pts, nrm, n_iter=1, adaptive=False)
+    assert np.abs(off.points[far, 2]).mean() > 4 * np.abs(r.points[far, 2]).mean()
+    assert (off.normals[far, 2] < 0.2).all()

@@ -9,8 +9,9 @@ from pointatlas.neighbors import query_knn
 from pointatlas.synth import add_normal_noise, plane_patch
 
 
-def _wavy(n=70, seed=0):
-    """A noisy wavy sheet: faces and crests, so filter, update and classes all act."""
+def _wavy(n=70, seed=0, lonely=False):
+    """A noisy wavy sheet: faces and crests, so filter, update and classes all act;
+    ``lonely``: 3 % of the normals turned sideways (lonely points)."""
     m = plane_patch(n, n, width=float(n), height=float(n))
     pts = m.points.copy()
     pts[:, 2] = 6.0 * np.abs(np.sin(pts[:, 0] / 9.0))  # ridges: edge points
@@ -19,7 +20,12 @@ def _wavy(n=70, seed=0):
          np.zeros(len(pts)), np.ones(len(pts))]
     )  # fmt: skip
     nrm /= np.linalg.norm(nrm, axis=1)[:, None]
-    return add_normal_noise(pts, nrm, 0.3, rng=seed), nrm
+    noisy = add_normal_noise(pts, nrm, 0.3, rng=seed)
+    if lonely:
+        nrm = nrm.copy()
+        turn = np.random.default_rng(seed).random(len(pts)) < 0.03
+        nrm[turn] = nrm[turn][:, [2, 1, 0]] * [1.0, 1.0, -1.0]
+    return noisy, nrm
 
 
 def _rings_around(table, owned, rings):
@@ -35,10 +41,12 @@ def _rings_around(table, owned, rings):
 
 
 @pytest.mark.parametrize(
-    "adaptive,n_iter,n_update,n_filter_iter", [(False, 1, 1, 1), (True, 1, 1, 1), (False, 2, 1, 1)]
-)
-def test_tile_with_the_halo_equals_untiled(adaptive, n_iter, n_update, n_filter_iter):
-    pts, nrm = _wavy()
+    "adaptive,n_iter,n_update,n_filter_iter,lonely",
+    [(False, 1, 1, 1, False), (True, 1, 1, 1, False), (False, 2, 1, 1, False),
+     (False, 2, 1, 1, True)],
+)  # fmt: skip
+def test_tile_with_the_halo_equals_untiled(adaptive, n_iter, n_update, n_filter_iter, lonely):
+    pts, nrm = _wavy(lonely=lonely)
     method = "normal-voting-adaptive" if adaptive else "normal-voting"
     halo = denoise_halo(method, n_iter=n_iter, n_update=n_update, n_filter_iter=n_filter_iter)
     assert halo.exact and halo.columns == (58 if adaptive else 48)
@@ -70,17 +78,18 @@ def test_tile_with_the_halo_equals_untiled(adaptive, n_iter, n_update, n_filter_
 
 def test_halo_counts_and_units():
     h = denoise_halo("normal-voting", n_iter=2, n_update=3)
-    # given normals: 2 rounds x 5 steps + 1 re-estimate + 2 x 3 updates + 5 final
-    # steps + classes
-    assert h == DenoiseHalo(rings=2 * 5 + 1 + 2 * 3 + 5 + 1, columns=48, exact=True)
-    assert denoise_halo("normal-voting", n_iter=2, n_update=3, n_filter_iter=1).rings == 11
-    # estimated normals: 1 step per round, the refit instead of final steps, the PCA hop
+    # given normals: 2 rounds x (5 steps + 1 lonely-normal pass) + 1 re-estimate +
+    # 2 x 3 updates + 5 final steps + classes
+    assert h == DenoiseHalo(rings=2 * 6 + 1 + 2 * 3 + 5 + 1, columns=48, exact=True)
+    assert denoise_halo("normal-voting", n_iter=2, n_update=3, n_filter_iter=1).rings == 13
+    # estimated normals: 1 step and a lonely pass per round, the refit instead of
+    # final steps, the PCA hop
     est = denoise_halo("normal-voting", n_iter=2, n_update=3, estimate=True)
-    assert est.rings == 2 * 1 + 1 + 2 * 3 + 1 + 1 and not est.exact
+    assert est.rings == 2 * 2 + 1 + 2 * 3 + 1 + 1 and not est.exact
     assert h.length(0.25) == pytest.approx(h.rings * 0.25)
     auto = denoise_halo("normal-voting-adaptive", n_iter=None)
     assert not auto.exact and auto.columns == 58
-    assert auto.rings == 4 * 5 + 3 + 4 * 12 + 5 + 1
+    assert auto.rings == 4 * 6 + 3 + 4 * 12 + 5 + 1
     assert not denoise_halo("normal-voting", n_iter=1, n_update=2, estimate=True).exact
     flat = denoise_halo("flatness", n_iter=60, k=14, schedule="decreasing")
     assert flat == DenoiseHalo(rings=60, columns=56, exact=False)

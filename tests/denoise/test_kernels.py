@@ -8,9 +8,9 @@ import pytest
 from pointatlas.denoise._flatness import flatness_step
 from pointatlas.denoise._kernels import (
     adaptive_k_kernel,
-    quadric_update_kernel,
     voting_filter_kernel,
 )
+from pointatlas.denoise._sharpen import quadric_update_kernel
 from pointatlas.neighbors import point_mesh_distance, query_knn
 from tests.denoise import reference as ref
 

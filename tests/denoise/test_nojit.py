@@ -8,11 +8,13 @@ from pointatlas.denoise._flatness import flatness_move_kernel
 from pointatlas.denoise._kernels import (
     adaptive_k_kernel,
     face_normals_kernel,
+    lonely_normals_kernel,
+    plane_lists_kernel,
     plane_update_kernel,
-    quadric_update_kernel,
     table_distances_kernel,
     voting_filter_kernel,
 )
+from pointatlas.denoise._sharpen import quadric_update_kernel
 from pointatlas.neighbors import point_mesh_distance, query_knn
 from tests.denoise import reference as ref
 from tests.jit_off import JIT_OFF, run_module_without_jit
@@ -69,9 +71,37 @@ def test_point_updates_tiny_reference():
     want, wclass = ref.quadric_update(pts, nrm, idx, k_of, 0.9, 0.1, 0.05)
     np.testing.assert_allclose(newp, want, atol=1e-9)
     assert (klass == wclass).all()
-    plane_update_kernel(pts, nrm, idx, k_of, 0.9, 0.05, 4.0, newp)
+    lists, counts = ref.plane_lists(nrm, idx, k_of, 0.9)
+    moved2 = np.empty(14)
+    plane_update_kernel(pts, nrm, lists, counts, 0.05, 4.0, 1.0, newp, moved2)
     want = ref.plane_update(pts, nrm, idx, k_of, 0.9, 0.05, 0.5)
     np.testing.assert_allclose(newp, want, atol=1e-12)
+    np.testing.assert_allclose(moved2, ((newp - pts) ** 2).sum(axis=1), rtol=1e-15)
+
+
+def test_lonely_normals_tiny_reference():
+    pts, nrm, idx = _cloud()  # five normals turned to another axis: lonely at min_count 4
+    k_of = np.full(14, 8, np.int64)
+    counts = ref.plane_lists(nrm, idx, k_of, 0.8)[1]
+    out = np.empty_like(nrm)
+    lonely_normals_kernel(pts, nrm, idx, k_of, counts, 0.8, 4, 1.0 / 0.7**2, out)
+    want = ref.lonely_normals(pts, nrm, idx, k_of, 0.8, 4, 0.7)
+    np.testing.assert_allclose(out, want, atol=1e-12)
+    lonely = counts < 4
+    assert 0 < lonely.sum() < 14 and np.array_equal(out[~lonely], nrm[~lonely])
+    assert not np.allclose(out[lonely], nrm[lonely])
+
+
+def test_plane_lists_tiny_reference():
+    pts, nrm, idx = _cloud()
+    k_of = np.arange(14, dtype=np.int64) % 8 + 1
+    lists = np.full(idx.shape, -2, dtype=np.int64)
+    counts = np.empty(14, np.int64)
+    plane_lists_kernel(nrm, idx, k_of, 0.9, lists, counts)
+    want, wcounts = ref.plane_lists(nrm, idx, k_of, 0.9)
+    assert np.array_equal(counts, wcounts) and 0 < counts.sum() < k_of.sum()
+    for i in range(14):
+        assert np.array_equal(lists[i, : counts[i]], want[i, : wcounts[i]])
 
 
 def test_face_normals_tiny_reference():
@@ -79,7 +109,7 @@ def test_face_normals_tiny_reference():
     k_of = np.full(14, 8, np.int64)
     k_of[0] = 2  # too few neighbours: the normal stays
     out = np.empty_like(nrm)
-    face_normals_kernel(pts, nrm, idx, k_of, 0.8, out)
+    face_normals_kernel(pts, nrm, *ref.plane_lists(nrm, idx, k_of, 0.8), out)
     want = ref.face_normals(pts, nrm, idx, k_of, 0.8)
     np.testing.assert_allclose(out, want, atol=1e-9)
     assert np.array_equal(out[0], nrm[0]) and not np.allclose(out, nrm)
@@ -116,4 +146,4 @@ def test_flatness_move_tiny_reference():
 @pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
 def test_kernels_without_jit():
     out = run_module_without_jit(__file__, select="tiny_reference")
-    assert "7 passed" in out, out[-500:]
+    assert "9 passed" in out, out[-500:]

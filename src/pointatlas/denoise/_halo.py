@@ -6,7 +6,7 @@ from typing import NamedTuple
 
 from .._core import as_int
 from .._core.tolerances import DENOISE_K_MAX, DENOISE_K_WIDTH
-from ._defaults import MAX_ROUNDS, MAX_UPDATES, default_filter_iter
+from ._defaults import LONELY_PASSES, MAX_ROUNDS, MAX_UPDATES, default_filter_iter
 from ._flatness import FLATNESS_SCHEDULES
 
 __all__ = ["DenoiseHalo", "denoise_halo"]
@@ -106,10 +106,11 @@ def denoise_halo(
     -----
     Normal voting (docs/decisions/denoise.md, "Tiles") reads only the input's
     neighbour table of min(48, N) columns (+10 for the adaptive k): each PCA
-    estimate, filter step, point update and the final feature classes read the
-    table's rows, so an owned point's result depends on points
-    R F + (R - 1) + R U + F + 1 hops away (R rounds, F filter steps, U updates;
-    estimated normals: R F + (R - 1) + R U + 2). Only the rows of points less than that
+    estimate, filter step, lonely-normal pass, point update and the final feature
+    classes read the table's rows, so an owned point's result depends on points
+    R (F + P) + (R - 1) + R U + F + 1 hops away (R rounds, F filter steps, P = 1
+    lonely-normal pass per round, U updates; estimated normals:
+    R (F + P) + (R - 1) + R U + 2). Only the rows of points less than that
     far are read, and their neighbours lie within the halo, so a tile's own
     exact k-NN rows serve. With ``n_iter`` or ``n_update`` None the counts are the worst
     case (4 rounds, 12 updates) and the stops are RMS tests over all points, so
@@ -124,9 +125,9 @@ def denoise_halo(
     Examples
     --------
     >>> denoise_halo("normal-voting", n_iter=1, n_update=4)
-    DenoiseHalo(rings=15, columns=48, exact=True)
+    DenoiseHalo(rings=16, columns=48, exact=True)
     >>> denoise_halo("normal-voting", n_iter=1, n_update=4).length(0.5)
-    7.5
+    8.0
     """
     if method not in _METHODS:
         raise ValueError(f"method must be one of {', '.join(_METHODS)}; got {method!r}")
@@ -153,6 +154,6 @@ def denoise_halo(
     hops = 0
     if rounds:  # estimated normals: refitted (one hop, beside the classes) instead of F steps
         final = 0 if estimate else steps
-        hops = rounds * steps + (rounds - 1) + rounds * updates + final + 1
+        hops = rounds * (steps + LONELY_PASSES) + (rounds - 1) + rounds * updates + final + 1
     hops += int(bool(estimate))
     return DenoiseHalo(rings=hops, columns=columns, exact=exact)

@@ -7,7 +7,8 @@ validate. The 3 x 3 eigensolvers are the shared ones of
 ``pointatlas.normals._kernels.eig3`` (also used by the features room).
 Plain-numpy references live in ``tests/denoise/reference.py``. The point-to-mesh
 distance is ``pointatlas.neighbors.point_mesh_distance``, the thread rule in
-``_threads.py``, the flatness step's kernel in ``_flatness.py``.
+``_threads.py``, the flatness step's kernel in ``_flatness.py``, the restricted quadric
+update (``sharpen=True``) in ``_sharpen.py``.
 """
 
 from __future__ import annotations
@@ -19,7 +20,6 @@ from numba import njit, prange
 
 from ..features._kernels.covariance import add_moments
 from ..normals._kernels.eig3 import (
-    eig3_jacobi,
     eigh3_accurate,
     lanes_stage1,
     lanes_stage2,
@@ -33,8 +33,9 @@ __all__ = [
     "adaptive_k_kernel",
     "face_normals_kernel",
     "feature_class_kernel",
+    "lonely_normals_kernel",
+    "plane_lists_kernel",
     "plane_update_kernel",
-    "quadric_update_kernel",
     "table_distances_kernel",
     "voting_filter_kernel",
 ]
@@ -233,14 +234,14 @@ def voting_filter_kernel(normals, idx, k_of, use_cut, cos_rho, tau, out):
         for kk in range(k_of[i]):
             j = idx[i, kk]
             a, b, c = normals[j, 0], normals[j, 1], normals[j, 2]
-            if cut and nx * a + ny * b + nz * c < cos_rho:
-                continue
-            t00 += a * a
-            t01 += a * b
-            t02 += a * c
-            t11 += b * b
-            t12 += b * c
-            t22 += c * c
+            # branch-free (the cut-off is unpredictable); w 0 adds a zero: same sums
+            w = 1.0 if not cut or nx * a + ny * b + nz * c >= cos_rho else 0.0
+            t00 += w * (a * a)
+            t01 += w * (a * b)
+            t02 += w * (a * c)
+            t11 += w * (b * b)
+            t12 += w * (b * c)
+            t22 += w * (c * c)
         x, y, z = _voted_normal(t00, t01, t02, t11, t12, t22, nx, ny, nz, tau)
         length = math.sqrt(x * x + y * y + z * z)
         if length > 1e-12:
@@ -290,39 +291,126 @@ def feature_class_kernel(normals, idx, k_of, tau, klass):
 
 
 @njit(parallel=True, cache=True)
-def plane_update_kernel(points, normals, idx, k_of, cos_rho, max_step, inv_sigma2, out):
+def plane_lists_kernel(normals, idx, k_of, cos_rho, lists, counts):
+    """The neighbours whose planes count, per point: the first ``k_of[i]`` of row i
+    of ``idx`` with n_i . n_j >= cos_rho, in table order, into ``lists[i, :counts[i]]``.
+
+    Within a round the normals are fixed, so one call serves every update and the
+    refit (`plane_update_kernel`, `face_normals_kernel`); branch-free (the cut-off
+    is unpredictable, docs/decisions/denoise.md, "Speed").
+
+    Parameters
+    ----------
+    normals : (N, 3) float64, unit (filtered)
+    idx : (N, K) int64
+    k_of : (N,) int64, <= K
+    cos_rho : float
+    lists : (N, K) int64, out (entries past ``counts[i]`` are scratch)
+    counts : (N,) int64, out
+    """
+    for i in prange(normals.shape[0]):
+        nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+        m = 0
+        for c in range(k_of[i]):
+            j = idx[i, c]
+            lists[i, m] = j
+            m += nx * normals[j, 0] + ny * normals[j, 1] + nz * normals[j, 2] >= cos_rho
+        counts[i] = m
+
+
+@njit(parallel=True, cache=True)
+def lonely_normals_kernel(points, normals, idx, k_of, counts, cos_rho, min_count, inv_sigma2,
+                          out):  # fmt: skip
+    """Normals of points with fewer than ``min_count`` planes, replaced by their neighbours'.
+
+    A point whose normal is within the cut-off of fewer than ``min_count`` of its
+    first ``k_of[i]`` neighbours (``counts`` from `plane_lists_kernel`, the point
+    itself counted) has no face to stand on: mostly a point far off the surface
+    with a wild PCA normal. Its normal becomes the normalised sum of
+    w_ij s_ij n_j over its other neighbours, w_ij = exp(-|p_j - p_i|^2 inv_sigma2),
+    s_ij = +-1 signing n_j like n_i, when that direction is within the cut-off of
+    at least ``min_count`` of the neighbours' normals (the point then has a face;
+    at a clean corner or a thin edge the blend has none and n_i stays); every other
+    normal is copied (docs/decisions/denoise.md, "Lonely points").
+
+    Parameters
+    ----------
+    points : (N, 3) float64
+    normals : (N, 3) float64, unit
+    idx : (N, K) int64
+    k_of, counts : (N,) int64
+    cos_rho : float
+    min_count : int
+    inv_sigma2 : float
+    out : (N, 3) float64, out (unit)
+    """
+    for i in prange(points.shape[0]):
+        nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+        out[i, 0], out[i, 1], out[i, 2] = nx, ny, nz
+        if counts[i] >= min_count:
+            continue
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        sx = sy = sz = 0.0
+        for c in range(1, k_of[i]):
+            j = idx[i, c]
+            dx, dy, dz = points[j, 0] - px, points[j, 1] - py, points[j, 2] - pz
+            w = math.exp(-(dx * dx + dy * dy + dz * dz) * inv_sigma2)
+            a, b, cc = normals[j, 0], normals[j, 1], normals[j, 2]
+            if a * nx + b * ny + cc * nz < 0.0:
+                w = -w
+            sx += w * a
+            sy += w * b
+            sz += w * cc
+        length = math.sqrt(sx * sx + sy * sy + sz * sz)
+        if not length > 0.0:
+            continue
+        vx, vy, vz = sx / length, sy / length, sz / length
+        support = 0
+        for c in range(k_of[i]):
+            j = idx[i, c]
+            support += vx * normals[j, 0] + vy * normals[j, 1] + vz * normals[j, 2] >= cos_rho
+        if support >= min_count:
+            out[i, 0], out[i, 1], out[i, 2] = vx, vy, vz
+
+
+@njit(parallel=True, cache=True)
+def plane_update_kernel(points, normals, lists, counts, max_step, inv_sigma2, beta, out, moved2):
     """Move every point along its own normal onto its neighbours' tangent planes.
 
     x_i = p_i + s n_i with s minimising sum_j w_ij (m_ij . (p_i + s n_i - p_j))^2
-    over the first ``k_of[i]`` neighbours with n_i . n_j >= cos_rho, where
-    m_ij = n_i + n_j (the symmetric form: on a sphere or a cylinder
-    (n_i + n_j) . (p_j - p_i) = 0 exactly, so points on them stay, while the
-    one-sided n_j form pushes convex parts out by about |p_j - p_i|^2 / 2r) and
-    w_ij = exp(-|p_j - p_i|^2 inv_sigma2). |s| is clipped to ``max_step``; s = 0
-    when no plane constrains it.
+    over the neighbours ``lists[i, :counts[i]]`` (those with n_i . n_j >= rho,
+    `plane_lists_kernel`), where m_ij = (2 - beta) n_i + beta n_j and
+    w_ij = exp(-|p_j - p_i|^2 inv_sigma2). beta = 1 is the symmetric form n_i + n_j
+    (on a sphere or a cylinder (n_i + n_j) . (p_j - p_i) = 0 exactly, so points on
+    them stay, while the one-sided n_j form, beta = 2, pushes convex parts out by
+    about |p_j - p_i|^2 / 2r); beta < 1 leans on the own normal, which trades a
+    slight shrinking for less of the neighbours' normal noise (later rounds,
+    docs/decisions/denoise.md). |s| is clipped to ``max_step``; s = 0 when no plane
+    constrains it. ``moved2[i]`` = |x_i - p_i|^2 (the automatic stop's RMS).
 
     Parameters
     ----------
     points : (N, 3) float64
     normals : (N, 3) float64, unit (filtered)
-    idx : (N, K) int64
-    k_of : (N,) int64
-    cos_rho, max_step, inv_sigma2 : float
+    lists : (N, K) int64
+    counts : (N,) int64
+    max_step, inv_sigma2, beta : float
     out : (N, 3) float64, out (new positions)
+    moved2 : (N,) float64, out
     """
+    own = 2.0 - beta
     for i in prange(points.shape[0]):
         nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
         px, py, pz = points[i, 0], points[i, 1], points[i, 2]
         a = 0.0
         b = 0.0
-        for c in range(k_of[i]):
-            j = idx[i, c]
-            ax, ay, az = normals[j, 0], normals[j, 1], normals[j, 2]
-            if nx * ax + ny * ay + nz * az < cos_rho:
-                continue
+        for c in range(counts[i]):
+            j = lists[i, c]
             dx, dy, dz = points[j, 0] - px, points[j, 1] - py, points[j, 2] - pz
             w = math.exp(-(dx * dx + dy * dy + dz * dz) * inv_sigma2)
-            mx, my, mz = nx + ax, ny + ay, nz + az
+            mx = own * nx + beta * normals[j, 0]
+            my = own * ny + beta * normals[j, 1]
+            mz = own * nz + beta * normals[j, 2]
             g = mx * nx + my * ny + mz * nz
             a += w * g * g
             b += w * g * (mx * dx + my * dy + mz * dz)
@@ -331,140 +419,8 @@ def plane_update_kernel(points, normals, idx, k_of, cos_rho, max_step, inv_sigma
         out[i, 0] = px + s * nx
         out[i, 1] = py + s * ny
         out[i, 2] = pz + s * nz
-
-
-@njit(parallel=True, cache=True)
-def quadric_update_kernel(points, normals, idx, k_of, cos_rho, tau, max_step, sharpen, out, klass):
-    """Restricted quadric point update ([YRS+18] stages 2-3 as reconstructed).
-
-    Stage 2: ``klass[i]`` as in `feature_class_kernel`. Stage 3 (``sharpen``; else
-    every point is treated as a face point, moving along its own normal only): p_i
-    moves by x = D s, D = n_i (face) or the dominant eigenvectors (edge: two;
-    corner: all), minimising sum_j w_j (n_j . (p_i + x - p_j))^2 with
-    w_j = [n_i . n_j >= cos_rho] for faces and w_j = [|n_j . d_q| >= cos_rho for a
-    dominant d_q] otherwise (a bevel normal, e.g. the bisector at a mesh edge,
-    casts no plane); the solve drops directions whose eigenvalue is below 1e-6 of
-    the largest, and |x| is clipped to ``max_step``.
-
-    Parameters
-    ----------
-    points : (N, 3) float64
-    normals : (N, 3) float64, unit (filtered)
-    idx : (N, K) int64
-    k_of : (N,) int64
-    cos_rho, tau, max_step : float
-    sharpen : bool
-    out : (N, 3) float64, out (new positions)
-    klass : (N,) int64, out
-    """
-    n = points.shape[0]
-    for i in prange(n):
-        kk = k_of[i]
-        m, t00, t01, t02, t11, t12, t22 = _class_tensor(normals, idx, i, kk, tau)
-        klass[i] = m
-        if sharpen and m > 1:
-            x0, x1, x2 = _feature_move(points, normals, idx, i, kk, m, cos_rho,
-                                       t00, t01, t02, t11, t12, t22)  # fmt: skip
-        else:
-            x0, x1, x2 = _normal_move(points, normals, idx, i, kk, cos_rho)
-        length = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
-        scale = 1.0
-        if length > max_step:
-            scale = max_step / length
-        out[i, 0] = points[i, 0] + scale * x0
-        out[i, 1] = points[i, 1] + scale * x1
-        out[i, 2] = points[i, 2] + scale * x2
-
-
-@njit(cache=True)
-def _normal_move(points, normals, idx, i, kk, cos_rho):
-    """Face move x = s n_i minimising sum_j (n_j . (p_i + s n_i - p_j))^2 over the
-    first ``kk`` neighbours with n_i . n_j >= cos_rho (zero when no plane constrains s).
-    """
-    nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
-    a = 0.0
-    b = 0.0
-    for c in range(kk):
-        j = idx[i, c]
-        g = nx * normals[j, 0] + ny * normals[j, 1] + nz * normals[j, 2]
-        if g < cos_rho:
-            continue
-        off = (
-            normals[j, 0] * (points[i, 0] - points[j, 0])
-            + normals[j, 1] * (points[i, 1] - points[j, 1])
-            + normals[j, 2] * (points[i, 2] - points[j, 2])
-        )
-        a += g * g
-        b -= g * off
-    s = b / a if a > 0.0 else 0.0
-    return s * nx, s * ny, s * nz
-
-
-@njit(cache=True)
-def _feature_move(points, normals, idx, i, kk, m, cos_rho, t00, t01, t02, t11, t12, t22):
-    """Edge/corner move x = D s, D the m dominant eigenvectors of the voting tensor T.
-
-    Minimises sum_j (n_j . (p_i + x - p_j))^2 over neighbours whose normal is within
-    arccos(cos_rho) of a dominant direction (up to sign); the solve drops directions
-    whose eigenvalue is below 1e-6 of the largest.
-    """
-    t = np.empty((3, 3))
-    t[0, 0], t[0, 1], t[0, 2] = t00, t01, t02
-    t[1, 0], t[1, 1], t[1, 2] = t01, t11, t12
-    t[2, 0], t[2, 1], t[2, 2] = t02, t12, t22
-    scratch = np.empty((3, 3))
-    lam = np.empty(3)
-    vec = np.empty((3, 3))
-    eig3_jacobi(t, scratch, lam, vec)  # descending
-    d = np.empty((3, m))
-    for c in range(m):
-        for r in range(3):
-            d[r, c] = vec[r, c]
-    a = np.zeros((m, m))
-    b = np.zeros(m)
-    g = np.zeros(m)
-    for c in range(kk):
-        j = idx[i, c]
-        aligned = False
-        for q in range(m):
-            g[q] = d[0, q] * normals[j, 0] + d[1, q] * normals[j, 1] + d[2, q] * normals[j, 2]
-            if abs(g[q]) >= cos_rho:
-                aligned = True
-        if not aligned:
-            continue
-        off = 0.0
-        for r in range(3):
-            off += normals[j, r] * (points[i, r] - points[j, r])
-        for q in range(m):
-            b[q] -= g[q] * off
-            for s in range(m):
-                a[q, s] += g[q] * g[s]
-    a3 = np.zeros((3, 3))
-    for q in range(m):
-        for s in range(m):
-            a3[q, s] = a[q, s]
-    mu = np.empty(3)
-    w = np.empty((3, 3))
-    eig3_jacobi(a3, scratch, mu, w)  # descending
-    # the zero padding stays exact (Jacobi never rotates a zero row), so the padded
-    # directions carry eigenvalue 0 and are dropped below
-    s_vec = np.zeros(m)
-    if mu[0] > 0.0:
-        for e in range(3):
-            if mu[e] > 1e-6 * mu[0]:
-                proj = 0.0
-                for q in range(m):
-                    proj += w[q, e] * b[q]
-                for q in range(m):
-                    s_vec[q] += w[q, e] * proj / mu[e]
-    x0 = 0.0
-    x1 = 0.0
-    x2 = 0.0
-    for q in range(m):
-        x0 += d[0, q] * s_vec[q]
-        x1 += d[1, q] * s_vec[q]
-        x2 += d[2, q] * s_vec[q]
-    return x0, x1, x2
+        dx, dy, dz = out[i, 0] - px, out[i, 1] - py, out[i, 2] - pz
+        moved2[i] = dx * dx + dy * dy + dz * dz
 
 
 # --------------------------------------------------------------------------- neighbourhoods
@@ -498,22 +454,21 @@ def table_distances_kernel(points, idx, out):
 
 
 @njit(parallel=True, cache=True)
-def face_normals_kernel(points, normals, idx, k_of, cos_rho, out):
+def face_normals_kernel(points, normals, lists, counts, out):
     """PCA normal of each point's face: the neighbours that share its filtered normal.
 
-    Over the first ``k_of[i]`` neighbours j with n_i . n_j >= cos_rho (the planes
-    the point update used), the eigenvector of the least eigenvalue of their
-    covariance about their barycentre, signed like n_i. Fewer than three such
-    neighbours, or a covariance whose two smallest eigenvalues coincide (no plane),
-    keep n_i.
+    Over the neighbours ``lists[i, :counts[i]]`` (those with n_i . n_j >= rho, the
+    planes the point update used, `plane_lists_kernel`), the eigenvector of the
+    least eigenvalue of their covariance about their barycentre, signed like n_i.
+    Fewer than three such neighbours, or a covariance whose two smallest
+    eigenvalues coincide (no plane), keep n_i.
 
     Parameters
     ----------
     points : (N, 3) float64
     normals : (N, 3) float64, unit (filtered)
-    idx : (N, K) int64
-    k_of : (N,) int64
-    cos_rho : float
+    lists : (N, K) int64
+    counts : (N,) int64
     out : (N, 3) float64, out (unit)
     """
     for i in prange(points.shape[0]):
@@ -523,10 +478,8 @@ def face_normals_kernel(points, normals, idx, k_of, cos_rho, out):
         cnt = 0
         s0 = s1 = s2 = 0.0
         c00 = c01 = c02 = c11 = c12 = c22 = 0.0
-        for c in range(k_of[i]):
-            j = idx[i, c]
-            if nx * normals[j, 0] + ny * normals[j, 1] + nz * normals[j, 2] < cos_rho:
-                continue
+        for c in range(counts[i]):
+            j = lists[i, c]
             y0, y1, y2 = points[j, 0] - px, points[j, 1] - py, points[j, 2] - pz
             cnt, s0, s1, s2, c00, c01, c02, c11, c12, c22 = add_moments(
                 1, y0, y1, y2, cnt, s0, s1, s2, c00, c01, c02, c11, c12, c22

@@ -13,17 +13,26 @@ from .._core.tolerances import (
 )
 from ..neighbors import mean_spacing, query_knn
 from ..normals import estimate_normals, orient_normals
-from ._defaults import MAX_ROUNDS, MAX_UPDATES, default_filter_iter
+from ._defaults import (
+    LONELY_PASSES,
+    LONELY_PLANES,
+    LONELY_SIGMA,
+    MAX_ROUNDS,
+    MAX_UPDATES,
+    default_filter_iter,
+)
 from ._kernels import (
     adaptive_k_kernel,
     face_normals_kernel,
     feature_class_kernel,
+    lonely_normals_kernel,
+    plane_lists_kernel,
     plane_update_kernel,
-    quadric_update_kernel,
     table_distances_kernel,
     voting_filter_kernel,
 )
 from ._result import DenoiseResult, NormalFilterResult
+from ._sharpen import quadric_update_kernel
 from ._threads import threads_for
 
 __all__ = [
@@ -70,6 +79,9 @@ POINT_RADIUS_FACTOR = 3.5
 #: PCA neighbours of the normals of later rounds (at least; the moved points are
 #: smoother, a wider fit helps curved parts; docs/decisions/denoise.md)
 LATER_NORMAL_K = 30
+#: the update's plane normal (2 - beta) n_i + beta n_j in later rounds (1 in the
+#: first: the symmetric form; docs/decisions/denoise.md, "Later rounds' planes")
+PLANE_BETA_LATER = 0.75
 
 
 def _check_common(points, normals, rho, tau, radius_factor, *, optional=False):
@@ -297,9 +309,12 @@ def filter_normals(
     )
 
 
-def _updates(cur, nrm, idx, k_def, *, rho, tau, step, sigma, stop, n_update, sharpen):
+def _updates(cur, nrm, idx, k_def, lists, counts, *, rho, tau, step, sigma, beta, stop,
+             n_update, sharpen):  # fmt: skip
     """Point updates of one round with fixed normals and neighbours (Jacobi).
 
+    ``lists``/``counts``: the planes of each point (`plane_lists_kernel` on ``nrm``);
+    ``beta`` the plane normal's share of the neighbour's normal (`plane_update_kernel`).
     ``n_update`` None: until one update moves the points by an RMS below
     ``stop``, at most MAX_UPDATES (``step``, ``sigma`` and ``stop`` in the
     input's units). Returns the new positions.
@@ -307,17 +322,35 @@ def _updates(cur, nrm, idx, k_def, *, rho, tau, step, sigma, stop, n_update, sha
     n = cur.shape[0]
     nxt = np.empty_like(cur)
     klass = np.empty(n, dtype=np.int64)
+    moved2 = np.empty(n)
     inv_sigma2 = 1.0 / (sigma * sigma) if sigma > 0.0 else 0.0
     for _ in range(MAX_UPDATES if n_update is None else n_update):
         if sharpen:
             quadric_update_kernel(cur, nrm, idx, k_def, rho, tau, step, True, nxt, klass)
+            moved2 = ((nxt - cur) ** 2).sum(axis=1)
         else:
-            plane_update_kernel(cur, nrm, idx, k_def, rho, step, inv_sigma2, nxt)
-        moved = float(np.sqrt(((nxt - cur) ** 2).sum(axis=1).mean()))
+            plane_update_kernel(cur, nrm, lists, counts, step, inv_sigma2, beta, nxt, moved2)
+        moved = float(np.sqrt(moved2.mean()))
         cur, nxt = nxt, cur
         if n_update is None and moved < stop:
             break
     return cur
+
+
+def _planes(cur, nrm, idx, k_def, lists, counts, rho, ell):
+    """The planes of a round: ``lists``/``counts`` (`plane_lists_kernel`) after
+    LONELY_PASSES passes of `lonely_normals_kernel` (points with fewer than
+    LONELY_PLANES planes take their neighbours' normals, Gaussian weights of
+    LONELY_SIGMA l); returns the normals the planes were built from."""
+    plane_lists_kernel(nrm, idx, k_def, rho, lists, counts)
+    inv_sigma2 = 1.0 / (LONELY_SIGMA * ell) ** 2
+    for _ in range(LONELY_PASSES):
+        fixed = np.empty_like(nrm)
+        lonely_normals_kernel(cur, nrm, idx, k_def, counts, rho, LONELY_PLANES, inv_sigma2,
+                              fixed)  # fmt: skip
+        nrm = fixed
+        plane_lists_kernel(nrm, idx, k_def, rho, lists, counts)
+    return nrm
 
 
 def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filter_iter,
@@ -325,7 +358,7 @@ def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filte
     """The rounds of `normal_voting_denoise`, then the returned normals and classes.
 
     The returned normals: ``n_filter_iter`` more filter steps on the final
-    positions, or with ``refit`` (estimated normals) the last filtered normals
+    positions, or with ``refit`` (estimated normals) the last round's normals
     refitted to the points of each point's face (`face_normals_kernel`).
 
     Returns (points, normals, k, is_fallback, feature_class, rounds run).
@@ -337,6 +370,8 @@ def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filte
     klass = np.zeros(n, dtype=np.int64)
     ran = 0
     later_k = max(normal_k, min(LATER_NORMAL_K, n))
+    lists = np.empty_like(idx)
+    counts = np.empty(n, dtype=np.int64)
     for ran in range(1, rounds + 1):
         if ran > 1:  # PCA normals of the moved points, signed like the last ones
             nrm = _estimated_normals(cur, table, later_k, like=nrm)
@@ -344,11 +379,13 @@ def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filte
             cur, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_filter_iter, adaptive=adaptive,
             progress=progress,
         )  # fmt: skip
+        nrm = _planes(cur, nrm, idx, k_def, lists, counts, rho, ell)  # this round's planes
         sigma = (UPDATE_SIGMA if ran == 1 else UPDATE_SIGMA_LATER) * ell
         start = cur
-        cur = _updates(cur.copy(), nrm, idx, k_def, rho=rho, tau=tau, step=max_step * ell,
-                       sigma=sigma, stop=UPDATE_STOP * ell, n_update=n_update,
-                       sharpen=sharpen)  # fmt: skip
+        cur = _updates(cur.copy(), nrm, idx, k_def, lists, counts, rho=rho, tau=tau,
+                       step=max_step * ell, sigma=sigma,
+                       beta=1.0 if ran == 1 else PLANE_BETA_LATER, stop=UPDATE_STOP * ell,
+                       n_update=n_update, sharpen=sharpen)  # fmt: skip
         moved = float(np.sqrt(((cur - start) ** 2).sum(axis=1).mean()))
         if auto and moved <= ROUND_MOVE * ell:
             break
@@ -361,7 +398,7 @@ def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filte
         feature_class_kernel(nrm, idx, k_def, tau, klass)
     if ran and refit:  # estimated normals: each point's plane fitted to its face's points
         face = np.empty_like(nrm)
-        face_normals_kernel(cur, nrm, idx, k_def, rho, face)
+        face_normals_kernel(cur, nrm, lists, counts, face)  # the last round's planes
         nrm = face
     return cur, nrm, k_of, fallback, klass, ran
 
@@ -439,8 +476,8 @@ def normal_voting_denoise(
     Returns
     -------
     result : DenoiseResult
-        ``normals`` the returned normals, ``feature_class`` from the filtered
-        ones, ``n_iter`` the rounds run, ``energy`` NaN, ``spacing`` l.
+        ``normals`` the returned normals, ``feature_class`` from the last
+        round's, ``n_iter`` the rounds run, ``energy`` NaN, ``spacing`` l.
 
     Raises
     ------
@@ -457,8 +494,8 @@ def normal_voting_denoise(
     x_i = p_i + s n_i minimising sum_j w_ij ((n_i + n_j) . (x_i - p_j))^2 over
     neighbours with n_i . n_j >= rho, w_ij Gaussian in |p_j - p_i| (1 l; 1.5 l
     after the first round), |s| <= max_step l (n_i + n_j keeps spheres and
-    cylinders in place). Later rounds start from PCA normals of the moved
-    points. Classes: eigenvalues >= tau of the voting tensor (face, edge, corner).
+    cylinders in place); a point with < 5 such neighbours takes their normals.
+    Later rounds: PCA normals of moved points, planes 1.25 n_i + 0.75 n_j.
 
     Examples
     --------
