@@ -226,15 +226,7 @@ def cell_coords(key, ny, nz):
 @njit(cache=True, inline="always")
 def lower_bound(a, x):
     """First position in the sorted ``a`` whose value is >= x."""
-    lo = 0
-    hi = a.shape[0]
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        if a[mid] < x:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
+    return _lower_bound_in(a, 0, a.shape[0], x)
 
 
 @njit(cache=True)

@@ -431,6 +431,29 @@ def knn_grid(
 # ------------------------------------------------------------------- k-d tree path
 
 
+@njit(cache=True, inline="always")
+def _offer(pts, j, qx, qy, qz, bd, bi):
+    """Point ``j`` into the best list (bd, bi) of the query at (qx, qy, qz) when it
+    beats the list's last by (squared distance, index)."""
+    dx = pts[j, 0] - qx
+    dy = pts[j, 1] - qy
+    dz = pts[j, 2] - qz
+    d2 = dx * dx + dy * dy + dz * dz
+    m = bd.shape[0]
+    if d2 < bd[m - 1] or (d2 == bd[m - 1] and j < bi[m - 1]):
+        _insert(bd, bi, d2, j)
+
+
+@njit(cache=True, inline="always")
+def _write_row(out_idx, out_d2, r, q, bd, bi):
+    """Row ``r`` of the output: the query ``q`` itself first, then its best list."""
+    out_idx[r, 0] = q
+    out_d2[r, 0] = 0.0
+    for c in range(bd.shape[0]):
+        out_idx[r, c + 1] = bi[c]
+        out_d2[r, c + 1] = bd[c]
+
+
 @njit(cache=True, parallel=True)
 def select_candidates(pts, rows, cand, last_d2, k, all_points, out_idx, out_d2, resolved):
     """Exact (d2, index) selection among k-d tree candidates.
@@ -452,19 +475,9 @@ def select_candidates(pts, rows, cand, last_d2, k, all_points, out_idx, out_d2, 
         qz = pts[q, 2]
         for c in range(cand.shape[1]):
             j = cand[r, c]
-            if j == q or j >= n:
-                continue
-            dx = pts[j, 0] - qx
-            dy = pts[j, 1] - qy
-            dz = pts[j, 2] - qz
-            d2 = dx * dx + dy * dy + dz * dz
-            if d2 < bd[m - 1] or (d2 == bd[m - 1] and j < bi[m - 1]):
-                _insert(bd, bi, d2, j)
-        out_idx[r, 0] = q
-        out_d2[r, 0] = 0.0
-        for c in range(m):
-            out_idx[r, c + 1] = bi[c]
-            out_d2[r, c + 1] = bd[c]
+            if j != q and j < n:
+                _offer(pts, j, qx, qy, qz, bd, bi)
+        _write_row(out_idx, out_d2, r, q, bd, bi)
         full = bi[m - 1] != _SENTINEL
         resolved[r] = all_points or (full and last_d2[r] * (1.0 - KDTREE_CERTIFY_RTOL) > bd[m - 1])
 
@@ -482,17 +495,9 @@ def knn_brute(pts, rows, k, out_idx, out_d2):
         qy = pts[q, 1]
         qz = pts[q, 2]
         for j in range(pts.shape[0]):
-            dx = pts[j, 0] - qx
-            dy = pts[j, 1] - qy
-            dz = pts[j, 2] - qz
-            d2 = dx * dx + dy * dy + dz * dz
-            if (d2 < bd[m - 1] or (d2 == bd[m - 1] and j < bi[m - 1])) and j != q:
-                _insert(bd, bi, d2, j)
-        out_idx[r, 0] = q
-        out_d2[r, 0] = 0.0
-        for c in range(m):
-            out_idx[r, c + 1] = bi[c]
-            out_d2[r, c + 1] = bd[c]
+            if j != q:
+                _offer(pts, j, qx, qy, qz, bd, bi)
+        _write_row(out_idx, out_d2, r, q, bd, bi)
 
 
 @njit(cache=True, parallel=True)
