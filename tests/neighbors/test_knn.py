@@ -299,3 +299,40 @@ def test_index_over_a_part_with_the_whole_centre_gives_the_whole_distances(backe
         NeighborIndex(pts, center=[0.0, np.nan, 0.0])
     with pytest.raises(ValueError, match="center must be 3 finite numbers"):
         NeighborIndex(pts, center=[0.0, 0.0])
+
+
+def _blob_with_far_points(n=3000, seed=0):
+    """A dense blob (extent 1e-9) and five points 1e3 away: no int64 grid resolves it."""
+    rng = np.random.default_rng(seed)
+    pts = rng.random((n, 3)) * 1e-9
+    pts[:5] = rng.random((5, 3)) * 1e3
+    return pts
+
+
+def test_auto_takes_the_tree_where_the_grid_cannot_refine():
+    from pointatlas.neighbors._grid import grid_too_coarse, knn_grid_for, knn_target
+
+    pts = _blob_with_far_points()
+    centred = pts - 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+    assert grid_too_coarse(knn_grid_for(centred, 20), 32.0 * knn_target(20))
+    auto = query_knn(pts, 20)
+    tree = query_knn(pts, 20, backend="kdtree")
+    grid = query_knn(pts, 20, backend="grid")
+    for a, b in zip(auto, tree, strict=True):
+        assert np.array_equal(a, b)
+    for a, b in zip(auto, grid, strict=True):
+        assert np.array_equal(a, b)
+
+
+def test_exact_duplicates_stay_on_the_grid():
+    from pointatlas.neighbors._grid import grid_too_coarse, knn_grid_for, knn_target
+
+    rng = np.random.default_rng(1)
+    pts = rng.random((3000, 3))
+    pts[:1500] = 0.5  # half the points at one position: the grid's case, not the tree's
+    centred = pts - 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+    assert not grid_too_coarse(knn_grid_for(centred, 20), 32.0 * knn_target(20))
+    auto = query_knn(pts, 20)
+    tree = query_knn(pts, 20, backend="kdtree")
+    for a, b in zip(auto, tree, strict=True):
+        assert np.array_equal(a, b)

@@ -144,6 +144,26 @@ def knn_target(k: int) -> float:
     return max(2.0, half, min(half + 4.0, 16.0))
 
 
+def grid_too_coarse(grid: Grid, limit: float) -> bool:
+    """Whether ``grid``'s point-weighted occupancy, counting each distinct position of
+    a cell once, exceeds ``limit`` (docs/decisions/neighbors.md, "Backends").
+
+    The plain occupancy W = sum_c n_c**2 / N is checked first (O(cells)); only above
+    ``limit`` are the cells' distinct positions counted (one sort of the points).
+    """
+    counts = np.diff(grid.cstart).astype(np.float64)
+    n = max(int(grid.ids.size), 1)
+    if float(counts @ counts) / n <= limit:
+        return False
+    cell = np.repeat(np.arange(counts.size, dtype=np.int64), np.diff(grid.cstart))
+    order = np.lexsort((grid.zs, grid.ys, grid.xs, cell))
+    c, x, y, z = cell[order], grid.xs[order], grid.ys[order], grid.zs[order]
+    new = np.ones(c.size, dtype=bool)
+    new[1:] = (c[1:] != c[:-1]) | (x[1:] != x[:-1]) | (y[1:] != y[:-1]) | (z[1:] != z[:-1])
+    distinct = np.bincount(c[new], minlength=counts.size).astype(np.float64)
+    return float(distinct @ distinct) / n > limit
+
+
 def knn_grid_for(pts: np.ndarray, k: int, *, max_rounds: int = 6) -> Grid:
     """A grid whose point-weighted occupancy is close to `knn_target` (k)."""
     n = pts.shape[0]

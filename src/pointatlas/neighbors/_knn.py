@@ -26,7 +26,14 @@ from scipy.spatial import cKDTree
 from .._core import as_float, as_k, as_points, readonly
 from .._core.tolerances import RADIUS_QUERY_WIDEN
 from . import _kernels as K
-from ._grid import column_index, group_queries, knn_grid_for, radius_grid_for
+from ._grid import (
+    column_index,
+    grid_too_coarse,
+    group_queries,
+    knn_grid_for,
+    knn_target,
+    radius_grid_for,
+)
 
 __all__ = ["NeighborIndex", "RadiusNeighbors", "query_knn", "query_radius"]
 
@@ -40,6 +47,14 @@ _MAX_RING = {"auto": 8, "grid": 16}
 #: Queries left by the grid up to which a scan of all points answers them (beyond, the
 #: k-d tree; its build over N points costs about as much as this many scans).
 _BRUTE_ROWS = 64
+
+#: ``"auto"`` answers every query from the k-d tree when the grid's point-weighted
+#: occupancy, counting each distinct position once, stays above this many times its
+#: target (`grid_too_coarse`): the cell size cannot shrink further (int64 cell keys
+#: over a box of extreme extent: a dense cluster with far outliers) and the block
+#: search would scan the cluster for every query. Exact duplicates stay on the grid,
+#: which handles them; the k-d tree's tie certification does not.
+_AUTO_TREE_OCCUPANCY = 32.0
 
 #: Candidate entries per k-d tree query chunk (bounds temporary memory).
 _CHUNK_ENTRIES = 1 << 22
@@ -173,6 +188,9 @@ class NeighborIndex:
         given point indices, on the grid; the rows it cannot certify within its rings
         from the k-d tree path."""
         grid = knn_grid_for(self.points_, k)
+        if self.backend == "auto" and grid_too_coarse(grid, _AUTO_TREE_OCCUPANCY * knn_target(k)):
+            rows = np.arange(self.n_points, dtype=np.int64) if queries is None else queries
+            return self._knn_kdtree(rows, k)
         if queries is None:
             qcells = np.arange(grid.ukeys.size, dtype=np.int64)
             qstart, qpos, qout = grid.cstart, np.arange(grid.ids.size, dtype=np.int64), grid.ids
