@@ -75,6 +75,17 @@ DEMO_MODEL = "fandisk"
 
 
 def _compute_normals(points, *, k: int, orient: str, orient_k: int, viewpoint, advance):
+    """Normals of ``points`` as the ``normals`` command computes them."""
+    return normals_and_table(
+        points, k=k, orient=orient, orient_k=orient_k, viewpoint=viewpoint, advance=advance
+    )[0]
+
+
+def normals_and_table(points, *, k: int, orient: str, orient_k: int, viewpoint, advance,
+                      min_cols: int = 0):  # fmt: skip
+    """PCA normals at ``k``, oriented by ``orient``, and the k-NN query they came from
+    (``(indices, distances)``, at least ``min_cols`` columns: ``features --normals``
+    computes its features from the same table)."""
     if orient not in ORIENT_METHODS:
         raise PointAtlasError(
             f"--orient must be one of {', '.join(ORIENT_METHODS)}; got {orient!r}"
@@ -90,7 +101,7 @@ def _compute_normals(points, *, k: int, orient: str, orient_k: int, viewpoint, a
         raise PointAtlasError(f"--orient-k must be at least 2; got {orient_k}")
     orient_k = min(orient_k, n)  # tiny inputs: the whole set is the neighbourhood
     graph = orient in ("mst", "outward")
-    neighbors = query_knn(points, max(k, orient_k) if graph else k)
+    neighbors = query_knn(points, max(max(k, orient_k) if graph else k, min_cols))
     unoriented = estimate_normals(points, k, neighbors=neighbors)
     advance()
     if orient == "none":
@@ -102,7 +113,18 @@ def _compute_normals(points, *, k: int, orient: str, orient_k: int, viewpoint, a
             points, unoriented, k=orient_k, method=orient, neighbors=neighbors
         )
     advance()
-    return oriented
+    return oriented, neighbors
+
+
+def read_keeping_normals(path):
+    """IN as the normals commands read it: every point, without normals, and the
+    input's own normals (when every point has one) as the field ``input_normals``."""
+    try:
+        ps = read_input(path)
+    except PointAtlasError:  # some points without a normal: nothing to keep
+        return read_input(path, with_normals=False), {}
+    ours = {} if ps.normals is None else {"input_normals": ps.normals}
+    return ps.replace(normals=None), ours
 
 
 # --------------------------------------------------------------------------- normals
@@ -154,12 +176,8 @@ def normals_command(
         params = {"k": k, "orient": orient, "orient_k": orient_k, "viewpoint": viewpoint}
         run_tiled("normals", in_path, out_path, params, tiles, report=report)
         return
-    ps = read_input(in_path, with_normals=False)
-    try:
-        reference = read_input(in_path).normals
-    except PointAtlasError:  # some points without a normal: nothing to compare with
-        reference = None
-    ours = {} if reference is None else {"input_normals": reference}
+    ps, ours = read_keeping_normals(in_path)
+    reference = ours.get("input_normals")
     check_point_output(out_path, ps.replace(normals=np.zeros((ps.n_points, 3)) + 1.0), ours)
     t0 = time.perf_counter()
     with progress_bar("normals", total=2) as advance:

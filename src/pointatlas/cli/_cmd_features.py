@@ -243,12 +243,9 @@ def _weights_with_normals(weights: str, estimate: bool) -> str:
 def _read_for_normals(input_path, output):
     """IN for ``--normals``: every point (as `normals` reads it), the input's normals
     kept as ``input_normals``; OUT checked for them, the normals and the features."""
-    ps = read_input(input_path, with_normals=False)
-    try:
-        given = read_input(input_path).normals
-    except PointAtlasError:  # some points without a normal: nothing to keep
-        given = None
-    ours = {} if given is None else {"input_normals": given}
+    from ._cmd_core import read_keeping_normals
+
+    ps, ours = read_keeping_normals(input_path)
     n = ps.n_points
     check_point_output(output, ps.replace(normals=np.ones((n, 3))), {**ours, **_placeholder(n)})
     return ps, ours
@@ -270,16 +267,15 @@ def _read_for(input_path, output, estimate: bool, k, k_range):
 def _normals_and_table(ps, k: int, kf: int):
     """MST-oriented PCA normals at ``k`` (orientation graph k = 10, as `normals`) and
     the k-NN table they share with the features (``kf`` columns at least)."""
-    from ..neighbors import query_knn
-    from ..normals import estimate_normals, orient_normals
+    from ._cmd_core import normals_and_table
 
     n = ps.n_points
     if k < 3 or k > n or kf > n:
         raise PointAtlasError(f"--k must lie in [3, number of points = {n}]; got {max(k, kf)}")
-    orient_k = min(10, n)
-    table, _ = query_knn(ps.points, max(k, orient_k, kf))
-    normals = estimate_normals(ps.points, k, neighbors=table)
-    normals = orient_normals(ps.points, normals, k=orient_k, method="mst", neighbors=table)
+    normals, (table, _) = normals_and_table(
+        ps.points, k=k, orient="mst", orient_k=10, viewpoint=None, advance=lambda: None,
+        min_cols=kf,
+    )  # fmt: skip
     return ps.replace(normals=normals), table
 
 
