@@ -336,3 +336,25 @@ def test_exact_duplicates_stay_on_the_grid():
     tree = query_knn(pts, 20, backend="kdtree")
     for a, b in zip(auto, tree, strict=True):
         assert np.array_equal(a, b)
+
+
+def test_kdtree_holds_each_position_once():
+    # 30,000 copies of one point: one tree entry, so every query takes k candidates
+    # of it (the copies' selection was quadratic in their number); same rows as the
+    # grid and the reference's order (ties by index)
+    rng = np.random.default_rng(3)
+    pts = np.concatenate([np.zeros((30_000, 3)), rng.random((500, 3)), np.zeros((7, 3))])
+    index = NeighborIndex(pts, backend="kdtree")
+    tree, gptr, gmem = index._tree_entries()
+    assert tree.n == gptr.size - 1 == 501
+    assert np.array_equal(np.sort(gmem), np.arange(pts.shape[0]))
+    for k in (2, 20):
+        got = index.knn(k)
+        grid = query_knn(pts, k, backend="grid")
+        for a, b in zip(got, grid, strict=True):
+            assert np.array_equal(a, b)
+    rows = np.array([30_500, 0, 29_999, 30_506])
+    got_idx, _ = index.knn(20, rows=rows)
+    assert got_idx[1].tolist() == list(range(20))  # a copy's neighbours: the first copies
+    assert got_idx[2].tolist() == [29_999, *range(19)]
+    assert np.array_equal(got_idx, grid[0][rows])

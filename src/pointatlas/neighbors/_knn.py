@@ -53,7 +53,7 @@ _BRUTE_ROWS = 64
 #: target (`grid_too_coarse`): the cell size cannot shrink further (int64 cell keys
 #: over a box of extreme extent: a dense cluster with far outliers) and the block
 #: search would scan the cluster for every query. Exact duplicates stay on the grid,
-#: which handles them; the k-d tree's tie certification does not.
+#: which handles them well (the k-d tree holds each position once, also fine).
 _AUTO_TREE_OCCUPANCY = 32.0
 
 #: Candidate entries per k-d tree query chunk (bounds temporary memory).
@@ -127,6 +127,7 @@ class NeighborIndex:
                 raise ValueError(f"center must be 3 finite numbers; got {center!r}")
         self.points_ = readonly(pts - self.center_)
         self._tree = None
+        self._entries = None
 
     @property
     def n_points(self) -> int:
@@ -139,6 +140,26 @@ class NeighborIndex:
         if self._tree is None:
             self._tree = cKDTree(self.points_, balanced_tree=False, compact_nodes=False)
         return self._tree
+
+    def _tree_entries(self) -> tuple[cKDTree, np.ndarray, np.ndarray]:
+        """The k-NN's k-d tree over the distinct positions and, per entry, its points
+        (CSR ``gptr``, ``gmem``; increasing index within an entry). Without exact
+        duplicates this is `tree_` with one point per entry."""
+        if self._entries is None:
+            pts = self.points_
+            n = pts.shape[0]
+            order = np.lexsort((pts[:, 2], pts[:, 1], pts[:, 0]))  # stable: by index within
+            srt = pts[order]
+            new = np.ones(n, dtype=np.bool_)
+            new[1:] = (srt[1:] != srt[:-1]).any(axis=1)
+            if new.all():
+                one = np.arange(n + 1, dtype=np.int64)
+                self._entries = (self.tree_, one, one[:n])
+            else:
+                gptr = np.append(np.flatnonzero(new), n).astype(np.int64)
+                tree = cKDTree(srt[new], balanced_tree=False, compact_nodes=False)
+                self._entries = (tree, gptr, order.astype(np.int64))
+        return self._entries
 
     def knn(self, k: int, *, rows=None) -> tuple[np.ndarray, np.ndarray]:
         """k nearest neighbours of every indexed point (or of ``rows``), itself first.
@@ -228,33 +249,38 @@ class NeighborIndex:
 
         Queries k + 1 candidates, re-selects them exactly by (d2, index) and
         doubles the candidate count for the rows whose k-th neighbour ties with
-        the first point left out (grids, duplicates) until no tie is possible.
+        the first point left out (grids) until no tie is possible. Exact
+        duplicates share one tree entry (`_tree_entries`), so a cluster of them
+        costs k candidates per query rather than its size.
         """
-        n = self.n_points
         pts = self.points_
+        tree, gptr, gmem = self._tree_entries()
+        n_entries = gptr.size - 1
         out_idx = np.empty((rows.size, k), dtype=np.int64)
         out_d2 = np.empty((rows.size, k), dtype=np.float64)
         pending = np.arange(rows.size, dtype=np.int64)
-        kk = min(k + 1, n)
+        kk = min(k + 1, n_entries)
         while pending.size:
-            all_points = kk >= n
+            all_points = kk >= n_entries
             chunk = max(1, _CHUNK_ENTRIES // kk)
             still = []
             for s in range(0, pending.size, chunk):
                 part = pending[s : s + chunk]
                 q = rows[part]
-                dist, cand = self.tree_.query(pts[q], k=kk, workers=-1)
+                dist, cand = tree.query(pts[q], k=kk, workers=-1)
                 cand = np.asarray(cand, dtype=np.int64).reshape(q.size, kk)
                 last = np.asarray(dist, dtype=np.float64).reshape(q.size, kk)[:, -1] ** 2
                 idx_p = np.empty((q.size, k), dtype=np.int64)
                 d2_p = np.empty((q.size, k), dtype=np.float64)
                 ok = np.empty(q.size, dtype=np.bool_)
-                K.select_candidates(pts, q, cand, last, k, all_points, idx_p, d2_p, ok)
+                K.select_candidates(
+                    pts, q, cand, last, k, all_points, gptr, gmem, idx_p, d2_p, ok
+                )  # fmt: skip
                 out_idx[part[ok]] = idx_p[ok]
                 out_d2[part[ok]] = d2_p[ok]
                 still.append(part[~ok])
             pending = np.concatenate(still)
-            kk = min(2 * kk, n)
+            kk = min(2 * kk, n_entries)
         return out_idx, out_d2
 
     def radius(self, radius: float) -> RadiusNeighbors:

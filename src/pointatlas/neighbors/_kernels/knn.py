@@ -455,16 +455,22 @@ def _write_row(out_idx, out_d2, r, q, bd, bi):
 
 
 @njit(cache=True, parallel=True)
-def select_candidates(pts, rows, cand, last_d2, k, all_points, out_idx, out_d2, resolved):
+def select_candidates(
+    pts, rows, cand, last_d2, k, all_points, gptr, gmem, out_idx, out_d2, resolved
+):
     """Exact (d2, index) selection among k-d tree candidates.
 
-    ``cand[r]`` are the tree's nearest candidates of ``rows[r]`` (``n`` pads
-    missing ones) and ``last_d2[r]`` the tree's largest squared distance among
-    them. A row is resolved when every point outside the candidates is
-    certainly farther than the selected (k-1)-th other point, or when the
-    candidates are all points.
+    The tree holds one entry per distinct position: entry g stands for the
+    points ``gmem[gptr[g]:gptr[g + 1]]`` (increasing index; one point each when
+    the input has no exact duplicates). ``cand[r]`` are the tree's nearest
+    entries of ``rows[r]`` (the entry count pads missing ones) and ``last_d2[r]``
+    the tree's largest squared distance among them. Of an entry only its first
+    k points can be selected (the others tie with them at larger indices), so a
+    cluster of D duplicates costs k per entry, not D. A row is resolved when
+    every point outside the candidates is certainly farther than the selected
+    (k-1)-th other point, or when the candidates are all entries.
     """
-    n = pts.shape[0]
+    n_entries = gptr.shape[0] - 1
     m = k - 1
     for r in prange(rows.shape[0]):
         q = rows[r]
@@ -474,9 +480,13 @@ def select_candidates(pts, rows, cand, last_d2, k, all_points, out_idx, out_d2, 
         qy = pts[q, 1]
         qz = pts[q, 2]
         for c in range(cand.shape[1]):
-            j = cand[r, c]
-            if j != q and j < n:
-                _offer(pts, j, qx, qy, qz, bd, bi)
+            g = cand[r, c]
+            if g < n_entries:
+                stop = min(gptr[g + 1], gptr[g] + k)
+                for t in range(gptr[g], stop):
+                    j = gmem[t]
+                    if j != q:
+                        _offer(pts, j, qx, qy, qz, bd, bi)
         _write_row(out_idx, out_d2, r, q, bd, bi)
         full = bi[m - 1] != _SENTINEL
         resolved[r] = all_points or (full and last_d2[r] * (1.0 - KDTREE_CERTIFY_RTOL) > bd[m - 1])
