@@ -404,7 +404,7 @@ def test_features_grid_nan_is_refused():
     assert_user_error(run("features", "synth:cube", "f.ply", "--a-grid-deg", "nan"), "finite")
 
 
-def test_zero_normals_are_dropped_and_counted(tmp_path):
+def test_zero_normals_are_filled_from_neighbours(tmp_path):
     from plyfile import PlyData, PlyElement
 
     from pointatlas import data
@@ -424,10 +424,25 @@ def test_zero_normals_are_dropped_and_counted(tmp_path):
         ("segment", "s.ply", []),
         ("simplify", "s.obj", ["--max-angle-deg", "20"]),
         ("features", "f.ply", []),
+        ("denoise", "d.ply", []),
     ):
         result = run(command, src, tmp_path / out, *extra)
         assert result.exit_code == 0, (command, result.output)
-        assert f"left out 2 of {n:,} points" in result.stderr, (command, result.stderr)
+        assert f"2 of {n:,} points had no usable normal" in result.stderr, (command, result.stderr)
+        if out.endswith(".ply"):  # nothing left out: every point, in the input order
+            got = read_point_set(tmp_path / out)
+            assert got.n_points == n and "source_index" not in got.attributes
+            if command != "denoise":
+                assert np.array_equal(got.points, pts)
+            if command == "features":  # the stored normals unchanged, the two filled
+                keep = np.ones(n, dtype=bool)
+                keep[[3, 7]] = False
+                assert np.allclose(got.normals[keep], nrm[keep])
+                for i in (3, 7):  # plain PCA of the 20 nearest, signed like the neighbours
+                    near = np.argsort(((pts - pts[i]) ** 2).sum(axis=1), kind="stable")[:20]
+                    ref = np.linalg.eigh(np.cov(pts[near].T))[1][:, 0]
+                    assert abs(got.normals[i] @ ref) > 1 - 1e-9
+                    assert got.normals[i] @ nrm[near].sum(axis=0) > 0
 
 
 def test_too_few_points_name_the_user_facing_option(tmp_path):

@@ -476,6 +476,48 @@ def _check_min_points(path, ps, min_points: int, what: str) -> None:
         )
 
 
+def fill_unusable_normals(path, kept, normal_k: int):
+    """The whole of IN with a normal for every point, from ``kept`` (IN read with
+    ``zero_normals="drop"``: the points whose stored normal is usable, their
+    original indices in ``source_index``).
+
+    A point without a usable normal (zero or non-finite in the file; a mesh vertex
+    on no face) gets the PCA normal of its ``normal_k`` nearest points (all points
+    of IN; at most all of them), signed like the sum of its neighbours' usable
+    normals (kept as PCA gives it when none of them has one). A note on stderr
+    gives their number. Nothing is left out: every point and attribute of IN is
+    there, in the input order (docs/decisions/cli.md).
+    """
+    from ..neighbors import NeighborIndex
+
+    full = read_input(path, with_normals=False)
+    n = full.n_points
+    if kept.n_points == 0:  # no usable normal at all: estimated as for an input without
+        return full
+    good = np.zeros(n, dtype=np.bool_)
+    good[kept.attributes["source_index"]] = True
+    normals = np.zeros((n, 3))
+    normals[good] = kept.normals
+    missing = np.flatnonzero(~good)
+    k = min(max(int(normal_k), 3), n)
+    idx, _ = NeighborIndex(full.points).knn(k, rows=missing)
+    nb = full.points[idx]  # (M, k, 3)
+    centred = nb - nb.mean(axis=1, keepdims=True)
+    cov = np.einsum("mki,mkj->mij", centred, centred)
+    pca = np.linalg.eigh(cov)[1][:, :, 0]  # eigenvector of the smallest eigenvalue
+    votes = normals[idx].sum(axis=1)  # the neighbours' usable normals (zero rows: none)
+    flip = (pca * votes).sum(axis=1) < 0.0
+    pca[flip] *= -1.0
+    normals[missing] = pca / np.linalg.norm(pca, axis=1, keepdims=True)
+    say(
+        f"note: {missing.size:,} of {n:,} points had no usable normal (zero or non-finite; "
+        f"mesh vertices on no face); they got PCA normals of their {k} nearest points, "
+        "signed like their neighbours'",
+        out=err_console,
+    )
+    return full.replace(normals=normals)
+
+
 def read_with_normals(
     path, *, estimate: bool | None = None, normal_k: int = 20, min_points: int = 1, what: str = ""
 ):
@@ -486,9 +528,9 @@ def read_with_normals(
     orientation), and a line on stderr says so. True: normals are estimated even
     when the input has some; the input's normals are kept as the attribute
     ``input_normals``. False: an input without normals is an error. Points whose
-    stored normal is unusable (zero length, NaN; mesh vertices on no face) are
-    left out with a note giving their number; the field ``source_index`` holds the
-    original indices of the kept points. An input with fewer than ``min_points``
+    stored normal is unusable (zero length, NaN; mesh vertices on no face) get one
+    from their neighbours (`fill_unusable_normals`), with a note giving their
+    number. An input with fewer than ``min_points``
     points is refused before anything is estimated (``what`` names the job).
     """
     from .._core import as_int
@@ -507,14 +549,8 @@ def read_with_normals(
             ps = ps.with_attributes(**{name: given})
     else:
         ps = read_input(path, zero_normals="drop")
-        if "source_index" in ps.attributes:  # rare: count the points left out
-            n_total = read_input(path, with_normals=False).n_points
-            say(
-                f"note: left out {n_total - ps.n_points:,} of {n_total:,} points without a "
-                "usable normal (zero or non-finite; mesh vertices on no face); the field "
-                "source_index holds the kept points' original indices",
-                out=err_console,
-            )
+        if "source_index" in ps.attributes:  # rare: some points lack a usable normal
+            ps = fill_unusable_normals(path, ps, normal_k)
         if ps.normals is not None:
             _check_min_points(path, ps, min_points, what)
             return ps

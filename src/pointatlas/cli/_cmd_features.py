@@ -38,7 +38,7 @@ from ._app import (
     app,
     console,
     demo_step,
-    err_console,
+    fill_unusable_normals,
     guarded,
     read_input,
     run_tiled,
@@ -206,16 +206,12 @@ def render_feature_pictures(
 
 
 def _read_checked(input_path, output):
-    """Read IN (points without a usable normal left out, with a note) and check that
-    OUT can hold the input's fields and ours, before computing."""
+    """Read IN (points without a usable stored normal get one from their neighbours,
+    with a note: `fill_unusable_normals`) and check that OUT can hold the input's
+    fields and ours, before computing."""
     ps = read_input(input_path, zero_normals="drop")
     if "source_index" in ps.attributes:
-        n_total = read_input(input_path, with_normals=False).n_points
-        say(
-            f"note: left out {n_total - ps.n_points:,} of {n_total:,} points without a usable "
-            "normal; the field source_index holds the kept points' original indices",
-            out=err_console,
-        )
+        ps = fill_unusable_normals(input_path, ps, 20)
     check_point_output(output, ps, _placeholder(ps.n_points))
     return ps
 
