@@ -64,8 +64,9 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--no-gudhi", action="store_true")
     args = ap.parse_args()
-    print(f"cores available: {os.cpu_count()}, numba threads: "
-          f"{__import__('numba').get_num_threads()}")
+    print(
+        f"cores available: {os.cpu_count()}, numba threads: {__import__('numba').get_num_threads()}"
+    )
     pts = noisy_sphere(args.n)
     ball_cover(pts[:1000], 1.0)  # JIT warm-up
 
@@ -74,21 +75,27 @@ def main() -> None:
         return cov, surface_report(cov.cloud_complex)
 
     t, (cov, rep) = best_of(run, args.repeat)
-    print(f"cover + complex + report, {args.n:,} points: {t:.2f} s "
-          f"({cov.n_clouds} clouds, {rep.n_faces} triangles, chi {rep.euler_characteristic}, "
-          f"closed {rep.is_closed})")
+    print(
+        f"cover + complex + report, {args.n:,} points: {t:.2f} s "
+        f"({cov.n_clouds} clouds, {rep.n_faces} triangles, chi {rep.euler_characteristic}, "
+        f"closed {rep.is_closed})"
+    )
     q = pts[: args.n_search]
     scales = np.linspace(0.5, 2.4, 20)
     t, res = best_of(lambda: search_cover_scale(q, scales), args.repeat)
-    print(f"scale search, 20 scales, {q.shape[0]:,} points: {t:.2f} s "
-          f"({res.accepted.size} accepted: {res.scales[res.accepted].round(2).tolist()})")
+    print(
+        f"scale search, 20 scales, {q.shape[0]:,} points: {t:.2f} s "
+        f"({res.accepted.size} accepted: {res.scales[res.accepted].round(2).tolist()})"
+    )
     if not args.no_gudhi:
         out = gudhi_nerve(ball_cover(q, 1.0), q.shape[0])
         if out is None:
             print("gudhi not installed: no anchor")
         else:
-            print(f"gudhi SimplexTree nerve of the same clouds, {q.shape[0]:,} points: "
-                  f"{out[0]:.2f} s (Betti {out[1]}; no surface checks)")
+            print(
+                f"gudhi SimplexTree nerve of the same clouds, {q.shape[0]:,} points: "
+                f"{out[0]:.2f} s (Betti {out[1]}; no surface checks)"
+            )
 
 
 if __name__ == "__main__":

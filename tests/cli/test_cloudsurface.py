@@ -19,8 +19,11 @@ def _run(args):
 
 def test_cloudsurface_search_writes_the_set_and_finds_a_closed_sphere(tmp_path):
     src = tmp_path / "sphere.ply"
-    write_point_set(src, fibonacci_sphere(4000).vertices,
-                    attributes={"intensity": np.arange(4000, dtype=np.uint16)})
+    write_point_set(
+        src,
+        fibonacci_sphere(4000).vertices,
+        attributes={"intensity": np.arange(4000, dtype=np.uint16)},
+    )
     out = tmp_path / "cs"
     res = _run(["cloudsurface", src, out, "--search", "0.8", "1.2", "0.2", "--no-render"])
     assert res.exit_code == 0, res.output
@@ -39,8 +42,21 @@ def test_cloudsurface_search_writes_the_set_and_finds_a_closed_sphere(tmp_path):
 
 def test_cloudsurface_from_mesh_and_deform_round_trip(tmp_path):
     out = tmp_path / "hand"
-    res = _run(["cloudsurface", "--from-mesh", "hand", out, "--model", "eta2", "--c", "1",
-                "--samples", "3", "--no-render"])
+    res = _run(
+        [
+            "cloudsurface",
+            "--from-mesh",
+            "hand",
+            out,
+            "--model",
+            "eta2",
+            "--c",
+            "1",
+            "--samples",
+            "3",
+            "--no-render",
+        ]
+    )
     assert res.exit_code == 0, res.output
     summary = json.loads((out / "report.json").read_text())
     assert summary["complex_equals_mesh"] and summary["report"]["n_boundary_loops"] == 1
@@ -48,8 +64,17 @@ def test_cloudsurface_from_mesh_and_deform_round_trip(tmp_path):
     write_mesh(tmp_path / "new.ply", m.vertices * 1.5 + 0.1, m.triangles)
     res = _run(["deform", out, tmp_path / "new.ply", tmp_path / "moved.ply"])
     assert res.exit_code == 0, res.output
-    res = _run(["deform", out, tmp_path / "new.ply", tmp_path / "back.ply", "--inverse",
-                "--points", tmp_path / "moved.ply"])
+    res = _run(
+        [
+            "deform",
+            out,
+            tmp_path / "new.ply",
+            tmp_path / "back.ply",
+            "--inverse",
+            "--points",
+            tmp_path / "moved.ply",
+        ]
+    )
     assert res.exit_code == 0, res.output
     pts = np.load(out / "cloudsurface.npz")["points"]
     back = read_point_set(tmp_path / "back.ply").points
@@ -62,8 +87,9 @@ def test_cloudsurface_curve_in_the_plane(tmp_path):
     t = np.linspace(0, 2 * np.pi, 2000, endpoint=False)
     pts = np.column_stack([3 * np.cos(t), 1.5 * np.sin(t), np.zeros_like(t)])
     write_point_set(tmp_path / "ellipse.ply", pts)
-    res = _run(["cloudsurface", tmp_path / "ellipse.ply", tmp_path / "e", "--dim", "2",
-                "--scale", "0.6"])
+    res = _run(
+        ["cloudsurface", tmp_path / "ellipse.ply", tmp_path / "e", "--dim", "2", "--scale", "0.6"]
+    )
     assert res.exit_code == 0, res.output
     summary = json.loads((tmp_path / "e" / "report.json").read_text())
     assert summary["report"]["is_one_manifold"] and summary["report"]["is_closed"]
@@ -90,15 +116,36 @@ def test_cloudsurface_offsets_at_one_scale_find_the_planar_patch(tmp_path):
 
     write_point_set(tmp_path / "plane.ply", plane_patch(65, 65, width=4.0, height=4.0).vertices)
     out = tmp_path / "p"
-    res = _run(["cloudsurface", tmp_path / "plane.ply", out, "--scale", "0.25", "--offsets",
-                "24", "--accept", "open", "--no-render"])
+    res = _run(
+        [
+            "cloudsurface",
+            tmp_path / "plane.ply",
+            out,
+            "--scale",
+            "0.25",
+            "--offsets",
+            "24",
+            "--accept",
+            "open",
+            "--no-render",
+        ]
+    )
     assert res.exit_code == 0, res.output
     summary = json.loads((out / "report.json").read_text())
     assert summary["accepted"] and summary["offset"] > 0 and summary["report"]["genus"] == 0
     assert summary["report"]["n_boundary_loops"] == 1 and (out / "search.csv").exists()
     assert summary["offset_vector"] != [0.0, 0.0, 0.0]
-    res = _run(["cloudsurface", tmp_path / "plane.ply", tmp_path / "q", "--scale", "0.25",
-                "--accept", "half"])
+    res = _run(
+        [
+            "cloudsurface",
+            tmp_path / "plane.ply",
+            tmp_path / "q",
+            "--scale",
+            "0.25",
+            "--accept",
+            "half",
+        ]
+    )
     assert res.exit_code == 1 and "--accept must be closed or open" in res.output
 
 

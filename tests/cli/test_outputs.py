@@ -90,9 +90,7 @@ def test_simplify_never_overwrites_its_input(cube_obj, tmp_path, extra):
 
 def test_two_outputs_that_are_the_same_file_are_refused(tmp_path):
     out = tmp_path / "m.obj"
-    assert_user_error(
-        run("simplify", "synth:cube", out, "--triangles", out), "are the same file"
-    )
+    assert_user_error(run("simplify", "synth:cube", out, "--triangles", out), "are the same file")
     assert not out.exists()
 
 
@@ -111,8 +109,16 @@ def test_two_outputs_that_are_the_same_file_are_refused(tmp_path):
         ["normals", "{ply}", "/nonexistent-dir/seg.ply"],
         ["segment", "{ply}", "{tmp}/seg.obj"],
     ],
-    ids=["jpg", "nodir-png", "nodir-report", "simplify-jpg", "features-nodir", "features-folder",
-         "normals", "ext"],
+    ids=[
+        "jpg",
+        "nodir-png",
+        "nodir-report",
+        "simplify-jpg",
+        "features-nodir",
+        "features-folder",
+        "normals",
+        "ext",
+    ],
 )
 def test_bad_output_locations_fail_before_any_work(scan_ply, tmp_path, args):
     args = [a.format(ply=scan_ply, tmp=tmp_path) for a in args]

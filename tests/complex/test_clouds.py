@@ -20,8 +20,10 @@ from .reference import betti_numbers_reference, cloud_simplices_reference
 
 def mesh_clouds(faces: np.ndarray, n_vertices: int):
     """One cloud per mesh vertex holding the vertex, its edge midpoints and barycentres."""
-    edges = np.unique(np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]],
-                                              faces[:, [0, 2]]]), axis=1), axis=0)
+    edges = np.unique(
+        np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [0, 2]]]), axis=1),
+        axis=0,
+    )
     clouds = [[v] for v in range(n_vertices)]
     for e, (a, b) in enumerate(edges.tolist()):
         clouds[a].append(n_vertices + e)

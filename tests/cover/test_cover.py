@@ -93,7 +93,7 @@ def test_cubic_kernel_matches_reference():
         ref = cubic_membership_reference(yy, dim, re, ro)
         for p in range(y.shape[0]):
             got = codes[p, : counts[p]]
-            assert (codes[p, counts[p]:] == -1).all()
+            assert (codes[p, counts[p] :] == -1).all()
             want = [(i * shape[1] + j) * shape[2] + k for i, j, k in ref[p]]
             assert got.tolist() == want
 
@@ -133,8 +133,10 @@ def test_algorithm2_clouds_are_the_non_empty_balls():
     # centres on the scaled lattice anchored at the bounding-box corner
     lat = (cov.centres - pts.min(axis=0)) / 0.5
     np.testing.assert_allclose(lat, np.round(lat), atol=1e-9)
-    assert set(np.round(cov.ball_radius / 0.5, 6)) <= {round(math.sqrt(3) / 2, 6),
-                                                       round(math.sqrt(3) / 6, 6)}
+    assert set(np.round(cov.ball_radius / 0.5, 6)) <= {
+        round(math.sqrt(3) / 2, 6),
+        round(math.sqrt(3) / 6, 6),
+    }
 
 
 def test_sphere_gives_closed_genus0_cloud_surface_for_some_scale():

@@ -12,6 +12,7 @@ def triangle_update_reference(p, tri0, tri1):
     through q meets the edge (v_i, v_k) at e; keep |e - v_i| / |v_k - v_i| and
     |q - b| / |e - b|; rebuild q~ in the moved triangle; p~ = q~ + omega h n~.
     """
+
     def normal(t):
         n = np.cross(t[1] - t[0], t[2] - t[0])
         return n / np.linalg.norm(n), 0.5 * np.linalg.norm(np.cross(t[1] - t[0], t[2] - t[0]))

@@ -82,12 +82,14 @@ def test_signed_height_keeps_points_below_the_surface_below():
 
 def test_unroutable_points_are_reported_never_dropped():
     cp = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 5, 5], [6, 5, 5]])
-    pts = np.array([
-        [0.2, 0.2, 0.0],   # triangle 0, 1, 2
-        [9.0, 9.0, 9.0],   # in no cloud
-        [5.5, 5.0, 5.0],   # clouds 3, 4: an edge on no triangle
-        [6.2, 5.0, 5.0],   # cloud 4 only: a vertex on no triangle
-    ])
+    pts = np.array(
+        [
+            [0.2, 0.2, 0.0],  # triangle 0, 1, 2
+            [9.0, 9.0, 9.0],  # in no cloud
+            [5.5, 5.0, 5.0],  # clouds 3, 4: an edge on no triangle
+            [6.2, 5.0, 5.0],  # cloud 4 only: a vertex on no triangle
+        ]
+    )
     Kt = cloud_complex([[0], [0], [0], [2], [2, 3]], pts, cloud_points=cp)
     res = deform_points(pts, Kt, cp * 2)
     assert isinstance(res, DeformResult)
@@ -95,8 +97,11 @@ def test_unroutable_points_are_reported_never_dropped():
     assert res.unroutable.tolist() == [1, 2, 3]
     np.testing.assert_array_equal(res.points[1:], pts[1:])
     texts = [res.reasons[r] for r in res.reason[1:]]
-    assert texts == ["in no cloud", "its two clouds span no edge of a triangle",
-                     "its vertex is on no triangle"]
+    assert texts == [
+        "in no cloud",
+        "its two clouds span no edge of a triangle",
+        "its vertex is on no triangle",
+    ]
     assert res.counts()["unroutable"] == 3 and res.points.shape == (4, 3)
 
 

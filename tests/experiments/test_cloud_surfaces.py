@@ -29,8 +29,9 @@ def test_experiment_cloudsurfaces_writes_every_figure_and_the_routed_shares(tmp_
     assert rows[("2.2", "eta2 delta_h at pi + alpha/2, c = 2")] == round(1 / 3, 6)
     crossing = rows[("2.14", "vertices of degree != 2 (the crossing at 0) / chi")]
     assert crossing == "1 (degree 4) / -1"
-    assert all(r["ours"].split(" / ")[1] == "True" for r in summary["rows"]
-               if r["figure"] == "2.9")  # the complex equals the cube mesh
+    assert all(
+        r["ours"].split(" / ")[1] == "True" for r in summary["rows"] if r["figure"] == "2.9"
+    )  # the complex equals the cube mesh
     sph = rows[("2.17", "noisy sphere: chosen s / clouds / closed / chi / genus")]
     assert sph.split(" / ")[2:] == ["True", "2", "0"]
 

@@ -247,10 +247,18 @@ def _cover_payload(in_path, ps, cov, chosen, report, res, accepted, seed, placeh
         "points_per_cloud_count": np.bincount(K.n_memberships).tolist(),
         "fields": list(point_fields(ps, placeholder)),
         "report": report.summary(),
-        "search": None if res is None else {
+        "search": None
+        if res is None
+        else {
             "n_settings": int(res.scales.size),
-            "accepted": [{"scale": float(res.scales[i]), "rotation": int(res.rotation_index[i]),
-                          "offset": int(res.offset_index[i])} for i in res.accepted],
+            "accepted": [
+                {
+                    "scale": float(res.scales[i]),
+                    "rotation": int(res.rotation_index[i]),
+                    "offset": int(res.offset_index[i]),
+                }
+                for i in res.accepted
+            ],
         },  # fmt: skip
     }
     return payload

@@ -92,8 +92,7 @@ def deform_command(
     pts = pts0 if points_path is None else read_input(points_path, with_normals=False).points
     if pts.shape[0] != K.n_points:
         raise PointAtlasError(
-            f"--points {points_path}: has {pts.shape[0]} points; the cloud surface has "
-            f"{K.n_points}"
+            f"--points {points_path}: has {pts.shape[0]} points; the cloud surface has {K.n_points}"
         )
     t0 = time.perf_counter()
     res = deform_points(pts, K, new_cp, faces=faces, inverse=inverse)

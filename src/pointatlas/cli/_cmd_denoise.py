@@ -165,8 +165,9 @@ def _html_report(path, input_path, ps, out_ps, ours, summary, written):
     )
 
 
-def _check_options(method, schedule, *, rho, tau, max_step, eta, eps, n_filter_iter, n_iter,
-                   clean) -> None:
+def _check_options(
+    method, schedule, *, rho, tau, max_step, eta, eps, n_filter_iter, n_iter, clean
+) -> None:
     """One precise error for an option out of range (before any work)."""
     if method not in DENOISE_METHODS:
         raise PointAtlasError(
@@ -229,8 +230,24 @@ def _our_fields(res, method) -> dict:
     return ours
 
 
-def _summary(input_path, res, n, method, seconds, t0, *, k, eta, eps, schedule, k_start, rho,
-             tau, n_filter_iter, max_step) -> dict:
+def _summary(
+    input_path,
+    res,
+    n,
+    method,
+    seconds,
+    t0,
+    *,
+    k,
+    eta,
+    eps,
+    schedule,
+    k_start,
+    rho,
+    tau,
+    n_filter_iter,
+    max_step,
+) -> dict:
     """The numbers of OUT_denoise.json (the measures against --clean are added after)."""
     summary = {
         "input": str(input_path),

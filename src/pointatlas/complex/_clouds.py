@@ -156,9 +156,7 @@ def _subsets(sets: np.ndarray, counts: np.ndarray, size: int, n_clouds: int) -> 
 
 def _maximal_above_2(sets: np.ndarray, counts: np.ndarray) -> tuple:
     sel = counts >= 4
-    big = [
-        frozenset(int(x) for x in r[:c]) for r, c in zip(sets[sel], counts[sel], strict=True)
-    ]
+    big = [frozenset(int(x) for x in r[:c]) for r, c in zip(sets[sel], counts[sel], strict=True)]
     big.sort(key=lambda s: (-len(s), sorted(s)))
     out: list[frozenset] = []
     for s in big:
@@ -286,9 +284,7 @@ def cloud_complex(clouds, points=None, *, n_points=None, cloud_points=None) -> C
     if cloud_points is not None:
         cp = as_points(cloud_points, name="cloud_points", min_points=0)
         if cp.shape[0] != sizes.size:
-            raise ValueError(
-                f"cloud_points must have shape ({sizes.size}, 3); got {cp.shape}"
-            )
+            raise ValueError(f"cloud_points must have shape ({sizes.size}, 3); got {cp.shape}")
         cp = cp.copy()
     elif pts is not None:
         cp = cloud_centroids(indptr, members, pts)

@@ -21,7 +21,6 @@ from .._core.tolerances import FAN_EXACT_MAX
 __all__ = ["SurfaceReport", "has_hamiltonian_path", "incidence_checks", "surface_report_core"]
 
 
-
 def has_hamiltonian_path(n: int, adj: list[set]) -> bool:
     """Whether the small graph ``adj`` (n nodes) has a path visiting every node once."""
     if n <= 1:
@@ -315,9 +314,7 @@ class SurfaceReport:
     def is_cloud_surface(self) -> bool:
         """Def 8: a surface with no simplex above dimension 2 and no edge outside faces."""
         return (
-            self.is_surface
-            and not self.simplices_above_2
-            and self.edges_not_in_face.shape[0] == 0
+            self.is_surface and not self.simplices_above_2 and self.edges_not_in_face.shape[0] == 0
         )
 
     @property

@@ -31,9 +31,7 @@ def csv_rows(rows: list[list]) -> str:
 def csv_records(records: list[dict], fieldnames=None) -> str:
     """CSV text of a list of dicts with a header (the first record's keys by default)."""
     buf = io.StringIO()
-    writer = csv.DictWriter(
-        buf, fieldnames=list(fieldnames or records[0]), lineterminator="\n"
-    )
+    writer = csv.DictWriter(buf, fieldnames=list(fieldnames or records[0]), lineterminator="\n")
     writer.writeheader()
     writer.writerows(records)
     return buf.getvalue()

@@ -163,14 +163,24 @@ def curve_figures(out: Path, rows: list) -> list[Path]:
     cov = ball_cover(fig8, 0.2, dim=2, radius=0.8)
     rep = curve_report(cov.cloud_complex)
     deg = np.bincount(cov.cloud_complex.edges.ravel(), minlength=cov.n_clouds)
-    _row(rows, "2.14", "curve (cos t, sin 2t), s = 0.2, r = 0.8: V / E / triangles",
-         f"{rep.n_vertices} / {rep.n_edges} / {rep.n_triangles}", "a 1-D complex (picture)")
+    _row(
+        rows,
+        "2.14",
+        "curve (cos t, sin 2t), s = 0.2, r = 0.8: V / E / triangles",
+        f"{rep.n_vertices} / {rep.n_edges} / {rep.n_triangles}",
+        "a 1-D complex (picture)",
+    )
     _row(rows, "2.14", "vertices of degree != 2 (the crossing at 0) / chi",
          f"{rep.vertices_bad_degree.size} (degree {int(deg.max())}) / {rep.euler_characteristic}",
          "figure eight: chi = -1")  # fmt: skip
     fig = Figure(figsize=(6, 6))
-    _curve_panel(fig.add_subplot(), fig8, cov, rep,
-                 f"Fig. 2.14: s = 0.2, r = 0.8 s: {rep.n_vertices} clouds, {rep.n_edges} edges")
+    _curve_panel(
+        fig.add_subplot(),
+        fig8,
+        cov,
+        rep,
+        f"Fig. 2.14: s = 0.2, r = 0.8 s: {rep.n_vertices} clouds, {rep.n_edges} edges",
+    )
     written = [save_figure(fig, out / FIGURES[4], dpi=80)]
     a, b = 3.0, 1.0
     ell = np.column_stack([a * np.cos(t), b * np.sin(t)])
@@ -196,9 +206,14 @@ def _cover_picture(path, pts, cov, rep, title):
     from ..viz import MeshPanel, PointsPanel, render_side_by_side
 
     verts, faces = realise_complex(cov.cloud_complex, rep)
-    panels = [PointsPanel(pts, colors=membership_colors(cov.cloud_complex.n_memberships),
-                          title="points by number of clouds"),
-              MeshPanel(np.nan_to_num(verts), faces, title=f"complex: {faces.shape[0]} triangles")]
+    panels = [
+        PointsPanel(
+            pts,
+            colors=membership_colors(cov.cloud_complex.n_memberships),
+            title="points by number of clouds",
+        ),
+        MeshPanel(np.nan_to_num(verts), faces, title=f"complex: {faces.shape[0]} triangles"),
+    ]
     return render_side_by_side(path, panels, size=(1000, 520), title=title)  # fmt: skip
 
 
@@ -218,8 +233,14 @@ def noisy_figures(out: Path, rows: list, *, seed: int) -> list[Path]:
         i = res.chosen
         cov = ball_cover(noisy, **res.setting(i))
         rep = res.reports[i]
-        _row(rows, "2.17", f"noisy {name} ({noisy.shape[0]} points, {amp:.0%}): accepted "
-             f"settings of {res.scales.size} (s/rotation)", " ".join(acc) or "none", thesis)
+        _row(
+            rows,
+            "2.17",
+            f"noisy {name} ({noisy.shape[0]} points, {amp:.0%}): accepted "
+            f"settings of {res.scales.size} (s/rotation)",
+            " ".join(acc) or "none",
+            thesis,
+        )
         _row(rows, "2.17", f"noisy {name}: chosen s / clouds / closed / chi / genus",
              f"{res.scales[i]:g} / {cov.n_clouds} / {rep.is_closed} / "
              f"{rep.euler_characteristic} / {rep.genus}", thesis)  # fmt: skip
@@ -251,8 +272,7 @@ def _dynamics_rows(rows, fig, name, points, cov, rep, res, i, cp1):
     _row(rows, fig, f"{name}: routed share (triangle / edge / vertex / unroutable)",
          f"{share:.4f} ({c['triangle']} / {c['edge']} / {c['vertex']} / {c['unroutable']})",
          "every point moves (pictures)")  # fmt: skip
-    _row(rows, fig, f"{name}: forward then inverse, max relative error", f"{err:.1e}",
-         "reversible")
+    _row(rows, fig, f"{name}: forward then inverse, max relative error", f"{err:.1e}", "reversible")
     return fwd, share
 
 
@@ -283,10 +303,12 @@ def dynamics_figures(out: Path, rows: list, *, seed: int) -> tuple[list[Path], d
         fwd, share = _dynamics_rows(rows, fig, name, pts, cov, rep, res, i, cp1)
         shares[fig] = share
         col = membership_colors(cov.cloud_complex.n_memberships)
-        panels = [PointsPanel(pts, colors=col, title="(a) clouds"),
-                  MeshPanel(cp0, faces, title="(b) complex"),
-                  MeshPanel(cp1, faces, title="(c) moved cloud points"),
-                  PointsPanel(fwd.points, colors=col, title=f"(d) moved: {share:.1%} routed")]
+        panels = [
+            PointsPanel(pts, colors=col, title="(a) clouds"),
+            MeshPanel(cp0, faces, title="(b) complex"),
+            MeshPanel(cp1, faces, title="(c) moved cloud points"),
+            PointsPanel(fwd.points, colors=col, title=f"(d) moved: {share:.1%} routed"),
+        ]
         written.append(render_side_by_side(out / fname, panels, size=(1400, 400),
                                            title=f"Fig. {fig}: {name}, s = {s:g}"))  # fmt: skip
     return written, shares

@@ -488,7 +488,6 @@ def noisy_dodecahedron_flatness(out: Path, *, rng=0) -> list[Path]:
     return written
 
 
-
 def run_neighbourhoods(
     files,
     out: Path,

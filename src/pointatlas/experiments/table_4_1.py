@@ -105,8 +105,7 @@ def vsa_model(path: str, rng: np.random.Generator) -> dict:
     ps = read_point_set(path, zero_normals="drop")
     if ps.normals is None:
         raise PointAtlasError(
-            f"{path}: experiment vsa needs normals (mesh faces or PLY nx ny nz); "
-            "the file has none"
+            f"{path}: experiment vsa needs normals (mesh faces or PLY nx ny nz); the file has none"
         )
     pts = _unit_cube(np.asarray(ps.points))
     nrm = np.asarray(ps.normals)

@@ -20,7 +20,6 @@ def _duplicates(points: np.ndarray) -> int:
     return int(points.shape[0] - np.unique(rows).shape[0])
 
 
-
 def knn_component_sizes(indices: np.ndarray) -> np.ndarray:
     """Sizes of the connected components of the symmetric k-NN graph, largest first.
 
@@ -56,7 +55,6 @@ def knn_component_sizes(indices: np.ndarray) -> np.ndarray:
     )
     _, labels = csgraph.connected_components(graph, directed=True, connection="weak")
     return np.sort(np.bincount(labels))[::-1]
-
 
 
 def point_set_info(ps: PointSet, *, k: int = 8, n_faces: int | None = None, face_sizes=None):
@@ -134,4 +132,3 @@ def point_set_info(ps: PointSet, *, k: int = 8, n_faces: int | None = None, face
         for name, arr in sorted(ps.attributes.items())
     }
     return info
-

@@ -32,6 +32,7 @@ def _polyhedron_mesh(vertices, faces, face_labels, face_normals, frequency, *, n
     normals[sharp] = _vertex_normals(verts, tris)[sharp]
     return SynthMesh(verts, tris, normals, labels=lo, face_labels=flab, is_sharp=sharp, name=name)
 
+
 def cube(n: int = 8, *, size: float = 1.0) -> SynthMesh:
     """A sharp cube: a regular n x n grid of squares on each face, triangulated.
 
@@ -122,6 +123,7 @@ def cube(n: int = 8, *, size: float = 1.0) -> SynthMesh:
     )
     return mesh
 
+
 def octahedron(frequency: int = 64, *, radius: float = 1.0) -> SynthMesh:
     """A sharp regular octahedron, each face a regular triangular grid.
 
@@ -181,6 +183,7 @@ def octahedron(frequency: int = 64, *, radius: float = 1.0) -> SynthMesh:
         name=f"octahedron_{4 * f * f + 2}",
     )
 
+
 def _dodecahedron_pentagons():
     """Corners (20, 3) of a regular dodecahedron with circumradius 1, its 12
     pentagons (12, 5) counter-clockwise from outside and their unit normals."""
@@ -206,6 +209,7 @@ def _dodecahedron_pentagons():
         ang = np.arctan2((corners[ring] - centre) @ e2, (corners[ring] - centre) @ e1)
         pentagons.append(ring[np.argsort(ang, kind="stable")])
     return corners, np.array(pentagons, dtype=np.int64), normals
+
 
 def dodecahedron(frequency: int = 4, *, radius: float = 1.0) -> SynthMesh:
     """A sharp regular dodecahedron of 12 flat pentagons, finely triangulated.
