@@ -181,3 +181,15 @@ def test_planarize_flattens_faces_and_keeps_the_mesh_valid():
     np.testing.assert_array_equal(
         simplify_mesh(v, t, planarize=True).vertices, simplify_mesh(v, t).vertices
     )
+
+
+def test_two_vertex_loop_keeps_integer_vertices():
+    # a closed arc of two vertices (a region bounded by one edge walked both ways, as
+    # a non-manifold input edge gives: the dragon scan's edge on four triangles) has no
+    # half with an interior vertex to add; its kept vertices stay vertex ids
+    from pointatlas.simplify._arcs import Arc, simplify_arc
+
+    positions = np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0], [0, 0, 1], [3, 1, 0]])
+    arc = Arc([5, 2, 5], (0, 1), 0.1)
+    simplify_arc(arc, positions)
+    assert arc.kept == [5, 2, 5] and all(isinstance(v, int) for v in arc.kept)

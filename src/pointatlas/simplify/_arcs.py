@@ -215,7 +215,7 @@ def simplify_arc(arc: Arc, positions: np.ndarray) -> None:
                     q = seg - a
                     dist = np.linalg.norm(q - np.outer(np.clip(q @ ab / ll, 0, 1), ab), axis=1)
                     extra.append(lo + int(np.argmax(dist)))
-            idx = np.unique(np.concatenate([idx, extra]))
+            idx = np.unique(np.concatenate([idx, np.asarray(extra, dtype=np.int64)]))
         arc.kept = [verts[i] for i in idx.tolist()]
         return
     idx = douglas_peucker(pts, arc.tol)
