@@ -9,6 +9,7 @@ regions beside it use the same chords.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -239,23 +240,42 @@ def full_arc(arc: Arc) -> None:
 def separate_parallel_chords(arcs: list[Arc], positions) -> None:
     """Two arcs simplified to the same chord would glue three faces on one edge."""
     for _ in range(MAX_REFINE + 4):
-        owner: dict[tuple[int, int], int] = {}
-        clash: set[int] = set()
-        for aid, arc in enumerate(arcs):
-            kept = arc.kept
-            for a, b in zip(kept[:-1], kept[1:], strict=True):
-                key = (min(a, b), max(a, b))
-                if key in owner and owner[key] != aid:
-                    clash.add(aid)
-                    clash.add(owner[key])
-                owner.setdefault(key, aid)
-            if len(kept) == 2 and kept[0] == kept[1]:  # pragma: no cover
-                clash.add(aid)
-        if not clash:
+        clash = _clashing_arcs(arcs)
+        if not clash.size:
             return
-        for aid in clash:
+        for aid in clash.tolist():  # each arc on its own: the order does not matter
             arc = arcs[aid]
             if not refine_arc(arc):
                 full_arc(arc)
             else:
                 simplify_arc(arc, positions)
+
+
+def _clashing_arcs(arcs: list[Arc]) -> np.ndarray:
+    """Ids (sorted) of the arcs that share a chord with another arc, or whose two
+    kept vertices coincide: every arc of a chord (unordered vertex pair) used by two
+    or more arcs. Vectorised over all chords (one sort)."""
+    lens = np.fromiter((len(arc.kept) for arc in arcs), dtype=np.int64, count=len(arcs))
+    total = int(lens.sum())
+    flat = np.fromiter(
+        itertools.chain.from_iterable(arc.kept for arc in arcs), dtype=np.int64, count=total
+    )
+    aid = np.repeat(np.arange(len(arcs), dtype=np.int64), lens)
+    has_next = np.ones(total, dtype=np.bool_)
+    has_next[np.cumsum(lens)[lens > 0] - 1] = False  # an arc's last vertex starts no chord
+    e = np.flatnonzero(has_next)
+    lo = np.minimum(flat[e], flat[e + 1])
+    hi = np.maximum(flat[e], flat[e + 1])
+    own = aid[e]
+    order = np.lexsort((own, hi, lo))
+    lo, hi, own = lo[order], hi[order], own[order]
+    start = np.ones(lo.size, dtype=np.bool_)
+    start[1:] = (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])
+    group = np.cumsum(start) - 1
+    first = np.flatnonzero(start)
+    last = np.append(first[1:], lo.size) - 1
+    shared = own[first] != own[last]  # own sorted within a chord: two arcs or more
+    clash = own[shared[group]]
+    ends, two = np.cumsum(lens), np.flatnonzero(lens == 2)
+    degenerate = two[flat[ends[two] - 2] == flat[ends[two] - 1]]
+    return np.unique(np.concatenate([clash, degenerate]))

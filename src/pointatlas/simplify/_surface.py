@@ -385,6 +385,10 @@ class _RegionFaces:
         self.kept_input[no_boundary] = True
         self.refined: set[int] = set()
         self.faces: dict[int, tuple] = {}
+        # per region the loops its face was last built from and the result (or None):
+        # `face_of_loops` depends on nothing else, so a rebuild of unchanged loops
+        # (settle rebuilds every region) reuses it
+        self._built: dict[int, tuple] = {}
 
     def loops_of(self, r):
         """Region ``r``'s loops as lists of kept arc vertices."""
@@ -396,7 +400,14 @@ class _RegionFaces:
         for r in regions:
             if self.kept_input[r]:
                 continue
-            got = face_of_loops(self.loops_of(r), self.s.vertices, self.normals[r])
+            loops = self.loops_of(r)
+            key = tuple(tuple(loop) for loop in loops)
+            cached = self._built.get(r)
+            if cached is not None and cached[0] == key:  # same loops: the same face
+                got = cached[1]
+            else:
+                got = face_of_loops(loops, self.s.vertices, self.normals[r])
+                self._built[r] = (key, got)
             if got is None:
                 failed.append(r)
             else:
