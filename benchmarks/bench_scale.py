@@ -14,9 +14,9 @@
    must be identical on every point, segmentation quality measures within 1 %.
 4. ``--halo-cost``: tiled / untiled compute time as tiles shrink (in one process, one
    worker thread at a time, no I/O), with the points sent per point.
-5. ``--stages features,normals``: seconds of every stage of a tiled run (decode,
-   bounds pass, halo estimate, spill, tile tasks, encode, dask start/first tile/close)
-   beside the untiled floor (one k-NN query and kernel call over all points).
+5. ``--stages features,normals,one-pass``: seconds of every stage of a tiled run
+   (decode, first pass, halo estimate, spill, tile tasks, write pass, dask start/first
+   tile/close) beside the untiled floor (one k-NN query and the kernels over all points).
 
 Run (the issue's measures; the 10M case takes minutes on 2 cores):
 
@@ -376,62 +376,80 @@ def _dask_costs(kind: str, params: dict) -> dict:
 
 def stages(laz: Path, tile: float, kind: str) -> dict:
     """Seconds of every stage of a tiled ``kind`` run ("features": k = 20, equal
-    weights; "normals": k = 20, MST) in one process, tiles one after the other, beside
-    the untiled floor (one k-NN query and one kernel call over all points). The
-    dask costs (import, cluster start, a worker's first tile, close) come from a
-    local cluster of 2 workers running a trivial task."""
+    weights; "normals": k = 20, MST; "one-pass": both, ``features --normals``) in one
+    process on one numba thread, tiles one after the other, beside the untiled floor
+    (one k-NN query and the kernels over all points). The LAZ passes are those of
+    `las_tiled`: the first decodes every record once and keeps them
+    (`LasSource.keep_records`), the spill and write passes read the kept records. The
+    dask costs (import, cluster start, a worker's first tile, close) come from a local
+    cluster of 2 workers running a trivial task."""
     import laspy
+    import numba
 
     from pointatlas.batch import TileOptions
     from pointatlas.batch import _tiles as T
+    from pointatlas.batch._tiles_combined import normals_features_task
     from pointatlas.batch._tiles_las import LAS_FEATURE_FLOAT, LasSource, write_streamed
     from pointatlas.batch._tiles_tasks import features_dispatch, run_task
     from pointatlas.features import classify_dimension, covariance_features
     from pointatlas.neighbors import query_knn
     from pointatlas.normals import estimate_normals, orient_normals
 
-    if kind == "features":
-        params = {"mode": "fixed", "k": 20, "flatness": (8, 8)}
-    else:
-        params = {"k": 20, "orient": "mst", "orient_k": 10, "viewpoint": None}
+    fparams = {"mode": "fixed", "k": 20, "flatness": (8, 8)}
+    nparams = {"k": 20, "orient": "mst", "orient_k": 10, "viewpoint": None}
+    params = {"features": fparams, "normals": nparams,
+              "one-pass": {"k": 20, "orient_k": 10, "features": fparams}}[kind]  # fmt: skip
+    numba.set_num_threads(1)  # as a worker of the 2-worker local cluster runs its tiles
     out: dict = {"kind": kind, "tile_size": tile}
     sel = laspy.DecompressionSelection.XY_RETURNS_CHANNEL | laspy.DecompressionSelection.Z
     with laspy.open(laz, decompression_selection=sel) as reader:
-        rec = _timed(out, "decode x, y, z", reader.read_points, -1)
+        rec = _timed(out, "decode x, y, z (one pass)", reader.read_points, -1)
     xyz = np.column_stack([np.asarray(rec[c], dtype=np.float64) for c in "xyz"])
-    src = LasSource(laz)
-    src.use_normals = False
-    opts = TileOptions(tile_size=tile, progress=False)
-    grid = _timed(out, "bounds + subsample pass", T._grid_for, src, opts)
-    warm_task(kind, params, None)  # this process's kernels loaded (as a warm worker)
-    halo, _ = _timed(out, "halo estimate", T._auto_halo, src, 20, opts)
-    spill = T._Spill(None)
-    _, sent = _timed(out, "spill pass (tile cut)", T._spill, src, grid,
-                     dict.fromkeys(range(grid.n_tiles), halo), spill)  # fmt: skip
-    out["tiles"], out["sent per point"] = len(spill.pieces), round(sum(sent.values()) / src.n, 3)
+    with tempfile.TemporaryDirectory(dir=laz.parent) as keep:
+        src = LasSource(laz)
+        src.use_normals = False
+        src.keep_records(keep)
+        opts = TileOptions(tile_size=tile, progress=False)
+        grid = _timed(out, "first pass: decode all, keep records, bounds + subsample",
+                      T._grid_for, src, opts)  # fmt: skip
+        warm_task("normals", nparams, None)  # this process's kernels loaded (a warm worker)
+        warm_task("features", fparams, None)
+        halo, _ = _timed(out, "halo estimate", T._auto_halo, src, 20, opts)
+        spill = T._Spill(None)
+        _, sent = _timed(out, "spill pass (tile cut, kept records)", T._spill, src, grid,
+                         dict.fromkeys(range(grid.n_tiles), halo), spill)  # fmt: skip
+        out["tiles"] = len(spill.pieces)
+        out["sent per point"] = round(sum(sent.values()) / src.n, 3)
 
-    def tasks():
-        for t in sorted(spill.pieces):
-            spec = {"grid": grid, "tile": t, "halo": halo, "params": params, "threads": None}
-            assert run_task(kind, spec, spill.load(t))["status"] == "ok"
+        def tasks():
+            for t in sorted(spill.pieces):
+                spec = {"grid": grid, "tile": t, "halo": halo, "params": params, "threads": None}
+                if kind == "one-pass":
+                    res = normals_features_task(spec, spill.load(t))
+                else:
+                    res = run_task(kind, spec, spill.load(t))
+                assert res["status"] == "ok"
 
-    _timed(out, "tile tasks (sum)", tasks)
-    table, _ = _timed(out, "untiled: k-NN query", query_knn, xyz, 20)
-    if kind == "features":
-        covariance_features(xyz[:1000], 20)
-        res = _timed(out, "untiled: features kernel", features_dispatch, xyz, None, params,
-                     table)  # fmt: skip
-        fields = {**res.scalar_fields(), "dimension_class": classify_dimension(res)}
-        _timed(out, "LAZ encode (write pass, 19 fields, float32)", write_streamed, src,
-               laz.with_name("stages.laz"), fields, float_type=LAS_FEATURE_FLOAT)  # fmt: skip
-    else:
-        nrm = _timed(out, "untiled: PCA normals", estimate_normals, xyz, 20, neighbors=table)
-        _timed(out, "untiled: MST orientation", orient_normals, xyz, nrm, k=10, method="mst",
-               neighbors=table)  # fmt: skip
-        _timed(out, "LAZ encode (write pass, normals)", write_streamed, src,
-               laz.with_name("stages.laz"), {}, normals=nrm)  # fmt: skip
-    laz.with_name("stages.laz").unlink(missing_ok=True)
-    dask = _dask_costs(kind, params)
+        _timed(out, "tile tasks (sum)", tasks)
+        table, _ = _timed(out, "untiled: k-NN query", query_knn, xyz, 20)
+        fields, nrm = {}, None
+        if kind in ("normals", "one-pass"):
+            nrm = _timed(out, "untiled: PCA normals", estimate_normals, xyz, 20, neighbors=table)
+            nrm = _timed(out, "untiled: MST orientation", orient_normals, xyz, nrm, k=10,
+                         method="mst", neighbors=table)  # fmt: skip
+        if kind in ("features", "one-pass"):
+            covariance_features(xyz[:1000], 20)
+            res = _timed(out, "untiled: features kernel", features_dispatch, xyz, None,
+                         fparams, table)  # fmt: skip
+            fields = {**res.scalar_fields(), "dimension_class": classify_dimension(res)}
+        what = {"features": "19 float32 fields", "normals": "normals",
+                "one-pass": "19 float32 fields + normals"}[kind]  # fmt: skip
+        _timed(out, f"LAZ write pass (kept records, encode {what})", write_streamed, src,
+               laz.with_name("stages.laz"), fields, normals=nrm,
+               float_type=LAS_FEATURE_FLOAT)  # fmt: skip
+        laz.with_name("stages.laz").unlink(missing_ok=True)
+    dask = _dask_costs("normals" if kind == "one-pass" else kind,
+                       fparams if kind == "features" else nparams)  # fmt: skip
     out["cpu"].update(dask.pop("cpu"))
     out.update(dask)
     return out
@@ -453,7 +471,8 @@ def main() -> None:
                              "command, one k-NN).")  # fmt: skip
     parser.add_argument("--stages", default=None,
                         help="Per-stage seconds of tiled KIND runs in one process (features, "
-                             "normals; comma-separated), beside the untiled floor.")  # fmt: skip
+                             "normals, one-pass; comma-separated), beside the untiled "
+                             "floor.")  # fmt: skip
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(dir=args.data) as tmp_name:
         tmp = Path(tmp_name)

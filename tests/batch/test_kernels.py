@@ -8,7 +8,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 
 from pointatlas.batch._kernels import smooth_pieces_kernel
-from pointatlas.batch._tiles_tasks import SMOOTH_COS, _smooth_pieces
+from pointatlas.batch._tiles_tasks import SMOOTH_COS, _piece_tops, _smooth_pieces
 from pointatlas.neighbors import query_knn
 from pointatlas.normals import estimate_normals, orient_normals
 from tests.jit_off import JIT_OFF, run_module_without_jit
@@ -62,6 +62,26 @@ def test_smooth_pieces_of_one_plane_and_of_opposed_normals_tiny_reference():
     assert np.all(a == 0) and np.all(b == 1) and np.all(dots == 0.0)
     others = table[np.arange(100) != 55]
     assert a.size == 4 + int(np.count_nonzero(others == 55))  # its 4 edges out, the edges in
+
+
+def test_piece_tops_tiny_reference():
+    """Per piece the owned point with the largest z, ties to the smallest global index
+    (a lexsort reference), with many ties and pieces without owned points."""
+    rng = np.random.default_rng(3)
+    n = 3000
+    comp = rng.integers(0, 400, n)
+    z = rng.integers(0, 5, n).astype(np.float64)  # many equal heights
+    gidx = rng.permutation(10 * n)[:n].astype(np.int64)
+    owned = rng.random(n) < 0.7
+    nz = rng.normal(size=n)
+    comps, rows = _piece_tops(comp, owned, z, gidx, nz)
+    want = {}
+    order = np.flatnonzero(owned)
+    order = order[np.lexsort((gidx[order], -z[order]))]
+    for i in order:
+        want.setdefault(int(comp[i]), (z[i], float(gidx[i]), nz[i]))
+    assert comps.tolist() == sorted(want)
+    assert np.array_equal(rows, np.array([want[c] for c in sorted(want)]))
 
 
 @pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")

@@ -171,7 +171,7 @@ def test_automatic_halo_grows_and_a_given_halo_too_small_is_refused(client, poin
 
     params = {"mode": "fixed", "k": 20, "flatness": (8, 8)}
     # a tiny starting halo: the tiles ask for more, and the result is still exact
-    monkeypatch.setattr(_tiles, "_auto_halo", lambda source, k, options, extra=0.0: (0.05, False))
+    monkeypatch.setattr(_tiles, "_auto_halo", lambda *args, **kwargs: (0.05, False))
     got, run = tiled_features(points, None, TileOptions(tile_size=9.0, scheduler=client), params)
     assert run.n_retries > 0
     assert min(run.halos.values()) > 0.05

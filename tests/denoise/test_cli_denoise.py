@@ -73,3 +73,36 @@ def test_bad_options_fail_before_work(files, tmp_path):
     src = files / "noisy_n.ply"
     res = runner.invoke(app, ["denoise", str(src), str(src)])
     assert res.exit_code == 1 and "is the input file" in res.output
+
+
+def test_cli_gives_the_api_result_with_and_without_planes(files, tmp_path):
+    # the command's default is `denoise()`'s: the local denoise, then the planar pieces
+    from pointatlas.denoise import denoise
+
+    m = cube(16)  # faces of 225+ points: planar pieces (150 points or more)
+    write_point_set(
+        tmp_path / "in.ply", add_noise(m.points, m.normals, 0.3, k=6, rng=1), normals=m.normals
+    )
+    src = read_point_set(tmp_path / "in.ply")
+    for flag, planes in ((None, True), ("--no-planes", False)):
+        out = tmp_path / f"o_{planes}.ply"
+        args = ["denoise", str(tmp_path / "in.ply"), str(out), "--method", "normal-voting"]
+        res = runner.invoke(app, args + ([flag] if flag else []))
+        assert res.exit_code == 0, res.output
+        api = denoise(src.points, src.normals, method="normal-voting", planes=planes)
+        assert np.array_equal(read_point_set(out).points, api.points)
+        summary = json.loads((tmp_path / f"o_{planes}_denoise.json").read_text())
+        assert summary["parameters"]["planes"] is planes
+    # the cube's faces are planar pieces: the pieces move points (the two differ)
+    a, b = (read_point_set(tmp_path / f"o_{p}.ply").points for p in (True, False))
+    assert not np.array_equal(a, b)
+
+
+def test_planes_with_tiles_is_refused(files, tmp_path):
+    res = runner.invoke(
+        app,
+        ["denoise", str(files / "noisy_n.ply"), str(tmp_path / "t.ply"), "--planes",
+         "--tile-size", "1"],
+    )  # fmt: skip
+    assert res.exit_code == 1
+    assert "drop --planes or --tile-size" in res.output

@@ -89,7 +89,7 @@ def test_halo_counts_and_units():
     assert h.length(0.25) == pytest.approx(h.rings * 0.25)
     auto = denoise_halo("normal-voting-adaptive", n_iter=None)
     assert not auto.exact and auto.columns == 58
-    assert auto.rings == 4 * 6 + 3 + 4 * 12 + 5 + 1
+    assert auto.rings == 4 * 6 + 3 + 4 * 12 + 5 + 1 + 1  # + the polish step
     assert not denoise_halo("normal-voting", n_iter=1, n_update=2, estimate=True).exact
     flat = denoise_halo("flatness", n_iter=60, k=14, schedule="decreasing")
     assert flat == DenoiseHalo(rings=60, columns=56, exact=False)

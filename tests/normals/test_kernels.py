@@ -9,6 +9,7 @@ from scipy import sparse
 from pointatlas.neighbors import query_knn
 from pointatlas.normals import estimate_normals, orient_normals
 from pointatlas.normals._kernels import component_tops_kernel, pca_normals_kernel, sym3_eigen
+from pointatlas.normals._kernels.eig3 import sym3_eigen_scalars
 from pointatlas.normals._kernels.forest import _forest_edges, _forest_labels
 from pointatlas.normals._orient import _riemannian_graph, _spanning_forest
 from tests.jit_off import JIT_OFF, run_module_without_jit
@@ -62,6 +63,26 @@ def test_sym3_eigen_matches_eigh(eigvals):
         elif eigvals[0] > eigvals[1] * (1 + 1e-3):
             # cluster {lambda_2, lambda_3}: v_3 stays orthogonal to the largest axis
             assert abs(v[:, 2] @ v_ref[:, 2]) < 1e-12
+
+
+@pytest.mark.parametrize(
+    "eigvals",
+    [(3.0, 2.0, 1.0), (1.0, 1e-3, 1e-9), (1.0, 1.0, 1e-6), (1.0, 1e-8 * (1 + 1e-6), 1e-8),
+     (1.0, 1.0, 1.0), (1e-250, 5e-251, 1e-252), (1e250, 5e249, 1e248), (0.0, 0.0, 0.0)],
+)  # fmt: skip
+def test_sym3_eigen_scalars_is_sym3_eigen_bit_for_bit(eigvals):
+    """The register version used by the PCA kernel: the same eigenvalues and the
+    vectors of the largest and smallest one, bit for bit, also on diagonal and
+    nearly diagonal input (rotations skipped or zeroed)."""
+    rng = np.random.default_rng(11)
+    mats = [_random_sym(rng, np.array(eigvals)) for _ in range(40)]
+    mats += [np.diag(eigvals), np.diag(eigvals[::-1]), np.diag(eigvals) + 1e-17 * np.ones((3, 3))]
+    for a in mats:
+        a = 0.5 * (a + a.T)
+        w, v = _eigen(a)
+        got = sym3_eigen_scalars(a[0, 0], a[0, 1], a[0, 2], a[1, 1], a[1, 2], a[2, 2])
+        want = (*w, *v[:, 0], *v[:, 2])
+        assert np.array_equal(np.array(got).view(np.uint64), np.array(want).view(np.uint64))
 
 
 def _run_pca_kernel(points, indices, k):

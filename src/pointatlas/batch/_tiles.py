@@ -38,6 +38,7 @@ __all__ = [
     "make_tmp",
     "release_pages",
     "parse_memory",
+    "sent_as",
     "run_tiles",
     "tile_client",
 ]
@@ -59,6 +60,14 @@ def _allocate(store, name, n, like):
         return store.new(name, like.dtype, width)
     store[name] = np.zeros((n,) if width is None else (n, width), dtype=like.dtype)
     return store[name]
+
+
+def sent_as(params: dict, store) -> dict:
+    """Feature ``params`` with the type the ``store`` keeps float64 results in
+    (``float_type`` of an `_Alloc`, float32 for LAS/LAZ): tiles send them in that type
+    (`_tiles_tasks.owned_fields`)."""
+    ft = getattr(store, "float_type", None)
+    return params if ft is None else {**params, "float_type": np.dtype(ft).str}
 
 
 def release_pages(*arrays) -> None:
@@ -379,7 +388,8 @@ def _tile_progress(enabled: bool, label: str):
 # --------------------------------------------------------------------------- the loop
 
 
-def _estimate_spacing(source, k: int, *, sample: int = 100_000, typical: bool = False):
+def _estimate_spacing(source, k: int, *, sample: int = 100_000, typical: bool = False,
+                      client=None):  # fmt: skip
     """(mean 6-NN spacing, a high k-NN distance, or with ``typical`` the median one) of
     the full point set, estimated on a
     regular subsample of every ``stride``-th point.
@@ -389,13 +399,23 @@ def _estimate_spacing(source, k: int, *, sample: int = 100_000, typical: bool = 
     volume); the 99.99th percentile of that distance over the subsample keeps sparse
     regions (vegetation, edges) in and isolated outliers out (their tiles grow their
     halo when certified). The spacing is exact when the subsample is all points.
+    With a dask ``client`` the k-NN query runs on a worker (`_spacing_of`, the same
+    computation: the command's own process then never loads the k-NN kernels).
     """
+    pts, stride = source.sample(sample)
+    if pts.shape[0] < 8:
+        return 0.0, 0.0
+    if client is None:
+        return _spacing_of(pts, k, stride, typical)
+    (data,) = client.scatter([pts], hash=False)
+    return client.submit(_spacing_of, data, k, stride, typical, pure=False).result()
+
+
+def _spacing_of(pts, k: int, stride: int, typical: bool):
+    """`_estimate_spacing` of the subsample ``pts`` (every ``stride``-th point)."""
     from ..neighbors import query_knn
 
-    pts, stride = source.sample(sample)
     m = pts.shape[0]
-    if m < 8:
-        return 0.0, 0.0
     kk = min(m - 1, max(1, math.ceil(k / stride)))
     _, dist = query_knn(pts, min(m, max(kk, 6) + 1))
     spacing = float(dist[:, 1:7].mean())
@@ -511,11 +531,12 @@ def _round(client, kind, specs, spill, in_flight):
         submit_next()
 
 
-def _auto_halo(source, k: int, options: TileOptions, extra: float = 0.0):
-    """(halo, fixed): the given halo, or an estimate from a subsample (grown later)."""
+def _auto_halo(source, k: int, options: TileOptions, extra: float = 0.0, client=None):
+    """(halo, fixed): the given halo, or an estimate from a subsample (grown later;
+    on a worker of ``client`` when given, `_estimate_spacing`)."""
     if options.halo is not None:
         return float(options.halo), True
-    _, r_k = _estimate_spacing(source, k)
+    _, r_k = _estimate_spacing(source, k, client=client)
     return max(1.25 * r_k, extra, 1e-12), False
 
 

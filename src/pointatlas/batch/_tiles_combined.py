@@ -22,6 +22,7 @@ from ._tiles_tasks import (
     feature_kmax,
     features_dispatch,
     mst_tile_normals,
+    owned_fields,
 )
 
 __all__ = ["normals_features_over", "normals_features_task"]
@@ -32,8 +33,6 @@ def normals_features_task(spec, data):
     columns for the orientation graph), PCA normals oriented by MST as `normals_task`
     (halo parts for the stitching), and the features of the owned rows from the same
     table (halo rows get a table of the point itself, as `features_task`)."""
-    from ..features import classify_dimension
-
     os.environ.setdefault("PYTHONHASHSEED", "0")
     _threads(spec)
     p = spec["params"]
@@ -50,9 +49,7 @@ def normals_features_task(spec, data):
     halo = np.flatnonzero(~owned)
     ftable[halo] = halo[:, None]
     res = features_dispatch(xyz, None, fp, neighbors=ftable)
-    fields = {name: np.asarray(v)[owned] for name, v in res.scalar_fields().items()}
-    fields["dimension_class"] = classify_dimension(res)[owned]
-    out["fields"] = fields
+    out["fields"] = owned_fields(res, owned, fp)
     return out
 
 
@@ -76,7 +73,6 @@ def normals_features_over(source, options, params, normal_params, *, normals_out
     if kf > n:
         raise PointAtlasError(f"k = {kf} exceeds the number of points ({n})")
     grid = T._grid_for(source, options)
-    halo0, fixed = T._auto_halo(source, max(k, kf), options)
     stitch = _Stitch(np.zeros((n, 3)) if normals_out is None else normals_out, "mst", spill_dir)
     fields = {} if fields_out is None else fields_out
 
@@ -88,9 +84,10 @@ def normals_features_over(source, options, params, normal_params, *, normals_out
             fields[name][res["gidx"]] = v
         T.release_pages(*fields.values())
 
-    task_params = {"k": k, "orient_k": orient_k, "features": params}
+    task_params = {"k": k, "orient_k": orient_k, "features": T.sent_as(params, fields)}
     cols = max(k, kf, orient_k)
     with T._maybe_client(options, client_info) as ci:
+        halo0, fixed = T._auto_halo(source, max(k, kf), options, client=ci[0])
         run = T.run_tiles(
             normals_features_task, source, grid, task_params, options, ci, on_result,
             halo0=halo0, fixed=fixed, label=label, spill_dir=spill_dir,

@@ -46,7 +46,6 @@ def features_over(source, options, params, *, out=None, spill_dir=None, client_i
     if params["mode"] == "optimal" and not source.has_normals and normals_array is None:
         raise PointAtlasError("sigmoid weights need normals; the input has none")
     grid = T._grid_for(source, options)
-    halo0, fixed = T._auto_halo(source, kmax, options)
     fields = {} if out is None else out
 
     def on_result(t, res):
@@ -57,9 +56,10 @@ def features_over(source, options, params, *, out=None, spill_dir=None, client_i
         T.release_pages(*fields.values())
 
     with T._maybe_client(options, client_info) as ci:
+        halo0, fixed = T._auto_halo(source, kmax, options, client=ci[0])
         run = T.run_tiles(
-            "features", source, grid, params, options, ci, on_result, halo0=halo0, fixed=fixed,
-            label=label, spill_dir=spill_dir, normals_array=normals_array,
-            memory_per_point=8.0 * (kmax + 60)
+            "features", source, grid, T.sent_as(params, fields), options, ci, on_result,
+            halo0=halo0, fixed=fixed, label=label, spill_dir=spill_dir,
+            normals_array=normals_array, memory_per_point=8.0 * (kmax + 60)
         )  # fmt: skip
     return fields, run

@@ -1,7 +1,9 @@
 """LAS/LAZ streamed by chunks through tiled processing (never the whole file at once).
 
 Reading: ``laspy.open(path).chunk_iterator(n)``, decoding only x, y, z (and the
-``nx, ny, nz`` extra bytes when used) for the scan and spill passes. Writing:
+``nx, ny, nz`` extra bytes when used) for the scan and spill passes; a LAZ file
+run by `las_tiled` is decoded once, its raw records kept in a memory map of the
+temporary folder for the later passes (`LasSource.keep_records`). Writing:
 ``laspy.open(fh, mode="w", header=...)`` with a copy of the input header plus our
 fields as extra-bytes dimensions; every input dimension is copied record by record
 (the raw bytes, so bit fields and extra bytes survive unchanged). Results between
@@ -71,6 +73,18 @@ class LasSource:
         self.use_normals = self.has_normals
         self._bounds = None
         self.decode_seconds = 0.0
+        self._keep_in = None  # folder of the raw records (`keep_records`)
+        self._raw = None  # their memory map, once the first pass wrote it
+
+    def keep_records(self, folder) -> None:
+        """Decode a compressed file once: the first pass (`bounds`) keeps every raw
+        record in ``folder/records.npy`` (a memory map, the point format's bytes) and
+        the later passes (spill, write) read them from there instead of decoding the
+        file again (docs/decisions/batch.md, "Tiles — LAS/LAZ streamed by chunks").
+        Records from the map are those the decoder gives, byte for byte. No effect
+        on uncompressed LAS (read directly) or once the first pass is done."""
+        if getattr(self.header, "are_points_compressed", False) and self._bounds is None:
+            self._keep_in = Path(folder)
 
     def _open(self, full: bool, normals: bool):
         import laspy
@@ -88,6 +102,9 @@ class LasSource:
         """(start, laspy point record) chunks in file order (``full``: every
         dimension; else x, y, z and, with ``normals`` (default `use_normals`),
         the extra bytes)."""
+        if self._raw is not None:
+            yield from self._kept_records()
+            return
         start = 0
         normals = self.use_normals if normals is None else normals
         with self._open(full, normals) as reader:
@@ -100,6 +117,35 @@ class LasSource:
                     break
                 yield start, rec
                 start += len(rec)
+
+    def _kept_records(self):
+        """(start, record) chunks of the raw records kept by the first pass."""
+        import laspy
+
+        fmt, scales, offsets = self.header.point_format, self.header.scales, self.header.offsets
+        raw = self._raw
+        for start in range(0, raw.shape[0], self.chunk_points):
+            block = raw[start : start + self.chunk_points]
+            yield start, laspy.ScaleAwarePointRecord(block, fmt, scales, offsets)
+            release_pages(raw)
+
+    def _keeping_pass(self):
+        """`records` of every dimension from the file, each chunk also copied into
+        the memory map of `keep_records`; the map is used from then on."""
+        path = self._keep_in / "records.npy"
+        mm = None
+        filled = 0
+        for start, rec in self.records(full=True):
+            if mm is None:
+                mm = np.lib.format.open_memmap(path, "w+", rec.array.dtype, (self.n,))
+            mm[start : start + len(rec)] = rec.array
+            filled = start + len(rec)
+            release_pages(mm)
+            yield start, rec
+        if mm is not None:
+            mm.flush()
+            del mm
+            self._raw = np.load(path, mmap_mode="r")[:filled]
 
     @staticmethod
     def xyz_of(rec) -> np.ndarray:
@@ -121,7 +167,9 @@ class LasSource:
             hi = np.full(3, -np.inf)
             stride = max(1, self.n // SAMPLE_POINTS)
             parts = []
-            for s, rec in self.records(full=False, normals=False):
+            keeping = self._keep_in is not None and self._raw is None
+            passes = self._keeping_pass() if keeping else self.records(full=False, normals=False)
+            for s, rec in passes:
                 xyz = self.xyz_of(rec)
                 lo = np.minimum(lo, xyz.min(axis=0))
                 hi = np.maximum(hi, xyz.max(axis=0))
@@ -322,6 +370,7 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
     tmp = make_tmp(options, Path(out_path))
     summary = {"points": src.n}
     try:
+        src.keep_records(tmp)  # LAZ: decoded once, by the first pass
         src.bounds()  # the first pass (bounds, subsample): an empty file fails here
         with tile_client(options) as ci:
             summary["scheduler"] = ci[1]

@@ -148,9 +148,8 @@ class _Stitch:
             self.piece_of[res["gidx"]] = _piece_key(t, res["piece"])
             self.halo_parts[t] = (res["halo_gidx"], res["halo_owner"], res["halo_normals"],
                                   res["halo_piece"])  # fmt: skip
-            tops = res["tops"]
-            self.tops[t] = (_piece_key(t, np.fromiter(tops, np.int64, len(tops))),
-                            list(tops.values()))  # fmt: skip
+            comps, rows = res["tops"]
+            self.tops[t] = (_piece_key(t, comps), rows)
             self.tile_links[t] = res["links"]
         T.release_pages(self.normals, self.piece_of)
 
@@ -185,10 +184,10 @@ def normals_over(source, options, *, k, orient, orient_k, viewpoint, out=None, s
     n = source.n
     check_normal_options(n, k, orient)
     grid = T._grid_for(source, options)
-    halo0, fixed = T._auto_halo(source, k, options)
     stitch = _Stitch(np.zeros((n, 3)) if out is None else out, orient, spill_dir)
     params = {"k": int(k), "orient": orient, "orient_k": int(orient_k), "viewpoint": viewpoint}
     with T._maybe_client(options, client_info) as ci:
+        halo0, fixed = T._auto_halo(source, k, options, client=ci[0])
         run = T.run_tiles(
             "normals", source, grid, params, options, ci, stitch.on_result, halo0=halo0,
             fixed=fixed, label=label, spill_dir=spill_dir,

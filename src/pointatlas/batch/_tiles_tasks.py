@@ -118,8 +118,9 @@ def mst_tile_normals(xyz, table, k, orient_k, data, owner, owned):
 
     normals = estimate_normals(xyz, k, neighbors=table)
     ok = min(orient_k, xyz.shape[0])
-    normals = orient_normals(xyz, normals, k=ok, method="mst", neighbors=table)
-    comp, links = _smooth_pieces(table[:, :ok], normals)
+    graph = np.ascontiguousarray(table[:, :ok])  # one copy for the MST and the pieces
+    normals = orient_normals(xyz, normals, k=ok, method="mst", neighbors=graph)
+    comp, links = _smooth_pieces(graph, normals)
     hg, ho = _halo_part(data, owner, owned)
     parts = {"halo_gidx": hg, "halo_owner": ho, "halo_normals": normals[~owned],
              "halo_piece": comp[~owned], "piece": comp[owned], "links": links,
@@ -155,16 +156,18 @@ def _smooth_pieces(table, normals):
     return labels, np.column_stack([a[order][start], b[order][start], sums]).astype(np.float64)
 
 
-def _piece_tops(comp, owned, z, gidx, nz) -> dict:
-    """Per component with owned points: (largest z, its global index, its nz); the
-    smallest global index among equal z."""
-    tops = {}
+def _piece_tops(comp, owned, z, gidx, nz):
+    """Per component with owned points: its key and (largest z, its global index,
+    its nz), the smallest global index among equal z: ``(components, (m, 3) rows)``
+    in increasing component order (`piece_tops_kernel`)."""
+    from ._kernels import piece_tops_kernel
+
     rows = np.flatnonzero(owned)
-    order = rows[np.lexsort((gidx[rows], -z[rows]))]
-    _, first = np.unique(comp[order], return_index=True)
-    for i in order[first].tolist():
-        tops[int(comp[i])] = (float(z[i]), int(gidx[i]), float(nz[i]))
-    return tops
+    n_pieces = int(comp.max()) + 1 if comp.size else 0
+    best = piece_tops_kernel(comp, n_pieces, rows, z, gidx)
+    comps = np.flatnonzero(best >= 0)
+    top = best[comps]
+    return comps, np.column_stack([z[top], gidx[top].astype(np.float64), nz[top]])
 
 
 # --------------------------------------------------------------------------- features
@@ -218,12 +221,24 @@ def features_task(spec, data):
     table, fail = _owned_table(spec, xyz, owned, bdist, kmax)
     if fail:
         return fail
+    res = features_dispatch(xyz, data.get("normals"), p, neighbors=table)
+    return {"status": "ok", "gidx": data["gidx"][owned], "fields": owned_fields(res, owned, p)}
+
+
+def owned_fields(res, owned, params) -> dict:
+    """The owned rows of a `FeatureResult`'s fields and ``dimension_class``; float64
+    fields as ``params["float_type"]`` when given (the type the client stores them
+    in: float32 for LAS/LAZ, `LAS_FEATURE_FLOAT`), rounded here as the client's
+    store would round them, and half the bytes sent back."""
     from ..features import classify_dimension
 
-    res = features_dispatch(xyz, data.get("normals"), p, neighbors=table)
-    fields = {name: np.asarray(v)[owned] for name, v in res.scalar_fields().items()}
+    ft = params.get("float_type")
+    fields = {}
+    for name, v in res.scalar_fields().items():
+        v = np.asarray(v)[owned]
+        fields[name] = v.astype(ft) if ft is not None and v.dtype == np.float64 else v
     fields["dimension_class"] = classify_dimension(res)[owned]
-    return {"status": "ok", "gidx": data["gidx"][owned], "fields": fields}
+    return fields
 
 
 # --------------------------------------------------------------------------- denoise

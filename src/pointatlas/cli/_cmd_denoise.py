@@ -24,6 +24,7 @@ from ..denoise import (
     denoise_measures,
     flatness_denoise,
     normal_voting_denoise,
+    snap_planar_pieces,
 )
 from ._app import (
     EstimateNormalsOption,
@@ -88,9 +89,10 @@ def read_clean(path: Path):
 
 
 def _run(ps, method, *, rho, tau, n_iter, n_filter_iter, max_step, k, eta, eps, schedule,
-         k_start, refit):  # fmt: skip
+         k_start, refit, planes):  # fmt: skip
     """Run the method with a progress bar; returns the DenoiseResult (``refit``: the
-    normals were estimated, normal voting refits the returned ones to their faces)."""
+    normals were estimated, normal voting refits the returned ones to their faces;
+    ``planes``: then the planar pieces step, as `pointatlas.denoise.denoise`)."""
     if method == "flatness":
         n_iter = 60 if n_iter is None else n_iter
         with progress_bar("flatness iterations", total=n_iter) as advance:
@@ -108,19 +110,29 @@ def _run(ps, method, *, rho, tau, n_iter, n_filter_iter, max_step, k, eta, eps, 
     # n_iter None: rounds until the points settle (normal_voting_denoise); total unknown;
     # the returned normals take n_filter_iter more steps unless refitted
     total = None if n_iter is None else (n_iter + (n_iter > 0 and not refit)) * n_filter_iter
+    adaptive = method == "normal-voting-adaptive"
+    table = None
+    if planes:  # one k-NN table of the input for normal voting and the pieces
+        from .._core.tolerances import DENOISE_K_MAX, DENOISE_K_WIDTH
+        from ..neighbors import query_knn
+
+        width = DENOISE_K_MAX + (DENOISE_K_WIDTH if adaptive else 0)
+        table = query_knn(ps.points, min(width, ps.n_points))[0]
     with progress_bar("normal filter steps", total=total) as advance:
-        return normal_voting_denoise(
+        res = normal_voting_denoise(
             ps.points,
             ps.normals,
             rho=rho,
             tau=tau,
             n_iter=n_iter,
             n_filter_iter=n_filter_iter,
-            adaptive=method == "normal-voting-adaptive",
+            adaptive=adaptive,
             max_step=max_step,
             refit_normals=refit,
+            neighbors=table,
             progress=advance,
         )
+    return res if table is None else snap_planar_pieces(ps.points, res, neighbors=table)
 
 
 def _print_measures(before: dict, after: dict) -> None:
@@ -331,10 +343,33 @@ _CleanOption = Annotated[
 _RenderOption = Annotated[
     Path | None, typer.Option("--render", help="Also write a PNG: input beside result.")
 ]
+_PlanesOption = Annotated[
+    bool | None,
+    typer.Option(
+        "--planes/--no-planes",
+        help="Normal voting: points on planar pieces of 150+ points take the piece's "
+        "plane (normal and position). Default: on, off with --tile-size (global step).",
+    ),
+]
 _ReportOption = Annotated[
     Path | None,
     typer.Option("--report", help="Also write an HTML report with a 3-D view of input and result."),
 ]
+
+
+def _run_tiles(input_path, output, tiles, report, *, method, estimate, normal_k, rho, tau,
+               n_iter, n_filter_iter, max_step, k, eta, eps, schedule, k_start):  # fmt: skip
+    """``--tile-size``: the run by tiles on dask (`pointatlas.batch`; no planar pieces)."""
+    from ..batch._tiles_cli import denoise_params, normal_params_for
+
+    params = denoise_params(
+        input_path, method=method, estimate=estimate, rho=rho, tau=tau, n_iter=n_iter,
+        filter_iter=default_filter_iter(refit=False) if n_filter_iter is None
+        else n_filter_iter, max_step=max_step, k=k, eta=eta, eps=eps,
+        schedule=schedule, k_start=k_start,
+    )  # fmt: skip
+    run_tiled("denoise", input_path, output, params, tiles, report=report,
+              normal_params=normal_params_for(input_path, estimate, normal_k))  # fmt: skip
 
 
 @app.command("denoise")
@@ -381,6 +416,7 @@ def denoise_command(
     normal_k: NormalKOption = 20,
     render: _RenderOption = None,
     report: _ReportOption = None,
+    planes: _PlanesOption = None,
     tile_size: TileSizeOption = None,
     halo: HaloOption = None,
     workers: WorkersOption = None,
@@ -410,16 +446,15 @@ def denoise_command(
     tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, clean=clean,
                          render=render)  # fmt: skip
     if tiles is not None:
-        from ..batch._tiles_cli import denoise_params, normal_params_for
-
-        params = denoise_params(
-            input_path, method=method, estimate=estimate, rho=rho, tau=tau, n_iter=n_iter,
-            filter_iter=default_filter_iter(refit=False) if n_filter_iter is None
-            else n_filter_iter, max_step=max_step, k=k, eta=eta, eps=eps,
-            schedule=schedule, k_start=k_start,
-        )  # fmt: skip
-        run_tiled("denoise", input_path, output, params, tiles, report=report,
-                  normal_params=normal_params_for(input_path, estimate, normal_k))  # fmt: skip
+        if planes:
+            raise PointAtlasError(
+                "--planes grows planar pieces over the whole input, which tiles cannot; "
+                "drop --planes or --tile-size"
+            )
+        _run_tiles(input_path, output, tiles, report, method=method, estimate=estimate,
+                   normal_k=normal_k, rho=rho, tau=tau, n_iter=n_iter,
+                   n_filter_iter=n_filter_iter, max_step=max_step, k=k, eta=eta, eps=eps,
+                   schedule=schedule, k_start=k_start)  # fmt: skip
         return
     t0 = time.perf_counter()
     method, ps, estimated = _read_checked(input_path, output, method, estimate, normal_k)
@@ -430,7 +465,7 @@ def denoise_command(
     t1 = time.perf_counter()
     res = _run(ps, method, rho=rho, tau=tau, n_iter=n_iter, n_filter_iter=n_filter_iter,
                max_step=max_step, k=k, eta=eta, eps=eps, schedule=schedule,
-               k_start=k_start, refit=estimated)  # fmt: skip
+               k_start=k_start, refit=estimated, planes=planes is not False)  # fmt: skip
     seconds = time.perf_counter() - t1
     ours = _our_fields(res, method)
     out_ps = ps.replace(points=res.points, normals=res.normals)
@@ -438,6 +473,8 @@ def denoise_command(
     summary = _summary(input_path, res, n, method, seconds, t0, k=k, eta=eta, eps=eps,
                        schedule=schedule, k_start=k_start, rho=rho, tau=tau,
                        n_filter_iter=n_filter_iter, max_step=max_step)  # fmt: skip
+    if method != "flatness":
+        summary["parameters"]["planes"] = planes is not False
     if clean_model is not None:
         summary.update(_clean_measures(clean, clean_model, ps, res))
     if render is not None:

@@ -9,7 +9,7 @@ models and the measures of the denoising literature (normal MSE, Chamfer,
 point-to-mesh, tangential drift).
 """
 
-from ._api import DENOISE_METHODS, choose_method, denoise
+from ._api import DENOISE_METHODS, choose_method, denoise, snap_planar_pieces
 from ._defaults import default_filter_iter
 from ._flatness import FLATNESS_SCHEDULES, flatness_denoise, flatness_schedule
 from ._halo import DenoiseHalo, denoise_halo
@@ -52,5 +52,6 @@ __all__ = [
     "flatness_schedule",
     "normal_mse",
     "normal_voting_denoise",
+    "snap_planar_pieces",
     "unit_sphere_transform",
 ]

@@ -2,12 +2,21 @@
 
 from __future__ import annotations
 
-from .._core import as_points
+import dataclasses
+
+import numpy as np
+
+from .._core import as_points, check_neighbors
+from .._core.tolerances import DENOISE_K_MAX, DENOISE_K_MIN, DENOISE_K_WIDTH
+from ..neighbors import query_knn
 from ._flatness import flatness_denoise
+from ._kernels import CLASS_FACE
+from ._planes import PIECE_SEED, snap_to_pieces
 from ._result import DenoiseResult
+from ._threads import threads_for
 from ._voting import normal_voting_denoise
 
-__all__ = ["DENOISE_METHODS", "choose_method", "denoise"]
+__all__ = ["DENOISE_METHODS", "choose_method", "denoise", "snap_planar_pieces"]
 
 #: the methods of `denoise` (and ``pointatlas denoise --method``)
 DENOISE_METHODS = ("normal-voting", "normal-voting-adaptive", "flatness", "auto")
@@ -41,7 +50,9 @@ def choose_method(points, normals=None) -> str:
     return "normal-voting"
 
 
-def denoise(points, normals=None, *, method: str = "auto", progress=None) -> DenoiseResult:
+def denoise(
+    points, normals=None, *, method: str = "auto", planes: bool = True, progress=None
+) -> DenoiseResult:
     """Denoise a point set with one of `DENOISE_METHODS` at its default parameters.
 
     Parameters
@@ -55,6 +66,10 @@ def denoise(points, normals=None, *, method: str = "auto", progress=None) -> Den
         ``"normal-voting"`` (fixed [YRS+18] neighbourhoods), ``"normal-voting-adaptive"``
         (k by least E_dim, thesis 5.4), ``"flatness"`` (Eq. 6.3, k = 28, eta = 1,
         60 iterations) or ``"auto"`` (`choose_method`).
+    planes : bool
+        Normal voting: after the local denoise, group the points into planar
+        pieces of at least 150 points; their points take the piece's plane
+        normal and move onto the plane (`snap_planar_pieces`). Ignored by flatness.
     progress : callable, optional
         Called with 1 after every iteration step.
 
@@ -82,6 +97,86 @@ def denoise(points, normals=None, *, method: str = "auto", progress=None) -> Den
         method = choose_method(points, normals)
     if method == "flatness":
         return flatness_denoise(points, normals=normals, progress=progress)
-    return normal_voting_denoise(
-        points, normals, adaptive=method == "normal-voting-adaptive", progress=progress
-    )
+    adaptive = method == "normal-voting-adaptive"
+    if not planes:
+        return normal_voting_denoise(points, normals, adaptive=adaptive, progress=progress)
+    # one k-NN table of the input for both (the table normal voting queries itself)
+    pts = as_points(points, min_points=DENOISE_K_MIN + 1)
+    n = pts.shape[0]
+    # one thread for small inputs on a busy machine (_threads.py), also for the table
+    # checks, which run parallel kernels before normal voting's own switch
+    with threads_for(n):
+        table = query_knn(pts, min(DENOISE_K_MAX + (DENOISE_K_WIDTH if adaptive else 0), n))[0]
+        result = normal_voting_denoise(
+            pts, normals, adaptive=adaptive, neighbors=table, progress=progress
+        )
+        return snap_planar_pieces(pts, result, neighbors=table)
+
+
+def snap_planar_pieces(points, result: DenoiseResult, *, neighbors=None) -> DenoiseResult:
+    """A normal voting result whose points on planar pieces take the piece's plane.
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3), float64
+        The input of the denoise (the displacement is measured from it).
+    result : DenoiseResult
+        A `normal_voting_denoise` result (its points, normals, classes and l).
+    neighbors : array_like of shape (N, K), int, optional
+        The input's k-NN table (each row its point first, then by distance),
+        K >= 25, as `normal_voting_denoise` took it: the growth graph (points
+        moved by less than l). None: queried on the denoised points.
+
+    Returns
+    -------
+    result : DenoiseResult
+        The same with new ``points``, ``normals`` and ``displacement`` (from the
+        same input positions; everything else unchanged).
+
+    Raises
+    ------
+    ValueError
+        ``points`` not of the result's shape, a bad ``neighbors`` table.
+
+    Notes
+    -----
+    The global step between the local denoise and the output
+    (docs/decisions/denoise.md, "Planar pieces"): pieces start at the flattest
+    face-class points and grow over the 12 nearest neighbours through points within
+    0.4 l of a fixed plane whose normal is within 10 degrees of it; the plane is refitted
+    to the members twice (regrowing each time) and a piece of at least 150 points is
+    kept. Each point then takes, signed like its own, the normal of the nearest
+    piece plane among its neighbours' pieces when within 0.4 l, its normal within
+    7 degrees (15 when the denoise ran several rounds: about 1 l of noise) and no
+    second plane within 0.75 l, and moves onto that plane.
+
+    Examples
+    --------
+    >>> from pointatlas.synth import cube
+    >>> from pointatlas.denoise import add_noise
+    >>> m = cube(16)
+    >>> noisy = add_noise(m.points, m.normals, 0.3, k=6, rng=0)
+    >>> r = snap_planar_pieces(noisy, normal_voting_denoise(noisy, None))
+    >>> bool(np.abs(np.abs(r.points).max(axis=1) - 0.5).mean() < 0.01)
+    True
+    """
+    start = as_points(points)
+    if start.shape != result.points.shape:
+        raise ValueError(
+            f"points must have the result's shape {result.points.shape}; got {start.shape}"
+        )
+    if result.n_iter == 0:
+        return result
+    pts = result.points
+    with threads_for(pts.shape[0]):
+        table = None
+        if neighbors is not None:
+            table = check_neighbors(neighbors, pts.shape[0], k=min(PIECE_SEED, pts.shape[0]))
+        normals, moved, _ = snap_to_pieces(
+            pts, result.normals, result.feature_class == CLASS_FACE, result.spacing,
+            high_noise=result.n_iter > 1, table=table,
+        )  # fmt: skip
+    return dataclasses.replace(
+        result, points=moved, normals=normals,
+        displacement=np.sqrt(((moved - start) ** 2).sum(axis=1)),
+    )  # fmt: skip

@@ -13,6 +13,10 @@ __all__ = [
     "LONELY_SIGMA",
     "MAX_ROUNDS",
     "MAX_UPDATES",
+    "POLISH_K",
+    "POLISH_LAMBDA",
+    "POLISH_MOVE",
+    "POLISH_NORMAL_K",
     "default_filter_iter",
 ]
 
@@ -28,6 +32,15 @@ MAX_ROUNDS = 4
 LONELY_PLANES = 5
 LONELY_SIGMA = 1.5
 LONELY_PASSES = 1
+#: polish (docs/decisions/denoise.md, "Polish"): after an automatic run of two or more
+#: rounds whose last one still moved the points by an RMS above POLISH_MOVE l (about
+#: 1 l of noise), each point moves POLISH_LAMBDA of the way to the mean of its
+#: POLISH_K nearest moved points (itself included) along the PCA normal of its
+#: POLISH_NORMAL_K nearest (both among its row of the input's neighbour table)
+POLISH_MOVE = 0.28
+POLISH_LAMBDA = 0.85
+POLISH_K = 12
+POLISH_NORMAL_K = 24
 #: filter steps per round when the returned normals are refitted (estimated normals)
 #: and when they are filtered (given normals; also their final steps)
 FILTER_ITER_ESTIMATED = 1

@@ -113,8 +113,9 @@ def denoise_halo(
     R (F + P) + (R - 1) + R U + 2). Only the rows of points less than that
     far are read, and their neighbours lie within the halo, so a tile's own
     exact k-NN rows serve. With ``n_iter`` or ``n_update`` None the counts are the worst
-    case (4 rounds, 12 updates) and the stops are RMS tests over all points, so
-    ``exact`` is False. Exact tiles also need ``spacing=`` (the untiled l) and
+    case (4 rounds, 12 updates, and one more ring for the polish step that may end
+    an automatic run) and the stops are RMS tests over all points, so ``exact`` is
+    False. Exact tiles also need ``spacing=`` (the untiled l) and
     the same neighbour table (``neighbors=``) in `normal_voting_denoise`.
 
     Flatness (thesis Eq. 6.3) re-queries the k nearest neighbours of the moved
@@ -156,4 +157,6 @@ def denoise_halo(
         final = 0 if estimate else steps
         hops = rounds * (steps + LONELY_PASSES) + (rounds - 1) + rounds * updates + final + 1
     hops += int(bool(estimate))
+    if n_iter is None and rounds:  # the polish after an automatic run: one more ring
+        hops += 1
     return DenoiseHalo(rings=hops, columns=columns, exact=exact)

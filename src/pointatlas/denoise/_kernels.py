@@ -36,6 +36,7 @@ __all__ = [
     "lonely_normals_kernel",
     "plane_lists_kernel",
     "plane_update_kernel",
+    "polish_kernel",
     "table_distances_kernel",
     "voting_filter_kernel",
 ]
@@ -48,7 +49,7 @@ CLASS_CORNER = 3
 #: neighbours per cached weight pattern of `adaptive_k_kernel` (bits of an int64,
 #: sign bit unused)
 MASK_BITS = 62
-#: points per task of `adaptive_k_kernel` (its scratch arrays are allocated per task)
+#: points per task of `adaptive_k_kernel` and `polish_kernel` (scratch arrays per task)
 ADAPTIVE_BLOCK = 256
 
 
@@ -421,6 +422,75 @@ def plane_update_kernel(points, normals, lists, counts, max_step, inv_sigma2, be
         out[i, 2] = pz + s * nz
         dx, dy, dz = out[i, 0] - px, out[i, 1] - py, out[i, 2] - pz
         moved2[i] = dx * dx + dy * dy + dz * dz
+
+
+@njit(parallel=True, cache=True)
+def polish_kernel(points, idx, k_normal, k_mean, lam, out):
+    """One projected Laplacian step of moved points: x_i = p_i + lam ((c_i - p_i) . n_i) n_i.
+
+    The ``k_normal`` nearest of row i of ``idx`` (the input's neighbours, the point
+    itself first) by the current distances (ties by column) are selected; c_i is the
+    mean of their first ``k_mean`` (the point included) and n_i the least eigenvector
+    of their covariance (PCA; its sign does not matter). A covariance without a
+    finite eigenvector leaves the point. The polish after a high-noise run
+    (docs/decisions/denoise.md, "Polish").
+
+    Parameters
+    ----------
+    points : (N, 3) float64
+    idx : (N, K) int64, K >= k_normal >= k_mean >= 1
+    k_normal, k_mean : int
+    lam : float
+    out : (N, 3) float64, out (new positions)
+    """
+    n = points.shape[0]
+    for b in prange((n + ADAPTIVE_BLOCK - 1) // ADAPTIVE_BLOCK):
+        d2 = np.empty(k_normal)
+        near = np.empty(k_normal, dtype=np.int64)
+        for i in range(b * ADAPTIVE_BLOCK, min(n, (b + 1) * ADAPTIVE_BLOCK)):
+            _polish_point(points, idx, i, k_normal, k_mean, lam, d2, near, out)
+
+
+@njit(cache=True, inline="always")
+def _polish_point(points, idx, i, k_normal, k_mean, lam, d2, near, out):
+    """`polish_kernel` for point i (``d2``, ``near``: scratch of k_normal entries)."""
+    px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+    out[i, 0], out[i, 1], out[i, 2] = px, py, pz
+    filled = 0
+    for c in range(idx.shape[1]):  # the k_normal nearest, sorted (insertion)
+        j = idx[i, c]
+        dx, dy, dz = points[j, 0] - px, points[j, 1] - py, points[j, 2] - pz
+        d = dx * dx + dy * dy + dz * dz
+        if filled == k_normal and not d < d2[k_normal - 1]:
+            continue
+        m = filled if filled < k_normal else k_normal - 1
+        while m > 0 and d2[m - 1] > d:
+            d2[m], near[m] = d2[m - 1], near[m - 1]
+            m -= 1
+        d2[m], near[m] = d, j
+        filled = min(filled + 1, k_normal)
+    cnt = 0
+    s0 = s1 = s2 = 0.0
+    c00 = c01 = c02 = c11 = c12 = c22 = 0.0
+    mx = my = mz = 0.0
+    for r in range(k_normal):
+        j = near[r]
+        y0, y1, y2 = points[j, 0] - px, points[j, 1] - py, points[j, 2] - pz
+        cnt, s0, s1, s2, c00, c01, c02, c11, c12, c22 = add_moments(
+            1, y0, y1, y2, cnt, s0, s1, s2, c00, c01, c02, c11, c12, c22
+        )
+        if r < k_mean:
+            mx, my, mz = mx + y0, my + y1, mz + y2
+    m0, m1, m2 = s0 / cnt, s1 / cnt, s2 / cnt
+    _, _, _, _, _, _, nx, ny, nz = eigh3_accurate(
+        c00 / cnt - m0 * m0, c01 / cnt - m0 * m1, c02 / cnt - m0 * m2,
+        c11 / cnt - m1 * m1, c12 / cnt - m1 * m2, c22 / cnt - m2 * m2,
+    )  # fmt: skip
+    if math.isfinite(nx) and math.isfinite(ny) and math.isfinite(nz):
+        h = lam * (mx * nx + my * ny + mz * nz) / k_mean
+        out[i, 0] = px + h * nx
+        out[i, 1] = py + h * ny
+        out[i, 2] = pz + h * nz
 
 
 # --------------------------------------------------------------------------- neighbourhoods

@@ -19,6 +19,10 @@ from ._defaults import (
     LONELY_SIGMA,
     MAX_ROUNDS,
     MAX_UPDATES,
+    POLISH_K,
+    POLISH_LAMBDA,
+    POLISH_MOVE,
+    POLISH_NORMAL_K,
     default_filter_iter,
 )
 from ._kernels import (
@@ -28,6 +32,7 @@ from ._kernels import (
     lonely_normals_kernel,
     plane_lists_kernel,
     plane_update_kernel,
+    polish_kernel,
     table_distances_kernel,
     voting_filter_kernel,
 )
@@ -353,6 +358,16 @@ def _planes(cur, nrm, idx, k_def, lists, counts, rho, ell):
     return nrm
 
 
+def _polish(cur, table):
+    """One projected Laplacian step of moved points over the input's ``table``
+    (`polish_kernel`, POLISH_LAMBDA, POLISH_K, POLISH_NORMAL_K; docs/decisions/denoise.md,
+    "Polish")."""
+    out = np.empty_like(cur)
+    k_normal = min(POLISH_NORMAL_K, table.shape[1])
+    polish_kernel(cur, table, k_normal, min(POLISH_K, k_normal), POLISH_LAMBDA, out)
+    return out
+
+
 def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filter_iter,
             n_update, adaptive, max_step, sharpen, normal_k, refit, progress):  # fmt: skip
     """The rounds of `normal_voting_denoise`, then the returned normals and classes.
@@ -389,6 +404,8 @@ def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filte
         moved = float(np.sqrt(((cur - start) ** 2).sum(axis=1).mean()))
         if auto and moved <= ROUND_MOVE * ell:
             break
+    if auto and ran > 1 and not sharpen and moved > POLISH_MOVE * ell:
+        cur = _polish(cur, table)  # about 1 l of noise left after the rounds
     if ran and not refit:  # the returned normals: n_filter_iter more steps (sharper edges)
         nrm, k_of, fallback = _filter_steps(
             cur, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_filter_iter, adaptive=adaptive,
@@ -436,8 +453,9 @@ def normal_voting_denoise(
         Filter cut-off and eigenvalue threshold (`filter_normals`); rho also
         picks the planes of the update, tau separates faces, edges and corners.
     n_iter : int, optional
-        Rounds. None (default): rounds until one moves the points by an RMS of
-        at most 0.4 l (``ROUND_MOVE``; high noise takes 2-3), at most 4.
+        Rounds. None (default): until one moves the points by an RMS of at most
+        0.4 l (``ROUND_MOVE``), at most 4; a polish step when a later one moved
+        them by more than 0.28 l (``POLISH_MOVE``; docs/decisions/denoise.md).
     n_filter_iter : int, optional
         Filter steps per round (and of unrefitted returned normals); None:
         `default_filter_iter` (1 when the returned normals are refitted, else 5).
@@ -488,9 +506,8 @@ def normal_voting_denoise(
 
     Notes
     -----
-    docs/decisions/denoise.md: one neighbour table of the input serves every
-    round. A round filters the normals, then moves all points together along
-    their own filtered normals:
+    docs/decisions/denoise.md: one neighbour table of the input serves every round.
+    A round filters the normals, then moves all points together along their own:
     x_i = p_i + s n_i minimising sum_j w_ij ((n_i + n_j) . (x_i - p_j))^2 over
     neighbours with n_i . n_j >= rho, w_ij Gaussian in |p_j - p_i| (1 l; 1.5 l
     after the first round), |s| <= max_step l (n_i + n_j keeps spheres and

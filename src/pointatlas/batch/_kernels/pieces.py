@@ -14,7 +14,7 @@ from numba import njit
 
 from ...segment._kernels._csr import find_root, union_min
 
-__all__ = ["smooth_pieces_kernel"]
+__all__ = ["piece_tops_kernel", "smooth_pieces_kernel"]
 
 
 @njit(cache=True, inline="always")
@@ -49,12 +49,17 @@ def smooth_pieces_kernel(table, normals, min_cos):
     """
     n, k = table.shape
     parent = np.arange(n)
+    sharp = np.empty((n, k), dtype=np.bool_)  # the edges' test, made once
+    n_sharp = 0
     for i in range(n):
         for c in range(k):
             j = table[i, c]
-            d = _dot(normals, i, j)
-            if abs(d) >= min_cos:
+            smooth = abs(_dot(normals, i, j)) >= min_cos
+            sharp[i, c] = not smooth
+            if smooth:
                 union_min(parent, i, j)
+            else:
+                n_sharp += 1
     labels = np.empty(n, dtype=np.int64)
     rank = np.full(n, -1, dtype=np.int64)
     m = 0
@@ -64,24 +69,30 @@ def smooth_pieces_kernel(table, normals, min_cos):
             rank[r] = m
             m += 1
         labels[i] = rank[r]
-    count = 0
-    for i in range(n):
-        for c in range(k):
-            j = table[i, c]
-            d = _dot(normals, i, j)
-            if not abs(d) >= min_cos and labels[i] != labels[j]:
-                count += 1
-    a = np.empty(count, dtype=np.int64)
-    b = np.empty(count, dtype=np.int64)
-    dots = np.empty(count, dtype=np.float64)
+    a = np.empty(n_sharp, dtype=np.int64)
+    b = np.empty(n_sharp, dtype=np.int64)
+    dots = np.empty(n_sharp, dtype=np.float64)
     e = 0
     for i in range(n):
         for c in range(k):
             j = table[i, c]
-            d = _dot(normals, i, j)
-            if not abs(d) >= min_cos and labels[i] != labels[j]:
+            if sharp[i, c] and labels[i] != labels[j]:
                 a[e] = min(labels[i], labels[j])
                 b[e] = max(labels[i], labels[j])
-                dots[e] = d
+                dots[e] = _dot(normals, i, j)
                 e += 1
-    return labels, a, b, dots
+    return labels, a[:e].copy(), b[:e].copy(), dots[:e].copy()
+
+
+@njit(cache=True)
+def piece_tops_kernel(labels, n_pieces, rows, z, gidx):
+    """Per piece, the row of ``rows`` with the largest z (ties: the smallest global
+    index ``gidx``); -1 for a piece without such a row."""
+    best = np.full(n_pieces, -1, dtype=np.int64)
+    for r in range(rows.shape[0]):
+        i = rows[r]
+        c = labels[i]
+        b = best[c]
+        if b < 0 or z[i] > z[b] or (z[i] == z[b] and gidx[i] < gidx[b]):
+            best[c] = i
+    return best

@@ -36,6 +36,7 @@ __all__ = [
     "lanes_stage2",
     "lanes_stage3",
     "sym3_eigen",
+    "sym3_eigen_scalars",
 ]
 
 _EPS = np.finfo(np.float64).eps
@@ -118,6 +119,93 @@ def _descending(d0, d1, d2):
         else:
             i1, i2 = 2, i1
     return i0, i1, i2
+
+
+@njit(cache=True, inline="always")
+def _rotate_scalars(app, aqq, apq, arp, arq, vp0, vp1, vp2, vq0, vq1, vq2):
+    """`_rotate` on scalars: one Jacobi rotation zeroing a_pq, the same operations in
+    the same order (so the same bits) with the matrix and vectors in registers.
+
+    ``app``, ``aqq``, ``apq`` the pivot entries, ``arp``, ``arq`` the entries of the
+    third row r; ``vp*``, ``vq*`` columns p and q of the vectors. Returns the
+    changed flag and the eleven updated values (a_pq then 0 when negligible).
+    """
+    if apq == 0.0:
+        return False, app, aqq, apq, arp, arq, vp0, vp1, vp2, vq0, vq1, vq2
+    if abs(apq) <= _EPS * np.sqrt(abs(app * aqq)) or abs(apq) < 1e-300:
+        return False, app, aqq, 0.0, arp, arq, vp0, vp1, vp2, vq0, vq1, vq2
+    theta = (aqq - app) / (2.0 * apq)
+    if abs(theta) > 1e150:
+        t = 0.5 / theta
+    else:
+        t = 1.0 / (abs(theta) + np.sqrt(theta * theta + 1.0))
+        if theta < 0.0:
+            t = -t
+    c = 1.0 / np.sqrt(t * t + 1.0)
+    s = t * c
+    return (
+        True,
+        app - t * apq,
+        aqq + t * apq,
+        0.0,
+        c * arp - s * arq,
+        s * arp + c * arq,
+        c * vp0 - s * vq0,
+        c * vp1 - s * vq1,
+        c * vp2 - s * vq2,
+        s * vp0 + c * vq0,
+        s * vp1 + c * vq1,
+        s * vp2 + c * vq2,
+    )
+
+
+@njit(cache=True, inline="always")
+def sym3_eigen_scalars(a00, a01, a02, a11, a12, a22):
+    """`sym3_eigen` of the symmetric matrix given by its upper triangle, in registers.
+
+    Returns ``(w0, w1, w2, u0, u1, u2, n0, n1, n2)``: the eigenvalues in descending
+    order, the eigenvector u of w0 and n of w2. The same cyclic Jacobi sweeps as
+    `sym3_eigen` (scaled by the largest entry, Rutishauser's rotations, pairs (0, 1),
+    (0, 2), (1, 2), at most 30 sweeps), the same operations in the same order: the
+    same bits, about twice as fast (no 3 x 3 arrays in memory).
+    """
+    scale = 0.0
+    for x in (a00, a01, a02, a11, a12, a22):  # as `sym3_eigen`'s loop
+        if abs(x) > scale:
+            scale = abs(x)
+    if scale == 0.0:
+        return 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0
+    a00 /= scale
+    a01 /= scale
+    a02 /= scale
+    a11 /= scale
+    a12 /= scale
+    a22 /= scale
+    # vectors as columns: c0 = (v00, v10, v20), c1 = (v01, v11, v21), c2 = (v02, v12, v22)
+    v00, v10, v20 = 1.0, 0.0, 0.0
+    v01, v11, v21 = 0.0, 1.0, 0.0
+    v02, v12, v22 = 0.0, 0.0, 1.0
+    for _ in range(_PCA_MAX_SWEEPS):
+        ch0, a00, a11, a01, a02, a12, v00, v10, v20, v01, v11, v21 = _rotate_scalars(
+            a00, a11, a01, a02, a12, v00, v10, v20, v01, v11, v21
+        )
+        ch1, a00, a22, a02, a01, a12, v00, v10, v20, v02, v12, v22 = _rotate_scalars(
+            a00, a22, a02, a01, a12, v00, v10, v20, v02, v12, v22
+        )
+        ch2, a11, a22, a12, a01, a02, v01, v11, v21, v02, v12, v22 = _rotate_scalars(
+            a11, a22, a12, a01, a02, v01, v11, v21, v02, v12, v22
+        )
+        if not (ch0 or ch1 or ch2):
+            break
+    i0, i1, i2 = _descending(a00, a11, a22)
+    d = (a00, a11, a22)
+    c0 = (v00, v10, v20)
+    c1 = (v01, v11, v21)
+    c2 = (v02, v12, v22)
+    u = c0 if i0 == 0 else (c1 if i0 == 1 else c2)
+    nv = c0 if i2 == 0 else (c1 if i2 == 1 else c2)
+    return (d[i0] * scale, d[i1] * scale, d[i2] * scale,
+            u[0], u[1], u[2], nv[0], nv[1], nv[2])  # fmt: skip
 
 
 @njit(cache=True)

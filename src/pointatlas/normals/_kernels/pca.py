@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .eig3 import sym3_eigen
+from .eig3 import sym3_eigen_scalars
 
 __all__ = ["pca_normals_kernel"]
 
@@ -46,9 +46,6 @@ def pca_normals_kernel(points, indices, k, degenerate_ratio, normals, eigenvalue
     n = indices.shape[0]
     n_blocks = (n + _BLOCK - 1) // _BLOCK
     for b in prange(n_blocks):
-        a = np.empty((3, 3))
-        v = np.empty((3, 3))
-        w = np.empty(3)
         stop = min(n, (b + 1) * _BLOCK)
         for i in range(b * _BLOCK, stop):
             px = points[i, 0]
@@ -82,18 +79,12 @@ def pca_normals_kernel(points, indices, k, degenerate_ratio, normals, eigenvalue
                 cyy += dy * dy
                 cyz += dy * dz
                 czz += dz * dz
-            a[0, 0] = cxx / k
-            a[0, 1] = cxy / k
-            a[0, 2] = cxz / k
-            a[1, 0] = a[0, 1]
-            a[1, 1] = cyy / k
-            a[1, 2] = cyz / k
-            a[2, 0] = a[0, 2]
-            a[2, 1] = a[1, 2]
-            a[2, 2] = czz / k
-            sym3_eigen(a, v, w)
-            for c in range(3):
-                eigenvalues[i, c] = max(w[c], 0.0)
+            w0, w1, w2, u0, u1, u2, v0, v1, v2 = sym3_eigen_scalars(
+                cxx / k, cxy / k, cxz / k, cyy / k, cyz / k, czz / k
+            )
+            eigenvalues[i, 0] = max(w0, 0.0)
+            eigenvalues[i, 1] = max(w1, 0.0)
+            eigenvalues[i, 2] = max(w2, 0.0)
             l1 = eigenvalues[i, 0]
             is_deg = eigenvalues[i, 1] <= degenerate_ratio * l1
             degenerate[i] = is_deg
@@ -107,7 +98,7 @@ def pca_normals_kernel(points, indices, k, degenerate_ratio, normals, eigenvalue
                 # collinear: any direction orthogonal to the line; take the one
                 # orthogonal to the line and to the coordinate axis least aligned
                 # with it (deterministic, independent of Jacobi's choice)
-                ux, uy, uz = v[0, 0], v[1, 0], v[2, 0]
+                ux, uy, uz = u0, u1, u2
                 ax, ay, az = abs(ux), abs(uy), abs(uz)
                 if ax <= ay and ax <= az:
                     nx, ny, nz = 0.0, -uz, uy  # e_x x u
@@ -116,7 +107,7 @@ def pca_normals_kernel(points, indices, k, degenerate_ratio, normals, eigenvalue
                 else:
                     nx, ny, nz = -uy, ux, 0.0  # e_z x u
             else:
-                nx, ny, nz = v[0, 2], v[1, 2], v[2, 2]
+                nx, ny, nz = v0, v1, v2
             norm = np.sqrt(nx * nx + ny * ny + nz * nz)
             normals[i, 0] = nx / norm
             normals[i, 1] = ny / norm
