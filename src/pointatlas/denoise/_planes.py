@@ -58,15 +58,15 @@ PIECE_REFITS = 2
 PIECE_HOPELESS = 3
 
 
-@njit(cache=True)
-def _fit_plane(points, members, m, centre, normal):
-    """Least-squares plane of ``points[members[:m]]``: writes its centroid and unit
-    normal (least eigenvector of the covariance), signed like the ``normal`` given."""
+@njit(cache=True, inline="always")
+def _scatter(points, idx, m):
+    """Centroid (c0, c1, c2) and scatter matrix entries (a00, a01, a02, a11, a12, a22)
+    of ``points[idx[:m]]`` (two passes: the mean, then the centred sums)."""
     c0 = 0.0
     c1 = 0.0
     c2 = 0.0
     for a in range(m):
-        j = members[a]
+        j = idx[a]
         c0 += points[j, 0]
         c1 += points[j, 1]
         c2 += points[j, 2]
@@ -75,7 +75,7 @@ def _fit_plane(points, members, m, centre, normal):
     c2 /= m
     a00 = a01 = a02 = a11 = a12 = a22 = 0.0
     for a in range(m):
-        j = members[a]
+        j = idx[a]
         d0 = points[j, 0] - c0
         d1 = points[j, 1] - c1
         d2 = points[j, 2] - c2
@@ -85,6 +85,14 @@ def _fit_plane(points, members, m, centre, normal):
         a11 += d1 * d1
         a12 += d1 * d2
         a22 += d2 * d2
+    return c0, c1, c2, a00, a01, a02, a11, a12, a22
+
+
+@njit(cache=True)
+def _fit_plane(points, members, m, centre, normal):
+    """Least-squares plane of ``points[members[:m]]``: writes its centroid and unit
+    normal (least eigenvector of the covariance), signed like the ``normal`` given."""
+    c0, c1, c2, a00, a01, a02, a11, a12, a22 = _scatter(points, members, m)
     _, _, _, _, _, _, n0, n1, n2 = sym3_eigen_scalars(a00, a01, a02, a11, a12, a22)
     s = -1.0 if n0 * normal[0] + n1 * normal[1] + n2 * normal[2] < 0.0 else 1.0
     centre[0], centre[1], centre[2] = c0, c1, c2
@@ -255,29 +263,7 @@ def flatness_ratio_kernel(points, table, out):
     n = points.shape[0]
     k = table.shape[1]
     for i in prange(n):
-        c0 = 0.0
-        c1 = 0.0
-        c2 = 0.0
-        for a in range(k):
-            j = table[i, a]
-            c0 += points[j, 0]
-            c1 += points[j, 1]
-            c2 += points[j, 2]
-        c0 /= k
-        c1 /= k
-        c2 /= k
-        a00 = a01 = a02 = a11 = a12 = a22 = 0.0
-        for a in range(k):
-            j = table[i, a]
-            d0 = points[j, 0] - c0
-            d1 = points[j, 1] - c1
-            d2 = points[j, 2] - c2
-            a00 += d0 * d0
-            a01 += d0 * d1
-            a02 += d0 * d2
-            a11 += d1 * d1
-            a12 += d1 * d2
-            a22 += d2 * d2
+        _, _, _, a00, a01, a02, a11, a12, a22 = _scatter(points, table[i], k)
         l1, l2, l3 = eig3_fast(a00, a01, a02, a11, a12, a22)
         total = l1 + l2 + l3
         out[i] = l3 / total if total > 0.0 else 0.0

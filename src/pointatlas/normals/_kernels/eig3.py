@@ -52,44 +52,28 @@ _FEATURES_MAX_SWEEPS = 12
 def _rotate(a, v, p, q):
     """One Jacobi rotation zeroing a[p, q] of the symmetric 3 x 3 matrix ``a``.
 
-    Rutishauser's formulas; ``v`` accumulates the rotations (columns = vectors).
-    Returns False when a[p, q] is already negligible, relative to the diagonal
-    (Demmel-Veselic criterion, which keeps small eigenvalues relatively accurate).
+    Rutishauser's formulas (`_rotate_scalars`, on the entries it changes); ``v``
+    accumulates the rotations (columns = vectors). Returns False when a[p, q] is
+    already negligible, relative to the diagonal (Demmel-Veselic criterion, which
+    keeps small eigenvalues relatively accurate).
     """
-    apq = a[p, q]
-    if apq == 0.0:
-        return False
-    app = a[p, p]
-    aqq = a[q, q]
-    if abs(apq) <= _EPS * np.sqrt(abs(app * aqq)) or abs(apq) < 1e-300:
-        a[p, q] = 0.0
-        a[q, p] = 0.0
-        return False
-    theta = (aqq - app) / (2.0 * apq)
-    if abs(theta) > 1e150:
-        t = 0.5 / theta
-    else:
-        t = 1.0 / (abs(theta) + np.sqrt(theta * theta + 1.0))
-        if theta < 0.0:
-            t = -t
-    c = 1.0 / np.sqrt(t * t + 1.0)
-    s = t * c
-    a[p, p] = app - t * apq
-    a[q, q] = aqq + t * apq
-    a[p, q] = 0.0
-    a[q, p] = 0.0
     r = 3 - p - q  # the third index
-    arp = a[r, p]
-    arq = a[r, q]
-    a[r, p] = c * arp - s * arq
-    a[p, r] = a[r, p]
-    a[r, q] = s * arp + c * arq
-    a[q, r] = a[r, q]
-    for m in range(3):
-        vmp = v[m, p]
-        vmq = v[m, q]
-        v[m, p] = c * vmp - s * vmq
-        v[m, q] = s * vmp + c * vmq
+    changed, app, aqq, apq, arp, arq, vp0, vp1, vp2, vq0, vq1, vq2 = _rotate_scalars(
+        a[p, p], a[q, q], a[p, q], a[r, p], a[r, q],
+        v[0, p], v[1, p], v[2, p], v[0, q], v[1, q], v[2, q],
+    )  # fmt: skip
+    a[p, q] = apq  # 0 when negligible (unchanged when already 0)
+    a[q, p] = apq
+    if not changed:
+        return False
+    a[p, p] = app
+    a[q, q] = aqq
+    a[r, p] = arp
+    a[p, r] = arp
+    a[r, q] = arq
+    a[q, r] = arq
+    v[0, p], v[1, p], v[2, p] = vp0, vp1, vp2
+    v[0, q], v[1, q], v[2, q] = vq0, vq1, vq2
     return True
 
 
