@@ -183,16 +183,19 @@ def test_automatic_halo_grows_and_a_given_halo_too_small_is_refused(client, poin
         tiled_features(points, None, fixed, params)
 
 
+@pytest.mark.parametrize("local", [False, True])
 @pytest.mark.parametrize("tile_size", [20.0, 12.0, 8.0])
-def test_tiled_segment_quality_within_one_percent(client, points, oriented, tile_size):
+def test_tiled_segment_quality_within_one_percent(client, points, oriented, tile_size, local):
     from pointatlas.segment import vsa_segment
 
     params = {"k": 8, "split": True, "merge": True, "switch": "batch", "eta": None,
-              "max_angle": None}  # fmt: skip
+              "max_angle": None, "local": local}  # fmt: skip
     labels, q, run = tiled_segment(
         points, oriented, TileOptions(tile_size=tile_size, scheduler=client), params
     )
-    ref = vsa_segment(points, oriented, k=8)  # the default: mean deviation <= 10 degrees
+    # the default threshold (mean deviation <= 10 degrees); the local mode (the
+    # tiles run it too) is compared with an untiled run of the same mode
+    ref = vsa_segment(points, oriented, k=8, local=local)
     assert run.n_tiles >= 4 and run.extra["halo_unions"] > 0
     assert labels.min() == 0 and labels.max() == q["n_regions"] - 1
     assert abs(q["n_regions"] - ref.n_regions) <= 0.01 * ref.n_regions

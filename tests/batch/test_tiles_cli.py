@@ -121,6 +121,28 @@ def test_tiled_segment_on_laz_writes_labels_and_tables(tmp_path, laz, scheduler)
     assert {"nx", "ny", "nz"} <= set(out.point_format.extra_dimension_names)
 
 
+def test_tiled_segment_local_reaches_the_tiles(tmp_path, laz, scheduler):
+    """``segment --local --tile-size``: the tiles run VSA's local mode, the run of
+    `pointatlas.batch.tiled_segment` with ``local`` on the same points and normals
+    (docs/decisions/segment.md "Local mode")."""
+    from pointatlas.batch import TileOptions, tiled_segment
+
+    labels = {}
+    for flag in ([], ["--local"]):
+        out = tmp_path / f"seg{len(flag)}.laz"
+        result = run("segment", laz, out, *flag, "--tile-size", 12, "--scheduler", scheduler)
+        assert result.exit_code == 0, result.output
+        las = laspy.read(out)
+        labels[bool(flag)] = np.asarray(las["label"])
+    pts = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)])
+    nrm = np.column_stack([np.asarray(las[c], dtype=np.float64) for c in ("nx", "ny", "nz")])
+    with distributed.Client(scheduler) as client:
+        ref, _, _ = tiled_segment(pts, nrm, TileOptions(tile_size=12, scheduler=client),
+                                  {"k": 8, "local": True})  # fmt: skip
+    assert np.array_equal(labels[True], ref)
+    assert not np.array_equal(labels[True], labels[False])
+
+
 def test_tiled_flatness_denoise_on_laz_matches_untiled(tmp_path, laz, scheduler):
     tiled, plain = tmp_path / "tiled.laz", tmp_path / "plain.laz"
     args = ("--method", "flatness", "--n-iter", 2, "--k", 14)

@@ -59,6 +59,33 @@ def batch_switch_reference(lists, normals, weights, labels, prox, min_gain):
     return out
 
 
+def hold_under_threshold_reference(moved, new, labels, wsum, ssum, w, wn, eta, min_cos):
+    """Moves kept by the local switch: drop every move into or out of a region that
+    the kept moves push over the threshold (it was not over, is not left empty),
+    until none is (numpy sums per round; ``eta`` None: angle mode)."""
+
+    def over(ww, ss):
+        length = np.linalg.norm(ss, axis=1)
+        return length < min_cos * ww if eta is None else 2.0 * (ww - length) > eta
+
+    m = wsum.shape[0]
+    old = labels[moved]
+    before = over(wsum, ssum)
+    keep = np.ones(moved.shape[0], dtype=bool)
+    while True:
+        ww = wsum + np.bincount(new[keep], w[moved][keep], m)
+        ww -= np.bincount(old[keep], w[moved][keep], m)
+        ss = ssum.copy()
+        for d in range(3):
+            ss[:, d] += np.bincount(new[keep], wn[moved, d][keep], m)
+            ss[:, d] -= np.bincount(old[keep], wn[moved, d][keep], m)
+        bad = over(ww, ss) & ~before & (ww > 0)
+        drop = keep & (bad[new] | bad[old])
+        if not drop.any():
+            return keep
+        keep &= ~drop
+
+
 def best_single_move_reference(lists, normals, weights, labels, prox):
     best = (0.0, -1, -1)
     for i in range(len(lists)):

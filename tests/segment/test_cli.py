@@ -165,5 +165,27 @@ def test_vsa_options_of_the_cli_flags():
         k=10, max_angle=math.radians(12.0), seeds=[3, 7], split=False, switch="single",
         weights="area", max_iter=5,
     )  # fmt: skip
+    assert vsa_options(**flags, local=True) == opts.replace(local=True)
     with pytest.raises(ValueError, match=r"^--max-angle-deg must be a finite angle in \[0, 180\]"):
         vsa_options(**{**flags, "max_angle_deg": 200.0})
+
+
+def test_segment_local_reaches_vsa(tmp_path):
+    """``--local`` runs VSA's local mode (docs/decisions/segment.md "Local mode")."""
+    from pointatlas.segment import vsa_segment
+
+    from .test_vsa_local import rolling_ground
+
+    pts, nrm = rolling_ground(3_000, seed=1)
+    path = tmp_path / "ground.ply"
+    write_point_set(path, pts, normals=nrm)
+    ps = read_point_set(path)
+    labels = {}
+    for flag in ([], ["--local"]):
+        out = tmp_path / f"seg{len(flag)}.ply"
+        result = runner.invoke(app, ["segment", str(path), str(out), *flag])
+        assert result.exit_code == 0, result.output
+        labels[bool(flag)] = np.asarray(read_point_set(out).attributes["label"])
+        ref = vsa_segment(ps.points, ps.normals, local=bool(flag))
+        assert np.array_equal(labels[bool(flag)], ref.labels)
+    assert not np.array_equal(labels[True], labels[False])

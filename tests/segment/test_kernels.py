@@ -126,6 +126,46 @@ def test_switch_kernels_match_reference(seed):
 
 
 @pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("angle", [True, False])
+def test_hold_under_threshold_matches_reference(seed, angle):
+    """The local switch's filter (docs/decisions/segment.md "Local mode"): the kept
+    moves are the reference's, some are dropped, and after them no region that was
+    under the threshold is over it."""
+    rng = np.random.default_rng(seed)
+    n, m = 300, 8
+    labels = rng.integers(0, m, size=n)
+    axes = rng.normal(size=(m, 3))
+    normals = axes[labels] + rng.normal(0, rng.uniform(0.1, 0.6, m)[labels, None], (n, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    w = rng.uniform(0.5, 1.5, n)
+    wn = w[:, None] * normals
+    wsum = np.bincount(labels, w, minlength=m)
+    ssum = np.stack([np.bincount(labels, wn[:, d], minlength=m) for d in range(3)], 1)
+    moved = np.flatnonzero(rng.random(n) < 0.3)
+    new = (labels[moved] + rng.integers(1, m, moved.size)) % m
+    mean_cos = np.linalg.norm(ssum, axis=1) / wsum
+    l21 = 2.0 * (wsum - np.linalg.norm(ssum, axis=1))
+    eta, min_cos = (None, float(np.median(mean_cos))) if angle else (float(np.median(l21)), None)
+    keep = K.hold_under_threshold(
+        moved, new, labels, wsum, ssum, w, wn,
+        0.0 if eta is None else eta, 0.0 if min_cos is None else min_cos, angle,
+    )  # fmt: skip
+    ref = reference.hold_under_threshold_reference(moved, new, labels, wsum, ssum, w, wn, eta,
+                                                   min_cos)  # fmt: skip
+    np.testing.assert_array_equal(keep, ref)
+    assert 0 < keep.sum() < keep.size
+    over = (lambda ww, ss: np.linalg.norm(ss, axis=1) < min_cos * ww) if angle else (
+        lambda ww, ss: 2.0 * (ww - np.linalg.norm(ss, axis=1)) > eta)  # fmt: skip
+    before = over(wsum, ssum)
+    lab, ws, ss = labels.copy(), wsum.copy(), ssum.copy()
+    counts = np.bincount(labels, minlength=m)
+    indptr, indices = np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    K.apply_moves(indptr, indices, lab, ws, ss, counts, np.zeros(n, dtype=np.int64), w, wn,
+                  moved[keep], new[keep])  # fmt: skip
+    assert not np.any(over(ws, ss) & ~before & (ws > 0))
+
+
+@pytest.mark.parametrize("seed", range(4))
 def test_greedy_merge_matches_reference(seed):
     _, normals, table = _cloud(seed, n=60)
     n = normals.shape[0]
@@ -464,6 +504,7 @@ NO_JIT_SELECTION = " or ".join(
         "test_flood_matches_reference[True-0]",
         "test_flood_edge_cases",
         "test_switch_kernels_match_reference[0]",
+        "test_hold_under_threshold_matches_reference[True-0]",
         "test_greedy_merge_matches_reference[0]",
         "test_greedy_merge_matches_lazy_reference[0]",
         "test_sort_entries_is_stable_argsort",
@@ -482,4 +523,4 @@ NO_JIT_SELECTION = " or ".join(
 @pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
 def test_kernels_without_jit():
     out = run_module_without_jit(__file__, select=NO_JIT_SELECTION)
-    assert "16 passed" in out, out[-500:]
+    assert "17 passed" in out, out[-500:]

@@ -79,6 +79,14 @@ SIMPLIFY_PARALLEL_ANGLE = 0.08726646259971647
 #: the energy, so the loop terminates (Theorem 1).
 VSA_MERGE_ROUNDS = 50
 
+#: VSA (segment), local mode (`VSAOptions.local`): merges accept a union only
+#: within this fraction of the threshold (max angle x 0.7, or 0.7 eta), so regions
+#: the switch then grows stay under the threshold without splits. Measured on the
+#: 1M-point lidar scan (0.6 / 0.7 / 0.8 / 1.0; docs/decisions/segment.md "Local
+#: mode"): 0.7 is the largest that keeps tiled vs untiled within 1 % on regions and
+#: energy on both seeds and both tile sizes.
+VSA_LOCAL_MERGE_FACTOR = 0.7
+
 #: VSA (segment): when more than this share of the regions changed since the last
 #: merge round, the merge scans every boundary point for candidate pairs instead of
 #: first collecting the boundary points next to a changed region (same pairs, cheaper

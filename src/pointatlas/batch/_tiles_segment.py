@@ -181,7 +181,9 @@ def tiled_segment(points, normals, options: TileOptions, params: dict):
     params : pointatlas.segment.VSAOptions or dict
         The `pointatlas.segment.vsa_segment` settings (a dict: `VSAOptions`
         fields). Only what can be stitched runs by tiles: seeds "all", weights
-        "uniform", not classic (one-line errors otherwise).
+        "uniform", not classic (one-line errors otherwise). Every tile runs the
+        same settings, ``local`` included: in VSA's local mode the stitched result
+        agrees with an untiled local run (docs/decisions/segment.md "Local mode").
 
     Returns
     -------

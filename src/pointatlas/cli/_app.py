@@ -57,6 +57,7 @@ __all__ = [
     "angle_deg_option",
     "ClassicOption",
     "EtaOption",
+    "LocalOption",
     "MaxAngleDegOption",
     "MaxIterOption",
     "MergeOption",
@@ -304,6 +305,16 @@ SwitchOption = Annotated[str, typer.Option("--switch", help="batch, single or no
 ClassicOption = Annotated[
     bool, typer.Option("--classic", help="Classic VSA loop (flood/update/re-seed).")
 ]
+#: ``--local`` (default off): `VSAOptions.local`, the local mode whose tiled runs
+#: agree with an untiled run of the same mode (docs/decisions/segment.md).
+LocalOption = Annotated[
+    bool,
+    typer.Option(
+        "--local",
+        help="Local VSA: the switch keeps regions under the threshold, merges within "
+        "0.7 of it; tiles then agree with an untiled --local run.",
+    ),
+]
 #: ``--weights`` (default uniform).
 WeightsOption = Annotated[str, typer.Option("--weights", help="uniform or area (Eq. 4.6).")]
 #: ``--max-iter`` (default 1000).
@@ -443,6 +454,7 @@ def vsa_options(
     classic: bool,
     weights: str,
     max_iter: int,
+    local: bool = False,
 ):
     """The VSA flags (`VSAKOption`, `EtaOption`, ...) as a
     `pointatlas.segment.VSAOptions`: ``--seeds`` parsed, degrees to radians; a
@@ -465,6 +477,7 @@ def vsa_options(
         classic=classic,
         weights=weights,
         max_iter=max_iter,
+        local=local,
     )
 
 

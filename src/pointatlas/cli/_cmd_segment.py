@@ -24,6 +24,7 @@ from ._app import (
     EtaOption,
     HaloOption,
     InputArgument,
+    LocalOption,
     MaxAngleDegOption,
     MaxIterOption,
     MaxMemoryOption,
@@ -180,6 +181,7 @@ def segment_command(
     switch: SwitchOption = "batch",
     classic: ClassicOption = False,
     max_iter: MaxIterOption = 1000,
+    local: LocalOption = False,
     method: Annotated[str, typer.Option("--method", help="vsa or region-growing.")] = "vsa",
     weights: WeightsOption = "uniform",
     smoothness_deg: Annotated[
@@ -223,6 +225,7 @@ def segment_command(
         "switch": switch,
         "classic": classic,
         "max_iter": max_iter,
+        "local": local,
         "weights": weights,
         "smoothness_deg": smoothness_deg,
         "curvature_threshold": curvature_threshold,
@@ -233,7 +236,7 @@ def segment_command(
     json_path = _check_segment_outputs(input_path, output, render, report)
     options = vsa_options(
         k=k, eta=eta, max_angle_deg=max_angle_deg, seeds=seeds, split=split, merge=merge,
-        switch=switch, classic=classic, weights=weights, max_iter=max_iter,
+        switch=switch, classic=classic, weights=weights, max_iter=max_iter, local=local,
     )  # fmt: skip
     if method not in ("vsa", "region-growing"):
         raise PointAtlasError(f"--method must be vsa or region-growing; got {method!r}")

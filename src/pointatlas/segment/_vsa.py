@@ -159,7 +159,7 @@ def vsa_segment(
     **settings
         Fields of `VSAOptions` given one by one (``k``, ``weights``, ``seeds``,
         ``eta``, ``max_angle``, ``split``, ``merge``, ``switch``, ``classic``,
-        ``max_iter``); they override the same fields of ``options``, so
+        ``max_iter``, ``local``); they override the same fields of ``options``, so
         ``vsa_segment(p, n, eta=25.0)`` and
         ``vsa_segment(p, n, options=VSAOptions(eta=25.0))`` are the same run.
 
@@ -234,7 +234,7 @@ def vsa_segment(
         w = resolve_weights(opts.weights, n)[order]
     seed_idx, all_seeds = _resolve_seeds(opts.seeds, n, indptr, indices, rng, inv)
 
-    run = _VSARun(indptr, indices, pts_r, nrm_r, w, opts.eta, opts.min_cos)
+    run = _VSARun(indptr, indices, pts_r, nrm_r, w, opts.eta, opts.min_cos, opts.local)
     run.timings["graph"] = graph_time
     run.start(seed_idx, all_seeds)
     if opts.classic:

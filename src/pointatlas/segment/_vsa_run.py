@@ -9,11 +9,17 @@ step is one method. `vsa_segment` builds one, runs it and turns it into a
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
 
-from .._core.tolerances import VSA_MERGE_FULL_SCAN_SHARE, VSA_MERGE_ROUNDS, VSA_SWITCH_MIN_GAIN
+from .._core.tolerances import (
+    VSA_LOCAL_MERGE_FACTOR,
+    VSA_MERGE_FULL_SCAN_SHARE,
+    VSA_MERGE_ROUNDS,
+    VSA_SWITCH_MIN_GAIN,
+)
 from ._kernels import (
     apply_moves,
     batch_switch_bounded,
@@ -27,6 +33,7 @@ from ._kernels import (
     foreign_counts,
     forget_around,
     greedy_merge,
+    hold_under_threshold,
     merge_candidate_pairs,
     recount_foreign,
     region_pairs,
@@ -134,13 +141,25 @@ class _VSARun:
     ``memo`` and ``drift`` of `batch_switch_bounded`, the previous proxies) and
     the merge's (``dirty_merge``: regions whose W, S changed since the merge
     last looked at them).
+
+    With ``local`` (`VSAOptions.local`) the switch never pushes a region over
+    the threshold and merges accept a union only within ``merge_eta`` or
+    ``merge_min_cos``, the threshold held to ``VSA_LOCAL_MERGE_FACTOR`` of
+    itself; otherwise those equal ``eta`` and ``min_cos``.
     """
 
-    def __init__(self, indptr, indices, points, normals, w, eta, min_cos):
+    def __init__(self, indptr, indices, points, normals, w, eta, min_cos, local=False):
         self.indptr, self.indices = indptr, indices
         self.points, self.normals, self.w = points, normals, w
         self.wn = w[:, None] * normals
         self.eta, self.min_cos = eta, min_cos
+        self.local = local
+        self.merge_eta, self.merge_min_cos = eta, min_cos
+        if local and eta is not None:
+            self.merge_eta = VSA_LOCAL_MERGE_FACTOR * eta
+        elif local:
+            angle = math.acos(min(1.0, min_cos))
+            self.merge_min_cos = math.cos(VSA_LOCAL_MERGE_FACTOR * angle)
         self.names: list[str] = []
         self.history: list[float] = []
         self.timings: dict[str, float] = {}
@@ -215,6 +234,8 @@ class _VSARun:
         Merges may raise the energy, so they run only while a round of split +
         merge reduces the number of regions (at most ``VSA_MERGE_ROUNDS``
         rounds); while they run a repeated labelling ends the loop ("cycle").
+        In local mode no such count over the whole input decides: merges run in
+        every iteration, up to ``VSA_MERGE_ROUNDS`` rounds.
         """
         n = self.w.shape[0]
         self.foreign = foreign_counts(self.indptr, self.indices, self.labels)
@@ -250,7 +271,7 @@ class _VSARun:
                     self.stop_reason = "cycle"
                     break
                 self.seen[key] = self.n_iter
-                if n_merge <= n_split or merge_rounds >= VSA_MERGE_ROUNDS:
+                if merge_rounds >= VSA_MERGE_ROUNDS or (not self.local and n_merge <= n_split):
                     # split and merge no longer shrink the region count (they only
                     # trade regions, or changed nothing): from now on only split,
                     # switch and update run, which never raise the energy
@@ -303,7 +324,7 @@ class _VSARun:
         pairs, subset = self._merge_pairs()
         labels, wsum, ssum, counts, n_merge, remap = merge_regions(
             self.indptr, self.indices, self.labels, self.wsum, self.ssum, self.counts,
-            pairs, subset, self.eta, self.min_cos,
+            pairs, subset, self.merge_eta, self.merge_min_cos,
         )  # fmt: skip
         self.labels, self.wsum, self.ssum, self.counts = labels, wsum, ssum, counts
         self.singletons = False
@@ -353,6 +374,13 @@ class _VSARun:
             if point >= 0 and gain > VSA_SWITCH_MIN_GAIN:
                 moved = np.array([point], dtype=np.int64)
                 new = np.array([target], dtype=np.int64)
+        if self.local and moved.size:
+            keep = hold_under_threshold(
+                moved, new, self.labels, self.wsum, self.ssum, self.w, self.wn,
+                0.0 if self.eta is None else float(self.eta),
+                0.0 if self.min_cos is None else float(self.min_cos), self.eta is None,
+            )  # fmt: skip
+            moved, new = moved[keep], new[keep]
         spent["switch"] += time.perf_counter() - t0
         if not moved.size:
             return False
@@ -398,7 +426,7 @@ class _VSARun:
         pairs = region_pairs(self.indptr, self.indices, self.labels, subset)
         labels, _, _, _, n_final, _ = merge_regions(
             self.indptr, self.indices, self.labels, self.wsum, self.ssum, self.counts,
-            pairs, subset, self.eta, self.min_cos,
+            pairs, subset, self.merge_eta, self.merge_min_cos,
         )  # fmt: skip
         if n_final:
             self.labels, self.m = canonical_labels(labels)

@@ -32,6 +32,7 @@ from ._switch import (
     batch_switch_bounded,
     best_single_move,
     forget_around,
+    hold_under_threshold,
     renumber_memo,
 )
 
@@ -49,6 +50,7 @@ __all__ = [
     "foreign_counts",
     "forget_around",
     "greedy_merge",
+    "hold_under_threshold",
     "merge_candidate_pairs",
     "recount_foreign",
     "region_growing",

@@ -204,6 +204,75 @@ def batch_switch_bounded(
     return _compact_moves(target)
 
 
+@njit(cache=True, inline="always")
+def _over(w, s0, s1, s2, eta, min_cos, use_angle):
+    """The split test of one region (`over_threshold`): L21 = 2 (W - |S|) > eta, or
+    (``use_angle``) mean cosine |S| / W < min_cos."""
+    length = np.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    return (length < min_cos * w) if use_angle else (2.0 * (w - length) > eta)
+
+
+@njit(cache=True)
+def hold_under_threshold(moved, new, labels, wsum, ssum, weights, wn, eta, min_cos, use_angle):
+    """Which switch moves to keep so that no region is pushed over the split
+    threshold (the local VSA mode, docs/decisions/segment.md "Local mode").
+
+    ``moved, new`` are the moves of a switch (in the order `apply_moves` applies
+    them), ``wsum, ssum`` the sums before them. A region that is not over the
+    threshold (``eta``, or ``min_cos`` with ``use_angle``) before the moves must
+    not be over it after them, unless it is left empty. Moves into or out of a
+    region that would be are dropped, and the test repeats on the moves kept
+    (dropping a move can push its source region over) until every region holds;
+    the kept moves only shrink, so this ends. The trial sums are formed with the
+    operations of `apply_moves` in its order, so the test sees the sums the run
+    will hold. Returns a boolean mask over the moves (nothing is changed).
+    """
+    nm = moved.shape[0]
+    keep = np.ones(nm, dtype=np.bool_)
+    m = wsum.shape[0]
+    was_over = np.zeros(m, dtype=np.bool_)
+    for t in range(nm):
+        for r in (labels[moved[t]], new[t]):
+            was_over[r] = _over(
+                wsum[r], ssum[r, 0], ssum[r, 1], ssum[r, 2], eta, min_cos, use_angle
+            )
+    trial_w = np.empty(m)  # only the touched regions are read and written
+    trial_s = np.empty((m, 3))
+    while True:
+        for t in range(nm):  # reset the touched regions
+            for r in (labels[moved[t]], new[t]):
+                trial_w[r] = wsum[r]
+                for d in range(3):
+                    trial_s[r, d] = ssum[r, d]
+        for t in range(nm):
+            if keep[t]:
+                p = moved[t]
+                a = labels[p]
+                b = new[t]
+                trial_w[a] -= weights[p]
+                trial_w[b] += weights[p]
+                for d in range(3):
+                    trial_s[a, d] -= wn[p, d]
+                    trial_s[b, d] += wn[p, d]
+        dropped = False
+        for t in range(nm):
+            if not keep[t]:
+                continue
+            for r in (labels[moved[t]], new[t]):
+                if (
+                    not was_over[r]
+                    and trial_w[r] > 0.0
+                    and _over(
+                        trial_w[r], trial_s[r, 0], trial_s[r, 1], trial_s[r, 2],
+                        eta, min_cos, use_angle,
+                    )
+                ):  # fmt: skip
+                    keep[t] = False
+                    dropped = True
+        if not dropped:
+            return keep
+
+
 @njit(cache=True, parallel=True)
 def renumber_memo(memo, remap):
     """Renumber the foreign-region ids of the examined points after a merge
