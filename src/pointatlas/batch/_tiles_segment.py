@@ -28,13 +28,17 @@ STRONG_ANGLE_FACTOR = 2.0
 class _Regions:
     """Stitched regions: union-find over tile regions with summed statistics."""
 
-    def __init__(self, stats, first, eta, min_cos, tau2=0.0):
+    def __init__(self, stats, first, eta, min_cos, tau2=0.0, tile_of=None):
         self.st = stats.copy()
         self.first = first.copy()
         self.parent = np.arange(stats.shape[0])
         self.eta = eta
         self.min_cos = min_cos
         self.tau2 = tau2
+        # tile-exclusive unions (VSA's local mode): every root's set of tiles; a
+        # union never holds two regions of one tile
+        self.tiles = None if tile_of is None else {}
+        self.tile_of = tile_of
         # the angle test of strong links (angle mode only)
         self.strong_cos = None
         if min_cos is not None:
@@ -85,7 +89,12 @@ class _Regions:
         points in both regions) skips the per-point test and allows the proxies
         ``STRONG_ANGLE_FACTOR`` x the max angle apart: a border piece of a curved
         surface lies as far off the union's plane as a roof, and each tile's VSA
-        shaped its own part (docs/decisions/batch.md)."""
+        shaped its own part (docs/decisions/batch.md).
+
+        With ``tile_of`` (VSA's local mode) a union never holds two regions of one
+        tile: that tile's local VSA kept them apart, as the untiled run does."""
+        if self.tiles is not None and not self.tile_set(a).isdisjoint(self.tile_set(b)):
+            return False
         sa, sb = self.st[a], self.st[b]
         u = sa + sb
         mse_a, mse_b, mse_u = self.plane_mse(sa), self.plane_mse(sb), self.plane_mse(u)
@@ -111,10 +120,18 @@ class _Regions:
             return ra
         if rb < ra:
             ra, rb = rb, ra
+        if self.tiles is not None:
+            self.tiles[ra] = self.tile_set(ra) | self.tiles.pop(rb, {int(self.tile_of[rb])})
         self.parent[rb] = ra
         self.st[ra] += self.st[rb]
         self.first[ra] = min(self.first[ra], self.first[rb])
         return ra
+
+    def tile_set(self, root):
+        """The tiles whose regions the stitched region ``root`` holds."""
+        if root not in self.tiles:
+            self.tiles[root] = {int(self.tile_of[root])}
+        return self.tiles[root]
 
 
 def _greedy_merge(regions: _Regions, pairs: np.ndarray) -> int:
@@ -200,7 +217,8 @@ def tiled_segment(points, normals, options: TileOptions, params: dict):
     exact k-NN graph. A halo point carries two labels, its owner's and the
     neighbour tile's: these pairs join regions by a union-find when the union
     passes the VSA merge test (and, in angle mode, the two proxy normals lie
-    within the max angle). With ``eta``, a final cheapest-first merge pass over all
+    within the max angle); in VSA's local mode a union never holds two regions of
+    one tile. With ``eta``, a final cheapest-first merge pass over all
     neighbouring regions (tile adjacency and halo links) then applies the same
     test, as VSA's own final merge does (VSA runs none in angle mode).
     """
@@ -302,7 +320,11 @@ def stitch(per_tile: dict, vsa, tau2: float, labels: np.ndarray):
         from .._core.tolerances import VSA_DEFAULT_MAX_ANGLE
 
         max_angle = VSA_DEFAULT_MAX_ANGLE
-    regions = _Regions(stats, first, eta, None if eta is not None else math.cos(max_angle), tau2)
+    # VSA's local mode: a tile's regions are the untiled run's (docs/decisions/segment.md
+    # "Local mode"), so a stitched region holds at most one region of each tile
+    tile_of = np.repeat(np.arange(len(tiles)), [per_tile[t]["n_regions"] for t in tiles])
+    regions = _Regions(stats, first, eta, None if eta is not None else math.cos(max_angle), tau2,
+                       tile_of if vsa.local else None)  # fmt: skip
     has_points = stats[:, 0] > 0
     pairs, n_links = _halo_unions(regions, links, has_points)
     cand = [pairs]

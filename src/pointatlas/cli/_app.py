@@ -341,7 +341,8 @@ TileSizeOption = Annotated[
     typer.Option(
         "--tile-size",
         help="Process by x/y tiles of this edge length (coordinate units) on a dask cluster; "
-        "LAS/LAZ is streamed by chunks. Default: all points at once.",
+        "LAS/LAZ is streamed by chunks. Default: all points at once. segment: add --local "
+        "for tiles that agree with the untiled run (smooth terrain).",
         rich_help_panel="Tiles",
     ),
 ]
