@@ -11,7 +11,8 @@
    command and its dask workers) and the peak memory of the whole process tree (the
    command plus its dask workers, sampled with psutil every 0.1 s).
 3. ``--compare``: the same commands untiled on the same file; features and normals
-   must be identical on every point, segmentation quality measures within 1 %.
+   must be identical on every point, segmentation quality measures within 1 %
+   (``--local``: both segment runs with ``--local``, the opt-in local VSA).
 4. ``--halo-cost``: tiled / untiled compute time as tiles shrink (in one process, one
    worker thread at a time, no I/O), with the points sent per point.
 5. ``--stages features,normals,one-pass``: seconds of every stage of a tiled run
@@ -234,7 +235,7 @@ def _las_fields(path, names):
     return {n: np.asarray(las[n]) for n in names}
 
 
-def compare(laz: Path, tmp: Path, tile: float, workers: int, n: int) -> dict:
+def compare(laz: Path, tmp: Path, tile: float, workers: int, n: int, local: bool = False) -> dict:
     """Tiled vs untiled CLI runs on the same file: identical features and normals,
     segmentation measures within 1 %."""
     out = {}
@@ -259,13 +260,16 @@ def compare(laz: Path, tmp: Path, tile: float, workers: int, n: int) -> dict:
     # the same normals for both: the untiled normals file (PCA + MST)
     nrm = tmp / "normals_mst.laz"
     run_cli(["normals", laz, nrm, "--k", 20], os.cpu_count() or 1)
-    rt = run_cli(["segment", nrm, t_path, "--tile-size", tile, "--workers", workers], workers)
-    ru = run_cli(["segment", nrm, u_path], os.cpu_count() or 1)
+    mode = ["--local"] if local else []
+    rt = run_cli(["segment", nrm, t_path, *mode, "--tile-size", tile, "--workers", workers],
+                 workers)  # fmt: skip
+    ru = run_cli(["segment", nrm, u_path, *mode], os.cpu_count() or 1)
     qt = json.loads((tmp / "seg_t_regions.json").read_text())["summary"]["quality"]
     su = json.loads((tmp / "seg_u_regions.json").read_text())["summary"]
     qu = {k: su[{"n_regions": "n_regions", "energy": "energy", "mse": "mse"}[k]] for k in qt}
     rel = {k: round(qt[k] / qu[k] - 1.0, 5) for k in qt}
-    out["segment"] = {"tiled": rt, "untiled": ru, "tiled_quality": qt, "untiled_quality": qu,
+    out["segment"] = {"local": local, "tiled": rt, "untiled": ru, "tiled_quality": qt,
+                      "untiled_quality": qu,
                       "relative_difference": rel,
                       "within_1pct": all(abs(v) <= 0.01 for v in rel.values())}  # fmt: skip
     print(json.dumps({"segment": out["segment"]}, indent=1), flush=True)
@@ -463,6 +467,11 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--data", type=Path, default=None, help="Folder for the LAZ (kept).")
     parser.add_argument("--compare", action="store_true", help="Tiled vs untiled runs.")
+    parser.add_argument(
+        "--local",
+        action="store_true",
+        help="--compare: segment both ways with --local (local VSA).",
+    )
     parser.add_argument("--halo-cost", action="store_true", help="Halo cost as tiles shrink.")
     parser.add_argument("--no-scale", action="store_true", help="Skip the tiled end-to-end runs.")
     parser.add_argument("--steps", default="normals,features,segment",
@@ -521,7 +530,7 @@ def main() -> None:
             }  # fmt: skip
             print(json.dumps({"normals+features": results["normals+features"]}), flush=True)
         if args.compare:
-            results["compare"] = compare(laz, tmp, args.tile_size, args.workers, n)
+            results["compare"] = compare(laz, tmp, args.tile_size, args.workers, n, args.local)
         if args.stages:
             results["stages"] = [stages(laz, args.tile_size, kind)
                                  for kind in args.stages.split(",")]  # fmt: skip
