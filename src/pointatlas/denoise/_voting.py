@@ -171,7 +171,8 @@ def _check_table(neighbors, n, adaptive):
     """The ``neighbors=`` table of `normal_voting_denoise`: at least min(48 (+10
     adaptive), N) columns, each row starting with its point."""
     need = min(K_MAX + (K_WIDTH if adaptive else 0), n)
-    table = check_neighbors(neighbors, n)
+    with threads_for(n):  # a parallel check: one thread on a busy machine, as the run
+        table = check_neighbors(neighbors, n)
     if table.shape[1] < need:
         raise ValueError(
             f"neighbors must have at least {need} columns (min(48, N), +10 for the "
