@@ -111,14 +111,6 @@ def hill(n, seed):
     return np.round(pts * 1000) / 1000 + np.array([512_000.0, 4_100_000.0, 80.0]), nrm
 
 
-@pytest.fixture(scope="module")
-def client():
-    with distributed.Client(
-        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0"
-    ) as c:
-        yield c
-
-
 @pytest.mark.parametrize(("n", "seed"), [(20_000, 0), (12_000, 1)])
 def test_a_hill_cut_by_tile_borders_is_one_region_as_untiled(client, n, seed):
     from pointatlas.segment import vsa_segment

@@ -32,14 +32,6 @@ def rolling_ground(n=40_000, seed=0, extent=(100.0, 60.0), amp=1.5, noise=0.05):
 
 
 @pytest.fixture(scope="module")
-def client():
-    with distributed.Client(
-        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0"
-    ) as c:
-        yield c
-
-
-@pytest.fixture(scope="module")
 def ground():
     return rolling_ground()
 
