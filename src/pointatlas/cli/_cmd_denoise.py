@@ -23,8 +23,7 @@ from ..denoise import (
     default_filter_iter,
     denoise_measures,
     flatness_denoise,
-    normal_voting_denoise,
-    snap_planar_pieces,
+    voting_with_pieces,
 )
 from ._app import (
     EstimateNormalsOption,
@@ -110,29 +109,20 @@ def _run(ps, method, *, rho, tau, n_iter, n_filter_iter, max_step, k, eta, eps, 
     # n_iter None: rounds until the points settle (normal_voting_denoise); total unknown;
     # the returned normals take n_filter_iter more steps unless refitted
     total = None if n_iter is None else (n_iter + (n_iter > 0 and not refit)) * n_filter_iter
-    adaptive = method == "normal-voting-adaptive"
-    table = None
-    if planes:  # one k-NN table of the input for normal voting and the pieces
-        from .._core.tolerances import DENOISE_K_MAX, DENOISE_K_WIDTH
-        from ..neighbors import query_knn
-
-        width = DENOISE_K_MAX + (DENOISE_K_WIDTH if adaptive else 0)
-        table = query_knn(ps.points, min(width, ps.n_points))[0]
     with progress_bar("normal filter steps", total=total) as advance:
-        res = normal_voting_denoise(
+        return voting_with_pieces(
             ps.points,
             ps.normals,
+            planes=planes,
             rho=rho,
             tau=tau,
             n_iter=n_iter,
             n_filter_iter=n_filter_iter,
-            adaptive=adaptive,
+            adaptive=method == "normal-voting-adaptive",
             max_step=max_step,
             refit_normals=refit,
-            neighbors=table,
             progress=advance,
         )
-    return res if table is None else snap_planar_pieces(ps.points, res, neighbors=table)
 
 
 def _print_measures(before: dict, after: dict) -> None:

@@ -9,7 +9,13 @@ models and the measures of the denoising literature (normal MSE, Chamfer,
 point-to-mesh, tangential drift).
 """
 
-from ._api import DENOISE_METHODS, choose_method, denoise, snap_planar_pieces
+from ._api import (
+    DENOISE_METHODS,
+    choose_method,
+    denoise,
+    snap_planar_pieces,
+    voting_with_pieces,
+)
 from ._defaults import default_filter_iter
 from ._flatness import FLATNESS_SCHEDULES, flatness_denoise, flatness_schedule
 from ._halo import DenoiseHalo, denoise_halo
@@ -54,4 +60,5 @@ __all__ = [
     "normal_voting_denoise",
     "snap_planar_pieces",
     "unit_sphere_transform",
+    "voting_with_pieces",
 ]

@@ -16,7 +16,13 @@ from ._result import DenoiseResult
 from ._threads import threads_for
 from ._voting import normal_voting_denoise
 
-__all__ = ["DENOISE_METHODS", "choose_method", "denoise", "snap_planar_pieces"]
+__all__ = [
+    "DENOISE_METHODS",
+    "choose_method",
+    "denoise",
+    "snap_planar_pieces",
+    "voting_with_pieces",
+]
 
 #: the methods of `denoise` (and ``pointatlas denoise --method``)
 DENOISE_METHODS = ("normal-voting", "normal-voting-adaptive", "flatness", "auto")
@@ -97,19 +103,47 @@ def denoise(
         method = choose_method(points, normals)
     if method == "flatness":
         return flatness_denoise(points, normals=normals, progress=progress)
-    adaptive = method == "normal-voting-adaptive"
+    return voting_with_pieces(
+        points, normals, planes=planes, adaptive=method == "normal-voting-adaptive",
+        progress=progress,
+    )  # fmt: skip
+
+
+def voting_with_pieces(points, normals=None, *, planes: bool = True, **options) -> DenoiseResult:
+    """`normal_voting_denoise` with ``options``, then (``planes``) `snap_planar_pieces`.
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3), float64
+        Noisy positions.
+    normals : array_like of shape (N, 3), float64, optional
+        Oriented normals (None: estimated by normal voting).
+    planes : bool
+        Run the planar pieces after the local denoise (the default of `denoise`
+        and ``pointatlas denoise``).
+    **options
+        Keywords of `normal_voting_denoise` (``rho``, ``tau``, ``n_iter``,
+        ``adaptive``, ``progress``, ...), not ``neighbors``.
+
+    Returns
+    -------
+    result : DenoiseResult
+        As `normal_voting_denoise`, with the pieces' points and normals.
+
+    Notes
+    -----
+    One k-NN table of the input, min(48 (+10 adaptive), N) columns, serves both:
+    it is the table normal voting would query itself (the same result bit for bit).
+    """
     if not planes:
-        return normal_voting_denoise(points, normals, adaptive=adaptive, progress=progress)
-    # one k-NN table of the input for both (the table normal voting queries itself)
+        return normal_voting_denoise(points, normals, **options)
     pts = as_points(points, min_points=DENOISE_K_MIN + 1)
     n = pts.shape[0]
-    # one thread for small inputs on a busy machine (_threads.py), also for the table
-    # checks, which run parallel kernels before normal voting's own switch
+    width = DENOISE_K_MAX + (DENOISE_K_WIDTH if options.get("adaptive") else 0)
+    # one thread for small inputs on a busy machine (_threads.py), also for the query
     with threads_for(n):
-        table = query_knn(pts, min(DENOISE_K_MAX + (DENOISE_K_WIDTH if adaptive else 0), n))[0]
-        result = normal_voting_denoise(
-            pts, normals, adaptive=adaptive, neighbors=table, progress=progress
-        )
+        table = query_knn(pts, min(width, n))[0]
+        result = normal_voting_denoise(pts, normals, neighbors=table, **options)
         return snap_planar_pieces(pts, result, neighbors=table)
 
 

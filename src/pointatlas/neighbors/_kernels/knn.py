@@ -445,6 +445,15 @@ def _offer(pts, j, qx, qy, qz, bd, bi):
 
 
 @njit(cache=True, inline="always")
+def _empty_row(pts, q, m):
+    """An empty best list of ``m`` (squared distance, index) pairs for the query
+    point ``q`` and its coordinates: the start of a k-d tree or brute-force row."""
+    bd = np.full(m, np.inf)
+    bi = np.full(m, _SENTINEL, dtype=np.int64)
+    return bd, bi, pts[q, 0], pts[q, 1], pts[q, 2]
+
+
+@njit(cache=True, inline="always")
 def _write_row(out_idx, out_d2, r, q, bd, bi):
     """Row ``r`` of the output: the query ``q`` itself first, then its best list."""
     out_idx[r, 0] = q
@@ -474,11 +483,7 @@ def select_candidates(
     m = k - 1
     for r in prange(rows.shape[0]):
         q = rows[r]
-        bd = np.full(m, np.inf)
-        bi = np.full(m, _SENTINEL, dtype=np.int64)
-        qx = pts[q, 0]
-        qy = pts[q, 1]
-        qz = pts[q, 2]
+        bd, bi, qx, qy, qz = _empty_row(pts, q, m)
         for c in range(cand.shape[1]):
             g = cand[r, c]
             if g < n_entries:
@@ -499,11 +504,7 @@ def knn_brute(pts, rows, k, out_idx, out_d2):
     m = k - 1
     for r in prange(rows.shape[0]):
         q = rows[r]
-        bd = np.full(m, np.inf)
-        bi = np.full(m, _SENTINEL, dtype=np.int64)
-        qx = pts[q, 0]
-        qy = pts[q, 1]
-        qz = pts[q, 2]
+        bd, bi, qx, qy, qz = _empty_row(pts, q, m)
         for j in range(pts.shape[0]):
             if j != q:
                 _offer(pts, j, qx, qy, qz, bd, bi)
