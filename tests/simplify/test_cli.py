@@ -205,3 +205,32 @@ def test_usage_names_the_arguments_in_and_out():
         res = runner.invoke(app, [command, "--help"], terminal_width=200)
         assert res.exit_code == 0, res.output
         assert f"pointatlas {command} [OPTIONS] {{IN}} {{OUT}}" in " ".join(res.output.split())
+
+
+def test_triangles_file_opens_in_trimesh_with_the_faces_colours(tmp_path):
+    """trimesh (like Open3D and CloudCompare) reads triangle meshes only: the
+    ``--triangles`` file is the one to give it; it is closed like the polygon mesh,
+    has n - 2 triangles per n-gon, and each triangle carries its face's colour."""
+    import numpy as np
+    import trimesh
+
+    from pointatlas.viz import label_colors
+
+    out, tri, rep = tmp_path / "f.ply", tmp_path / "f_tri.ply", tmp_path / "r.json"
+    args = ["simplify", "fandisk", str(out), "--triangles", str(tri), "--report", str(rep)]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    poly = read_mesh(out)
+    tm = trimesh.load(tri, process=False)
+    assert json.loads(rep.read_text())["is_closed"] and tm.is_watertight
+    assert len(tm.faces) == int((poly.face_sizes - 2).sum())
+    ours = read_mesh(tri)
+    assert np.array_equal(tm.faces, ours.triangles)
+    assert np.array_equal(tm.vertices, ours.vertices) and np.array_equal(
+        ours.vertices, poly.vertices
+    )
+    colors = tm.visual.face_colors[:, :3]
+    assert len(np.unique(colors, axis=0)) == poly.n_faces
+    face_of = np.repeat(np.arange(poly.n_faces), poly.face_sizes - 2)
+    expect = np.round(label_colors(face_of) * 255).astype(np.uint8)
+    assert np.array_equal(colors, expect)

@@ -212,7 +212,7 @@ def _simplify_mesh_command(
     )
     written = [write_mesh(out, res.vertices, [p.tolist() for p in res.polygons])]
     if triangles is not None:
-        written.append(write_mesh(triangles, res.vertices, res.triangles))
+        written.append(_write_triangles(triangles, res))
     if render is not None:
         written.append(render_surface(render, mesh_in, res, title=Path(str(infile)).name))
     if report is not None:
@@ -378,7 +378,13 @@ LabelsOption = Annotated[
     ),
 ]
 TrianglesOption = Annotated[
-    Path | None, typer.Option("--triangles", help="Also write the triangulated mesh here.")
+    Path | None,
+    typer.Option(
+        "--triangles",
+        help="Also write the triangulated mesh here (each face split by earcut; PLY/OFF "
+        "triangles coloured by face). Open3D, trimesh and CloudCompare read triangle "
+        "meshes only: give them this file.",
+    ),
 ]
 ReportOption = Annotated[
     Path | None,
@@ -426,6 +432,17 @@ def _refuse_mesh_flags(infile, *, planarize, n_faces, max_error, chord_tolerance
             )
 
 
+def _write_triangles(path, mesh) -> Path:
+    """``--triangles``: the earcut triangles, coloured by their face where the format
+    holds face colours (PLY, OFF), so every viewer shows the polygons."""
+    colors = None
+    if Path(path).suffix.lower() in (".ply", ".off"):
+        from ..viz import label_colors
+
+        colors = np.round(label_colors(mesh.triangle_face) * 255).astype(np.uint8)
+    return write_mesh(path, mesh.vertices, mesh.triangles, face_colors=colors)
+
+
 def _simplify_points_command(
     infile, out, *, k, estimate, normal_k, use_labels, settings, seed, triangles, report, render
 ):
@@ -447,7 +464,7 @@ def _simplify_points_command(
     polys = [p.tolist() for p in mesh.polygons]
     written = [write_mesh(out, mesh.vertices, polys)]
     if triangles is not None:
-        written.append(write_mesh(triangles, mesh.vertices, mesh.triangles))
+        written.append(_write_triangles(triangles, mesh))
     used = ps.points[result.point_index] if result.point_index.size else ps.points
     if render is not None:
         picture = render_simplification(
