@@ -539,7 +539,8 @@ def simplify_command(
 
     A mesh input (a file with faces, or a bundled model) takes the mesh path: its
     triangles are segmented (VSA on faces) and each region becomes one face; the
-    output is closed and manifold whenever the input is. A point set, or a mesh
+    output is closed and manifold whenever the input is closed (edges in four
+    triangles and pinched vertices are cut apart first). A point set, or a mesh
     with ``--vertices-only``, takes the thesis' path (VSA on points, surface-like
     complex, 4.4), and the robust path when that gives no closed, manifold mesh
     (the points' surface from their normals on a voxel grid, then the mesh path;

@@ -7,10 +7,13 @@ largest distance). Decisions in docs/decisions/simplify.md.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from scipy import sparse
 
 from .._core import as_float, as_points
+from ._nonmanifold import split_nonmanifold
 from ._surface import SurfaceSimplification, _face_graph, _Surface, _surface, simplify_surface
 
 __all__ = ["simplify_mesh"]
@@ -130,7 +133,9 @@ def simplify_mesh(
     projected to its plane and triangulated. A region whose loops do not bound a
     planar polygon gets its arcs refined, down to the full arcs, and then keeps
     its input triangles: the output is closed and manifold whenever the input
-    is. Decisions in docs/decisions/simplify.md.
+    is closed. Edges in three or more triangles and pinched vertices are cut apart
+    first (`split_nonmanifold`; vertex copies at the same positions, reported by
+    their input ids). Decisions in docs/decisions/simplify.md.
 
     Examples
     --------
@@ -154,18 +159,32 @@ def simplify_mesh(
         max_angle = as_float(max_angle, "max_angle", lo=0.0, hi=np.pi, what="angle", unit="radians")
     if eta is not None:
         eta = as_float(eta, "eta", lo=0.0)
-    run = _MeshRun(verts, tri, tol=tol, planarize=planarize, rng=rng)
+    # an edge in four triangles (two sheets touching) is cut apart first, so one bad
+    # edge does not spoil the whole output's checks ("Non-manifold inputs")
+    tri, source = split_nonmanifold(verts, tri)
+    run = _MeshRun(
+        verts if source is None else verts[source], tri, tol=tol, planarize=planarize, rng=rng
+    )
     if n_faces is not None:
         from .._core import as_int
 
         target = as_int(n_faces, "n_faces", lo=1)
-        return _search_faces(run, target)
-    if max_error is not None:
+        res = _search_faces(run, target)
+    elif max_error is not None:
         bound = as_float(max_error, "max_error", lo=0.0, lo_open=True)
-        return _search_error(run, bound, min(tol, bound / 2.0))
-    if eta is not None:
-        return run(None, eta)
-    return run(MAX_ANGLE if max_angle is None else max_angle)
+        res = _search_error(run, bound, min(tol, bound / 2.0))
+    elif eta is not None:
+        res = run(None, eta)
+    else:
+        res = run(MAX_ANGLE if max_angle is None else max_angle)
+    if source is None:
+        return res
+    # back to the input's vertex ids (a copy sits where its vertex is: same distance)
+    return dataclasses.replace(
+        res,
+        vertex_source=source[res.vertex_source],
+        distances=res.distances[: verts.shape[0]],
+    )
 
 
 class _MeshRun:

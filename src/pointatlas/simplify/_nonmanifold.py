@@ -1,0 +1,145 @@
+"""Cutting a triangle mesh apart at its non-manifold edges and vertices
+(docs/decisions/simplify.md, "Non-manifold inputs").
+
+Scans and exports often hold a few edges shared by four (or more) triangles: two
+sheets that touch along an edge, like two cubes sharing one. One such edge spoils
+the closed-and-manifold checks of the whole output. `split_nonmanifold` pairs the
+triangles around every such edge the way a solid's faces pair (each triangle with
+its neighbour across the solid's inside, found by the orientation), then gives each
+fan of triangles around a vertex its own copy of the vertex. The copies sit at the
+same position: the mesh is unchanged geometrically and becomes manifold.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+__all__ = ["split_nonmanifold"]
+
+
+def split_nonmanifold(vertices: np.ndarray, triangles: np.ndarray):
+    """Copies of the vertices so that every edge joins at most two triangles.
+
+    Parameters
+    ----------
+    vertices : ndarray of shape (V, 3), float64
+        Mesh vertices.
+    triangles : ndarray of shape (F, 3), int64
+        Triangles (valid indices).
+
+    Returns
+    -------
+    triangles : ndarray of shape (F, 3), int64
+        The triangles with their corners on the new vertex ids (the input array
+        itself when nothing is cut).
+    source : ndarray of shape (V + C,), int64 or None
+        Input vertex of every new vertex (ids below V are the input's, the C copies
+        follow); None when the mesh has no non-manifold edge or vertex.
+
+    Notes
+    -----
+    An edge in one or two triangles keeps them together (also when the two are
+    oriented alike: that input is not oriented, and cutting would open it). Around
+    an edge (a, b) in three or more triangles the triangles are sorted by angle
+    about a -> b; a triangle that runs b -> a has its inside towards larger angles,
+    so it is paired with the next triangle (by angle) that runs a -> b; triangles
+    left over (an odd count, or orientations that do not alternate) become boundary
+    there. Then each vertex gets one id per fan of its triangles joined by kept
+    edges: the first fan (of the lowest triangle) keeps the input id.
+
+    Examples
+    --------
+    Two tetrahedra on one edge (0, 1): the second gets its own copies 6 and 7.
+
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, -1, 0], [0, 0, -1.0]])
+    >>> t = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2],
+    ...               [0, 4, 1], [0, 1, 5], [1, 4, 5], [0, 5, 4]])
+    >>> new, source = split_nonmanifold(v, t)
+    >>> source.tolist(), new[4:].tolist()
+    ([0, 1, 2, 3, 4, 5, 0, 1], [[6, 4, 7], [6, 7, 5], [7, 4, 5], [6, 5, 4]])
+    """
+    tri = triangles
+    n_tri = tri.shape[0]
+    n_vert = vertices.shape[0]
+    if n_tri == 0:
+        return tri, None
+    directed = tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    und = np.sort(directed, axis=1)
+    key = und[:, 0].astype(np.int64) * n_vert + und[:, 1]
+    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+    order = np.argsort(inverse, kind="stable")
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    # pairs of half-edges (slot ids 3 t + j) kept together
+    two = np.flatnonzero(counts == 2)
+    pairs = [np.stack([order[starts[two]], order[starts[two] + 1]], axis=1)]
+    for e in np.flatnonzero(counts > 2):
+        pairs.append(_radial_pairs(vertices, tri, directed, order[starts[e] : starts[e + 1]]))
+    pairs = np.concatenate(pairs).astype(np.int64)
+    # corners (3 t + j: vertex tri[t, j]) joined across each kept edge
+    t0, t1 = pairs[:, 0] // 3, pairs[:, 1] // 3
+    a0, a1 = pairs[:, 0] % 3, pairs[:, 1] % 3
+    b0, b1 = (a0 + 1) % 3, (a1 + 1) % 3
+    same = tri[t1, a1] == tri[t0, a0]  # both run u -> w (an unoriented pair)
+    links = np.stack(
+        [
+            np.concatenate([3 * t0 + a0, 3 * t0 + b0]),
+            np.concatenate([3 * t1 + np.where(same, a1, b1), 3 * t1 + np.where(same, b1, a1)]),
+        ],
+        axis=1,
+    )
+    n_corner = 3 * n_tri
+    graph = coo_matrix(
+        (np.ones(links.shape[0], dtype=np.int8), (links[:, 0], links[:, 1])),
+        shape=(n_corner, n_corner),
+    )
+    _, comp = connected_components(graph, directed=False)
+    corner_vertex = tri.reshape(-1)
+    # the first corner of every component, in corner order
+    first_of_comp = np.full(comp.max() + 1, n_corner, dtype=np.int64)
+    np.minimum.at(first_of_comp, comp, np.arange(n_corner))
+    comp_vertex = corner_vertex[first_of_comp]
+    by_vertex = np.lexsort((first_of_comp, comp_vertex))
+    keeps = np.ones(by_vertex.shape[0], dtype=bool)
+    keeps[1:] = comp_vertex[by_vertex[1:]] != comp_vertex[by_vertex[:-1]]
+    if keeps.all():
+        return tri, None
+    new_id = np.empty(comp_vertex.shape[0], dtype=np.int64)
+    new_id[by_vertex[keeps]] = comp_vertex[by_vertex[keeps]]
+    extra = by_vertex[~keeps]
+    extra = extra[np.argsort(first_of_comp[extra], kind="stable")]
+    new_id[extra] = n_vert + np.arange(extra.shape[0])
+    source = np.concatenate([np.arange(n_vert, dtype=np.int64), comp_vertex[extra]])
+    return new_id[comp].reshape(n_tri, 3), source
+
+
+def _radial_pairs(vertices, tri, directed, slots) -> np.ndarray:
+    """Half-edge pairs around one edge in three or more triangles (see
+    `split_nonmanifold`)."""
+    a, b = sorted(directed[slots[0]])
+    p, q = vertices[a], vertices[b]
+    d = q - p
+    d = d / (np.linalg.norm(d) or 1.0)
+    t = slots // 3
+    third = tri[t].sum(axis=1) - a - b
+    w = vertices[third] - p
+    w = w - np.outer(w @ d, d)
+    e1 = w[0] / (np.linalg.norm(w[0]) or 1.0)
+    e2 = np.cross(d, e1)
+    angle = np.arctan2(w @ e2, w @ e1)
+    ring = slots[np.lexsort((slots, angle))]
+    forward = directed[ring, 0] == a  # runs a -> b
+    out, used = [], np.zeros(ring.shape[0], dtype=bool)
+    n = ring.shape[0]
+    for i in np.flatnonzero(~forward):
+        for step in range(1, n):
+            j = (i + step) % n
+            if forward[j] and not used[j]:
+                if not used[i]:
+                    out.append((ring[i], ring[j]))
+                    used[i] = used[j] = True
+                break
+            if not forward[j]:
+                break  # another b -> a first: the orientations do not alternate
+    return np.asarray(out, dtype=np.int64).reshape(-1, 2)
