@@ -44,6 +44,7 @@ from ._app import (
     vsa_options,
 )
 from ._cmd_core import REPORT_EXTENSIONS
+from ._mesh_io import read_mesh_input, write_triangles
 from ._outputs import check_outputs, write_summary_json, write_text
 
 __all__ = ["render_simplification", "simplification_table"]
@@ -110,27 +111,6 @@ def _length_option(text: str | None, flag: str, diagonal: float) -> float | None
             f"{flag} must be a length or a percentage of the diagonal such as 0.5%; got {text!r}"
         ) from None
     return as_float(value, flag, lo=0.0, lo_open=True, what="length")
-
-
-def read_mesh_input(infile):
-    """The input as a triangle mesh when it has faces (a mesh file or a bundled model
-    with a mesh), else None."""
-    from .. import data
-    from ..io import MESH_EXTENSIONS, read_mesh
-
-    p = Path(infile)
-    if p.is_file():
-        if p.suffix.lower() not in MESH_EXTENSIONS:
-            return None
-        mesh = read_mesh(p)
-    elif str(infile) in data.names():
-        try:
-            mesh = data.load_mesh(str(infile))
-        except (PointAtlasError, ValueError, KeyError, AttributeError):
-            return None
-    else:
-        return None
-    return mesh if mesh.n_faces else None
 
 
 def surface_table(
@@ -212,7 +192,7 @@ def _simplify_mesh_command(
     )
     written = [write_mesh(out, res.vertices, [p.tolist() for p in res.polygons])]
     if triangles is not None:
-        written.append(_write_triangles(triangles, res))
+        written.append(write_triangles(triangles, res))
     if render is not None:
         written.append(render_surface(render, mesh_in, res, title=Path(str(infile)).name))
     if report is not None:
@@ -432,17 +412,6 @@ def _refuse_mesh_flags(infile, *, planarize, n_faces, max_error, chord_tolerance
             )
 
 
-def _write_triangles(path, mesh) -> Path:
-    """``--triangles``: the earcut triangles, coloured by their face where the format
-    holds face colours (PLY, OFF), so every viewer shows the polygons."""
-    colors = None
-    if Path(path).suffix.lower() in (".ply", ".off"):
-        from ..viz import label_colors
-
-        colors = np.round(label_colors(mesh.triangle_face) * 255).astype(np.uint8)
-    return write_mesh(path, mesh.vertices, mesh.triangles, face_colors=colors)
-
-
 def _simplify_points_command(
     infile, out, *, k, estimate, normal_k, use_labels, settings, seed, triangles, report, render
 ):
@@ -464,7 +433,7 @@ def _simplify_points_command(
     polys = [p.tolist() for p in mesh.polygons]
     written = [write_mesh(out, mesh.vertices, polys)]
     if triangles is not None:
-        written.append(_write_triangles(triangles, mesh))
+        written.append(write_triangles(triangles, mesh))
     used = ps.points[result.point_index] if result.point_index.size else ps.points
     if render is not None:
         picture = render_simplification(

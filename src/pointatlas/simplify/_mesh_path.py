@@ -159,8 +159,6 @@ def simplify_mesh(
         max_angle = as_float(max_angle, "max_angle", lo=0.0, hi=np.pi, what="angle", unit="radians")
     if eta is not None:
         eta = as_float(eta, "eta", lo=0.0)
-    # an edge in four triangles (two sheets touching) is cut apart first, so one bad
-    # edge does not spoil the whole output's checks ("Non-manifold inputs")
     tri, source = split_nonmanifold(verts, tri)
     run = _MeshRun(
         verts if source is None else verts[source], tri, tol=tol, planarize=planarize, rng=rng
@@ -179,7 +177,7 @@ def simplify_mesh(
         res = run(MAX_ANGLE if max_angle is None else max_angle)
     if source is None:
         return res
-    # back to the input's vertex ids (a copy sits where its vertex is: same distance)
+    # input vertex ids again (a copy sits where its vertex is: the same distance)
     return dataclasses.replace(
         res,
         vertex_source=source[res.vertex_source],
