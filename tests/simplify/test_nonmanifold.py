@@ -5,7 +5,7 @@ import pytest
 
 from pointatlas.simplify import simplify_mesh
 from pointatlas.simplify._mesh import mesh_checks
-from pointatlas.simplify._nonmanifold import split_nonmanifold
+from pointatlas.simplify._nonmanifold import orient_consistently, split_nonmanifold
 from pointatlas.synth import cube, icosphere
 
 
@@ -59,7 +59,8 @@ def test_two_cubes_on_one_edge_become_two_closed_surfaces():
     assert _edge_counts(tri).max() == 2
     assert mesh_checks(v.shape[0] + 3, tri) == (True, True, True)
     assert (_fans_per_vertex(tri, len(source)) == 1).all()
-    res = simplify_mesh(v, f)
+    with pytest.warns(UserWarning, match="not manifold .*: cut apart there, 3 vertices copied"):
+        res = simplify_mesh(v, f)
     assert res.is_closed and res.is_manifold and res.is_oriented
     assert res.n_faces == 12 and res.euler_characteristic == 4
     assert res.vertex_source.max() < v.shape[0] and res.distances.shape == (v.shape[0],)
@@ -73,7 +74,8 @@ def test_two_cubes_on_one_corner_split_the_pinched_vertex():
     tri, source = split_nonmanifold(v, f)
     assert source.shape[0] == v.shape[0] + 1
     assert (_fans_per_vertex(tri, len(source)) == 1).all()
-    res = simplify_mesh(v, f)
+    with pytest.warns(UserWarning, match="1 vertices copied"):
+        res = simplify_mesh(v, f)
     assert res.is_closed and res.is_manifold and res.euler_characteristic == 4
 
 
@@ -101,3 +103,53 @@ def test_three_sheets_on_one_edge_leave_the_odd_one_as_boundary():
     tri, source = split_nonmanifold(v, f)
     assert _edge_counts(tri).max() == 2
     assert np.array_equal(v[source][tri], v[f])
+
+
+def _flipped(faces, share, seed=0):
+    rng = np.random.default_rng(seed)
+    flip = rng.random(len(faces)) < share
+    out = faces.copy()
+    out[flip] = faces[flip][:, ::-1]
+    return out, flip
+
+
+def test_reversed_triangles_are_turned_back_and_simplify_as_the_clean_mesh():
+    from pointatlas import data
+
+    m = data.load_mesh("fandisk")
+    f, flip = _flipped(np.asarray(m.triangles), 0.1)
+    tri, n = orient_consistently(m.vertices, f)
+    assert n == flip.sum() and np.array_equal(tri, m.triangles)
+    with pytest.warns(UserWarning, match=f"{n} of {len(f)} reversed"):
+        res = simplify_mesh(m.vertices, f)
+    clean = simplify_mesh(m.vertices, m.triangles)
+    assert res.is_oriented and res.n_faces == clean.n_faces
+    assert np.array_equal(res.triangles, clean.triangles)
+
+
+def test_the_majority_orientation_wins():
+    m = icosphere(2)
+    f, flip = _flipped(m.faces, 0.7, seed=1)
+    tri, n = orient_consistently(m.vertices, f)
+    assert n == (~flip).sum()  # the 30 % given as the input were the minority
+    assert np.array_equal(tri, m.faces[:, ::-1])
+
+
+def test_moebius_band_is_left_as_it_is():
+    """Not orientable: no choice of flips makes it consistent; nothing is flipped."""
+    n = 12
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    ring = []
+    for s in (-0.3, 0.3):
+        r = 1 + s * np.cos(t / 2)
+        ring.append(np.stack([r * np.cos(t), r * np.sin(t), s * np.sin(t / 2)], axis=1))
+    v = np.vstack(ring)  # i: inner side, n + i: outer side (swapped after one turn)
+    f = []
+    for i in range(n):
+        j = (i + 1) % n
+        a, b = i, n + i
+        c, d = (j, n + j) if j else (n + j, j)  # the half twist
+        f += [[a, b, d], [a, d, c]]
+    f = np.array(f)
+    tri, flipped = orient_consistently(v, f)
+    assert flipped == 0 and tri is f

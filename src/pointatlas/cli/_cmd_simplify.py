@@ -179,7 +179,7 @@ def _simplify_mesh_command(
 
     v = mesh_in.vertices
     diagonal = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))) if v.size else 0.0
-    res = simplify_mesh(
+    res = _run(
         v,
         mesh_in.triangles,
         max_angle=max_angle,
@@ -189,6 +189,7 @@ def _simplify_mesh_command(
         chord_tolerance=_length_option(chord_tolerance, "--chord-tolerance", diagonal),
         planarize=planarize,
         rng=seed,
+        function=simplify_mesh,
     )
     written = [write_mesh(out, res.vertices, [p.tolist() for p in res.polygons])]
     if triangles is not None:
@@ -248,11 +249,11 @@ def _html_report(path, infile, info: dict, written, layers, seed: int):
     )
 
 
-def _run(points, normals, **kw):
-    """simplify_points, with a SimplifyWarning turned into one yellow line."""
+def _run(*args, function=simplify_points, **kw):
+    """simplify_points (or ``function``), each SimplifyWarning one yellow line."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SimplifyWarning)
-        result = simplify_points(points, normals, **kw)
+        result = function(*args, **kw)
     for w in caught:
         if issubclass(w.category, SimplifyWarning):
             err_console.print(f"[bold yellow]warning:[/] {w.message}", highlight=False)

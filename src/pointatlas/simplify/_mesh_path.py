@@ -13,7 +13,7 @@ import numpy as np
 from scipy import sparse
 
 from .._core import as_float, as_points
-from ._nonmanifold import split_nonmanifold
+from ._nonmanifold import repair_mesh_input
 from ._surface import SurfaceSimplification, _face_graph, _Surface, _surface, simplify_surface
 
 __all__ = ["simplify_mesh"]
@@ -134,8 +134,10 @@ def simplify_mesh(
     planar polygon gets its arcs refined, down to the full arcs, and then keeps
     its input triangles: the output is closed and manifold whenever the input
     is closed. Edges in three or more triangles and pinched vertices are cut apart
-    first (`split_nonmanifold`; vertex copies at the same positions, reported by
-    their input ids). Decisions in docs/decisions/simplify.md.
+    first (vertex copies at the same positions, reported by their input ids), and
+    triangles that disagree with the majority of their part are reversed
+    (`repair_mesh_input`, each with a `SimplifyWarning`). Decisions in
+    docs/decisions/simplify.md.
 
     Examples
     --------
@@ -159,10 +161,8 @@ def simplify_mesh(
         max_angle = as_float(max_angle, "max_angle", lo=0.0, hi=np.pi, what="angle", unit="radians")
     if eta is not None:
         eta = as_float(eta, "eta", lo=0.0)
-    tri, source = split_nonmanifold(verts, tri)
-    run = _MeshRun(
-        verts if source is None else verts[source], tri, tol=tol, planarize=planarize, rng=rng
-    )
+    run_verts, tri, source = repair_mesh_input(verts, tri)
+    run = _MeshRun(run_verts, tri, tol=tol, planarize=planarize, rng=rng)
     if n_faces is not None:
         from .._core import as_int
 

@@ -8,15 +8,56 @@ triangles around every such edge the way a solid's faces pair (each triangle wit
 its neighbour across the solid's inside, found by the orientation), then gives each
 fan of triangles around a vertex its own copy of the vertex. The copies sit at the
 same position: the mesh is unchanged geometrically and becomes manifold.
+Exports also mix triangle orientations (a shared edge run the same way by both of
+its triangles); `orient_consistently` flips the fewest triangles (by area) that make
+every connected part consistent.
 """
 
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-__all__ = ["split_nonmanifold"]
+from ._vertices import SimplifyWarning
+
+__all__ = ["orient_consistently", "repair_mesh_input", "split_nonmanifold"]
+
+
+def repair_mesh_input(vertices: np.ndarray, triangles: np.ndarray):
+    """`split_nonmanifold`, then `orient_consistently`; one `SimplifyWarning` for
+    each repair made.
+
+    Returns
+    -------
+    vertices : ndarray of shape (V + C, 3)
+        The vertices and their copies (the input array when nothing is split).
+    triangles : ndarray of shape (F, 3), int64
+        Manifold, consistently oriented where the input is orientable.
+    source : ndarray of shape (V + C,), int64 or None
+        Input vertex of every vertex; None when nothing is split.
+    """
+    tri, source = split_nonmanifold(vertices, triangles)
+    if source is not None:
+        n_copy = source.shape[0] - vertices.shape[0]
+        warnings.warn(
+            "the input mesh is not manifold (edges in three or more triangles, pinched "
+            f"vertices): cut apart there, {n_copy} vertices copied",
+            SimplifyWarning,
+            stacklevel=3,
+        )
+        vertices = vertices[source]
+    tri, n_flipped = orient_consistently(vertices, tri)
+    if n_flipped:
+        warnings.warn(
+            f"the input's triangles are not consistently oriented: {n_flipped} of "
+            f"{tri.shape[0]} reversed to match their neighbours",
+            SimplifyWarning,
+            stacklevel=3,
+        )
+    return vertices, tri, source
 
 
 def split_nonmanifold(vertices: np.ndarray, triangles: np.ndarray):
@@ -143,3 +184,96 @@ def _radial_pairs(vertices, tri, directed, slots) -> np.ndarray:
             if not forward[j]:
                 break  # another b -> a first: the orientations do not alternate
     return np.asarray(out, dtype=np.int64).reshape(-1, 2)
+
+
+def orient_consistently(vertices: np.ndarray, triangles: np.ndarray):
+    """Flip triangles so that every edge in two triangles runs both ways.
+
+    Parameters
+    ----------
+    vertices : ndarray of shape (V, 3), float64
+        Mesh vertices.
+    triangles : ndarray of shape (F, 3), int64
+        Triangles, each edge in at most two of them (`split_nonmanifold`).
+
+    Returns
+    -------
+    triangles : ndarray of shape (F, 3), int64
+        The triangles, some reversed (the input array itself when none is).
+    n_flipped : int
+        Number of reversed triangles.
+
+    Notes
+    -----
+    Each edge in two triangles says whether they agree (the edge runs both ways) or
+    not. In the doubled graph (every triangle as itself and as its reverse; agreeing
+    triangles joined as themselves, disagreeing ones each to the other's reverse)
+    every orientable connected part gives two components, one the reverse of the
+    other; the one holding more of the input's own triangles by area is kept, so the
+    input's orientation wins where it is the majority. A part that is not
+    orientable (a Moebius band: a triangle joined to its own reverse) is left as it
+    is. Vectorised (scipy's connected components): trimesh's ``fix_winding`` walks
+    the faces with networkx, about 1 s for 25,000 triangles.
+
+    Examples
+    --------
+    A tetrahedron with one face reversed: that face is turned back.
+
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    >>> tet = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 3, 0]])
+    >>> t, n = orient_consistently(v, tet)
+    >>> n, t[3].tolist()
+    (1, [0, 3, 2])
+    """
+    tri = triangles
+    n_tri = tri.shape[0]
+    if n_tri == 0:
+        return tri, 0
+    n_vert = vertices.shape[0]
+    directed = tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    und = np.sort(directed, axis=1)
+    key = und[:, 0].astype(np.int64) * n_vert + und[:, 1]
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    # runs of exactly two equal keys: the edges in two triangles
+    start = np.r_[True, k[1:] != k[:-1]]
+    run_start = np.flatnonzero(start)
+    run_len = np.diff(np.r_[run_start, k.shape[0]])
+    first = run_start[run_len == 2]
+    s0, s1 = order[first], order[first + 1]
+    agree = directed[s0, 0] != directed[s1, 0]
+    t0, t1 = s0 // 3, s1 // 3
+    if agree.all():
+        return tri, 0
+    # node t: the triangle as given; node t + F: reversed
+    flip = np.where(agree, 0, n_tri)
+    rows = np.concatenate([t0, t0 + n_tri])
+    cols = np.concatenate([t1 + flip, (t1 + n_tri - flip)])
+    graph = coo_matrix(
+        (np.ones(rows.shape[0], dtype=np.int8), (rows, cols)), shape=(2 * n_tri, 2 * n_tri)
+    )
+    _, comp = connected_components(graph, directed=False)
+    same, rev = comp[:n_tri], comp[n_tri:]
+    area = 0.5 * np.linalg.norm(
+        np.cross(
+            vertices[tri[:, 1]] - vertices[tri[:, 0]], vertices[tri[:, 2]] - vertices[tri[:, 0]]
+        ),
+        axis=1,
+    )
+    n_comp = comp.max() + 1
+    # area of the input's own triangles in every doubled component
+    held = np.bincount(same, weights=area + 1e-300, minlength=n_comp)
+    orientable = same != rev
+    keep_given = held[same] >= held[rev]
+    # ties (equal areas) keep the component of the lowest triangle as given
+    tie = held[same] == held[rev]
+    if tie.any():
+        low = np.full(n_comp, n_tri, dtype=np.int64)
+        np.minimum.at(low, same, np.arange(n_tri))
+        keep_given[tie] = low[same[tie]] <= low[rev[tie]]
+    reverse = orientable & ~keep_given
+    if not reverse.any():
+        return tri, 0
+    out = tri.copy()
+    out[reverse] = tri[reverse][:, ::-1]
+    return out, int(reverse.sum())
