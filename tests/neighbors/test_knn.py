@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 from pointatlas._core import PointAtlasError
 from pointatlas.neighbors import NeighborIndex, query_knn
+from pointatlas.neighbors._grid import group_queries, knn_grid_for
 
 from ..strategies import random_clouds, seeds
 from .reference import knn_reference
@@ -214,6 +215,32 @@ def test_rows_on_a_lidar_like_scan():
     idx, dist = index.knn(20, rows=rows)
     np.testing.assert_array_equal(idx, ref_idx[rows])
     np.testing.assert_array_equal(dist, ref_dist[rows])
+
+
+def _group_queries_reference(grid, queries):
+    """The former numpy grouping: a stable argsort of the queries' cell-order positions."""
+    pos_of = np.empty(grid.ids.size, dtype=np.int64)
+    pos_of[grid.ids] = np.arange(grid.ids.size)
+    qp = pos_of[queries]
+    qout = np.argsort(qp, kind="stable")
+    qpos = qp[qout]
+    cell = np.searchsorted(grid.cstart, qpos, side="right") - 1
+    first = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]]) if cell.size else cell
+    return cell[first], np.append(first, cell.size), qpos, qout
+
+
+@pytest.mark.parametrize("name", CLOUDS)
+def test_group_queries_is_a_stable_sort_by_cell(name):
+    pts = _cloud(name)
+    grid = knn_grid_for(NeighborIndex(pts).points_, 7)
+    rng = np.random.default_rng(3)
+    n = len(pts)
+    for queries in (np.arange(n), rng.permutation(n)[: n // 2], rng.integers(0, n, 3 * n),
+                    np.array([n - 1, 0, 0, n - 1]), np.empty(0, dtype=np.int64)):  # fmt: skip
+        got = group_queries(grid, queries)
+        for a, b in zip(got, _group_queries_reference(grid, queries), strict=True):
+            assert a.dtype == np.int64
+            np.testing.assert_array_equal(a, b)
 
 
 @pytest.mark.parametrize(

@@ -101,17 +101,10 @@ def group_queries(grid: Grid, queries: np.ndarray):
     """Point indices ``queries`` grouped by grid cell for `_kernels.knn_grid`:
     ``(qcells, qstart, qpos, qout)``: group g is cell ``qcells[g]`` with the cell-order
     positions ``qpos[qstart[g]:qstart[g + 1]]``, answered into rows ``qout`` (the
-    queries' places in ``queries``)."""
-    n = grid.ids.size
-    pos_of = np.empty(n, dtype=np.int64)
-    pos_of[grid.ids] = np.arange(n, dtype=np.int64)
-    qp = pos_of[queries]
-    qout = np.argsort(qp, kind="stable").astype(np.int64)
-    qpos = qp[qout]
-    cell = np.searchsorted(grid.cstart, qpos, side="right") - 1
-    first = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]]) if cell.size else cell
-    qstart = np.append(first, cell.size).astype(np.int64)
-    return cell[first].astype(np.int64), qstart, qpos, qout
+    queries' places in ``queries``, in their order within a position). A counting sort
+    (`_kernels.group_by_cell`); the stable argsort it replaced cost 0.046 s for
+    620,000 rows of a 742,000-point tile."""
+    return K.group_by_cell(grid.ids, grid.cstart, queries)
 
 
 def _volume_cell_size(ext: np.ndarray, n: int, target: float) -> float:

@@ -19,7 +19,15 @@ centred (``_knn.NeighborIndex``), int64 indices, and the grid built by
 """
 
 from .graph import edge_lengths, graph_structure
-from .grid import bounds, cell_starts, column_starts, gather_sorted, grid_keys, occupancy_levels
+from .grid import (
+    bounds,
+    cell_starts,
+    column_starts,
+    gather_sorted,
+    grid_keys,
+    group_by_cell,
+    occupancy_levels,
+)
 from .knn import knn_brute, knn_grid, select_candidates, sqrt_inplace
 from .radius import radius_grid, sort_rows
 
@@ -31,6 +39,7 @@ __all__ = [
     "gather_sorted",
     "graph_structure",
     "grid_keys",
+    "group_by_cell",
     "knn_brute",
     "knn_grid",
     "occupancy_levels",

@@ -31,6 +31,7 @@ __all__ = [
     "column_starts",
     "gather_sorted",
     "grid_keys",
+    "group_by_cell",
     "interleaved_chunks",
     "lower_bound",
     "occupancy_levels",
@@ -276,3 +277,41 @@ def column_range(ukeys, cstart, i, j, z0, z1, ny, nz):
     a = lower_bound(ukeys, base + z0)
     b = lower_bound(ukeys, base + z1 + 1)
     return cstart[a], cstart[b]
+
+
+@njit(cache=True)
+def group_by_cell(ids, cstart, queries):
+    """Point indices ``queries`` grouped by grid cell: ``(qcells, qstart, qpos, qout)``
+    (see ``_grid.group_queries``), by a counting sort of their cell-order positions
+    (stable: equal positions keep their order in ``queries``), O(N + len(queries))."""
+    n = ids.shape[0]
+    nq = queries.shape[0]
+    pos_of = np.empty(n, dtype=np.int64)
+    for p in range(n):
+        pos_of[ids[p]] = p
+    start = np.zeros(n + 1, dtype=np.int64)
+    for r in range(nq):
+        start[pos_of[queries[r]] + 1] += 1
+    for p in range(n):
+        start[p + 1] += start[p]
+    qpos = np.empty(nq, dtype=np.int64)
+    qout = np.empty(nq, dtype=np.int64)
+    for r in range(nq):
+        p = pos_of[queries[r]]
+        t = start[p]
+        qout[t] = r
+        qpos[t] = p
+        start[p] = t + 1
+    qcells = np.empty(nq, dtype=np.int64)
+    qstart = np.empty(nq + 1, dtype=np.int64)
+    n_groups = 0
+    c = 0
+    for t in range(nq):
+        while cstart[c + 1] <= qpos[t]:
+            c += 1
+        if n_groups == 0 or qcells[n_groups - 1] != c:
+            qcells[n_groups] = c
+            qstart[n_groups] = t
+            n_groups += 1
+    qstart[n_groups] = nq
+    return qcells[:n_groups].copy(), qstart[: n_groups + 1].copy(), qpos, qout
