@@ -288,22 +288,45 @@ class _Spill:
                         os.unlink(f"{base}_{n}.npy")
 
 
+def _near_border(grid: TileGrid, xy, i, j, halo: float) -> np.ndarray:
+    """Points within ``halo`` (plus a rounding slack) of the border of their own cell
+    (``i, j``, `TileGrid.cell`): the only ones that can lie in another tile's halo box
+    (a point of cell c inside the box of tile t != c is within ``halo`` of c's side
+    facing t), a superset of them."""
+    slack = 1e-9 * (max(map(abs, (*grid.lo[:2], *grid.hi[:2]))) + grid.size + halo)
+    h = halo + slack
+    x0 = grid.lo[0] + i * grid.size
+    y0 = grid.lo[1] + j * grid.size
+    x, y = xy[:, 0], xy[:, 1]
+    return (x - x0 <= h) | (x0 + grid.size - x <= h) | (y - y0 <= h) | (y0 + grid.size - y <= h)
+
+
 def _spill(source, grid: TileGrid, halos: dict, spill: _Spill, normals_array=None):
     """One pass over the source: every requested tile's points (owned + halo),
-    in increasing global index order. Returns owned and sent counts per tile."""
+    in increasing global index order. Returns owned and sent counts per tile.
+
+    A tile's candidates are its own points and the points of its neighbour tiles near
+    their cell's border (`_near_border`); `TileGrid.members` decides among them, so
+    the pieces are those of testing every point of the neighbour tiles."""
     owned_counts = defaultdict(int)
     sent = defaultdict(int)
     rings = {t: max(1, math.ceil(h / grid.size)) if h > 0 else 0 for t, h in halos.items()}
+    reach = max(halos.values(), default=0.0)
     for start, xyz, nrm in source.chunks():
         xy = xyz[:, :2]
-        owner = grid.owner(xy)
+        i, j = grid.cell(xy)
+        owner = j * grid.nx + i  # `TileGrid.owner`
         order = np.argsort(owner, kind="stable")
         starts = np.searchsorted(owner[order], np.arange(grid.n_tiles + 1))
+        edge = order[_near_border(grid, xy, i, j, reach)[order]]  # by owner, then index
+        e_starts = np.searchsorted(owner[edge], np.arange(grid.n_tiles + 1))
         for t, h in halos.items():
             near = [u for u in grid.neighbours(t, rings[t]) if starts[u + 1] > starts[u]]
             if not near:
                 continue
-            cand = np.sort(np.concatenate([order[starts[u] : starts[u + 1]] for u in near]))
+            parts = [order[starts[u] : starts[u + 1]] if u == t
+                     else edge[e_starts[u] : e_starts[u + 1]] for u in near]  # fmt: skip
+            cand = np.sort(np.concatenate(parts))
             sel = cand[grid.members(xy[cand], owner[cand], t, h)]
             if not sel.size:
                 continue

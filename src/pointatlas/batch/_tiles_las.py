@@ -149,7 +149,26 @@ class LasSource:
 
     @staticmethod
     def xyz_of(rec) -> np.ndarray:
-        return np.column_stack([np.asarray(rec[c], dtype=np.float64) for c in ("x", "y", "z")])
+        """(m, 3) float64 scaled coordinates: laspy's ``X * scale + offset`` (the same
+        two operations, hence the same bits as ``rec.x``), written in place."""
+        xyz = np.empty((len(rec), 3))
+        for c, name in enumerate(("X", "Y", "Z")):
+            col = xyz[:, c]
+            np.multiply(rec.array[name], rec.scales[c], out=col)
+            col += rec.offsets[c]
+        return xyz
+
+    @staticmethod
+    def extremes_of(rec) -> tuple[np.ndarray, np.ndarray]:
+        """Minima and maxima of `xyz_of`'s columns, bit for bit, from the integer
+        columns' extremes: ``X * scale + offset`` rounded is monotone in X."""
+        lo, hi = np.empty(3), np.empty(3)
+        for c, name in enumerate(("X", "Y", "Z")):
+            raw = rec.array[name]
+            ends = np.array([raw.min(), raw.max()], dtype=raw.dtype) * rec.scales[c]
+            ends += rec.offsets[c]
+            lo[c], hi[c] = ends.min(), ends.max()  # a negative scale swaps them
+        return lo, hi
 
     def chunks(self):
         """(start, xyz float64, normals or None) chunks."""
@@ -170,10 +189,10 @@ class LasSource:
             keeping = self._keep_in is not None and self._raw is None
             passes = self._keeping_pass() if keeping else self.records(full=False, normals=False)
             for s, rec in passes:
-                xyz = self.xyz_of(rec)
-                lo = np.minimum(lo, xyz.min(axis=0))
-                hi = np.maximum(hi, xyz.max(axis=0))
-                parts.append(xyz[(-s) % stride :: stride])
+                c_lo, c_hi = self.extremes_of(rec)
+                lo = np.minimum(lo, c_lo)
+                hi = np.maximum(hi, c_hi)
+                parts.append(self.xyz_of(rec[(-s) % stride :: stride]))
             if not np.isfinite(lo).all():
                 raise PointAtlasError(f"{self.path}: no points")
             self._bounds = (tuple(lo.tolist()), tuple(hi.tolist()))
@@ -355,10 +374,11 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
     options : TileOptions
         Tiling and cluster.
     normal_params : dict, optional
-        ``k`` and ``orient_k`` of normals estimated first (MST) when the command
-        needs normals (segment, normal voting) and the input has none, or when
-        re-estimation is asked for; with "features" and equal weights, estimated in
-        the features' tasks from the same k-NN (`normals_features_over`) and written.
+        ``k``, ``orient_k`` and ``orient`` ("mst" when not given, or "up") of normals
+        estimated first when the command needs normals (segment, normal voting) and
+        the input has none, or when re-estimation is asked for; with "features" and
+        equal weights, estimated in the features' tasks from the same k-NN
+        (`normals_features_over`) and written.
 
     Returns
     -------
@@ -382,7 +402,8 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
                 normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
                 src.use_normals = False
                 _, run_n = normals_over(
-                    src, replace(options, halo=None), k=normal_params["k"], orient="mst",
+                    src, replace(options, halo=None), k=normal_params["k"],
+                    orient=normal_params.get("orient", "mst"),
                     orient_k=normal_params.get("orient_k", 10), viewpoint=None, out=normals,
                     spill_dir=tmp, client_info=ci, label="normals",
                 )  # fmt: skip
