@@ -5,8 +5,9 @@
    tanks and poles, scattered vegetation-like noise, intensity and ASPRS
    classification, millimetre scales, UTM-like offsets, ~16 points per square metre.
 2. Runs the commands end to end as a user would (``pointatlas normals``, ``features``,
-   ``segment``, and ``features --normals``, both in one pass, with ``--tile-size`` on a
-   local dask cluster, LAZ decode and encode included) and reports wall time,
+   ``segment``, and ``features --normals``, both in one pass, MST-oriented or, step
+   ``one-pass-up``, ``--orient up``, with ``--tile-size`` on a local dask cluster, LAZ
+   decode and encode included) and reports wall time,
    throughput in points/s per core and points per CPU-second (user + sys of the
    command and its dask workers) and the peak memory of the whole process tree (the
    command plus its dask workers, sampled with psutil every 0.1 s).
@@ -15,7 +16,7 @@
    (``--local``: both segment runs with ``--local``, the opt-in local VSA).
 4. ``--halo-cost``: tiled / untiled compute time as tiles shrink (in one process, one
    worker thread at a time, no I/O), with the points sent per point.
-5. ``--stages features,normals,one-pass``: seconds of every stage of a tiled run
+5. ``--stages features,normals,one-pass,one-pass-up``: seconds of every stage of a tiled run
    (decode, first pass, halo estimate, spill, tile tasks, write pass, dask start/first
    tile/close) beside the untiled floor (one k-NN query and the kernels over all points).
 
@@ -23,7 +24,7 @@ Run (the issue's measures; the 10M case takes minutes on 2 cores):
 
     .venv/bin/python benchmarks/bench_scale.py --points 1000000 --compare --halo-cost
     .venv/bin/python benchmarks/bench_scale.py --points 10000000 --tile-size 200 \
-        --steps normals,features,one-pass
+        --steps normals,features,one-pass,one-pass-up
 """
 
 from __future__ import annotations
@@ -380,7 +381,8 @@ def _dask_costs(kind: str, params: dict) -> dict:
 
 def stages(laz: Path, tile: float, kind: str) -> dict:
     """Seconds of every stage of a tiled ``kind`` run ("features": k = 20, equal
-    weights; "normals": k = 20, MST; "one-pass": both, ``features --normals``) in one
+    weights; "normals": k = 20, MST; "one-pass": both, ``features --normals``;
+    "one-pass-up": both, ``features --normals --orient up``) in one
     process on one numba thread, tiles one after the other, beside the untiled floor
     (one k-NN query and the kernels over all points). The LAZ passes are those of
     `las_tiled`: the first decodes every record once and keeps them
@@ -402,7 +404,9 @@ def stages(laz: Path, tile: float, kind: str) -> dict:
     fparams = {"mode": "fixed", "k": 20, "flatness": (8, 8)}
     nparams = {"k": 20, "orient": "mst", "orient_k": 10, "viewpoint": None}
     params = {"features": fparams, "normals": nparams,
-              "one-pass": {"k": 20, "orient_k": 10, "features": fparams}}[kind]  # fmt: skip
+              "one-pass": {"k": 20, "orient_k": 10, "features": fparams},
+              "one-pass-up": {"k": 20, "orient_k": 10, "orient": "up",
+                              "features": fparams}}[kind]  # fmt: skip
     numba.set_num_threads(1)  # as a worker of the 2-worker local cluster runs its tiles
     out: dict = {"kind": kind, "tile_size": tile}
     sel = laspy.DecompressionSelection.XY_RETURNS_CHANNEL | laspy.DecompressionSelection.Z
@@ -428,7 +432,7 @@ def stages(laz: Path, tile: float, kind: str) -> dict:
         def tasks():
             for t in sorted(spill.pieces):
                 spec = {"grid": grid, "tile": t, "halo": halo, "params": params, "threads": None}
-                if kind == "one-pass":
+                if kind.startswith("one-pass"):
                     res = normals_features_task(spec, spill.load(t))
                 else:
                     res = run_task(kind, spec, spill.load(t))
@@ -437,22 +441,26 @@ def stages(laz: Path, tile: float, kind: str) -> dict:
         _timed(out, "tile tasks (sum)", tasks)
         table, _ = _timed(out, "untiled: k-NN query", query_knn, xyz, 20)
         fields, nrm = {}, None
-        if kind in ("normals", "one-pass"):
+        if kind in ("normals", "one-pass", "one-pass-up"):
             nrm = _timed(out, "untiled: PCA normals", estimate_normals, xyz, 20, neighbors=table)
+        if kind == "one-pass-up":
+            nrm = _timed(out, "untiled: up orientation", orient_normals, xyz, nrm, method="up")
+        elif nrm is not None:
             nrm = _timed(out, "untiled: MST orientation", orient_normals, xyz, nrm, k=10,
                          method="mst", neighbors=table)  # fmt: skip
-        if kind in ("features", "one-pass"):
+        if kind in ("features", "one-pass", "one-pass-up"):
             covariance_features(xyz[:1000], 20)
             res = _timed(out, "untiled: features kernel", features_dispatch, xyz, None,
                          fparams, table)  # fmt: skip
             fields = {**res.scalar_fields(), "dimension_class": classify_dimension(res)}
         what = {"features": "19 float32 fields", "normals": "normals",
-                "one-pass": "19 float32 fields + normals"}[kind]  # fmt: skip
+                "one-pass": "19 float32 fields + normals",
+                "one-pass-up": "19 float32 fields + normals"}[kind]  # fmt: skip
         _timed(out, f"LAZ write pass (kept records, encode {what})", write_streamed, src,
                laz.with_name("stages.laz"), fields, normals=nrm,
                float_type=LAS_FEATURE_FLOAT)  # fmt: skip
         laz.with_name("stages.laz").unlink(missing_ok=True)
-    dask = _dask_costs("normals" if kind == "one-pass" else kind,
+    dask = _dask_costs("normals" if kind.startswith("one-pass") else kind,
                        fparams if kind == "features" else nparams)  # fmt: skip
     out["cpu"].update(dask.pop("cpu"))
     out.update(dask)
@@ -477,11 +485,12 @@ def main() -> None:
     parser.add_argument("--steps", default="normals,features,segment",
                         help="Tiled end-to-end runs to do (comma-separated): normals, "
                              "features, segment, one-pass (features --normals: both in one "
-                             "command, one k-NN).")  # fmt: skip
+                             "command, one k-NN), one-pass-up (the same, --orient "
+                             "up).")  # fmt: skip
     parser.add_argument("--stages", default=None,
                         help="Per-stage seconds of tiled KIND runs in one process (features, "
-                             "normals, one-pass; comma-separated), beside the untiled "
-                             "floor.")  # fmt: skip
+                             "normals, one-pass, one-pass-up; comma-separated), beside the "
+                             "untiled floor.")  # fmt: skip
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(dir=args.data) as tmp_name:
         tmp = Path(tmp_name)
@@ -507,6 +516,8 @@ def main() -> None:
                 ("segment", ["segment", tmp / "n.laz", tmp / "s.laz"]),
                 ("one-pass", ["features", laz, tmp / "nf.laz", "--k", 20, "--weights", "equal",
                               "--normals"]),
+                ("one-pass-up", ["features", laz, tmp / "nfu.laz", "--k", 20, "--weights",
+                                 "equal", "--normals", "--orient", "up"]),
             ]  # fmt: skip
             wanted = set(args.steps.split(","))
             if wanted & {"features", "segment"}:

@@ -1,5 +1,7 @@
-"""Tiled segmentation: strong halo links rejoin a border piece of a curved surface
-(docs/decisions/batch.md, "Tiles — segmentation stitched across tiles")."""
+"""Tiled segmentation: strong halo links rejoin a border piece of a curved surface;
+in VSA's local mode points off their region's surface (vegetation above the ground)
+are placed by the tiles as by the untiled run, and links the two tiles agree on are
+strong (docs/decisions/batch.md, "Tiles — segmentation stitched across tiles")."""
 
 from __future__ import annotations
 
@@ -11,8 +13,10 @@ import pytest
 distributed = pytest.importorskip("distributed")
 
 from pointatlas.batch import TileOptions, tiled_segment  # noqa: E402
-from pointatlas.batch._tiles_segment import _halo_unions, _Regions  # noqa: E402
+from pointatlas.batch._tiles_segment import _agreed, _halo_unions, _Regions  # noqa: E402
 from pointatlas.batch._tiles_tasks import region_stats  # noqa: E402
+
+from ..segment.test_vsa_local import veg_ground  # noqa: E402
 
 
 def bump_scene(seed=3):
@@ -127,3 +131,40 @@ def test_a_hill_cut_by_tile_borders_is_one_region_as_untiled(client, n, seed):
     assert q["n_regions"] == 1 and np.all(labels == 0)
     assert q["energy"] == pytest.approx(ref.energy, rel=1e-9)
     assert q["mse"] == pytest.approx(ref.mse, rel=1e-6)
+
+
+@pytest.mark.parametrize("tile_size", [30.0, 20.0])
+def test_local_tiles_place_far_off_points_as_untiled(client, tile_size):
+    """Local mode: each tile moves the points off their region's surface as the
+    untiled run does (a local decision on the owned points, the halo gives the
+    neighbours), so the stitched ground is exactly the untiled one, with no
+    vegetation point, and the measures agree (the plane MSE too: without the
+    relabelling the vegetation's membership of the ground decided it)."""
+    from pointatlas.segment import vsa_segment
+
+    n = 12_000
+    pts, nrm = veg_ground(n=n, n_veg=150, extent=(60.0, 40.0))
+    ref = vsa_segment(pts, nrm, k=8, local=True)
+    labels, q, run = tiled_segment(
+        pts, nrm, TileOptions(tile_size=tile_size, scheduler=client), {"k": 8, "local": True}
+    )
+    assert run.n_tiles >= 4
+    ground = labels == np.argmax(np.bincount(labels))
+    assert np.array_equal(ground, ref.labels == np.argmax(np.bincount(ref.labels)))
+    assert ground[:n].all() and not ground[n:].any()
+    assert q["n_regions"] == ref.n_regions
+    assert q["energy"] == pytest.approx(ref.energy, rel=0.01)
+    assert q["mse"] == pytest.approx(ref.mse, rel=0.01)
+
+
+def test_agreed_links_are_the_majority_both_ways():
+    """`_agreed`: a pair is agreed when it holds at least half of each region's halo
+    links with the other region's tile. Regions 0, 1 in tile 0; 2, 3 in tile 1."""
+    tile_of = np.array([0, 0, 1, 1])
+    pairs = np.array([[0, 2], [2, 0], [0, 3], [1, 3]])
+    counts = np.array([60, 40, 30, 5])
+    both = np.array([100, 100, 30, 5])  # (0, 2) both ways; the others one way
+    got = _agreed(pairs, both, counts, tile_of)
+    # 0 has 130 links with tile 1 (100 with 2), 2 has 100 with tile 0 (all with 0):
+    # agreed; (0, 3): 30 of 0's 130; (1, 3): all of 1's 5 links but 5 of 3's 35
+    assert got.tolist() == [True, True, False, False]

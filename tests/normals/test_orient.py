@@ -1,4 +1,4 @@
-"""orient_normals: MST propagation, outward and viewpoint rules, components, errors."""
+"""orient_normals: MST propagation, outward, viewpoint and up rules, components, errors."""
 
 from __future__ import annotations
 
@@ -92,6 +92,39 @@ def test_viewpoint():
     assert (far[pts[:, 2] > 0.2, 2] > 0).all()
 
 
+def _up_reference(normals):
+    """Plain-Python reference of method="up": the first non-zero of (z, y, x) positive."""
+    out = []
+    for n in normals.tolist():
+        lead = next((v for v in (n[2], n[1], n[0]) if v != 0.0), 0.0)
+        out.append([-v for v in n] if lead < 0.0 else n)
+    return np.array(out)
+
+
+def test_up_equals_the_plain_reference_and_ignores_input_signs():
+    pts, exact = sphere(500)
+    ties = np.array([[0.6, 0.8, 0.0], [0.6, -0.8, 0.0], [-0.6, -0.8, -0.0], [-1.0, 0.0, 0.0],
+                     [-1.0, -0.0, -0.0], [0.0, 0.0, -1.0], [0.0, -0.0, 1.0]])  # fmt: skip
+    nrm = np.vstack([exact, ties])
+    pts = np.vstack([pts, np.zeros((ties.shape[0], 3))])
+    unit = nrm / np.linalg.norm(nrm, axis=1)[:, None]
+    up = orient_normals(pts, random_flips(nrm, 1), method="up")
+    ref = _up_reference(unit)
+    assert np.array_equal(np.signbit(up), np.signbit(ref)) and np.array_equal(up, ref)
+    assert (up[:, 2] >= 0).all() and (up[pts[:, 2] > 0, 2] > 0).all()
+    # n and -n give the same bits (also for nz == 0 and signed zeros)
+    assert np.array_equal(np.signbit(orient_normals(pts, -nrm, method="up")), np.signbit(up))
+    assert np.array_equal(orient_normals(pts, -nrm, method="up"), up)
+    # per point: any subset gives its rows of the whole (what tiles rely on)
+    rows = np.arange(0, pts.shape[0], 7)
+    assert np.array_equal(orient_normals(pts[rows], nrm[rows], method="up"), up[rows])
+    # only signs change; agrees with PDAL's always_up (flip when nz < 0) where nz != 0
+    assert np.array_equal(np.abs(up), np.abs(unit))
+    nz = unit[:, 2] != 0
+    pdal = np.where(unit[:, 2:] < 0, -unit, unit)
+    assert np.array_equal(up[nz], pdal[nz])
+
+
 def test_duplicates_and_shared_neighbors():
     pts, exact = sphere(600)
     dup = np.vstack([pts, pts[::3]])
@@ -119,6 +152,7 @@ def test_inputs_not_modified():
     for method in ("mst", "outward"):
         orient_normals(pts, est, method=method)
     orient_normals(pts, est, method="viewpoint", viewpoint=[0, 0, 0])
+    orient_normals(pts, est, method="up")
     assert np.array_equal(est, before)
 
 

@@ -161,9 +161,10 @@ def run_tiled_command(kind: str, in_path, out_path, params: dict, options: TileO
         The command's resolved parameters.
     options : TileOptions
     normal_params : dict, optional
-        ``k`` (and ``orient_k``) of MST normals estimated by tiles: first (segment,
-        normal voting on an input without normals), or with the equal-weight features
-        from the same k-NN (``features --normals``).
+        ``k`` (and ``orient_k``, ``orient``: "mst" when not given, or "up") of normals
+        estimated by tiles: first (segment, normal voting on an input without
+        normals), or with the equal-weight features from the same k-NN (``features
+        --normals``).
     label_colors : callable, optional
         ``labels -> (N, 3) uint8`` colours written with segment labels.
 
@@ -232,7 +233,7 @@ def _in_memory(kind, in_path, out_path, params, options, normal_params, label_co
         if normal_params is not None:
             normals, run_n = normals_over(
                 ArraySource(ps.points), replace(options, halo=None), k=normal_params["k"],
-                orient="mst",
+                orient=normal_params.get("orient", "mst"),
                 orient_k=normal_params.get("orient_k", 10), viewpoint=None, client_info=ci,
             )  # fmt: skip
             summary["normals_tiles"] = run_n.summary()

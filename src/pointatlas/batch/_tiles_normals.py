@@ -95,9 +95,10 @@ def tiled_normals(points, options: TileOptions, *, k=20, orient="mst", orient_k=
         Tiling and cluster.
     k : int
         PCA neighbourhood size (the point itself included).
-    orient : {"mst", "viewpoint", "none"}
+    orient : {"mst", "viewpoint", "up", "none"}
         Orientation; "mst" orients every tile and makes signs agree across tiles
-        (see Notes). "outward" needs the whole closed surface and is refused.
+        (see Notes); "viewpoint" and "up" are per point. "outward" needs the whole
+        closed surface and is refused.
     orient_k : int
         k of the orientation graph.
     viewpoint : array_like of shape (3,), optional
@@ -115,7 +116,8 @@ def tiled_normals(points, options: TileOptions, *, k=20, orient="mst", orient_k=
 
     Notes
     -----
-    Unoriented normals, "none" and "viewpoint" equal the untiled ones bit for bit.
+    Unoriented normals, "none", "viewpoint" and "up" equal the untiled ones bit for
+    bit (their tiles query the owned rows only and need no stitching).
     With "mst" every tile is oriented by Hoppe's MST propagation and tiles are
     flipped as wholes to agree on the points they share (`_normal_signs`); the
     unoriented direction is still bit for bit the untiled one, the sign agrees
@@ -170,10 +172,10 @@ class _Stitch:
 
 def check_normal_options(n: int, k: int, orient: str) -> None:
     """One-line errors for tiled normals' options."""
-    if orient not in ("mst", "viewpoint", "none"):
+    if orient not in ("mst", "viewpoint", "up", "none"):
         raise PointAtlasError(
             f"--orient {orient} needs the whole surface at once; with --tile-size use mst, "
-            "viewpoint or none"
+            "viewpoint, up or none"
         )
     if k < 3 or k > n:
         raise PointAtlasError(f"--k must lie in [3, number of points = {n}]; got {k}")

@@ -366,6 +366,8 @@ def _halo_unions(regions: _Regions, links: list, has_points: np.ndarray):
     both = np.bincount(inv, weights=counts)[inv]
     sizes = regions.st[:, 0].copy()  # the tile regions' own counts, before any union
     strong = both >= np.minimum(sizes[pairs[:, 0]], sizes[pairs[:, 1]])
+    if regions.tiles is not None:
+        strong |= _agreed(pairs, both, counts, regions.tile_of)
     order = np.lexsort((pairs[:, 1], pairs[:, 0], -counts))
     n_links = 0
     for i in order.tolist():
@@ -375,3 +377,18 @@ def _halo_unions(regions: _Regions, links: list, has_points: np.ndarray):
             regions.union(a, b)
             n_links += 1
     return pairs, n_links
+
+
+def _agreed(pairs, both, counts, tile_of):
+    """Local mode: the pairs that hold at least half of the halo links between each
+    of their two regions and the other region's tile (both ways), so the two tiles
+    agree on the halo points there: one region (docs/decisions/batch.md)."""
+    n_tiles = int(tile_of.max()) + 1
+    # links of region r with any region of tile t, keyed r * n_tiles + t
+    key = np.concatenate([pairs[:, 0] * n_tiles + tile_of[pairs[:, 1]],
+                          pairs[:, 1] * n_tiles + tile_of[pairs[:, 0]]])  # fmt: skip
+    uk, inv = np.unique(key, return_inverse=True)
+    per = np.bincount(inv.reshape(-1), weights=np.concatenate([counts, counts]))
+    half = inv.reshape(-1).size // 2
+    to_b, to_a = per[inv.reshape(-1)[:half]], per[inv.reshape(-1)[half:]]
+    return 2.0 * both >= np.maximum(to_b, to_a)

@@ -81,12 +81,13 @@ def _halo_part(data, owner, owned):
 def normals_task(spec, data):
     """PCA normals of the owned points (exact), oriented like the untiled command.
 
-    ``orient`` "none" and "viewpoint" are per point, hence exact; they query the
-    owned rows only. "mst" orients the whole tile (owned + halo) by Hoppe's
-    propagation over the k-NN rows of every tile point; the halo normals go back so
-    that the client can make signs agree across tiles.
+    ``orient`` "none", "viewpoint" and "up" are per point, hence exact; they query
+    the owned rows only and orient the owned normals only. "mst" orients the whole
+    tile (owned + halo) by Hoppe's propagation over the k-NN rows of every tile
+    point; the halo normals go back so that the client can make signs agree across
+    tiles.
     """
-    from ..normals import estimate_normals, orient_normals
+    from ..normals import estimate_normals
 
     _threads(spec)
     p = spec["params"]
@@ -102,12 +103,25 @@ def normals_task(spec, data):
     if orient == "mst":
         normals, parts = mst_tile_normals(xyz, table, k, orient_k, data, owner, owned)
         out.update(parts)
+        out["normals"] = normals[owned]
     else:
         normals = estimate_normals(xyz, k, neighbors=table)
-    if orient == "viewpoint":
-        normals = orient_normals(xyz, normals, method="viewpoint", viewpoint=p["viewpoint"])
-    out["normals"] = normals[owned]
+        out["normals"] = orient_per_point(xyz, normals, owned, orient, p["viewpoint"])
     return out
+
+
+def orient_per_point(xyz, normals, owned, orient, viewpoint=None):
+    """The owned rows of ``normals`` oriented by a per-point rule ("none", "viewpoint",
+    "up"): each row depends on its own point and normal only, so the owned rows alone
+    give the untiled rows bit for bit."""
+    from ..normals import orient_normals
+
+    mine = normals[owned]
+    if orient == "none":
+        return mine
+    if orient == "viewpoint":
+        return orient_normals(xyz[owned], mine, method="viewpoint", viewpoint=viewpoint)
+    return orient_normals(xyz[owned], mine, method=orient)
 
 
 def mst_tile_normals(xyz, table, k, orient_k, data, owner, owned):

@@ -65,8 +65,9 @@ __all__ = [
     "step_name",
 ]
 
-#: Orientation methods of ``pointatlas normals`` (``none`` keeps PCA signs).
-ORIENT_METHODS = ("mst", "outward", "viewpoint", "none")
+#: Orientation methods of ``pointatlas normals`` (``none`` keeps PCA signs; ``up``:
+#: n_z >= 0 per point, the lidar convention, `pointatlas.normals.orient_normals`).
+ORIENT_METHODS = ("mst", "outward", "viewpoint", "up", "none")
 #: Model used by ``pointatlas demo``.
 DEMO_MODEL = "fandisk"
 
@@ -108,6 +109,8 @@ def normals_and_table(points, *, k: int, orient: str, orient_k: int, viewpoint, 
         oriented = unoriented
     elif orient == "viewpoint":
         oriented = orient_normals(points, unoriented, method="viewpoint", viewpoint=viewpoint)
+    elif orient == "up":
+        oriented = orient_normals(points, unoriented, method="up")
     else:
         oriented = orient_normals(
             points, unoriented, k=orient_k, method=orient, neighbors=neighbors
@@ -141,7 +144,12 @@ def normals_command(
         int, typer.Option("--k", help="PCA neighbourhood size (point itself included).")
     ] = 20,
     orient: Annotated[
-        str, typer.Option("--orient", help="Orientation: mst, outward, viewpoint or none.")
+        str,
+        typer.Option(
+            "--orient",
+            help="Orientation: mst, outward, viewpoint, up (nz >= 0 per point, the lidar "
+            "convention) or none.",
+        ),
     ] = "mst",
     orient_k: Annotated[
         int, typer.Option("--orient-k", help="k of the orientation graph (capped at N).")

@@ -247,29 +247,31 @@ def _read_for_normals(input_path, output):
     return ps, ours
 
 
-def _read_for(input_path, output, estimate: bool, k, k_range):
+def _read_for(input_path, output, estimate: bool, k, k_range, orient: str = "mst"):
     """(point set, fields kept, shared k-NN table or None, start time) of an untiled run;
-    with ``estimate`` the normals are computed here (timed with the features)."""
+    with ``estimate`` the normals are computed here (oriented by ``orient``, timed with
+    the features)."""
     if not estimate:
         ps = _read_checked(input_path, output)
         return ps, {}, None, time.perf_counter()
     ps, ours = _read_for_normals(input_path, output)
     t0 = time.perf_counter()
     kf = (14 if k is None else k) if k_range is None else k_range[1]
-    ps, table = _normals_and_table(ps, 14 if k is None else k, kf)
+    ps, table = _normals_and_table(ps, 14 if k is None else k, kf, orient)
     return ps, ours, table, t0
 
 
-def _normals_and_table(ps, k: int, kf: int):
-    """MST-oriented PCA normals at ``k`` (orientation graph k = 10, as `normals`) and
-    the k-NN table they share with the features (``kf`` columns at least)."""
+def _normals_and_table(ps, k: int, kf: int, orient: str = "mst"):
+    """PCA normals at ``k`` oriented by ``orient`` ("mst": orientation graph k = 10, as
+    `normals`; "up") and the k-NN table they share with the features (``kf`` columns at
+    least)."""
     from ._cmd_core import normals_and_table
 
     n = ps.n_points
     if k < 3 or k > n or kf > n:
         raise PointAtlasError(f"--k must lie in [3, number of points = {n}]; got {max(k, kf)}")
     normals, (table, _) = normals_and_table(
-        ps.points, k=k, orient="mst", orient_k=10, viewpoint=None, advance=lambda: None,
+        ps.points, k=k, orient=orient, orient_k=10, viewpoint=None, advance=lambda: None,
         min_cols=kf,
     )  # fmt: skip
     return ps.replace(normals=normals), table
@@ -335,6 +337,40 @@ _RenderOption = Annotated[
 _RenderSizeOption = Annotated[
     int, typer.Option("--render-size", min=64, help="Pixels per picture panel.")
 ]
+_NormalsOption = Annotated[
+    bool,
+    typer.Option(
+        "--normals",
+        help="Also estimate PCA normals at --k (default 14), oriented by --orient, from the "
+        "same k-NN table as the features (equal weights); written as nx, ny, nz.",
+    ),
+]
+#: ``--orient`` of ``--normals`` (`NORMALS_ORIENT`; docs/decisions/batch.md, "Tiles —
+#: normals and features in one pass")
+_OrientOption = Annotated[
+    str | None,
+    typer.Option(
+        "--orient",
+        help="With --normals: mst (default; Hoppe's propagation, as `normals`) or up (nz >= 0 "
+        "per point, the lidar convention; by tiles no stitching, cheaper).",
+    ),
+]
+#: Orientations of ``features --normals``.
+NORMALS_ORIENT = ("mst", "up")
+
+
+def _orient_for(orient, estimate: bool) -> str:
+    """``--orient`` checked: with ``--normals`` mst (default) or up; else not given."""
+    if not estimate:
+        if orient is not None:
+            raise PointAtlasError("--orient only applies with --normals")
+        return "mst"
+    orient = "mst" if orient is None else orient
+    if orient not in NORMALS_ORIENT:
+        raise PointAtlasError(
+            f"--orient with --normals must be one of {', '.join(NORMALS_ORIENT)}; got {orient!r}"
+        )
+    return orient
 
 
 @app.command("features")
@@ -374,14 +410,8 @@ def features_command(
         str,
         typer.Option("--criterion", help="Equal-weight k search: e_dim or eigenentropy."),
     ] = "e_dim",
-    estimate_normals: Annotated[
-        bool,
-        typer.Option(
-            "--normals",
-            help="Also estimate MST-oriented PCA normals at --k (default 14), from the same "
-            "k-NN table as the features (equal weights); written as nx, ny, nz.",
-        ),
-    ] = False,
+    estimate_normals: _NormalsOption = False,
+    orient: _OrientOption = None,
     render: _RenderOption = None,
     render_size: _RenderSizeOption = 800,
     report: ReportOption = None,
@@ -396,8 +426,8 @@ def features_command(
     Writes OUT with every input field kept and the features added (a feature whose
     name the input already uses gets the prefix ``pa_``); with ``--report`` also an
     HTML report with per-field statistics and a 3-D view. ``--normals`` does the work
-    of ``normals --k K`` then ``features --k K --weights equal`` in one pass (one
-    k-NN query); the input's normals are kept as ``input_normals``.
+    of ``normals --k K --orient O`` then ``features --k K --weights equal`` in one pass
+    (one k-NN query); the input's normals are kept as ``input_normals``.
     """
     from ..io import POINT_WRITE_EXTENSIONS
 
@@ -410,6 +440,7 @@ def features_command(
     a_vals = _parse_grid_deg(a_grid, "--a-grid-deg")
     b_vals = _parse_grid_deg(b_grid, "--b-grid-deg") if b_grid is not None else a_vals
     weights = _weights_with_normals(weights, estimate_normals)
+    orient = _orient_for(orient, estimate_normals)
     tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, render=render)
     if tiles is not None:
         from ..batch._tiles_cli import feature_params, input_has_normals
@@ -419,11 +450,12 @@ def features_command(
             flatness=flatness, criterion=criterion,
             has_normals=not estimate_normals and input_has_normals(input_path),
         )  # fmt: skip
-        normal_params = {"k": 14 if k is None else k, "orient_k": 10} if estimate_normals else None
+        normal_params = ({"k": 14 if k is None else k, "orient_k": 10, "orient": orient}
+                         if estimate_normals else None)  # fmt: skip
         run_tiled("features", input_path, output, params, tiles, report=report,
                   normal_params=normal_params)  # fmt: skip
         return
-    ps, ours, table, t0 = _read_for(input_path, output, estimate_normals, k, k_range)
+    ps, ours, table, t0 = _read_for(input_path, output, estimate_normals, k, k_range, orient)
     result, mode = compute_features_for(
         ps.points, ps.normals, k=k, k_range=tuple(k_range) if k_range is not None else None,
         weights=weights, a_grid=a_vals, b_grid=b_vals, flatness=tuple(flatness),
@@ -452,7 +484,8 @@ def features_command(
     if report is not None:
         parameters = {"k": k, "k_range": k_range, "weights": weights, "a_grid_deg": a_grid,
                       "b_grid_deg": b_grid, "flatness": flatness, "criterion": criterion,
-                      "normals": estimate_normals}  # fmt: skip
+                      "normals": estimate_normals,
+                      "orient": orient if estimate_normals else None}  # fmt: skip
         _write_features_report(
             report, input_path, ps, result, fields, mode, elapsed, pictures, parameters
         )

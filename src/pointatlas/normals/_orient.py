@@ -1,4 +1,4 @@
-"""Normal orientation: MST propagation (Hoppe et al. 1992), viewpoint, outward."""
+"""Normal orientation: MST propagation (Hoppe et al. 1992), viewpoint, outward, up."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from ._kernels import (
 
 __all__ = ["orient_normals"]
 
-_METHODS = ("outward", "mst", "viewpoint")
+_METHODS = ("outward", "mst", "viewpoint", "up")
 
 
 def _check_viewpoint(viewpoint) -> np.ndarray:
@@ -32,6 +32,19 @@ def _check_viewpoint(viewpoint) -> np.ndarray:
     if not np.isfinite(vp).all():
         raise ValueError(f"viewpoint must be finite; got {vp.tolist()}")
     return vp
+
+
+def _flip_up(nrm: np.ndarray) -> np.ndarray:
+    """``method="up"`` in place: the first non-zero of (n_z, n_y, n_x) made positive.
+
+    n_z < 0 flips (PDAL ``filters.normal`` ``always_up``); n_z == 0 (either sign of
+    zero) falls back to n_y, then n_x, so the result depends on the unoriented axis
+    only: n and -n give the same bits.
+    """
+    nx, ny, nz = nrm[:, 0], nrm[:, 1], nrm[:, 2]
+    flip = (nz < 0.0) | ((nz == 0.0) & ((ny < 0.0) | ((ny == 0.0) & (nx < 0.0))))
+    np.negative(nrm, out=nrm, where=flip[:, None])
+    return nrm
 
 
 def _riemannian_graph(points, normals, idx, k, eps, edge_penalty):
@@ -150,8 +163,9 @@ def orient_normals(
         Normals of any sign (rescaled to unit length; zero length raises).
     k : int
         Neighbourhood size of the k-NN Riemannian graph, the point itself
-        included (2 <= k <= N; default 10). Ignored by ``method="viewpoint"``.
-    method : {"outward", "mst", "viewpoint"}
+        included (2 <= k <= N; default 10). Ignored by ``method="viewpoint"``
+        and ``method="up"``.
+    method : {"outward", "mst", "viewpoint", "up"}
         ``"mst"``: minimum-spanning-tree propagation (Hoppe et al. 1992); in
         every connected component of the k-NN graph the root is the point with
         the largest z and its normal is made to point to +z (Hoppe's and
@@ -163,6 +177,9 @@ def orient_normals(
         sum is 3 x its enclosed volume, divergence theorem); components where
         the sum is negligible (open, flat patches) keep the ``"mst"`` rule.
         ``"viewpoint"``: each normal independently faces ``viewpoint``.
+        ``"up"``: each normal independently gets n_z >= 0 (the lidar convention,
+        PDAL's ``filters.normal`` ``always_up``); a horizontal normal (n_z == 0)
+        gets n_y > 0, or n_x > 0 when n_y == 0 too. Per point, no neighbours.
     viewpoint : array_like of shape (3,), optional
         Sensor position, required for ``method="viewpoint"``.
     neighbors : ndarray of shape (N, m), int, or tuple, optional
@@ -204,7 +221,9 @@ def orient_normals(
     and n_j is flipped when n_parent . n_j < 0 (in effect: the signs come from
     the parity of such edges on each tree path, tracked while the forest is
     built). Each connected component of the k-NN graph is oriented on its own.
-    Decisions: docs/decisions/normals.md.
+    ``"up"`` and ``"viewpoint"`` are per point: a point's result depends on its
+    own normal only (and, for ``"up"``, not on its sign), so they split over
+    tiles exactly. Decisions: docs/decisions/normals.md, "Orientation".
 
     Examples
     --------
@@ -215,6 +234,10 @@ def orient_normals(
     [1.0, 1.0, 1.0, 1.0]
     >>> orient_normals(pts, nrm, method="viewpoint", viewpoint=[0, 0, -5])[:, 2].tolist()
     [-1.0, -1.0, -1.0, -1.0]
+    >>> up = orient_normals(pts, [[0.0, 0.6, -0.8], [0, -1, 0], [-1, 0, 0], [0, 0, 1]],
+    ...                     method="up")
+    >>> (up + 0.0).tolist()  # + 0.0: -0.0 printed as 0.0
+    [[0.0, -0.6, 0.8], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
     """
     if method not in _METHODS:
         raise ValueError(f"method must be one of {_METHODS}; got {method!r}")
@@ -227,6 +250,8 @@ def orient_normals(
         facing = np.einsum("ij,ij->i", vp - pts, nrm)
         nrm[facing < 0] *= -1.0
         return nrm
+    if method == "up":
+        return _flip_up(nrm)
     k = as_k(k, n, minimum=2)
     idx = _neighbor_indices(pts, k, neighbors)
     signs, n_comp, labels = _forest_signs(pts, nrm, idx, edge_penalty)

@@ -199,7 +199,10 @@ def vsa_segment(
     otherwise exact. Disconnected regions are split into their connected pieces
     at the end (end of 4.3.2); with ``merge`` and ``eta`` a last merge pass
     ("final_merge") then joins every pair of neighbouring regions whose union
-    has L21 < eta, so none is left. Decisions in docs/decisions/segment.md.
+    has L21 < eta, so none is left. With ``local`` a last step ("off_surface")
+    moves every point that lies off its region's local surface (by more than the
+    typical neighbourhood reach) to a neighbouring region on whose surface it
+    lies or to a region of its own. Decisions in docs/decisions/segment.md.
 
     Examples
     --------
@@ -247,6 +250,10 @@ def vsa_segment(
     if opts.merge and not opts.classic and opts.eta is not None:
         run.final_merge()
     run.timings["final_merge"] = time.perf_counter() - t1
+    if opts.local and not opts.classic:
+        t1 = time.perf_counter()
+        run.relabel_off_surface()
+        run.timings["off_surface"] = time.perf_counter() - t1
     return _finalise(run, pts, nrm, order, inv, t0, t_start)
 
 

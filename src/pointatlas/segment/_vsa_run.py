@@ -92,6 +92,67 @@ def split_regions(points, w, labels, m, over):
     return idx[move], new_id[lab[move]], n_new
 
 
+def _group_median(group, values, n_groups):
+    """Median of ``values`` per group id in 0..n_groups-1 (the mean of the two
+    middle values for an even count; NaN for an empty group)."""
+    order = np.lexsort((values, group))
+    v = values[order]
+    cnt = np.bincount(group, minlength=n_groups)
+    start = np.zeros(n_groups, dtype=np.int64)
+    np.cumsum(cnt[:-1], out=start[1:])
+    med = np.full(n_groups, np.nan)
+    has = cnt > 0
+    lo = start[has] + (cnt[has] - 1) // 2
+    hi = start[has] + cnt[has] // 2
+    med[has] = 0.5 * (v[lo] + v[hi])
+    return med
+
+
+def off_surface_moves(indptr, indices, points, labels, prox, limit):
+    """The points that lie off their region's local surface and where they go
+    (local mode; docs/decisions/segment.md "Local mode").
+
+    A point's *offset* from a region is the median distance, along the region's
+    proxy normal ``prox``, from the point to its graph neighbours in that region
+    (how far it sits off the region's plane through its own neighbourhood; the
+    median, so one stray neighbour does not decide). A point whose offset from
+    its own region exceeds ``limit`` leaves it: for the neighbouring region (of a
+    graph neighbour) of least offset, if that offset is at most ``limit`` (ties:
+    the smaller region id), else for a region of its own (target -1). Every
+    decision reads the labels before any move; a point with no neighbour in its
+    region stays. Returns (moved, target), ``moved`` increasing.
+    """
+    n = labels.shape[0]
+    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
+    nb_lab = labels[indices]
+    same = nb_lab == labels[rows]
+    r_s, q_s = rows[same], indices[same]
+    gap = np.abs(np.einsum("ij,ij->i", points[r_s] - points[q_s], prox[labels[r_s]]))
+    off = _group_median(r_s, gap, n)
+    moved = np.flatnonzero(off > limit)  # NaN (no neighbour in the region): stays
+    target = np.full(moved.shape[0], -1, dtype=np.int64)
+    leave = np.zeros(n, dtype=np.bool_)
+    leave[moved] = True
+    e = leave[rows] & ~same
+    if not e.any():
+        return moved, target
+    # every (leaving point, neighbouring region) pair: the median offset there
+    m = prox.shape[0]
+    pt_e, reg_e = rows[e], nb_lab[e]
+    key, inv = np.unique(pt_e * m + reg_e, return_inverse=True)
+    inv = inv.reshape(-1)
+    pt, reg = key // m, key % m
+    d = np.abs(np.einsum("ij,ij->i", points[pt_e] - points[indices[e]], prox[reg_e]))
+    o = _group_median(inv, d, key.shape[0])
+    ok = o <= limit
+    pt, reg, o = pt[ok], reg[ok], o[ok]
+    order = np.lexsort((reg, o, pt))  # per point: least offset, then smaller region
+    pt, reg = pt[order], reg[order]
+    first = np.flatnonzero(np.r_[True, pt[1:] != pt[:-1]]) if pt.size else pt
+    target[np.searchsorted(moved, pt[first])] = reg[first]
+    return moved, target
+
+
 def merge_regions(indptr, indices, labels, wsum, ssum, counts, pairs, subset, eta, min_cos):
     """Greedy cheapest-first merging on the region adjacency graph (4.3.3 b).
 
@@ -403,6 +464,85 @@ class _VSARun:
         )  # fmt: skip
 
     # ------------------------------------------------------------------ end
+
+    def relabel_off_surface(self):
+        """Local mode, after the loop: points off their region's local surface
+        move (`off_surface_moves`), then every region is split into its pieces
+        connected along its surface (`surface_pieces`).
+
+        The limit is the typical neighbourhood reach: the median over the points
+        of the distance to their farthest graph neighbour. A point goes to the
+        neighbouring region on whose local surface it lies, else to a region of
+        its own; a move into a region it would push over the threshold goes to a
+        region of its own instead, and a move out of a region that would be
+        pushed over stays undone (`hold_under_threshold`), so no move puts a
+        region over the threshold (docs/decisions/segment.md "Local mode").
+        """
+        indptr, indices, pts = self.indptr, self.indices, self.points
+        deg = np.diff(indptr)
+        if not indices.size:
+            return
+        rows = np.repeat(np.arange(pts.shape[0], dtype=np.int64), deg)
+        reach = np.maximum.reduceat(row_norms(pts[indices] - pts[rows]), indptr[:-1][deg > 0])
+        del rows
+        limit = float(np.median(reach))
+        prox = proxy_normals(self.labels, self.wsum, self.ssum, self.counts, self.normals)
+        moved, target = off_surface_moves(indptr, indices, pts, self.labels, prox, limit)
+        if moved.size:
+            self._move_off_surface(moved, target)
+            prox = proxy_normals(self.labels, self.wsum, self.ssum, self.counts, self.normals)
+        self.surface_pieces(prox, limit)
+
+    def _move_off_surface(self, moved, target):
+        """Apply the moves of `off_surface_moves` (target -1: a region of its own)
+        that keep every region under the threshold."""
+        # a move the threshold refuses (into a region it would push over) goes to
+        # a region of its own instead; then only moves out of such a region drop
+        eta = 0.0 if self.eta is None else float(self.eta)
+        min_cos = 0.0 if self.min_cos is None else float(self.min_cos)
+        own = target < 0
+        for _ in range(2):
+            n_new = int(own.sum())
+            tgt = target.copy()
+            tgt[own] = self.m + np.arange(n_new)
+            wsum = np.concatenate([self.wsum, np.zeros(n_new)])
+            ssum = np.concatenate([self.ssum, np.zeros((n_new, 3))])
+            keep = hold_under_threshold(
+                moved, tgt, self.labels, wsum, ssum, self.w, self.wn, eta, min_cos,
+                self.eta is None,
+            )  # fmt: skip
+            if keep.all() or own[~keep].all():
+                break
+            own |= ~keep
+        if not keep.any():
+            return
+        self.labels = self.labels.copy()
+        self.labels[moved[keep]] = tgt[keep]
+        self.labels, self.m = canonical_labels(self.labels)
+        self._resum()
+        self.record("off_surface", energy_opt(self.wsum, self.ssum))
+
+    def surface_pieces(self, prox, limit):
+        """Split every region into its pieces connected by *surface edges*: graph
+        edges inside the region whose two points lie within ``limit`` of each
+        other along the region's proxy normal ``prox``. A cluster that touches a
+        region only by edges that climb off its surface (vegetation above the
+        ground) becomes a region of its own; the pieces are connected in the graph."""
+        indptr, indices, labels = self.indptr, self.indices, self.labels
+        rows = np.repeat(np.arange(labels.shape[0], dtype=np.int64), np.diff(indptr))
+        keep = labels[indices] == labels[rows]
+        rows, cols = rows[keep], indices[keep]
+        step = self.points[rows] - self.points[cols]
+        gap = np.abs(np.einsum("ij,ij->i", step, prox[labels[rows]]))
+        keep = gap <= limit
+        rows, cols = rows[keep], cols[keep]
+        sub_ptr = np.zeros(labels.shape[0] + 1, dtype=np.int64)
+        np.cumsum(np.bincount(rows, minlength=labels.shape[0]), out=sub_ptr[1:])
+        n_before = self.m
+        self.labels, self.m = connected_label_components(sub_ptr, cols, labels)
+        if self.m != n_before:
+            self._resum()
+            self.record("relabel", energy_opt(self.wsum, self.ssum))
 
     def connected_pieces(self):
         """Split every region into its connected pieces (end of 4.3.2)."""
