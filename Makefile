@@ -24,6 +24,7 @@ lint: install
 test: lint
 	@# the report browser tests need Debian's chromium; without it (no apt-get) they skip
 	@command -v chromium >/dev/null || (apt-get install -y --no-install-recommends chromium \
+		|| (apt-get update && apt-get install -y --no-install-recommends chromium) \
 		|| echo "chromium not installed: browser tests will skip")
 	$(BIN)/python -m pytest -q
 

@@ -14,7 +14,10 @@ also given to CGAL's ``Surface_mesh_approximation`` (benchmarks/cgal_vsa.cpp,
 compiled with Debian's libcgal-dev, see bench_simplify.py) with as many proxies as
 our output has faces, and its output is measured the same way (one metric for all:
 `pointatlas.simplify.point_mesh_distance`); the summary prints the ratio of mean
-distances (ours / CGAL's) and how often each output is a closed manifold.
+distances (ours / CGAL's) and how often each output is a closed manifold. With
+``--soup`` every model is given as a triangle soup (each triangle its own three
+vertices, as an STL or a flat-shaded export writes it): the input checks stay those of
+the indexed file.
 """
 
 from __future__ import annotations
@@ -24,12 +27,13 @@ import csv
 import importlib.util
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from pointatlas.io import read_mesh
-from pointatlas.simplify import mesh_checks, simplify_mesh
+from pointatlas.simplify import SimplifyWarning, mesh_checks, simplify_mesh
 
 HERE = Path(__file__).resolve().parent
 MESH_SUFFIXES = (".obj", ".off", ".ply", ".stl")
@@ -42,11 +46,22 @@ def _bench_simplify():
     return module
 
 
-def run_ours(mesh) -> dict:
-    v = mesh.vertices
+def as_soup(vertices, triangles):
+    """Every triangle with its own three vertices, as an STL export or a flat-shaded
+    PLY / OBJ gives them (``--soup``)."""
+    v = np.asarray(vertices)[np.asarray(triangles).reshape(-1)]
+    return v, np.arange(v.shape[0], dtype=np.int64).reshape(-1, 3)
+
+
+def run_ours(mesh, soup: bool = False) -> dict:
+    v, tri = mesh.vertices, mesh.triangles
+    if soup:
+        v, tri = as_soup(v, tri)
     diag = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
     t0 = time.perf_counter()
-    res = simplify_mesh(v, mesh.triangles)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SimplifyWarning)  # the repairs of a soup
+        res = simplify_mesh(v, tri)
     seconds = time.perf_counter() - t0
     return {
         "faces": res.n_faces,
@@ -111,6 +126,9 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=Path("bench-output/simplify_sweep"))
     parser.add_argument("--cgal", type=int, default=0, help="every K-th model also to CGAL")
     parser.add_argument("--limit", type=int, default=0, help="only the first N models")
+    parser.add_argument("--soup", action="store_true",
+                        help="give every model as a triangle soup (each triangle its own "
+                             "three vertices, as STL and flat-shaded exports)")  # fmt: skip
     args = parser.parse_args(argv)
     files = sorted(p for p in args.models.iterdir() if p.suffix.lower() in MESH_SUFFIXES)
     if args.limit:
@@ -125,7 +143,7 @@ def main(argv=None) -> int:
         mesh = read_mesh(path)
         row = {"model": path.name, "input_faces": mesh.n_faces}
         row["input_closed_manifold"] = all(mesh_checks(mesh.n_vertices, mesh.triangles))
-        row.update(run_ours(mesh))
+        row.update(run_ours(mesh, soup=args.soup))
         if args.cgal and i % args.cgal == 0:
             row.update(run_cgal(bench, mesh, row["faces"], args.out.parent / "cgal-build"))
         rows.append(row)

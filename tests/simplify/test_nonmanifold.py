@@ -153,3 +153,80 @@ def test_moebius_band_is_left_as_it_is():
     f = np.array(f)
     tri, flipped = orient_consistently(v, f)
     assert flipped == 0 and tri is f
+
+
+def _soup(vertices, faces):
+    """Every triangle with its own three vertices (an STL-like triangle soup)."""
+    v = np.asarray(vertices)[np.asarray(faces).reshape(-1)]
+    return v, np.arange(v.shape[0]).reshape(-1, 3)
+
+
+@pytest.mark.parametrize("shape", ["cube", "icosphere", "fandisk"])
+def test_a_triangle_soup_simplifies_as_the_indexed_mesh(shape):
+    from pointatlas import data
+
+    m = {"cube": lambda: cube(6), "icosphere": lambda: icosphere(2),
+         "fandisk": lambda: data.load_mesh("fandisk")}[shape]()  # fmt: skip
+    f = np.asarray(m.triangles if shape == "fandisk" else m.faces)
+    v = np.asarray(m.vertices, dtype=float)
+    sv, sf = _soup(v, f)
+    n_weld = len(sv) - len(np.unique(v[np.unique(f)], axis=0))
+    with pytest.warns(UserWarning, match=f"^{n_weld} vertices at the position of another"):
+        res = simplify_mesh(sv, sf)
+    clean = simplify_mesh(v, f)
+    assert res.is_closed and res.is_manifold and res.is_oriented
+    assert res.n_faces == clean.n_faces
+    # reported in the soup's ids: every output vertex is a soup vertex at its position
+    assert np.array_equal(sv[res.vertex_source], res.vertices)
+    assert res.distances.shape == (len(sv),) and res.face_labels.shape == (len(sf),)
+    if shape == "icosphere":
+        # curved: ties between equal chords follow the vertex ids, which a soup numbers
+        # differently; the same accuracy
+        assert res.distance_max == pytest.approx(clean.distance_max, rel=0.05)
+        return
+    # flat faces: the same mesh (corners and regions do not depend on the numbering)
+    assert np.array_equal(res.vertices, clean.vertices)
+    assert np.array_equal(res.face_labels, clean.face_labels)
+    np.testing.assert_array_equal(res.distances, clean.distances[f.reshape(-1)])
+
+
+def test_repeated_and_degenerate_triangles_are_dropped():
+    m = icosphere(2)
+    v, f = m.vertices, m.faces
+    extra = np.vstack([f[:4][:, ::-1], f[5:6], [[0, 0, 1], [2, 3, 3]]])
+    with pytest.warns(UserWarning, match="2 degenerate .* and 5 repeated triangles dropped"):
+        res = simplify_mesh(v, np.vstack([f, extra]))
+    clean = simplify_mesh(v, f)
+    assert res.is_closed and res.is_manifold and res.is_oriented
+    assert np.array_equal(res.triangles, clean.triangles)
+    n = len(f)
+    lab = res.face_labels
+    assert lab.shape == (n + 7,) and np.array_equal(lab[:n], clean.face_labels)
+    # a repeat takes its first copy's region, a degenerate triangle none
+    assert np.array_equal(lab[n : n + 5], lab[[0, 1, 2, 3, 5]])
+    assert np.array_equal(lab[n + 5 :], [-1, -1])
+
+
+def test_a_clean_mesh_needs_no_repair():
+    from pointatlas.simplify._nonmanifold import repair_mesh_input
+
+    m = cube(4)
+    assert repair_mesh_input(np.asarray(m.vertices, dtype=float), np.asarray(m.faces)) is None
+
+
+def test_cli_simplifies_a_triangle_soup_ply_to_a_closed_mesh(tmp_path):
+    from pointatlas.io import read_mesh, write_mesh
+
+    from ..cli.helpers import run
+
+    m = cube(6)
+    sv, sf = _soup(np.asarray(m.vertices, dtype=float), m.faces)
+    src, out = tmp_path / "soup.ply", tmp_path / "out.obj"
+    write_mesh(src, sv, sf)
+    result = run("simplify", src, out)
+    assert result.exit_code == 0, result.output
+    assert "welded" in result.output
+    got = read_mesh(out)
+    assert got.n_faces == 6
+    assert mesh_checks(len(got.vertices), got.triangles) == (True, True, True)
+    assert got.vertices.shape[0] == 8

@@ -7,8 +7,6 @@ largest distance). Decisions in docs/decisions/simplify.md.
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 from scipy import sparse
 
@@ -133,8 +131,11 @@ def simplify_mesh(
     projected to its plane and triangulated. A region whose loops do not bound a
     planar polygon gets its arcs refined, down to the full arcs, and then keeps
     its input triangles: the output is closed and manifold whenever the input
-    is closed. Edges in three or more triangles and pinched vertices are cut apart
-    first (vertex copies at the same positions, reported by their input ids), and
+    is closed. Vertices at one position are welded first (a triangle soup, a
+    flat-shaded export), triangles with a repeated corner or given twice dropped
+    (their ``face_labels``: -1, or the first copy's), edges in three or more
+    triangles and pinched vertices cut apart (vertex copies at the same positions,
+    reported by their input ids), and
     triangles that disagree with the majority of their part are reversed
     (`repair_mesh_input`, each with a `SimplifyWarning`). Decisions in
     docs/decisions/simplify.md.
@@ -161,8 +162,11 @@ def simplify_mesh(
         max_angle = as_float(max_angle, "max_angle", lo=0.0, hi=np.pi, what="angle", unit="radians")
     if eta is not None:
         eta = as_float(eta, "eta", lo=0.0)
-    run_verts, tri, source = repair_mesh_input(verts, tri)
-    run = _MeshRun(run_verts, tri, tol=tol, planarize=planarize, rng=rng)
+    repair = repair_mesh_input(verts, tri)
+    if repair is not None:
+        run = _MeshRun(repair.vertices, repair.triangles, tol=tol, planarize=planarize, rng=rng)
+    else:
+        run = _MeshRun(verts, tri, tol=tol, planarize=planarize, rng=rng)
     if n_faces is not None:
         from .._core import as_int
 
@@ -175,14 +179,8 @@ def simplify_mesh(
         res = run(None, eta)
     else:
         res = run(MAX_ANGLE if max_angle is None else max_angle)
-    if source is None:
-        return res
-    # input vertex ids again (a copy sits where its vertex is: the same distance)
-    return dataclasses.replace(
-        res,
-        vertex_source=source[res.vertex_source],
-        distances=res.distances[: verts.shape[0]],
-    )
+    # input vertex and triangle ids again
+    return res if repair is None else repair.back(res)
 
 
 class _MeshRun:

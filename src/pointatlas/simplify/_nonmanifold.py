@@ -8,14 +8,18 @@ triangles around every such edge the way a solid's faces pair (each triangle wit
 its neighbour across the solid's inside, found by the orientation), then gives each
 fan of triangles around a vertex its own copy of the vertex. The copies sit at the
 same position: the mesh is unchanged geometrically and becomes manifold.
-Exports also mix triangle orientations (a shared edge run the same way by both of
-its triangles); `orient_consistently` flips the fewest triangles (by area) that make
-every connected part consistent.
+Triangle soups and flat-shaded exports repeat a vertex once per face (STL, PLY and
+OBJ written per face): vertices at one position are welded first, and triangles with
+a repeated corner or given twice are dropped. Exports also mix triangle orientations
+(a shared edge run the same way by both of its triangles); `orient_consistently`
+flips the fewest triangles (by area) that make every connected part consistent.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -23,41 +27,112 @@ from scipy.sparse.csgraph import connected_components
 
 from ._vertices import SimplifyWarning
 
-__all__ = ["orient_consistently", "repair_mesh_input", "split_nonmanifold"]
+__all__ = ["MeshRepair", "orient_consistently", "repair_mesh_input", "split_nonmanifold"]
 
 
-def repair_mesh_input(vertices: np.ndarray, triangles: np.ndarray):
-    """`split_nonmanifold`, then `orient_consistently`; one `SimplifyWarning` for
-    each repair made.
+@dataclass(frozen=True)
+class MeshRepair:
+    """The mesh path's input after `repair_mesh_input`, and the way back to the
+    input's ids.
+
+    Attributes
+    ----------
+    vertices : ndarray of shape (V + C, 3)
+        The input's vertices, then the C copies made by `split_nonmanifold`.
+    triangles : ndarray of shape (T, 3), int64
+        Welded, without degenerate or repeated triangles, manifold, consistently
+        oriented where the input is orientable.
+    source : ndarray of shape (V + C,), int64
+        Input vertex of every vertex (a copy: the vertex it copies).
+    triangle_of : ndarray of shape (F_in,), int64
+        Repaired triangle of every input triangle (a repeat: its first copy's; -1 for
+        a degenerate one).
+    """
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    source: np.ndarray
+    triangle_of: np.ndarray
+
+    def back(self, res):
+        """``res`` (a `SurfaceSimplification` of the repaired mesh) in the input's
+        vertex and triangle ids: a copy or a welded vertex sits where its input vertex
+        is (the same distance); a dropped triangle takes its first copy's region, a
+        degenerate one -1 (unassigned)."""
+        n_in = self.triangle_of.shape[0]
+        labels = res.face_labels
+        if self.triangles.shape[0] != n_in or not np.array_equal(self.triangle_of, np.arange(n_in)):
+            safe = np.maximum(self.triangle_of, 0)
+            labels = np.where(self.triangle_of >= 0, labels[safe], -1).astype(np.int64)
+        n_vert = int(np.count_nonzero(self.source == np.arange(self.source.shape[0])))
+        return dataclasses.replace(
+            res,
+            vertex_source=self.source[res.vertex_source],
+            distances=res.distances[:n_vert],
+            face_labels=labels,
+        )
+
+
+def repair_mesh_input(vertices: np.ndarray, triangles: np.ndarray) -> MeshRepair | None:
+    """Weld vertices at one position, drop degenerate and repeated triangles,
+    `split_nonmanifold`, then `orient_consistently`; one `SimplifyWarning` for each
+    repair made.
 
     Returns
     -------
-    vertices : ndarray of shape (V + C, 3)
-        The vertices and their copies (the input array when nothing is split).
-    triangles : ndarray of shape (F, 3), int64
-        Manifold, consistently oriented where the input is orientable.
-    source : ndarray of shape (V + C,), int64 or None
-        Input vertex of every vertex; None when nothing is split.
+    repair : MeshRepair or None
+        None when the input needs none of these (the mesh path runs on it as given).
     """
-    tri, source = split_nonmanifold(vertices, triangles)
-    if source is not None:
-        n_copy = source.shape[0] - vertices.shape[0]
-        warnings.warn(
+    n_vert, n_in = vertices.shape[0], triangles.shape[0]
+    notes = []
+    tri = triangles
+    # vertices at one position (a triangle soup, the seams of a flat-shaded export)
+    # become the first of them: a soup of a closed surface is closed again
+    if n_vert:
+        _, first, inverse = np.unique(vertices, axis=0, return_index=True, return_inverse=True)
+        weld = first[inverse.reshape(-1)].astype(np.int64)
+        if first.shape[0] < n_vert and (weld[tri] != tri).any():
+            tri = weld[tri]
+            n_weld = int(np.count_nonzero(weld[np.unique(triangles)] != np.unique(triangles)))
+            notes.append(f"{n_weld} vertices at the position of another were welded to it")
+    # triangles with a repeated corner, and a triangle given twice (either way round)
+    ordered = np.sort(tri, axis=1)
+    degenerate = (ordered[:, 0] == ordered[:, 1]) | (ordered[:, 1] == ordered[:, 2])
+    triangle_of = np.arange(n_in, dtype=np.int64)
+    if n_in:
+        _, uniq, twin = np.unique(ordered, axis=0, return_index=True, return_inverse=True)
+        twin = uniq[twin.reshape(-1)]
+        keep = ~degenerate & (twin == np.arange(n_in))
+        if not keep.all():
+            new_id = np.full(n_in, -1, dtype=np.int64)
+            new_id[keep] = np.arange(int(keep.sum()))
+            triangle_of = np.where(degenerate, -1, new_id[twin])
+            tri = tri[keep]
+            n_deg, n_rep = int(degenerate.sum()), int((~degenerate & ~keep).sum())
+            notes.append(
+                f"{n_deg} degenerate triangles (a repeated corner) and {n_rep} repeated "
+                "triangles dropped"
+            )
+    tri, source = split_nonmanifold(vertices, tri)
+    if source is None:
+        source = np.arange(n_vert, dtype=np.int64)
+    else:
+        notes.append(
             "the input mesh is not manifold (edges in three or more triangles, pinched "
-            f"vertices): cut apart there, {n_copy} vertices copied",
-            SimplifyWarning,
-            stacklevel=3,
+            f"vertices): cut apart there, {source.shape[0] - n_vert} vertices copied"
         )
         vertices = vertices[source]
     tri, n_flipped = orient_consistently(vertices, tri)
     if n_flipped:
-        warnings.warn(
+        notes.append(
             f"the input's triangles are not consistently oriented: {n_flipped} of "
-            f"{tri.shape[0]} reversed to match their neighbours",
-            SimplifyWarning,
-            stacklevel=3,
+            f"{tri.shape[0]} reversed to match their neighbours"
         )
-    return vertices, tri, source
+    if not notes:
+        return None
+    for note in notes:
+        warnings.warn(note, SimplifyWarning, stacklevel=3)
+    return MeshRepair(vertices, tri, source, triangle_of)
 
 
 def split_nonmanifold(vertices: np.ndarray, triangles: np.ndarray):
