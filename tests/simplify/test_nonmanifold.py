@@ -230,3 +230,33 @@ def test_cli_simplifies_a_triangle_soup_ply_to_a_closed_mesh(tmp_path):
     assert got.n_faces == 6
     assert mesh_checks(len(got.vertices), got.triangles) == (True, True, True)
     assert got.vertices.shape[0] == 8
+
+
+def test_stray_vertices_move_nothing_and_get_no_distance(tmp_path):
+    """Vertices on no triangle (left over in an export) change neither the default
+    chord tolerance nor the output; their distance is NaN, the mean and max are the
+    clean mesh's."""
+    from pointatlas import data
+
+    m = data.load_mesh("fandisk")
+    v, f = np.asarray(m.vertices, dtype=float), np.asarray(m.triangles)
+    stray = np.vstack([v, [[10.0, 10.0, 10.0], v[0]]])
+    res, clean = simplify_mesh(stray, f), simplify_mesh(v, f)
+    assert res.n_faces == clean.n_faces and np.array_equal(res.triangles, clean.triangles)
+    assert np.isnan(res.distances[len(v) :]).all()
+    np.testing.assert_array_equal(res.distances[: len(v)], clean.distances)
+    assert (res.distance_mean, res.distance_max) == (clean.distance_mean, clean.distance_max)
+    # through the CLI: --max-error as a percentage of the surface's diagonal
+    from pointatlas.io import read_mesh, write_mesh
+
+    from ..cli.helpers import run
+
+    outs = []
+    for name, verts in (("clean", v), ("stray", stray)):
+        src, out = tmp_path / f"{name}.obj", tmp_path / f"{name}_out.obj"
+        write_mesh(src, verts, f)
+        result = run("simplify", src, out, "--max-error", "0.5%")
+        assert result.exit_code == 0, result.output
+        outs.append(read_mesh(out))
+    assert outs[0].n_faces == outs[1].n_faces
+    np.testing.assert_array_equal(outs[0].vertices, outs[1].vertices)

@@ -176,9 +176,10 @@ def _simplify_mesh_command(
     render,
 ):
     from ..simplify import simplify_mesh
+    from ..simplify._mesh_path import surface_diagonal
 
     v = mesh_in.vertices
-    diagonal = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))) if v.size else 0.0
+    diagonal = surface_diagonal(v, mesh_in.triangles)
     res = _run(
         v,
         mesh_in.triangles,

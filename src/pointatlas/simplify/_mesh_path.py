@@ -7,6 +7,8 @@ largest distance). Decisions in docs/decisions/simplify.md.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from scipy import sparse
 
@@ -14,7 +16,7 @@ from .._core import as_float, as_points
 from ._nonmanifold import repair_mesh_input
 from ._surface import SurfaceSimplification, _face_graph, _Surface, _surface, simplify_surface
 
-__all__ = ["simplify_mesh"]
+__all__ = ["simplify_mesh", "surface_diagonal"]
 
 #: Rounds of cutting the regions that kept their input triangles in two.
 _SPLIT_ROUNDS = 4
@@ -153,7 +155,9 @@ def simplify_mesh(
     given = [x is not None for x in (max_angle, eta, n_faces, max_error)]
     if sum(given) > 1:
         raise ValueError("give at most one of max_angle, eta, n_faces and max_error")
-    diag = float(np.linalg.norm(verts.max(axis=0) - verts.min(axis=0)))
+    used = np.zeros(verts.shape[0], dtype=bool)
+    used[tri.reshape(-1)] = True
+    diag = surface_diagonal(verts, tri)
     if chord_tolerance is None:
         tol = CHORD_TOLERANCE * diag
     else:
@@ -163,10 +167,12 @@ def simplify_mesh(
     if eta is not None:
         eta = as_float(eta, "eta", lo=0.0)
     repair = repair_mesh_input(verts, tri)
+    run_used = None if used.all() else used if repair is None else used[repair.source]
     if repair is not None:
-        run = _MeshRun(repair.vertices, repair.triangles, tol=tol, planarize=planarize, rng=rng)
+        run = _MeshRun(repair.vertices, repair.triangles, tol=tol, planarize=planarize, rng=rng,
+                       used=run_used)  # fmt: skip
     else:
-        run = _MeshRun(verts, tri, tol=tol, planarize=planarize, rng=rng)
+        run = _MeshRun(verts, tri, tol=tol, planarize=planarize, rng=rng, used=run_used)
     if n_faces is not None:
         from .._core import as_int
 
@@ -183,12 +189,35 @@ def simplify_mesh(
     return res if repair is None else repair.back(res)
 
 
+def surface_diagonal(vertices: np.ndarray, triangles: np.ndarray) -> float:
+    """Bounding-box diagonal of the vertices on at least one triangle (a stray vertex
+    of an export moves neither the default chord tolerance nor a percentage)."""
+    used = np.unique(np.asarray(triangles).reshape(-1))
+    v = np.asarray(vertices)[used] if used.size < len(vertices) else np.asarray(vertices)
+    return float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))) if v.size else 0.0
+
+
+def _unreferenced_apart(res: SurfaceSimplification, used: np.ndarray):
+    """Vertices on no input triangle are no part of the surface: their ``distances``
+    entry is NaN and the mean and largest distance are over the others."""
+    d = res.distances.copy()
+    d[~used] = np.nan
+    on = d[used]
+    return dataclasses.replace(
+        res,
+        distances=d,
+        distance_mean=float(on.mean()) if on.size else 0.0,
+        distance_max=float(on.max()) if on.size else 0.0,
+    )
+
+
 class _MeshRun:
     """One segmentation and simplification of the mesh at a level of detail (the step
     of `simplify_mesh` that its level searches repeat)."""
 
-    def __init__(self, verts, tri, *, tol, planarize, rng):
+    def __init__(self, verts, tri, *, tol, planarize, rng, used=None):
         self.verts, self.tri, self.tol, self.planarize, self.rng = verts, tri, tol, planarize, rng
+        self.used = used  # vertices on an input triangle, when not all are
         self.s = _surface(verts, tri)
         self.graph = _face_graph(self.s)
 
@@ -218,9 +247,10 @@ class _MeshRun:
         return res
 
     def _surface(self, labels, normals, tol_) -> SurfaceSimplification:
-        return simplify_surface(
+        res = simplify_surface(
             self.verts, self.tri, labels, normals, chord_tolerance=tol_, planarize=self.planarize
         )
+        return res if self.used is None else _unreferenced_apart(res, self.used)
 
 
 def _search_faces(run, target: int) -> SurfaceSimplification:

@@ -78,9 +78,10 @@ class SurfaceSimplification:
     face_labels : ndarray of shape (F_in,), int64
         Region of every input triangle.
     distances : ndarray of shape (N_in,), float64
-        Distance of every input vertex to the output triangles.
+        Distance of every input vertex to the output triangles (`simplify_mesh`: NaN
+        for a vertex on no input triangle).
     distance_mean, distance_max : float
-        Mean and largest of ``distances``.
+        Mean and largest of ``distances`` (NaN entries left out).
     chord_tolerance : float
         Chord tolerance used (input units).
     n_refined : int
