@@ -166,13 +166,7 @@ def simplify_mesh(
         max_angle = as_float(max_angle, "max_angle", lo=0.0, hi=np.pi, what="angle", unit="radians")
     if eta is not None:
         eta = as_float(eta, "eta", lo=0.0)
-    repair = repair_mesh_input(verts, tri)
-    run_used = None if used.all() else used if repair is None else used[repair.source]
-    if repair is not None:
-        run = _MeshRun(repair.vertices, repair.triangles, tol=tol, planarize=planarize, rng=rng,
-                       used=run_used)  # fmt: skip
-    else:
-        run = _MeshRun(verts, tri, tol=tol, planarize=planarize, rng=rng, used=run_used)
+    run, repair = _repaired_run(verts, tri, used, tol=tol, planarize=planarize, rng=rng)
     if n_faces is not None:
         from .._core import as_int
 
@@ -187,6 +181,16 @@ def simplify_mesh(
         res = run(MAX_ANGLE if max_angle is None else max_angle)
     # input vertex and triangle ids again
     return res if repair is None else repair.back(res)
+
+
+def _repaired_run(verts, tri, used, *, tol, planarize, rng):
+    """The `_MeshRun` of the repaired input (`repair_mesh_input`) and the repair (None
+    when the input needed none); ``used``: the input vertices on a triangle."""
+    repair = repair_mesh_input(verts, tri)
+    run_used = None if used.all() else used if repair is None else used[repair.source]
+    if repair is not None:
+        verts, tri = repair.vertices, repair.triangles
+    return _MeshRun(verts, tri, tol=tol, planarize=planarize, rng=rng, used=run_used), repair
 
 
 def surface_diagonal(vertices: np.ndarray, triangles: np.ndarray) -> float:
