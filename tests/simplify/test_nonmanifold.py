@@ -246,11 +246,15 @@ def test_stray_vertices_move_nothing_and_get_no_distance(tmp_path):
     assert np.isnan(res.distances[len(v) :]).all()
     np.testing.assert_array_equal(res.distances[: len(v)], clean.distances)
     assert (res.distance_mean, res.distance_max) == (clean.distance_mean, clean.distance_max)
-    # through the CLI: --max-error as a percentage of the surface's diagonal
+    # through the CLI: --max-error as a percentage of the surface's diagonal (a curved
+    # shape, whose level search reads the distances)
     from pointatlas.io import read_mesh, write_mesh
 
     from ..cli.helpers import run
 
+    ico = icosphere(2)
+    v, f = np.asarray(ico.vertices, dtype=float), np.asarray(ico.faces)
+    stray = np.vstack([v, [[10.0, 10.0, 10.0]]])
     outs = []
     for name, verts in (("clean", v), ("stray", stray)):
         src, out = tmp_path / f"{name}.obj", tmp_path / f"{name}_out.obj"
