@@ -106,3 +106,25 @@ def test_planes_with_tiles_is_refused(files, tmp_path):
     )  # fmt: skip
     assert res.exit_code == 1
     assert "drop --planes or --tile-size" in res.output
+
+
+def test_xyz_output_holds_the_denoised_points_and_an_input_field_is_still_refused(files):
+    """XYZ keeps coordinates and normals: denoise writes its result there and leaves
+    its diagnostic fields out with a note; an input field would be lost: refused."""
+    ply = files / "out_xyz_reference.ply"
+    xyz = files / "out.xyz"
+    args = ["--method", "normal-voting", "--n-iter", "2"]
+    res = runner.invoke(app, ["denoise", str(files / "noisy.ply"), str(ply), *args])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["denoise", str(files / "noisy.ply"), str(xyz), *args])
+    assert res.exit_code == 0, res.output
+    assert "fields displacement, feature_class, denoise_k are not written" in res.stderr
+    a, b = read_point_set(xyz), read_point_set(ply)
+    assert a.n_points == b.n_points == 386 and not a.attributes
+    np.testing.assert_allclose(a.points, b.points, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(a.normals, b.normals, rtol=0, atol=1e-9)
+    assert json.loads((files / "out_denoise.json").read_text())["method"] == "normal-voting"
+    refused = files / "tagged.xyz"
+    res = runner.invoke(app, ["denoise", str(files / "noisy_n.ply"), str(refused), *args])
+    assert res.exit_code == 1 and "tag" in res.stderr and "would be lost" in res.stderr
+    assert not refused.exists()

@@ -36,6 +36,7 @@ from ._app import (
     WorkersOption,
     app,
     console,
+    err_console,
     guarded,
     progress_bar,
     read_with_normals,
@@ -44,7 +45,13 @@ from ._app import (
     tile_options,
 )
 from ._cmd_core import REPORT_EXTENSIONS, report_layer, report_summary, report_up
-from ._outputs import check_outputs, check_point_output, write_point_output, write_summary_json
+from ._outputs import (
+    XYZ_EXTENSIONS,
+    check_outputs,
+    check_point_output,
+    write_point_output,
+    write_summary_json,
+)
 
 __all__ = ["denoise_command", "read_clean", "summary_path"]
 
@@ -216,8 +223,17 @@ def _read_checked(input_path, output, method, estimate, normal_k):
     }
     if method == "flatness":
         ours["flatness"] = np.zeros(n)
-    check_point_output(output, ps, ours)
+    check_point_output(output, ps, _written_fields(output, ours))
     return method, ps, estimated
+
+
+def _written_fields(output, ours: dict) -> dict:
+    """Our per-point fields as OUT holds them: none in XYZ/TXT, which keeps only
+    coordinates and normals. The moved points and their normals are denoise's result;
+    the fields are diagnostics (their summary is in OUT's JSON), so they are left out
+    with a note rather than the run refused. An input field to keep is still refused
+    (`check_point_output`)."""
+    return {} if Path(output).suffix.lower() in XYZ_EXTENSIONS else ours
 
 
 def _our_fields(res, method) -> dict:
@@ -459,7 +475,11 @@ def denoise_command(
     seconds = time.perf_counter() - t1
     ours = _our_fields(res, method)
     out_ps = ps.replace(points=res.points, normals=res.normals)
-    written = [write_point_output(output, out_ps, ours)]
+    written = [write_point_output(output, out_ps, _written_fields(output, ours))]
+    if not _written_fields(output, ours):
+        say(f"note: {Path(output).suffix} keeps coordinates and normals only: the fields "
+            f"{', '.join(ours)} are not written (their summary is in {json_path.name}; "
+            "write .ply, .las or .laz for them)", out=err_console)  # fmt: skip
     summary = _summary(input_path, res, n, method, seconds, t0, k=k, eta=eta, eps=eps,
                        schedule=schedule, k_start=k_start, rho=rho, tau=tau,
                        n_filter_iter=n_filter_iter, max_step=max_step)  # fmt: skip
