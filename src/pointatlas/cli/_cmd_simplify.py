@@ -44,12 +44,13 @@ from ._app import (
     vsa_options,
 )
 from ._cmd_core import REPORT_EXTENSIONS
-from ._mesh_io import read_mesh_input, write_triangles
+from ._mesh_io import read_mesh_input, write_simplified, write_triangles
 from ._outputs import check_outputs, write_summary_json, write_text
 
 __all__ = ["render_simplification", "simplification_table"]
 
-MESH_OUT = (".obj", ".ply", ".off")
+#: OUT and --triangles formats (STL: the earcut triangles, `write_simplified`)
+MESH_OUT = (".obj", ".ply", ".off", ".stl")
 #: Segmentation of the demo model: VSA from every point, split/merge threshold eta.
 DEMO_ETA = 20.0
 
@@ -192,7 +193,7 @@ def _simplify_mesh_command(
         rng=seed,
         function=simplify_mesh,
     )
-    written = [write_mesh(out, res.vertices, [p.tolist() for p in res.polygons])]
+    written = [write_simplified(out, res)]
     if triangles is not None:
         written.append(write_triangles(triangles, res))
     if render is not None:
@@ -272,7 +273,10 @@ InArgument = Annotated[
     ),
 ]
 OutArgument = Annotated[
-    Path, typer.Argument(metavar="OUT", help="Simplified polygon mesh (.obj, .ply, .off).")
+    Path,
+    typer.Argument(
+        metavar="OUT", help="Simplified polygon mesh (.obj, .ply, .off; .stl: its triangles)."
+    ),
 ]
 VerticesOption = Annotated[
     str,
@@ -432,8 +436,7 @@ def _simplify_points_command(
     result = _run(ps.points, normals, labels=given, rng=seed, **settings)
     mesh = result.mesh
     robust = result.path == "robust"
-    polys = [p.tolist() for p in mesh.polygons]
-    written = [write_mesh(out, mesh.vertices, polys)]
+    written = [write_simplified(out, mesh)]
     if triangles is not None:
         written.append(write_triangles(triangles, mesh))
     used = ps.points[result.point_index] if result.point_index.size else ps.points
@@ -453,7 +456,7 @@ def _simplify_points_command(
                 PointsLayer(used, {"region": np.asarray(result.labels)}, name="points by region"),
                 MeshLayer(
                     mesh.vertices,
-                    polys,
+                    [p.tolist() for p in mesh.polygons],
                     face_labels=mesh.face_region[mesh.polygon_face],
                     name="simplified mesh",
                 ),

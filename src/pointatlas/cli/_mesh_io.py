@@ -10,7 +10,7 @@ import numpy as np
 from .._core import PointAtlasError
 from ..io import write_mesh
 
-__all__ = ["read_mesh_input", "write_triangles"]
+__all__ = ["read_mesh_input", "write_simplified", "write_triangles"]
 
 
 def read_mesh_input(infile):
@@ -43,3 +43,12 @@ def write_triangles(path, mesh) -> Path:
 
         colors = np.round(label_colors(mesh.triangle_face) * 255).astype(np.uint8)
     return write_mesh(path, mesh.vertices, mesh.triangles, face_colors=colors)
+
+
+def write_simplified(path, mesh) -> Path:
+    """OUT of ``simplify``: the polygon faces (OBJ, PLY, OFF); STL holds triangles only,
+    so there the earcut triangles (`write_triangles`' triangles: a non-convex face is
+    not fan-triangulated across its outside)."""
+    if Path(path).suffix.lower() == ".stl":
+        return write_mesh(path, mesh.vertices, mesh.triangles)
+    return write_mesh(path, mesh.vertices, [p.tolist() for p in mesh.polygons])
