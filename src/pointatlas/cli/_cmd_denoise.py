@@ -227,6 +227,16 @@ def _read_checked(input_path, output, method, estimate, normal_k):
     return method, ps, estimated
 
 
+def _write_out(output, out_ps, ours: dict, json_path) -> Path:
+    """OUT with the fields it can hold (`_written_fields`); a note names those left out."""
+    fields = _written_fields(output, ours)
+    if not fields:
+        say(f"note: {Path(output).suffix} keeps coordinates and normals only: the fields "
+            f"{', '.join(ours)} are not written (their summary is in {json_path.name}; "
+            "write .ply, .las or .laz for them)", out=err_console)  # fmt: skip
+    return write_point_output(output, out_ps, fields)
+
+
 def _written_fields(output, ours: dict) -> dict:
     """Our per-point fields as OUT holds them: none in XYZ/TXT, which keeps only
     coordinates and normals. The moved points and their normals are denoise's result;
@@ -475,11 +485,7 @@ def denoise_command(
     seconds = time.perf_counter() - t1
     ours = _our_fields(res, method)
     out_ps = ps.replace(points=res.points, normals=res.normals)
-    written = [write_point_output(output, out_ps, _written_fields(output, ours))]
-    if not _written_fields(output, ours):
-        say(f"note: {Path(output).suffix} keeps coordinates and normals only: the fields "
-            f"{', '.join(ours)} are not written (their summary is in {json_path.name}; "
-            "write .ply, .las or .laz for them)", out=err_console)  # fmt: skip
+    written = [_write_out(output, out_ps, ours, json_path)]
     summary = _summary(input_path, res, n, method, seconds, t0, k=k, eta=eta, eps=eps,
                        schedule=schedule, k_start=k_start, rho=rho, tau=tau,
                        n_filter_iter=n_filter_iter, max_step=max_step)  # fmt: skip
