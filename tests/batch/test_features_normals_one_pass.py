@@ -72,13 +72,16 @@ def test_one_pass_refuses_sigmoid_weights(tmp_path, laz):  # noqa: F811
                       "--normals", "pointatlas normals")  # fmt: skip
 
 
-def test_tiled_one_pass_on_ply_equals_untiled_features(tmp_path, laz, scheduler):  # noqa: F811
+@pytest.mark.parametrize("orient", ["mst", "up"])
+def test_tiled_one_pass_on_ply_equals_untiled_features(tmp_path, laz, scheduler, orient):  # noqa: F811
+    """Other formats by tiles: the features equal the untiled ones; MST normals the
+    same axes, ``--orient up`` (per point, nothing stitched) the same bits."""
     from pointatlas.io import read_point_set, write_point_set
 
     ply = tmp_path / "in.ply"
     write_point_set(ply, read_point_set(laz, with_normals=False))
     tiled, plain = tmp_path / "t.ply", tmp_path / "u.ply"
-    args = ("--k", 12, "--normals")
+    args = ("--k", 12, "--normals", "--orient", orient)
     result = run("features", ply, tiled, *args, "--tile-size", 10, "--scheduler", scheduler)
     assert result.exit_code == 0, result.output
     assert run("features", ply, plain, *args).exit_code == 0
@@ -86,4 +89,7 @@ def test_tiled_one_pass_on_ply_equals_untiled_features(tmp_path, laz, scheduler)
     assert a.attributes.keys() == b.attributes.keys() and "linearity" in a.attributes
     for name, v in b.attributes.items():
         assert np.array_equal(a.attributes[name], v, equal_nan=True), name
-    assert np.allclose(np.abs(np.einsum("ij,ij->i", a.normals, b.normals)), 1.0)
+    if orient == "up":
+        assert np.array_equal(a.normals, b.normals) and (a.normals[:, 2] >= 0).all()
+    else:
+        assert np.allclose(np.abs(np.einsum("ij,ij->i", a.normals, b.normals)), 1.0)

@@ -101,23 +101,6 @@ def test_one_pass_up_tiled_equals_untiled_and_the_two_commands(tmp_path, laz, sc
     assert ((n_a == n_m).all(axis=1) | (n_a == -n_m).all(axis=1)).all()
 
 
-def test_tiled_one_pass_up_on_ply_equals_untiled(tmp_path, laz, scheduler):  # noqa: F811
-    from pointatlas.io import read_point_set, write_point_set
-
-    ply = tmp_path / "in.ply"
-    write_point_set(ply, read_point_set(laz, with_normals=False))
-    tiled, plain = tmp_path / "t.ply", tmp_path / "u.ply"
-    args = ("--k", 12, "--normals", "--orient", "up")
-    result = run("features", ply, tiled, *args, "--tile-size", 10, "--scheduler", scheduler)
-    assert result.exit_code == 0, result.output
-    assert run("features", ply, plain, *args).exit_code == 0
-    a, b = read_point_set(tiled), read_point_set(plain)
-    assert np.array_equal(a.normals, b.normals) and (a.normals[:, 2] >= 0).all()
-    assert a.attributes.keys() == b.attributes.keys() and "linearity" in a.attributes
-    for name, v in b.attributes.items():
-        assert np.array_equal(a.attributes[name], v, equal_nan=True), name
-
-
 @pytest.mark.parametrize(
     ("args", "fragments"),
     [

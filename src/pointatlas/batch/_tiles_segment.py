@@ -387,8 +387,7 @@ def _agreed(pairs, both, counts, tile_of):
     # links of region r with any region of tile t, keyed r * n_tiles + t
     key = np.concatenate([pairs[:, 0] * n_tiles + tile_of[pairs[:, 1]],
                           pairs[:, 1] * n_tiles + tile_of[pairs[:, 0]]])  # fmt: skip
-    uk, inv = np.unique(key, return_inverse=True)
-    per = np.bincount(inv.reshape(-1), weights=np.concatenate([counts, counts]))
-    half = inv.reshape(-1).size // 2
-    to_b, to_a = per[inv.reshape(-1)[:half]], per[inv.reshape(-1)[half:]]
-    return 2.0 * both >= np.maximum(to_b, to_a)
+    inv = np.unique(key, return_inverse=True)[1].reshape(-1)
+    per = np.bincount(inv, weights=np.concatenate([counts, counts]))
+    half = pairs.shape[0]
+    return 2.0 * both >= np.maximum(per[inv[:half]], per[inv[half:]])

@@ -108,7 +108,17 @@ def _group_median(group, values, n_groups):
     return med
 
 
-def off_surface_moves(indptr, indices, points, labels, prox, limit):
+def _normal_gap(points, a, b, normals):
+    """|n . (p_a - p_b)| per pair: how far apart two points lie along a normal."""
+    return np.abs(np.einsum("ij,ij->i", points[a] - points[b], normals))
+
+
+def edge_rows(indptr) -> np.ndarray:
+    """The row (point) of every entry of a CSR graph's ``indices``."""
+    return np.repeat(np.arange(indptr.shape[0] - 1, dtype=np.int64), np.diff(indptr))
+
+
+def off_surface_moves(indptr, indices, points, labels, prox, limit, rows=None):
     """The points that lie off their region's local surface and where they go
     (local mode; docs/decisions/segment.md "Local mode").
 
@@ -120,14 +130,15 @@ def off_surface_moves(indptr, indices, points, labels, prox, limit):
     graph neighbour) of least offset, if that offset is at most ``limit`` (ties:
     the smaller region id), else for a region of its own (target -1). Every
     decision reads the labels before any move; a point with no neighbour in its
-    region stays. Returns (moved, target), ``moved`` increasing.
+    region stays. Returns (moved, target), ``moved`` increasing. ``rows``: the
+    graph's `edge_rows`, when the caller has them.
     """
     n = labels.shape[0]
-    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
+    rows = edge_rows(indptr) if rows is None else rows
     nb_lab = labels[indices]
     same = nb_lab == labels[rows]
     r_s, q_s = rows[same], indices[same]
-    gap = np.abs(np.einsum("ij,ij->i", points[r_s] - points[q_s], prox[labels[r_s]]))
+    gap = _normal_gap(points, r_s, q_s, prox[labels[r_s]])
     off = _group_median(r_s, gap, n)
     moved = np.flatnonzero(off > limit)  # NaN (no neighbour in the region): stays
     target = np.full(moved.shape[0], -1, dtype=np.int64)
@@ -142,7 +153,7 @@ def off_surface_moves(indptr, indices, points, labels, prox, limit):
     key, inv = np.unique(pt_e * m + reg_e, return_inverse=True)
     inv = inv.reshape(-1)
     pt, reg = key // m, key % m
-    d = np.abs(np.einsum("ij,ij->i", points[pt_e] - points[indices[e]], prox[reg_e]))
+    d = _normal_gap(points, pt_e, indices[e], prox[reg_e])
     o = _group_median(inv, d, key.shape[0])
     ok = o <= limit
     pt, reg, o = pt[ok], reg[ok], o[ok]
@@ -482,16 +493,15 @@ class _VSARun:
         deg = np.diff(indptr)
         if not indices.size:
             return
-        rows = np.repeat(np.arange(pts.shape[0], dtype=np.int64), deg)
+        rows = edge_rows(indptr)
         reach = np.maximum.reduceat(row_norms(pts[indices] - pts[rows]), indptr[:-1][deg > 0])
-        del rows
         limit = float(np.median(reach))
         prox = proxy_normals(self.labels, self.wsum, self.ssum, self.counts, self.normals)
-        moved, target = off_surface_moves(indptr, indices, pts, self.labels, prox, limit)
+        moved, target = off_surface_moves(indptr, indices, pts, self.labels, prox, limit, rows)
         if moved.size:
             self._move_off_surface(moved, target)
             prox = proxy_normals(self.labels, self.wsum, self.ssum, self.counts, self.normals)
-        self.surface_pieces(prox, limit)
+        self.surface_pieces(prox, limit, rows)
 
     def _move_off_surface(self, moved, target):
         """Apply the moves of `off_surface_moves` (target -1: a region of its own)
@@ -522,19 +532,17 @@ class _VSARun:
         self._resum()
         self.record("off_surface", energy_opt(self.wsum, self.ssum))
 
-    def surface_pieces(self, prox, limit):
+    def surface_pieces(self, prox, limit, rows):
         """Split every region into its pieces connected by *surface edges*: graph
         edges inside the region whose two points lie within ``limit`` of each
         other along the region's proxy normal ``prox``. A cluster that touches a
         region only by edges that climb off its surface (vegetation above the
-        ground) becomes a region of its own; the pieces are connected in the graph."""
-        indptr, indices, labels = self.indptr, self.indices, self.labels
-        rows = np.repeat(np.arange(labels.shape[0], dtype=np.int64), np.diff(indptr))
+        ground) becomes a region of its own; the pieces are connected in the graph.
+        ``rows``: the graph's `edge_rows`."""
+        indices, labels = self.indices, self.labels
         keep = labels[indices] == labels[rows]
         rows, cols = rows[keep], indices[keep]
-        step = self.points[rows] - self.points[cols]
-        gap = np.abs(np.einsum("ij,ij->i", step, prox[labels[rows]]))
-        keep = gap <= limit
+        keep = _normal_gap(self.points, rows, cols, prox[labels[rows]]) <= limit
         rows, cols = rows[keep], cols[keep]
         sub_ptr = np.zeros(labels.shape[0] + 1, dtype=np.int64)
         np.cumsum(np.bincount(rows, minlength=labels.shape[0]), out=sub_ptr[1:])

@@ -155,9 +155,8 @@ def simplify_mesh(
     given = [x is not None for x in (max_angle, eta, n_faces, max_error)]
     if sum(given) > 1:
         raise ValueError("give at most one of max_angle, eta, n_faces and max_error")
-    used = np.zeros(verts.shape[0], dtype=bool)
-    used[tri.reshape(-1)] = True
-    diag = surface_diagonal(verts, tri)
+    used = used_vertices(verts.shape[0], tri)
+    diag = _diagonal(verts if used.all() else verts[used])
     if chord_tolerance is None:
         tol = CHORD_TOLERANCE * diag
     else:
@@ -193,12 +192,22 @@ def _repaired_run(verts, tri, used, *, tol, planarize, rng):
     return _MeshRun(verts, tri, tol=tol, planarize=planarize, rng=rng, used=run_used), repair
 
 
+def used_vertices(n_vertices: int, triangles) -> np.ndarray:
+    """(V,) bool: the vertices on at least one triangle."""
+    used = np.zeros(n_vertices, dtype=bool)
+    used[np.asarray(triangles).reshape(-1)] = True
+    return used
+
+
+def _diagonal(v: np.ndarray) -> float:
+    return float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))) if v.size else 0.0
+
+
 def surface_diagonal(vertices: np.ndarray, triangles: np.ndarray) -> float:
     """Bounding-box diagonal of the vertices on at least one triangle (a stray vertex
     of an export moves neither the default chord tolerance nor a percentage)."""
-    used = np.unique(np.asarray(triangles).reshape(-1))
-    v = np.asarray(vertices)[used] if used.size < len(vertices) else np.asarray(vertices)
-    return float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))) if v.size else 0.0
+    v = np.asarray(vertices)
+    return _diagonal(v[used_vertices(v.shape[0], triangles)])
 
 
 def _unreferenced_apart(res: SurfaceSimplification, used: np.ndarray):

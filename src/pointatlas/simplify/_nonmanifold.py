@@ -93,7 +93,8 @@ def repair_mesh_input(vertices: np.ndarray, triangles: np.ndarray) -> MeshRepair
         weld = first[inverse.reshape(-1)].astype(np.int64)
         if first.shape[0] < n_vert and (weld[tri] != tri).any():
             tri = weld[tri]
-            n_weld = int(np.count_nonzero(weld[np.unique(triangles)] != np.unique(triangles)))
+            on = np.unique(triangles)
+            n_weld = int(np.count_nonzero(weld[on] != on))
             notes.append(f"{n_weld} vertices at the position of another were welded to it")
     # triangles with a repeated corner, and a triangle given twice (either way round)
     ordered = np.sort(tri, axis=1)
