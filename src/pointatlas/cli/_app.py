@@ -230,6 +230,10 @@ def demo_step(func: Callable) -> Callable:
     return func
 
 
+#: The text files whose column layout was printed (a command may read IN twice).
+_ANNOUNCED: set[tuple[str, str]] = set()
+
+
 def read_input(path, *, with_normals: bool = True, zero_normals: str = "raise"):
     """Read IN: a point set or mesh file, or, where no such file exists, a bundled
     model name (``pointatlas data list``: ``fandisk``, ``synth:cube``, ...)."""
@@ -248,7 +252,12 @@ def read_input(path, *, with_normals: bool = True, zero_normals: str = "raise"):
             raise PointAtlasError(
                 f"{path}: no such file and not a bundled model; bundled: {', '.join(data.names())}"
             )
-    return read_point_set(p, with_normals=with_normals, zero_normals=zero_normals)
+    ps = read_point_set(p, with_normals=with_normals, zero_normals=zero_normals)
+    note = ps.meta.get("columns")  # how a text file's columns were read: said once
+    if note and (str(p), note) not in _ANNOUNCED:
+        _ANNOUNCED.add((str(p), note))
+        say(f"{p}: {note}", out=err_console)
+    return ps
 
 
 def angle_deg_option(value, flag: str, *, lo: float = 0.0, hi: float = 180.0):

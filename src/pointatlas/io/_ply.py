@@ -30,6 +30,8 @@ _PLY_NAMES = {
 _NORMAL_NAMES = (("nx", "ny", "nz"), ("normal_x", "normal_y", "normal_z"))
 _COLOR_NAMES = ("red", "green", "blue", "alpha")
 _FACE_LIST_NAMES = ("vertex_indices", "vertex_index")
+#: The element of triangle strips (Stanford scans, e.g. the Happy Buddha).
+_STRIPS = "tristrips"
 #: Colour channel types read into ``colors`` as they are.
 _KEPT_COLOR_DTYPES = tuple(np.dtype(t) for t in ("u1", "u2", "f4", "f8"))
 #: Longest run of records read at once when list lengths repeat (binary lists).
@@ -61,19 +63,32 @@ def read_ply(path) -> RawData:
         if axis not in props or isinstance(props[axis], PlyListProperty):
             raise fail(path, f"PLY 'vertex' element has no scalar property {axis!r}")
     face_name = "face" if "face" in names else ("faces" if "faces" in names else None)
-    last = max(names.index("vertex"), names.index(face_name) if face_name else -1)
+    kept = {"vertex", face_name, _STRIPS} - {None}
+    last = max(names.index(k) for k in kept if k in names)
     reader = _AsciiBody(path, body) if header.text else _BinaryBody(path, body, header.byte_order)
     columns = {}
     for elt in header.elements[: last + 1]:
         cols = reader.element(elt)
-        if elt.name in ("vertex", face_name):
+        if elt.name in kept:
             columns[elt.name] = cols
     for elt in header.elements[last + 1 :]:
         reader.skip(elt)
     reader.finish(header.elements)
-    raw = _vertex_raw(path, columns["vertex"])
+    ignored = [
+        f"element {e.name!r} ({e.count} records)" for e in header.elements if e.name not in kept
+    ]
+    raw = _vertex_raw(path, columns["vertex"], ignored)
     if face_name is not None:
-        _face_raw(path, header[face_name], columns[face_name], raw)
+        _face_raw(path, header[face_name], columns[face_name], raw, ignored)
+    if _STRIPS in columns:
+        _strips_raw(path, header[_STRIPS], columns[_STRIPS], raw, ignored)
+    if ignored:
+        warnings.warn(
+            f"{path}: not read (pointatlas keeps vertex properties, faces and tristrips): "
+            + ", ".join(ignored),
+            UserWarning,
+            stacklevel=4,  # read_ply < _load < read_point_set/read_mesh < caller
+        )
     return raw
 
 
@@ -100,7 +115,7 @@ def _stack(cols, names) -> np.ndarray:
     return np.column_stack([cols[k] for k in names]).astype(np.float64)
 
 
-def _vertex_raw(path, table) -> RawData:
+def _vertex_raw(path, table, ignored: list[str]) -> RawData:
     """Split the vertex element (a record array or a dict of columns) into RawData."""
     names = list(table.dtype.names) if isinstance(table, np.ndarray) else list(table)
     points = _stack(table, ("x", "y", "z"))
@@ -120,6 +135,7 @@ def _vertex_raw(path, table) -> RawData:
             del cols[k]
     for name, value in cols.items():
         if isinstance(value, tuple):  # list properties of vertices are not kept
+            ignored.append(f"vertex list property {name!r}")
             continue
         attributes[name] = np.array(value, dtype=value.dtype.newbyteorder("="), copy=True)
     return RawData(points=points, normals=normals, attributes=attributes)
@@ -151,10 +167,9 @@ def _vertex_colors(cols) -> tuple[np.ndarray | None, list[str]]:
     return None, []
 
 
-def _face_raw(path, elt, cols, raw: RawData) -> None:
+def _index_list(path, elt, cols):
+    """The element's vertex index list ``(flat int64, sizes)`` and the property's name."""
     lists = [p.name for p in elt.properties if isinstance(p, PlyListProperty)]
-    if isinstance(cols, np.ndarray):
-        cols = {k: cols[k] for k in cols.dtype.names}
     chosen = next((k for k in _FACE_LIST_NAMES if k in lists), None)
     if chosen is None and len(lists) == 1:
         chosen = lists[0]
@@ -163,14 +178,71 @@ def _face_raw(path, elt, cols, raw: RawData) -> None:
     flat, sizes = cols[chosen]
     if flat.dtype.kind not in "iu":
         if flat.size and (~np.isfinite(flat) | (flat != np.round(flat))).any():
-            raise fail(path, f"PLY face indices in {chosen!r} are not integers")
+            raise fail(path, f"PLY {elt.name} indices in {chosen!r} are not integers")
+    return flat.astype(np.int64), sizes, chosen
+
+
+def _face_raw(path, elt, cols, raw: RawData, ignored: list[str]) -> None:
+    if isinstance(cols, np.ndarray):
+        cols = {k: cols[k] for k in cols.dtype.names}
+    flat, sizes, chosen = _index_list(path, elt, cols)
     offsets = np.zeros(sizes.size + 1, dtype=np.int64)
     np.cumsum(sizes, out=offsets[1:])
-    raw.faces = flat.astype(np.int64)
+    raw.faces = flat
     raw.face_offsets = offsets
     channels = [k for k in _COLOR_NAMES if k in cols and not isinstance(cols[k], tuple)]
+    used = {chosen}
     if channels[:3] == ["red", "green", "blue"]:
         raw.face_colors = colors_to_uint8(np.stack([cols[k] for k in channels], axis=1))
+        used.update(channels)
+    ignored.extend(f"{elt.name} property {p.name!r}" for p in elt.properties if p.name not in used)
+
+
+def _strips_raw(path, elt, cols, raw: RawData, ignored: list[str]) -> None:
+    """Append the triangles of a ``tristrips`` element to ``raw``'s faces.
+
+    Each record is a strip of vertex ids, ``-1`` restarting it; triangle i of a
+    strip is (s_i, s_i+1, s_i+2), every second one reversed (s_i+1, s_i, s_i+2) so
+    all keep the strip's orientation; triangles with a repeated id (the joins of
+    stitched strips) are left out. Face colours, if any, are dropped (strips have none).
+    """
+    if isinstance(cols, np.ndarray):
+        cols = {k: cols[k] for k in cols.dtype.names}
+    flat, sizes, chosen = _index_list(path, elt, cols)
+    ignored.extend(f"{elt.name} property {p.name!r}" for p in elt.properties if p.name != chosen)
+    tri = strip_triangles(flat, sizes)
+    if raw.face_offsets is None:
+        raw.faces, raw.face_offsets = np.zeros(0, np.int64), np.zeros(1, np.int64)
+    if raw.face_colors is not None and len(tri):
+        ignored.append("face colours (the tristrips' triangles have none)")
+        raw.face_colors = None
+    raw.faces = np.concatenate([raw.faces, tri.reshape(-1)])
+    more = raw.face_offsets[-1] + 3 * np.arange(1, len(tri) + 1, dtype=np.int64)
+    raw.face_offsets = np.concatenate([raw.face_offsets, more])
+
+
+def strip_triangles(flat: np.ndarray, sizes: np.ndarray) -> np.ndarray:
+    """(T, 3) int64 triangles of triangle strips: each record a strip, ``-1`` restarts.
+
+    Examples
+    --------
+    >>> strip_triangles(np.array([0, 1, 2, 3, -1, 4, 5, 6]), np.array([8])).tolist()
+    [[0, 1, 2], [2, 1, 3], [4, 5, 6]]
+    """
+    n = flat.size
+    index = np.arange(n)
+    starts = np.zeros(n, dtype=bool)
+    starts[:1] = True
+    record_starts = np.cumsum(sizes)[:-1]
+    starts[record_starts[record_starts < n]] = True
+    starts[1:] |= flat[:-1] < 0
+    pos = index - np.maximum.accumulate(np.where(starts, index, 0))
+    j = np.flatnonzero((pos >= 2) & (flat >= 0))
+    a, b, c = flat[j - 2], flat[j - 1], flat[j]
+    odd = pos[j] % 2 == 1
+    tri = np.column_stack([np.where(odd, b, a), np.where(odd, a, b), c])
+    keep = (tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 0] != tri[:, 2])
+    return tri[keep]
 
 
 def _element_specs(elt, order: str):

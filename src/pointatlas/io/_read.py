@@ -103,8 +103,10 @@ def read_point_set(path, *, with_normals: bool = True, zero_normals: str = "rais
         properties with their names and dtypes; ``colors`` (N, 3|4) from PLY
         red/green/blue(/alpha) of one dtype, kept as uint8, uint16, float32 or
         float64 (other integer types 0..255 become uint8); LAS dimensions with their
-        dtypes and ``colors`` (N, 3) uint16 as stored; extra XYZ columns
-        ``column_<j>``), name = the file stem, and for LAS/LAZ
+        dtypes and ``colors`` (N, 3) uint16 as stored; XYZ colour columns
+        (integers 0..255 / 0..65535) as ``colors``, other columns ``column_<j>``
+        or their header name; ``meta["columns"]`` says how XYZ columns were read),
+        name = the file stem, and for LAS/LAZ
         ``meta["las_header"]`` (the ``laspy.LasHeader``), which
         :func:`write_point_set` keeps when writing LAS/LAZ again.
 
