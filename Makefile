@@ -22,10 +22,14 @@ lint: install
 	$(BIN)/lint-imports
 
 test: lint
-	@# the report browser tests need Debian's chromium; without it (no apt-get) they skip
+	@# the report browser tests need Debian's chromium, Open3D's reader libusb; without
+	@# them (no apt-get) those tests skip
 	@command -v chromium >/dev/null || (apt-get install -y --no-install-recommends chromium \
 		|| (apt-get update && apt-get install -y --no-install-recommends chromium) \
 		|| echo "chromium not installed: browser tests will skip")
+	@$(BIN)/python -c "import open3d" 2>/dev/null || (apt-get install -y --no-install-recommends \
+		libusb-1.0-0 || (apt-get update && apt-get install -y --no-install-recommends \
+		libusb-1.0-0) || echo "libusb not installed: Open3D reader tests will skip")
 	$(BIN)/python -m pytest -q
 
 bench: install

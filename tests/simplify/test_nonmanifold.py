@@ -176,8 +176,10 @@ def test_a_triangle_soup_simplifies_as_the_indexed_mesh(shape):
     clean = simplify_mesh(v, f)
     assert res.is_closed and res.is_manifold and res.is_oriented
     assert res.n_faces == clean.n_faces
-    # reported in the soup's ids: every output vertex is a soup vertex at its position
-    assert np.array_equal(sv[res.vertex_source], res.vertices)
+    # reported in the soup's ids: every output vertex is a soup vertex, placed on its
+    # flat faces' planes by at most the placement bound
+    moved = np.linalg.norm(sv[res.vertex_source] - res.vertices, axis=1)
+    assert moved.max() <= max(res.chord_tolerance, 1e-3 * np.ptp(v, axis=0).max() * 2)
     assert res.distances.shape == (len(sv),) and res.face_labels.shape == (len(sf),)
     if shape == "icosphere":
         # curved: ties between equal chords follow the vertex ids, which a soup numbers

@@ -96,8 +96,11 @@ def test_plate_with_square_hole_gives_a_face_with_one_hole():
     assert s.n_holes.tolist().count(1) == 2  # top and bottom
     assert s.is_closed and s.is_manifold and s.is_oriented and s.face_ok.all()
     assert s.n_vertices == 16 and s.distance_max < 1e-9
-    # a face with a hole is written as its triangles
-    assert all(len(p) == 3 for p, f in zip(s.polygons, s.polygon_face, strict=True) if f == top)
+    # a face with a hole is written as simple polygons covering it, exactly planar
+    mine = [p for p, f in zip(s.polygons, s.polygon_face, strict=True) if f == top]
+    assert len(mine) >= 2 and all(len(set(p.tolist())) == len(p) for p in mine)
+    assert sum(len(p) - 2 for p in mine) == int((s.triangle_face == top).sum())
+    assert s.polygon_planarity.max() < 1e-12
     # the star method cannot represent the hole
     star = simplify_segmentation(pts, nrm, lab, faces="star")
     assert star.n_holes.max() == 0 and not star.is_closed

@@ -172,7 +172,9 @@ def test_planarize_flattens_faces_and_keeps_the_mesh_valid():
     flat = simplify_mesh(v, t, planarize=True)
     assert flat.n_faces == plain.n_faces
     np.testing.assert_array_equal(flat.vertex_source, plain.vertex_source)
-    assert flat.planarity_error.max() < 0.5 * plain.planarity_error.max()
+    # both write planar polygons (a curved face as planar pieces)
+    assert max(flat.planarity_error.max(), plain.planarity_error.max()) < 1e-12
+    assert len(flat.polygons) <= len(plain.polygons)
     assert (flat.is_closed, flat.is_manifold, flat.is_oriented) == (True, True, True)
     moved = np.linalg.norm(flat.vertices - plain.vertices, axis=1)
     assert moved.max() <= flat.chord_tolerance * (1 + 1e-12)

@@ -14,7 +14,6 @@ from typing import Annotated
 
 import numpy as np
 import typer
-from rich.table import Table
 
 from .._core import PointAtlasError, PointSet
 from ..io import write_mesh
@@ -46,6 +45,12 @@ from ._app import (
 from ._cmd_core import REPORT_EXTENSIONS
 from ._mesh_io import read_mesh_input, write_simplified, write_triangles
 from ._outputs import check_outputs, write_summary_json, write_text
+from ._simplify_report import (
+    render_simplification,
+    render_surface,
+    simplification_table,
+    surface_table,
+)
 
 __all__ = ["render_simplification", "simplification_table"]
 
@@ -53,49 +58,6 @@ __all__ = ["render_simplification", "simplification_table"]
 MESH_OUT = (".obj", ".ply", ".off", ".stl")
 #: Segmentation of the demo model: VSA from every point, split/merge threshold eta.
 DEMO_ETA = 20.0
-
-
-def simplification_table(mesh, seg=None, *, title: str | None = None) -> Table:
-    """A rich table of the mesh's quality report."""
-    s = mesh.summary()
-    table = Table(title=title, show_header=False, title_justify="left")
-    table.add_column("property", style="bold")
-    table.add_column("value")
-    if seg is not None:
-        table.add_row("VSA regions", str(seg.n_regions))
-    table.add_row("faces (regions meshed)", f"{s['n_faces']} ({s['n_regions']} regions)")
-    table.add_row("vertices", str(s["n_vertices"]))
-    table.add_row("faces with holes", str(s["n_faces_with_holes"]))
-    table.add_row("vertex method", s["vertex_method"] + (" (fallback)" if s["fallback"] else ""))
-    table.add_row("guarded vertices", str(s["n_guarded_vertices"]))
-    table.add_row(
-        "closed / manifold / oriented",
-        f"{s['is_closed']} / {s['is_manifold']} / {s['is_oriented']}",
-    )
-    table.add_row("faces not ok", str(s["faces_not_ok"]))
-    table.add_row("max planarity error", f"{s['max_planarity_error']:.3g}")
-    table.add_row("mean / max distance", f"{s['distance_mean']:.4g} / {s['distance_max']:.4g}")
-    return table
-
-
-def render_simplification(
-    path: Path, points, normals, mesh, *, title: str | None = None, labels=None
-):
-    """Side-by-side picture: the segmented points and the simplified mesh."""
-    from ..viz import MeshPanel, PointsPanel, fit_camera, render_side_by_side
-
-    camera = fit_camera(points)
-    labels = mesh.labels if labels is None else labels
-    panels = [
-        PointsPanel(points, normals=normals, labels=labels, title="regions meshed"),
-        MeshPanel(
-            mesh.vertices,
-            [p.tolist() for p in mesh.polygons],
-            face_labels=mesh.face_region[mesh.polygon_face],
-            title=f"simplified mesh: {mesh.n_faces} faces",
-        ),
-    ]
-    return render_side_by_side(path, panels, title=title, view=camera, size=(1800, 900))
 
 
 def _length_option(text: str | None, flag: str, diagonal: float) -> float | None:
@@ -112,52 +74,6 @@ def _length_option(text: str | None, flag: str, diagonal: float) -> float | None
             f"{flag} must be a length or a percentage of the diagonal such as 0.5%; got {text!r}"
         ) from None
     return as_float(value, flag, lo=0.0, lo_open=True, what="length")
-
-
-def surface_table(
-    res, *, title: str | None = None, path: str = "mesh (regions of the input's triangles)"
-) -> Table:
-    """A rich table of a mesh-path result's quality report."""
-    s = res.summary()
-    table = Table(title=title, show_header=False, title_justify="left")
-    table.add_column("property", style="bold")
-    table.add_column("value")
-    table.add_row("path", path)
-    table.add_row("faces (regions)", str(s["n_faces"]))
-    table.add_row("vertices", str(s["n_vertices"]))
-    table.add_row("faces with holes", str(s["n_faces_with_holes"]))
-    table.add_row("faces kept as input triangles", str(s["n_faces_kept_as_input_triangles"]))
-    table.add_row(
-        "closed / manifold / oriented",
-        f"{s['is_closed']} / {s['is_manifold']} / {s['is_oriented']}",
-    )
-    table.add_row("Euler characteristic", str(s["euler_characteristic"]))
-    table.add_row("max planarity error", f"{s['max_planarity_error']:.3g}")
-    table.add_row("mean / max distance", f"{s['distance_mean']:.4g} / {s['distance_max']:.4g}")
-    return table
-
-
-def render_surface(path: Path, mesh_in, res, *, title: str | None = None):
-    """Side-by-side picture: the input's triangles by region and the simplified mesh."""
-    from ..viz import MeshPanel, fit_camera, render_side_by_side
-
-    camera = fit_camera(mesh_in.vertices)
-    panels = [
-        MeshPanel(
-            mesh_in.vertices,
-            mesh_in.triangles,
-            face_labels=res.face_labels,
-            edges=False,
-            title=f"input: {mesh_in.n_faces:,} triangles, {res.n_faces} regions",
-        ),
-        MeshPanel(
-            res.vertices,
-            [p.tolist() for p in res.polygons],
-            face_labels=res.polygon_face,
-            title=f"simplified mesh: {res.n_faces} faces",
-        ),
-    ]
-    return render_side_by_side(path, panels, title=title, view=camera, size=(1800, 900))
 
 
 def _simplify_mesh_command(

@@ -19,6 +19,7 @@ from .._core import PointAtlasError
 from ..neighbors import point_mesh_distance
 from ._faces import general_faces, plane_deviation, star_faces
 from ._mesh import SimplifiedMesh, mesh_checks
+from ._polygons import PLANAR_RTOL, face_polygons
 from ._vertices import (
     MeshVertices,
     SimplifyWarning,
@@ -109,22 +110,18 @@ def assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, keep, labe
     remap = np.full(cplx.n_vertices, -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
     verts = positions[used]
-    face_loops, polygons, polygon_face, tris, tri_face = [], [], [], [], []
+    face_loops, tris, tri_face = [], [], []
     for fi, f in enumerate(face_list):
-        loops = tuple(remap[lp] for lp in f.loops)
-        face_loops.append(loops)
+        face_loops.append(tuple(remap[lp] for lp in f.loops))
         t = remap[f.triangles] if f.triangles.size else np.zeros((0, 3), np.int64)
         tris.append(t)
         tri_face.append(np.full(t.shape[0], fi, dtype=np.int64))
-        if len(loops) == 1:
-            polygons.append(loops[0])
-            polygon_face.append(fi)
-        else:
-            for row in t:
-                polygons.append(row.copy())
-                polygon_face.append(fi)
     triangles = np.concatenate(tris).astype(np.int64) if tris else np.zeros((0, 3), np.int64)
     triangle_face = np.concatenate(tri_face) if tri_face else np.zeros(0, np.int64)
+    diag = float(np.linalg.norm(np.ptp(verts, axis=0)))
+    polygons, polygon_face, polygon_planarity = face_polygons(
+        verts, triangles, triangle_face, face_loops, PLANAR_RTOL * diag
+    )
     closed, manifold, oriented = mesh_checks(verts.shape[0], triangles)
     if triangles.shape[0]:
         dist = point_mesh_distance(q, verts, triangles) * frame.scale
@@ -135,8 +132,9 @@ def assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, keep, labe
     return SimplifiedMesh(
         vertices=frame.to_input(verts),
         vertex_ids=used.astype(np.int64),
-        polygons=tuple(np.asarray(p, dtype=np.int64) for p in polygons),
-        polygon_face=np.asarray(polygon_face, dtype=np.int64),
+        polygons=polygons,
+        polygon_face=polygon_face,
+        polygon_planarity=polygon_planarity * frame.scale,
         face_region=np.array([f.region for f in face_list], dtype=np.int64),
         face_loops=tuple(face_loops),
         face_ok=np.array([f.ok for f in face_list], dtype=bool),

@@ -34,10 +34,13 @@ class SimplifiedMesh:
     vertex_ids : ndarray of shape (V,), int64
         Complex vertex of every mesh vertex.
     polygons : tuple of ndarray of int64
-        Polygon faces to write (OBJ/PLY): one polygon per region face; a face with
-        holes is written as its triangles (file formats have no holes).
+        Polygons to write (OBJ/PLY), each simple and planar (`face_polygons`): one
+        per region face where its loop is both, else the face's triangles grouped
+        into such pieces (file formats have no holes).
     polygon_face : ndarray of shape (P,), int64
         Face each polygon belongs to.
+    polygon_planarity : ndarray of shape (P,), float64
+        Largest distance of each polygon's vertices to their least-squares plane.
     face_region : ndarray of shape (F,), int64
         Region of every face.
     face_loops : tuple of tuple of ndarray of int64
@@ -99,6 +102,7 @@ class SimplifiedMesh:
     vertex_ids: np.ndarray
     polygons: tuple
     polygon_face: np.ndarray
+    polygon_planarity: np.ndarray
     face_region: np.ndarray
     face_loops: tuple
     face_ok: np.ndarray
@@ -132,6 +136,7 @@ class SimplifiedMesh:
             "vertices",
             "vertex_ids",
             "polygon_face",
+            "polygon_planarity",
             "face_region",
             "face_ok",
             "planarity_error",
@@ -169,8 +174,10 @@ class SimplifiedMesh:
         return {
             "n_vertices": self.n_vertices,
             "n_faces": self.n_faces,
+            "n_polygons": len(self.polygons),
             "n_triangles": int(self.triangles.shape[0]),
             "n_faces_with_holes": int((self.n_holes > 0).sum()),
+            "max_polygon_planarity_error": float(self.polygon_planarity.max(initial=0.0)),
             "vertex_method": self.vertex_method,
             "face_method": self.face_method,
             "fallback": self.fallback,

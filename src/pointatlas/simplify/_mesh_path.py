@@ -72,6 +72,7 @@ def simplify_mesh(
     eta: float | None = None,
     n_faces: int | None = None,
     max_error: float | None = None,
+    max_triangles: int | None = None,
     chord_tolerance: float | None = None,
     planarize: bool = False,
     rng=None,
@@ -94,9 +95,14 @@ def simplify_mesh(
         Target number of faces: ``max_angle`` is found by bisection (the closest
         count reached is used).
     max_error : float, optional
-        Largest distance of an input vertex to the output (input units): the
-        largest ``max_angle`` that meets it is found by bisection, and the chord
-        tolerance is at most half of it.
+        Largest distance between the input and the output, both ways (input
+        vertices to the output, the output's vertices and area samples to the
+        input; input units): the largest ``max_angle`` that meets it is found by
+        bisection, and the chord tolerance is at most half of it.
+    max_triangles : int, optional
+        Triangle budget: the finest level (smallest ``max_angle``) whose output has
+        at most this many triangles is found by bisection (the coarsest level
+        reached when none meets it).
     chord_tolerance : float, optional
         Largest distance of a boundary arc's vertices to its chords (input units);
         default 0.5 % of the bounding-box diagonal.
@@ -152,9 +158,9 @@ def simplify_mesh(
     """
     verts = as_points(vertices, name="vertices")
     tri = _as_triangles(triangles, verts.shape[0])
-    given = [x is not None for x in (max_angle, eta, n_faces, max_error)]
+    given = [x is not None for x in (max_angle, eta, n_faces, max_error, max_triangles)]
     if sum(given) > 1:
-        raise ValueError("give at most one of max_angle, eta, n_faces and max_error")
+        raise ValueError("give at most one of max_angle, eta, n_faces, max_error and max_triangles")
     used = used_vertices(verts.shape[0], tri)
     diag = _diagonal(verts if used.all() else verts[used])
     if chord_tolerance is None:
@@ -166,20 +172,26 @@ def simplify_mesh(
     if eta is not None:
         eta = as_float(eta, "eta", lo=0.0)
     run, repair = _repaired_run(verts, tri, used, tol=tol, planarize=planarize, rng=rng)
-    if n_faces is not None:
-        from .._core import as_int
-
-        target = as_int(n_faces, "n_faces", lo=1)
-        res = _search_faces(run, target)
-    elif max_error is not None:
-        bound = as_float(max_error, "max_error", lo=0.0, lo_open=True)
-        res = _search_error(run, bound, min(tol, bound / 2.0))
-    elif eta is not None:
-        res = run(None, eta)
-    else:
-        res = run(MAX_ANGLE if max_angle is None else max_angle)
+    level = {"n_faces": n_faces, "max_triangles": max_triangles, "max_error": max_error}
+    res = _at_level(run, tol, max_angle, eta, **level)
     # input vertex and triangle ids again
     return res if repair is None else repair.back(res)
+
+
+def _at_level(run, tol, max_angle, eta, *, n_faces, max_triangles, max_error):
+    """The run at the level asked for: a target searched, or one level."""
+    from .._core import as_int
+
+    if n_faces is not None:
+        return _search_faces(run, as_int(n_faces, "n_faces", lo=1))
+    if max_triangles is not None:
+        return _search_triangles(run, as_int(max_triangles, "max_triangles", lo=1))
+    if max_error is not None:
+        bound = as_float(max_error, "max_error", lo=0.0, lo_open=True)
+        return _search_error(run, bound, min(tol, bound / 2.0))
+    if eta is not None:
+        return run(None, eta)
+    return run(MAX_ANGLE if max_angle is None else max_angle)
 
 
 def _repaired_run(verts, tri, used, *, tol, planarize, rng):
@@ -287,16 +299,40 @@ def _search_faces(run, target: int) -> SurfaceSimplification:
     return best
 
 
+def _search_triangles(run, budget: int) -> SurfaceSimplification:
+    """Bisection of log(max_angle): the most triangles within ``budget`` (else the
+    fewest reached)."""
+    lo, hi = np.log(np.radians(0.05)), np.log(np.radians(80.0))
+    best = None
+    for _ in range(14):
+        mid = 0.5 * (lo + hi)
+        res = run(float(np.exp(mid)))
+        n = res.triangles.shape[0]
+        if best is None:
+            best = res
+        fits, best_fits = n <= budget, best.triangles.shape[0] <= budget
+        if (fits and (not best_fits or n > best.triangles.shape[0])) or (
+            not fits and not best_fits and n < best.triangles.shape[0]
+        ):
+            best = res
+        if fits:
+            hi = mid  # within budget: try finer
+        else:
+            lo = mid
+    return best
+
+
 def _search_error(run, bound: float, tol: float) -> SurfaceSimplification:
-    """The largest max_angle whose output is within ``bound`` of every input vertex."""
+    """The largest max_angle whose output is within ``bound`` of the input both ways
+    (every input vertex to the output, and the output's samples to the input)."""
     lo, hi = np.log(np.radians(0.01)), np.log(np.radians(60.0))
     best = run(float(np.exp(lo)), None, tol)
-    if best.distance_max > bound:
+    if max(best.distance_max, best.back_distance_max) > bound:
         return best  # even the finest segmentation misses the bound: report it
     for _ in range(12):
         mid = 0.5 * (lo + hi)
         res = run(float(np.exp(mid)), None, tol)
-        if res.distance_max <= bound:
+        if max(res.distance_max, res.back_distance_max) <= bound:
             best, lo = res, mid
         else:
             hi = mid

@@ -313,6 +313,7 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, chord_tolerance=Non
     """
     import dataclasses
 
+    from ._distance import back_distances
     from ._mesh import point_mesh_distance
     from ._surface import _face_graph, _surface, simplify_surface
 
@@ -336,17 +337,25 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, chord_tolerance=Non
     verts = snap_to_planes(rec.vertices, rec.triangles, lab, pn, offsets)
     diag = float(np.linalg.norm(q.max(axis=0) - q.min(axis=0)))
     tol = 0.005 * diag if chord_tolerance is None else chord_tolerance / frame.scale
-    res = simplify_surface(verts, rec.triangles, lab, pn, chord_tolerance=tol)
+    # the voxel surface's vertices were pulled onto their planes (within the
+    # sampling): a region flat within half the chord tolerance is a plane
+    res = simplify_surface(
+        verts, rec.triangles, lab, pn, chord_tolerance=tol, flat_tolerance=0.5 * tol
+    )
     out_v = frame.to_input(res.vertices)
     d = point_mesh_distance(q, res.vertices, res.triangles) * frame.scale
+    back = back_distances(res.vertices, res.triangles, q) * frame.scale
     res = dataclasses.replace(
         res,
         vertices=out_v,
         distances=d,
         distance_mean=float(d.mean()),
         distance_max=float(d.max()),
+        back_distance_mean=float(back.mean()) if back.size else 0.0,
+        back_distance_max=float(back.max()) if back.size else 0.0,
         chord_tolerance=tol * frame.scale,
         planarity_error=res.planarity_error * frame.scale,
+        polygon_planarity=res.polygon_planarity * frame.scale,
     )
     _, near_tri = cKDTree(s.centroids).query(q, workers=-1)
     return res, rec, lab[near_tri]

@@ -33,7 +33,9 @@ from ._arcs import (
     simplify_arc,
     split_arcs,
 )
-from ._faces import plane_deviation
+from ._distance import back_distances
+from ._place import FLAT_RTOL, flat_planes, place_on_planes
+from ._polygons import PLANAR_RTOL, face_polygons
 from ._surface_faces import bad_regions, face_of_loops, loop_vertices
 
 __all__ = ["SurfaceSimplification", "simplify_surface"]
@@ -54,10 +56,14 @@ class SurfaceSimplification:
     vertex_source : ndarray of shape (V,), int64
         Input vertex of every output vertex.
     polygons : tuple of ndarray of int64
-        Polygon faces to write: one polygon per region face; a face with holes, and
-        a region that kept its input triangles, are written as triangles.
+        Polygons to write, each simple (distinct vertices, no hole) and planar
+        (`face_polygons`): one per region face where its loop is both; else the
+        face's triangles grouped into such pieces (a face with a hole, a pinched
+        face, a curved region).
     polygon_face : ndarray of shape (P,), int64
         Face of every polygon.
+    polygon_planarity : ndarray of shape (P,), float64
+        Largest distance of each polygon's vertices to their least-squares plane.
     face_region : ndarray of shape (F,), int64
         Region of every face (F = number of regions).
     face_loops : tuple of tuple of ndarray of int64
@@ -66,7 +72,7 @@ class SurfaceSimplification:
         The region's projected loops did not bound a planar polygon even with full
         arcs, so it kept its input triangles.
     planarity_error : ndarray of shape (F,), float64
-        Largest distance of a face's vertices to their least-squares plane.
+        Largest ``polygon_planarity`` of each face's polygons.
     triangles : ndarray of shape (T, 3), int64
         Triangulation of all faces, oriented as the input.
     triangle_face : ndarray of shape (T,), int64
@@ -82,6 +88,10 @@ class SurfaceSimplification:
         for a vertex on no input triangle).
     distance_mean, distance_max : float
         Mean and largest of ``distances`` (NaN entries left out).
+    back_distance_mean, back_distance_max : float
+        Mean and largest distance of the output's vertices and a seeded area sample
+        of its triangles to the input (`back_distances`): the other way round, which
+        sees a spike. The two-sided Hausdorff distance is the larger of the maxima.
     chord_tolerance : float
         Chord tolerance used (input units).
     n_refined : int
@@ -92,6 +102,7 @@ class SurfaceSimplification:
     vertex_source: np.ndarray
     polygons: tuple
     polygon_face: np.ndarray
+    polygon_planarity: np.ndarray
     face_region: np.ndarray
     face_loops: tuple
     face_kept_input: np.ndarray
@@ -106,6 +117,8 @@ class SurfaceSimplification:
     distances: np.ndarray
     distance_mean: float
     distance_max: float
+    back_distance_mean: float
+    back_distance_max: float
     chord_tolerance: float
     n_refined: int
 
@@ -114,6 +127,7 @@ class SurfaceSimplification:
             "vertices",
             "vertex_source",
             "polygon_face",
+            "polygon_planarity",
             "face_region",
             "face_kept_input",
             "planarity_error",
@@ -147,6 +161,7 @@ class SurfaceSimplification:
             "path": "surface",
             "n_vertices": self.n_vertices,
             "n_faces": self.n_faces,
+            "n_polygons": len(self.polygons),
             "n_triangles": int(self.triangles.shape[0]),
             "n_faces_with_holes": int((self.n_holes > 0).sum()),
             "n_faces_kept_as_input_triangles": int(self.face_kept_input.sum()),
@@ -158,9 +173,13 @@ class SurfaceSimplification:
             "is_oriented": self.is_oriented,
             "euler_characteristic": self.euler_characteristic,
             "max_planarity_error": float(self.planarity_error.max(initial=0.0)),
+            "max_polygon_planarity_error": float(self.polygon_planarity.max(initial=0.0)),
             "planarity_error": [float(x) for x in self.planarity_error],
             "distance_mean": self.distance_mean,
             "distance_max": self.distance_max,
+            "back_distance_mean": self.back_distance_mean,
+            "back_distance_max": self.back_distance_max,
+            "hausdorff": max(self.distance_max, self.back_distance_max),
             "n_regions": self.n_faces,
         }
 
@@ -330,6 +349,7 @@ def simplify_surface(
     *,
     chord_tolerance: float,
     planarize: bool = False,
+    flat_tolerance: float | None = None,
 ) -> SurfaceSimplification:
     """Build the simplified polygon mesh of a labelled triangle mesh (private API).
 
@@ -337,7 +357,11 @@ def simplify_surface(
     numbered 0..R-1; ``proxy_normals`` (R, 3) their planes' normals;
     ``chord_tolerance`` the largest distance of a boundary arc's vertices to its
     chords (input units); ``planarize`` moves the output vertices towards the
-    planes of their faces (at most ``chord_tolerance`` each, see `_planarize`).
+    planes of their faces (at most ``chord_tolerance`` each, see `_planarize`);
+    otherwise vertices are placed on the planes of their flat regions (those whose
+    vertices lie within ``flat_tolerance`` of their plane, default ``FLAT_RTOL`` of
+    the diagonal; `place_on_planes`). The polygons are simple and planar
+    (`face_polygons`).
     """
     verts = as_points(vertices, name="vertices")
     tri = np.asarray(triangles, dtype=np.int64)
@@ -357,6 +381,12 @@ def simplify_surface(
     if planarize and tol > 0.0:
         offsets = _plane_offsets(s, lab, normals)
         out_v = _planarize(out_v, out_t, all_f, run.kept_input, normals, offsets, tol)
+    elif out_t.size:
+        diag = float(np.linalg.norm(np.ptp(out_v, axis=0)))
+        flat_tol = FLAT_RTOL * diag if flat_tolerance is None else flat_tolerance
+        planes = flat_planes(verts, tri, lab, run.n_regions, flat_tol)
+        bound, exact = max(tol, 1e-3 * diag), 0.01 * PLANAR_RTOL * diag
+        out_v = place_on_planes(out_v, out_t, all_f, *planes, bound, exact)
     face_loops = [tuple(remap[lp] for lp in loops) for loops in loops_out]
     return _result(run, verts, out_v, out_t, all_f, used, face_loops)
 
@@ -490,30 +520,27 @@ def _result(run: _RegionFaces, verts, out_v, out_t, all_f, used, face_loops):
     from ._mesh import mesh_checks, point_mesh_distance
 
     kept_input, lab = run.kept_input, run.lab
-    polygons, polygon_face, planarity = [], [], []
-    for r in range(run.n_regions):
-        lps = face_loops[r]
-        mine = out_t[all_f == r]
-        if kept_input[r] or len(lps) != 1:
-            polygons.extend(t.copy() for t in mine)
-            polygon_face.extend([r] * mine.shape[0])
-        else:
-            polygons.append(lps[0].copy())
-            polygon_face.append(r)
-        planarity.append(plane_deviation(out_v[np.unique(mine)]))
+    diag = float(np.linalg.norm(np.ptp(out_v, axis=0))) if out_v.size else 0.0
+    polygons, polygon_face, polygon_planarity = face_polygons(
+        out_v, out_t, all_f, face_loops, PLANAR_RTOL * diag
+    )
+    planarity = np.zeros(run.n_regions)
+    np.maximum.at(planarity, polygon_face, polygon_planarity)
     closed, manifold, oriented = mesh_checks(out_v.shape[0], out_t)
     und = np.sort(np.concatenate([out_t[:, [0, 1]], out_t[:, [1, 2]], out_t[:, [2, 0]]]), 1)
     n_edges = np.unique(und, axis=0).shape[0]
     dist = point_mesh_distance(verts, out_v, out_t)
+    back = back_distances(out_v, out_t, verts, run.s.triangles)
     return SurfaceSimplification(
         vertices=out_v,
         vertex_source=used,
-        polygons=tuple(polygons),
-        polygon_face=np.asarray(polygon_face, dtype=np.int64),
+        polygons=polygons,
+        polygon_face=polygon_face,
+        polygon_planarity=polygon_planarity,
         face_region=np.arange(run.n_regions, dtype=np.int64),
         face_loops=tuple(face_loops),
         face_kept_input=kept_input.copy(),
-        planarity_error=np.asarray(planarity, dtype=np.float64),
+        planarity_error=planarity,
         triangles=out_t,
         triangle_face=all_f,
         is_closed=closed,
@@ -524,6 +551,8 @@ def _result(run: _RegionFaces, verts, out_v, out_t, all_f, used, face_loops):
         distances=dist,
         distance_mean=float(dist.mean()) if dist.size else 0.0,
         distance_max=float(dist.max()) if dist.size else 0.0,
+        back_distance_mean=float(back.mean()) if back.size else 0.0,
+        back_distance_max=float(back.max()) if back.size else 0.0,
         chord_tolerance=run.tol,
         n_refined=len(run.refined),
     )

@@ -1,0 +1,238 @@
+"""Rate-distortion of `pointatlas simplify` on meshes against the quadric decimators
+a user would otherwise run, at the same number of triangles, measured both ways.
+
+Run from the repository root (the peers come with ``make bench``'s extra)::
+
+    .venv/bin/python benchmarks/bench_simplify_rd.py --every 5 \
+        --out bench-output/simplify_rd [--plot docs/figures/simplify_rd.png]
+
+For every model (every ``--every``-th of ``../shared/data/collection`` plus the meshes
+of ``../shared/data/models``) and every level (``--angles``, VSA's max_angle in
+degrees; one level is one point of our rate-distortion curve), ours runs with
+default options otherwise; then, at exactly our triangle count:
+
+- Open3D ``simplify_quadric_decimation``;
+- pymeshlab ``meshing_decimation_quadric_edge_collapse`` with ``planarquadric`` off
+  and on (MeshLab's quadric edge collapse; the planar quadric keeps flat parts flat).
+
+Each output is measured both ways against the input surface with one metric
+(`pointatlas.neighbors.point_mesh_distance`): the input's vertices and 20,000
+seeded area samples to the output, and the output's vertices and 20,000 samples to
+the input. ``mean`` is the average of the two directions' mean distances,
+``hausdorff`` the larger maximum, both in % of the bounding-box diagonal; ``closed``
+is closed + manifold + oriented (`mesh_checks`). One CSV row per model, level and
+method; the summary prints, per kind (CAD parts, by the manifest's notes, and
+organic shapes), the geometric mean of ours / the best quadric decimator for the
+mean and the Hausdorff distance, the worst model, and the time ratio.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pointatlas.io import read_mesh
+from pointatlas.neighbors import point_mesh_distance
+from pointatlas.simplify import mesh_checks, simplify_mesh
+from pointatlas.synth import sample_mesh
+
+DATA = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
+MESH_SUFFIXES = (".obj", ".off", ".ply", ".stl")
+SAMPLES = 20_000
+
+
+def both_ways(v_in, t_in, v_out, t_out) -> dict:
+    """Two-sided distances between two triangle meshes (% of the input's diagonal)."""
+    diag = float(np.linalg.norm(np.ptp(v_in, axis=0)))
+
+    def points(v, t):
+        return np.vstack([v[np.unique(t)], sample_mesh(v, t, SAMPLES, rng=0).points])
+
+    there = point_mesh_distance(points(v_in, t_in), v_out, t_out)
+    back = point_mesh_distance(points(v_out, t_out), v_in, t_in)
+    return {
+        "mean": 50.0 * (there.mean() + back.mean()) / diag,
+        "hausdorff": 100.0 * max(there.max(), back.max()) / diag,
+        "in_to_out_max": 100.0 * there.max() / diag,
+        "out_to_in_max": 100.0 * back.max() / diag,
+    }
+
+
+def open3d_quadric(v, t, n):
+    import open3d as o3d
+
+    mesh = o3d.geometry.TriangleMesh(
+        o3d.utility.Vector3dVector(np.array(v, dtype=np.float64)),
+        o3d.utility.Vector3iVector(np.array(t, dtype=np.int32)),
+    )
+    out = mesh.simplify_quadric_decimation(target_number_of_triangles=int(n))
+    return np.asarray(out.vertices), np.asarray(out.triangles, dtype=np.int64)
+
+
+def meshlab_quadric(v, t, n, planar: bool):
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(np.array(v, dtype=np.float64), np.array(t, dtype=np.int32)))
+    ms.meshing_decimation_quadric_edge_collapse(targetfacenum=int(n), planarquadric=planar)
+    out = ms.current_mesh()
+    return np.asarray(out.vertex_matrix()), np.asarray(out.face_matrix(), dtype=np.int64)
+
+
+PEERS = {
+    "open3d_quadric": open3d_quadric,
+    "meshlab_quadric": lambda v, t, n: meshlab_quadric(v, t, n, planar=False),
+    "meshlab_planarquadric": lambda v, t, n: meshlab_quadric(v, t, n, planar=True),
+}
+
+
+def _row(model, kind, level, method, v, t, v_out, t_out, seconds) -> dict:
+    used = np.unique(t_out)
+    closed = all(mesh_checks(len(v_out), t_out)) if len(t_out) else False
+    return {
+        "model": model,
+        "kind": kind,
+        "max_angle_deg": level,
+        "method": method,
+        "triangles": int(len(t_out)),
+        "vertices": int(used.size),
+        "closed": closed,
+        "seconds": round(seconds, 3),
+        **{k: round(float(x), 5) for k, x in both_ways(v, t, v_out, t_out).items()},
+    }
+
+
+def run_model(path: Path, kind: str, angles) -> list[dict]:
+    mesh = read_mesh(path)
+    v, t = np.asarray(mesh.vertices), np.asarray(mesh.triangles)
+    rows = []
+    for level in angles:
+        start = time.perf_counter()
+        ours = simplify_mesh(v, t, max_angle=np.radians(level))
+        took = time.perf_counter() - start
+        n = len(ours.triangles)
+        rows.append(
+            _row(path.stem, kind, level, "pointatlas", v, t, ours.vertices, ours.triangles, took)
+            | {"polygons": len(ours.polygons)}
+        )
+        for name, peer in PEERS.items():
+            start = time.perf_counter()
+            v_out, t_out = peer(v, t, n)
+            took = time.perf_counter() - start
+            rows.append(_row(path.stem, kind, level, name, v, t, v_out, t_out, took))
+    return rows
+
+
+def kinds() -> dict[str, str]:
+    """Model file stem -> "cad" or "organic" (the manifest's notes name CAD parts)."""
+    manifest = json.loads((DATA / "manifest.json").read_text())
+    return {
+        Path(e["file"]).stem: "cad" if "CAD" in e.get("notes", "") else "organic" for e in manifest
+    }
+
+
+def summary(rows: list[dict]) -> list[str]:
+    """Geometric means of ours / the best quadric decimator, per kind."""
+    lines = []
+    key = {(r["model"], r["max_angle_deg"], r["method"]): r for r in rows}
+    cases = sorted({(r["model"], r["max_angle_deg"], r["kind"]) for r in rows})
+    for kind in ("cad", "organic"):
+        mine = [c for c in cases if c[2] == kind]
+        if not mine:
+            continue
+        ratios = {"mean": [], "hausdorff": [], "seconds": []}
+        worst = (0.0, None)
+        for model, level, _ in mine:
+            ours = key[(model, level, "pointatlas")]
+            peers = [key[(model, level, m)] for m in PEERS if (model, level, m) in key]
+            for metric in ratios:
+                # distances below 1e-4 % of the diagonal (exact on both sides) count as
+                # equal; seconds below 1 ms likewise
+                floor = 1e-4 if metric != "seconds" else 1e-3
+                best = min(p[metric] for p in peers)
+                ratios[metric].append((ours[metric] + floor) / (best + floor))
+            if ratios["mean"][-1] > worst[0]:
+                worst = (ratios["mean"][-1], f"{model} at {level} deg")
+        gm = {m: float(np.exp(np.mean(np.log(x)))) for m, x in ratios.items()}
+        closed = np.mean([key[(m, lv, "pointatlas")]["closed"] for m, lv, _ in mine])
+        lines.append(
+            f"{kind}: {len(mine)} cases; ours / best quadric at equal triangles: mean "
+            f"distance {gm['mean']:.2f}x, two-sided Hausdorff {gm['hausdorff']:.2f}x, time "
+            f"{gm['seconds']:.1f}x; worst mean {worst[0]:.2f}x ({worst[1]}); ours closed "
+            f"{100 * closed:.0f} %"
+        )
+    return lines
+
+
+def plot(rows: list[dict], path: Path, models: list[str]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(models), figsize=(5 * len(models), 4), squeeze=False)
+    for ax, model in zip(axes[0], models, strict=True):
+        for method in ["pointatlas", *PEERS]:
+            pts = sorted(
+                (r["triangles"], r["mean"])
+                for r in rows
+                if r["model"] == model and r["method"] == method
+            )
+            if pts:
+                x, y = zip(*pts, strict=True)
+                ax.loglog(x, y, "o-", label=method)
+        ax.set_title(model)
+        ax.set_xlabel("triangles")
+        ax.set_ylabel("two-sided mean distance (% of diagonal)")
+    axes[0][0].legend()
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--every", type=int, default=5)
+    parser.add_argument("--angles", type=float, nargs="+", default=[5.0, 10.0, 20.0, 40.0])
+    parser.add_argument("--out", type=Path, default=Path("bench-output/simplify_rd"))
+    parser.add_argument("--plot", type=Path, default=None)
+    args = parser.parse_args()
+    kind_of = kinds()
+    files = sorted(p for p in (DATA / "collection").iterdir() if p.suffix in MESH_SUFFIXES)
+    files = files[:: args.every]
+    files += sorted(p for p in (DATA / "models").iterdir() if p.suffix in MESH_SUFFIXES)
+    rows = []
+    for path in files:
+        try:
+            mine = run_model(path, kind_of.get(path.stem, "organic"), args.angles)
+        except Exception as exc:  # a peer that refuses a model is reported, not fatal
+            print(f"{path.name}: skipped ({type(exc).__name__}: {exc})", flush=True)
+            continue
+        rows += mine
+        ours = [r for r in mine if r["method"] == "pointatlas"]
+        print(
+            f"{path.name}: "
+            + ", ".join(f"{r['triangles']} tri mean {r['mean']:.3f}%" for r in ours),
+            flush=True,
+        )
+    args.out.mkdir(parents=True, exist_ok=True)
+    fields = list(dict.fromkeys(k for r in rows for k in r))
+    with open(args.out / "simplify_rd.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(rows)
+    for line in summary(rows):
+        print(line)
+    if args.plot is not None:
+        present = {r["model"] for r in rows}
+        showcase = [m for m in ("fandisk_12494", "cad_a_a27", "euclid_bunny") if m in present]
+        plot(rows, args.plot, showcase or [rows[0]["model"]])
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,106 @@
+"""The report of ``pointatlas simplify``: tables and side-by-side pictures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rich.table import Table
+
+__all__ = ["render_simplification", "render_surface", "simplification_table", "surface_table"]
+
+
+def simplification_table(mesh, seg=None, *, title: str | None = None) -> Table:
+    """A rich table of the mesh's quality report."""
+    s = mesh.summary()
+    table = Table(title=title, show_header=False, title_justify="left")
+    table.add_column("property", style="bold")
+    table.add_column("value")
+    if seg is not None:
+        table.add_row("VSA regions", str(seg.n_regions))
+    table.add_row("faces (regions meshed)", f"{s['n_faces']} ({s['n_regions']} regions)")
+    table.add_row("polygons / triangles written", f"{s['n_polygons']} / {s['n_triangles']}")
+    table.add_row("vertices", str(s["n_vertices"]))
+    table.add_row("faces with holes", str(s["n_faces_with_holes"]))
+    table.add_row("vertex method", s["vertex_method"] + (" (fallback)" if s["fallback"] else ""))
+    table.add_row("guarded vertices", str(s["n_guarded_vertices"]))
+    table.add_row(
+        "closed / manifold / oriented",
+        f"{s['is_closed']} / {s['is_manifold']} / {s['is_oriented']}",
+    )
+    table.add_row("faces not ok", str(s["faces_not_ok"]))
+    table.add_row("max planarity error (faces)", f"{s['max_planarity_error']:.3g}")
+    table.add_row("max planarity error (polygons)", f"{s['max_polygon_planarity_error']:.3g}")
+    table.add_row("mean / max distance", f"{s['distance_mean']:.4g} / {s['distance_max']:.4g}")
+    return table
+
+
+def render_simplification(
+    path: Path, points, normals, mesh, *, title: str | None = None, labels=None
+):
+    """Side-by-side picture: the segmented points and the simplified mesh."""
+    from ..viz import MeshPanel, PointsPanel, fit_camera, render_side_by_side
+
+    camera = fit_camera(points)
+    labels = mesh.labels if labels is None else labels
+    panels = [
+        PointsPanel(points, normals=normals, labels=labels, title="regions meshed"),
+        MeshPanel(
+            mesh.vertices,
+            [p.tolist() for p in mesh.polygons],
+            face_labels=mesh.face_region[mesh.polygon_face],
+            title=f"simplified mesh: {mesh.n_faces} faces",
+        ),
+    ]
+    return render_side_by_side(path, panels, title=title, view=camera, size=(1800, 900))
+
+
+def surface_table(
+    res, *, title: str | None = None, path: str = "mesh (regions of the input's triangles)"
+) -> Table:
+    """A rich table of a mesh-path result's quality report."""
+    s = res.summary()
+    table = Table(title=title, show_header=False, title_justify="left")
+    table.add_column("property", style="bold")
+    table.add_column("value")
+    table.add_row("path", path)
+    table.add_row("faces (regions)", str(s["n_faces"]))
+    table.add_row("polygons / triangles written", f"{s['n_polygons']} / {s['n_triangles']}")
+    table.add_row("vertices", str(s["n_vertices"]))
+    table.add_row("faces with holes", str(s["n_faces_with_holes"]))
+    table.add_row("faces kept as input triangles", str(s["n_faces_kept_as_input_triangles"]))
+    table.add_row(
+        "closed / manifold / oriented",
+        f"{s['is_closed']} / {s['is_manifold']} / {s['is_oriented']}",
+    )
+    table.add_row("Euler characteristic", str(s["euler_characteristic"]))
+    table.add_row("max planarity error (polygons)", f"{s['max_planarity_error']:.3g}")
+    table.add_row("mean / max distance", f"{s['distance_mean']:.4g} / {s['distance_max']:.4g}")
+    table.add_row(
+        "mean / max distance back (output to input)",
+        f"{s['back_distance_mean']:.4g} / {s['back_distance_max']:.4g}",
+    )
+    table.add_row("two-sided Hausdorff", f"{s['hausdorff']:.4g}")
+    return table
+
+
+def render_surface(path: Path, mesh_in, res, *, title: str | None = None):
+    """Side-by-side picture: the input's triangles by region and the simplified mesh."""
+    from ..viz import MeshPanel, fit_camera, render_side_by_side
+
+    camera = fit_camera(mesh_in.vertices)
+    panels = [
+        MeshPanel(
+            mesh_in.vertices,
+            mesh_in.triangles,
+            face_labels=res.face_labels,
+            edges=False,
+            title=f"input: {mesh_in.n_faces:,} triangles, {res.n_faces} regions",
+        ),
+        MeshPanel(
+            res.vertices,
+            [p.tolist() for p in res.polygons],
+            face_labels=res.polygon_face,
+            title=f"simplified mesh: {res.n_faces} faces",
+        ),
+    ]
+    return render_side_by_side(path, panels, title=title, view=camera, size=(1800, 900))

@@ -1,0 +1,136 @@
+"""The placement step: output vertices moved onto the planes of their flat regions.
+
+A region of the input's triangles is *flat* when its vertices lie within
+``FLAT_RTOL`` of the diagonal of their least-squares plane (a CAD face, stored with
+float rounding). Every output vertex goes to the point nearest to where it is that
+lies on the planes of all its flat regions (thesis 4.4, the vertex fitting of
+Eq. 4.12 restricted to fixed planes: one plane -> onto it, two -> onto their line,
+three -> their common point). Planes within 2.5 degrees of parallel act as one
+(the pseudo-inverse drops their difference) so a vertex is never flung along a
+near-parallel intersection; four or more planes that do not meet give their
+least-squares point; a vertex that would move more than ``bound`` stays where it is,
+and a triangle that would flip puts its vertices back. The faces of flat regions are
+then exactly planar wherever their vertices could be placed; `face_polygons` splits
+the rest.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["FLAT_RTOL", "flat_planes", "place_on_planes"]
+
+#: Largest distance of a region's input vertices to its plane, as a fraction of the
+#: diagonal, for the region to count as flat.
+FLAT_RTOL = 1e-4
+#: Singular values of a vertex's plane normals below this fraction of the largest are
+#: dropped: planes within asin(0.0437) = 2.5 degrees of each other act as one.
+_PARALLEL_RTOL = 0.0437
+
+
+def flat_planes(vertices, triangles, labels, n_regions: int, tol: float):
+    """Least-squares plane of every region's vertices, and which regions are flat.
+
+    Returns ``normals`` (R, 3), ``offsets`` (R,) with ``normals[r] . x = offsets[r]``
+    on the plane, and ``flat`` (R,) bool: the region's vertices lie within ``tol`` of
+    its plane (regions with fewer than three vertices are not flat).
+
+    Examples
+    --------
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    >>> t = np.array([[0, 1, 2], [0, 3, 1]])
+    >>> n, d, flat = flat_planes(v, t, np.array([0, 1]), 2, 1e-9)
+    >>> np.abs(n).round(6).tolist(), flat.tolist()
+    ([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]], [True, True])
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    lab = np.asarray(labels, dtype=np.int64)
+    pairs = np.unique(np.column_stack([np.repeat(lab, 3), tri.reshape(-1)]), axis=0)
+    bounds = np.searchsorted(pairs[:, 0], np.arange(n_regions + 1))
+    normals = np.zeros((n_regions, 3))
+    offsets = np.zeros(n_regions)
+    flat = np.zeros(n_regions, dtype=bool)
+    for r in range(n_regions):
+        pts = v[pairs[bounds[r] : bounds[r + 1], 1]]
+        if pts.shape[0] < 3:
+            continue
+        centre = pts.mean(axis=0)
+        _, sv, vt = np.linalg.svd(pts - centre, full_matrices=False)
+        normals[r] = vt[-1]
+        offsets[r] = vt[-1] @ centre
+        flat[r] = sv[1] > 0.0 and np.abs((pts - centre) @ vt[-1]).max() <= tol
+    return normals, offsets, flat
+
+
+def place_on_planes(
+    v0, triangles, triangle_face, normals, offsets, flat, bound: float, on_plane: float = 0.0
+):
+    """Output vertices moved onto the planes of their flat faces (see the module).
+
+    Parameters
+    ----------
+    v0 : ndarray of shape (V, 3)
+        Output vertices where they are.
+    triangles : ndarray of shape (T, 3), int64
+        Output triangles; ``triangle_face`` (T,) their face (region).
+    normals, offsets, flat : ndarrays of shape (R, 3), (R,), (R,)
+        From `flat_planes`.
+    bound : float
+        Largest move of a vertex.
+    on_plane : float
+        A vertex within this distance of all its planes stays where it is (an
+        exactly flat input keeps its vertices bit for bit).
+
+    Returns
+    -------
+    ndarray of shape (V, 3)
+        The placed vertices (a copy).
+
+    Examples
+    --------
+    A vertex near the corner of three planes goes to the corner:
+
+    >>> n = np.eye(3); d = np.zeros(3)
+    >>> v = np.array([[1e-5, -2e-5, 3e-5], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    >>> t = np.array([[0, 2, 3], [0, 3, 1], [0, 1, 2]])
+    >>> place_on_planes(v, t, np.arange(3), n, d, np.ones(3, bool), 0.1)[0].tolist()
+    [0.0, 0.0, 0.0]
+    """
+    v0 = np.asarray(v0, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    tface = np.asarray(triangle_face, dtype=np.int64)
+    pairs = np.unique(np.column_stack([tri.reshape(-1), np.repeat(tface, 3)]), axis=0)
+    pairs = pairs[flat[pairs[:, 1]]]
+    x = v0.copy()
+    if pairs.shape[0] == 0:
+        return x
+    starts = np.searchsorted(pairs[:, 0], np.arange(v0.shape[0] + 1))
+    for j in np.flatnonzero(np.diff(starts)):
+        regions = pairs[starts[j] : starts[j + 1], 1]
+        a = normals[regions]
+        residual = offsets[regions] - a @ v0[j]
+        if np.abs(residual).max() <= on_plane:
+            continue
+        move = np.linalg.pinv(a, rcond=_PARALLEL_RTOL) @ residual
+        if np.linalg.norm(move) <= bound:
+            x[j] = v0[j] + move
+    return _unflip(v0, x, tri)
+
+
+def _unflip(v0, x, tri, rounds: int = 4):
+    """Vertices of triangles whose normal turned against its former one go back."""
+    before = _normals(v0, tri)
+    for _ in range(rounds):
+        bad = np.einsum("ij,ij->i", before, _normals(x, tri)) <= 0.0
+        bad &= np.linalg.norm(before, axis=1) > 0.0
+        if not bad.any():
+            break
+        back = np.unique(tri[bad])
+        x[back] = v0[back]
+    return x
+
+
+def _normals(v, tri):
+    c = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
+    return c / np.maximum(np.linalg.norm(c, axis=1), 1e-300)[:, None]
