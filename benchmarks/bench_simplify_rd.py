@@ -38,7 +38,7 @@ import numpy as np
 
 from pointatlas.io import read_mesh
 from pointatlas.neighbors import point_mesh_distance
-from pointatlas.simplify import mesh_checks, simplify_mesh
+from pointatlas.simplify import decimate_mesh, mesh_checks, simplify_mesh
 from pointatlas.synth import sample_mesh
 
 DATA = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
@@ -107,7 +107,7 @@ def _row(model, kind, level, method, v, t, v_out, t_out, seconds) -> dict:
     }
 
 
-def run_model(path: Path, kind: str, angles) -> list[dict]:
+def run_model(path: Path, kind: str, angles, max_decimate: int) -> list[dict]:
     mesh = read_mesh(path)
     v, t = np.asarray(mesh.vertices), np.asarray(mesh.triangles)
     rows = []
@@ -120,6 +120,24 @@ def run_model(path: Path, kind: str, angles) -> list[dict]:
             _row(path.stem, kind, level, "pointatlas", v, t, ours.vertices, ours.triangles, took)
             | {"polygons": len(ours.polygons)}
         )
+        if len(t) <= max_decimate:
+            start = time.perf_counter()
+            dec = decimate_mesh(v, t, n, max_angle=np.radians(level))
+            took = time.perf_counter() - start
+            rows.append(
+                _row(
+                    path.stem,
+                    kind,
+                    level,
+                    "pointatlas_decimate",
+                    v,
+                    t,
+                    dec.vertices,
+                    dec.triangles,
+                    took,
+                )
+                | {"polygons": len(dec.polygons)}
+            )
         for name, peer in PEERS.items():
             start = time.perf_counter()
             v_out, t_out = peer(v, t, n)
@@ -137,10 +155,19 @@ def kinds() -> dict[str, str]:
 
 
 def summary(rows: list[dict]) -> list[str]:
-    """Geometric means of ours / the best quadric decimator, per kind."""
+    """Geometric means of ours / the best quadric decimator, per kind and method."""
+    lines = []
+    for ours_method in ("pointatlas", "pointatlas_decimate"):
+        lines += _summary(rows, ours_method)
+    return lines
+
+
+def _summary(rows: list[dict], ours_method: str) -> list[str]:
     lines = []
     key = {(r["model"], r["max_angle_deg"], r["method"]): r for r in rows}
-    cases = sorted({(r["model"], r["max_angle_deg"], r["kind"]) for r in rows})
+    cases = sorted(
+        {(r["model"], r["max_angle_deg"], r["kind"]) for r in rows if r["method"] == ours_method}
+    )
     for kind in ("cad", "organic"):
         mine = [c for c in cases if c[2] == kind]
         if not mine:
@@ -148,7 +175,7 @@ def summary(rows: list[dict]) -> list[str]:
         ratios = {"mean": [], "hausdorff": [], "seconds": []}
         worst = (0.0, None)
         for model, level, _ in mine:
-            ours = key[(model, level, "pointatlas")]
+            ours = key[(model, level, ours_method)]
             peers = [key[(model, level, m)] for m in PEERS if (model, level, m) in key]
             for metric in ratios:
                 # distances below 1e-4 % of the diagonal (exact on both sides) count as
@@ -159,12 +186,12 @@ def summary(rows: list[dict]) -> list[str]:
             if ratios["mean"][-1] > worst[0]:
                 worst = (ratios["mean"][-1], f"{model} at {level} deg")
         gm = {m: float(np.exp(np.mean(np.log(x)))) for m, x in ratios.items()}
-        closed = np.mean([key[(m, lv, "pointatlas")]["closed"] for m, lv, _ in mine])
+        closed = np.mean([key[(m, lv, ours_method)]["closed"] for m, lv, _ in mine])
         lines.append(
-            f"{kind}: {len(mine)} cases; ours / best quadric at equal triangles: mean "
-            f"distance {gm['mean']:.2f}x, two-sided Hausdorff {gm['hausdorff']:.2f}x, time "
-            f"{gm['seconds']:.1f}x; worst mean {worst[0]:.2f}x ({worst[1]}); ours closed "
-            f"{100 * closed:.0f} %"
+            f"{ours_method}, {kind}: {len(mine)} cases; ours / best quadric at equal "
+            f"triangles: mean distance {gm['mean']:.2f}x, two-sided Hausdorff "
+            f"{gm['hausdorff']:.2f}x, time {gm['seconds']:.1f}x; worst mean "
+            f"{worst[0]:.2f}x ({worst[1]}); ours closed {100 * closed:.0f} %"
         )
     return lines
 
@@ -177,7 +204,7 @@ def plot(rows: list[dict], path: Path, models: list[str]) -> None:
 
     fig, axes = plt.subplots(1, len(models), figsize=(5 * len(models), 4), squeeze=False)
     for ax, model in zip(axes[0], models, strict=True):
-        for method in ["pointatlas", *PEERS]:
+        for method in ["pointatlas", "pointatlas_decimate", *PEERS]:
             pts = sorted(
                 (r["triangles"], r["mean"])
                 for r in rows
@@ -201,6 +228,12 @@ def main() -> None:
     parser.add_argument("--angles", type=float, nargs="+", default=[5.0, 10.0, 20.0, 40.0])
     parser.add_argument("--out", type=Path, default=Path("bench-output/simplify_rd"))
     parser.add_argument("--plot", type=Path, default=None)
+    parser.add_argument(
+        "--max-decimate",
+        type=int,
+        default=30_000,
+        help="largest input (triangles) given to the pure-Python decimate_mesh",
+    )
     args = parser.parse_args()
     kind_of = kinds()
     files = sorted(p for p in (DATA / "collection").iterdir() if p.suffix in MESH_SUFFIXES)
@@ -209,7 +242,8 @@ def main() -> None:
     rows = []
     for path in files:
         try:
-            mine = run_model(path, kind_of.get(path.stem, "organic"), args.angles)
+            kind = kind_of.get(path.stem, "organic")
+            mine = run_model(path, kind, args.angles, args.max_decimate)
         except Exception as exc:  # a peer that refuses a model is reported, not fatal
             print(f"{path.name}: skipped ({type(exc).__name__}: {exc})", flush=True)
             continue

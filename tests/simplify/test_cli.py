@@ -276,3 +276,21 @@ def test_stl_output_is_the_earcut_triangles(tmp_path, model):
     corners_a = a.vertices[a.triangles].astype(np.float32)
     assert np.array_equal(corners_a, b.vertices[b.triangles].astype(np.float32))
     assert trimesh.load(stl).is_watertight
+
+
+def test_max_triangles_and_decimate_from_the_command_line(tmp_path):
+    reports = {}
+    for how in ([], ["--decimate"]):
+        out, rep = tmp_path / f"e{len(how)}.obj", tmp_path / f"r{len(how)}.json"
+        args = ["simplify", "eight", str(out), "--max-triangles", "320", "--report", str(rep)]
+        res = runner.invoke(app, args + how)
+        assert res.exit_code == 0, res.output
+        reports[len(how)] = info = json.loads(rep.read_text())
+        assert info["is_closed"] and info["n_triangles"] <= 330
+        assert read_mesh(out).n_faces == info["n_polygons"]
+    assert reports[1]["method"] == "decimate" and reports[0]["method"] == "regions"
+    # placed vertices: the decimation is much closer at the same budget, both ways
+    assert reports[1]["hausdorff"] < 0.5 * reports[0]["hausdorff"]
+    args = ["simplify", "eight", str(tmp_path / "x.obj"), "--decimate", "--faces", "5"]
+    bad = runner.invoke(app, args)
+    assert bad.exit_code == 1 and "--decimate takes --max-triangles" in bad.output

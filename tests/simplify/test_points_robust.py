@@ -97,3 +97,15 @@ def test_pinched_vertices_are_split_into_one_vertex_per_fan():
     assert len(v2) == 7 and mesh_checks(len(v2), t2) == (False, True, True)
     np.testing.assert_array_equal(v2[t2], v[t])  # same triangles in space
     assert t2[0, 1] == t2[2, 0] and t2[0, 2] == t2[2, 2]  # the shared edge stays shared
+
+
+def test_repeated_rounded_points_do_not_crash():
+    # an icosphere's vertices rounded to 2 decimals, each given three times (a LAS
+    # with duplicate points): the arcs' chord check met no chord and indexed [-1]
+    from pointatlas.simplify._arcs import Arc, _clashing_arcs
+    from pointatlas.synth import icosphere
+
+    assert _clashing_arcs([Arc([3], (0, 1), 0.1, kept=[3])]).size == 0
+    p = np.repeat(np.round(np.asarray(icosphere(2).vertices), 2), 3, axis=0)
+    res = simplify_points(p, p / np.linalg.norm(p, axis=1, keepdims=True))
+    assert res.mesh.is_closed and res.mesh.is_manifold

@@ -85,6 +85,8 @@ def _simplify_mesh_command(
     eta,
     n_faces,
     max_error,
+    max_triangles,
+    decimate,
     chord_tolerance,
     planarize,
     seed,
@@ -92,23 +94,30 @@ def _simplify_mesh_command(
     report,
     render,
 ):
-    from ..simplify import simplify_mesh
+    from ..simplify import decimate_mesh, simplify_mesh
     from ..simplify._mesh_path import surface_diagonal
 
     v = mesh_in.vertices
     diagonal = surface_diagonal(v, mesh_in.triangles)
-    res = _run(
-        v,
-        mesh_in.triangles,
-        max_angle=max_angle,
-        eta=eta,
-        n_faces=n_faces,
-        max_error=_length_option(max_error, "--max-error", diagonal),
-        chord_tolerance=_length_option(chord_tolerance, "--chord-tolerance", diagonal),
-        planarize=planarize,
-        rng=seed,
-        function=simplify_mesh,
-    )
+    if decimate:
+        budget = max_triangles or max(4, round(0.1 * len(mesh_in.triangles)))
+        res = _run(
+            v, mesh_in.triangles, budget, max_angle=max_angle, rng=seed, function=decimate_mesh
+        )
+    else:
+        res = _run(
+            v,
+            mesh_in.triangles,
+            max_angle=max_angle,
+            eta=eta,
+            n_faces=n_faces,
+            max_error=_length_option(max_error, "--max-error", diagonal),
+            max_triangles=max_triangles,
+            chord_tolerance=_length_option(chord_tolerance, "--chord-tolerance", diagonal),
+            planarize=planarize,
+            rng=seed,
+            function=simplify_mesh,
+        )
     written = [write_simplified(out, res)]
     if triangles is not None:
         written.append(write_triangles(triangles, res))
@@ -121,6 +130,7 @@ def _simplify_mesh_command(
             "input_faces": int(mesh_in.n_faces),
             "seed": seed,
             **res.summary(),
+            "method": "decimate" if decimate else "regions",
         }
         if Path(report).suffix.lower() in REPORT_EXTENSIONS:
             from ..viz import MeshLayer
@@ -142,7 +152,10 @@ def _simplify_mesh_command(
             written.append(_html_report(report, infile, info, written, layers, seed))
         else:
             written.append(write_summary_json(report, info, written))
-    console.print(surface_table(res, title=Path(str(infile)).name))
+    how = "decimate (structure-aware edge collapse)" if decimate else None
+    console.print(
+        surface_table(res, title=Path(str(infile)).name, **({"path": how} if how else {}))
+    )
     for path in written:
         say(f"written: {path}")
 
@@ -209,6 +222,22 @@ FaceMethodOption = Annotated[
 FacesOption = Annotated[
     int | None,
     typer.Option("--faces", help="Target number of faces (mesh input; found by bisection)."),
+]
+MaxTrianglesOption = Annotated[
+    int | None,
+    typer.Option(
+        "--max-triangles",
+        help="Mesh input: triangle budget (the finest level within it; with --decimate "
+        "the number of triangles to decimate to, default 10% of the input's).",
+    ),
+]
+DecimateOption = Annotated[
+    bool,
+    typer.Option(
+        "--decimate",
+        help="Mesh input, experimental: structure-aware quadric edge collapse (vertices "
+        "placed, flat regions as planar polygons) instead of one face per region.",
+    ),
 ]
 MaxErrorOption = Annotated[
     str | None,
@@ -301,31 +330,34 @@ RenderOption = Annotated[
 ]
 
 
-def _level_angle(eta, max_angle_deg, n_faces, max_error) -> float | None:
+def _level_angle(eta, max_angle_deg, n_faces, max_error, max_triangles=None) -> float | None:
     """Check that one level of detail is given at most; the angle in radians or None."""
     levels = [
         ("--eta", eta),
         ("--max-angle-deg", max_angle_deg),
         ("--faces", n_faces),
         ("--max-error", max_error),
+        ("--max-triangles", max_triangles),
     ]
     given = [flag for flag, value in levels if value is not None]
     if len(given) > 1:
         raise PointAtlasError(
-            f"give one of --eta, --max-angle-deg, --faces, --max-error; got {', '.join(given)}"
+            "give one of --eta, --max-angle-deg, --faces, --max-error, --max-triangles; "
+            f"got {', '.join(given)}"
         )
     if max_angle_deg is None:
         return None
     return math.radians(angle_deg_option(max_angle_deg, "--max-angle-deg"))
 
 
-def _refuse_mesh_flags(infile, *, planarize, n_faces, max_error, chord_tolerance) -> None:
+def _refuse_mesh_flags(infile, *, planarize, n_faces, max_error, chord_tolerance, more=()):
     """The mesh path's flags, given with a point input: one clear error."""
     for flag, value in (
         ("--planarize", planarize or None),
         ("--faces", n_faces),
         ("--max-error", max_error),
         ("--chord-tolerance", chord_tolerance),
+        *more,
     ):
         if value is not None:
             raise PointAtlasError(
@@ -408,6 +440,8 @@ def simplify_command(
     face_method: FaceMethodOption = "general",
     n_faces: FacesOption = None,
     max_error: MaxErrorOption = None,
+    max_triangles: MaxTrianglesOption = None,
+    decimate: DecimateOption = False,
     chord_tolerance: ChordToleranceOption = None,
     planarize: PlanarizeOption = False,
     vertices_only: VerticesOnlyOption = False,
@@ -448,12 +482,17 @@ def simplify_command(
             ("--report", report, (".json", *REPORT_EXTENSIONS)),
         ],
     )
-    max_angle = _level_angle(eta, max_angle_deg, n_faces, max_error)
+    max_angle = _level_angle(eta, max_angle_deg, n_faces, max_error, max_triangles)
+    if max_triangles is not None and max_triangles < 1:
+        raise PointAtlasError(f"--max-triangles must be at least 1; got {max_triangles}")
+    if decimate and (eta, n_faces, max_error) != (None, None, None):
+        raise PointAtlasError("--decimate takes --max-triangles (and --max-angle-deg) only")
     mesh_in = None if vertices_only else read_mesh_input(infile)
     if mesh_in is not None:
+        level = {"n_faces": n_faces, "max_error": max_error, "max_triangles": max_triangles}
         _simplify_mesh_command(
-            infile, mesh_in, out, max_angle=max_angle, eta=eta, n_faces=n_faces,
-            max_error=max_error, chord_tolerance=chord_tolerance, planarize=planarize,
+            infile, mesh_in, out, max_angle=max_angle, eta=eta, **level, decimate=decimate,
+            chord_tolerance=chord_tolerance, planarize=planarize,
             seed=seed, triangles=triangles, report=report, render=render,
         )  # fmt: skip
         return
@@ -463,6 +502,7 @@ def simplify_command(
         n_faces=n_faces,
         max_error=max_error,
         chord_tolerance=chord_tolerance,
+        more=(("--max-triangles", max_triangles), ("--decimate", decimate or None)),
     )
     options = vsa_options(
         k=k, eta=eta, max_angle_deg=max_angle_deg, seeds=seeds, split=split, merge=merge,

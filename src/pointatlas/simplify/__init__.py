@@ -1,7 +1,7 @@
 """Simplified polygon meshes from segmented point sets (thesis 4.4)."""
 
 from ._mesh import SimplifiedMesh, mesh_checks, point_mesh_distance
-from ._mesh_path import simplify_mesh
+from ._mesh_path import decimate_mesh, simplify_mesh
 from ._pipeline import PointSimplification, simplify_points
 from ._proxies import RegionProxies, region_proxies
 from ._segmentation import simplify_segmentation
@@ -15,6 +15,7 @@ __all__ = [
     "SimplifiedMesh",
     "SimplifyWarning",
     "SurfaceSimplification",
+    "decimate_mesh",
     "mesh_checks",
     "point_mesh_distance",
     "region_proxies",

@@ -273,7 +273,7 @@ def _clashing_arcs(arcs: list[Arc]) -> np.ndarray:
     start[1:] = (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])
     group = np.cumsum(start) - 1
     first = np.flatnonzero(start)
-    last = np.append(first[1:], lo.size) - 1
+    last = np.append(first[1:], lo.size) - 1 if first.size else first
     shared = own[first] != own[last]  # own sorted within a chord: two arcs or more
     clash = own[shared[group]]
     ends, two = np.cumsum(lens), np.flatnonzero(lens == 2)

@@ -458,3 +458,82 @@ def _merge_flat(s: _Surface, graph, labels: np.ndarray, max_angle: float) -> np.
     rank = np.empty(n_regions, dtype=np.int64)
     rank[np.unique(merged)[order]] = np.arange(order.size)
     return rank[merged]
+
+
+def decimate_mesh(
+    vertices, triangles, max_triangles: int, *, max_angle: float | None = None, rng=None
+) -> SurfaceSimplification:
+    """Structure-aware decimation of a manifold triangle mesh into planar polygons.
+
+    The triangles are segmented as in `simplify_mesh` (VSA on faces with
+    ``max_angle``, default 10 degrees, flat neighbours merged); the mesh is then
+    decimated by quadric edge collapse to ``max_triangles`` with the flat regions'
+    planes in the quadrics (`decimate`), its vertices placed on the planes of their
+    flat regions (`place_on_planes`), and each region's remaining triangles grouped
+    into simple, planar polygons (`face_polygons`). Experimental beside
+    `simplify_mesh`: the pure-Python collapse takes seconds per 10,000 triangles.
+
+    Examples
+    --------
+    >>> from pointatlas.synth import cube
+    >>> m = cube(6)
+    >>> r = decimate_mesh(m.vertices, m.faces, 12)
+    >>> len(r.polygons), r.is_closed, r.distance_max < 1e-12
+    (6, True, True)
+    """
+    from .._core import as_int
+    from ._decimate import decimate
+    from ._distance import back_distances
+    from ._mesh import mesh_checks, point_mesh_distance
+    from ._place import FLAT_RTOL, flat_planes, place_on_planes
+    from ._polygons import PLANAR_RTOL, face_polygons
+
+    verts = as_points(vertices, name="vertices")
+    tri = _as_triangles(triangles, verts.shape[0])
+    target = as_int(max_triangles, "max_triangles", lo=1)
+    angle = MAX_ANGLE if max_angle is None else max_angle
+    s = _surface(verts, tri)
+    graph = _face_graph(s)
+    labels, _ = _segment_faces(s, graph, max_angle=angle, eta=None, rng=rng)
+    labels = _merge_flat(s, graph, labels, min(angle, FLAT_MERGE_ANGLE))
+    n_regions = int(labels.max()) + 1
+    diag = _diagonal(verts)
+    planes = flat_planes(verts, tri, labels, n_regions, FLAT_RTOL * diag)
+    out_v, out_t, kept, used = decimate(verts, tri, target, labels=labels, planes=planes)
+    face = labels[kept]
+    out_v = place_on_planes(out_v, out_t, face, *planes, 1e-3 * diag, 1e-9 * diag)
+    polygons, polygon_face, planarity = face_polygons(
+        out_v, out_t, face, [()] * n_regions, PLANAR_RTOL * diag
+    )
+    per_face = np.zeros(n_regions)
+    np.maximum.at(per_face, polygon_face, planarity)
+    closed, manifold, oriented = mesh_checks(out_v.shape[0], out_t)
+    sides = np.concatenate([out_t[:, [0, 1]], out_t[:, [1, 2]], out_t[:, [2, 0]]])
+    und = np.unique(np.sort(sides, axis=1), axis=0)
+    dist = point_mesh_distance(verts, out_v, out_t)
+    back = back_distances(out_v, out_t, verts, tri)
+    return SurfaceSimplification(
+        vertices=out_v,
+        vertex_source=used,
+        polygons=polygons,
+        polygon_face=polygon_face,
+        polygon_planarity=planarity,
+        face_region=np.arange(n_regions, dtype=np.int64),
+        face_loops=tuple(() for _ in range(n_regions)),
+        face_kept_input=np.zeros(n_regions, dtype=bool),
+        planarity_error=per_face,
+        triangles=out_t,
+        triangle_face=face,
+        is_closed=closed,
+        is_manifold=manifold,
+        is_oriented=oriented,
+        euler_characteristic=int(out_v.shape[0] - und.shape[0] + out_t.shape[0]),
+        face_labels=labels,
+        distances=dist,
+        distance_mean=float(dist.mean()),
+        distance_max=float(dist.max()),
+        back_distance_mean=float(back.mean()),
+        back_distance_max=float(back.max()),
+        chord_tolerance=float("nan"),
+        n_refined=0,
+    )
