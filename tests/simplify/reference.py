@@ -50,3 +50,27 @@ def row_majority_reference(nb):
     counts = (nb[:, :, None] == nb[:, None, :]).sum(axis=1).astype(np.float64)
     counts[:, 0] += 0.5
     return nb[np.arange(nb.shape[0]), counts.argmax(axis=1)]
+
+
+def collapse_position_reference(q, a, b):
+    """The cheapest of the quadric's minimiser (when its 3x3 part is well conditioned),
+    the two ends and the midpoint: ``(cost, x, y, z)``."""
+    candidates = [np.asarray(a, float), np.asarray(b, float), 0.5 * (np.asarray(a) + b)]
+    m = q[:3, :3]
+    scale = np.prod(np.linalg.norm(m, axis=1))
+    if scale > 0 and abs(np.linalg.det(m)) > 1e-10 * scale:
+        candidates.append(np.linalg.solve(m, -q[:3, 3]))
+    costs = [float(np.append(p, 1.0) @ q @ np.append(p, 1.0)) for p in candidates]
+    k = int(np.argmin(costs))
+    return (costs[k], *candidates[k].tolist())
+
+
+def turns_over_reference(v, faces, w, x):
+    for f in faces:
+        p = v[f].copy()
+        before = np.cross(p[1] - p[0], p[2] - p[0])
+        p[f == w] = x
+        after = np.cross(p[1] - p[0], p[2] - p[0])
+        if before @ after <= 0 or after @ after <= 1e-12 * (before @ before):
+            return True
+    return False

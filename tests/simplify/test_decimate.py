@@ -84,3 +84,22 @@ def test_as_close_as_open3d_quadric_decimation_at_equal_triangles():
         mine = _two_sided_mean(v, t, ours.vertices, ours.triangles)
         theirs = _two_sided_mean(v, t, pv, pt)
         assert mine <= 1.25 * theirs, (name, mine, theirs)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_kernels_agree_with_the_numpy_references(seed):
+    from pointatlas.simplify._kernels import collapse_position, turns_over
+
+    from .reference import collapse_position_reference, turns_over_reference
+
+    rng = np.random.default_rng(seed)
+    planes = rng.normal(size=(int(rng.integers(1, 5)), 4))  # rank 1..3 (+ degenerate)
+    q = sum(np.outer(h, h) for h in planes)
+    a, b = rng.normal(size=3), rng.normal(size=3)
+    np.testing.assert_allclose(
+        collapse_position(q, a, b), collapse_position_reference(q, a, b), rtol=1e-9, atol=1e-12
+    )
+    v = rng.normal(size=(8, 3))
+    faces = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 5]])
+    x = v[0] + rng.normal(scale=2.0, size=3)
+    assert turns_over(v, faces, 0, x) == turns_over_reference(v, faces, 0, x)

@@ -20,6 +20,8 @@ import heapq
 
 import numpy as np
 
+from ._kernels import collapse_position, turns_over
+
 __all__ = ["decimate"]
 
 #: Weight of an open boundary edge's quadric relative to the triangles'.
@@ -170,19 +172,12 @@ def _edges(tri):
 
 
 def _push(heap, v, q, a, b, version) -> None:
-    qq = q[a] + q[b]
-    x = None
-    mat = qq[:3, :3]
-    if np.linalg.cond(mat) < 1e8:
-        x = np.linalg.solve(mat, -qq[:3, 3])
-    candidates = [v[a], v[b], 0.5 * (v[a] + v[b])] + ([x] if x is not None else [])
-    costs = [float(np.append(p, 1.0) @ qq @ np.append(p, 1.0)) for p in candidates]
-    k = int(np.argmin(costs))
+    cost, x, y, z = collapse_position(q[a] + q[b], v[a], v[b])
     # ties (flat parts cost nothing) go to the shortest edge, so no vertex gathers a
     # whole flat face around it
     d = v[a] - v[b]
-    cost = max(costs[k], 0.0) + _TIE * float(d @ d) ** 2
-    heapq.heappush(heap, (cost, a, b, int(version[a]), int(version[b]), tuple(candidates[k])))
+    cost = max(cost, 0.0) + _TIE * float(d @ d) ** 2
+    heapq.heappush(heap, (cost, a, b, int(version[a]), int(version[b]), (x, y, z)))
 
 
 def _collapsible(v, tri, faces_of, a, b, shared, x) -> bool:
@@ -193,12 +188,7 @@ def _collapsible(v, tri, faces_of, a, b, shared, x) -> bool:
     if ring_a & ring_b != opposite:
         return False
     for w, others in ((a, faces_of[a]), (b, faces_of[b])):
-        for f in others - shared:
-            p = v[tri[f]]
-            before = np.cross(p[1] - p[0], p[2] - p[0])
-            p = p.copy()
-            p[tri[f] == w] = x
-            after = np.cross(p[1] - p[0], p[2] - p[0])
-            if before @ after <= 0.0 or after @ after <= 1e-12 * (before @ before):
-                return False
+        around = list(others - shared)
+        if around and turns_over(v, tri[around], w, x):
+            return False
     return True
