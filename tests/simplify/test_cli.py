@@ -294,3 +294,18 @@ def test_max_triangles_and_decimate_from_the_command_line(tmp_path):
     args = ["simplify", "eight", str(tmp_path / "x.obj"), "--decimate", "--faces", "5"]
     bad = runner.invoke(app, args)
     assert bad.exit_code == 1 and "--decimate takes --max-triangles" in bad.output
+
+
+def test_an_unreachable_target_is_said_and_the_report_describes_the_file(tmp_path):
+    part, out, rep = tmp_path / "part.stl", tmp_path / "p.obj", tmp_path / "r.json"
+    assert runner.invoke(app, ["data", "export", "cube", str(part)]).exit_code == 0
+    res = runner.invoke(
+        app, ["simplify", str(part), str(out), "--faces", "1", "--report", str(rep)]
+    )
+    assert res.exit_code == 0, res.output
+    assert "not reachable: --faces 1: the closest level has" in res.stderr
+    info, written = json.loads(rep.read_text()), read_mesh(out)
+    assert written.n_faces == info["n_polygons"] == 6
+    # what was written is the cube's six sides, planar, and the report says so (each
+    # side an octagon round its centre vertex, which the two regions kept as input)
+    assert info["max_planarity_error"] < 1e-12 and set(written.face_sizes.tolist()) == {8}

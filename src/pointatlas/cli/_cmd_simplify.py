@@ -60,6 +60,24 @@ MESH_OUT = (".obj", ".ply", ".off", ".stl")
 DEMO_ETA = 20.0
 
 
+def _say_missed_target(res, *, n_faces, max_triangles, max_error) -> None:
+    """One warning line when the level asked for was not reached (the output is the
+    closest level; the table and report describe it)."""
+    missed = []
+    if n_faces is not None and res.n_faces != n_faces:
+        missed.append(f"--faces {n_faces}: the closest level has {res.n_faces} faces")
+    if max_triangles is not None and len(res.triangles) > max_triangles:
+        missed.append(
+            f"--max-triangles {max_triangles}: the coarsest level has {len(res.triangles)}"
+        )
+    if max_error is not None:
+        reached = max(res.distance_max, res.back_distance_max)
+        if reached > max_error:
+            missed.append(f"--max-error {max_error:.4g}: the finest level is {reached:.4g} away")
+    for line in missed:
+        err_console.print(f"[bold yellow]warning:[/] not reachable: {line}", highlight=False)
+
+
 def _length_option(text: str | None, flag: str, diagonal: float) -> float | None:
     """A length, or a percentage of the bounding-box diagonal (``0.5%``)."""
     from .._core import as_float
@@ -118,6 +136,8 @@ def _simplify_mesh_command(
             rng=seed,
             function=simplify_mesh,
         )
+    bound = _length_option(max_error, "--max-error", diagonal)
+    _say_missed_target(res, n_faces=n_faces, max_triangles=max_triangles, max_error=bound)
     written = [write_simplified(out, res)]
     if triangles is not None:
         written.append(write_triangles(triangles, res))
