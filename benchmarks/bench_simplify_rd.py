@@ -216,7 +216,7 @@ def plot(rows: list[dict], path: Path, models: list[str]) -> None:
         ax.set_title(model)
         ax.set_xlabel("triangles")
         ax.set_ylabel("two-sided mean distance (% of diagonal)")
-    axes[0][0].legend()
+    axes[0][0].legend(loc="upper right")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)

@@ -78,7 +78,7 @@ def density_figures(out: Path, rows: list) -> list[Path]:
         ax.axvline(math.pi + _ALPHA / 2, color="grey", lw=0.8, ls="--")
         ax.set_title(f"Fig. 2.2: delta_h of {model} (alpha = pi/3)")
         ax.set_xlabel("azimuth s")
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="upper right")  # fixed: "best" warns when slow
     written = [save_figure(fig, out / FIGURES[0], dpi=80)]
     # Figs 2.5 / 2.6: the densities on the (azimuth, polar angle) sphere and in the xy-plane
     ss, tt = np.meshgrid(np.linspace(0, 2 * math.pi, 181), np.linspace(0, math.pi, 91))

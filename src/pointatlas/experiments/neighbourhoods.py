@@ -348,7 +348,7 @@ def _energy_figure(title: str, series: dict[str, list], path: Path, note: str = 
     ax.set_xlabel("energy / max energy of the model" + note)
     ax.set_ylabel("points")
     ax.set_title(title)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper right")  # fixed: "best" warns when slow (load)
     return save_figure(fig, path)
 
 
@@ -396,7 +396,7 @@ def write_neighbourhood_outputs(summary: dict, out: Path, *, label: str) -> list
     ax.set_xlabel("(a*, b*) in degrees")
     ax.set_ylabel("points")
     ax.set_title(f"Fig. 5.4 ({label}): optimal (a*, b*), stacked by k* (6 bottom ... 20 top)")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper right")  # fixed: "best" warns when slow (load)
     written.append(save_figure(fig, out / "fig5_4.png"))
     written.append(
         write_text(

@@ -256,7 +256,7 @@ def write_vsa_outputs(summary: dict, out: Path) -> list[Path]:
     ax.set_xlabel("region size (points)")
     ax.set_ylabel("number of regions")
     ax.set_title(f"Fig. 4.5: region sizes up to {fig45['bound']} over {summary['n_valid']} models")
-    ax.legend()
+    ax.legend(loc="upper right")  # fixed: "best" warns when slow (load)
     written.append(save_figure(fig, out / "fig_4_5.png"))
     return written
 
