@@ -18,15 +18,10 @@ def simplification_table(mesh, seg=None, *, title: str | None = None) -> Table:
     if seg is not None:
         table.add_row("VSA regions", str(seg.n_regions))
     table.add_row("faces (regions meshed)", f"{s['n_faces']} ({s['n_regions']} regions)")
-    table.add_row("polygons / triangles written", f"{s['n_polygons']} / {s['n_triangles']}")
-    table.add_row("vertices", str(s["n_vertices"]))
-    table.add_row("faces with holes", str(s["n_faces_with_holes"]))
+    _written_rows(table, s)
     table.add_row("vertex method", s["vertex_method"] + (" (fallback)" if s["fallback"] else ""))
     table.add_row("guarded vertices", str(s["n_guarded_vertices"]))
-    table.add_row(
-        "closed / manifold / oriented",
-        f"{s['is_closed']} / {s['is_manifold']} / {s['is_oriented']}",
-    )
+    table.add_row("closed / manifold / oriented", _checks(s))
     table.add_row("faces not ok", str(s["faces_not_ok"]))
     table.add_row("max planarity error (faces)", f"{s['max_planarity_error']:.3g}")
     table.add_row("max planarity error (polygons)", f"{s['max_polygon_planarity_error']:.3g}")
@@ -64,14 +59,9 @@ def surface_table(
     table.add_column("value")
     table.add_row("path", path)
     table.add_row("faces (regions)", str(s["n_faces"]))
-    table.add_row("polygons / triangles written", f"{s['n_polygons']} / {s['n_triangles']}")
-    table.add_row("vertices", str(s["n_vertices"]))
-    table.add_row("faces with holes", str(s["n_faces_with_holes"]))
+    _written_rows(table, s)
     table.add_row("faces kept as input triangles", str(s["n_faces_kept_as_input_triangles"]))
-    table.add_row(
-        "closed / manifold / oriented",
-        f"{s['is_closed']} / {s['is_manifold']} / {s['is_oriented']}",
-    )
+    table.add_row("closed / manifold / oriented", _checks(s))
     table.add_row("Euler characteristic", str(s["euler_characteristic"]))
     table.add_row("max planarity error (polygons)", f"{s['max_planarity_error']:.3g}")
     table.add_row("mean / max distance", f"{s['distance_mean']:.4g} / {s['distance_max']:.4g}")
@@ -104,3 +94,14 @@ def render_surface(path: Path, mesh_in, res, *, title: str | None = None):
         ),
     ]
     return render_side_by_side(path, panels, title=title, view=camera, size=(1800, 900))
+
+
+def _written_rows(table: Table, s: dict) -> None:
+    """The rows both tables share: what the polygon file holds."""
+    table.add_row("polygons / triangles written", f"{s['n_polygons']} / {s['n_triangles']}")
+    table.add_row("vertices", str(s["n_vertices"]))
+    table.add_row("faces with holes", str(s["n_faces_with_holes"]))
+
+
+def _checks(s: dict) -> str:
+    return f"{s['is_closed']} / {s['is_manifold']} / {s['is_oriented']}"

@@ -90,7 +90,7 @@ def decimate(vertices, triangles, target: int, *, labels=None, planes=None, stru
     alive = np.ones(tri.shape[0], dtype=bool)
     version = np.zeros(n_v, dtype=np.int64)
     heap = []
-    for a, b in _edges(tri):
+    for a, b in edge.tolist():
         _push(heap, v, q, a, b, version)
     n_alive = tri.shape[0]
     while n_alive > target and heap:
@@ -164,11 +164,6 @@ def _vertex_quadrics(v, tri, labels, planes, structure) -> np.ndarray:
         )
         np.add.at(q, pairs[:, 0], kp)
     return q
-
-
-def _edges(tri):
-    e = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-    return np.unique(e, axis=0).tolist()
 
 
 def _push(heap, v, q, a, b, version) -> None:

@@ -483,10 +483,9 @@ def decimate_mesh(
     """
     from .._core import as_int
     from ._decimate import decimate
-    from ._distance import back_distances
-    from ._mesh import mesh_checks, point_mesh_distance
     from ._place import FLAT_RTOL, flat_planes, place_on_planes
-    from ._polygons import PLANAR_RTOL, face_polygons
+    from ._polygons import PLANAR_RTOL
+    from ._surface import surface_result
 
     verts = as_points(vertices, name="vertices")
     tri = _as_triangles(triangles, verts.shape[0])
@@ -502,38 +501,17 @@ def decimate_mesh(
     out_v, out_t, kept, used = decimate(verts, tri, target, labels=labels, planes=planes)
     face = labels[kept]
     out_v = place_on_planes(out_v, out_t, face, *planes, 1e-3 * diag, 1e-9 * diag)
-    polygons, polygon_face, planarity = face_polygons(
-        out_v, out_t, face, [()] * n_regions, PLANAR_RTOL * diag
-    )
-    per_face = np.zeros(n_regions)
-    np.maximum.at(per_face, polygon_face, planarity)
-    closed, manifold, oriented = mesh_checks(out_v.shape[0], out_t)
-    sides = np.concatenate([out_t[:, [0, 1]], out_t[:, [1, 2]], out_t[:, [2, 0]]])
-    und = np.unique(np.sort(sides, axis=1), axis=0)
-    dist = point_mesh_distance(verts, out_v, out_t)
-    back = back_distances(out_v, out_t, verts, tri)
-    return SurfaceSimplification(
-        vertices=out_v,
-        vertex_source=used,
-        polygons=polygons,
-        polygon_face=polygon_face,
-        polygon_planarity=planarity,
-        face_region=np.arange(n_regions, dtype=np.int64),
-        face_loops=tuple(() for _ in range(n_regions)),
-        face_kept_input=np.zeros(n_regions, dtype=bool),
-        planarity_error=per_face,
-        triangles=out_t,
-        triangle_face=face,
-        is_closed=closed,
-        is_manifold=manifold,
-        is_oriented=oriented,
-        euler_characteristic=int(out_v.shape[0] - und.shape[0] + out_t.shape[0]),
-        face_labels=labels,
-        distances=dist,
-        distance_mean=float(dist.mean()),
-        distance_max=float(dist.max()),
-        back_distance_mean=float(back.mean()),
-        back_distance_max=float(back.max()),
+    return surface_result(
+        verts,
+        tri,
+        out_v,
+        out_t,
+        face,
+        used,
+        [()] * n_regions,
+        labels=labels,
+        kept_input=np.zeros(n_regions, dtype=bool),
+        planar_tol=PLANAR_RTOL * diag,
         chord_tolerance=float("nan"),
         n_refined=0,
     )

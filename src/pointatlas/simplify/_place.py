@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FLAT_RTOL", "flat_planes", "place_on_planes"]
+__all__ = ["FLAT_RTOL", "flat_planes", "place_on_planes", "triangle_normals"]
 
 #: Largest distance of a region's input vertices to its plane, as a fraction of the
 #: diagonal, for the region to count as flat.
@@ -120,9 +120,9 @@ def place_on_planes(
 
 def _unflip(v0, x, tri, rounds: int = 4):
     """Vertices of triangles whose normal turned against its former one go back."""
-    before = _normals(v0, tri)
+    before = triangle_normals(v0, tri)
     for _ in range(rounds):
-        bad = np.einsum("ij,ij->i", before, _normals(x, tri)) <= 0.0
+        bad = np.einsum("ij,ij->i", before, triangle_normals(x, tri)) <= 0.0
         bad &= np.linalg.norm(before, axis=1) > 0.0
         if not bad.any():
             break
@@ -131,6 +131,7 @@ def _unflip(v0, x, tri, rounds: int = 4):
     return x
 
 
-def _normals(v, tri):
+def triangle_normals(v, tri):
+    """Unit normals of the triangles (zero for degenerate ones)."""
     c = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
     return c / np.maximum(np.linalg.norm(c, axis=1), 1e-300)[:, None]

@@ -51,8 +51,8 @@ def ear_clip_triangles(points: np.ndarray, ids) -> list[tuple[int, int, int]] | 
     n = len(ids)
     if n == 3:
         return [tuple(ids)]
-    normal = np.cross(p[1:] - p[:-1], np.roll(p, -2, axis=0)[:-1] - p[1:]).sum(axis=0)
-    normal = normal + np.cross(p[0] - p[-1], p[1] - p[0])
+    d = np.roll(p, -1, axis=0) - p  # the sides
+    normal = np.cross(d, np.roll(d, -1, axis=0)).sum(axis=0)
     length = float(np.sqrt(normal @ normal))
     if not length > 0.0 or not np.isfinite(length):
         return None

@@ -34,7 +34,7 @@ from ._arcs import (
     split_arcs,
 )
 from ._distance import back_distances
-from ._place import FLAT_RTOL, flat_planes, place_on_planes
+from ._place import FLAT_RTOL, flat_planes, place_on_planes, triangle_normals
 from ._polygons import PLANAR_RTOL, face_polygons
 from ._surface_faces import bad_regions, face_of_loops, loop_vertices
 
@@ -321,10 +321,10 @@ def _planarize(v0, tri, tface, kept, normals, offsets, bound, *, weight=1e-3, ro
     scale = np.where(length > bound, bound / np.maximum(length, 1e-300), 1.0)
     x = v0 + disp * scale[:, None]
     x[length <= 1e-12 * max(bound, 1e-300)] = v0[length <= 1e-12 * max(bound, 1e-300)]
-    before = _triangle_normals(v0, tri)
+    before = triangle_normals(v0, tri)
     face_n = normals[tface]
     for _ in range(rounds):
-        after = _triangle_normals(x, tri)
+        after = triangle_normals(x, tri)
         ok_before = np.einsum("ij,ij->i", before, face_n) > 0.0
         bad = ok_before & ~(np.einsum("ij,ij->i", after, face_n) > 0.0)
         if not bad.any():
@@ -332,13 +332,6 @@ def _planarize(v0, tri, tface, kept, normals, offsets, bound, *, weight=1e-3, ro
         back = np.unique(tri[bad])
         x[back] = v0[back]
     return x
-
-
-def _triangle_normals(v, tri):
-    """Unit normals of the triangles (zero for degenerate ones)."""
-    c = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
-    length = np.linalg.norm(c, axis=1)
-    return c / np.maximum(length, 1e-300)[:, None]
 
 
 def simplify_surface(
@@ -388,7 +381,21 @@ def simplify_surface(
         bound, exact = max(tol, 1e-3 * diag), 0.01 * PLANAR_RTOL * diag
         out_v = place_on_planes(out_v, out_t, all_f, *planes, bound, exact)
     face_loops = [tuple(remap[lp] for lp in loops) for loops in loops_out]
-    return _result(run, verts, out_v, out_t, all_f, used, face_loops)
+    diag = float(np.linalg.norm(np.ptp(out_v, axis=0))) if out_v.size else 0.0
+    return surface_result(
+        verts,
+        tri,
+        out_v,
+        out_t,
+        all_f,
+        used,
+        face_loops,
+        labels=lab,
+        kept_input=run.kept_input,
+        planar_tol=PLANAR_RTOL * diag,
+        chord_tolerance=run.tol,
+        n_refined=len(run.refined),
+    )
 
 
 class _RegionFaces:
@@ -515,44 +522,59 @@ class _RegionFaces:
             self.keep_input(bad)
 
 
-def _result(run: _RegionFaces, verts, out_v, out_t, all_f, used, face_loops):
-    """The `SurfaceSimplification` of the settled faces: polygons, checks, distances."""
+def surface_result(
+    verts,
+    tri,
+    out_v,
+    out_t,
+    tface,
+    used,
+    face_loops,
+    *,
+    labels,
+    kept_input,
+    planar_tol,
+    chord_tolerance,
+    n_refined,
+):
+    """The `SurfaceSimplification` of output triangles labelled by face (``tface``):
+    the faces' simple planar polygons (``planar_tol``), the checks, and the distances
+    both ways against the input (``verts``, ``tri``); shared by every mesh path."""
     from ._mesh import mesh_checks, point_mesh_distance
 
-    kept_input, lab = run.kept_input, run.lab
-    diag = float(np.linalg.norm(np.ptp(out_v, axis=0))) if out_v.size else 0.0
+    n_regions = len(face_loops)
     polygons, polygon_face, polygon_planarity = face_polygons(
-        out_v, out_t, all_f, face_loops, PLANAR_RTOL * diag
+        out_v, out_t, tface, face_loops, planar_tol
     )
-    planarity = np.zeros(run.n_regions)
+    planarity = np.zeros(n_regions)
     np.maximum.at(planarity, polygon_face, polygon_planarity)
     closed, manifold, oriented = mesh_checks(out_v.shape[0], out_t)
     und = np.sort(np.concatenate([out_t[:, [0, 1]], out_t[:, [1, 2]], out_t[:, [2, 0]]]), 1)
     n_edges = np.unique(und, axis=0).shape[0]
     dist = point_mesh_distance(verts, out_v, out_t)
-    back = back_distances(out_v, out_t, verts, run.s.triangles)
+    back = back_distances(out_v, out_t, verts, tri)
     return SurfaceSimplification(
         vertices=out_v,
         vertex_source=used,
         polygons=polygons,
         polygon_face=polygon_face,
         polygon_planarity=polygon_planarity,
-        face_region=np.arange(run.n_regions, dtype=np.int64),
+        face_region=np.arange(n_regions, dtype=np.int64),
         face_loops=tuple(face_loops),
         face_kept_input=kept_input.copy(),
         planarity_error=planarity,
         triangles=out_t,
-        triangle_face=all_f,
+        triangle_face=tface,
         is_closed=closed,
         is_manifold=manifold,
         is_oriented=oriented,
         euler_characteristic=int(out_v.shape[0] - n_edges + out_t.shape[0]),
-        face_labels=lab.copy(),
+        face_labels=labels.copy(),
         distances=dist,
         distance_mean=float(dist.mean()) if dist.size else 0.0,
         distance_max=float(dist.max()) if dist.size else 0.0,
         back_distance_mean=float(back.mean()) if back.size else 0.0,
         back_distance_max=float(back.max()) if back.size else 0.0,
-        chord_tolerance=run.tol,
-        n_refined=len(run.refined),
+        chord_tolerance=chord_tolerance,
+        n_refined=n_refined,
     )
