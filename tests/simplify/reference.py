@@ -74,3 +74,162 @@ def turns_over_reference(v, faces, w, x):
         if before @ after <= 0 or after @ after <= 1e-12 * (before @ before):
             return True
     return False
+
+
+def decimate_reference(vertices, triangles, target, *, labels=None, planes=None, structure=1.0):
+    """The decimation loop in plain Python (heap of edges, sets of faces per vertex),
+    stopping at ``target`` triangles: what `collapse_edges` computes. The collapse
+    position is the kernel's (checked on its own against
+    `collapse_position_reference`): on symmetric shapes one ulp reorders ties."""
+    import heapq
+
+    from pointatlas.simplify._decimate import _TIE, _vertex_quadrics
+    from pointatlas.simplify._kernels import collapse_position
+
+    def push(heap, v, q, a, b, version):
+        cost, x, y, z = collapse_position(q[a] + q[b], v[a], v[b])
+        d = v[a] - v[b]
+        dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        cost = max(cost, 0.0) + _TIE * dd * dd
+        heapq.heappush(heap, (cost, a, b, int(version[a]), int(version[b]), (x, y, z)))
+
+    def collapsible(v, tri, faces_of, a, b, shared, x):
+        ring_a = {int(u) for f in faces_of[a] for u in tri[f]} - {a}
+        ring_b = {int(u) for f in faces_of[b] for u in tri[f]} - {b}
+        opposite = {int(u) for f in shared for u in tri[f]} - {a, b}
+        if ring_a & ring_b != opposite:
+            return False
+        sides_a = {frozenset(tri[f].tolist()) - {a} for f in faces_of[a] - shared}
+        sides_b = {frozenset(tri[f].tolist()) - {b} for f in faces_of[b] - shared}
+        if sides_a & sides_b:
+            return False  # the same triangle twice (a tetrahedron)
+        if not (faces_of[a] | faces_of[b]) - shared:
+            return False  # the last triangles of a piece
+        for w, others in ((a, faces_of[a]), (b, faces_of[b])):
+            around = list(others - shared)
+            if around and turns_over_reference(v, tri[around], w, x):
+                return False
+        return True
+
+    v = np.array(vertices, dtype=np.float64)
+    tri = np.array(triangles, dtype=np.int64)
+    n_v = v.shape[0]
+    q = _vertex_quadrics(v, tri, labels, planes, structure)
+    faces_of = [set() for _ in range(n_v)]
+    for f, (a, b, c) in enumerate(tri.tolist()):
+        faces_of[a].add(f)
+        faces_of[b].add(f)
+        faces_of[c].add(f)
+    on_boundary = np.zeros(n_v, dtype=bool)
+    und = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    edge, count = np.unique(und, axis=0, return_counts=True)
+    on_boundary[edge[count == 1].reshape(-1)] = True
+    alive = np.ones(tri.shape[0], dtype=bool)
+    version = np.zeros(n_v, dtype=np.int64)
+    heap = []
+    for a, b in edge.tolist():
+        push(heap, v, q, a, b, version)
+    n_alive = tri.shape[0]
+    while n_alive > target and heap:
+        cost, a, b, va, vb, x = heapq.heappop(heap)
+        if version[a] != va or version[b] != vb or not faces_of[a] or not faces_of[b]:
+            continue
+        shared = faces_of[a] & faces_of[b]
+        if not shared or (len(shared) == 2 and on_boundary[a] and on_boundary[b]):
+            continue  # an inner edge between two boundary vertices would pinch
+        if not collapsible(v, tri, faces_of, a, b, shared, np.array(x)):
+            continue
+        for f in shared:
+            alive[f] = False
+            for w in tri[f].tolist():
+                faces_of[w].discard(f)
+        n_alive -= len(shared)
+        for f in faces_of[b]:
+            tri[f][tri[f] == b] = a
+        faces_of[a] |= faces_of[b]
+        faces_of[b] = set()
+        v[a] = x
+        q[a] += q[b]
+        on_boundary[a] |= on_boundary[b]
+        version[a] += 1
+        version[b] += 1
+        for w in {int(u) for f in faces_of[a] for u in tri[f]} - {a}:
+            push(heap, v, q, a, w, version)
+    kept = np.flatnonzero(alive)
+    used = np.unique(tri[kept])
+    remap = np.full(n_v, -1, dtype=np.int64)
+    remap[used] = np.arange(used.size)
+    return v[used], remap[tri[kept]], kept, used
+
+
+def place_on_planes_reference(v0, triangles, triangle_face, normals, offsets, flat, bound, still):
+    """`place_on_planes` one vertex at a time (before the flip guard)."""
+    v0 = np.asarray(v0, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    x = v0.copy()
+    for j in range(v0.shape[0]):
+        regions = sorted({int(f) for f, t in zip(triangle_face, tri, strict=True) if j in t})
+        regions = [r for r in regions if flat[r]]
+        if not regions:
+            continue
+        a = normals[regions]
+        residual = offsets[regions] - a @ v0[j]
+        if np.abs(residual).max() <= still:
+            continue
+        move = np.linalg.pinv(a, rcond=0.0437) @ residual
+        if np.linalg.norm(move) <= bound:
+            x[j] = v0[j] + move
+    return x
+
+
+def ear_clip_reference(points, ids):
+    """Open3D's ear clipping in numpy (`_readers.ear_clip_triangles`), one corner test
+    at a time."""
+    ids = [int(i) for i in ids]
+    p = np.asarray(points, dtype=np.float64)
+    n = len(ids)
+    if n == 3:
+        return [tuple(ids)]
+    d = np.roll(p, -1, axis=0) - p  # the sides
+    normal = np.cross(d, np.roll(d, -1, axis=0)).sum(axis=0)
+    length = float(np.sqrt(normal @ normal))
+    if not length > 0.0 or not np.isfinite(length):
+        return None
+    normal = normal / length
+    order = list(range(n))
+    out = []
+    while len(order) > 3:
+        cut = _first_ear_reference(p, order, normal)
+        if cut is None:
+            return None
+        out.append((ids[order[cut - 1]], ids[order[cut]], ids[order[cut + 1]]))
+        del order[cut]
+    out.append(tuple(ids[k] for k in order))
+    return out
+
+
+def _first_ear_reference(p, order, normal) -> int | None:
+    q = p[order]
+    m = len(order)
+    turn = np.cross(q[1:-1] - q[:-2], q[2:] - q[1:-1]) @ normal
+    for i in np.flatnonzero(turn > 0.0) + 1:
+        others = np.ones(m, dtype=bool)
+        others[i - 1 : i + 2] = False
+        if not _inside_xy_reference(q[i - 1 : i + 2, :2], q[others, :2]).any():
+            return int(i)
+    return None
+
+
+def _inside_xy_reference(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Even-odd test of ``pts`` (K, 2) against the triangle ``tri`` (3, 2), rays to -x."""
+    inside = np.zeros(pts.shape[0], dtype=bool)
+    x, y = pts[:, 0], pts[:, 1]
+    for k in range(3):
+        (x0, y0), (x1, y1) = tri[k], tri[(k + 1) % 3]
+        spans = ((y0 <= y) & (y1 > y)) | ((y1 <= y) & (y0 > y))
+        if not spans.any():
+            continue
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cross = (x1 - x0) * (y - y0) / (y1 - y0) + x0
+        inside ^= spans & (cross < x)
+    return inside

@@ -5,6 +5,7 @@ import pytest
 from typer.testing import CliRunner
 
 from pointatlas.cli import app
+from pointatlas.data import load_mesh
 from pointatlas.io import read_mesh, write_mesh
 from pointatlas.synth import cube, plane_patch
 
@@ -169,8 +170,8 @@ def test_open_sheet_keeps_its_boundary_on_the_mesh_path(tmp_path):
     assert report["euler_characteristic"] == 1  # a disk
     got = read_mesh(out)
     lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
-    assert got.vertices.min(axis=0).tolist() == lo.tolist()
-    assert got.vertices.max(axis=0).tolist() == hi.tolist()
+    np.testing.assert_allclose(got.vertices.min(axis=0), lo, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got.vertices.max(axis=0), hi, rtol=0, atol=1e-12)
 
 
 def test_bad_output_extension(cube_file, tmp_path):
@@ -241,10 +242,10 @@ def test_triangles_file_opens_in_trimesh_with_the_faces_colours(tmp_path):
     n_regions = json.loads(rep.read_text())["n_faces"]
     assert len(np.unique(colors, axis=0)) == n_regions <= poly.n_faces
     from pointatlas import data
-    from pointatlas.simplify import simplify_mesh
+    from pointatlas.simplify import decimate_mesh
 
     fandisk = data.load_mesh("fandisk")
-    face_of = simplify_mesh(fandisk.vertices, fandisk.triangles).triangle_face
+    face_of = decimate_mesh(fandisk.vertices, fandisk.triangles).triangle_face
     expect = np.round(label_colors(face_of) * 255).astype(np.uint8)
     assert np.array_equal(colors, expect)
 
@@ -278,9 +279,9 @@ def test_stl_output_is_the_earcut_triangles(tmp_path, model):
     assert trimesh.load(stl).is_watertight
 
 
-def test_max_triangles_and_decimate_from_the_command_line(tmp_path):
+def test_max_triangles_decimates_and_regions_is_the_other_method(tmp_path):
     reports = {}
-    for how in ([], ["--decimate"]):
+    for how in ([], ["--regions"]):
         out, rep = tmp_path / f"e{len(how)}.obj", tmp_path / f"r{len(how)}.json"
         args = ["simplify", "eight", str(out), "--max-triangles", "320", "--report", str(rep)]
         res = runner.invoke(app, args + how)
@@ -288,12 +289,33 @@ def test_max_triangles_and_decimate_from_the_command_line(tmp_path):
         reports[len(how)] = info = json.loads(rep.read_text())
         assert info["is_closed"] and info["n_triangles"] <= 330
         assert read_mesh(out).n_faces == info["n_polygons"]
-    assert reports[1]["method"] == "decimate" and reports[0]["method"] == "regions"
+    assert reports[0]["method"] == "decimate" and reports[1]["method"] == "regions"
     # placed vertices: the decimation is much closer at the same budget, both ways
-    assert reports[1]["hausdorff"] < 0.5 * reports[0]["hausdorff"]
-    args = ["simplify", "eight", str(tmp_path / "x.obj"), "--decimate", "--faces", "5"]
-    bad = runner.invoke(app, args)
-    assert bad.exit_code == 1 and "--decimate takes --max-triangles" in bad.output
+    assert reports[0]["hausdorff"] < 0.5 * reports[1]["hausdorff"]
+    # --faces counts regions: the region method
+    rep = tmp_path / "f.json"
+    args = ["simplify", "eight", str(tmp_path / "x.obj"), "--faces", "5", "--report", str(rep)]
+    assert runner.invoke(app, args).exit_code == 0
+    assert json.loads(rep.read_text())["method"] == "regions"
+
+
+def test_default_is_within_half_a_percent_both_ways_and_simplifies(tmp_path):
+    """The default level: the fewest triangles within 0.5 % of the diagonal both ways
+    (the report's Hausdorff distance), a real simplification of a dense mesh."""
+    out, rep = tmp_path / "f.obj", tmp_path / "r.json"
+    res = runner.invoke(app, ["simplify", "fandisk", str(out), "--report", str(rep)])
+    assert res.exit_code == 0, res.output
+    info = json.loads(rep.read_text())
+    m = load_mesh("fandisk")
+    diag = float(np.linalg.norm(np.ptp(m.vertices, axis=0)))
+    assert info["hausdorff"] <= 0.005 * diag
+    assert info["n_triangles"] <= 0.05 * len(m.triangles)
+    assert info["is_closed"] and info["is_manifold"] and info["is_oriented"]
+    rep2 = tmp_path / "r2.json"
+    args = ["simplify", "fandisk", str(out.with_suffix(".ply")), "--max-error", "0.1%"]
+    assert runner.invoke(app, [*args, "--report", str(rep2)]).exit_code == 0
+    finer = json.loads(rep2.read_text())
+    assert finer["hausdorff"] <= 0.001 * diag and finer["n_triangles"] > info["n_triangles"]
 
 
 def test_an_unreachable_target_is_said_and_the_report_describes_the_file(tmp_path):

@@ -103,3 +103,100 @@ def test_kernels_agree_with_the_numpy_references(seed):
     faces = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 5]])
     x = v[0] + rng.normal(scale=2.0, size=3)
     assert turns_over(v, faces, 0, x) == turns_over_reference(v, faces, 0, x)
+
+
+@pytest.mark.parametrize("name", ["eight", "torus"])
+def test_collapse_loop_agrees_with_the_python_reference(name):
+    from .reference import decimate_reference
+
+    m = data.load_mesh(name)
+    v, t = np.asarray(m.vertices, dtype=float), np.asarray(m.triangles, dtype=np.int64)
+    for target in (len(t) // 2, len(t) // 20):
+        got = decimate(v, t, target)
+        want = decimate_reference(v, t, target)
+        for g, w in zip(got, want, strict=True):
+            np.testing.assert_array_equal(g, w)
+
+
+def test_open_sheet_loop_agrees_with_the_python_reference():
+    from .reference import decimate_reference
+
+    m = plane_patch()
+    v, t = np.asarray(m.vertices, dtype=float), np.asarray(m.faces, dtype=np.int64)
+    got, want = decimate(v, t, len(t) // 5), decimate_reference(v, t, len(t) // 5)
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, w)
+
+
+def test_a_prefix_of_the_collapses_is_the_decimation_to_its_triangle_count():
+    from pointatlas.simplify._decimate import collapse_all
+
+    m = data.load_mesh("torus")
+    v, t = np.asarray(m.vertices, dtype=float), np.asarray(m.triangles, dtype=np.int64)
+    seq = collapse_all(v, t)
+    assert np.all(np.isin(seq.removed, (1, 2)))
+    for target in (len(t) - 2, 500, 100):
+        steps = seq.steps_for(target)
+        assert seq.n_triangles(steps) <= target < seq.n_triangles(steps - 1)
+        for g, w in zip(seq.mesh(steps), decimate(v, t, target), strict=True):
+            np.testing.assert_array_equal(g, w)
+    assert seq.mesh(0)[1].shape == t.shape and seq.steps_for(len(t)) == 0
+
+
+def test_default_level_boxes_a_box_into_six_quads_with_no_error():
+    m = cube(8)
+    res = decimate_mesh(m.vertices, m.faces)
+    assert len(res.polygons) == 6 and len(res.triangles) == 12
+    assert max(res.distance_max, res.back_distance_max) < 1e-12
+    assert res.is_closed and res.is_manifold and res.is_oriented
+
+
+@pytest.mark.parametrize("fraction", [0.002, 0.01])
+def test_a_cylinder_at_max_error_keeps_every_vertex_within_it_both_ways(fraction):
+    import trimesh
+
+    tm = trimesh.creation.cylinder(radius=1.0, height=3.0, sections=96).subdivide().subdivide()
+    v, t = np.asarray(tm.vertices), np.asarray(tm.faces)
+    eps = fraction * float(np.linalg.norm(np.ptp(v, axis=0)))
+    res = decimate_mesh(v, t, max_error=eps)
+    assert res.distance_max <= eps and res.back_distance_max <= eps
+    # independently: every input vertex to the output, output samples to the input
+    assert point_mesh_distance(v, res.vertices, res.triangles).max() <= eps
+    back = sample_mesh(res.vertices, res.triangles, 20000, rng=7).points
+    assert point_mesh_distance(back, v, t).max() <= eps
+    assert res.is_closed and res.is_manifold and len(res.triangles) < 0.2 * len(t)
+    # the caps are flat: each one planar polygon, to 1e-9 of the diagonal
+    assert res.polygon_planarity.max() <= 1e-9 * np.linalg.norm(np.ptp(v, axis=0))
+
+
+def test_a_soup_decimates_as_its_indexed_mesh():
+    m = data.load_mesh("eight")
+    v, t = np.asarray(m.vertices), np.asarray(m.triangles)
+    soup_v, soup_t = v[t].reshape(-1, 3), np.arange(3 * len(t)).reshape(-1, 3)
+    with pytest.warns(UserWarning):
+        soup = decimate_mesh(soup_v, soup_t, 200)
+    indexed = decimate_mesh(v, t, 200)
+    assert len(soup.triangles) == len(indexed.triangles) and soup.is_closed
+    assert soup.summary()["hausdorff"] == pytest.approx(indexed.summary()["hausdorff"], rel=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_placement_agrees_with_the_one_vertex_at_a_time_reference(seed):
+    from pointatlas.simplify._place import place_on_planes
+
+    from .reference import place_on_planes_reference
+
+    rng = np.random.default_rng(seed)
+    m = data.load_mesh("eight")
+    v, t = np.asarray(m.vertices), np.asarray(m.triangles)
+    from pointatlas.simplify._place import flat_planes
+
+    centre = v[t].mean(axis=1)
+    face = np.digitize(centre @ rng.normal(size=3), np.linspace(-1, 1, 11))
+    normals, offsets, _ = flat_planes(v, t, face, 12, 0.0)
+    flat = rng.random(12) < 0.7
+    want = place_on_planes_reference(v, t, face, normals, offsets, flat, 0.2, 1e-3)
+    got = place_on_planes(v, t, face, normals, offsets, flat, 0.2, 1e-3)
+    moved = ~np.all(got == v, axis=1)  # the others stayed, or the flip guard put them back
+    np.testing.assert_allclose(got[moved], want[moved], rtol=0, atol=1e-12)
+    assert moved.sum() > 10

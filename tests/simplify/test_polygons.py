@@ -167,3 +167,22 @@ def test_bundled_models_write_closed_polygons():
         res = simplify_mesh(m.vertices, m.triangles)
         assert res.polygon_planarity.max() <= 1e-6 * _diag(m.vertices)
         assert _closed_and_oriented([t for p in res.polygons for t in fan_triangles(p)])
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_ear_clipping_kernel_agrees_with_the_numpy_reference(seed):
+    from pointatlas.simplify._readers import ear_clip_triangles
+
+    from .reference import ear_clip_reference
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(3, 40))
+    angle = np.sort(rng.uniform(0, 2 * np.pi, n))
+    radius = rng.uniform(0.2, 1.0, n)  # star-shaped, often not convex
+    flat = np.column_stack([radius * np.cos(angle), radius * np.sin(angle), np.zeros(n)])
+    if seed % 3 == 0:
+        flat = flat[::-1]  # clockwise
+    rot, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    points = flat @ rot.T if seed % 2 else flat
+    ids = rng.permutation(1000)[:n]
+    assert ear_clip_triangles(points, ids) == ear_clip_reference(points, ids)

@@ -104,7 +104,7 @@ def _simplify_mesh_command(
     n_faces,
     max_error,
     max_triangles,
-    decimate,
+    regions,
     chord_tolerance,
     planarize,
     seed,
@@ -112,15 +112,20 @@ def _simplify_mesh_command(
     report,
     render,
 ):
-    from ..simplify import decimate_mesh, simplify_mesh
-    from ..simplify._mesh_path import surface_diagonal
+    from ..simplify import decimate_mesh, simplify_mesh, surface_diagonal
 
     v = mesh_in.vertices
     diagonal = surface_diagonal(v, mesh_in.triangles)
-    if decimate:
-        budget = max_triangles or max(4, round(0.1 * len(mesh_in.triangles)))
+    bound = _length_option(max_error, "--max-error", diagonal)
+    if not regions:
         res = _run(
-            v, mesh_in.triangles, budget, max_angle=max_angle, rng=seed, function=decimate_mesh
+            v,
+            mesh_in.triangles,
+            max_triangles,
+            max_error=bound,
+            max_angle=max_angle,
+            rng=seed,
+            function=decimate_mesh,
         )
     else:
         res = _run(
@@ -129,14 +134,13 @@ def _simplify_mesh_command(
             max_angle=max_angle,
             eta=eta,
             n_faces=n_faces,
-            max_error=_length_option(max_error, "--max-error", diagonal),
+            max_error=bound,
             max_triangles=max_triangles,
             chord_tolerance=_length_option(chord_tolerance, "--chord-tolerance", diagonal),
             planarize=planarize,
             rng=seed,
             function=simplify_mesh,
         )
-    bound = _length_option(max_error, "--max-error", diagonal)
     _say_missed_target(res, n_faces=n_faces, max_triangles=max_triangles, max_error=bound)
     written = [write_simplified(out, res)]
     if triangles is not None:
@@ -150,7 +154,7 @@ def _simplify_mesh_command(
             "input_faces": int(mesh_in.n_faces),
             "seed": seed,
             **res.summary(),
-            "method": "decimate" if decimate else "regions",
+            "method": "regions" if regions else "decimate",
         }
         if Path(report).suffix.lower() in REPORT_EXTENSIONS:
             from ..viz import MeshLayer
@@ -172,10 +176,8 @@ def _simplify_mesh_command(
             written.append(_html_report(report, infile, info, written, layers, seed))
         else:
             written.append(write_summary_json(report, info, written))
-    how = "decimate (structure-aware edge collapse)" if decimate else None
-    console.print(
-        surface_table(res, title=Path(str(infile)).name, **({"path": how} if how else {}))
-    )
+    how = "regions (one face per VSA region)" if regions else "decimate (structure-aware)"
+    console.print(surface_table(res, title=Path(str(infile)).name, path=how))
     for path in written:
         say(f"written: {path}")
 
@@ -247,24 +249,26 @@ MaxTrianglesOption = Annotated[
     int | None,
     typer.Option(
         "--max-triangles",
-        help="Mesh input: triangle budget (the finest level within it; with --decimate "
-        "the number of triangles to decimate to, default 10% of the input's).",
+        help="Mesh input: triangle budget (the decimation stops at the first level "
+        "within it; with --regions the finest segmentation within it).",
     ),
 ]
-DecimateOption = Annotated[
+RegionsOption = Annotated[
     bool,
     typer.Option(
-        "--decimate",
-        help="Mesh input, experimental: structure-aware quadric edge collapse (vertices "
-        "placed, flat regions as planar polygons) instead of one face per region.",
+        "--regions",
+        help="Mesh input: one face per VSA region, input vertices kept on chords (the "
+        "earlier default) instead of the structure-aware decimation; implied by "
+        "--faces, --eta, --chord-tolerance and --planarize.",
     ),
 ]
 MaxErrorOption = Annotated[
     str | None,
     typer.Option(
         "--max-error",
-        help="Largest distance of an input vertex to the output (mesh input): a length, "
-        "or a percentage of the bounding-box diagonal such as 0.5%.",
+        help="Mesh input: largest distance between input and output, both ways (input "
+        "vertices to the output, the output's vertices and samples to the input): a "
+        "length, or a percentage of the bounding-box diagonal; default 0.5%.",
     ),
 ]
 ChordToleranceOption = Annotated[
@@ -461,7 +465,7 @@ def simplify_command(
     n_faces: FacesOption = None,
     max_error: MaxErrorOption = None,
     max_triangles: MaxTrianglesOption = None,
-    decimate: DecimateOption = False,
+    regions: RegionsOption = False,
     chord_tolerance: ChordToleranceOption = None,
     planarize: PlanarizeOption = False,
     vertices_only: VerticesOnlyOption = False,
@@ -482,9 +486,12 @@ def simplify_command(
     """Simplify a mesh or a point set into a polygon mesh with planar faces.
 
     A mesh input (a file with faces, or a bundled model) takes the mesh path: its
-    triangles are segmented (VSA on faces) and each region becomes one face; the
-    output is closed and manifold whenever the input is closed (edges in four
-    triangles and pinched vertices are cut apart first). A point set, or a mesh
+    triangles are segmented (VSA on faces) and decimated by structure-aware edge
+    collapse to the fewest triangles within --max-error of the input both ways
+    (default 0.5 % of the diagonal) or to --max-triangles; flat regions come out as
+    planar polygons. The output is closed and manifold whenever the input is closed
+    (edges in four triangles and pinched vertices are cut apart first). --regions
+    makes one face per region instead. A point set, or a mesh
     with ``--vertices-only``, takes the thesis' path (VSA on points, surface-like
     complex, 4.4), and the robust path when that gives no closed, manifold mesh
     (the points' surface from their normals on a voxel grid, then the mesh path;
@@ -505,13 +512,12 @@ def simplify_command(
     max_angle = _level_angle(eta, max_angle_deg, n_faces, max_error, max_triangles)
     if max_triangles is not None and max_triangles < 1:
         raise PointAtlasError(f"--max-triangles must be at least 1; got {max_triangles}")
-    if decimate and (eta, n_faces, max_error) != (None, None, None):
-        raise PointAtlasError("--decimate takes --max-triangles (and --max-angle-deg) only")
     mesh_in = None if vertices_only else read_mesh_input(infile)
     if mesh_in is not None:
         level = {"n_faces": n_faces, "max_error": max_error, "max_triangles": max_triangles}
+        regions = regions or planarize or (eta, n_faces, chord_tolerance) != (None,) * 3
         _simplify_mesh_command(
-            infile, mesh_in, out, max_angle=max_angle, eta=eta, **level, decimate=decimate,
+            infile, mesh_in, out, max_angle=max_angle, eta=eta, **level, regions=regions,
             chord_tolerance=chord_tolerance, planarize=planarize,
             seed=seed, triangles=triangles, report=report, render=render,
         )  # fmt: skip
@@ -522,7 +528,7 @@ def simplify_command(
         n_faces=n_faces,
         max_error=max_error,
         chord_tolerance=chord_tolerance,
-        more=(("--max-triangles", max_triangles), ("--decimate", decimate or None)),
+        more=(("--max-triangles", max_triangles), ("--regions", regions or None)),
     )
     options = vsa_options(
         k=k, eta=eta, max_angle_deg=max_angle_deg, seeds=seeds, split=split, merge=merge,

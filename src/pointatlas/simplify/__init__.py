@@ -1,7 +1,8 @@
 """Simplified polygon meshes from segmented point sets (thesis 4.4)."""
 
+from ._decimate_mesh import decimate_mesh
 from ._mesh import SimplifiedMesh, mesh_checks, point_mesh_distance
-from ._mesh_path import decimate_mesh, simplify_mesh
+from ._mesh_path import simplify_mesh, surface_diagonal
 from ._pipeline import PointSimplification, simplify_points
 from ._proxies import RegionProxies, region_proxies
 from ._segmentation import simplify_segmentation
@@ -22,4 +23,5 @@ __all__ = [
     "simplify_mesh",
     "simplify_points",
     "simplify_segmentation",
+    "surface_diagonal",
 ]

@@ -1,4 +1,4 @@
-"""The decimation step: structure-aware quadric edge collapse (reference, pure Python).
+"""The decimation step: structure-aware quadric edge collapse.
 
 Garland and Heckbert's quadric error metric, with the structure term of Salinas,
 Lafarge and Alliez (2015): every vertex carries the quadric of its triangles' planes
@@ -16,13 +16,14 @@ input's regions, decimated.
 
 from __future__ import annotations
 
-import heapq
+from dataclasses import dataclass
 
 import numpy as np
 
-from ._kernels import collapse_position, turns_over
+from ._kernels import collapse_edges, replay
+from ._mesh import unique_pairs
 
-__all__ = ["decimate"]
+__all__ = ["Collapses", "collapse_all", "decimate"]
 
 #: Weight of an open boundary edge's quadric relative to the triangles'.
 _BOUNDARY_WEIGHT = 100.0
@@ -74,55 +75,84 @@ def decimate(vertices, triangles, target: int, *, labels=None, planes=None, stru
     >>> len(t), bool(np.allclose(np.abs(v), 0.5))  # the eight corners
     (12, True)
     """
+    seq = collapse_all(vertices, triangles, labels=labels, planes=planes, structure=structure)
+    return seq.mesh(seq.steps_for(target))
+
+
+@dataclass(frozen=True, slots=True)
+class Collapses:
+    """Every collapse of a mesh's decimation, cheapest first (`collapse_all`); the
+    mesh after any number of them is `mesh` (a level of detail is a prefix).
+
+    Attributes
+    ----------
+    vertices, triangles : ndarray
+        The input mesh.
+    kept, gone : ndarray of shape (n,), int64
+        Collapse k merges vertex ``gone[k]`` into ``kept[k]``...
+    position : ndarray of shape (n, 3)
+        ...and moves it to ``position[k]``...
+    removed : ndarray of shape (n,), int64
+        ...removing this many triangles (1 on an open boundary, else 2).
+    cost : ndarray of shape (n,)
+        Its quadric cost (area times squared distance, plus the tie-break).
+    """
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    kept: np.ndarray
+    gone: np.ndarray
+    position: np.ndarray
+    removed: np.ndarray
+    cost: np.ndarray
+
+    def n_triangles(self, m: int) -> int:
+        """Triangles left after the first ``m`` collapses."""
+        return int(self.triangles.shape[0] - self.removed[:m].sum())
+
+    def steps_for(self, target: int) -> int:
+        """The fewest collapses that leave at most ``target`` triangles (all of them
+        when no prefix does)."""
+        left = self.triangles.shape[0] - np.cumsum(self.removed)
+        if self.triangles.shape[0] <= target:
+            return 0
+        hit = np.flatnonzero(left <= target)
+        return int(hit[0]) + 1 if hit.size else int(self.kept.size)
+
+    def mesh(self, m: int):
+        """The mesh after the first ``m`` collapses: ``(vertices, triangles, kept,
+        source)`` as `decimate` returns them."""
+        n_v = self.vertices.shape[0]
+        rep, moved, at, alive = replay(
+            n_v, self.triangles, self.kept, self.gone, self.position, int(m)
+        )
+        v = np.where(moved[:, None], at, self.vertices)
+        kept = np.flatnonzero(alive)
+        tri = rep[self.triangles[kept]]
+        used = np.unique(tri)
+        remap = np.full(n_v, -1, dtype=np.int64)
+        remap[used] = np.arange(used.size)
+        return v[used], remap[tri], kept, used
+
+
+def collapse_all(vertices, triangles, *, labels=None, planes=None, structure=1.0) -> Collapses:
+    """The decimation's collapses down to the last valid one (`Collapses`); options as
+    in `decimate`."""
     v = np.array(vertices, dtype=np.float64)
     tri = np.array(triangles, dtype=np.int64)
     n_v = v.shape[0]
     q = _vertex_quadrics(v, tri, labels, planes, structure)
-    faces_of = [set() for _ in range(n_v)]
-    for f, (a, b, c) in enumerate(tri.tolist()):
-        faces_of[a].add(f)
-        faces_of[b].add(f)
-        faces_of[c].add(f)
-    on_boundary = np.zeros(n_v, dtype=bool)
     und = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-    edge, count = np.unique(und, axis=0, return_counts=True)
+    edge, count = unique_pairs(und, return_counts=True)
+    on_boundary = np.zeros(n_v, dtype=bool)
     on_boundary[edge[count == 1].reshape(-1)] = True
-    alive = np.ones(tri.shape[0], dtype=bool)
-    version = np.zeros(n_v, dtype=np.int64)
-    heap = []
-    for a, b in edge.tolist():
-        _push(heap, v, q, a, b, version)
-    n_alive = tri.shape[0]
-    while n_alive > target and heap:
-        cost, a, b, va, vb, x = heapq.heappop(heap)
-        if version[a] != va or version[b] != vb or not faces_of[a] or not faces_of[b]:
-            continue
-        shared = faces_of[a] & faces_of[b]
-        if not shared or (len(shared) == 2 and on_boundary[a] and on_boundary[b]):
-            continue  # an inner edge between two boundary vertices would pinch
-        if not _collapsible(v, tri, faces_of, a, b, shared, np.array(x)):
-            continue
-        for f in shared:
-            alive[f] = False
-            for w in tri[f].tolist():
-                faces_of[w].discard(f)
-        n_alive -= len(shared)
-        for f in faces_of[b]:
-            tri[f][tri[f] == b] = a
-        faces_of[a] |= faces_of[b]
-        faces_of[b] = set()
-        v[a] = x
-        q[a] += q[b]
-        on_boundary[a] |= on_boundary[b]
-        version[a] += 1
-        version[b] += 1
-        for w in {int(u) for f in faces_of[a] for u in tri[f]} - {a}:
-            _push(heap, v, q, a, w, version)
-    kept = np.flatnonzero(alive)
-    used = np.unique(tri[kept])
-    remap = np.full(n_v, -1, dtype=np.int64)
-    remap[used] = np.arange(used.size)
-    return v[used], remap[tri[kept]], kept, used
+    if edge.shape[0] == 0:
+        empty = np.zeros(0, dtype=np.int64)
+        return Collapses(v, tri, empty, empty, np.zeros((0, 3)), empty, np.zeros(0))
+    kept, gone, position, removed, cost = collapse_edges(
+        v.copy(), tri, q, on_boundary, edge.astype(np.int64), _TIE
+    )
+    return Collapses(v, tri, kept, gone, position, removed, cost)
 
 
 def _vertex_quadrics(v, tri, labels, planes, structure) -> np.ndarray:
@@ -154,7 +184,7 @@ def _vertex_quadrics(v, tri, labels, planes, structure) -> np.ndarray:
     if labels is not None and planes is not None and structure > 0.0:
         normals, offsets, flat = planes
         lab = np.asarray(labels, dtype=np.int64)
-        pairs = np.unique(np.column_stack([tri.reshape(-1), np.repeat(lab, 3)]), axis=0)
+        pairs = unique_pairs(np.column_stack([tri.reshape(-1), np.repeat(lab, 3)]))
         pairs = pairs[flat[pairs[:, 1]]]
         vertex_area = np.zeros(n_v)
         for c in range(3):
@@ -164,26 +194,3 @@ def _vertex_quadrics(v, tri, labels, planes, structure) -> np.ndarray:
         )
         np.add.at(q, pairs[:, 0], kp)
     return q
-
-
-def _push(heap, v, q, a, b, version) -> None:
-    cost, x, y, z = collapse_position(q[a] + q[b], v[a], v[b])
-    # ties (flat parts cost nothing) go to the shortest edge, so no vertex gathers a
-    # whole flat face around it
-    d = v[a] - v[b]
-    cost = max(cost, 0.0) + _TIE * float(d @ d) ** 2
-    heapq.heappush(heap, (cost, a, b, int(version[a]), int(version[b]), (x, y, z)))
-
-
-def _collapsible(v, tri, faces_of, a, b, shared, x) -> bool:
-    """Link condition, and no triangle around turning over or collapsing."""
-    ring_a = {int(u) for f in faces_of[a] for u in tri[f]} - {a}
-    ring_b = {int(u) for f in faces_of[b] for u in tri[f]} - {b}
-    opposite = {int(u) for f in shared for u in tri[f]} - {a, b}
-    if ring_a & ring_b != opposite:
-        return False
-    for w, others in ((a, faces_of[a]), (b, faces_of[b])):
-        around = list(others - shared)
-        if around and turns_over(v, tri[around], w, x):
-            return False
-    return True

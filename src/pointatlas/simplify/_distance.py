@@ -15,10 +15,47 @@ from scipy.spatial import cKDTree
 from ..neighbors import point_mesh_distance
 from ..synth import sample_mesh
 
-__all__ = ["BACK_SAMPLES", "back_distances", "output_samples"]
+__all__ = ["BACK_SAMPLES", "DISC_NEIGHBOR", "PointSurface", "back_distances", "output_samples"]
 
 #: Area-uniform samples of the output surface measured back to the input.
 BACK_SAMPLES = 20_000
+#: A point's tangent disc reaches its this-th nearest neighbour (`PointSurface`).
+DISC_NEIGHBOR = 8
+#: The distance to the points' surface is the nearest of this many points' discs (a
+#: sample on one face near an edge may have its nearest point across the edge).
+DISC_CANDIDATES = 6
+
+
+class PointSurface:
+    """The surface a point set samples, as each point's tangent disc (its normal,
+    radius the distance to its `DISC_NEIGHBOR`-th neighbour): the distance of x to it
+    is the least of sqrt(h^2 + max(t - r, 0)^2) over x's nearest points, h the
+    height of x over a point's tangent plane and t the distance along it. Sampling
+    gaps (nearest points a spacing away on a flat face) then cost nothing, while a
+    spike or a sheet where there are no points costs its full distance; without
+    normals, the distance to the nearest point.
+    """
+
+    def __init__(self, points, normals=None, tree=None):
+        self.points = np.asarray(points, dtype=np.float64)
+        self.tree = cKDTree(self.points) if tree is None else tree
+        self.normals = None if normals is None else np.asarray(normals, dtype=np.float64)
+        k = min(DISC_NEIGHBOR + 1, self.points.shape[0])
+        far = self.tree.query(self.points, k=k, workers=-1)[0]
+        self.radius = far[:, -1] if far.ndim == 2 else np.zeros(self.points.shape[0])
+
+    def distance(self, x) -> np.ndarray:
+        """Distance of every row of ``x`` to the points' surface: the nearest of its
+        `DISC_CANDIDATES` nearest points' discs."""
+        x = np.asarray(x, dtype=np.float64)
+        if self.normals is None:
+            return self.tree.query(x, workers=-1)[0]
+        k = min(DISC_CANDIDATES, self.points.shape[0])
+        d, j = self.tree.query(x, k=k, workers=-1)
+        d, j = d.reshape(x.shape[0], k), j.reshape(x.shape[0], k)
+        h = np.abs(np.einsum("ikd,ikd->ik", x[:, None, :] - self.points[j], self.normals[j]))
+        t = np.sqrt(np.maximum(d * d - h * h, 0.0))
+        return np.hypot(h, np.maximum(t - self.radius[j], 0.0)).min(axis=1)
 
 
 def output_samples(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0) -> np.ndarray:
@@ -39,8 +76,10 @@ def output_samples(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0) ->
     return np.vstack([corners, sample_mesh(v, t, n, rng=seed).points])
 
 
-def back_distances(out_v, out_t, in_v, in_t=None) -> np.ndarray:
-    """Distance of `output_samples` to the input: its triangles, or its points.
+def back_distances(out_v, out_t, in_v, in_t=None, *, within: float = 0.0) -> np.ndarray:
+    """Distance of `output_samples` to the input: its triangles, or its points'
+    surface (a `PointSurface`, or the nearest point when ``in_v`` is an array);
+    ``within``: as in `point_mesh_distance`, triangles only.
 
     Examples
     --------
@@ -50,6 +89,8 @@ def back_distances(out_v, out_t, in_v, in_t=None) -> np.ndarray:
     2.0
     """
     samples = output_samples(out_v, out_t)
+    if isinstance(in_v, PointSurface):
+        return in_v.distance(samples)
     if in_t is None:
         return cKDTree(np.asarray(in_v, dtype=np.float64)).query(samples, workers=-1)[0]
-    return point_mesh_distance(samples, in_v, np.asarray(in_t, dtype=np.int64))
+    return point_mesh_distance(samples, in_v, np.asarray(in_t, dtype=np.int64), within=within)

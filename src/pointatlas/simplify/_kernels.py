@@ -3,10 +3,12 @@ tests/simplify/reference.py."""
 
 from __future__ import annotations
 
+import heapq
+
 import numpy as np
 from numba import njit
 
-__all__ = ["collapse_position", "turns_over"]
+__all__ = ["collapse_edges", "collapse_position", "replay", "turns_over"]
 
 
 @njit(cache=True)
@@ -83,3 +85,228 @@ def turns_over(v, faces, w, x) -> bool:
         if ab <= 0.0 or aa <= 1e-12 * bb:
             return True
     return False
+
+
+@njit(cache=True)
+def _flips(v, tri, f, w, x) -> bool:
+    """Whether moving vertex ``w`` of triangle ``f`` to ``x`` turns it by 90 degrees or
+    more, or shrinks its area below 1e-6 of what it was (one face of `turns_over`)."""
+    p = np.empty((3, 3))
+    for i in range(3):
+        vi = tri[f, i]
+        for d in range(3):
+            p[i, d] = x[d] if vi == w else v[vi, d]
+    b0 = v[tri[f, 1]] - v[tri[f, 0]]
+    b1 = v[tri[f, 2]] - v[tri[f, 0]]
+    before = np.cross(b0, b1)
+    after = np.cross(p[1] - p[0], p[2] - p[0])
+    bb = before[0] * before[0] + before[1] * before[1] + before[2] * before[2]
+    ab = after[0] * before[0] + after[1] * before[1] + after[2] * before[2]
+    aa = after[0] * after[0] + after[1] * after[1] + after[2] * after[2]
+    return ab <= 0.0 or aa <= 1e-12 * bb
+
+
+@njit(cache=True)
+def _edge_entry(v, q, a, b, version, tie):
+    """The heap entry of edge (a, b): cost (plus ``tie`` x the squared squared length,
+    so that flat parts decimate evenly), ends, their versions, position."""
+    cost, x, y, z = collapse_position(q[a] + q[b], v[a], v[b])
+    d0, d1, d2 = v[a, 0] - v[b, 0], v[a, 1] - v[b, 1], v[a, 2] - v[b, 2]
+    dd = d0 * d0 + d1 * d1 + d2 * d2
+    return (max(cost, 0.0) + tie * dd * dd, a, b, version[a], version[b], x, y, z)
+
+
+@njit(cache=True)
+def _relink(head, nxt, alive, a, b) -> None:
+    """Corner list of ``a`` := the live corners of ``a`` and ``b``; ``b``'s emptied."""
+    new_head = -1
+    for start in (head[a], head[b]):
+        c = start
+        while c != -1:
+            nc = nxt[c]
+            if alive[c // 3]:
+                nxt[c] = new_head
+                new_head = c
+            c = nc
+    head[a] = new_head
+    head[b] = -1
+
+
+@njit(cache=True)
+def _doubles_a_triangle(tri, head, nxt, alive, a, b) -> bool:
+    """Whether a triangle of ``a`` and one of ``b`` not on the edge share their other
+    two vertices (merging a and b would give the same triangle twice: a tetrahedron,
+    which the link condition lets through)."""
+    c = head[a]
+    while c != -1:
+        f = c // 3
+        if alive[f] and tri[f, 0] != b and tri[f, 1] != b and tri[f, 2] != b:
+            u, w = tri[f, (c + 1) % 3], tri[f, (c + 2) % 3]
+            e = head[b]
+            while e != -1:
+                g = e // 3
+                if alive[g] and tri[g, 0] != a and tri[g, 1] != a and tri[g, 2] != a:
+                    x, y = tri[g, (e + 1) % 3], tri[g, (e + 2) % 3]
+                    if (x == u and y == w) or (x == w and y == u):
+                        return True
+                e = nxt[e]
+        c = nxt[c]
+    return False
+
+
+@njit(cache=True)
+def _collapsible(v, tri, head, nxt, alive, a, b, x, mark, stamp, shared) -> int:
+    """Number of triangles on edge (a, b) (``shared`` filled) when collapsing it to
+    ``x`` keeps the surface manifold (link condition) and turns no triangle over;
+    else 0. ``mark`` (V, 2) and ``stamp`` (2,) are scratch."""
+    ns = 0
+    c = head[a]
+    while c != -1:
+        f = c // 3
+        if alive[f] and (tri[f, 0] == b or tri[f, 1] == b or tri[f, 2] == b):
+            if ns == 2:
+                return 0  # an edge in three triangles: never collapsed
+            shared[ns] = f
+            ns += 1
+        c = nxt[c]
+    if ns == 0:
+        return 0
+    stamp[0] += 1
+    stamp[1] += 1
+    n_opposite = 0
+    for k in range(ns):
+        for i in range(3):
+            u = tri[shared[k], i]
+            if u != a and u != b and mark[u, 1] != stamp[1]:
+                mark[u, 1] = stamp[1]
+                n_opposite += 1
+    stamp[1] += 1
+    c = head[a]
+    while c != -1:
+        f = c // 3
+        if alive[f]:
+            for i in range(3):
+                mark[tri[f, i], 0] = stamp[0]
+        c = nxt[c]
+    n_common = 0
+    c = head[b]
+    while c != -1:
+        f = c // 3
+        if alive[f]:
+            for i in range(3):
+                u = tri[f, i]
+                if u != a and u != b and mark[u, 0] == stamp[0] and mark[u, 1] != stamp[1]:
+                    mark[u, 1] = stamp[1]
+                    n_common += 1
+        c = nxt[c]
+    if n_common != n_opposite or _doubles_a_triangle(tri, head, nxt, alive, a, b):
+        return 0
+    n_left = 0
+    for w in (a, b):
+        c = head[w]
+        while c != -1:
+            f = c // 3
+            if alive[f] and f != shared[0] and (ns == 1 or f != shared[1]):
+                if _flips(v, tri, f, w, x):
+                    return 0
+                n_left += 1
+            c = nxt[c]
+    return ns if n_left > 0 else 0  # else the last triangles of a piece would go
+
+
+@njit(cache=True)
+def collapse_edges(v, tri, q, on_boundary, edges, tie):
+    """Quadric edge collapse of a manifold triangle mesh, cheapest edge first, until
+    no edge can be collapsed (the decimation loop of `_decimate.decimate`).
+
+    ``v`` (V, 3) and ``q`` (V, 4, 4) are changed in place; ``tri`` is read only.
+    Returns the collapses in order: ``kept`` (n,) the vertex kept, ``gone`` (n,) the
+    vertex merged into it, ``position`` (n, 3) where the kept vertex went, ``removed``
+    (n,) the number of triangles each removed, ``cost`` (n,) its quadric cost.
+    """
+    n_v, n_t = v.shape[0], tri.shape[0]
+    tri = tri.copy()
+    head = np.full(n_v, -1, dtype=np.int64)
+    nxt = np.full(3 * n_t, -1, dtype=np.int64)
+    for f in range(n_t):
+        for i in range(3):
+            c = 3 * f + i
+            nxt[c] = head[tri[f, i]]
+            head[tri[f, i]] = c
+    alive = np.ones(n_t, dtype=np.bool_)
+    version = np.zeros(n_v, dtype=np.int64)
+    mark = np.zeros((n_v, 2), dtype=np.int64)
+    stamp = np.zeros(2, dtype=np.int64)
+    shared = np.zeros(2, dtype=np.int64)
+    heap = [_edge_entry(v, q, edges[0, 0], edges[0, 1], version, tie)]
+    for e in range(1, edges.shape[0]):
+        heap.append(_edge_entry(v, q, edges[e, 0], edges[e, 1], version, tie))
+    heapq.heapify(heap)
+    kept = np.empty(n_v, dtype=np.int64)
+    gone = np.empty(n_v, dtype=np.int64)
+    position = np.empty((n_v, 3))
+    removed = np.empty(n_v, dtype=np.int64)
+    costs = np.empty(n_v)
+    n = 0
+    x = np.empty(3)
+    while heap:
+        cost, a, b, va, vb, x0, x1, x2 = heapq.heappop(heap)
+        if version[a] != va or version[b] != vb or head[a] == -1 or head[b] == -1:
+            continue
+        x[0] = x0
+        x[1] = x1
+        x[2] = x2
+        ns = _collapsible(v, tri, head, nxt, alive, a, b, x, mark, stamp, shared)
+        if ns == 0 or (ns == 2 and on_boundary[a] and on_boundary[b]):
+            continue  # an inner edge between two boundary vertices would pinch
+        for k in range(ns):
+            alive[shared[k]] = False
+        c = head[b]
+        while c != -1:
+            tri[c // 3, c % 3] = a
+            c = nxt[c]
+        _relink(head, nxt, alive, a, b)
+        v[a] = x
+        q[a] += q[b]
+        on_boundary[a] = on_boundary[a] or on_boundary[b]
+        version[a] += 1
+        version[b] += 1
+        kept[n], gone[n], removed[n], costs[n] = a, b, ns, cost
+        position[n] = x
+        n += 1
+        stamp[0] += 1
+        c = head[a]
+        while c != -1:
+            f = c // 3
+            for i in range(3):
+                u = tri[f, i]
+                if u != a and mark[u, 0] != stamp[0]:
+                    mark[u, 0] = stamp[0]
+                    heapq.heappush(heap, _edge_entry(v, q, a, u, version, tie))
+            c = nxt[c]
+    return kept[:n], gone[:n], position[:n], removed[:n], costs[:n]
+
+
+@njit(cache=True)
+def replay(n_vertices, tri, kept, gone, position, m):
+    """The mesh after the first ``m`` collapses of `collapse_edges`: where each vertex
+    went (``rep`` (V,): the vertex it was merged into, itself when kept), the kept
+    vertices' positions (``moved`` (V,) bool, ``at`` (V, 3)) and which triangles are
+    left (``alive`` (T,))."""
+    rep = np.arange(n_vertices)
+    moved = np.zeros(n_vertices, dtype=np.bool_)
+    at = np.zeros((n_vertices, 3))
+    for k in range(m):
+        rep[gone[k]] = kept[k]
+        moved[kept[k]] = True
+        at[kept[k]] = position[k]
+    for i in range(n_vertices):
+        r = i
+        while rep[r] != r:
+            r = rep[r]
+        rep[i] = r
+    alive = np.empty(tri.shape[0], dtype=np.bool_)
+    for f in range(tri.shape[0]):
+        a, b, c = rep[tri[f, 0]], rep[tri[f, 1]], rep[tri[f, 2]]
+        alive[f] = a != b and b != c and a != c
+    return rep, moved, at, alive

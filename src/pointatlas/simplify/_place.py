@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._mesh import unique_pairs
+
 __all__ = ["FLAT_RTOL", "flat_planes", "place_on_planes", "triangle_normals"]
 
 #: Largest distance of a region's input vertices to its plane, as a fraction of the
@@ -46,7 +48,7 @@ def flat_planes(vertices, triangles, labels, n_regions: int, tol: float):
     v = np.asarray(vertices, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.int64)
     lab = np.asarray(labels, dtype=np.int64)
-    pairs = np.unique(np.column_stack([np.repeat(lab, 3), tri.reshape(-1)]), axis=0)
+    pairs = unique_pairs(np.column_stack([np.repeat(lab, 3), tri.reshape(-1)]))
     bounds = np.searchsorted(pairs[:, 0], np.arange(n_regions + 1))
     normals = np.zeros((n_regions, 3))
     offsets = np.zeros(n_regions)
@@ -100,21 +102,22 @@ def place_on_planes(
     v0 = np.asarray(v0, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.int64)
     tface = np.asarray(triangle_face, dtype=np.int64)
-    pairs = np.unique(np.column_stack([tri.reshape(-1), np.repeat(tface, 3)]), axis=0)
+    pairs = unique_pairs(np.column_stack([tri.reshape(-1), np.repeat(tface, 3)]))
     pairs = pairs[flat[pairs[:, 1]]]
     x = v0.copy()
     if pairs.shape[0] == 0:
         return x
     starts = np.searchsorted(pairs[:, 0], np.arange(v0.shape[0] + 1))
-    for j in np.flatnonzero(np.diff(starts)):
-        regions = pairs[starts[j] : starts[j + 1], 1]
+    count = np.diff(starts)
+    for c in np.unique(count[count > 0]):
+        # every vertex on c flat regions at once: a (n, c, 3) stack of plane normals
+        j = np.flatnonzero(count == c)
+        regions = pairs[starts[j][:, None] + np.arange(c), 1]
         a = normals[regions]
-        residual = offsets[regions] - a @ v0[j]
-        if np.abs(residual).max() <= on_plane:
-            continue
-        move = np.linalg.pinv(a, rcond=_PARALLEL_RTOL) @ residual
-        if np.linalg.norm(move) <= bound:
-            x[j] = v0[j] + move
+        residual = offsets[regions] - np.einsum("ncd,nd->nc", a, v0[j])
+        move = np.einsum("ndc,nc->nd", np.linalg.pinv(a, rcond=_PARALLEL_RTOL), residual)
+        go = (np.abs(residual).max(axis=1) > on_plane) & (np.linalg.norm(move, axis=1) <= bound)
+        x[j[go]] = v0[j[go]] + move[go]
     return _unflip(v0, x, tri)
 
 

@@ -19,8 +19,10 @@ __all__ = [
     "MAX_CELLS",
     "Reconstruction",
     "reconstruct_surface",
+    "PointDistances",
+    "region_planes",
     "robust_mesh",
-    "snap_to_planes",
+    "fit_to_points",
     "transfer_labels",
 ]
 
@@ -33,6 +35,10 @@ SPACING_STEPS = 2.0
 BAND = 3
 #: Gaussian smoothing of the field (grid steps).
 SMOOTH_STEPS = 1.0
+#: Points whose tangent planes a surface vertex is fitted to (`fit_to_points`) ...
+FIT_NEIGHBORS = 16
+#: ... dropping directions whose weight is below this share of the strongest.
+FIT_RCOND = 0.05
 #: Points whose tangent planes are averaged into the field at a node.
 FIELD_K = 8
 #: A triangle farther than this from every point (grid steps), or farther than one
@@ -286,45 +292,13 @@ def _adjacency(a, b, n):
     return coo_array((np.ones(a.size, np.int8), (a, b)), shape=(n, n))
 
 
-def snap_to_planes(verts, tri, labels, normals, offsets, pull=1e-2):
-    """Move every vertex to the least-squares point of its regions' planes
-    ``normals[r] . x = offsets[r]`` with a pull of ``pull`` to where it was: inside a
-    region onto its plane, on a two-region boundary onto (near) the planes' line, at
-    a corner near the planes' common point."""
-    pairs = np.unique(np.stack([tri.reshape(-1), np.repeat(labels, 3)], axis=1), axis=0)
-    v, r = pairs[:, 0], pairs[:, 1]
-    nn = normals[r]
-    a = np.zeros((verts.shape[0], 3, 3))
-    b = pull * verts.copy()
-    np.add.at(a, v, nn[:, :, None] * nn[:, None, :])
-    np.add.at(b, v, nn * offsets[r][:, None])
-    a += pull * np.eye(3)
-    return np.linalg.solve(a, b[:, :, None])[:, :, 0]
+def region_planes(q, labels, proxy_normals, lab, source):
+    """The planes of the surface's regions from their points: normal the proxy's,
+    through the points' centroid; and each region's largest point distance to it.
 
-
-def robust_mesh(q, normals, labels, proxy_normals, frame, *, chord_tolerance=None):
-    """The robust path: the points' surface (`reconstruct_surface`), its triangles
-    labelled by the points' regions (`transfer_labels`), vertices moved onto the
-    regions' planes (`snap_to_planes`), then the mesh path's `simplify_surface`.
-
-    Returns ``(result, reconstruction, point_labels)``: the `SurfaceSimplification`
-    in input coordinates (``distances`` are those of the points), the surface and
-    the face of every point (its nearest triangle's region).
+    ``labels``: the points' regions; ``lab``: the triangles' regions, each from the
+    points' region ``source[r]``. Returns ``(normals, offsets, deviation)``.
     """
-    import dataclasses
-
-    from ._distance import back_distances
-    from ._mesh import point_mesh_distance
-    from ._surface import _face_graph, _surface, simplify_surface
-
-    rec = reconstruct_surface(q, normals)
-    s = _surface(rec.vertices, rec.triangles)
-    tree = cKDTree(q)
-    _, nearest = tree.query(s.centroids, workers=-1)
-    lab = transfer_labels(s, _face_graph(s), labels, nearest)
-    n_reg = int(lab.max()) + 1
-    source = np.zeros(n_reg, dtype=np.int64)
-    source[lab] = np.asarray(labels)[nearest]
     labels = np.asarray(labels, dtype=np.int64)
     n_in = int(labels.max()) + 1
     count = np.bincount(labels, minlength=n_in).astype(np.float64)
@@ -332,28 +306,121 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, chord_tolerance=Non
         np.stack([np.bincount(labels, weights=q[:, d], minlength=n_in) for d in range(3)], axis=1)
         / np.maximum(count, 1.0)[:, None]
     )
-    pn = np.asarray(proxy_normals, dtype=np.float64)[source]
-    offsets = np.einsum("ij,ij->i", pn, centroid[source])
-    verts = snap_to_planes(rec.vertices, rec.triangles, lab, pn, offsets)
+    pn = np.asarray(proxy_normals, dtype=np.float64)
+    off = np.einsum("ij,ij->i", pn, centroid)
+    dev = np.zeros(n_in)
+    np.maximum.at(dev, labels, np.abs(np.einsum("ij,ij->i", q, pn[labels]) - off[labels]))
+    return pn[source], off[source], dev[source]
+
+
+class PointDistances:
+    """Whether an output is within a bound of the points both ways: every point to
+    the output's triangles, the output's vertices and samples (`back_distances`) to
+    the points' surface (`PointSurface`); and no vertex outside the points' box
+    grown by 1 % of its diagonal (a spike)."""
+
+    def __init__(self, q, surface):
+        self.q, self.surface = q, surface
+        lo, hi = q.min(axis=0), q.max(axis=0)
+        grow = 0.01 * float(np.linalg.norm(hi - lo))
+        self.lo, self.hi = lo - grow, hi + grow
+
+    def within(self, out_v, out_t, bound: float) -> bool:
+        from ._distance import back_distances
+        from ._mesh import point_mesh_distance
+
+        if (out_v < self.lo).any() or (out_v > self.hi).any():
+            return False
+        if point_mesh_distance(self.q, out_v, out_t, within=bound).max() > bound:
+            return False
+        return bool(back_distances(out_v, out_t, self.surface).max() <= bound)
+
+    def error(self, out_v, out_t) -> float:
+        """The largest distance both ways."""
+        from ._distance import back_distances
+        from ._mesh import point_mesh_distance
+
+        there = point_mesh_distance(self.q, out_v, out_t).max()
+        return float(max(there, back_distances(out_v, out_t, self.surface).max()))
+
+
+def fit_to_points(verts, tri, q, normals, tree, bound: float, k: int = FIT_NEIGHBORS):
+    """The surface's vertices moved onto the points' tangent planes: each to the
+    least-squares point of its ``k`` nearest points' planes (a quadric error
+    function as in dual contouring: onto the plane on a face, onto the line where
+    two faces meet, to the corner of three), about where it is, with directions
+    below `FIT_RCOND` of the strongest dropped (no move along a plane or an edge),
+    at most ``bound``; triangles that would turn over keep their vertices."""
+    from ._place import _unflip
+
+    _, j = tree.query(verts, k=min(k, q.shape[0]), workers=-1)
+    j = j.reshape(verts.shape[0], -1)
+    n = normals[j]
+    h = np.einsum("vki,vki->vk", n, q[j] - verts[:, None, :])
+    a = np.einsum("vki,vkj->vij", n, n)
+    b = np.einsum("vki,vk->vi", n, h)
+    w, u = np.linalg.eigh(a)
+    keep = w > FIT_RCOND * w[:, -1:]
+    inv = np.where(keep, 1.0 / np.where(keep, w, 1.0), 0.0)
+    move = np.einsum("vij,vj,vkj,vk->vi", u, inv, u, b)
+    length = np.linalg.norm(move, axis=1)
+    move *= np.minimum(1.0, bound / np.maximum(length, 1e-300))[:, None]
+    return _unflip(verts, verts + move, tri)
+
+
+def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max_triangles=None):
+    """The robust path: the points' surface (`reconstruct_surface`), its triangles
+    labelled by the points' regions (`transfer_labels`), then the structure-aware
+    decimation of the mesh path (`Decimation`), its flat regions' planes from their
+    points, to the fewest triangles within ``max_error`` (input units; default
+    `MAX_ERROR` of the diagonal, at least what the surface itself reaches) of the
+    points both ways, or to ``max_triangles``.
+
+    Returns ``(result, reconstruction, point_labels)``: the `SurfaceSimplification`
+    in input coordinates (``distances`` are those of the points), the surface and
+    the face of every point (its nearest triangle's region).
+    """
+    import dataclasses
+
+    from ._decimate_mesh import MAX_ERROR, Decimation
+    from ._distance import PointSurface, back_distances
+    from ._mesh import point_mesh_distance
+    from ._polygons import PLANAR_RTOL
+    from ._surface import _face_graph, _surface
+
+    rec = reconstruct_surface(q, normals)
+    s = _surface(rec.vertices, rec.triangles)
+    tree = cKDTree(q)
+    _, nearest = tree.query(s.centroids, workers=-1)
+    lab = transfer_labels(s, _face_graph(s), labels, nearest)
+    source = np.zeros(int(lab.max()) + 1, dtype=np.int64)
+    source[lab] = np.asarray(labels)[nearest]
+    pn, offsets, deviation = region_planes(q, labels, proxy_normals, lab, source)
     diag = float(np.linalg.norm(q.max(axis=0) - q.min(axis=0)))
-    tol = 0.005 * diag if chord_tolerance is None else chord_tolerance / frame.scale
-    # the voxel surface's vertices were pulled onto their planes (within the
-    # sampling): a region flat within half the chord tolerance is a plane
-    res = simplify_surface(
-        verts, rec.triangles, lab, pn, chord_tolerance=tol, flat_tolerance=0.5 * tol
-    )
-    out_v = frame.to_input(res.vertices)
+    bound = MAX_ERROR * diag if max_error is None else max_error / frame.scale
+    # a region whose points lie within a quarter of the bound of its plane is flat:
+    # its vertices go onto the plane (at most two grid steps: the voxel surface's
+    # rounded edges and corners come back)
+    planes = (pn, offsets, deviation <= 0.25 * bound)
+    surface = PointSurface(q, normals, tree)
+    measure = PointDistances(q, surface)
+    verts = fit_to_points(rec.vertices, rec.triangles, q, normals, tree, rec.step)
+    box = (measure.lo, measure.hi)  # never a vertex outside
+    level = Decimation(verts, rec.triangles, lab, planes, 2.0 * rec.step, 0.0, measure, box)
+    if max_triangles is None and max_error is None:
+        # the default bound, or what the points' surface itself reaches, if more
+        bound = max(bound, 1.1 * level.error(0))
+    res = level.result(level.steps_for(max_triangles, bound), PLANAR_RTOL * diag)
     d = point_mesh_distance(q, res.vertices, res.triangles) * frame.scale
-    back = back_distances(res.vertices, res.triangles, q) * frame.scale
+    back = back_distances(res.vertices, res.triangles, surface) * frame.scale
     res = dataclasses.replace(
         res,
-        vertices=out_v,
+        vertices=frame.to_input(res.vertices),
         distances=d,
         distance_mean=float(d.mean()),
         distance_max=float(d.max()),
         back_distance_mean=float(back.mean()) if back.size else 0.0,
         back_distance_max=float(back.max()) if back.size else 0.0,
-        chord_tolerance=tol * frame.scale,
         planarity_error=res.planarity_error * frame.scale,
         polygon_planarity=res.polygon_planarity * frame.scale,
     )

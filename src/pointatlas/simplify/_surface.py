@@ -540,7 +540,7 @@ def surface_result(
     """The `SurfaceSimplification` of output triangles labelled by face (``tface``):
     the faces' simple planar polygons (``planar_tol``), the checks, and the distances
     both ways against the input (``verts``, ``tri``); shared by every mesh path."""
-    from ._mesh import mesh_checks, point_mesh_distance
+    from ._mesh import mesh_checks, point_mesh_distance, unique_pairs
 
     n_regions = len(face_loops)
     polygons, polygon_face, polygon_planarity = face_polygons(
@@ -550,7 +550,7 @@ def surface_result(
     np.maximum.at(planarity, polygon_face, polygon_planarity)
     closed, manifold, oriented = mesh_checks(out_v.shape[0], out_t)
     und = np.sort(np.concatenate([out_t[:, [0, 1]], out_t[:, [1, 2]], out_t[:, [2, 0]]]), 1)
-    n_edges = np.unique(und, axis=0).shape[0]
+    n_edges = unique_pairs(und).shape[0]
     dist = point_mesh_distance(verts, out_v, out_t)
     back = back_distances(out_v, out_t, verts, tri)
     return SurfaceSimplification(

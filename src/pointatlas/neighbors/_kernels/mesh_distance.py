@@ -184,7 +184,7 @@ def _box_sq(px, py, pz, boxes, node):
 
 
 @njit(cache=True, parallel=True)
-def bvh_distances(points, leaf_corners, boxes, first, count, slack_rel, slack_abs, out):
+def bvh_distances(points, leaf_corners, boxes, first, count, slack_rel, slack_abs, out, enough=0.0):
     """Distance from every point to the nearest triangle of a `build_bvh` hierarchy.
 
     Parameters
@@ -198,6 +198,9 @@ def bvh_distances(points, leaf_corners, boxes, first, count, slack_rel, slack_ab
         ``best * (1 + slack_rel) + slack_abs`` (round-off margin of the bound).
     out : (N,) float64
         Distances (written).
+    enough : float
+        A squared distance at which a point's search stops (0: exact); its value is
+        then some distance at most ``sqrt(enough)``.
     """
     n = points.shape[0]
     n_chunks = (n + _CHUNK - 1) // _CHUNK
@@ -226,6 +229,8 @@ def bvh_distances(points, leaf_corners, boxes, first, count, slack_rel, slack_ab
                         )  # fmt: skip
                         if d < best:
                             best = d
+                    if best <= enough:
+                        break
                     continue
                 left = first[node]
                 dl = _box_sq(px, py, pz, boxes, left)
