@@ -69,3 +69,21 @@ def test_newton_solver_equals_the_reference_solver(monkeypatch, name, method):
 def test_unknown_solver_is_rejected():
     with pytest.raises(ValueError, match="solver must be"):
         solver_module.newton_solver("fast", None, None, None, None, None)
+
+
+@pytest.mark.parametrize("shape", [(2750, 1936), (1936, 2750), (2400, 2400)])
+def test_large_kkt_systems_are_solved_sparse_as_the_dense_least_squares(shape):
+    """The sparse branch (systems over 2,000 rows or columns) of both shapes: the
+    rectangular one stopped a 134,345-point scan with "matrix must be square"."""
+    from scipy import sparse
+
+    from pointatlas.simplify._solver import _solve_kkt, min_norm_step
+
+    rng = np.random.default_rng(0)
+    mat = sparse.random(*shape, density=0.003, random_state=1, format="csr")
+    mat = mat + sparse.eye(*shape, format="csr")  # full rank
+    rhs = rng.normal(size=shape[0])
+    want = np.linalg.lstsq(mat.toarray(), rhs, rcond=None)[0]
+    np.testing.assert_allclose(_solve_kkt(mat, rhs), want, rtol=1e-6, atol=1e-9)
+    if shape[0] < shape[1]:  # a Jacobian with more unknowns than constraints
+        np.testing.assert_allclose(min_norm_step(mat, rhs), want, rtol=1e-6, atol=1e-9)

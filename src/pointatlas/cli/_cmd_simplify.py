@@ -374,26 +374,27 @@ def _level_angle(eta, max_angle_deg, n_faces, max_error, max_triangles=None) -> 
     return math.radians(angle_deg_option(max_angle_deg, "--max-angle-deg"))
 
 
-def _refuse_mesh_flags(infile, *, planarize, n_faces, max_error, chord_tolerance, more=()):
+def _refuse_mesh_flags(infile, *, planarize, n_faces, chord_tolerance, more=()):
     """The mesh path's flags, given with a point input: one clear error."""
     for flag, value in (
         ("--planarize", planarize or None),
         ("--faces", n_faces),
-        ("--max-error", max_error),
         ("--chord-tolerance", chord_tolerance),
         *more,
     ):
         if value is not None:
             raise PointAtlasError(
                 f"{flag} needs a mesh input (a file with faces); {infile} is a point set "
-                "or --vertices-only was given: use --eta or --max-angle-deg"
+                "or --vertices-only was given: use --max-error, --max-triangles, --eta or "
+                "--max-angle-deg"
             )
 
 
 def _simplify_points_command(
-    infile, out, *, k, estimate, normal_k, use_labels, settings, seed, triangles, report, render
+    infile, out, *, k, estimate, normal_k, use_labels, settings, level, seed, **outputs
 ):
     """The points path of ``simplify``: read, simplify_points, write the outputs."""
+    triangles, report, render = outputs["triangles"], outputs["report"], outputs["render"]
     ps = read_with_normals(
         infile,
         estimate=estimate,
@@ -405,8 +406,20 @@ def _simplify_points_command(
     given = ps.attributes.get("label") if use_labels else None
     if given is not None:
         say("segmentation: the input's 'label' field (--no-labels runs VSA instead)")
-    result = _run(ps.points, normals, labels=given, rng=seed, **settings)
+    diagonal = float(np.linalg.norm(np.ptp(ps.points, axis=0)))
+    bound = _length_option(level["max_error"], "--max-error", diagonal)
+    result = _run(
+        ps.points,
+        normals,
+        labels=given,
+        rng=seed,
+        max_error=bound,
+        max_triangles=level["max_triangles"],
+        **settings,
+    )
     mesh = result.mesh
+    if result.path == "robust":
+        _say_missed_target(mesh, n_faces=None, max_triangles=None, max_error=bound)
     robust = result.path == "robust"
     written = [write_simplified(out, mesh)]
     if triangles is not None:
@@ -526,9 +539,8 @@ def simplify_command(
         infile,
         planarize=planarize,
         n_faces=n_faces,
-        max_error=max_error,
         chord_tolerance=chord_tolerance,
-        more=(("--max-triangles", max_triangles), ("--regions", regions or None)),
+        more=(("--regions", regions or None),),
     )
     options = vsa_options(
         k=k, eta=eta, max_angle_deg=max_angle_deg, seeds=seeds, split=split, merge=merge,
@@ -546,9 +558,11 @@ def simplify_command(
         "repair": repair,
         "smooth": smooth,
     }
+    level = {"max_error": max_error, "max_triangles": max_triangles}
     _simplify_points_command(
         infile, out, k=k, estimate=estimate, normal_k=normal_k, use_labels=use_labels,
-        settings=settings, seed=seed, triangles=triangles, report=report, render=render,
+        settings=settings, level=level, seed=seed, triangles=triangles, report=report,
+        render=render,
     )  # fmt: skip
 
 

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._core import PointAtlasError, as_labels, as_points, readonly
+from .._core import PointAtlasError, as_float, as_int, as_labels, as_points, readonly
 from ..neighbors import query_knn
 from ._checks import check_memory, check_size, usable_normals
 from ._frame import Frame, frame_of
@@ -89,6 +89,8 @@ def simplify_points(
     max_boundary_fraction: float = 0.95,
     path: str = "auto",
     labels=None,
+    max_error: float | None = None,
+    max_triangles: int | None = None,
     **vsa_settings,
 ) -> PointSimplification:
     """Segment a point set by VSA and build its simplified polygon mesh.
@@ -113,12 +115,14 @@ def simplify_points(
     path : {"auto", "thesis", "robust"}
         ``"thesis"``: the surface-like complex only (errors as
         `simplify_segmentation`). ``"robust"``: the points' surface (inside/outside
-        on a voxel grid from the oriented normals, marching cubes), its triangles
-        labelled by the VSA regions and moved onto their planes, then the mesh
-        path. ``"auto"`` (default): the thesis path, and the robust one when the
-        thesis path fails or gives a mesh that is not manifold and oriented with
-        valid faces, or is open where the points' surface is closed; the result's
-        ``path`` and ``reason`` say which and why.
+        on a voxel grid from the oriented normals, marching cubes), its vertices
+        fitted to the points' tangent planes, its triangles labelled by the VSA
+        regions, then the mesh path's structure-aware decimation (flat regions'
+        planes from their points). ``"auto"`` (default): the thesis path, and the
+        robust one when the thesis path fails or gives a mesh that is not manifold
+        and oriented with valid faces, or is open where the points' surface is
+        closed, or when a level (``max_error``, ``max_triangles``) is asked for;
+        the result's ``path`` and ``reason`` say which and why.
     labels : array_like of shape (N,), int, optional
         A segmentation to use instead of VSA's (e.g. the ``label`` field written by
         ``pointatlas segment``): regions are renumbered 0..R-1 in order of their
@@ -128,6 +132,13 @@ def simplify_points(
         Fields of `pointatlas.segment.VSAOptions` given one by one (``k``,
         ``seeds``, ``eta``, ``max_angle``, ``split``, ``merge``, ``switch``,
         ``classic``, ``weights``, ``max_iter``); they override those of ``vsa``.
+    max_error : float, optional
+        Robust path: largest distance both ways (every point to the output; the
+        output's vertices and samples to the points' tangent discs), input units.
+        Default: 0.5 % of the diagonal, or what the points' surface itself reaches
+        when that is more (sparse points: about one grid step).
+    max_triangles : int, optional
+        Robust path: a triangle budget instead.
 
     Returns
     -------
@@ -170,11 +181,14 @@ def simplify_points(
 
     if path not in ("auto", "thesis", "robust"):
         raise ValueError(f"path must be 'auto', 'thesis' or 'robust'; got {path!r}")
+    level = _level(max_error, max_triangles)
     inp = _prepare(points, normals, (VSAOptions() if vsa is None else vsa).replace(**vsa_settings))
     if not (isinstance(centers, str) and centers in ("seed", "centroid")):
         raise ValueError(f"centers must be 'centroid' or 'seed'; got {centers!r}")
     seg, seg_labels, seg_normals, ctr = _segment(inp, labels, centers, rng)
     mesh, reason = None, "path='robust' was asked for"
+    if path == "auto" and (max_error, max_triangles) != (None, None):
+        path, reason = "robust", "a level of detail was asked for (the robust path's)"
     if path != "robust":
         settings = {
             "vertices": vertices, "faces": faces, "centers": ctr, "weight": weight,
@@ -184,7 +198,18 @@ def simplify_points(
         mesh, reason = _thesis_mesh(inp, seg_labels, seg_normals, path, settings)
         if mesh is not None and not reason:
             return inp.result(seg, mesh)
-    return _robust_result(inp, seg, seg_labels, seg_normals, mesh, reason)
+    return _robust_result(inp, seg, seg_labels, seg_normals, mesh, reason, level)
+
+
+def _level(max_error, max_triangles) -> dict:
+    """The robust path's level of detail, checked."""
+    if max_error is not None and max_triangles is not None:
+        raise ValueError("give at most one of max_error and max_triangles")
+    if max_error is not None:
+        max_error = as_float(max_error, "max_error", lo=0.0, lo_open=True)
+    if max_triangles is not None:
+        max_triangles = as_int(max_triangles, "max_triangles", lo=1)
+    return {"max_error": max_error, "max_triangles": max_triangles}
 
 
 @dataclass(frozen=True, slots=True)
@@ -287,10 +312,12 @@ def _thesis_mesh(inp: _Input, seg_labels, seg_normals, path, settings):
     return mesh, (_thesis_flaw(mesh) if path == "auto" else "")
 
 
-def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason):
+def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, level):
     """The robust path's result, or the open thesis mesh where the points' surface is
     open too and the thesis mesh is as near to the points."""
-    res, rec, point_labels = robust_mesh(inp.q, inp.normals, seg_labels, seg_normals, inp.frame)
+    res, rec, point_labels = robust_mesh(
+        inp.q, inp.normals, seg_labels, seg_normals, inp.frame, **level
+    )
     if (
         mesh is not None
         and reason.startswith("open")

@@ -35,6 +35,11 @@ SPACING_STEPS = 2.0
 BAND = 3
 #: Gaussian smoothing of the field (grid steps).
 SMOOTH_STEPS = 1.0
+#: A triangle budget on the points path is kept only while the output stays within
+#: this many times the default bound of the points (never a spike).
+SPIKE_FACTOR = 4.0
+#: A region is flat when this share of its points lie near its plane.
+FLAT_SHARE = 0.95
 #: Points whose tangent planes a surface vertex is fitted to (`fit_to_points`) ...
 FIT_NEIGHBORS = 16
 #: ... dropping directions whose weight is below this share of the strongest.
@@ -292,25 +297,32 @@ def _adjacency(a, b, n):
     return coo_array((np.ones(a.size, np.int8), (a, b)), shape=(n, n))
 
 
-def region_planes(q, labels, proxy_normals, lab, source):
-    """The planes of the surface's regions from their points: normal the proxy's,
-    through the points' centroid; and each region's largest point distance to it.
+def region_planes(q, labels, proxy_normals, source):
+    """The planes of the surface's regions from their points: the proxy's normal, at
+    the median offset of the region's points; and the distance to it within which
+    `FLAT_SHARE` of them lie (a few points labelled across an edge do not make a
+    flat face curved, nor tilt or shift its plane).
 
-    ``labels``: the points' regions; ``lab``: the triangles' regions, each from the
-    points' region ``source[r]``. Returns ``(normals, offsets, deviation)``.
+    ``labels``: the points' regions; surface region ``r`` is the points' region
+    ``source[r]``. Returns ``(normals, offsets, deviation, width)`` per surface
+    region, ``width`` the standard deviation of its points across their longest
+    direction (a band along an edge is narrow).
     """
     labels = np.asarray(labels, dtype=np.int64)
     n_in = int(labels.max()) + 1
-    count = np.bincount(labels, minlength=n_in).astype(np.float64)
-    centroid = (
-        np.stack([np.bincount(labels, weights=q[:, d], minlength=n_in) for d in range(3)], axis=1)
-        / np.maximum(count, 1.0)[:, None]
-    )
     pn = np.asarray(proxy_normals, dtype=np.float64)
-    off = np.einsum("ij,ij->i", pn, centroid)
-    dev = np.zeros(n_in)
-    np.maximum.at(dev, labels, np.abs(np.einsum("ij,ij->i", q, pn[labels]) - off[labels]))
-    return pn[source], off[source], dev[source]
+    height = np.einsum("ij,ij->i", q, pn[labels])
+    order = np.lexsort((height, labels))
+    bounds = np.searchsorted(labels[order], np.arange(n_in + 1))
+    off, dev, width = np.zeros(n_in), np.zeros(n_in), np.zeros(n_in)
+    for r in np.flatnonzero(np.diff(bounds)):
+        pick = order[bounds[r] : bounds[r + 1]]
+        h = height[pick]  # sorted
+        off[r] = h[h.size // 2]
+        dev[r] = np.quantile(np.abs(h - off[r]), FLAT_SHARE)
+        if pick.size >= 3:  # the spread of the points across their longest direction
+            width[r] = np.sqrt(max(np.linalg.eigvalsh(np.cov(q[pick].T))[1], 0.0))
+    return pn[source], off[source], dev[source], width[source]
 
 
 class PointDistances:
@@ -324,6 +336,9 @@ class PointDistances:
         lo, hi = q.min(axis=0), q.max(axis=0)
         grow = 0.01 * float(np.linalg.norm(hi - lo))
         self.lo, self.hi = lo - grow, hi + grow
+        # vertices are clipped a little inside, so that mapping back to the input's
+        # coordinates cannot round them out
+        self.box = (lo - 0.99 * grow, hi + 0.99 * grow)
 
     def within(self, out_v, out_t, bound: float) -> bool:
         from ._distance import back_distances
@@ -395,22 +410,28 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max
     lab = transfer_labels(s, _face_graph(s), labels, nearest)
     source = np.zeros(int(lab.max()) + 1, dtype=np.int64)
     source[lab] = np.asarray(labels)[nearest]
-    pn, offsets, deviation = region_planes(q, labels, proxy_normals, lab, source)
+    pn, offsets, deviation, width = region_planes(q, labels, proxy_normals, source)
     diag = float(np.linalg.norm(q.max(axis=0) - q.min(axis=0)))
     bound = MAX_ERROR * diag if max_error is None else max_error / frame.scale
-    # a region whose points lie within a quarter of the bound of its plane is flat:
-    # its vertices go onto the plane (at most two grid steps: the voxel surface's
-    # rounded edges and corners come back)
-    planes = (pn, offsets, deviation <= 0.25 * bound)
+    # a region whose points lie within a quarter of the bound of its plane, and wider
+    # than a grid step, is flat: its vertices go onto the plane (at most two grid
+    # steps: the voxel surface's rounded edges and corners come back). A narrow band
+    # (estimated normals turning over an edge) carries no plane.
+    planes = (pn, offsets, (deviation <= 0.25 * bound) & (width >= rec.step))
     surface = PointSurface(q, normals, tree)
     measure = PointDistances(q, surface)
     verts = fit_to_points(rec.vertices, rec.triangles, q, normals, tree, rec.step)
-    box = (measure.lo, measure.hi)  # never a vertex outside
+    box = measure.box  # never a vertex outside
     level = Decimation(verts, rec.triangles, lab, planes, 2.0 * rec.step, 0.0, measure, box)
-    if max_triangles is None and max_error is None:
+    if max_error is None:
         # the default bound, or what the points' surface itself reaches, if more
         bound = max(bound, 1.1 * level.error(0))
-    res = level.result(level.steps_for(max_triangles, bound), PLANAR_RTOL * diag)
+    steps = level.steps_for(max_triangles, bound)
+    if max_triangles is not None and not level.within(steps, SPIKE_FACTOR * bound):
+        # a budget is met only while the output stays near the points (the last
+        # collapses of a sequence can fold the surface): else the closest level
+        steps = level.steps_within(SPIKE_FACTOR * bound)
+    res = level.result(steps, PLANAR_RTOL * diag)
     d = point_mesh_distance(q, res.vertices, res.triangles) * frame.scale
     back = back_distances(res.vertices, res.triangles, surface) * frame.scale
     res = dataclasses.replace(

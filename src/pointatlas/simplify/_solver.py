@@ -90,13 +90,7 @@ def project_constraints(z, cons, cjac, n_steps=8, tol=1e-15):
         c = cons(z)
         if not c.size or np.max(np.abs(c)) <= tol:
             break
-        jac = cjac(z)
-        if jac.shape[1] <= 1500:
-            step = np.linalg.lstsq(jac.toarray(), c, rcond=None)[0]
-        else:  # pragma: no cover - large complexes only
-            from scipy.sparse.linalg import lsqr
-
-            step = lsqr(jac, c, atol=1e-16, btol=1e-16, iter_lim=10 * jac.shape[1])[0]
+        step = min_norm_step(cjac(z), c)
         z_new = z - step
         if not np.all(np.isfinite(z_new)):
             break
@@ -194,15 +188,34 @@ _KKT_DENSE_SIZE = 2000
 
 
 def _solve_kkt(mat, rhs):
-    """Least-squares (dense) or sparse LU solution of a KKT system; None on failure."""
-    if mat.shape[0] <= _KKT_DENSE_SIZE:
-        return np.linalg.lstsq(mat.toarray(), rhs, rcond=None)[0]
-    from scipy.sparse.linalg import spsolve  # pragma: no cover - large complexes only
+    """Least-squares (dense) or sparse solution of a KKT system; None on failure.
 
-    with warnings.catch_warnings():  # pragma: no cover
+    Large systems are sparse: a square one (the Newton step) by LU (`spsolve`), a
+    rectangular one (the multipliers' least squares, J^T lam = -g) by LSMR. Before,
+    the rectangular case went to `spsolve` too and stopped a 134,345-point scan
+    with "matrix must be square (has shape (2750, 1936))".
+    """
+    if max(mat.shape) <= _KKT_DENSE_SIZE:
+        return np.linalg.lstsq(mat.toarray(), rhs, rcond=None)[0]
+    from scipy.sparse.linalg import lsmr, spsolve
+
+    with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # a singular system: MatrixRankWarning, NaNs
-        sol = spsolve(sparse.csc_array(mat), rhs)
-    return sol if np.all(np.isfinite(sol)) else None  # pragma: no cover
+        if mat.shape[0] == mat.shape[1]:
+            sol = spsolve(sparse.csc_array(mat), rhs)
+        else:
+            sol = lsmr(mat, rhs, atol=1e-15, btol=1e-15, maxiter=20 * max(mat.shape))[0]
+    return sol if np.all(np.isfinite(sol)) else None
+
+
+def min_norm_step(jac, c) -> np.ndarray:
+    """The least-norm step J^+ c: dense least squares up to 1,500 unknowns, else
+    sparse LSQR."""
+    if jac.shape[1] <= 1500:
+        return np.linalg.lstsq(jac.toarray(), c, rcond=None)[0]
+    from scipy.sparse.linalg import lsqr
+
+    return lsqr(jac, c, atol=1e-16, btol=1e-16, iter_lim=10 * jac.shape[1])[0]
 
 
 def newton_kkt(z, fun, hess_obj, cons, cjac, chess):
