@@ -1,10 +1,12 @@
-"""`simplify_points` on point sets sampled from the collection: how often is the mesh closed?
+"""`simplify_points` on point sets sampled from the collection: closed, compact, near?
 
 Run from the repository root::
 
     .venv/bin/python benchmarks/bench_simplify_points.py \
-        --models ../shared/data/collection --every 5 --points 10000 \
+        --models ../shared/data/collection --every 3 --points 20000 \
         --out bench-output/simplify_points.csv
+    # raw points: normals estimated (PCA k = 20) and oriented, as the CLI does
+    .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --estimate-normals
 
 Every ``--every``-th model (sorted by name) is sampled uniformly by area with its
 face normals (`pointatlas.synth.sample_mesh`, seed 0) and the points alone go through
@@ -12,9 +14,13 @@ face normals (`pointatlas.synth.sample_mesh`, seed 0) and the points alone go th
 thesis path, and the robust path when that gives no closed, manifold, oriented mesh
 with valid faces). One CSV row per model: path taken and why, faces, closed /
 manifold / oriented, Euler characteristic of the output and of the input mesh, mean
-and max distance of the points to the output (% of the bounding-box diagonal),
-seconds. The summary prints the share of closed + manifold + oriented outputs, the
-share with the input's Euler characteristic, and the times.
+and max distance of the points to the output, the report's two-sided Hausdorff
+distance, and measured here against the truth: the two-sided Hausdorff distance
+between the output and the mesh the points were sampled from (its vertices and
+20,000 samples each way; % of the points' bounding-box diagonal), whether a vertex
+lies outside the points' box grown by 1 % of its diagonal (a spike), seconds. The
+summary prints the shares closed + manifold + oriented, with the input's Euler
+characteristic, within 1 % of the truth both ways, with a spike, and the times.
 """
 
 from __future__ import annotations
@@ -28,8 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pointatlas._core import PointAtlasError
 from pointatlas.io import read_mesh
+from pointatlas.neighbors import point_mesh_distance
+from pointatlas.normals import estimate_normals, orient_normals
 from pointatlas.simplify import SimplifyWarning, mesh_checks, simplify_points
 from pointatlas.synth import sample_mesh
 
@@ -41,13 +48,22 @@ def _euler(n_vertices: int, tri: np.ndarray) -> int:
     return int(n_vertices - np.unique(und, axis=0).shape[0] + tri.shape[0])
 
 
-def run_model(path: Path, n_points: int) -> dict:
+def _both_ways(v, t, v2, t2) -> float:
+    """Two-sided Hausdorff distance between two meshes (vertices and 20,000 samples)."""
+    a = np.vstack([v, sample_mesh(v, t, 20000, rng=1).points])
+    b = np.vstack([v2, sample_mesh(v2, t2, 20000, rng=1).points])
+    return float(max(point_mesh_distance(a, v2, t2).max(), point_mesh_distance(b, v, t).max()))
+
+
+def run_model(path: Path, n_points: int, estimate: bool = False) -> dict:
     mesh = read_mesh(path)
     tri = np.asarray(mesh.triangles, dtype=np.int64)
     used = np.unique(tri)
     euler_in = _euler(used.size, tri)
     sample = sample_mesh(mesh.vertices, tri, n_points, rng=0)
     p, n = np.asarray(sample.points), np.asarray(sample.normals)
+    if estimate:
+        n = orient_normals(p, estimate_normals(p, k=20))
     diag = float(np.linalg.norm(np.ptp(p, axis=0)))
     row = {"model": path.name, "points": n_points, "euler_input": euler_in}
     t0 = time.perf_counter()
@@ -55,24 +71,30 @@ def run_model(path: Path, n_points: int) -> dict:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SimplifyWarning)
             r = simplify_points(p, n)
-    except PointAtlasError as exc:
-        row.update(seconds=time.perf_counter() - t0, path="error", reason=str(exc))
+    except Exception as exc:  # noqa: BLE001 - a crash is a result here
+        row.update(seconds=time.perf_counter() - t0, path="error", reason=repr(exc))
         return row
     seconds = time.perf_counter() - t0
     m = r.mesh
-    closed, manifold, oriented = mesh_checks(m.n_vertices, np.asarray(m.triangles))
+    mv, mt = np.asarray(m.vertices), np.asarray(m.triangles)
+    closed, manifold, oriented = mesh_checks(m.n_vertices, mt)
+    lo, hi = p.min(axis=0) - 0.01 * diag, p.max(axis=0) + 0.01 * diag
     row.update(
         path=r.path,
         reason=r.reason,
         faces=m.n_faces,
+        polygons=len(m.polygons),
         vertices=m.n_vertices,
-        triangles=int(np.asarray(m.triangles).shape[0]),
+        triangles=int(mt.shape[0]),
         closed=closed,
         manifold=manifold,
         oriented=oriented,
-        euler=_euler(m.n_vertices, np.asarray(m.triangles)),
+        euler=_euler(m.n_vertices, mt),
         mean_distance_pct=100.0 * m.distance_mean / diag,
         max_distance_pct=100.0 * m.distance_max / diag,
+        hausdorff_pct=100.0 * max(m.distance_max, m.back_distance_max) / diag,
+        truth_hausdorff_pct=100.0 * _both_ways(mesh.vertices, tri, mv, mt) / diag,
+        spike=bool(((mv < lo) | (mv > hi)).any()),
         seconds=seconds,
     )
     return row
@@ -81,29 +103,33 @@ def run_model(path: Path, n_points: int) -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--models", type=Path, default=Path("../shared/data/collection"))
-    ap.add_argument("--every", type=int, default=5)
-    ap.add_argument("--points", type=int, default=10000)
+    ap.add_argument("--every", type=int, default=3)
+    ap.add_argument("--points", type=int, default=20000)
+    ap.add_argument("--estimate-normals", action="store_true")
     ap.add_argument("--out", type=Path, default=Path("bench-output/simplify_points.csv"))
     args = ap.parse_args(argv)
     files = sorted(p for p in args.models.iterdir() if p.suffix.lower() in MESH_SUFFIXES)
     files = files[:: args.every]
     rows = []
     for path in files:
-        row = run_model(path, args.points)
+        row = run_model(path, args.points, args.estimate_normals)
         rows.append(row)
         print(
             f"{row['model']:40s} {row['path']:7s} faces={row.get('faces', '-')!s:>5} "
             f"closed={row.get('closed', '-')!s:5} manifold={row.get('manifold', '-')!s:5} "
             f"euler={row.get('euler', '-')!s:>3}/{row['euler_input']:<3} "
-            f"mean={row.get('mean_distance_pct', float('nan')):.3f}% "
+            f"tri={row.get('triangles', '-')!s:>5} "
+            f"H={row.get('hausdorff_pct', float('nan')):.2f}% "
+            f"truth={row.get('truth_hausdorff_pct', float('nan')):.2f}% "
             f"{row['seconds']:.1f}s {row.get('reason', '')[:60]}",
             flush=True,
         )
     args.out.parent.mkdir(parents=True, exist_ok=True)
     keys = [
-        "model", "points", "path", "faces", "vertices", "triangles", "closed", "manifold",
-        "oriented", "euler", "euler_input", "mean_distance_pct", "max_distance_pct",
-        "seconds", "reason",
+        "model", "points", "path", "faces", "polygons", "vertices", "triangles", "closed",
+        "manifold", "oriented", "euler", "euler_input", "mean_distance_pct",
+        "max_distance_pct", "hausdorff_pct", "truth_hausdorff_pct", "spike", "seconds",
+        "reason",
     ]  # fmt: skip
     with open(args.out, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
@@ -122,6 +148,18 @@ def main(argv=None) -> int:
         f"{sum(r['path'] == 'error' for r in rows)}; seconds median {np.median(secs):.1f}, "
         f"max {secs.max():.1f}, total {secs.sum():.0f}"
     )
+    done = [r for r in rows if r["path"] != "error"]
+    if done:
+        truth = np.array([r["truth_hausdorff_pct"] for r in done])
+        ours = np.array([r["hausdorff_pct"] for r in done])
+        tris = np.array([r["triangles"] for r in done])
+        print(
+            f"within 1 % of the truth both ways: {int((truth <= 1.0).sum())}/{len(rows)}; "
+            f"truth Hausdorff median {np.median(truth):.2f} %, max {truth.max():.2f} %; "
+            f"reported Hausdorff median {np.median(ours):.2f} %; spikes "
+            f"{sum(r['spike'] for r in done)}; triangles median {np.median(tris):.0f}, "
+            f"max {tris.max()}; faces median {np.median([r['faces'] for r in done]):.0f}"
+        )
     print(f"written: {args.out}")
     return 0
 

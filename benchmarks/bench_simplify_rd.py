@@ -7,9 +7,11 @@ Run from the repository root (the peers come with ``make bench``'s extra)::
         --out bench-output/simplify_rd [--plot docs/figures/simplify_rd.png]
 
 For every model (every ``--every``-th of ``../shared/data/collection`` plus the meshes
-of ``../shared/data/models``) and every level (``--angles``, VSA's max_angle in
-degrees; one level is one point of our rate-distortion curve), ours runs with
-default options otherwise; then, at exactly our triangle count:
+of ``../shared/data/models``) and every level (``--levels``: ``default``, the
+default of `decimate_mesh`, 0.5 % of the diagonal both ways; a number f, a budget of
+f x the input's triangles; ``regions``, the region path `simplify_mesh` at its
+default), ours runs with default options otherwise; then, at exactly our triangle
+count:
 
 - Open3D ``simplify_quadric_decimation``;
 - pymeshlab ``meshing_decimation_quadric_edge_collapse`` with ``planarquadric`` off
@@ -97,7 +99,7 @@ def _row(model, kind, level, method, v, t, v_out, t_out, seconds) -> dict:
     return {
         "model": model,
         "kind": kind,
-        "max_angle_deg": level,
+        "level": level,
         "method": method,
         "triangles": int(len(t_out)),
         "vertices": int(used.size),
@@ -107,37 +109,28 @@ def _row(model, kind, level, method, v, t, v_out, t_out, seconds) -> dict:
     }
 
 
-def run_model(path: Path, kind: str, angles, max_decimate: int) -> list[dict]:
+def ours_at(v, t, level: str):
+    """(method, result) of ours at a level (see the module)."""
+    if level == "regions":
+        return "pointatlas_regions", simplify_mesh(v, t)
+    if level == "default":
+        return "pointatlas", decimate_mesh(v, t)
+    return "pointatlas", decimate_mesh(v, t, max(4, round(float(level) * len(t))))
+
+
+def run_model(path: Path, kind: str, levels) -> list[dict]:
     mesh = read_mesh(path)
     v, t = np.asarray(mesh.vertices), np.asarray(mesh.triangles)
     rows = []
-    for level in angles:
+    for level in levels:
         start = time.perf_counter()
-        ours = simplify_mesh(v, t, max_angle=np.radians(level))
+        method, ours = ours_at(v, t, level)
         took = time.perf_counter() - start
         n = len(ours.triangles)
         rows.append(
-            _row(path.stem, kind, level, "pointatlas", v, t, ours.vertices, ours.triangles, took)
-            | {"polygons": len(ours.polygons)}
+            _row(path.stem, kind, level, method, v, t, ours.vertices, ours.triangles, took)
+            | {"polygons": len(ours.polygons), "input_triangles": len(t)}
         )
-        if len(t) <= max_decimate:
-            start = time.perf_counter()
-            dec = decimate_mesh(v, t, n, max_angle=np.radians(level))
-            took = time.perf_counter() - start
-            rows.append(
-                _row(
-                    path.stem,
-                    kind,
-                    level,
-                    "pointatlas_decimate",
-                    v,
-                    t,
-                    dec.vertices,
-                    dec.triangles,
-                    took,
-                )
-                | {"polygons": len(dec.polygons)}
-            )
         for name, peer in PEERS.items():
             start = time.perf_counter()
             v_out, t_out = peer(v, t, n)
@@ -157,16 +150,16 @@ def kinds() -> dict[str, str]:
 def summary(rows: list[dict]) -> list[str]:
     """Geometric means of ours / the best quadric decimator, per kind and method."""
     lines = []
-    for ours_method in ("pointatlas", "pointatlas_decimate"):
+    for ours_method in ("pointatlas", "pointatlas_regions"):
         lines += _summary(rows, ours_method)
     return lines
 
 
 def _summary(rows: list[dict], ours_method: str) -> list[str]:
     lines = []
-    key = {(r["model"], r["max_angle_deg"], r["method"]): r for r in rows}
+    key = {(r["model"], r["level"], r["method"]): r for r in rows}
     cases = sorted(
-        {(r["model"], r["max_angle_deg"], r["kind"]) for r in rows if r["method"] == ours_method}
+        {(r["model"], r["level"], r["kind"]) for r in rows if r["method"] == ours_method}
     )
     for kind in ("cad", "organic"):
         mine = [c for c in cases if c[2] == kind]
@@ -184,14 +177,24 @@ def _summary(rows: list[dict], ours_method: str) -> list[str]:
                 best = min(p[metric] for p in peers)
                 ratios[metric].append((ours[metric] + floor) / (best + floor))
             if ratios["mean"][-1] > worst[0]:
-                worst = (ratios["mean"][-1], f"{model} at {level} deg")
+                worst = (ratios["mean"][-1], f"{model} at level {level}")
         gm = {m: float(np.exp(np.mean(np.log(x)))) for m, x in ratios.items()}
         closed = np.mean([key[(m, lv, ours_method)]["closed"] for m, lv, _ in mine])
+        over = sum(r > 1.5 for r in ratios["mean"])
+        kept = [key[(m, lv, ours_method)] for m, lv, _ in mine if lv == "default"]
+        if kept:
+            share = np.exp(np.mean([np.log(r["triangles"] / r["input_triangles"]) for r in kept]))
+            lines.append(
+                f"{ours_method}, {kind}, default level: triangles kept (geometric mean) "
+                f"{100 * share:.1f} % of the input's, Hausdorff median "
+                f"{np.median([r['hausdorff'] for r in kept]):.3f} %"
+            )
         lines.append(
             f"{ours_method}, {kind}: {len(mine)} cases; ours / best quadric at equal "
             f"triangles: mean distance {gm['mean']:.2f}x, two-sided Hausdorff "
             f"{gm['hausdorff']:.2f}x, time {gm['seconds']:.1f}x; worst mean "
-            f"{worst[0]:.2f}x ({worst[1]}); ours closed {100 * closed:.0f} %"
+            f"{worst[0]:.2f}x ({worst[1]}); {over} cases over 1.5x; ours closed "
+            f"{100 * closed:.0f} %"
         )
     return lines
 
@@ -204,11 +207,11 @@ def plot(rows: list[dict], path: Path, models: list[str]) -> None:
 
     fig, axes = plt.subplots(1, len(models), figsize=(5 * len(models), 4), squeeze=False)
     for ax, model in zip(axes[0], models, strict=True):
-        for method in ["pointatlas", "pointatlas_decimate", *PEERS]:
+        for method in ["pointatlas", *PEERS]:
             pts = sorted(
                 (r["triangles"], r["mean"])
                 for r in rows
-                if r["model"] == model and r["method"] == method
+                if r["model"] == model and r["method"] == method and r["level"] != "regions"
             )
             if pts:
                 x, y = zip(*pts, strict=True)
@@ -225,15 +228,11 @@ def plot(rows: list[dict], path: Path, models: list[str]) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--every", type=int, default=5)
-    parser.add_argument("--angles", type=float, nargs="+", default=[5.0, 10.0, 20.0, 40.0])
+    parser.add_argument(
+        "--levels", nargs="+", default=["default", "0.02", "0.05", "0.1", "0.2", "regions"]
+    )
     parser.add_argument("--out", type=Path, default=Path("bench-output/simplify_rd"))
     parser.add_argument("--plot", type=Path, default=None)
-    parser.add_argument(
-        "--max-decimate",
-        type=int,
-        default=30_000,
-        help="largest input (triangles) given to the pure-Python decimate_mesh",
-    )
     args = parser.parse_args()
     kind_of = kinds()
     files = sorted(p for p in (DATA / "collection").iterdir() if p.suffix in MESH_SUFFIXES)
@@ -243,12 +242,12 @@ def main() -> None:
     for path in files:
         try:
             kind = kind_of.get(path.stem, "organic")
-            mine = run_model(path, kind, args.angles, args.max_decimate)
+            mine = run_model(path, kind, args.levels)
         except Exception as exc:  # a peer that refuses a model is reported, not fatal
             print(f"{path.name}: skipped ({type(exc).__name__}: {exc})", flush=True)
             continue
         rows += mine
-        ours = [r for r in mine if r["method"] == "pointatlas"]
+        ours = [r for r in mine if r["method"].startswith("pointatlas")]
         print(
             f"{path.name}: "
             + ", ".join(f"{r['triangles']} tri mean {r['mean']:.3f}%" for r in ours),

@@ -6,10 +6,13 @@ Run from the repository root::
         --models ../shared/data/collection --out bench-output/simplify_sweep [--cgal 1]
 
 Every model goes through the same code as ``pointatlas simplify MODEL OUT.obj`` with
-default options (a mesh input takes the mesh path). One CSV row per model: faces,
-vertices, closed / manifold / oriented, Euler characteristic, faces that kept their
-input triangles, mean and max distance of the input vertices to the output (% of the
-bounding-box diagonal), seconds, path taken. With ``--cgal K`` every K-th model is
+default options (a mesh input takes the mesh path: `decimate_mesh`, the fewest
+triangles within 0.5 % of the diagonal both ways; ``--regions``: `simplify_mesh`, one
+face per region). One CSV row per model: faces, polygons, triangles (and the share of
+the input's kept), vertices, closed / manifold / oriented, Euler characteristic, faces
+that kept their input triangles, mean and max distance of the input vertices to the
+output and the two-sided Hausdorff distance (% of the bounding-box diagonal), largest
+polygon planarity error, seconds, path taken. With ``--cgal K`` every K-th model is
 also given to CGAL's ``Surface_mesh_approximation`` (benchmarks/cgal_vsa.cpp,
 compiled with Debian's libcgal-dev, see bench_simplify.py) with as many proxies as
 our output has faces, and its output is measured the same way (one metric for all:
@@ -33,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from pointatlas.io import read_mesh
-from pointatlas.simplify import SimplifyWarning, mesh_checks, simplify_mesh
+from pointatlas.simplify import SimplifyWarning, decimate_mesh, mesh_checks, simplify_mesh
 
 HERE = Path(__file__).resolve().parent
 MESH_SUFFIXES = (".obj", ".off", ".ply", ".stl")
@@ -53,7 +56,7 @@ def as_soup(vertices, triangles):
     return v, np.arange(v.shape[0], dtype=np.int64).reshape(-1, 3)
 
 
-def run_ours(mesh, soup: bool = False) -> dict:
+def run_ours(mesh, soup: bool = False, regions: bool = False) -> dict:
     v, tri = mesh.vertices, mesh.triangles
     if soup:
         v, tri = as_soup(v, tri)
@@ -61,10 +64,13 @@ def run_ours(mesh, soup: bool = False) -> dict:
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SimplifyWarning)  # the repairs of a soup
-        res = simplify_mesh(v, tri)
+        res = simplify_mesh(v, tri) if regions else decimate_mesh(v, tri)
     seconds = time.perf_counter() - t0
     return {
         "faces": res.n_faces,
+        "polygons": len(res.polygons),
+        "triangles": len(res.triangles),
+        "triangles_kept_pct": 100.0 * len(res.triangles) / max(len(tri), 1),
         "vertices": res.n_vertices,
         "closed": res.is_closed,
         "manifold": res.is_manifold,
@@ -73,9 +79,11 @@ def run_ours(mesh, soup: bool = False) -> dict:
         "faces_kept_as_input": int(res.face_kept_input.sum()),
         "mean_distance_pct": 100.0 * res.distance_mean / diag,
         "max_distance_pct": 100.0 * res.distance_max / diag,
+        "hausdorff_pct": 100.0 * max(res.distance_max, res.back_distance_max) / diag,
+        "max_polygon_planarity_pct": 100.0 * float(res.polygon_planarity.max(initial=0.0)) / diag,
         "max_planarity_pct": 100.0 * float(res.planarity_error.max(initial=0.0)) / diag,
         "seconds": seconds,
-        "path": "mesh",
+        "path": "regions" if regions else "decimate",
     }
 
 
@@ -129,6 +137,7 @@ def main(argv=None) -> int:
     parser.add_argument("--soup", action="store_true",
                         help="give every model as a triangle soup (each triangle its own "
                              "three vertices, as STL and flat-shaded exports)")  # fmt: skip
+    parser.add_argument("--regions", action="store_true", help="one face per VSA region")
     args = parser.parse_args(argv)
     files = sorted(p for p in args.models.iterdir() if p.suffix.lower() in MESH_SUFFIXES)
     if args.limit:
@@ -143,14 +152,15 @@ def main(argv=None) -> int:
         mesh = read_mesh(path)
         row = {"model": path.name, "input_faces": mesh.n_faces}
         row["input_closed_manifold"] = all(mesh_checks(mesh.n_vertices, mesh.triangles))
-        row.update(run_ours(mesh, soup=args.soup))
+        row.update(run_ours(mesh, soup=args.soup, regions=args.regions))
         if args.cgal and i % args.cgal == 0:
             row.update(run_cgal(bench, mesh, row["faces"], args.out.parent / "cgal-build"))
         rows.append(row)
         print(
             f"{i + 1:3d}/{len(files)} {path.name:45s} {row['faces']:5d} faces "
             f"closed+manifold+oriented={row['closed'] and row['manifold'] and row['oriented']} "
-            f"mean {row['mean_distance_pct']:.3f} % {row['seconds']:.2f} s"
+            f"tri {row['triangles_kept_pct']:.1f} % H {row['hausdorff_pct']:.3f} % "
+            f"{row['seconds']:.2f} s"
             + (
                 f" | CGAL mean {row['cgal_mean_distance_pct']:.3f} % "
                 f"closed+manifold+oriented={row['cgal_manifold']}"
@@ -176,9 +186,14 @@ def main(argv=None) -> int:
         f"({100.0 * len(good) / max(len(closed_in), 1):.1f} %); of them every face a "
         f"planar polygon (none kept as input triangles): {len(planar)}"
     )
+    kept = np.array([r["triangles_kept_pct"] for r in rows])
     print(
-        f"faces median {np.median([r['faces'] for r in rows]):.0f}, mean distance median "
-        f"{np.median([r['mean_distance_pct'] for r in rows]):.3f} % of the diagonal"
+        f"faces median {np.median([r['faces'] for r in rows]):.0f}, triangles kept: "
+        f"geometric mean {np.exp(np.mean(np.log(kept))):.1f} % of the input's; mean "
+        f"distance median {np.median([r['mean_distance_pct'] for r in rows]):.3f} %, "
+        f"Hausdorff (both ways) median {np.median([r['hausdorff_pct'] for r in rows]):.3f} %,"
+        f" max {max(r['hausdorff_pct'] for r in rows):.3f} % of the diagonal; largest "
+        f"polygon planarity error {max(r['max_polygon_planarity_pct'] for r in rows):.2g} %"
     )
     print(
         f"time: median {np.median(seconds):.2f} s, max {seconds.max():.2f} s, "

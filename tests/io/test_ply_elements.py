@@ -109,7 +109,7 @@ def test_what_is_not_read_is_named_in_one_warning(tmp_path):
     v = np.zeros(3, dtype=[("x", "f4"), ("y", "f4"), ("z", "f4"), ("tags", "O")])
     v["x"] = [0, 1, 0]
     v["y"] = [0, 0, 1]
-    v["tags"] = [np.array([1, 2], "i4"), np.array([3], "i4"), np.array([], "i4")]
+    v["tags"] = [np.array([1, 2], "i4"), np.array([3, 4], "i4"), np.array([5, 6], "i4")]
     face = np.zeros(1, dtype=[("vertex_indices", "O"), ("flags", "i4")])
     face["vertex_indices"] = [np.array([0, 1, 2], "i4")]
     cam = np.zeros(1, dtype=[("fx", "f4")])
@@ -125,9 +125,33 @@ def test_what_is_not_read_is_named_in_one_warning(tmp_path):
     assert mesh.n_faces == 1
     (message,) = [str(w.message) for w in caught]
     assert len(message.splitlines()) == 1
-    for part in (
-        "element 'camera' (1 records)",
-        "vertex list property 'tags'",
-        "face property 'flags'",
-    ):
+    for part in ("element 'camera' (1 records)", "face property 'flags'"):
         assert part in message, message
+    assert "tags" not in message  # read: lists of one length are kept
+
+
+@pytest.mark.parametrize("binary", [True, False])
+def test_a_vertex_list_property_survives_the_normals_command(tmp_path, binary):
+    """``list uchar int tags`` of one length: an (N, 2) attribute, written back as
+    tags_0, tags_1 (the values survive); lists of different lengths: refused by name."""
+    from tests.cli.helpers import run
+
+    rng = np.random.default_rng(0)
+    n = 200
+    v = np.zeros(n, dtype=[("x", "f4"), ("y", "f4"), ("z", "f4"), ("tags", "O")])
+    v["x"], v["y"], v["z"] = rng.random((3, n)).astype("f4")
+    v["tags"] = [np.array([i, 2 * i], "i4") for i in range(n)]
+    el = plyfile.PlyElement.describe(
+        v, "vertex", val_types={"tags": "i4"}, len_types={"tags": "u1"}
+    )
+    src, out = tmp_path / "tags.ply", tmp_path / "out.ply"
+    plyfile.PlyData([el], text=not binary).write(str(src))
+    res = run("normals", src, out, "--k", "8")
+    assert res.exit_code == 0, res.output
+    got = plyfile.PlyData.read(str(out))["vertex"].data
+    assert got["tags_0"].tolist() == list(range(n))
+    assert got["tags_1"].tolist() == [2 * i for i in range(n)]
+    v["tags"][3] = np.array([7], "i4")
+    plyfile.PlyData([el], text=not binary).write(str(src))
+    bad = run("normals", src, tmp_path / "bad.ply", "--k", "8")
+    assert bad.exit_code == 1 and "vertex list property 'tags' has lists of 1 to 2" in bad.output

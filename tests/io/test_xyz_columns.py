@@ -112,3 +112,26 @@ def test_cli_keeps_the_colours_and_prints_the_choice(tmp_path, cloud):
     back = read_point_set(out)
     np.testing.assert_array_equal(back.attributes["colors"], rgb.astype(np.uint8))
     assert not any(k.startswith("input_normals") for k in back.attributes)
+
+
+def test_coff_vertex_colours_and_noff_normals_are_read_and_kept(tmp_path):
+    from plyfile import PlyData
+
+    from pointatlas.io import read_point_set
+    from tests.cli.helpers import run
+
+    coff = tmp_path / "c.off"
+    rows = [f"{x} {y} {z} {r} {g} {b} 255" for x, y, z, r, g, b in
+            [(0, 0, 0, 255, 0, 0), (1, 0, 0, 0, 255, 0), (0, 1, 0, 0, 0, 255),
+             (0, 0, 1, 10, 20, 30), (1, 1, 1, 40, 50, 60)]]  # fmt: skip
+    coff.write_text("COFF\n5 1 0\n" + "\n".join(rows) + "\n3 0 1 2\n")
+    ps = read_point_set(coff, with_normals=False)
+    assert ps.attributes["colors"].dtype == np.uint8
+    assert ps.attributes["colors"][3].tolist() == [10, 20, 30, 255]
+    out = tmp_path / "out.ply"
+    assert run("normals", coff, out, "--k", "3").exit_code == 0
+    got = PlyData.read(str(out))["vertex"].data
+    assert got["red"].tolist() == [255, 0, 0, 10, 40] and got["alpha"].tolist()[-1] == 255
+    noff = tmp_path / "n.off"
+    noff.write_text("NOFF\n3 0 0\n0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n")
+    assert read_point_set(noff).normals[:, 2].tolist() == [1.0, 1.0, 1.0]

@@ -127,10 +127,12 @@ def _read_obj_lines(path, text: str) -> RawData:
 
 
 def read_off(path) -> RawData:
-    """Read an ASCII OFF/COFF/NOFF file (private; see read_point_set).
+    """Read an ASCII OFF/COFF/NOFF/CNOFF file (private; see read_point_set).
 
-    Extra vertex columns (colours, normals) are ignored; a face line may end with an
-    RGB(A) colour (integers 0..255 or floats in [0, 1]).
+    The header keyword's prefix names the vertex columns after x y z (Geomview's
+    order): ``N`` normals (3), ``C`` a colour (RGB or RGBA, integers 0..255 or floats
+    in [0, 1]: ``colors``; other values: ``column_<j>``); other columns are kept as
+    ``column_<j>``. A face line may end with an RGB(A) colour likewise.
     """
     text = _read_text(path)
     lines = []
@@ -166,6 +168,7 @@ def read_off(path) -> RawData:
     if short:
         raise fail(path, f"line {short[0]}: vertex with fewer than 3 coordinates")
     points = _to_float(path, [t[:3] for _, t in vpart], "vertex", [ln for ln, _ in vpart])
+    normals, attributes = _off_vertex_columns(path, head[0][:-3].upper(), vpart)
     flat: list[int] = []
     sizes: list[int] = []
     colors: list[list[str]] = []
@@ -191,10 +194,36 @@ def read_off(path) -> RawData:
     np.cumsum(np.array(sizes, dtype=np.int64), out=offsets[1:])
     return RawData(
         points=points,
+        normals=normals,
+        attributes=attributes,
         faces=np.array(flat, dtype=np.int64),
         face_offsets=offsets,
         face_colors=face_colors,
     )
+
+
+def _off_vertex_columns(path, prefix: str, vpart):
+    """Normals and attributes from the vertex columns after x y z (see `read_off`)."""
+    widths = {len(t) for _, t in vpart}
+    if not vpart or widths == {3}:
+        return None, {}
+    if len(widths) != 1:
+        raise fail(path, f"vertex lines have different numbers of columns: {sorted(widths)}")
+    table = _to_float(path, [t[3:] for _, t in vpart], "vertex", [ln for ln, _ in vpart])
+    normals, attributes, j = None, {}, 0
+    if "N" in prefix and table.shape[1] >= 3:
+        normals, j = table[:, :3], 3
+    if "C" in prefix and table.shape[1] - j >= 3:
+        width = 4 if table.shape[1] - j >= 4 and "ST" not in prefix else 3
+        values = table[:, j : j + width]
+        if (values == np.round(values)).all() and values.max(initial=0.0) > 1:
+            values = values.astype(np.int64)
+        converted = colors_to_uint8(values)
+        if converted is not None:
+            attributes["colors"], j = converted, j + width
+    for c in range(j, table.shape[1]):
+        attributes[f"column_{c + 3}"] = table[:, c]
+    return normals, attributes
 
 
 def _float_lines(prefix: str, rows: np.ndarray) -> list[str]:

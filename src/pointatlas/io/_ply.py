@@ -134,11 +134,27 @@ def _vertex_raw(path, table, ignored: list[str]) -> RawData:
         for k in used:
             del cols[k]
     for name, value in cols.items():
-        if isinstance(value, tuple):  # list properties of vertices are not kept
-            ignored.append(f"vertex list property {name!r}")
+        if isinstance(value, tuple):
+            attributes[name] = _fixed_list(path, name, *value)
             continue
         attributes[name] = np.array(value, dtype=value.dtype.newbyteorder("="), copy=True)
     return RawData(points=points, normals=normals, attributes=attributes)
+
+
+def _fixed_list(path, name: str, flat, sizes) -> np.ndarray:
+    """A vertex list property as an (N, L) attribute (written back as ``name_0`` ...
+    ``name_{L-1}``); lists of different lengths cannot be kept: refused by name."""
+    sizes = np.asarray(sizes)
+    if sizes.size and (sizes != sizes[0]).any():
+        raise fail(
+            path,
+            f"vertex list property {name!r} has lists of {int(sizes.min())} to "
+            f"{int(sizes.max())} values: pointatlas keeps lists of one length only "
+            "(drop the property, or make its lists one length)",
+        )
+    flat = np.asarray(flat)
+    width = int(sizes[0]) if sizes.size else 0
+    return np.array(flat, dtype=flat.dtype.newbyteorder("="), copy=True).reshape(-1, width)
 
 
 def _vertex_colors(cols) -> tuple[np.ndarray | None, list[str]]:
