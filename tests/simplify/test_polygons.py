@@ -135,8 +135,9 @@ def test_what_readers_make_of_random_parts_is_closed(seed):
         assert len(tris) == len(res.triangles) and _closed_and_oriented(tris)
 
 
+@pytest.mark.parametrize("how", [(), ("--regions",)], ids=["decimate", "regions"])
 @pytest.mark.parametrize("model", ["fandisk", "plate", "cube_hole", "torus"])
-def test_polygon_files_read_as_closed_meshes_by_trimesh_and_open3d(tmp_path, model):
+def test_polygon_files_read_as_closed_meshes_by_trimesh_and_open3d(tmp_path, model, how):
     import trimesh
 
     from pointatlas.io import write_mesh
@@ -148,7 +149,7 @@ def test_polygon_files_read_as_closed_meshes_by_trimesh_and_open3d(tmp_path, mod
         write_mesh(src, *shapes[model]())
     out_obj, out_ply = tmp_path / "out.obj", tmp_path / "out.ply"
     for out in (out_obj, out_ply):
-        result = run("simplify", src, out)
+        result = run("simplify", src, out, *how)
         assert result.exit_code == 0, result.output
     ours = read_mesh(out_obj)
     assert all(len(set(f.tolist())) == len(f) for f in ours.face_list())

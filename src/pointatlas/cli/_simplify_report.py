@@ -25,7 +25,7 @@ def simplification_table(mesh, seg=None, *, title: str | None = None) -> Table:
     table.add_row("faces not ok", str(s["faces_not_ok"]))
     table.add_row("max planarity error (faces)", f"{s['max_planarity_error']:.3g}")
     table.add_row("max planarity error (polygons)", f"{s['max_polygon_planarity_error']:.3g}")
-    table.add_row("mean / max distance", f"{s['distance_mean']:.4g} / {s['distance_max']:.4g}")
+    _distance_rows(table, s)
     return table
 
 
@@ -64,12 +64,7 @@ def surface_table(
     table.add_row("closed / manifold / oriented", _checks(s))
     table.add_row("Euler characteristic", str(s["euler_characteristic"]))
     table.add_row("max planarity error (polygons)", f"{s['max_planarity_error']:.3g}")
-    table.add_row("mean / max distance", f"{s['distance_mean']:.4g} / {s['distance_max']:.4g}")
-    table.add_row(
-        "mean / max distance back (output to input)",
-        f"{s['back_distance_mean']:.4g} / {s['back_distance_max']:.4g}",
-    )
-    table.add_row("two-sided Hausdorff", f"{s['hausdorff']:.4g}")
+    _distance_rows(table, s)
     return table
 
 
@@ -101,6 +96,16 @@ def _written_rows(table: Table, s: dict) -> None:
     table.add_row("polygons / triangles written", f"{s['n_polygons']} / {s['n_triangles']}")
     table.add_row("vertices", str(s["n_vertices"]))
     table.add_row("faces with holes", str(s["n_faces_with_holes"]))
+
+
+def _distance_rows(table: Table, s: dict) -> None:
+    """Both ways: input to output, output to input, and the larger maximum."""
+    table.add_row("mean / max distance", f"{s['distance_mean']:.4g} / {s['distance_max']:.4g}")
+    table.add_row(
+        "mean / max distance back (output to input)",
+        f"{s['back_distance_mean']:.4g} / {s['back_distance_max']:.4g}",
+    )
+    table.add_row("two-sided Hausdorff", f"{s['hausdorff']:.4g}")
 
 
 def _checks(s: dict) -> str:

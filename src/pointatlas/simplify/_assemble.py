@@ -17,6 +17,7 @@ import numpy as np
 
 from .._core import PointAtlasError
 from ..neighbors import point_mesh_distance
+from ._distance import PointSurface, back_distances
 from ._faces import general_faces, plane_deviation, star_faces
 from ._mesh import SimplifiedMesh, mesh_checks
 from ._polygons import PLANAR_RTOL, face_polygons
@@ -92,11 +93,12 @@ def place_vertices(
     return mv, face_list, float("nan")
 
 
-def assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, keep, labels):
+def assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, keep, labels, normals=None):
     """The SimplifiedMesh in input coordinates from the working-frame results.
 
     ``keep`` (N_input,) marks the points used, ``labels`` are their input regions
-    (for `regions_report`)."""
+    (for `regions_report`); ``normals`` (of the points used, or None) give the points'
+    surface the output is measured back to (`PointSurface`)."""
     cplx = clean.surface_complex
     if not face_list:
         raise PointAtlasError(
@@ -125,8 +127,9 @@ def assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, keep, labe
     closed, manifold, oriented = mesh_checks(verts.shape[0], triangles)
     if triangles.shape[0]:
         dist = point_mesh_distance(q, verts, triangles) * frame.scale
+        back = back_distances(verts, triangles, PointSurface(q, normals)) * frame.scale
     else:
-        dist = np.full(q.shape[0], np.inf)
+        dist, back = np.full(q.shape[0], np.inf), np.full(1, np.inf)
     with_face = {f.region for f in face_list}
     n_regions = plane_n.shape[0]
     return SimplifiedMesh(
@@ -147,6 +150,8 @@ def assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, keep, labe
         distances=dist,
         distance_mean=float(dist.mean()),
         distance_max=float(dist.max()),
+        back_distance_mean=float(back.mean()),
+        back_distance_max=float(back.max()),
         vertex_method=mv.method,
         face_method=faces,
         fallback=mv.fallback,

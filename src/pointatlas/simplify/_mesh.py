@@ -86,6 +86,10 @@ class SimplifiedMesh:
         Distance of every point used (``point_index``) to the triangulated mesh.
     distance_mean, distance_max : float
         Mean and largest of ``distances``.
+    back_distance_mean, back_distance_max : float
+        The other way: the mesh's vertices and 20,000 seeded samples of its triangles
+        to the points' surface (`PointSurface`: the points' tangent discs; the
+        nearest point without normals). A spike shows here only.
     vertex_method, face_method : str
         Methods used (``vertex_method`` is ``"lsq"`` after a fallback).
     fallback : bool
@@ -139,6 +143,8 @@ class SimplifiedMesh:
     distances: np.ndarray
     distance_mean: float
     distance_max: float
+    back_distance_mean: float
+    back_distance_max: float
     vertex_method: str
     face_method: str
     fallback: bool
@@ -216,6 +222,9 @@ class SimplifiedMesh:
             "max_planarity_error": float(self.planarity_error.max(initial=0.0)),
             "distance_mean": self.distance_mean,
             "distance_max": self.distance_max,
+            "back_distance_mean": self.back_distance_mean,
+            "back_distance_max": self.back_distance_max,
+            "hausdorff": max(self.distance_max, self.back_distance_max),
             "regions_without_face": [int(x) for x in self.regions_without_face],
             "anchor_weight": None if np.isnan(self.anchor_weight) else self.anchor_weight,
             "n_input_regions": int(self.region_map.shape[0]),
