@@ -180,3 +180,24 @@ def test_points_without_normals_through_the_command_line(tmp_path):
     # PCA normals turn over a few spacings at every edge: VSA cuts those bands into
     # many small regions (hundreds of faces here, against 10 with the true normals)
     assert info["n_triangles"] <= len(p) // 4
+
+
+def test_sparse_sphere_points_are_not_called_closed_when_degenerate_or_far():
+    """100 sphere points: the thesis mesh is closed but far from the points, and no
+    voxel surface can be built: the thesis mesh is kept with a warning naming both;
+    at 2,000 points the thesis mesh is within 5 % both ways, and kept."""
+    from pointatlas import synth
+    from pointatlas.simplify import SimplifyWarning
+
+    sparse = synth.sphere(100)
+    with pytest.warns(SimplifyWarning, match="from the points .* could not build a surface"):
+        r = simplify_points(sparse.points, sparse.normals)
+    m = r.mesh
+    v, t = np.asarray(m.vertices), np.asarray(m.triangles)
+    area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
+    assert m.is_closed and area.min() > 1e-6  # closed, and no triangle degenerate
+    dense = synth.sphere(2000)
+    r = simplify_points(dense.points, dense.normals)
+    diag = float(np.linalg.norm(np.ptp(dense.points, axis=0)))
+    assert r.path == "thesis" and r.mesh.is_closed
+    assert r.mesh.summary()["hausdorff"] <= 0.05 * diag

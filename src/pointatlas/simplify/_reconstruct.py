@@ -220,6 +220,12 @@ def reconstruct_surface(q: np.ndarray, normals: np.ndarray) -> Reconstruction:
     origin = lo - pad * step
     shape = tuple(int(x) for x in np.ceil((hi - lo) / step).astype(np.int64) + 2 * pad + 1)
     f = _field(q, normals, tree, step, spacing, origin, shape)
+    if not f.min() < 0.0 < f.max():  # no inside (a few sparse points): no surface
+        raise PointAtlasError(
+            f"simplify could not build a surface from these {q.shape[0]} points: nothing "
+            "lies inside them on a grid of two point spacings (too few points, or normals "
+            "that do not point out)"
+        )
     verts, tri, _, _ = marching_cubes(f, level=0.0, spacing=(step, step, step), method="lewiner")
     verts = verts.astype(np.float64) + origin
     tri = tri.astype(np.int64)
