@@ -523,8 +523,9 @@ def simplify_command(
         ],
     )
     max_angle = _level_angle(eta, max_angle_deg, n_faces, max_error, max_triangles)
-    if max_triangles is not None and max_triangles < 1:
-        raise PointAtlasError(f"--max-triangles must be at least 1; got {max_triangles}")
+    for flag, value in (("--max-triangles", max_triangles), ("--faces", n_faces)):
+        if value is not None and value < 1:
+            raise PointAtlasError(f"{flag} must be at least 1; got {value}")
     mesh_in = None if vertices_only else read_mesh_input(infile)
     if mesh_in is not None:
         level = {"n_faces": n_faces, "max_error": max_error, "max_triangles": max_triangles}
