@@ -93,12 +93,14 @@ def place_vertices(
     return mv, face_list, float("nan")
 
 
-def assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, keep, labels, normals=None):
+def assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, inp):
     """The SimplifiedMesh in input coordinates from the working-frame results.
 
-    ``keep`` (N_input,) marks the points used, ``labels`` are their input regions
-    (for `regions_report`); ``normals`` (of the points used, or None) give the points'
-    surface the output is measured back to (`PointSurface`)."""
+    ``inp`` (`simplify_segmentation`'s checked input): ``keep`` (N_input,) marks the
+    points used, ``labels`` are their input regions (for `regions_report`),
+    ``normals`` (of the points used, or None) give the points' surface the output is
+    measured back to (`PointSurface`)."""
+    keep, labels, normals = inp.keep, inp.labels, inp.normals
     cplx = clean.surface_complex
     if not face_list:
         raise PointAtlasError(

@@ -114,15 +114,13 @@ def simplify_points(
         points C_i.
     path : {"auto", "thesis", "robust"}
         ``"thesis"``: the surface-like complex only (errors as
-        `simplify_segmentation`). ``"robust"``: the points' surface (inside/outside
-        on a voxel grid from the oriented normals, marching cubes), its vertices
-        fitted to the points' tangent planes, its triangles labelled by the VSA
-        regions, then the mesh path's structure-aware decimation (flat regions'
-        planes from their points). ``"auto"`` (default): the thesis path, and the
-        robust one when the thesis path fails or gives a mesh that is not manifold
-        and oriented with valid faces, or is open where the points' surface is
-        closed, or when a level (``max_error``, ``max_triangles``) is asked for;
-        the result's ``path`` and ``reason`` say which and why.
+        `simplify_segmentation`). ``"robust"``: the points' surface on a voxel grid
+        (marching cubes), fitted to the points' tangent planes and decimated as on
+        the mesh path (docs/decisions/simplify.md). ``"auto"`` (default): the thesis
+        path, and the robust one when the thesis mesh fails, is not manifold and
+        oriented with valid faces, is open where the points' surface is closed or is
+        far from the points, or when a level is asked for; ``path`` and ``reason``
+        say which and why.
     labels : array_like of shape (N,), int, optional
         A segmentation to use instead of VSA's (e.g. the ``label`` field written by
         ``pointatlas segment``): regions are renumbered 0..R-1 in order of their
@@ -132,13 +130,10 @@ def simplify_points(
         Fields of `pointatlas.segment.VSAOptions` given one by one (``k``,
         ``seeds``, ``eta``, ``max_angle``, ``split``, ``merge``, ``switch``,
         ``classic``, ``weights``, ``max_iter``); they override those of ``vsa``.
-    max_error : float, optional
-        Robust path: largest distance both ways (every point to the output; the
-        output's vertices and samples to the points' tangent discs), input units.
-        Default: 0.5 % of the diagonal, or what the points' surface itself reaches
-        when that is more (sparse points: about one grid step).
-    max_triangles : int, optional
-        Robust path: a triangle budget instead.
+    max_error, max_triangles : float, int, optional
+        Robust path: largest distance both ways (points to the output, its samples to
+        the points' tangent discs; default 0.5 % of the diagonal, or what the points'
+        surface itself reaches), or a triangle budget instead.
 
     Returns
     -------
@@ -179,16 +174,13 @@ def simplify_points(
     # imported here so the meshing half of the room works on its own
     from ..segment import VSAOptions
 
-    if path not in ("auto", "thesis", "robust"):
-        raise ValueError(f"path must be 'auto', 'thesis' or 'robust'; got {path!r}")
     level = _level(max_error, max_triangles)
+    path, reason = _path_of(path, level)
     inp = _prepare(points, normals, (VSAOptions() if vsa is None else vsa).replace(**vsa_settings))
     if not (isinstance(centers, str) and centers in ("seed", "centroid")):
         raise ValueError(f"centers must be 'centroid' or 'seed'; got {centers!r}")
     seg, seg_labels, seg_normals, ctr = _segment(inp, labels, centers, rng)
-    mesh, reason = None, "path='robust' was asked for"
-    if path == "auto" and (max_error, max_triangles) != (None, None):
-        path, reason = "robust", "a level of detail was asked for (the robust path's)"
+    mesh = None
     if path != "robust":
         settings = {
             "vertices": vertices, "faces": faces, "centers": ctr, "weight": weight,
@@ -205,6 +197,16 @@ def simplify_points(
 #: both ways (else the robust path: 100 sparse sphere points gave a closed 6-face mesh
 #: 13 % of the diagonal off; fandisk's and the noisy dodecahedron's are 3-4 % off).
 THESIS_HAUSDORFF = 0.05
+
+
+def _path_of(path: str, level: dict) -> tuple[str, str]:
+    """The path to take and why the robust one (a level of detail is the robust
+    path's)."""
+    if path not in ("auto", "thesis", "robust"):
+        raise ValueError(f"path must be 'auto', 'thesis' or 'robust'; got {path!r}")
+    if path == "auto" and any(v is not None for v in level.values()):
+        return "robust", "a level of detail was asked for (the robust path's)"
+    return path, "path='robust' was asked for"
 
 
 def _level(max_error, max_triangles) -> dict:
@@ -315,7 +317,10 @@ def _thesis_mesh(inp: _Input, seg_labels, seg_normals, path, settings):
     mesh = dataclasses.replace(
         mesh, point_index=point_index, n_dropped=inp.n_input - point_index.size
     )
-    return mesh, (_thesis_flaw(mesh) if path == "auto" else "")
+    # Eq. 4.12 (``vertices="optimize"``) pulls vertices to the region centres by
+    # design (the thesis' own result shrinks): its distance is not a flaw
+    far = settings["vertices"] != "optimize"
+    return mesh, (_thesis_flaw(mesh, far) if path == "auto" else "")
 
 
 def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, level):
@@ -349,8 +354,9 @@ def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, leve
     return inp.result(seg, res, path="robust", reason=reason, labels=point_labels)
 
 
-def _thesis_flaw(mesh: SimplifiedMesh) -> str:
-    """Why a thesis-path mesh is not kept ("" when it is)."""
+def _thesis_flaw(mesh: SimplifiedMesh, far: bool = True) -> str:
+    """Why a thesis-path mesh is not kept ("" when it is); ``far``: also when it is
+    farther than `THESIS_HAUSDORFF` from the points."""
     if not (mesh.is_manifold and mesh.is_oriented):
         return "thesis path: the mesh is not manifold and oriented"
     if not mesh.face_ok.all():
@@ -360,10 +366,10 @@ def _thesis_flaw(mesh: SimplifiedMesh) -> str:
     area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
     if (area <= 1e-12 * diag**2).any():
         return f"thesis path: {int((area <= 1e-12 * diag**2).sum())} degenerate triangles"
-    far = max(mesh.distance_max, mesh.back_distance_max)
-    if far > THESIS_HAUSDORFF * diag:
+    off = max(mesh.distance_max, mesh.back_distance_max)
+    if far and off > THESIS_HAUSDORFF * diag:
         return (
-            f"thesis path: the mesh is {100 * far / diag:.2g} % of the diagonal from the "
+            f"thesis path: the mesh is {100 * off / diag:.2g} % of the diagonal from the "
             f"points (more than {100 * THESIS_HAUSDORFF:g} %)"
         )
     if not mesh.is_closed:

@@ -159,9 +159,7 @@ def simplify_segmentation(
         max_distance=None if max_distance is None else float(max_distance) / frame.scale,
         max_iter=max_iter,
     )  # fmt: skip
-    return assemble_mesh(
-        frame, q, clean, mv, face_list, faces, used_weight, inp.keep, inp.labels, inp.normals
-    )
+    return assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, inp)
 
 
 def _check_choice(value, name, choices):
