@@ -69,6 +69,7 @@ def face_polygons(vertices, triangles, triangle_face, face_loops, tol: float):
     tf = np.asarray(triangle_face, dtype=np.int64)
     order = np.argsort(tf, kind="stable")
     bounds = np.searchsorted(tf[order], np.arange(len(face_loops) + 1))
+    alone = _alone(v, t, tf, tol)[order] if t.size else np.zeros(0, dtype=bool)
     pieces, piece_face = [], []
     for f, loops in enumerate(face_loops):
         mine = t[order[bounds[f] : bounds[f + 1]]]
@@ -76,13 +77,15 @@ def face_polygons(vertices, triangles, triangle_face, face_loops, tol: float):
         inside = np.unique(mine).size != loops[0].size if simple else True
         if simple and not inside and plane_deviation(v[loops[0]]) <= tol:
             mine_pieces = [(np.asarray(loops[0], dtype=np.int64), mine)]
+        elif alone[bounds[f] : bounds[f + 1]].all():  # each triangle its own piece
+            mine_pieces = [(_lowest_first(x), x[None]) for x in mine]
         else:
-            mine_pieces = _pieces(v, mine, tol)
+            mine_pieces = _pieces(v, mine, tol, alone=alone[bounds[f] : bounds[f + 1]])
         for piece in _fan_ready(v, mine_pieces, tol):
             pieces.append(piece)
             piece_face.append(f)
     polygons, polygon_face = _no_shared_diagonals(v, pieces, piece_face)
-    planarity = [plane_deviation(v[p]) for p in polygons]
+    planarity = [plane_deviation(v[p]) if len(p) > 3 else 0.0 for p in polygons]
     return (
         tuple(polygons),
         np.asarray(polygon_face, dtype=np.int64),
@@ -102,7 +105,10 @@ def _no_shared_diagonals(v, pieces, piece_face):
     polygons, polygon_face = [], []
     for (cycle, tris), f in zip(pieces, piece_face, strict=True):
         start = _reader_start(v, cycle, edges)
-        parts = list(tris) if start is None else [np.roll(cycle, -start)]
+        if start == 0:
+            parts = [cycle]
+        else:
+            parts = list(tris) if start is None else [np.roll(cycle, -start)]
         polygons.extend(np.asarray(p, dtype=np.int64) for p in parts)
         polygon_face.extend([f] * len(parts))
     return polygons, polygon_face
@@ -141,7 +147,7 @@ def _fan_ready(v, pieces, tol):
     e.g. a ring around a hole) is regrown from its triangles into convex pieces, so
     that readers that fan-triangulate a polygon get our surface."""
     for cycle, tris in pieces:
-        if fan_start(v[cycle]) is not None:
+        if len(cycle) == 3 or fan_start(v[cycle]) is not None:
             yield cycle, tris
             continue
         normal = np.cross(v[cycle], v[np.roll(cycle, -1)]).sum(axis=0)
@@ -173,9 +179,12 @@ def planar_pieces(vertices: np.ndarray, triangles: np.ndarray, tol: float) -> li
     return [cycle for cycle, _ in _pieces(vertices, triangles, tol)]
 
 
-def _pieces(vertices, triangles, tol: float, convex=None) -> list[tuple[np.ndarray, np.ndarray]]:
+def _pieces(
+    vertices, triangles, tol: float, convex=None, alone=None
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """`planar_pieces` with each piece's triangles: ``[(cycle, triangles (k, 3))]``;
-    ``convex`` (a normal): every piece convex about it."""
+    ``convex`` (a normal): every piece convex about it; ``alone`` (`_alone`): the
+    triangles that are pieces of their own."""
     tri = np.asarray(triangles, dtype=np.int64)
     n = tri.shape[0]
     if n == 0:
@@ -188,13 +197,53 @@ def _pieces(vertices, triangles, tol: float, convex=None) -> list[tuple[np.ndarr
         for x, y in ((a, b), (b, c), (c, a)):
             by_edge.setdefault((min(x, y), max(x, y)), []).append(k)
     used = np.zeros(n, dtype=bool)
+    if flat or convex is not None or alone is None:
+        alone = np.zeros(n, dtype=bool)
     pieces = []
     for seed in range(n):
-        if not used[seed]:
-            before = used.copy()
-            cycle = _grow(seed, rows, by_edge, used, pts, None if flat else tol, convex)
-            pieces.append((cycle, tri[used & ~before]))
+        if used[seed]:
+            continue
+        if alone[seed]:  # no neighbour near its plane: a piece of its own
+            used[seed] = True
+            pieces.append((_lowest_first(tri[seed]), tri[seed : seed + 1]))
+            continue
+        before = used.copy()
+        cycle = _grow(seed, rows, by_edge, used, pts, None if flat else tol, convex)
+        pieces.append((cycle, tri[used & ~before]))
     return pieces
+
+
+def _lowest_first(t: np.ndarray) -> np.ndarray:
+    """A triangle's corners from its lowest id, in its order (as `_grow` gives them)."""
+    i = int(np.argmin(t))
+    return t[[i, (i + 1) % 3, (i + 2) % 3]]
+
+
+def _alone(pts, tri, face, tol: float) -> np.ndarray:
+    """(T,) bool: no triangle of the same ``face`` across an edge has its third vertex
+    within 10 ``tol`` of the triangle's plane, nor the other way round (a curved
+    region's triangles: the growth would stop at once, one plane fit per neighbour;
+    the margin keeps every triangle the growth could join out of it)."""
+    n = tri.shape[0]
+    a, b, c = pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]
+    normal = np.cross(b - a, c - a)
+    length = np.linalg.norm(normal, axis=1)
+    normal /= np.maximum(length, 1e-300)[:, None]
+    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    third = np.concatenate([tri[:, 2], tri[:, 0], tri[:, 1]])
+    owner = np.tile(np.arange(n), 3)
+    key = np.minimum(edges[:, 0], edges[:, 1]) * (int(tri.max()) + 1) + edges.max(axis=1)
+    order = np.argsort(key, kind="stable")
+    same = key[order][1:] == key[order][:-1]
+    k, j = owner[order][:-1][same], owner[order][1:][same]
+    tk, tj = third[order][:-1][same], third[order][1:][same]
+    off_k = np.abs(np.einsum("ij,ij->i", normal[k], pts[tj] - a[k]))
+    off_j = np.abs(np.einsum("ij,ij->i", normal[j], pts[tk] - a[j]))
+    near = ((off_k <= 10.0 * tol) | (off_j <= 10.0 * tol)) & (face[k] == face[j])
+    alone = length > 0.0
+    alone[k[near]] = False
+    alone[j[near]] = False
+    return alone
 
 
 def _grow(seed, rows, by_edge, used, pts, tol, convex=None) -> np.ndarray:
