@@ -29,7 +29,7 @@ __all__ = [
 #: Largest number of grid cells along the bounding box's longest side.
 MAX_CELLS = 192
 #: Grid step in point spacings (median nearest-neighbour distance).
-SPACING_STEPS = 2.0
+SPACING_STEPS = 1.5
 #: Band around the points where the field is the tangent-plane distance (grid steps,
 #: Chebyshev); beyond it every connected region of nodes takes one sign by a vote.
 BAND = 3
