@@ -223,7 +223,7 @@ def reconstruct_surface(q: np.ndarray, normals: np.ndarray) -> Reconstruction:
     if not f.min() < 0.0 < f.max():  # no inside (a few sparse points): no surface
         raise PointAtlasError(
             f"simplify could not build a surface from these {q.shape[0]} points: nothing "
-            "lies inside them on a grid of two point spacings (too few points, or normals "
+            "lies inside them on a grid of 1.5 point spacings (too few points, or normals "
             "that do not point out)"
         )
     verts, tri, _, _ = marching_cubes(f, level=0.0, spacing=(step, step, step), method="lewiner")
