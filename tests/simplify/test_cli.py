@@ -333,8 +333,11 @@ def test_an_unreachable_target_is_said_and_the_report_describes_the_file(tmp_pat
     assert info["max_planarity_error"] < 1e-12 and set(written.face_sizes.tolist()) == {8}
 
 
-@pytest.mark.parametrize("flag", ["--faces", "--max-triangles"])
-def test_a_level_below_one_names_the_flag_as_typed(tmp_path, flag):
-    res = runner.invoke(app, ["simplify", "eight", str(tmp_path / "x.obj"), flag, "0"])
-    assert res.exit_code == 1 and f"{flag} must be at least 1; got 0" in res.output
+@pytest.mark.parametrize(
+    ("flag", "value", "low"),
+    [("--faces", "0", 1), ("--max-triangles", "0", 1), ("--smooth", "-1", 0)],
+)
+def test_a_level_below_one_names_the_flag_as_typed(tmp_path, flag, value, low):
+    res = runner.invoke(app, ["simplify", "eight", str(tmp_path / "x.obj"), flag, value])
+    assert res.exit_code == 1 and f"{flag} must be at least {low}; got {value}" in res.output
     assert "n_faces" not in res.output and not (tmp_path / "x.obj").exists()

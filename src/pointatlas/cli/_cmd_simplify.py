@@ -523,9 +523,13 @@ def simplify_command(
         ],
     )
     max_angle = _level_angle(eta, max_angle_deg, n_faces, max_error, max_triangles)
-    for flag, value in (("--max-triangles", max_triangles), ("--faces", n_faces)):
-        if value is not None and value < 1:
-            raise PointAtlasError(f"{flag} must be at least 1; got {value}")
+    for flag, value, low in (
+        ("--max-triangles", max_triangles, 1),
+        ("--faces", n_faces, 1),
+        ("--smooth", smooth, 0),
+    ):
+        if value is not None and value < low:
+            raise PointAtlasError(f"{flag} must be at least {low}; got {value}")
     mesh_in = None if vertices_only else read_mesh_input(infile)
     if mesh_in is not None:
         level = {"n_faces": n_faces, "max_error": max_error, "max_triangles": max_triangles}
