@@ -26,9 +26,9 @@ from ._mesh_path import (
     _merge_flat,
     _segment_faces,
     _unreferenced_apart,
+    repaired_input,
     used_vertices,
 )
-from ._nonmanifold import repair_mesh_input
 from ._place import FLAT_RTOL, flat_planes, place_on_planes
 from ._polygons import PLANAR_RTOL
 from ._surface import SurfaceSimplification, _face_graph, _surface, surface_result
@@ -109,10 +109,7 @@ def decimate_mesh(
     else:
         max_error = MAX_ERROR * diag
     angle = MAX_ANGLE if max_angle is None else as_float(max_angle, "max_angle", lo=0.0)
-    repair = repair_mesh_input(verts, tri)
-    run_used = None if used.all() else used if repair is None else used[repair.source]
-    if repair is not None:
-        verts, tri = repair.vertices, repair.triangles
+    verts, tri, run_used, repair = repaired_input(verts, tri, used)
     s = _surface(verts, tri)
     graph = _face_graph(s)
     labels, _ = _segment_faces(s, graph, max_angle=angle, eta=None, rng=rng)
@@ -144,6 +141,12 @@ class MeshDistances:
         """The largest distance both ways."""
         there = point_mesh_distance(self.on, out_v, out_t).max()
         return float(max(there, back_distances(out_v, out_t, self.verts, self.tri).max()))
+
+    def report(self, out_v, out_t):
+        """The distances `surface_result` reports: every vertex to the output, and the
+        output's samples back to the input."""
+        there = point_mesh_distance(self.verts, out_v, out_t)
+        return there, back_distances(out_v, out_t, self.verts, self.tri)
 
 
 class Decimation:
@@ -229,5 +232,6 @@ class Decimation:
             planar_tol=planar_tol,
             chord_tolerance=float("nan"),
             n_refined=0,
+            distances=self.measure.report(out_v, out_t),
         )
         return dataclasses.replace(res, face_region=present.astype(np.int64))

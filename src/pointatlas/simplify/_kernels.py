@@ -68,21 +68,7 @@ def turns_over(v, faces, w, x) -> bool:
     """Whether moving vertex ``w`` to ``x`` turns a triangle of ``faces`` (k, 3) by
     90 degrees or more, or shrinks its area below 1e-6 of what it was."""
     for k in range(faces.shape[0]):
-        p = np.empty((3, 3))
-        for i in range(3):
-            vi = faces[k, i]
-            for d in range(3):
-                p[i, d] = x[d] if vi == w else v[vi, d]
-        q = np.empty((3, 3))
-        for i in range(3):
-            for d in range(3):
-                q[i, d] = v[faces[k, i], d]
-        before = np.cross(q[1] - q[0], q[2] - q[0])
-        after = np.cross(p[1] - p[0], p[2] - p[0])
-        bb = before[0] * before[0] + before[1] * before[1] + before[2] * before[2]
-        ab = after[0] * before[0] + after[1] * before[1] + after[2] * before[2]
-        aa = after[0] * after[0] + after[1] * after[1] + after[2] * after[2]
-        if ab <= 0.0 or aa <= 1e-12 * bb:
+        if _flips(v, faces, k, w, x):
             return True
     return False
 
@@ -90,7 +76,7 @@ def turns_over(v, faces, w, x) -> bool:
 @njit(cache=True)
 def _flips(v, tri, f, w, x) -> bool:
     """Whether moving vertex ``w`` of triangle ``f`` to ``x`` turns it by 90 degrees or
-    more, or shrinks its area below 1e-6 of what it was (one face of `turns_over`)."""
+    more, or shrinks its area below 1e-6 of what it was."""
     p = np.empty((3, 3))
     for i in range(3):
         vi = tri[f, i]

@@ -194,13 +194,20 @@ def _at_level(run, tol, max_angle, eta, *, n_faces, max_triangles, max_error):
     return run(MAX_ANGLE if max_angle is None else max_angle)
 
 
-def _repaired_run(verts, tri, used, *, tol, planarize, rng):
-    """The `_MeshRun` of the repaired input (`repair_mesh_input`) and the repair (None
-    when the input needed none); ``used``: the input vertices on a triangle."""
+def repaired_input(verts, tri, used):
+    """The input after `repair_mesh_input`: ``(vertices, triangles, used, repair)``,
+    ``used`` the repaired vertices on a triangle (None when all are), ``repair`` None
+    when the input needed none; ``used`` given: the input vertices on a triangle."""
     repair = repair_mesh_input(verts, tri)
     run_used = None if used.all() else used if repair is None else used[repair.source]
     if repair is not None:
         verts, tri = repair.vertices, repair.triangles
+    return verts, tri, run_used, repair
+
+
+def _repaired_run(verts, tri, used, *, tol, planarize, rng):
+    """The `_MeshRun` of the repaired input (`repaired_input`) and the repair."""
+    verts, tri, run_used, repair = repaired_input(verts, tri, used)
     return _MeshRun(verts, tri, tol=tol, planarize=planarize, rng=rng, used=run_used), repair
 
 

@@ -358,11 +358,16 @@ class PointDistances:
 
     def error(self, out_v, out_t) -> float:
         """The largest distance both ways."""
+        there, back = self.report(out_v, out_t)
+        return float(max(there.max(), back.max()))
+
+    def report(self, out_v, out_t):
+        """Every point to the output, and the output's samples to the points' surface."""
         from ._distance import back_distances
         from ._mesh import point_mesh_distance
 
-        there = point_mesh_distance(self.q, out_v, out_t).max()
-        return float(max(there, back_distances(out_v, out_t, self.surface).max()))
+        there = point_mesh_distance(self.q, out_v, out_t)
+        return there, back_distances(out_v, out_t, self.surface)
 
 
 def fit_to_points(verts, tri, q, normals, tree, bound: float, k: int = FIT_NEIGHBORS):
@@ -404,8 +409,7 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max
     import dataclasses
 
     from ._decimate_mesh import MAX_ERROR, Decimation
-    from ._distance import PointSurface, back_distances
-    from ._mesh import point_mesh_distance
+    from ._distance import PointSurface
     from ._polygons import PLANAR_RTOL
     from ._surface import _face_graph, _surface
 
@@ -437,17 +441,16 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max
         # a budget is met only while the output stays near the points (the last
         # collapses of a sequence can fold the surface): else the closest level
         steps = level.steps_within(SPIKE_FACTOR * bound)
-    res = level.result(steps, PLANAR_RTOL * diag)
-    d = point_mesh_distance(q, res.vertices, res.triangles) * frame.scale
-    back = back_distances(res.vertices, res.triangles, surface) * frame.scale
+    res = level.result(steps, PLANAR_RTOL * diag)  # distances: to the points
+    scale = frame.scale
     res = dataclasses.replace(
         res,
         vertices=frame.to_input(res.vertices),
-        distances=d,
-        distance_mean=float(d.mean()),
-        distance_max=float(d.max()),
-        back_distance_mean=float(back.mean()) if back.size else 0.0,
-        back_distance_max=float(back.max()) if back.size else 0.0,
+        distances=res.distances * scale,
+        distance_mean=res.distance_mean * scale,
+        distance_max=res.distance_max * scale,
+        back_distance_mean=res.back_distance_mean * scale,
+        back_distance_max=res.back_distance_max * scale,
         planarity_error=res.planarity_error * frame.scale,
         polygon_planarity=res.polygon_planarity * frame.scale,
     )

@@ -536,10 +536,13 @@ def surface_result(
     planar_tol,
     chord_tolerance,
     n_refined,
+    distances=None,
 ):
     """The `SurfaceSimplification` of output triangles labelled by face (``tface``):
     the faces' simple planar polygons (``planar_tol``), the checks, and the distances
-    both ways against the input (``verts``, ``tri``); shared by every mesh path."""
+    both ways against the input (``verts``, ``tri``), or ``distances`` (there, back)
+    as given (the points path measures against the points); shared by every mesh
+    path."""
     from ._mesh import mesh_checks, point_mesh_distance, unique_pairs
 
     n_regions = len(face_loops)
@@ -551,8 +554,12 @@ def surface_result(
     closed, manifold, oriented = mesh_checks(out_v.shape[0], out_t)
     und = np.sort(np.concatenate([out_t[:, [0, 1]], out_t[:, [1, 2]], out_t[:, [2, 0]]]), 1)
     n_edges = unique_pairs(und).shape[0]
-    dist = point_mesh_distance(verts, out_v, out_t)
-    back = back_distances(out_v, out_t, verts, tri)
+    if distances is None:
+        distances = (
+            point_mesh_distance(verts, out_v, out_t),
+            back_distances(out_v, out_t, verts, tri),
+        )
+    dist, back = distances
     return SurfaceSimplification(
         vertices=out_v,
         vertex_source=used,
