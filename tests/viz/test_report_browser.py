@@ -13,6 +13,7 @@ import json
 import math
 import os
 import shutil
+import tempfile
 
 import numpy as np
 import pytest
@@ -38,6 +39,10 @@ CHROMIUM_FLAGS = [
     "--disable-component-update",
     "--disable-sync",
 ]
+#: Parent of the browser's own TMPDIR: Chromium binds its singleton socket under
+#: TMPDIR and in its profile folder, and a unix socket path holds at most 107 bytes,
+#: so a long TMPDIR (a CI runner's, a nested sandbox's) makes the launch fail.
+SHORT_TMP_PARENT = "/tmp"
 #: Generous: a loaded 2-core machine renders with SwiftShader on the CPU.
 TIMEOUT_MS = 60_000
 WHITE = np.array([255, 255, 255])
@@ -53,16 +58,39 @@ def find_chromium() -> str | None:
 
 
 @pytest.fixture(scope="module")
-def browser():
+def short_tmpdir():
+    """A fresh folder with a short path for the browser's temporary files, removed after."""
+    try:
+        folder = tempfile.mkdtemp(prefix="pa-chromium-", dir=SHORT_TMP_PARENT)
+    except OSError as exc:
+        pytest.skip(
+            reason=f"Chromium needs a short TMPDIR for its socket; cannot create one in "
+            f"{SHORT_TMP_PARENT} ({exc.strerror})"
+        )
+    yield folder
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def browser(short_tmpdir):
     path = find_chromium()
     if path is None:
         pytest.skip(
             reason="no Chromium found (install Debian's chromium: apt-get install chromium)"
         )
-    with sync_api.sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=path, args=CHROMIUM_FLAGS, timeout=TIMEOUT_MS)
+    # the driver makes the profile folder in its TMPDIR, the browser its socket folder
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("TMPDIR", short_tmpdir)
+        pw = sync_api.sync_playwright().start()
+        env = dict(os.environ)
+    try:
+        b = pw.chromium.launch(
+            executable_path=path, args=CHROMIUM_FLAGS, timeout=TIMEOUT_MS, env=env
+        )
         yield b
         b.close()
+    finally:
+        pw.stop()
 
 
 class Page:
