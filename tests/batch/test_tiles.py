@@ -223,6 +223,24 @@ def test_tiled_segment_eta_regions_stay_under_eta(client, points, oriented):
             tiled_segment(points, oriented, tiles, VSAOptions(k=8, eta=25.0).replace(**bad))
 
 
+def test_tiled_segment_joins_small_regions_across_tiles(client, points, oriented):
+    """``min_region_size`` (issue 28 item 6) holds for the stitched regions too:
+    none below it touches another region, also where a tile border cut one."""
+    from pointatlas.segment import VSAOptions, region_adjacency
+
+    tiles = TileOptions(tile_size=8.0, scheduler=client)
+    opts = VSAOptions(k=8, max_angle=math.radians(10.0))
+    before, _, _ = tiled_segment(points, oriented, tiles, opts)
+    labels, q, run = tiled_segment(points, oriented, tiles, opts.replace(min_region_size=8))
+    assert (np.bincount(before) < 8).sum() > 0
+    counts = np.bincount(labels)
+    assert np.array_equal(counts, q["region_counts"]) and counts.size <= before.max() + 1
+    small = np.flatnonzero(counts < 8)
+    assert not np.isin(region_adjacency(points, labels, k=8), small).any()
+    # the tiles joined their own; the stitch joined those cut by tile borders
+    assert run.extra["small_regions_joined"] > 0
+
+
 def test_tiled_flatness_denoising_matches_untiled(client, points):
     from pointatlas.denoise import flatness_denoise
 

@@ -242,3 +242,46 @@ def eta_reference(mean_curvature, n_points, split=0.5):
             nrm /= np.linalg.norm(nrm)
             total += np.sum((nrm - [0, 0, 1]) ** 2)
     return total
+
+
+def merge_small_reference(lists, normals, weights, labels, min_size):
+    """`small_region_groups` on points, written out: regions are sets of points
+    named by their smallest starting region id; in rounds every region with fewer
+    than ``min_size`` points that touches another (a graph edge) picks the one
+    whose union adds the least 2 (|S_a| + |S_b| - |S_a + S_b|) (ties: smaller
+    name), all picks join at once, until no small region has a neighbour."""
+    name = {int(r): int(r) for r in np.unique(labels)}  # starting region -> its group
+    lab = np.asarray(labels)
+
+    def group_of(p):
+        return name[int(lab[p])]
+
+    while True:
+        groups = sorted(set(name.values()))
+        members = {g: [p for p in range(lab.size) if group_of(p) == g] for g in groups}
+        s = {g: np.sum([weights[p] * normals[p] for p in members[g]], axis=0) for g in groups}
+        picks = {}
+        for g in groups:
+            if len(members[g]) >= min_size:
+                continue
+            nbrs = {group_of(q) for p in members[g] for q in lists[p]} - {g}
+            costs = [
+                (np.linalg.norm(s[g]) + np.linalg.norm(s[h]) - np.linalg.norm(s[g] + s[h]), h)
+                for h in sorted(nbrs)
+            ]
+            if costs:
+                picks[g] = min(costs)[1]
+        if not picks:
+            break
+        parent = {g: g for g in groups}
+        for g, h in picks.items():
+            a, b = _find(parent, g), _find(parent, h)
+            parent[max(a, b)] = min(a, b)
+        name = {r: _find(parent, g) for r, g in name.items()}
+    return np.array([group_of(p) for p in range(lab.size)])
+
+
+def _find(parent, g):
+    while parent[g] != g:
+        g = parent[g]
+    return g

@@ -186,6 +186,50 @@ def test_segment_local_reaches_vsa(tmp_path):
         result = runner.invoke(app, ["segment", str(path), str(out), *flag])
         assert result.exit_code == 0, result.output
         labels[bool(flag)] = np.asarray(read_point_set(out).attributes["label"])
-        ref = vsa_segment(ps.points, ps.normals, local=bool(flag))
+        # the command's default --min-region-size is k
+        ref = vsa_segment(ps.points, ps.normals, local=bool(flag), min_region_size=8)
         assert np.array_equal(labels[bool(flag)], ref.labels)
     assert not np.array_equal(labels[True], labels[False])
+
+
+def test_segment_joins_regions_below_the_minimum_size(tmp_path):
+    """Issue 28 item 6: on a noisy cube at 10 degrees the regions of a few points
+    join their best neighbour (default: fewer than k = 8 points); 0 turns it off."""
+    from pointatlas.segment import vsa_segment
+
+    from .test_small_regions import noisy_cube_cloud
+
+    points, normals = noisy_cube_cloud()
+    path = tmp_path / "noisy.ply"
+    write_point_set(path, points, normals=normals)
+    ps = read_point_set(path)
+    counts = {}
+    for size in (None, "0", "20"):
+        out = tmp_path / f"seg_{size}.ply"
+        flag = [] if size is None else ["--min-region-size", size]
+        args = ["segment", str(path), str(out), "--max-angle-deg", "10", *flag]
+        result = runner.invoke(app, args)
+        assert result.exit_code == 0, result.output
+        labels = np.asarray(read_point_set(out).attributes["label"])
+        counts[size] = np.bincount(labels)
+        summary = json.loads(out.with_name(f"{out.stem}_regions.json").read_text())["summary"]
+        assert summary["min_region_size"] == (8 if size is None else int(size))
+        ref = vsa_segment(ps.points, ps.normals, max_angle=np.radians(10.0),
+                          min_region_size=summary["min_region_size"])  # fmt: skip
+        assert np.array_equal(labels, ref.labels)
+    assert counts[None].min() >= 8 and counts["20"].min() >= 20
+    assert (counts["0"] < 8).sum() > 50
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--min-region-size", "-1"], "--min-region-size must be"),
+        (["--method", "region-growing", "--min-region-size", "5"], "applies to --method vsa"),
+    ],
+)
+def test_segment_min_region_size_refused(cube_file, tmp_path, args, message):
+    result = runner.invoke(app, ["segment", str(cube_file), str(tmp_path / "o.ply"), *args])
+    assert result.exit_code == 1
+    assert message in result.output
+    assert not (tmp_path / "o.ply").exists()

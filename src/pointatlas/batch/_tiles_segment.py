@@ -220,7 +220,10 @@ def tiled_segment(points, normals, options: TileOptions, params: dict):
     within the max angle); in VSA's local mode a union never holds two regions of
     one tile. With ``eta``, a final cheapest-first merge pass over all
     neighbouring regions (tile adjacency and halo links) then applies the same
-    test, as VSA's own final merge does (VSA runs none in angle mode).
+    test, as VSA's own final merge does (VSA runs none in angle mode). With
+    ``min_region_size`` every tile joins its small regions, and then the stitched
+    regions still under the size (cut by tile borders) join their best neighbour
+    by the same rule (`VSAOptions.min_region_size`).
     """
     return segment_over(ArraySource(points, normals), options, params)
 
@@ -335,6 +338,9 @@ def stitch(per_tile: dict, vsa, tau2: float, labels: np.ndarray):
     # lets a large region absorb a small perpendicular one); so does this one
     final_pass = vsa.merge and eta is not None
     n_final = _greedy_merge(regions, np.concatenate(cand)) if final_pass else 0
+    n_small = 0
+    if vsa.min_region_size > 1:  # as vsa_segment's last step, over the stitched regions
+        n_small = _join_small(regions, np.concatenate(cand), has_points, vsa.min_region_size)
     roots = np.array([regions.find(i) for i in range(total)], dtype=np.int64)
     live = np.unique(roots[has_points])
     live = live[np.argsort(regions.first[live], kind="stable")]
@@ -345,8 +351,37 @@ def stitch(per_tile: dict, vsa, tau2: float, labels: np.ndarray):
         labels[sl] = final[labels[sl]]
         T.release_pages(labels)
     extra = {"tile_regions": int(has_points.sum()), "halo_unions": n_links,
-             "final_merges": n_final}  # fmt: skip
+             "final_merges": n_final, "small_regions_joined": n_small}  # fmt: skip
     return _quality(regions.st[live]), extra
+
+
+def _join_small(regions: _Regions, pairs: np.ndarray, has_points: np.ndarray, min_size: int):
+    """Stitched regions with fewer than ``min_size`` points join the neighbouring
+    stitched region whose union with them adds the least L21, by the rule of
+    `vsa_segment`'s step "small_regions" (`VSAOptions.min_region_size`); a tile
+    joined its own small regions already, this joins those cut by tile borders.
+    Returns the number of regions that joined."""
+    from ..segment._small import small_region_groups
+
+    total = regions.st.shape[0]
+    roots = np.array([regions.find(i) for i in range(total)], dtype=np.int64)
+    live = np.flatnonzero(has_points & (roots == np.arange(total)))
+    index = np.full(total, -1, dtype=np.int64)
+    index[live] = np.arange(live.size)
+    p = index[roots[pairs]] if pairs.size else np.zeros((0, 2), dtype=np.int64)
+    p = p[(p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] != p[:, 1])]
+    p = np.unique(np.sort(p, axis=1), axis=0)
+    st = regions.st[live]
+    group, m = small_region_groups(p, st[:, 0], st[:, 1:4], st[:, 0].astype(np.int64), min_size)
+    if m == live.size:
+        return 0
+    head = np.full(m, -1, dtype=np.int64)
+    for r, g in zip(live.tolist(), group.tolist(), strict=True):
+        if head[g] < 0:
+            head[g] = r
+        else:
+            regions.union(int(head[g]), r)
+    return int(live.size - m)
 
 
 def _halo_unions(regions: _Regions, links: list, has_points: np.ndarray):

@@ -16,7 +16,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from .._core import PointAtlasError
+from .._core import PointAtlasError, as_int
 from ..segment import VSAOptions, region_growing, vsa_segment
 from ._app import (
     ClassicOption,
@@ -62,6 +62,16 @@ from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 
 __all__ = ["region_table", "segment_command", "segment_point_set", "table_paths"]
 
+#: ``--min-region-size``: `VSAOptions.min_region_size`; None: k (the command's default).
+MinRegionSizeOption = Annotated[
+    int | None,
+    typer.Option(
+        "--min-region-size",
+        help="VSA: regions with fewer points join the neighbour that fits them best "
+        "(default k; 0 or 1: off).",
+    ),
+]
+
 
 def segment_point_set(
     points,
@@ -90,6 +100,7 @@ def segment_point_set(
             "n_iter": res.n_iter,
             "converged": res.converged,
             "stop_reason": res.stop_reason,
+            "min_region_size": opts.min_region_size,
             "assigned_fraction": 1.0,
         }
         return res, summary
@@ -182,6 +193,7 @@ def segment_command(
     classic: ClassicOption = False,
     max_iter: MaxIterOption = 1000,
     local: LocalOption = False,
+    min_region_size: MinRegionSizeOption = None,
     method: Annotated[str, typer.Option("--method", help="vsa or region-growing.")] = "vsa",
     weights: WeightsOption = "uniform",
     smoothness_deg: Annotated[
@@ -226,6 +238,7 @@ def segment_command(
         "classic": classic,
         "max_iter": max_iter,
         "local": local,
+        "min_region_size": min_region_size,
         "weights": weights,
         "smoothness_deg": smoothness_deg,
         "curvature_threshold": curvature_threshold,
@@ -240,6 +253,8 @@ def segment_command(
     )  # fmt: skip
     if method not in ("vsa", "region-growing"):
         raise PointAtlasError(f"--method must be vsa or region-growing; got {method!r}")
+    options = options.replace(min_region_size=_min_region_size(min_region_size, k, method))
+    parameters["min_region_size"] = options.min_region_size
     angle_deg_option(smoothness_deg, "--smoothness-deg")
     tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, render=render)
     if tiles is not None:
@@ -275,6 +290,18 @@ def segment_command(
         )  # fmt: skip
     write_summary_json(json_path, payload, written)
     _print_segment(summary, [*written, json_path])
+
+
+def _min_region_size(value, k: int, method: str) -> int:
+    """``--min-region-size`` checked (None: k); refused with region growing, whose
+    ``--min-cluster-size`` drops small regions instead."""
+    if value is None:
+        return k if method == "vsa" else 0
+    if method != "vsa":
+        raise PointAtlasError(
+            "--min-region-size applies to --method vsa; region growing has --min-cluster-size"
+        )
+    return as_int(value, "--min-region-size", lo=0, note="0 or 1: off")
 
 
 def _check_segment_outputs(input_path: Path, output: Path, render, report) -> Path:

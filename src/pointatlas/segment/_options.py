@@ -118,6 +118,13 @@ class VSAOptions:
         result differs from the default (on the 1M-point lidar scan about 4-8 %
         fewer regions and 35-47 % more energy). See docs/decisions/segment.md
         "Local mode".
+    min_region_size : int
+        Regions with fewer points join, at the end of the run, the neighbouring
+        region whose union with them adds the least L21 energy (>= 0; 0 or 1:
+        off, the default, so Table 4.1 and `pointatlas.simplify` keep VSA's own
+        regions; ``pointatlas segment`` uses k). A region with no neighbouring
+        region (a small connected component of the graph) stays. See
+        docs/decisions/segment.md "Small regions".
 
     Raises
     ------
@@ -125,7 +132,7 @@ class VSAOptions:
         An option out of range (the message names it), both ``eta`` and
         ``max_angle``, or ``classic`` with a threshold.
     TypeError
-        Non-integer k, seeds or max_iter; non-numeric eta or max_angle; a
+        Non-integer k, seeds, max_iter or min_region_size; non-numeric eta or max_angle; a
         non-boolean switch flag.
 
     See Also
@@ -160,6 +167,7 @@ class VSAOptions:
     classic: bool = False
     max_iter: int = 1000
     local: bool = False
+    min_region_size: int = 0
 
     def __post_init__(self):
         def put(name, value):
@@ -167,6 +175,7 @@ class VSAOptions:
 
         put("k", as_int(self.k, "k", lo=1))
         put("max_iter", as_int(self.max_iter, "max_iter", lo=0))
+        put("min_region_size", as_int(self.min_region_size, "min_region_size", lo=0))
         if self.switch not in SWITCH_MODES:
             raise ValueError(f"switch must be one of {SWITCH_MODES}; got {self.switch!r}")
         if self.eta is not None and self.max_angle is not None:
@@ -209,7 +218,7 @@ class VSAOptions:
         **changes
             New values of fields (``k``, ``weights``, ``seeds``, ``eta``,
             ``max_angle``, ``split``, ``merge``, ``switch``, ``classic``,
-            ``max_iter``, ``local``).
+            ``max_iter``, ``local``, ``min_region_size``).
 
         Returns
         -------

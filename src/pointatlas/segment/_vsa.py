@@ -21,6 +21,7 @@ from ._kernels import (
     region_pairs,
 )
 from ._options import VSAOptions
+from ._small import merge_small_regions
 from ._sums import proxy_normals, region_sums
 from ._vsa_run import _VSARun
 from ._weights import resolve_weights
@@ -58,8 +59,8 @@ class VSAResult:
     energy_history : ndarray of shape (n_steps,), float64
         Energy after every step; ``step_names`` says which step. After "flood"
         and "switch" it is taken with the proxy normals that drove the step,
-        after "update", "split", "merge", "relabel" and "final_merge" with
-        optimal normals.
+        after "update", "split", "merge", "relabel", "final_merge",
+        "small_regions" and "off_surface" with optimal normals.
     step_names : tuple of str
         Name of every recorded step.
     n_iter : int
@@ -159,8 +160,8 @@ def vsa_segment(
     **settings
         Fields of `VSAOptions` given one by one (``k``, ``weights``, ``seeds``,
         ``eta``, ``max_angle``, ``split``, ``merge``, ``switch``, ``classic``,
-        ``max_iter``, ``local``); they override the same fields of ``options``, so
-        ``vsa_segment(p, n, eta=25.0)`` and
+        ``max_iter``, ``local``, ``min_region_size``); they override the same
+        fields of ``options``, so ``vsa_segment(p, n, eta=25.0)`` and
         ``vsa_segment(p, n, options=VSAOptions(eta=25.0))`` are the same run.
 
     Returns
@@ -199,7 +200,10 @@ def vsa_segment(
     otherwise exact. Disconnected regions are split into their connected pieces
     at the end (end of 4.3.2); with ``merge`` and ``eta`` a last merge pass
     ("final_merge") then joins every pair of neighbouring regions whose union
-    has L21 < eta, so none is left. With ``local`` a last step ("off_surface")
+    has L21 < eta, so none is left. With ``min_region_size`` (off by default)
+    every region with fewer points then joins the neighbouring region whose
+    union with it adds the least L21 ("small_regions"). With ``local`` a last
+    step ("off_surface")
     moves every point that lies off its region's local surface (by more than the
     typical neighbourhood reach) to a neighbouring region on whose surface it
     lies or to a region of its own. Decisions in docs/decisions/segment.md.
@@ -245,16 +249,26 @@ def vsa_segment(
     else:
         run.run_loop(opts.max_iter, split=opts.split, merge=opts.merge, switch=opts.switch)
     t0 = time.perf_counter()
+    _final_steps(run, opts)
+    return _finalise(run, pts, nrm, order, inv, t0, t_start)
+
+
+def _final_steps(run, opts):
+    """The steps after the loop: connected pieces, the final merge (eta mode), the
+    small regions (``min_region_size``), the off-surface step (local mode)."""
     run.connected_pieces()
     t1 = time.perf_counter()
     if opts.merge and not opts.classic and opts.eta is not None:
         run.final_merge()
     run.timings["final_merge"] = time.perf_counter() - t1
+    if opts.min_region_size > 1:
+        t1 = time.perf_counter()
+        merge_small_regions(run, opts.min_region_size)
+        run.timings["small_regions"] = time.perf_counter() - t1
     if opts.local and not opts.classic:
         t1 = time.perf_counter()
         run.relabel_off_surface()
         run.timings["off_surface"] = time.perf_counter() - t1
-    return _finalise(run, pts, nrm, order, inv, t0, t_start)
 
 
 def _finalise(run, pts, nrm, order, inv, t0, t_start):
