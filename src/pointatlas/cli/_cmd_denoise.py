@@ -100,7 +100,7 @@ def _run(ps, method, *, rho, tau, n_iter, n_filter_iter, max_step, k, eta, eps, 
     normals were estimated, normal voting refits the returned ones to their faces;
     ``planes``: then the planar pieces step, as `pointatlas.denoise.denoise`)."""
     if method == "flatness":
-        n_iter = 60 if n_iter is None else n_iter
+        # n_iter None: at most 60, stopped once the points moved about the noise
         with progress_bar("flatness iterations", total=n_iter) as advance:
             return flatness_denoise(
                 ps.points,
@@ -349,7 +349,7 @@ _NIterOption = Annotated[
     typer.Option(
         "--n-iter",
         help="Rounds (voting; default: until the points settle, at most 4) or "
-        "iterations (flatness; default 60).",
+        "iterations (flatness; default: until the points moved about the noise, at most 60).",
     ),
 ]
 _CleanOption = Annotated[

@@ -13,8 +13,12 @@ from ._flatness import flatness_denoise
 from ._kernels import CLASS_FACE
 from ._planes import PIECE_SEED, snap_to_pieces
 from ._result import DenoiseResult
+from ._sides import two_sides
 from ._threads import threads_for
 from ._voting import normal_voting_denoise
+
+#: flatness_denoise's default k (a side needs more points to run apart)
+FLATNESS_K = 28
 
 __all__ = [
     "DENOISE_METHODS",
@@ -71,7 +75,10 @@ def denoise(
     method : str
         ``"normal-voting"`` (fixed [YRS+18] neighbourhoods), ``"normal-voting-adaptive"``
         (k by least E_dim, thesis 5.4), ``"flatness"`` (Eq. 6.3, k = 28, eta = 1,
-        60 iterations) or ``"auto"`` (`choose_method`).
+        at most 60 iterations, stopped once the points moved about the noise) or
+        ``"auto"`` (`choose_method`). On a thin plate (heights over the first
+        result that are two sheets) the sides run apart (`two_sides`,
+        docs/decisions/denoise.md, "Thin plates").
     planes : bool
         Normal voting: after the local denoise, group the points into planar
         pieces of at least 150 points; their points take the piece's plane
@@ -102,7 +109,7 @@ def denoise(
     if method == "auto":
         method = choose_method(points, normals)
     if method == "flatness":
-        return flatness_denoise(points, normals=normals, progress=progress)
+        return _flatness_sides(points, normals, progress)
     return voting_with_pieces(
         points, normals, planes=planes, adaptive=method == "normal-voting-adaptive",
         progress=progress,
@@ -135,8 +142,6 @@ def voting_with_pieces(points, normals=None, *, planes: bool = True, **options) 
     One k-NN table of the input, min(48 (+10 adaptive), N) columns, serves both:
     it is the table normal voting would query itself (the same result bit for bit).
     """
-    if not planes:
-        return normal_voting_denoise(points, normals, **options)
     pts = as_points(points, min_points=DENOISE_K_MIN + 1)
     n = pts.shape[0]
     width = DENOISE_K_MAX + (DENOISE_K_WIDTH if options.get("adaptive") else 0)
@@ -144,7 +149,48 @@ def voting_with_pieces(points, normals=None, *, planes: bool = True, **options) 
     with threads_for(n):
         table = query_knn(pts, min(width, n))[0]
         result = normal_voting_denoise(pts, normals, neighbors=table, **options)
+        side = two_sides(pts, result.points, result.normals, table, result.spacing)
+        if side is not None:  # a thin plate: each side on its own, no pieces (merge up to sign)
+            return _voting_sides(pts, normals, result, side, table, options)
+        if not planes:
+            return result
         return snap_planar_pieces(pts, result, neighbors=table)
+
+
+def _voting_sides(pts, normals, first, side, table, options) -> DenoiseResult:
+    """Normal voting again with the first run's normals signed by ``side`` (the
+    planes then take only their own side); the returned normals keep the first
+    run's orientation."""
+    opts = dict(options)
+    if opts.get("refit_normals") is None:
+        opts["refit_normals"] = normals is None
+    again = normal_voting_denoise(pts, first.normals * side[:, None], neighbors=table, **opts)
+    flip = (again.normals * first.normals).sum(axis=1) < 0
+    return dataclasses.replace(
+        again, normals=np.where(flip[:, None], -again.normals, again.normals)
+    )
+
+
+def _flatness_sides(points, normals, progress) -> DenoiseResult:
+    """`flatness_denoise` at its defaults; on a thin plate (`two_sides`) each side's
+    points run apart."""
+    first = flatness_denoise(points, normals=normals, progress=progress)
+    pts = as_points(points)
+    n = pts.shape[0]
+    with threads_for(n):
+        table = query_knn(pts, min(DENOISE_K_MAX, n))[0]
+        side = two_sides(pts, first.points, first.normals, table, first.spacing)
+    if side is None or min((side > 0).sum(), (side < 0).sum()) <= FLATNESS_K:
+        return first
+    out = np.empty_like(pts)
+    energy = np.empty(n)
+    for s in (1.0, -1.0):
+        part = side == s
+        r = flatness_denoise(pts[part], normals=None if normals is None else first.normals[part])
+        out[part], energy[part] = r.points, r.energy
+    return dataclasses.replace(
+        first, points=out, energy=energy, displacement=np.sqrt(((out - pts) ** 2).sum(axis=1))
+    )
 
 
 def snap_planar_pieces(points, result: DenoiseResult, *, neighbors=None) -> DenoiseResult:

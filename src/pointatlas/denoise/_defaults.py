@@ -8,15 +8,23 @@ from __future__ import annotations
 __all__ = [
     "FILTER_ITER_ESTIMATED",
     "FILTER_ITER_GIVEN",
+    "FLATNESS_MAX_ITER",
+    "FLATNESS_MAX_MOVE",
+    "FLATNESS_STOP",
     "LONELY_PASSES",
     "LONELY_PLANES",
     "LONELY_SIGMA",
     "MAX_ROUNDS",
     "MAX_UPDATES",
+    "NOISE_K",
+    "NOISE_PLANE_BIAS",
     "POLISH_K",
     "POLISH_LAMBDA",
     "POLISH_MOVE",
     "POLISH_NORMAL_K",
+    "SIDES_MIN_HEIGHT",
+    "SIDES_MIN_SHARE",
+    "SIDES_Z",
     "default_filter_iter",
 ]
 
@@ -69,3 +77,31 @@ def default_filter_iter(refit: bool) -> int:
     (1, 5)
     """
     return FILTER_ITER_ESTIMATED if refit else FILTER_ITER_GIVEN
+
+
+#: flatness_denoise with ``n_iter=None`` (docs/decisions/denoise.md, "Flatness
+#: defaults"): at most FLATNESS_MAX_ITER Jacobi steps of Eq. 6.3, stopped once the
+#: RMS displacement from the input reaches FLATNESS_STOP noise sigmas (Eq. 6.3 at
+#: eta = 1 is a curvature flow: past about the noise it shrinks the shape; on the
+#: bench's CAD inputs the best step count moved the points by 0.7 sigma); no point
+#: moves farther than FLATNESS_MAX_MOVE sigmas from its input (edges and corners
+#: move fastest under the flow)
+FLATNESS_MAX_ITER = 60
+FLATNESS_STOP = 0.5
+FLATNESS_MAX_MOVE = 2.5
+#: the noise sigma flatness estimates: the median absolute height of each point over
+#: the PCA plane of its NOISE_K nearest (itself included), x 1.4826 (a Gaussian's
+#: MAD), / NOISE_PLANE_BIAS (the fitted plane takes part of the noise: 0.89 measured
+#: on a noisy plane, 4,000 points; a smaller k follows curvature, a larger one
+#: tilts less)
+NOISE_K = 12
+NOISE_PLANE_BIAS = 0.89
+#: two sides (`_sides.py`, docs/decisions/denoise.md, "Thin plates"): the centred
+#: heights of the input over the first denoise are split by sign when their
+#: kurtosis is below 3 by SIDES_Z standard errors (a Gaussian's one-sided 0.1 %)
+#: and the two-sheet fit's offset^2 is at least SIDES_MIN_SHARE of their variance
+#: (a plate 1 sigma thick gives 0.2 and loses nothing by merging; 1.6 sigma 0.39);
+#: heights with an RMS below SIDES_MIN_HEIGHT l (a clean input) are never split
+SIDES_Z = 3.0
+SIDES_MIN_SHARE = 0.25
+SIDES_MIN_HEIGHT = 0.02

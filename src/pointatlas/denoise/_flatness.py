@@ -10,6 +10,13 @@ from numba import njit, prange
 from .._core import PointAtlasError, as_float, as_int, as_normals, as_points
 from ..features import covariance_features
 from ..neighbors import mean_spacing, query_knn
+from ._defaults import (
+    FLATNESS_MAX_ITER,
+    FLATNESS_MAX_MOVE,
+    FLATNESS_STOP,
+    NOISE_K,
+    NOISE_PLANE_BIAS,
+)
 from ._result import DenoiseResult
 from ._threads import threads_for
 
@@ -19,6 +26,7 @@ __all__ = [
     "flatness_move_kernel",
     "flatness_schedule",
     "flatness_step",
+    "estimate_noise",
 ]
 
 #: "constant": k and eta fixed (thesis Fig. 6.9); "decreasing": the future work of
@@ -143,13 +151,65 @@ def flatness_step(points, k: int, eta: float, eps: float, *, flatness=(8, 8)):
     return out, energy, v3, valid
 
 
+def estimate_noise(points) -> float:
+    """The noise sigma along the normal (private helper, validated input, N > 3).
+
+    1.4826 x the median absolute height of each point over the PCA plane of its
+    NOISE_K nearest (itself included), / NOISE_PLANE_BIAS (`_defaults.py`).
+    """
+    k = min(NOISE_K, points.shape[0])
+    idx = query_knn(points, k)[0]
+    fr = covariance_features(points, k, neighbors=idx)
+    heights = ((points - points[idx].mean(axis=1)) * fr.eigenvector_3).sum(axis=1)
+    heights = heights[np.isfinite(heights)]
+    if heights.size == 0:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(heights)) / NOISE_PLANE_BIAS)
+
+
+def _bounded(cur, start, bound):
+    """``cur`` with every point's displacement from ``start`` cut to ``bound``."""
+    move = cur - start
+    length = np.sqrt((move**2).sum(axis=1))
+    far = length > bound
+    if far.any():
+        cur = cur.copy()
+        cur[far] = start[far] + move[far] * (bound / length[far])[:, None]
+    return cur
+
+
+def _flatness_iterations(pts, ks, etas, eps, flatness, *, sigma, progress):
+    """The Jacobi steps of Eq. 6.3; ``sigma`` None: all of them (the thesis);
+    else bounded by FLATNESS_MAX_MOVE sigma per point and stopped once the RMS
+    displacement reaches FLATNESS_STOP sigma. Returns (points, energy, v3,
+    valid, steps run)."""
+    n = pts.shape[0]
+    cur = pts.copy()
+    energy = np.full(n, np.nan)
+    v3 = np.full((n, 3), np.nan)
+    valid = np.zeros(n, dtype=bool)
+    ran = 0
+    for t in range(ks.shape[0]):
+        cur, energy, v3, valid = flatness_step(cur, int(ks[t]), float(etas[t]), eps,
+                                               flatness=flatness)  # fmt: skip
+        ran += 1
+        if progress is not None:
+            progress(1)
+        if sigma is not None:
+            cur = _bounded(cur, pts, FLATNESS_MAX_MOVE * sigma)
+            if np.sqrt(((cur - pts) ** 2).sum(axis=1).mean()) >= FLATNESS_STOP * sigma:
+                break
+    return cur, energy, v3, valid, ran
+
+
 def flatness_denoise(
     points,
     *,
     k: int = 28,
     eta: float = 1.0,
     eps: float = 0.1,
-    n_iter: int = 60,
+    n_iter: int | None = None,
+    noise: float | None = None,
     flatness=(8, 8),
     schedule: str = "constant",
     k_start=None,
@@ -169,8 +229,13 @@ def flatness_denoise(
         0.5, 0.5, 1).
     eps : float
         Step scale > 0 (Fig. 6.9: 0.1).
-    n_iter : int
-        Iterations (Fig. 6.9: 60).
+    n_iter : int, optional
+        Iterations, all run (Fig. 6.9: 60). None (default): at most 60, each point
+        kept within 2.5 noise sigmas of its input (``FLATNESS_MAX_MOVE``), stopped
+        once the RMS displacement reaches 0.5 sigma (``FLATNESS_STOP``).
+    noise : float, optional
+        The noise sigma (input units) of ``n_iter=None``; None: estimated from the
+        points (median height over 12-NN planes, docs/decisions/denoise.md).
     flatness : tuple of int
         Even exponents (m1, m2) of Eq. 6.1 (8, 8).
     schedule : {"constant", "decreasing"}
@@ -188,7 +253,7 @@ def flatness_denoise(
     result : DenoiseResult
         ``energy`` is the flatness of the last iteration, ``normals`` its PCA
         normals (oriented like ``normals`` when given, else sign arbitrary),
-        ``feature_class`` 0.
+        ``feature_class`` 0, ``n_iter`` the iterations run.
 
     Raises
     ------
@@ -204,7 +269,9 @@ def flatness_denoise(
     the projection of p on the line (b, v1). Neighbourhoods and energies are
     recomputed every iteration from the current points (Jacobi: every point moves
     with the values of the previous iteration). Degenerate neighbourhoods (NaN
-    features) do not move.
+    features) do not move. Eq. 6.3 at eta = 1 is a curvature flow: 60 iterations
+    move the points by several noise sigmas and shrink the shape, hence the
+    bounded, stopped default (docs/decisions/denoise.md, "Flatness defaults").
 
     Examples
     --------
@@ -221,25 +288,24 @@ def flatness_denoise(
     k = as_int(k, "k", lo=3, hi=n - 1, note="the number of points - 1")
     eta = as_float(eta, "eta", lo=0.0, hi=1.0)
     eps = as_float(eps, "eps", lo=0.0, lo_open=True)
-    n_iter = as_int(n_iter, "n_iter", lo=0)
+    auto = n_iter is None
+    n_iter = FLATNESS_MAX_ITER if auto else as_int(n_iter, "n_iter", lo=0)
+    if noise is not None:
+        noise = as_float(noise, "noise", lo=0.0)
     if k_start is not None:
         k_start = as_int(k_start, "k_start", lo=k, hi=n - 1, note="k .. number of points - 1")
     elif schedule == "decreasing":
         k_start = min(4 * k, n - 1)
     ks, etas = flatness_schedule(max(n_iter, 1), k, eta, schedule=schedule, k_start=k_start)
-    cur = pts.copy()
-    energy = np.full(n, np.nan)
-    v3 = np.full((n, 3), np.nan)
-    valid = np.zeros(n, dtype=bool)
     with threads_for(n):  # small input, busy machine: one thread (same output)
         ell = mean_spacing(pts, 6) if n > 6 else 0.0
-        for t in range(n_iter):
-            cur, energy, v3, valid = flatness_step(
-                cur, int(ks[t]), float(etas[t]), eps, flatness=flatness
-            )
-            if progress is not None:
-                progress(1)
-        if n_iter == 0 or not valid.any():
+        sigma = None
+        if auto:
+            sigma = estimate_noise(pts) if noise is None else noise
+        cur, energy, v3, valid, ran = _flatness_iterations(
+            pts, ks[:n_iter], etas[:n_iter], eps, flatness, sigma=sigma, progress=progress
+        )
+        if ran == 0 or not valid.any():
             _, energy, v3, valid = flatness_step(cur, k, eta, eps, flatness=flatness)
     out_normals = _oriented(v3, valid, nrm)
     if not np.isfinite(cur).all():
@@ -250,9 +316,9 @@ def flatness_denoise(
         displacement=np.sqrt(((cur - pts) ** 2).sum(axis=1)),
         feature_class=np.zeros(n, dtype=np.int8),
         energy=np.where(valid, energy, np.nan),
-        k=np.where(valid, int(ks[-1]) if n_iter else k, -1).astype(np.int64),
+        k=np.where(valid, int(ks[ran - 1]) if ran else k, -1).astype(np.int64),
         method="flatness",
-        n_iter=n_iter,
+        n_iter=ran,
         n_fallback=0,
         spacing=ell,
     )
