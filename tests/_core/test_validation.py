@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from pointatlas._core import (
+    NonFiniteError,
     PointAtlasError,
     PointSet,
     as_k,
@@ -9,6 +10,7 @@ from pointatlas._core import (
     as_normals,
     as_points,
     as_vectors,
+    check_finite,
 )
 
 
@@ -26,8 +28,24 @@ def test_as_points_rejects_bad_shapes(bad):
 def test_as_points_names_non_finite_indices():
     pts = np.zeros((10, 3))
     pts[[2, 7], 1] = [np.nan, np.inf]
-    with pytest.raises(ValueError, match=r"non-finite.*2 \(indices 2, 7\)"):
+    with pytest.raises(
+        NonFiniteError, match=r"^points contains 2 non-finite values \(NaN or Inf\) at rows 2, 7$"
+    ):
         as_points(pts)
+
+
+def test_check_finite_counts_values_and_lists_the_first_rows():
+    arr = np.zeros((20, 3))
+    arr[3] = np.nan  # three values in one row
+    arr[[4, 5, 6, 8, 11], 0] = -np.inf
+    expected = r"^xs contains 8 non-finite values \(NaN or Inf\) at rows 3, 4, 5, 6, 8, \.\.\.$"
+    with pytest.raises(NonFiniteError, match=expected):
+        check_finite(arr, "xs")
+    with pytest.raises(
+        NonFiniteError, match=r"^v contains 1 non-finite value \(NaN or Inf\) at row 0$"
+    ):
+        check_finite(np.array([np.nan, 1.0]), "v")
+    check_finite(arr[12:], "xs")  # finite: no error
 
 
 def test_as_points_non_numeric_is_type_error():
@@ -51,7 +69,7 @@ def test_as_normals_zero_length_lists_count_and_indices():
 
 
 def test_as_normals_non_finite_and_count_mismatch():
-    with pytest.raises(ValueError, match="non-finite"):
+    with pytest.raises(NonFiniteError, match="^normals contains 1 non-finite value"):
         as_normals([[np.nan, 0, 1]])
     with pytest.raises(ValueError, match="one row per point"):
         as_normals(np.ones((2, 3)), 3)

@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 
+from pointatlas._core import NonFiniteError
 from pointatlas.features import symmetric_eigenvalues, weighted_covariances
+from pointatlas.features._kernels import covariance_kernel
 
 from . import reference as ref
 
@@ -74,7 +76,7 @@ def test_covariance_collinear_coplanar_duplicate_nan():
     nan = line.copy()
     nan[3] = np.nan
     idx = np.tile(np.arange(8), (8, 1))
-    for pts in (line, plane, dup, two, nan):
+    for pts in (line, plane, dup, two):
         _check_against_reference(pts, idx, None)
     # collinear: rank one; coplanar: smallest eigenvalue 0; duplicates: code 3
     ev = symmetric_eigenvalues(weighted_covariances(line, idx)[0])
@@ -83,7 +85,13 @@ def test_covariance_collinear_coplanar_duplicate_nan():
     assert np.allclose(ev[:, 2], 0, atol=1e-15)
     assert (weighted_covariances(dup, idx)[1] == 3).all()
     assert (weighted_covariances(two, idx)[1] == 3).all()
-    assert (weighted_covariances(nan, idx)[1] == 1).all()
+    with pytest.raises(NonFiniteError, match=r"^points contains 3 non-finite values .* at row 3$"):
+        weighted_covariances(nan, idx)
+    # the kernel itself (fed by tiles and searches) flags a non-finite neighbour: code 1
+    out, reason = np.empty((8, 3, 3)), np.empty(8, dtype=np.uint8)
+    covariance_kernel(nan, idx, np.empty((0, 0)), False, out, reason)
+    assert (reason == 1).all() and np.isnan(out).all()
+    assert all(ref.reason(nan[row], np.ones(8)) == 1 for row in idx)
     zero_w = np.zeros(idx.shape)
     assert (weighted_covariances(plane, idx, zero_w)[1] == 2).all()
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 
-from pointatlas._core import PointAtlasError
+from pointatlas._core import NonFiniteError, PointAtlasError
 from pointatlas.features import (
     FEATURE_NAMES,
     REASON_CODES,
@@ -83,16 +83,23 @@ def test_degenerate_neighbourhoods_flagged_not_crashing():
     rng = np.random.default_rng(4)
     pts = rng.random((40, 3))
     pts[10:20] = pts[10]  # ten duplicates: k = 8 neighbourhoods of them collapse
-    pts[30] = [np.nan, 0, 0]
     res = covariance_features(pts, 8)
     assert (res.reason[10:20] == 3).all()
-    assert res.reason[30] == 1
-    assert np.isnan(res.e_dim[10:20]).all() and np.isnan(res.linearity[30])
-    idx = query_knn(np.delete(pts, 30, axis=0), 8)[0]
-    keep = np.delete(np.arange(40), 30)
-    want = [ref.reason(pts[keep[row]], np.ones(8)) for row in idx]
-    assert res.reason[keep].tolist() == want  # the NaN point is nobody's neighbour
+    assert np.isnan(res.e_dim[10:20]).all()
+    idx = query_knn(pts, 8)[0]
+    want = [ref.reason(pts[row], np.ones(8)) for row in idx]
+    assert res.reason.tolist() == want
     assert 0 in want and 3 in want
+    # a NaN coordinate is refused (issue 28 item 4: it gave NaN features silently)
+    bad = pts.copy()
+    bad[30] = [np.nan, 0, 0]
+    with pytest.raises(NonFiniteError, match=r"^points contains 1 non-finite value .* row 30$"):
+        covariance_features(bad, 8)
+    # a NaN normal is flagged, not fatal (reason 1: its angles are undefined)
+    nrm = np.tile([0.0, 0.0, 1.0], (40, 1))
+    nrm[30] = np.nan
+    res3 = covariance_features(pts, 8, normals=nrm, a=0.2, b=1.5)
+    assert res3.reason[30] == 1 and np.isnan(res3.linearity[30])
     # flipped normal: sharp cut-off keeps only the point itself -> flagged
     nrm = np.tile([0.0, 0.0, 1.0], (40, 1))
     nrm[5] = [0, 0, -1.0]

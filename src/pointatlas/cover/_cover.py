@@ -10,8 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._core import as_float, as_int, readonly
-from .._core._validation import describe_indices
+from .._core import as_float, as_int, check_finite, readonly
 from .._core.tolerances import COVER_MAX_CELLS_PER_AXIS, COVER_RADIUS_RTOL, COVER_ROTATION_TOL
 from ..complex import CloudComplex
 from ..complex._clouds import cloud_centroids, complex_from_membership
@@ -141,9 +140,7 @@ def prepare_points(points, dim: int) -> np.ndarray:
         raise ValueError(f"points must have shape {shape}; got {arr.shape}")
     if arr.shape[0] < 1:
         raise ValueError("points must hold at least 1 point(s); got 0")
-    bad = ~np.isfinite(arr).all(axis=1)
-    if bad.any():
-        raise ValueError(f"points has non-finite (NaN/Inf) coordinates at {describe_indices(bad)}")
+    check_finite(arr, "points")
     return np.ascontiguousarray(arr)
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._core import PointAtlasError
+from .._core import PointAtlasError, as_points
 from ..features import (
     THESIS_ANGLE_GRID,
     THESIS_K_RANGE,
@@ -31,7 +31,6 @@ from ..features import (
     optimal_neighbourhood,
 )
 from ..features._features import (
-    _as_points_allow_nan,
     _choice_features,
     _neighbourhoods,
     _unit_normals_or_nan,
@@ -151,7 +150,7 @@ def decrease_cases(
     >>> sorted(set(a_case.tolist()))
     [0]
     """
-    pts = _as_points_allow_nan(points)
+    pts = as_points(points)
     n = pts.shape[0]
     if result.n_points != n:
         raise ValueError(f"result has {result.n_points} points; points has {n}")

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from .._core import PointAtlasError, as_int, as_k, as_vectors, check_neighbors, readonly
+from .._core import PointAtlasError, as_int, as_k, as_points, check_neighbors, readonly
 from .._core._sort import morton_bits, morton_order
 from ..neighbors import query_knn
 from ._kernels import (
@@ -150,11 +150,6 @@ class FeatureResult:
         return out
 
 
-def _as_points_allow_nan(points) -> np.ndarray:
-    """(N, 3) float64 points, C-contiguous; non-finite rows are flagged by the kernels."""
-    return np.ascontiguousarray(as_vectors(points, name="points"))
-
-
 def _check_flatness(flatness) -> tuple[int, int]:
     try:
         m1, m2 = flatness
@@ -174,28 +169,14 @@ def _neighbourhoods(
 ) -> np.ndarray:
     """(N, kmax) neighbour table, self first, sorted by distance.
 
-    Computed with `query_knn` among the finite points when ``neighbors`` is None
-    (non-finite points get a row of themselves and are flagged by the kernels);
-    otherwise the first ``kmax`` columns of the given table (index range checked
-    here unless ``check_range`` is False: `_choice_features` checks it then).
+    Computed with `query_knn` when ``neighbors`` is None (``points`` are finite,
+    validated by the caller); otherwise the first ``kmax`` columns of the given
+    table (index range checked here unless ``check_range`` is False:
+    `_choice_features` checks it then).
     """
-    n = points.shape[0]
     if neighbors is not None:
-        return check_neighbors(neighbors, n, k=kmax, check_range=check_range)
-    finite = np.isfinite(points).all(axis=1)
-    n_finite = int(finite.sum())
-    if n_finite < kmax:
-        raise PointAtlasError(
-            f"too few points: neighbourhoods of k = {kmax} need at least {kmax} finite points; "
-            f"got {n_finite}"
-        )
-    if n_finite == n:
-        return query_knn(points, kmax)[0]
-    keep = np.flatnonzero(finite)
-    sub = query_knn(points[keep], kmax)[0]
-    idx = np.repeat(np.arange(n, dtype=np.int64)[:, None], kmax, axis=1)
-    idx[keep] = keep[sub]
-    return idx
+        return check_neighbors(neighbors, points.shape[0], k=kmax, check_range=check_range)
+    return query_knn(points, kmax)[0]
 
 
 def _spatial_order(points: np.ndarray) -> np.ndarray:
@@ -252,7 +233,7 @@ def weighted_covariances(points, neighbors, weights=None) -> tuple[np.ndarray, n
     Parameters
     ----------
     points : array_like of shape (N, 3)
-        Coordinates (non-finite rows are allowed and flagged).
+        Coordinates, finite.
     neighbors : array_like of shape (N, k), int
         Neighbour indices of each point (the point itself included).
     weights : array_like of shape (N, k), optional
@@ -262,14 +243,15 @@ def weighted_covariances(points, neighbors, weights=None) -> tuple[np.ndarray, n
     -------
     covariances : ndarray of shape (N, 3, 3), float64
         C_i = sum_j w_ij (p_j - pbar_i)(p_j - pbar_i)^T with the *unweighted*
-        barycentre pbar_i (Eq. 5.4 as printed); NaN rows where non-finite.
+        barycentre pbar_i (Eq. 5.4 as printed).
     reason : ndarray of shape (N,), uint8
         Reason codes (`REASON_CODES`); the matrix is still returned for codes 2-3.
 
     Raises
     ------
     ValueError
-        Bad shapes, negative weights or indices out of range.
+        Bad shapes, negative weights or indices out of range; NaN or Inf in
+        ``points`` (`NonFiniteError`).
     TypeError
         Non-integer ``neighbors``.
 
@@ -285,7 +267,7 @@ def weighted_covariances(points, neighbors, weights=None) -> tuple[np.ndarray, n
     >>> round(float(np.trace(cov[0])), 6), int(reason[0])
     (5.333333, 0)
     """
-    pts = _as_points_allow_nan(points)
+    pts = as_points(points)
     idx = check_neighbors(neighbors, pts.shape[0])
     if weights is None:
         w = np.empty((0, 0))
@@ -399,10 +381,10 @@ def covariance_features(
     Parameters
     ----------
     points : array_like of shape (N, 3)
-        Coordinates; rows with NaN/inf are flagged (reason 1), never fatal.
+        Coordinates, finite.
     k : int
         Neighbourhood size, the point itself included (thesis 6.2 uses 14);
-        1 <= k <= N, and at most the number of finite points.
+        1 <= k <= N.
     normals : array_like of shape (N, 3), optional
         Oriented normals; needed only for sigmoid weights (a < pi or b < pi).
     a : float
@@ -427,8 +409,8 @@ def covariance_features(
         Bad shapes/parameters (k outside [1, N], a or b outside their ranges or
         NaN, odd or negative flatness exponents); normals missing while a or
         b < pi.
-    PointAtlasError
-        Fewer finite points than k (a ``ValueError``).
+    NonFiniteError
+        NaN or Inf in ``points`` (a ``ValueError``; count and rows given).
     TypeError
         Non-integer k or flatness exponents, non-numeric a or b.
 
@@ -449,7 +431,7 @@ def covariance_features(
     >>> bool(np.nanmax(r.scattering) < 1e-12), int(r.reason.max())
     (True, 0)
     """
-    pts = _as_points_allow_nan(points)
+    pts = as_points(points)
     n = pts.shape[0]
     k = as_k(k, n)
     a, b = _check_ab(a, b)

@@ -7,10 +7,9 @@ import math
 
 import numpy as np
 
-from .._core import PointAtlasError, as_float_array, as_k
+from .._core import PointAtlasError, as_float_array, as_k, as_points
 from ._features import (
     FeatureResult,
-    _as_points_allow_nan,
     _check_flatness,
     _neighbourhoods,
     _spatial_order,
@@ -125,7 +124,7 @@ def optimal_neighbourhood(
     Parameters
     ----------
     points : array_like of shape (N, 3)
-        Coordinates (non-finite rows are flagged).
+        Coordinates, finite.
     normals : array_like of shape (N, 3)
         Oriented normals (the weights of Eq. 5.2 use their angles).
     a_grid, b_grid : sequence of float
@@ -151,8 +150,8 @@ def optimal_neighbourhood(
     ValueError
         Bad shapes, grids (empty, NaN, outside [0, pi]) or range (k outside
         [1, N], k_min > k_max).
-    PointAtlasError
-        Fewer finite points than k_max (a ``ValueError``).
+    NonFiniteError
+        NaN or Inf in ``points`` (a ``ValueError``; count and rows given).
     TypeError
         Non-integer k, non-numeric grid values.
 
@@ -176,7 +175,7 @@ def optimal_neighbourhood(
     >>> bool(((r.k >= 6) & (r.k <= 20)).all())
     True
     """
-    pts = _as_points_allow_nan(points)
+    pts = as_points(points)
     n = pts.shape[0]
     pairs = angle_pairs(a_grid, b_grid)
     kmin, kmax = _check_k_range(k_range, n)
@@ -199,7 +198,7 @@ def optimal_k_features(
     Parameters
     ----------
     points : array_like of shape (N, 3)
-        Coordinates (non-finite rows are flagged).
+        Coordinates, finite.
     k_range : tuple of int
         Inclusive range of k (the point itself counts), 1 <= k_min <= k_max <= N;
         default 10..50 as pgeof.
@@ -222,8 +221,8 @@ def optimal_k_features(
     ------
     ValueError
         Unknown criterion, bad range (k outside [1, N], k_min > k_max).
-    PointAtlasError
-        Fewer finite points than k_max (a ``ValueError``).
+    NonFiniteError
+        NaN or Inf in ``points`` (a ``ValueError``; count and rows given).
     TypeError
         Non-integer k.
 
@@ -241,7 +240,7 @@ def optimal_k_features(
     """
     if criterion not in _CRITERIA:
         raise ValueError(f"criterion must be one of {sorted(_CRITERIA)}; got {criterion!r}")
-    pts = _as_points_allow_nan(points)
+    pts = as_points(points)
     kmin, kmax = _check_k_range(k_range, pts.shape[0])
     flat = _check_flatness(flatness)
     idx = _neighbourhoods(pts, kmax, neighbors)

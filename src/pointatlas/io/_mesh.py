@@ -139,6 +139,8 @@ class Mesh:
     def __post_init__(self):
         try:
             verts = np.array(as_points(self.vertices, name="vertices", min_points=0), copy=True)
+        except PointAtlasError:
+            raise
         except (TypeError, ValueError) as exc:
             raise PointAtlasError(str(exc)) from None
         flat, offsets = _flatten_faces(self.faces, self.face_offsets)
@@ -309,6 +311,8 @@ def vertex_normals(vertices, faces, face_offsets=None, *, normalize: bool = True
     """
     try:
         verts = as_points(vertices, name="vertices", min_points=0)
+    except PointAtlasError:
+        raise
     except (TypeError, ValueError) as exc:
         raise PointAtlasError(str(exc)) from None
     flat, offsets = _flatten_faces(faces, face_offsets)

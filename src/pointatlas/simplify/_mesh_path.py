@@ -224,8 +224,9 @@ def _diagonal(v: np.ndarray) -> float:
 
 def surface_diagonal(vertices: np.ndarray, triangles: np.ndarray) -> float:
     """Bounding-box diagonal of the vertices on at least one triangle (a stray vertex
-    of an export moves neither the default chord tolerance nor a percentage)."""
-    v = np.asarray(vertices)
+    of an export moves neither the default chord tolerance nor a percentage); refuses
+    NaN or Inf vertices (`pointatlas._core.NonFiniteError`)."""
+    v = as_points(vertices, name="vertices", min_points=0)
     return _diagonal(v[used_vertices(v.shape[0], triangles)])
 
 
