@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .._core import PointAtlasError, as_normals
+from ..io._las import check_las_complete
 from ._tiles import (
     TileOptions,
     clean_tmp,
@@ -62,6 +63,7 @@ class LasSource:
 
         self.path = Path(path)
         self.chunk_points = int(chunk_points)
+        check_las_complete(self.path)  # a cut file is refused in words, not mid-run
         try:
             with laspy.open(self.path) as reader:
                 self.header = reader.header

@@ -8,6 +8,8 @@ point set that came from LAS keeps that header and its dimensions (see
 from __future__ import annotations
 
 import copy
+import os
+import struct
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -15,7 +17,7 @@ import numpy as np
 from ._errors import describe_exception, fail
 from ._raw import RawData
 
-__all__ = ["LasPlan", "plan_las", "read_las", "write_las"]
+__all__ = ["LasPlan", "check_las_complete", "plan_las", "read_las", "write_las"]
 
 _RGB = ("red", "green", "blue")
 _NORMALS = ("nx", "ny", "nz")
@@ -26,6 +28,101 @@ _COORDS = {"x", "y", "z", "X", "Y", "Z"}
 _EXTRA_KINDS = {"u1", "i1", "u2", "i2", "u4", "i4", "u8", "i8", "f4", "f8"}
 _INT32 = np.iinfo(np.int32)
 _MAX_EXTRA_NAME = 32
+#: Size of the smallest (LAS 1.0-1.2) public header block.
+_MIN_HEADER = 227
+#: Where the LAS 1.4 header keeps its 64-bit point count, and the header size that holds it.
+_COUNT64_AT, _COUNT64_HEADER = 247, 255
+#: lazrs' words for a compressed stream that ends early.
+_LAZ_EOF = "failed to fill whole buffer"
+
+
+@dataclass(frozen=True, slots=True)
+class _LasLayout:
+    """The public header fields that fix a LAS file's size (LAS 1.0-1.4 spec)."""
+
+    header_size: int
+    point_offset: int
+    n_points: int
+    record_length: int
+    compressed: bool
+
+    @property
+    def kind(self) -> str:
+        return "LAZ" if self.compressed else "LAS"
+
+
+def _las_layout(head: bytes) -> _LasLayout | None:
+    """The size fields of a LAS header, or None if ``head`` is not one (no ``LASF``)."""
+    if head[:4] != b"LASF" or len(head) < _MIN_HEADER:
+        return None
+    major, minor = head[24], head[25]
+    header_size, point_offset = struct.unpack_from("<HI", head, 94)
+    if major != 1 or minor > 4 or not _MIN_HEADER <= header_size <= point_offset:
+        return None  # not a header we can read the sizes from: laspy says what is wrong
+    fmt = head[104]
+    record_length, n_points = struct.unpack_from("<HI", head, 105)
+    if minor >= 4 and header_size >= _COUNT64_HEADER and len(head) >= _COUNT64_HEADER:
+        n_points = struct.unpack_from("<Q", head, _COUNT64_AT)[0]
+    return _LasLayout(header_size, point_offset, n_points, record_length, bool(fmt & 0x80))
+
+
+def check_las_complete(path) -> None:
+    """Refuse a LAS/LAZ file shorter than its header says, in words (private).
+
+    Raises `PointAtlasIOError` naming the file: a file cut inside its header, before
+    the first point record, before the last point record of an uncompressed file, or
+    before the end of the compressed points of a LAZ file (the chunk table offset
+    stored at the start of the points). Files that are not LAS at all are left to
+    laspy's own error.
+    """
+    try:
+        size = os.path.getsize(path)
+        with open(path, "rb") as fh:
+            head = fh.read(_COUNT64_HEADER)
+            lay = _las_layout(head)
+            if lay is not None and lay.compressed:
+                fh.seek(lay.point_offset)
+                raw = fh.read(8)
+    except OSError:
+        return  # the reader reports it
+    if head[:4] == b"LASF" and size < _MIN_HEADER:
+        raise fail(
+            path,
+            f"truncated LAS/LAZ file: {size:,} bytes, shorter than the smallest LAS header "
+            f"({_MIN_HEADER} bytes)",
+        )
+    if lay is None:
+        return
+    if size < lay.header_size:
+        raise fail(
+            path,
+            f"truncated {lay.kind} file: {size:,} bytes, shorter than its "
+            f"{lay.header_size}-byte header",
+        )
+    if size < lay.point_offset:
+        raise fail(
+            path,
+            f"truncated {lay.kind} file: the header puts the first point at byte "
+            f"{lay.point_offset:,}, but the file has {size:,} bytes",
+        )
+    if not lay.compressed:
+        need = lay.point_offset + lay.n_points * lay.record_length
+        if size < need:
+            raise fail(
+                path,
+                f"truncated LAS file: the header declares {lay.n_points:,} points of "
+                f"{lay.record_length} bytes from byte {lay.point_offset:,}, so at least "
+                f"{need:,} bytes, but the file has {size:,} bytes",
+            )
+        return
+    table = struct.unpack("<q", raw)[0] if len(raw) == 8 else -1
+    if lay.n_points and (len(raw) < 8 or table + 8 > size):
+        end = f"to byte {table:,}" if table > 0 else "past the end"
+        raise fail(
+            path,
+            f"truncated LAZ file: the header declares {lay.n_points:,} points whose "
+            f"compressed data runs {end}, but the file has {size:,} bytes",
+        )
 
 
 def read_las(path) -> RawData:
@@ -38,6 +135,7 @@ def read_las(path) -> RawData:
     """
     import laspy
 
+    check_las_complete(path)
     try:
         las = laspy.read(path)
         points = np.column_stack([np.asarray(las[k], dtype=np.float64) for k in ("x", "y", "z")])
@@ -58,6 +156,8 @@ def read_las(path) -> RawData:
         # VLR payloads; writers copy what they change, see plan_las)
         meta = {"las_header": las.header}
     except Exception as exc:  # laspy/lazrs raise many types on corrupt input
+        if _LAZ_EOF in str(exc):
+            raise fail(path, "truncated LAZ file: its compressed data ends early") from None
         raise fail(path, f"cannot read LAS/LAZ ({describe_exception(exc)})") from None
     return RawData(points=points, normals=normals, attributes=attributes, meta=meta)
 

@@ -40,11 +40,16 @@ def read_stl(path) -> RawData:
             return _merge(corners)
     if data.lstrip()[:5].lower() != b"solid" or _BINARY_BYTES.search(data):
         if n_tri is not None:
+            need = 84 + 50 * n_tri
+            if len(data) > need:
+                what = "binary STL longer than its header declares"
+            else:
+                what = "truncated binary STL"
             raise fail(
                 path,
-                f"truncated binary STL or not an STL file: the binary header declares "
-                f"{n_tri} triangles, so {84 + 50 * n_tri} bytes are expected, but the "
-                f"file has {len(data)} bytes (and it is not ASCII STL text)",
+                f"{what} (or not an STL file): the binary header declares "
+                f"{n_tri} triangles, so {need} bytes are expected, but the file has "
+                f"{len(data)} bytes (and it is not ASCII STL text)",
             )
         raise fail(path, "not an STL file (too short for binary, no 'solid' keyword)")
     if not re.search(rb"\bendsolid\b", data):
