@@ -1,31 +1,98 @@
 """A process-wide "the user asked to stop" flag, read before an output replaces a file.
 
-The command line sets it from its SIGINT handler. A numba kernel cannot be
-interrupted, and an interrupt that arrives while one runs may surface later as a
+The command line sets it from its SIGINT and SIGTERM handler. A numba kernel cannot
+be interrupted, and an interrupt that arrives while one runs may surface later as a
 ``SystemError`` or be swallowed by library code; the flag makes the request
 stick, so that :func:`pointatlas.io.atomic_write` refuses to move a new file over
 an old one once it is set, whatever happened to the ``KeyboardInterrupt``.
+
+:func:`interrupts_deferred` runs a block that a signal must not cut in half
+(starting and closing a cluster of worker processes, removing a temporary folder):
+the signal takes effect when the block ends.
 """
 
 from __future__ import annotations
 
+import contextlib
+import signal
 import threading
 
-__all__ = ["clear_interrupt", "interrupt_requested", "request_interrupt"]
+__all__ = [
+    "STOP_SIGNALS",
+    "clear_interrupt",
+    "interrupt_requested",
+    "interrupt_signal",
+    "interrupts_deferred",
+    "request_interrupt",
+]
+
+#: The signals that ask a command to stop: Ctrl-C and a polite ``kill``.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 _REQUESTED = threading.Event()
+_SIGNAL = [signal.SIGINT]  # the signal of the request (one slot, set before the event)
 
 
-def request_interrupt() -> None:
+def request_interrupt(signum: int = signal.SIGINT) -> None:
     """Record that the user asked to stop (called from a signal handler)."""
+    if not _REQUESTED.is_set():
+        _SIGNAL[0] = signum
     _REQUESTED.set()
 
 
 def clear_interrupt() -> None:
     """Forget an earlier request (at the start of a command)."""
     _REQUESTED.clear()
+    _SIGNAL[0] = signal.SIGINT
 
 
 def interrupt_requested() -> bool:
     """True once :func:`request_interrupt` was called and not cleared since."""
     return _REQUESTED.is_set()
+
+
+def interrupt_signal() -> int | None:
+    """The signal of the first request since the last clear (None without one)."""
+    return _SIGNAL[0] if _REQUESTED.is_set() else None
+
+
+@contextlib.contextmanager
+def interrupts_deferred(*, children: bool = False):
+    """Run a block that SIGINT and SIGTERM must not cut short; they act after it.
+
+    In the main thread the block runs with handlers that only note the signal; when
+    it ends the previous handlers are put back and a noted signal is raised again,
+    so it does then what it would have done (the command line's handler: "error:
+    interrupted"; Python's default: ``KeyboardInterrupt``). The signals are also
+    blocked in the calling thread while the block runs: threads started in it
+    inherit the mask, and so do the processes those threads start (the worker
+    processes of a dask ``LocalCluster``), which therefore never see a Ctrl-C meant
+    for the whole process group; their parent stops them. Elsewhere than in the main
+    thread of a POSIX process, the parts that cannot be done are left out.
+
+    With ``children``, the block starts processes with :mod:`multiprocessing`: its
+    resource tracker is started first, because starting it unblocks the two
+    signals in the thread that starts it (CPython's ``resource_tracker``).
+    """
+    if children and hasattr(signal, "pthread_sigmask"):
+        from multiprocessing import resource_tracker
+
+        resource_tracker.ensure_running()
+    noted = []
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        for signum in STOP_SIGNALS:
+            previous[signum] = signal.signal(signum, lambda s, f: noted.append(s))
+    mask = None
+    if hasattr(signal, "pthread_sigmask"):
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    try:
+        yield
+    finally:
+        if mask is not None:  # a signal held back by the mask is noted here
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        for signum, handler in previous.items():
+            if handler is not None:  # None: installed from C, cannot be put back
+                signal.signal(signum, handler)
+        if noted:
+            signal.raise_signal(noted[0])

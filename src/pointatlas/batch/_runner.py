@@ -18,6 +18,8 @@ from types import MappingProxyType
 
 import numpy as np
 
+from .._core._interrupt import interrupts_deferred
+
 __all__ = ["BatchReport", "list_models", "run_batch", "to_jsonable"]
 
 #: default model patterns of `list_models`
@@ -199,8 +201,9 @@ def _client(scheduler, n_workers: int):
         return
     stack = contextlib.ExitStack()
     # dask's start-up/shut-down chatter must not reach a warnings-as-errors run; the
-    # user's own warning filters stay in force while tasks run
-    with warnings.catch_warnings():
+    # user's own warning filters stay in force while tasks run; a signal acts once the
+    # cluster is up or closed (`pointatlas.batch._tiles.tile_client`)
+    with interrupts_deferred(children=True), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
             if scheduler is None:
@@ -226,7 +229,7 @@ def _client(scheduler, n_workers: int):
     try:
         yield client, label
     finally:
-        with warnings.catch_warnings():
+        with interrupts_deferred(), warnings.catch_warnings():
             warnings.simplefilter("ignore")
             stack.close()
 

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from .._core import PointAtlasError
+from .._core._interrupt import interrupts_deferred
 from ._tiles_grid import TileGrid, make_grid
 from ._tiles_tasks import run_task
 
@@ -359,7 +360,10 @@ def tile_client(options: TileOptions):
         yield sched, "client", None
         return
     stack = contextlib.ExitStack()
-    with warnings.catch_warnings():
+    # a signal acts once the cluster is up, or closed: never half-way, which leaves
+    # processes and semaphores behind; its worker processes start with SIGINT and
+    # SIGTERM blocked (a Ctrl-C reaches the whole process group), the client stops them
+    with interrupts_deferred(children=True), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
             if sched is None:
@@ -397,7 +401,7 @@ def tile_client(options: TileOptions):
     try:
         yield client, label, threads
     finally:
-        with warnings.catch_warnings():
+        with interrupts_deferred(), warnings.catch_warnings():
             warnings.simplefilter("ignore")
             stack.close()
 
@@ -577,12 +581,23 @@ def _maybe_client(options, client_info):
         yield ci
 
 
+#: Temporary folders of tiled runs are the temporary files of this name in their folder
+#: (`pointatlas.io.atomic_write`'s naming: ``.pointatlas-tiles.pa<pid>.<random>.tmp``).
+TMP_NAME = "pointatlas-tiles"
+
+
 def clean_tmp(folder: Path) -> None:
-    """Remove a run's temporary folder."""
-    shutil.rmtree(folder, ignore_errors=True)
+    """Remove a run's temporary folder (a signal meanwhile acts once it is gone)."""
+    with interrupts_deferred():
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def make_tmp(options: TileOptions, near: Path) -> Path:
-    """A fresh temporary folder for spilled tiles and result arrays."""
+    """A fresh temporary folder for spilled tiles and result arrays, named with this
+    process's id; the folders that runs killed earlier (SIGKILL, power loss) left in
+    the same place are removed first (`pointatlas.io.remove_stale_temp_files`)."""
+    from ..io._atomic import remove_stale_temp_files, temp_prefix
+
     base = Path(options.tmp_dir) if options.tmp_dir is not None else Path(near).parent
-    return Path(tempfile.mkdtemp(prefix=".pointatlas-tiles-", dir=base))
+    remove_stale_temp_files(base / TMP_NAME)
+    return Path(tempfile.mkdtemp(prefix=temp_prefix(base / TMP_NAME), suffix=".tmp", dir=base))

@@ -13,7 +13,7 @@ import os
 import signal
 import sys
 
-__all__ = ["app", "main"]
+__all__ = ["STOPPED", "app", "main"]
 
 # command modules (each registers on ``app`` / sub-apps when imported)
 _COMMAND_MODULES = (
@@ -45,28 +45,38 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+#: What a command says, and its exit status, when a signal stopped it (128 + the
+#: signal's number, as a shell reports a process that signal killed).
+STOPPED = {
+    signal.SIGINT: ("interrupted", 130),
+    signal.SIGTERM: ("terminated", 143),
+}
+
+
 def _interrupted_while_starting(signum, frame):  # pragma: no cover - timing dependent
     # nothing has been written yet: say so in one line and leave at once
-    sys.stderr.write("error: interrupted\n")
+    line, code = STOPPED[signum]
+    sys.stderr.write(f"error: {line}\n")
     sys.stderr.flush()
-    os._exit(130)
+    os._exit(code)
 
 
 def main() -> None:
     """Entry point of the ``pointatlas`` console script.
 
-    Ctrl-C while the command modules load prints one line and exits 130; once a
-    command runs, ``guarded`` handles it (outputs stay as they were).
+    Ctrl-C (SIGTERM) while the command modules load prints one line and exits 130
+    (143); once a command runs, ``guarded`` handles it (outputs stay as they were).
     """
-    signal.signal(signal.SIGINT, _interrupted_while_starting)
+    for signum in STOPPED:
+        signal.signal(signum, _interrupted_while_starting)
     try:
         _load_app()()
     except SystemExit as exc:
-        if exc.code != 130:
+        if exc.code not in {code for _, code in STOPPED.values()}:
             raise
         # interrupted: the command has cleaned up and said so; leave without the
         # interpreter's teardown, which can crash (SIGSEGV) when a numba parallel
         # kernel's threads were stopped part-way
         sys.stdout.flush()
         sys.stderr.flush()
-        os._exit(130)
+        os._exit(exc.code)

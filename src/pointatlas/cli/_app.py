@@ -29,7 +29,14 @@ from rich.progress import (
 )
 
 from .._core import PointAtlasError
-from .._core._interrupt import clear_interrupt, interrupt_requested, request_interrupt
+from .._core._interrupt import (
+    STOP_SIGNALS,
+    clear_interrupt,
+    interrupt_requested,
+    interrupt_signal,
+    request_interrupt,
+)
+from . import STOPPED
 
 __all__ = [
     "DEMO_STEPS",
@@ -121,9 +128,14 @@ def _fail(message: str, code: int):
     raise typer.Exit(code=code)
 
 
-def _on_sigint(signum, frame):
-    request_interrupt()
+def _on_stop_signal(signum, frame):
+    request_interrupt(signum)
     raise KeyboardInterrupt
+
+
+def _stopped():
+    """The one line and exit status of a command a signal stopped."""
+    _fail(*STOPPED[interrupt_signal() or signal.SIGINT])
 
 
 def _quiet_interrupts(previous):
@@ -144,21 +156,22 @@ def guarded(func):
 
     ``PointAtlasError``, ``ValueError``, ``TypeError`` and ``OSError`` (missing file,
     permission) are user errors: no traceback. ``MemoryError`` also exits 1 with one
-    line. Ctrl-C (SIGINT) prints "interrupted" and exits 130, always: the handler
-    records the request (:mod:`pointatlas._core._interrupt`), so an interrupt that
-    reaches Python as another exception (a ``SystemError`` out of a numba kernel) or
-    is swallowed by library code still ends the command, and no output replaces an
-    earlier file after it (``atomic_write`` checks the flag before the rename).
-    Usage errors stay with typer (exit 2).
+    line. Ctrl-C (SIGINT) prints "interrupted" and exits 130, SIGTERM prints
+    "terminated" and exits 143, always: the handler records the request
+    (:mod:`pointatlas._core._interrupt`), so an interrupt that reaches Python as
+    another exception (a ``SystemError`` out of a numba kernel) or is swallowed by
+    library code still ends the command, and no output replaces an earlier file
+    after it (``atomic_write`` checks the flag before the rename). Usage errors stay
+    with typer (exit 2).
     """
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         clear_interrupt()
-        previous = None
+        previous = {}
         previous_hook = sys.unraisablehook
         if threading.current_thread() is threading.main_thread():
-            previous = signal.signal(signal.SIGINT, _on_sigint)
+            previous = {s: signal.signal(s, _on_stop_signal) for s in STOP_SIGNALS}
             sys.unraisablehook = _quiet_interrupts(previous_hook)
         try:
             result = func(*args, **kwargs)
@@ -167,21 +180,23 @@ def guarded(func):
             return result
         except typer.Exit:
             if interrupt_requested():
-                _fail("interrupted", 130)
+                _stopped()
             raise
         except KeyboardInterrupt:
-            _fail("interrupted", 130)
+            _stopped()
         except BaseException as exc:
             if interrupt_requested():
-                _fail("interrupted", 130)
+                _stopped()
             if isinstance(exc, PointAtlasError | ValueError | TypeError | OSError):
                 _fail(_one_line(exc), 1)
             if isinstance(exc, MemoryError):
                 _fail("out of memory (try a smaller input or fewer neighbours)", 1)
             raise
         finally:
-            if previous is not None:
-                signal.signal(signal.SIGINT, previous)
+            for signum, handler in previous.items():
+                if handler is not None:  # None: installed from C, cannot be put back
+                    signal.signal(signum, handler)
+            if previous:
                 sys.unraisablehook = previous_hook
             clear_interrupt()  # the request belonged to this command
 

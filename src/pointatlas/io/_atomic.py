@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -143,13 +144,20 @@ def remove_stale_temp_files(path) -> list[Path]:
     ----------
     path : str or os.PathLike
         An output file (need not exist). Its folder is searched for
-        ``.<name>.pa<pid>.<random>.tmp`` files whose process no longer runs, and for
+        ``.<name>.pa<pid>.<random>.tmp`` files and folders (a tiled run's temporary
+        folder is named so) whose process no longer runs, and for
         ``.<name>.<8 characters>.tmp`` files of versions that did not record the pid.
 
     Returns
     -------
     removed : list of pathlib.Path
-        The files removed (files that cannot be removed are left alone).
+        The files and folders removed (what cannot be removed is left alone).
+
+    Notes
+    -----
+    A process id names a process of this machine (of this container): a folder
+    shared with other machines may hold the temporary files of a writer that runs
+    there under an id that is free here.
 
     Examples
     --------
@@ -171,12 +179,17 @@ def remove_stale_temp_files(path) -> list[Path]:
         return removed
     for entry in entries:
         match = pattern.match(entry.name)
-        if match is None or not entry.is_file(follow_symlinks=False):
+        if match is None:
             continue
         pid = match.group("pid")
         if pid is not None and _process_alive(int(pid)):
             continue
-        with contextlib.suppress(OSError):
-            os.unlink(entry.path)
-            removed.append(Path(entry.path))
+        if entry.is_file(follow_symlinks=False):
+            with contextlib.suppress(OSError):
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+        elif pid is not None and entry.is_dir(follow_symlinks=False):
+            shutil.rmtree(entry.path, ignore_errors=True)
+            if not os.path.lexists(entry.path):
+                removed.append(Path(entry.path))
     return removed

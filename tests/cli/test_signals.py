@@ -1,0 +1,59 @@
+"""SIGTERM stops a command as Ctrl-C does: one line, exit 143, earlier outputs kept
+(issue 28 item 8; the tiled runs are tried in tests/batch/test_tiles_signals.py)."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+from pointatlas.io import write_point_set
+
+from .helpers import run, sphere_points
+
+
+class _SignalReachedTheTest(Exception):
+    pass
+
+
+@pytest.fixture
+def sigterm_caught():
+    """A SIGTERM that no command handles fails the test instead of ending pytest."""
+
+    def caught(signum, frame):
+        raise _SignalReachedTheTest
+
+    previous = signal.signal(signal.SIGTERM, caught)
+    yield
+    signal.signal(signal.SIGTERM, previous)
+
+
+@pytest.mark.parametrize(
+    ("signum", "code", "line"),
+    [(signal.SIGTERM, 143, "error: terminated"), (signal.SIGINT, 130, "error: interrupted")],
+    ids=["sigterm", "sigint"],
+)
+def test_a_signal_during_a_command_says_so_and_keeps_outputs(
+    tmp_path, monkeypatch, sigterm_caught, signum, code, line
+):
+    from pointatlas.cli import _cmd_core
+
+    src, out = tmp_path / "in.ply", tmp_path / "out.ply"
+    write_point_set(src, sphere_points(200))
+    out.write_bytes(b"previous")
+    real = _cmd_core.estimate_normals
+
+    def signalled(*args, **kw):
+        os.kill(os.getpid(), signum)  # the handler runs when this returns
+        return real(*args, **kw)
+
+    monkeypatch.setattr(_cmd_core, "estimate_normals", signalled)
+    result = run("normals", src, out, "--k", "8")
+    assert result.exit_code == code, result.output
+    assert result.stderr.strip() == line
+    assert out.read_bytes() == b"previous"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.ply", "out.ply"]
+    # the command put the handlers back
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.getsignal(signal.SIGTERM).__name__ == "caught"
