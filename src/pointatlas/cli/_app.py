@@ -37,6 +37,7 @@ from .._core._interrupt import (
     request_interrupt,
 )
 from . import STOPPED
+from ._typed import TypedArgsGroup
 
 __all__ = [
     "DEMO_STEPS",
@@ -78,6 +79,7 @@ __all__ = [
 ]
 
 app = typer.Typer(
+    cls=TypedArgsGroup,
     name="pointatlas",
     help="Point-set geometry processing: segmentation, simplification, features, denoising.",
     no_args_is_help=True,

@@ -5,6 +5,11 @@ One rule for every command (docs/decisions/cli.md, "Outputs"):
 - an output file needs a supported extension and a folder that exists and is
   writable; an output folder (``demo --out DIR``, ``cloudsurface IN OUT_DIR``) is
   created when missing, but its parent must exist and be writable;
+- an output file as typed does not end in ``/``, no name in a path is longer than
+  the file system allows, and an existing output is a regular file its owner has
+  not made read-only (it is not replaced, as ``cp`` without ``-f``);
+- an output that is a symbolic link is written through: the file it leads to is
+  the output (its folder must be writable), the link stays;
 - no output is an input (same path, symlink or hard link) and no two outputs of a
   command are the same file;
 - temporary files left by a killed earlier run of the same output are removed;
@@ -22,7 +27,8 @@ from pathlib import Path
 
 from .._core import PointAtlasError
 from ..io import file_record, write_summary_json, write_text
-from ..io._atomic import remove_stale_temp_files
+from ..io._atomic import name_problem, output_problem, output_target, remove_stale_temp_files
+from ._typed import typed_spellings
 
 __all__ = [
     "OutputFile",
@@ -55,6 +61,18 @@ def _check_folder_writable(folder: Path, what: str) -> None:
         raise PointAtlasError(f"{what}: folder is not writable: {str(folder)!r}")
 
 
+def _check_output_file(what: str, p: Path, extensions) -> None:
+    """One output file: its path as typed, its extension, what it is, its folder."""
+    for typed in typed_spellings(p) or [str(p)]:
+        problem = output_problem(typed)
+        if problem is not None:
+            raise PointAtlasError(f"{what} {typed!r}: {problem}")
+    if extensions is not None and p.suffix.lower() not in extensions:
+        raise PointAtlasError(f"{what} must end in one of {', '.join(extensions)}; got {str(p)!r}")
+    target = output_target(p)
+    _check_folder_writable(target.parent if str(target.parent) else Path("."), what)
+
+
 def check_outputs(
     inputs: Iterable,
     files: Sequence[OutputFile] = (),
@@ -82,8 +100,10 @@ def check_outputs(
     Raises
     ------
     PointAtlasError
-        Unsupported extension, missing or read-only folder, an output that is a
-        folder, an output that is an input, or two outputs that are the same file.
+        Unsupported extension, missing or read-only folder, an output typed with a
+        trailing ``/``, a name too long for the file system, an output that is a
+        folder, not a regular file or a read-only file, an output that is an input,
+        or two outputs that are the same file.
     """
     in_paths = [Path(os.fspath(p)) for p in inputs if p is not None]
     in_paths = [p for p in in_paths if p.exists()]
@@ -92,18 +112,15 @@ def check_outputs(
         if path is None:
             continue
         p = Path(os.fspath(path))
-        if extensions is not None and p.suffix.lower() not in extensions:
-            raise PointAtlasError(
-                f"{what} must end in one of {', '.join(extensions)}; got {str(p)!r}"
-            )
-        if p.is_dir():
-            raise PointAtlasError(f"{what} is a folder, not a file: {str(p)!r}")
-        _check_folder_writable(p.parent if str(p.parent) else Path("."), what)
+        _check_output_file(what, p, extensions)
         checked.append((what, p))
     for what, folder in folders:
         if folder is None:
             continue
         f = Path(os.fspath(folder))
+        problem = name_problem(f)
+        if problem is not None:
+            raise PointAtlasError(f"{what} {str(f)!r}: {problem}")
         if f.exists():
             if not f.is_dir():
                 raise PointAtlasError(f"{what} exists and is not a folder: {str(f)!r}")

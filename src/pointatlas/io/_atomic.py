@@ -6,12 +6,25 @@ import contextlib
 import os
 import re
 import shutil
+import stat
 import tempfile
 from pathlib import Path
 
 from .._core._interrupt import interrupt_requested
+from ._errors import fail
 
-__all__ = ["atomic_write", "remove_stale_temp_files", "temp_prefix"]
+__all__ = [
+    "atomic_write",
+    "name_problem",
+    "output_problem",
+    "output_target",
+    "remove_stale_temp_files",
+    "temp_prefix",
+]
+
+#: Longest name of one path component (bytes) when ``os.pathconf`` cannot tell: the
+#: limit of ext4, XFS, btrfs, APFS and NTFS.
+NAME_MAX_DEFAULT = 255
 
 
 def _current_umask() -> int:
@@ -28,7 +41,8 @@ _UMASK = _current_umask()
 def atomic_write(path, mode: str = "wb", *, encoding: str | None = None, newline=None):
     """Open a temporary file that atomically replaces ``path`` when the block succeeds.
 
-    The data goes to a temporary file in the same folder as ``path``; on a normal
+    The data goes to a temporary file in the same folder as the file ``path``
+    names (the target of a symbolic link: the link stays a link); on a normal
     exit of the ``with`` block it is flushed, ``fsync``-ed and moved over ``path``
     with ``os.replace`` (atomic on POSIX and Windows). If the block raises, the
     temporary file is removed and ``path`` is left exactly as it was, so a reader
@@ -54,6 +68,11 @@ def atomic_write(path, mode: str = "wb", *, encoding: str | None = None, newline
     ------
     ValueError
         ``mode`` is not ``"wb"`` or ``"w"``.
+    PointAtlasIOError
+        ``path`` cannot be an output (:func:`output_problem`): it ends in a
+        separator, a name is too long, it is a folder or not a regular file, or an
+        existing file its owner made read-only (not replaced, as ``cp`` without
+        ``-f``).
     OSError
         The folder does not exist or is not writable.
 
@@ -79,7 +98,10 @@ def atomic_write(path, mode: str = "wb", *, encoding: str | None = None, newline
     """
     if mode not in ("wb", "w"):
         raise ValueError(f"mode must be 'wb' or 'w'; got {mode!r}")
-    target = Path(os.fspath(path))
+    problem = output_problem(path)
+    if problem is not None:
+        raise fail(path, problem)
+    target = output_target(path)
     folder = target.parent if str(target.parent) else Path(".")
     if interrupt_requested():
         raise KeyboardInterrupt
@@ -106,6 +128,132 @@ def atomic_write(path, mode: str = "wb", *, encoding: str | None = None, newline
             os.unlink(tmp_name)
         raise
     _fsync_folder(folder)
+
+
+def output_target(path) -> Path:
+    """The file that writing ``path`` replaces: ``path``, or where its symlinks lead.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An output path (need not exist).
+
+    Returns
+    -------
+    target : pathlib.Path
+        ``path`` unchanged, or, when its last component is a symbolic link, the
+        absolute path the chain of links leads to (which need not exist).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> (folder / "link.ply").symlink_to("real.ply")
+    >>> output_target(folder / "link.ply").name
+    'real.ply'
+    """
+    p = Path(os.fspath(path))
+    try:
+        is_link = stat.S_ISLNK(os.lstat(p).st_mode)
+    except OSError:
+        return p
+    return Path(os.path.realpath(p)) if is_link else p
+
+
+def _name_max(path: Path) -> int:
+    folder = path.parent
+    while not folder.is_dir() and folder != folder.parent:
+        folder = folder.parent
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (OSError, ValueError, AttributeError):
+        return NAME_MAX_DEFAULT
+
+
+def name_problem(path) -> str | None:
+    """Which name of ``path`` is longer than its file system allows, or None.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A file or folder path (need not exist).
+
+    Returns
+    -------
+    problem : str or None
+        A phrase for a one-line message when one component is longer than
+        ``NAME_MAX`` (asked of the nearest existing folder; 255 bytes when it
+        cannot tell).
+
+    Examples
+    --------
+    >>> name_problem("short.ply") is None
+    True
+    """
+    p = Path(os.fspath(path))
+    limit = _name_max(p)
+    for part in p.parts:
+        n_bytes = len(os.fsencode(part))
+        if n_bytes > limit:
+            return (
+                f"a name of {n_bytes} bytes is longer than the file system allows ({limit} bytes)"
+            )
+    return None
+
+
+def output_problem(path) -> str | None:
+    """Why ``path`` cannot be written as an output file, or None when it can.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An output path as given (a trailing separator is seen in a ``str``).
+
+    Returns
+    -------
+    problem : str or None
+        A phrase for a one-line message: the path ends in a separator; one of its
+        names is longer than the file system allows (``NAME_MAX``, 255 bytes on
+        common file systems); it (or the file its symlinks lead to) is a folder,
+        not a regular file, a symlink loop, or an existing file its owner made
+        read-only or that this user may not write. A missing file, or a link to
+        one, is fine (the target is created).
+
+    Examples
+    --------
+    >>> output_problem("out.ply/")
+    "ends in '/', so it names a folder; give a file name such as 'out.ply'"
+    >>> "longer than the file system allows" in output_problem("a" * 1000 + ".ply")
+    True
+    """
+    text = os.fspath(path)
+    separators = tuple(s for s in (os.sep, os.altsep) if s)
+    if text.endswith(separators) and text.rstrip("".join(separators)):
+        name = text.rstrip("".join(separators))
+        return f"ends in {text[-1]!r}, so it names a folder; give a file name such as {name!r}"
+    p = Path(text)
+    too_long = name_problem(p)
+    if too_long is not None:
+        return too_long
+    try:
+        st = os.stat(p)
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    if stat.S_ISDIR(st.st_mode):
+        return "is a folder, not a file"
+    if not stat.S_ISREG(st.st_mode):
+        return "is not a regular file (a device, pipe or socket); write to a file"
+    mode = stat.S_IMODE(st.st_mode)
+    if not mode & stat.S_IWUSR:
+        return (
+            f"is read-only (mode {mode:04o}) and is not replaced; make it writable "
+            "(chmod u+w) or write to another file"
+        )
+    if not os.access(p, os.W_OK):
+        return f"is not writable by this user (mode {mode:04o}); write to another file"
+    return None
 
 
 def _fsync_folder(folder: Path) -> None:
@@ -167,7 +315,7 @@ def remove_stale_temp_files(path) -> list[Path]:
     >>> [p.name for p in remove_stale_temp_files(folder / "out.ply")]
     ['.out.ply.pa999999999.abcd1234.tmp']
     """
-    target = Path(os.fspath(path))
+    target = output_target(path)
     folder = target.parent if str(target.parent) else Path(".")
     pattern = re.compile(
         r"^\." + re.escape(target.name) + r"\.(?:pa(?P<pid>\d+)\.[A-Za-z0-9_]+|[a-z0-9_]{8})\.tmp$"
