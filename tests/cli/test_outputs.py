@@ -471,7 +471,7 @@ def test_interrupt_inside_a_finaliser_is_not_printed():
     from types import SimpleNamespace
 
     from pointatlas._core._interrupt import clear_interrupt, request_interrupt
-    from pointatlas.cli._app import _quiet_interrupts
+    from pointatlas.cli._signals import _quiet_interrupts
 
     seen = []
     hook = _quiet_interrupts(seen.append)

@@ -17,8 +17,6 @@ import logging
 import math
 import mmap
 import os
-import shutil
-import tempfile
 import warnings
 from collections import defaultdict
 from dataclasses import dataclass, field
@@ -35,8 +33,6 @@ __all__ = [
     "ArraySource",
     "TileOptions",
     "TiledRun",
-    "clean_tmp",
-    "make_tmp",
     "release_pages",
     "parse_memory",
     "sent_as",
@@ -579,25 +575,3 @@ def _maybe_client(options, client_info):
         return
     with tile_client(options) as ci:
         yield ci
-
-
-#: Temporary folders of tiled runs are the temporary files of this name in their folder
-#: (`pointatlas.io.atomic_write`'s naming: ``.pointatlas-tiles.pa<pid>.<random>.tmp``).
-TMP_NAME = "pointatlas-tiles"
-
-
-def clean_tmp(folder: Path) -> None:
-    """Remove a run's temporary folder (a signal meanwhile acts once it is gone)."""
-    with interrupts_deferred():
-        shutil.rmtree(folder, ignore_errors=True)
-
-
-def make_tmp(options: TileOptions, near: Path) -> Path:
-    """A fresh temporary folder for spilled tiles and result arrays, named with this
-    process's id; the folders that runs killed earlier (SIGKILL, power loss) left in
-    the same place are removed first (`pointatlas.io.remove_stale_temp_files`)."""
-    from ..io._atomic import remove_stale_temp_files, temp_prefix
-
-    base = Path(options.tmp_dir) if options.tmp_dir is not None else Path(near).parent
-    remove_stale_temp_files(base / TMP_NAME)
-    return Path(tempfile.mkdtemp(prefix=temp_prefix(base / TMP_NAME), suffix=".tmp", dir=base))

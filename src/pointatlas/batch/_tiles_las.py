@@ -23,8 +23,6 @@ from .._core import PointAtlasError, as_normals
 from ..io._las import check_las_complete
 from ._tiles import (
     TileOptions,
-    clean_tmp,
-    make_tmp,
     release_pages,
     tile_client,
 )
@@ -33,6 +31,7 @@ from ._tiles_denoise import denoise_over
 from ._tiles_features import features_over
 from ._tiles_normals import normals_over
 from ._tiles_segment import segment_over
+from ._tiles_tmp import clean_tmp, make_tmp
 
 __all__ = ["LAS_EXTENSIONS", "LasSource", "las_feature_fields", "las_tiled"]
 

@@ -13,7 +13,9 @@ import os
 import signal
 import sys
 
-__all__ = ["STOPPED", "app", "main"]
+from ._signals import STOPPED
+
+__all__ = ["app", "main"]
 
 # command modules (each registers on ``app`` / sub-apps when imported)
 _COMMAND_MODULES = (
@@ -43,14 +45,6 @@ def __getattr__(name: str):
     if name == "app":
         return _load_app()
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-#: What a command says, and its exit status, when a signal stopped it (128 + the
-#: signal's number, as a shell reports a process that signal killed).
-STOPPED = {
-    signal.SIGINT: ("interrupted", 130),
-    signal.SIGTERM: ("terminated", 143),
-}
 
 
 def _interrupted_while_starting(signum, frame):  # pragma: no cover - timing dependent

@@ -8,9 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import signal
 import sys
-import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
@@ -29,15 +27,8 @@ from rich.progress import (
 )
 
 from .._core import PointAtlasError
-from .._core._interrupt import (
-    STOP_SIGNALS,
-    clear_interrupt,
-    interrupt_requested,
-    interrupt_signal,
-    request_interrupt,
-)
-from . import STOPPED
-from ._typed import TypedArgsGroup
+from .._core._interrupt import interrupt_requested
+from ._signals import stop_signals_handled, stopped_line
 
 __all__ = [
     "DEMO_STEPS",
@@ -79,7 +70,6 @@ __all__ = [
 ]
 
 app = typer.Typer(
-    cls=TypedArgsGroup,
     name="pointatlas",
     help="Point-set geometry processing: segmentation, simplification, features, denoising.",
     no_args_is_help=True,
@@ -130,27 +120,9 @@ def _fail(message: str, code: int):
     raise typer.Exit(code=code)
 
 
-def _on_stop_signal(signum, frame):
-    request_interrupt(signum)
-    raise KeyboardInterrupt
-
-
 def _stopped():
     """The one line and exit status of a command a signal stopped."""
-    _fail(*STOPPED[interrupt_signal() or signal.SIGINT])
-
-
-def _quiet_interrupts(previous):
-    """An ``unraisablehook`` that drops the ``KeyboardInterrupt`` our handler raised
-    inside a finaliser (e.g. llvmlite's while numba compiles): the request is
-    recorded, so the command still ends with the one "interrupted" line."""
-
-    def hook(unraisable):
-        if unraisable.exc_type is KeyboardInterrupt and interrupt_requested():
-            return
-        previous(unraisable)
-
-    return hook
+    _fail(*stopped_line())
 
 
 def guarded(func):
@@ -160,7 +132,7 @@ def guarded(func):
     permission) are user errors: no traceback. ``MemoryError`` also exits 1 with one
     line. Ctrl-C (SIGINT) prints "interrupted" and exits 130, SIGTERM prints
     "terminated" and exits 143, always: the handler records the request
-    (:mod:`pointatlas._core._interrupt`), so an interrupt that reaches Python as
+    (`pointatlas.cli._signals`), so an interrupt that reaches Python as
     another exception (a ``SystemError`` out of a numba kernel) or is swallowed by
     library code still ends the command, and no output replaces an earlier file
     after it (``atomic_write`` checks the flag before the rename). Usage errors stay
@@ -169,38 +141,26 @@ def guarded(func):
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
-        clear_interrupt()
-        previous = {}
-        previous_hook = sys.unraisablehook
-        if threading.current_thread() is threading.main_thread():
-            previous = {s: signal.signal(s, _on_stop_signal) for s in STOP_SIGNALS}
-            sys.unraisablehook = _quiet_interrupts(previous_hook)
-        try:
-            result = func(*args, **kwargs)
-            if interrupt_requested():
-                raise KeyboardInterrupt
-            return result
-        except typer.Exit:
-            if interrupt_requested():
+        with stop_signals_handled():
+            try:
+                result = func(*args, **kwargs)
+                if interrupt_requested():
+                    raise KeyboardInterrupt
+                return result
+            except typer.Exit:
+                if interrupt_requested():
+                    _stopped()
+                raise
+            except KeyboardInterrupt:
                 _stopped()
-            raise
-        except KeyboardInterrupt:
-            _stopped()
-        except BaseException as exc:
-            if interrupt_requested():
-                _stopped()
-            if isinstance(exc, PointAtlasError | ValueError | TypeError | OSError):
-                _fail(_one_line(exc), 1)
-            if isinstance(exc, MemoryError):
-                _fail("out of memory (try a smaller input or fewer neighbours)", 1)
-            raise
-        finally:
-            for signum, handler in previous.items():
-                if handler is not None:  # None: installed from C, cannot be put back
-                    signal.signal(signum, handler)
-            if previous:
-                sys.unraisablehook = previous_hook
-            clear_interrupt()  # the request belonged to this command
+            except BaseException as exc:
+                if interrupt_requested():
+                    _stopped()
+                if isinstance(exc, PointAtlasError | ValueError | TypeError | OSError):
+                    _fail(_one_line(exc), 1)
+                if isinstance(exc, MemoryError):
+                    _fail("out of memory (try a smaller input or fewer neighbours)", 1)
+                raise
 
     return wrapper
 
