@@ -29,6 +29,7 @@ from rich.progress import (
 from .._core import PointAtlasError
 from .._core._interrupt import interrupt_requested
 from ._signals import stop_signals_handled, stopped_line
+from ._typed import TypedArgsGroup
 
 __all__ = [
     "DEMO_STEPS",
@@ -70,6 +71,7 @@ __all__ = [
 ]
 
 app = typer.Typer(
+    cls=TypedArgsGroup,
     name="pointatlas",
     help="Point-set geometry processing: segmentation, simplification, features, denoising.",
     no_args_is_help=True,
