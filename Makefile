@@ -10,6 +10,9 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	@# compile every command's numba kernels into the cache now (a few minutes, once),
+	@# so that a first command, and the tests, start at once (docs/decisions/cli.md)
+	$(BIN)/pointatlas warmup
 	touch $(STAMP)
 
 install: $(STAMP)

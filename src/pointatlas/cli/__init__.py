@@ -30,6 +30,7 @@ _COMMAND_MODULES = (
     "_cmd_render",
     "_cmd_segment",
     "_cmd_simplify",
+    "_warm",
 )
 
 
@@ -64,7 +65,11 @@ def main() -> None:
     for signum in STOPPED:
         signal.signal(signum, _interrupted_while_starting)
     try:
-        _load_app()()
+        app = _load_app()
+        from ._compile_notice import announce_compiles
+
+        announce_compiles()  # one line on stderr while kernels compile (cold cache)
+        app()
     except SystemExit as exc:
         if exc.code not in {code for _, code in STOPPED.values()}:
             raise

@@ -1,0 +1,129 @@
+"""Compile every command's numeric kernels into numba's cache ahead of use.
+
+The hidden command ``pointatlas warmup [COMMAND]...`` (``make install`` runs it)
+runs each command's default path on a small bundled model in a temporary folder:
+numba compiles the kernels that path runs and writes them to its cache
+(``__pycache__`` beside the sources, or ``NUMBA_CACHE_DIR``), so a later first run
+loads them in a second or two instead of compiling for a minute or more. One line
+per command says how many kernels it added and how long it took.
+
+The kernels of a command are the numba dispatchers of ``pointatlas`` that hold a
+compiled signature after it ran (`compiled_kernels`); inlined helpers have none and
+need no cache entry.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ._app import app as _app
+from ._app import guarded, say
+
+__all__ = ["WARM_STEPS", "compiled_kernels", "warm", "warmup_command"]
+
+#: The model the warm-up runs on: small (2,304 points), so the run after the
+#: compile takes well under a second, yet large enough for the grid k-NN path.
+WARM_MODEL = "torus_coarse"
+
+#: Per command, the argument lists run in order ({tmp}: the temporary folder).
+#: ``simplify`` runs twice: a mesh takes the mesh path, a point set the points path.
+WARM_STEPS: dict[str, list[list[str]]] = {
+    "info": [["info", WARM_MODEL]],
+    "normals": [["normals", WARM_MODEL, "{tmp}/normals.ply"]],
+    "features": [["features", WARM_MODEL, "{tmp}/features.ply"]],
+    "segment": [["segment", WARM_MODEL, "{tmp}/segment.ply"]],
+    "simplify": [
+        ["simplify", WARM_MODEL, "{tmp}/simplify_mesh.obj"],
+        ["data", "export", WARM_MODEL, "{tmp}/points.ply", "--points"],
+        ["simplify", "{tmp}/points.ply", "{tmp}/simplify_points.obj"],
+    ],
+    "denoise": [["denoise", WARM_MODEL, "{tmp}/denoise.ply"]],
+    "cloudsurface": [["cloudsurface", WARM_MODEL, "{tmp}/cloudsurface"]],
+    "deform": [
+        ["cloudsurface", WARM_MODEL, "{tmp}/deform_cs"],
+        ["deform", "{tmp}/deform_cs", "{tmp}/deform_cs/complex.ply", "{tmp}/deform.ply"],
+    ],
+}
+
+
+def compiled_kernels() -> dict[str, int]:
+    """Every ``pointatlas`` numba dispatcher with a compiled (or cache-loaded)
+    signature: ``module.qualname`` -> number of signatures."""
+    from numba.core.registry import CPUDispatcher
+
+    found: dict[str, int] = {}
+    for name, module in list(sys.modules.items()):
+        if not name.startswith("pointatlas.") or module is None:
+            continue
+        for obj in list(vars(module).values()):
+            if isinstance(obj, CPUDispatcher) and obj.signatures:
+                func = obj.py_func
+                found[f"{func.__module__}.{func.__qualname__}"] = len(obj.signatures)
+    return found
+
+
+def _run_quietly(app, args: list[str]) -> None:
+    """Run one command in process, its output swallowed; a failure raises."""
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(out):
+        try:
+            app(args, standalone_mode=False)
+        except SystemExit as exc:  # typer.Exit from a command
+            if exc.code not in (0, None):
+                raise RuntimeError(f"pointatlas {' '.join(args)}: {out.getvalue()}") from exc
+
+
+def warm(commands=None, *, say=print) -> dict[str, list[str]]:
+    """Run the warm-up steps of ``commands`` (default: all of `WARM_STEPS`).
+
+    Returns, per command, the kernels it was the first to run (sorted
+    ``module.qualname``); each is in numba's cache afterwards. ``say`` gets one
+    line per command.
+    """
+    from . import _load_app
+
+    app = _load_app()
+    names = list(WARM_STEPS) if commands is None else list(commands)
+    unknown = [c for c in names if c not in WARM_STEPS]
+    if unknown:
+        raise ValueError(f"no warm-up for {', '.join(unknown)}; known: {', '.join(WARM_STEPS)}")
+    held: dict[str, list[str]] = {}
+    with tempfile.TemporaryDirectory(prefix="pointatlas-warm-") as tmp:
+        for name in names:
+            before = set(compiled_kernels())
+            t0 = time.perf_counter()
+            for step in WARM_STEPS[name]:
+                _run_quietly(app, [a.format(tmp=tmp) for a in step])
+            now = compiled_kernels()
+            held[name] = sorted(set(now) - before)
+            seconds = time.perf_counter() - t0
+            say(f"warm-up {name}: {len(held[name])} more kernels ready ({seconds:.1f} s)")
+    return held
+
+
+@_app.command("warmup", hidden=True)
+@guarded
+def warmup_command(
+    commands: Annotated[
+        list[str] | None,
+        typer.Argument(metavar="[COMMAND]...", help="Commands to warm (default: all)."),
+    ] = None,
+    json_path: Annotated[
+        Path | None,
+        typer.Option("--json", help="Also write the kernels of each command to this file."),
+    ] = None,
+):
+    """Compile every command's numeric kernels into numba's cache (``make install``
+    runs this; a first run then starts at once)."""
+    held = warm(commands or None, say=say)
+    if json_path is not None:
+        json_path.write_text(json.dumps(held, indent=2))
