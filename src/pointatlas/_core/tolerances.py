@@ -166,3 +166,10 @@ DENOISE_K_MAX = 48
 #: denoise: half-width of the thesis' adaptive range, k in [k_i - 10, k_i + 10]
 #: (thesis 5.4, application scenario).
 DENOISE_K_WIDTH = 10
+
+#: Largest iteration count an option takes (denoise's ``--n-iter`` and ``n_iter=``):
+#: every iteration is at least one pass over all points (a k-NN query in flatness,
+#: a filter round in normal voting), so 10^5 of them on 10^5 points already take
+#: hours, and flatness sizes its schedule by the count (10^12 asked for terabytes
+#: and was answered "out of memory"). A larger count is refused with this reason.
+MAX_ITERATIONS = 100_000

@@ -455,27 +455,35 @@ def vsa_options(
     if switch not in ("batch", "single", "none"):
         raise PointAtlasError(f"--switch must be batch, single or none; got {switch!r}")
     max_angle = angle_deg_option(max_angle_deg, "--max-angle-deg")
-    return VSAOptions(
-        k=k,
-        eta=eta,
-        max_angle=None if max_angle is None else math.radians(max_angle),
-        seeds=parse_seeds(seeds),
-        split=split,
-        merge=merge,
-        switch=switch,
-        classic=classic,
-        weights=weights,
-        max_iter=max_iter,
-        local=local,
-    )
+    seeds = parse_seeds(seeds)
+    try:
+        return VSAOptions(
+            k=k,
+            eta=eta,
+            max_angle=None if max_angle is None else math.radians(max_angle),
+            seeds=seeds,
+            split=split,
+            merge=merge,
+            switch=switch,
+            classic=classic,
+            weights=weights,
+            max_iter=max_iter,
+            local=local,
+        )
+    except (TypeError, ValueError) as exc:  # VSAOptions names its fields: name the flags
+        from ._flag_checks import VSA_FLAGS, named_as_typed
+
+        raise named_as_typed(exc, VSA_FLAGS) from None
 
 
-def _check_min_points(path, ps, min_points: int, what: str) -> None:
+def _check_min_points(path, ps, min_points: int, what: str, check=None) -> None:
     if ps.n_points < min_points:
         raise PointAtlasError(
             f"{path}: {what or 'this command'} needs at least {min_points} points; "
             f"got {ps.n_points}"
         )
+    if check is not None:
+        check(ps.n_points)
 
 
 def fill_unusable_normals(path, kept, normal_k: int):
@@ -521,7 +529,13 @@ def fill_unusable_normals(path, kept, normal_k: int):
 
 
 def read_with_normals(
-    path, *, estimate: bool | None = None, normal_k: int = 20, min_points: int = 1, what: str = ""
+    path,
+    *,
+    estimate: bool | None = None,
+    normal_k: int = 20,
+    min_points: int = 1,
+    what: str = "",
+    check=None,
 ):
     """Read IN and make sure it has normals; returns the PointSet.
 
@@ -533,7 +547,9 @@ def read_with_normals(
     stored normal is unusable (zero length, NaN; mesh vertices on no face) get one
     from their neighbours (`fill_unusable_normals`), with a note giving their
     number. An input with fewer than ``min_points``
-    points is refused before anything is estimated (``what`` names the job).
+    points is refused before anything is estimated (``what`` names the job), and so
+    is one that ``check`` (called with the number of points) refuses: the options
+    bounded by N (`pointatlas.cli._flag_checks`).
     """
     from .._core import as_int
 
@@ -554,13 +570,13 @@ def read_with_normals(
         if "source_index" in ps.attributes:  # rare: some points lack a usable normal
             ps = fill_unusable_normals(path, ps, normal_k)
         if ps.normals is not None:
-            _check_min_points(path, ps, min_points, what)
+            _check_min_points(path, ps, min_points, what, check)
             return ps
         if estimate is False:
             raise PointAtlasError(
                 f"{path}: the input has no normals; drop --no-estimate-normals to estimate them"
             )
-    _check_min_points(path, ps, min_points, what)
+    _check_min_points(path, ps, min_points, what, check)
     from ._cmd_core import _compute_normals
 
     as_int(normal_k, "--normal-k", lo=3, hi=ps.n_points, note="the number of points")

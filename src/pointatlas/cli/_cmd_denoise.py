@@ -45,6 +45,7 @@ from ._app import (
     tile_options,
 )
 from ._cmd_core import REPORT_EXTENSIONS, report_layer, report_summary, report_up
+from ._flag_checks import check_iterations, flatness_counts
 from ._outputs import (
     XYZ_EXTENSIONS,
     check_outputs,
@@ -175,7 +176,7 @@ def _html_report(path, input_path, ps, out_ps, ours, summary, written):
 
 
 def _check_options(
-    method, schedule, *, rho, tau, max_step, eta, eps, n_filter_iter, n_iter, clean
+    method, schedule, *, rho, tau, max_step, eta, eps, n_filter_iter, n_iter, k, clean
 ) -> None:
     """One precise error for an option out of range (before any work)."""
     if method not in DENOISE_METHODS:
@@ -191,18 +192,19 @@ def _check_options(
     as_float(max_step, "--max-step", lo=0.0)
     as_float(eta, "--eta", lo=0.0, hi=1.0)
     as_float(eps, "--eps", lo=0.0, lo_open=True)
-    if n_filter_iter is not None:
-        as_int(n_filter_iter, "--filter-iter", lo=0)
-    if n_iter is not None:
-        as_int(n_iter, "--n-iter", lo=0)
+    check_iterations(n_filter_iter, "--filter-iter")
+    check_iterations(n_iter, "--n-iter")
+    if method == "flatness":
+        as_int(k, "--k", lo=3, note="the point and at least two neighbours")
     if clean is not None and not Path(clean).is_file():
         raise PointAtlasError(f"--clean: no such file: {str(clean)!r}")
 
 
-def _read_checked(input_path, output, method, estimate, normal_k):
+def _read_checked(input_path, output, method, estimate, normal_k, *, k, k_start):
     """The method (``auto`` decided on the input as given), the input with normals
     and whether they were estimated, after checking that OUT can hold the input's
-    fields and ours."""
+    fields and ours; flatness' ``--k`` and ``--k-start`` are checked against the
+    points before normals are estimated."""
     estimated = bool(estimate)
     if estimate is None:
         # auto decides on the input as given (choose_method)
@@ -214,7 +216,8 @@ def _read_checked(input_path, output, method, estimate, normal_k):
             method = choose_method(probe.points, probe.normals)
     elif method == "auto":
         method = choose_method([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
-    ps = read_with_normals(input_path, estimate=estimate, normal_k=normal_k)
+    check = flatness_counts(k, k_start) if method == "flatness" else None
+    ps = read_with_normals(input_path, estimate=estimate, normal_k=normal_k, check=check)
     n = ps.n_points
     ours = {
         "displacement": np.zeros(n),
@@ -458,7 +461,7 @@ def denoise_command(
         ],
     )
     _check_options(method, schedule, rho=rho, tau=tau, max_step=max_step, eta=eta, eps=eps,
-                   n_filter_iter=n_filter_iter, n_iter=n_iter, clean=clean)  # fmt: skip
+                   n_filter_iter=n_filter_iter, n_iter=n_iter, k=k, clean=clean)  # fmt: skip
     tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, clean=clean,
                          render=render)  # fmt: skip
     if tiles is not None:
@@ -473,7 +476,9 @@ def denoise_command(
                    schedule=schedule, k_start=k_start)  # fmt: skip
         return
     t0 = time.perf_counter()
-    method, ps, estimated = _read_checked(input_path, output, method, estimate, normal_k)
+    method, ps, estimated = _read_checked(
+        input_path, output, method, estimate, normal_k, k=k, k_start=k_start
+    )
     if n_filter_iter is None:  # estimated normals are refitted: one step per round
         n_filter_iter = default_filter_iter(refit=estimated)
     n = ps.n_points

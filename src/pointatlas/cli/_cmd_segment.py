@@ -51,6 +51,7 @@ from ._app import (
     tile_options,
     vsa_options,
 )
+from ._flag_checks import vsa_counts
 from ._outputs import (
     check_outputs,
     check_point_output,
@@ -261,7 +262,9 @@ def segment_command(
         _segment_tiled(input_path, output, parameters, options, tiles, report)
         return
     t0 = time.perf_counter()
-    ps = _read_segment_input(input_path, output, estimate=estimate, normal_k=normal_k)
+    ps = _read_segment_input(
+        input_path, output, estimate=estimate, normal_k=normal_k, options=options
+    )
     res, summary = segment_point_set(
         ps.points,
         ps.normals,
@@ -339,10 +342,17 @@ def _segment_tiled(input_path: Path, output: Path, parameters: dict, options, ti
     )  # fmt: skip
 
 
-def _read_segment_input(input_path: Path, output: Path, *, estimate, normal_k: int):
-    """Read IN with normals and check that OUT can hold its fields plus ``label`` and colours."""
+def _read_segment_input(input_path: Path, output: Path, *, estimate, normal_k: int, options):
+    """Read IN with normals and check that OUT can hold its fields plus ``label`` and
+    colours; ``--k`` and ``--seeds`` are checked against its points before normals
+    are estimated."""
     ps = read_with_normals(
-        input_path, estimate=estimate, normal_k=normal_k, min_points=2, what="segment"
+        input_path,
+        estimate=estimate,
+        normal_k=normal_k,
+        min_points=2,
+        what="segment",
+        check=vsa_counts(options),
     )
     n = ps.n_points
     placeholder = {"label": np.zeros(n, np.int64), "colors": np.zeros((n, 3), np.uint8)}

@@ -43,6 +43,7 @@ from ._app import (
     vsa_options,
 )
 from ._cmd_core import REPORT_EXTENSIONS
+from ._flag_checks import vsa_counts
 from ._mesh_io import read_mesh_input, write_simplified, write_triangles
 from ._outputs import check_outputs, write_summary_json, write_text
 from ._simplify_report import (
@@ -401,6 +402,7 @@ def _simplify_points_command(
         normal_k=normal_k,
         min_points=max(4, k),
         what=f"simplify with k = {k} (--k)",
+        check=vsa_counts(settings["vsa"]),
     )
     normals = ps.normals
     given = ps.attributes.get("label") if use_labels else None

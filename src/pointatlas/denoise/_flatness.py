@@ -8,6 +8,7 @@ import numpy as np
 from numba import njit, prange
 
 from .._core import PointAtlasError, as_float, as_int, as_normals, as_points
+from .._core.tolerances import MAX_ITERATIONS
 from ..features import covariance_features
 from ..neighbors import mean_spacing, query_knn
 from ._defaults import (
@@ -202,6 +203,13 @@ def _flatness_iterations(pts, ks, etas, eps, flatness, *, sigma, progress):
     return cur, energy, v3, valid, ran
 
 
+def _as_n_iter(n_iter) -> int:
+    """A given iteration count, at most ``MAX_ITERATIONS``: the schedule holds one k per
+    iteration, so 10^12 would ask for terabytes."""
+    note = "each iteration is a pass over every point"
+    return as_int(n_iter, "n_iter", lo=0, hi=MAX_ITERATIONS, note=note)
+
+
 def flatness_denoise(
     points,
     *,
@@ -230,9 +238,9 @@ def flatness_denoise(
     eps : float
         Step scale > 0 (Fig. 6.9: 0.1).
     n_iter : int, optional
-        Iterations, all run (Fig. 6.9: 60). None (default): at most 60, each point
-        kept within 2.5 noise sigmas of its input (``FLATNESS_MAX_MOVE``), stopped
-        once the RMS displacement reaches 0.5 sigma (``FLATNESS_STOP``).
+        Iterations, all run (Fig. 6.9: 60; at most 100,000). None (default): at most
+        60, each point kept within 2.5 noise sigmas of its input (``FLATNESS_MAX_MOVE``),
+        stopped once the RMS displacement reaches 0.5 sigma (``FLATNESS_STOP``).
     noise : float, optional
         The noise sigma (input units) of ``n_iter=None``; None: estimated from the
         points (median height over 12-NN planes, docs/decisions/denoise.md).
@@ -289,7 +297,7 @@ def flatness_denoise(
     eta = as_float(eta, "eta", lo=0.0, hi=1.0)
     eps = as_float(eps, "eps", lo=0.0, lo_open=True)
     auto = n_iter is None
-    n_iter = FLATNESS_MAX_ITER if auto else as_int(n_iter, "n_iter", lo=0)
+    n_iter = FLATNESS_MAX_ITER if auto else _as_n_iter(n_iter)
     if noise is not None:
         noise = as_float(noise, "noise", lo=0.0)
     if k_start is not None:

@@ -1,0 +1,94 @@
+"""Option checks of the commands that name the flag as typed, run before any work.
+
+Two kinds: an error of a library function called with the flags' values
+(`VSAOptions`' ``k must ...``) is re-worded with the flag (``--k must ...``); and
+bounds that depend on the number of points (``--k`` at most N, ``--seeds`` a count
+at most N or indices below N) are checked once the input is read, before normals
+are estimated (`pointatlas.cli._app.read_with_normals` calls the check).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from .._core import PointAtlasError, as_int
+from .._core.tolerances import MAX_ITERATIONS, MAX_LISTED_INDICES
+
+__all__ = [
+    "VSA_FLAGS",
+    "check_iterations",
+    "flatness_counts",
+    "named_as_typed",
+    "vsa_counts",
+]
+
+#: `VSAOptions` fields and the flags of ``segment`` and ``simplify`` that set them.
+VSA_FLAGS = {
+    "k": "--k",
+    "eta": "--eta",
+    "seeds": "--seeds",
+    "weights": "--weights",
+    "max_iter": "--max-iter",
+    "min_region_size": "--min-region-size",
+}
+
+
+def named_as_typed(exc: Exception, flags: Mapping[str, str]) -> Exception:
+    """``exc`` with a leading parameter name replaced by its flag (``k must`` ->
+    ``--k must``); ``exc`` itself when its message names none of ``flags``."""
+    text = str(exc)
+    for name, flag in flags.items():
+        if text.startswith(f"{name} "):
+            return type(exc)(flag + text[len(name) :])
+    return exc
+
+
+def check_iterations(value: int | None, flag: str) -> None:
+    """An iteration count flag: an integer in [0, `MAX_ITERATIONS`] (None: the
+    command's default). A larger count would run for days (each iteration is a pass
+    over every point) or size arrays by it, so it is refused here, with the reason."""
+    if value is not None:
+        as_int(
+            value,
+            flag,
+            lo=0,
+            hi=MAX_ITERATIONS,
+            note="each iteration is a pass over every point",
+        )
+
+
+def vsa_counts(options) -> Callable[[int], None]:
+    """The check of ``--k`` and ``--seeds`` against the number of points N (the bounds
+    `pointatlas.segment.vsa_segment` applies, named by their flags)."""
+
+    def check(n_points: int) -> None:
+        as_int(options.k, "--k", lo=1, hi=n_points, note="the number of points")
+        seeds = options.seeds
+        if isinstance(seeds, str):
+            return
+        if np.ndim(seeds) == 0:
+            as_int(int(seeds), "--seeds", lo=1, hi=n_points, note="the number of points")
+            return
+        out = np.asarray(seeds) >= n_points
+        if out.any():
+            shown = ", ".join(str(int(i)) for i in np.asarray(seeds)[out][:MAX_LISTED_INDICES])
+            raise PointAtlasError(
+                f"--seeds must be point indices in [0, {n_points}) (the number of points); "
+                f"got {shown}"
+            )
+
+    return check
+
+
+def flatness_counts(k: int, k_start: int | None) -> Callable[[int], None]:
+    """The check of flatness' ``--k`` and ``--k-start`` against the number of points
+    (the bounds of `pointatlas.denoise.flatness_denoise`, named by their flags)."""
+
+    def check(n_points: int) -> None:
+        as_int(k, "--k", lo=3, hi=n_points - 1, note="the number of points - 1")
+        if k_start is not None:
+            as_int(k_start, "--k-start", lo=k, hi=n_points - 1, note="--k .. number of points - 1")
+
+    return check
