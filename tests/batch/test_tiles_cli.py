@@ -137,8 +137,9 @@ def test_tiled_segment_local_reaches_the_tiles(tmp_path, laz, scheduler):
     pts = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)])
     nrm = np.column_stack([np.asarray(las[c], dtype=np.float64) for c in ("nx", "ny", "nz")])
     with distributed.Client(scheduler) as client:
+        # the command's default --min-region-size is k
         ref, _, _ = tiled_segment(pts, nrm, TileOptions(tile_size=12, scheduler=client),
-                                  {"k": 8, "local": True})  # fmt: skip
+                                  {"k": 8, "local": True, "min_region_size": 8})  # fmt: skip
     assert np.array_equal(labels[True], ref)
     assert not np.array_equal(labels[True], labels[False])
 

@@ -244,31 +244,45 @@ def eta_reference(mean_curvature, n_points, split=0.5):
     return total
 
 
-def merge_small_reference(lists, normals, weights, labels, min_size):
-    """`small_region_groups` on points, written out: regions are sets of points
-    named by their smallest starting region id; in rounds every region with fewer
-    than ``min_size`` points that touches another (a graph edge) picks the one
+def merge_small_reference(points, lists, normals, weights, labels, min_size):
+    """`merge_small_regions` written out: regions are sets of points named by their
+    smallest starting region id; in rounds every region with fewer than
+    ``min_size`` points picks, among the regions it touches (a graph edge) and lies
+    on (the median over those edges of |N_h . (p - q)| is at most the reach: the
+    median over the points of the distance to their farthest neighbour), the one
     whose union adds the least 2 (|S_a| + |S_b| - |S_a + S_b|) (ties: smaller
-    name), all picks join at once, until no small region has a neighbour."""
-    name = {int(r): int(r) for r in np.unique(labels)}  # starting region -> its group
+    name); all picks join at once, until no small region picks."""
     lab = np.asarray(labels)
+    reach = np.median(
+        [max(np.linalg.norm(points[q] - points[p]) for q in lists[p]) for p in range(lab.size)]
+    )
+    name = {int(r): int(r) for r in np.unique(lab)}  # starting region -> its group
 
     def group_of(p):
         return name[int(lab[p])]
 
     while True:
-        groups = sorted(set(name.values()))
-        members = {g: [p for p in range(lab.size) if group_of(p) == g] for g in groups}
+        members = {}
+        for p in range(lab.size):
+            members.setdefault(group_of(p), []).append(p)
+        groups = sorted(members)
         s = {g: np.sum([weights[p] * normals[p] for p in members[g]], axis=0) for g in groups}
         picks = {}
         for g in groups:
             if len(members[g]) >= min_size:
                 continue
-            nbrs = {group_of(q) for p in members[g] for q in lists[p]} - {g}
-            costs = [
-                (np.linalg.norm(s[g]) + np.linalg.norm(s[h]) - np.linalg.norm(s[g] + s[h]), h)
-                for h in sorted(nbrs)
-            ]
+            costs = []
+            for h in sorted({group_of(q) for p in members[g] for q in lists[p]} - {g}):
+                n_h = s[h] / np.linalg.norm(s[h])
+                gaps = [
+                    abs(n_h @ (points[p] - points[q]))
+                    for p in members[g]
+                    for q in lists[p]
+                    if group_of(q) == h
+                ]
+                if np.median(gaps) <= reach:
+                    cost = np.linalg.norm(s[g]) + np.linalg.norm(s[h]) - np.linalg.norm(s[g] + s[h])
+                    costs.append((cost, h))
             if costs:
                 picks[g] = min(costs)[1]
         if not picks:
@@ -285,3 +299,12 @@ def _find(parent, g):
     while parent[g] != g:
         g = parent[g]
     return g
+
+
+def farthest_neighbor_reference(lists, points):
+    """Distance from every point to its farthest neighbour in ``lists`` (0 without one)."""
+    far = [
+        max((np.linalg.norm(points[q] - points[p]) for q in lst), default=0.0)
+        for p, lst in enumerate(lists)
+    ]
+    return np.array(far)

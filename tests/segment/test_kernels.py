@@ -313,6 +313,23 @@ def test_components_and_pairs():
     assert K.canonical_labels(np.array([5, 2, 5, 0]))[0].tolist() == [0, 1, 0, 2]
 
 
+@pytest.mark.parametrize("seed", range(2))
+def test_farthest_neighbor_distances_match_reference(seed):
+    rng = np.random.default_rng(seed)
+    points = rng.random((60, 3))
+    points[5] = points[4]  # a duplicate
+    table = query_knn(points, 5)[0]
+    table[7] = 7  # no neighbour of its own (others may still list it)
+    indptr, indices = K.symmetric_csr(table, 60)
+    lists = reference.symmetric_lists(table, 60)
+    got = K.farthest_neighbor_distances(indptr, indices, points)
+    np.testing.assert_allclose(
+        got, reference.farthest_neighbor_reference(lists, points), rtol=1e-14, atol=0
+    )
+    lone = K.symmetric_csr(np.array([[0], [1]]), 2)
+    assert K.farthest_neighbor_distances(*lone, points[:2]).tolist() == [0.0, 0.0]
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_region_growing_kernel_matches_reference(seed):
     points, normals, table = _cloud(seed, k=8)
@@ -500,6 +517,7 @@ def test_classic_vsa_figure_4_1_converges():
 NO_JIT_SELECTION = " or ".join(
     [
         "test_symmetric_csr[0]",
+        "test_farthest_neighbor_distances_match_reference[0]",
         "test_flood_matches_reference[False-0]",
         "test_flood_matches_reference[True-0]",
         "test_flood_edge_cases",
@@ -523,4 +541,4 @@ NO_JIT_SELECTION = " or ".join(
 @pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
 def test_kernels_without_jit():
     out = run_module_without_jit(__file__, select=NO_JIT_SELECTION)
-    assert "17 passed" in out, out[-500:]
+    assert "18 passed" in out, out[-500:]

@@ -14,7 +14,7 @@ from pointatlas.neighbors import query_knn
 from pointatlas.normals import estimate_normals, orient_normals
 from pointatlas.segment import VSAOptions, vsa_segment
 from pointatlas.segment._kernels import canonical_labels
-from pointatlas.segment._small import added_l21, small_region_groups
+from pointatlas.segment._small import added_l21, join_picks, small_region_groups
 from pointatlas.synth import add_normal_noise, cube, sample_mesh
 
 from . import reference
@@ -76,7 +76,7 @@ def test_merge_rule_matches_the_plain_reference(noisy_cube):
     lists = reference.symmetric_lists(query_knn(points, k)[0], points.shape[0])
     nrm = normals / np.linalg.norm(normals, axis=1, keepdims=True)
     expected = reference.merge_small_reference(
-        lists, nrm, np.ones(points.shape[0]), before.labels, 6
+        points, lists, nrm, np.ones(points.shape[0]), before.labels, 6
     )
     assert _same_partition(after.labels, expected)
 
@@ -101,6 +101,10 @@ def test_merge_rule_on_a_hand_made_case():
     )
     assert added_l21(ssum[1:2], ssum[0:1])[0] == pytest.approx(direct, rel=1e-12)
     assert added_l21(ssum[1:2], ssum[0:1])[0] == added_l21(ssum[0:1], ssum[1:2])[0]
+    # picks join as connected pieces, cycles too (the surface test is not
+    # symmetric, so a -> b -> c -> a can happen); ids by smallest member
+    remap, m = join_picks(5, np.array([1, 2, 3]), np.array([2, 3, 1]))
+    assert m == 3 and remap.tolist() == [0, 1, 1, 1, 2]
     # nothing is small: nothing changes; a small region without a neighbour stays
     assert small_region_groups(pairs, counts.astype(float), ssum, counts, 1)[1] == 4
     lone = small_region_groups(np.zeros((0, 2), np.int64), counts.astype(float), ssum, counts, 3)
@@ -149,12 +153,29 @@ def test_merging_keeps_every_point_labelled(seed, min_size):
     assert res.n_regions <= plain.n_regions
     assert res.labels.shape == (n,) and res.labels.min() == 0
     assert np.array_equal(np.unique(res.labels), np.arange(res.n_regions))
-    small = np.flatnonzero(res.region_counts < min_size)
-    # a region still under the minimum has no neighbouring region
-    assert not np.isin(res.adjacency, small).any()
     # every starting region lies inside one final region
     pairs = np.unique(np.column_stack([plain.labels, res.labels]), axis=0)
     assert np.unique(pairs[:, 0]).size == pairs.shape[0]
+
+
+def test_a_small_region_off_every_neighbouring_surface_stays():
+    """Three points hovering 5 spacings above a flat grid (their normals tilted, so
+    VSA at a small eta keeps them apart) touch only the grid: they do not lie on its
+    surface, so they stay a region of their own, as the local mode's off-surface
+    points do."""
+    xy = np.stack(np.meshgrid(np.arange(20.0), np.arange(20.0)), -1).reshape(-1, 2)
+    ground = np.column_stack([xy, np.zeros(len(xy))])
+    above = np.array([[9.5, 9.5, 5.0], [10.5, 9.5, 5.0], [10.0, 10.5, 5.0]])
+    points = np.vstack([ground, above])
+    normals = np.tile([0.0, 0.0, 1.0], (len(points), 1))
+    normals[-3:] = [0.0, math.sqrt(0.5), math.sqrt(0.5)]
+    res = vsa_segment(points, normals, k=8, eta=0.5, min_region_size=8)
+    assert res.n_regions == 2 and res.region_counts.tolist() == [400, 3]
+    assert res.adjacency.tolist() == [[0, 1]]  # it has a neighbour, and stays
+    # lowered onto the grid, the same three points join it
+    points[-3:, 2] = 0.1
+    res = vsa_segment(points, normals, k=8, eta=0.5, min_region_size=8)
+    assert res.n_regions == 1
 
 
 def test_min_region_size_is_validated():

@@ -95,15 +95,10 @@ class _Regions:
         tile: that tile's local VSA kept them apart, as the untiled run does."""
         if self.tiles is not None and not self.tile_set(a).isdisjoint(self.tile_set(b)):
             return False
+        if not self.near(a, b, strong):
+            return False
         sa, sb = self.st[a], self.st[b]
         u = sa + sb
-        mse_a, mse_b, mse_u = self.plane_mse(sa), self.plane_mse(sb), self.plane_mse(u)
-        bound = 4.0 * max(mse_a, mse_b) + self.tau2
-        if mse_u > bound:
-            return False
-        added = mse_u * u[0] - mse_a * sa[0] - mse_b * sb[0]
-        if not strong and added > bound * min(sa[0], sb[0]):
-            return False
         if self.eta is not None:
             return self.l21(u) < self.eta
         la = math.sqrt(sa[1] ** 2 + sa[2] ** 2 + sa[3] ** 2)
@@ -113,6 +108,19 @@ class _Regions:
             return False
         cos_ab = (sa[1] * sb[1] + sa[2] * sb[2] + sa[3] * sb[3]) / (la * lb)
         return cos_ab >= (self.strong_cos if strong else self.min_cos) and lu >= self.min_cos * u[0]
+
+    def near(self, a, b, strong: bool = False) -> bool:
+        """The plane tests of `ok`: the union's plane MSE and (unless ``strong``)
+        the squared distance it adds per point of the smaller part are at most
+        ``4 x the parts' larger plane MSE + tau^2``."""
+        sa, sb = self.st[a], self.st[b]
+        u = sa + sb
+        mse_a, mse_b, mse_u = self.plane_mse(sa), self.plane_mse(sb), self.plane_mse(u)
+        bound = 4.0 * max(mse_a, mse_b) + self.tau2
+        if mse_u > bound:
+            return False
+        added = mse_u * u[0] - mse_a * sa[0] - mse_b * sb[0]
+        return strong or not added > bound * min(sa[0], sb[0])
 
     def union(self, a, b):
         ra, rb = self.find(a), self.find(b)
@@ -223,7 +231,8 @@ def tiled_segment(points, normals, options: TileOptions, params: dict):
     test, as VSA's own final merge does (VSA runs none in angle mode). With
     ``min_region_size`` every tile joins its small regions, and then the stitched
     regions still under the size (cut by tile borders) join their best neighbour
-    by the same rule (`VSAOptions.min_region_size`).
+    by the same rule (`VSAOptions.min_region_size`; not in local mode, where the
+    off-surface step's regions of their own stay, as in an untiled run).
     """
     return segment_over(ArraySource(points, normals), options, params)
 
@@ -339,7 +348,10 @@ def stitch(per_tile: dict, vsa, tau2: float, labels: np.ndarray):
     final_pass = vsa.merge and eta is not None
     n_final = _greedy_merge(regions, np.concatenate(cand)) if final_pass else 0
     n_small = 0
-    if vsa.min_region_size > 1:  # as vsa_segment's last step, over the stitched regions
+    # the small regions' step of vsa_segment, over the stitched regions; not in local
+    # mode, where it runs before the off-surface step, whose regions of their own the
+    # tiles agree on and the untiled run keeps
+    if vsa.min_region_size > 1 and not vsa.local:
         n_small = _join_small(regions, np.concatenate(cand), has_points, vsa.min_region_size)
     roots = np.array([regions.find(i) for i in range(total)], dtype=np.int64)
     live = np.unique(roots[has_points])
@@ -356,32 +368,35 @@ def stitch(per_tile: dict, vsa, tau2: float, labels: np.ndarray):
 
 
 def _join_small(regions: _Regions, pairs: np.ndarray, has_points: np.ndarray, min_size: int):
-    """Stitched regions with fewer than ``min_size`` points join the neighbouring
-    stitched region whose union with them adds the least L21, by the rule of
-    `vsa_segment`'s step "small_regions" (`VSAOptions.min_region_size`); a tile
-    joined its own small regions already, this joins those cut by tile borders.
-    Returns the number of regions that joined."""
-    from ..segment._small import small_region_groups
+    """Stitched regions with fewer than ``min_size`` points join, in rounds, the
+    neighbouring stitched region whose union with them adds the least L21 among
+    those whose plane they lie on (`_Regions.near`), as `vsa_segment`'s step
+    "small_regions" does (`VSAOptions.min_region_size`); a tile joined its own
+    small regions already, this joins those cut by tile borders. Returns the
+    number of regions that joined."""
+    from ..segment._small import best_targets
 
     total = regions.st.shape[0]
-    roots = np.array([regions.find(i) for i in range(total)], dtype=np.int64)
-    live = np.flatnonzero(has_points & (roots == np.arange(total)))
-    index = np.full(total, -1, dtype=np.int64)
-    index[live] = np.arange(live.size)
-    p = index[roots[pairs]] if pairs.size else np.zeros((0, 2), dtype=np.int64)
-    p = p[(p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] != p[:, 1])]
-    p = np.unique(np.sort(p, axis=1), axis=0)
-    st = regions.st[live]
-    group, m = small_region_groups(p, st[:, 0], st[:, 1:4], st[:, 0].astype(np.int64), min_size)
-    if m == live.size:
-        return 0
-    head = np.full(m, -1, dtype=np.int64)
-    for r, g in zip(live.tolist(), group.tolist(), strict=True):
-        if head[g] < 0:
-            head[g] = r
-        else:
-            regions.union(int(head[g]), r)
-    return int(live.size - m)
+    pairs = pairs[has_points[pairs[:, 0]] & has_points[pairs[:, 1]]] if pairs.size else pairs
+    joined = 0
+    while pairs.size:
+        roots = np.array([regions.find(i) for i in range(total)], dtype=np.int64)
+        p = roots[pairs]
+        p = np.unique(np.sort(p[p[:, 0] != p[:, 1]], axis=1), axis=0)
+        a = np.concatenate([p[:, 0], p[:, 1]])
+        b = np.concatenate([p[:, 1], p[:, 0]])
+        keep = regions.st[a, 0] < min_size
+        a, b = a[keep], b[keep]
+        pairs_ab = zip(a.tolist(), b.tolist(), strict=True)
+        keep = np.array([regions.near(x, y) for x, y in pairs_ab], dtype=bool)
+        if not keep.any():
+            break
+        src, dst = best_targets(a[keep], b[keep], regions.st[:, 1:4])
+        for x, y in zip(src.tolist(), dst.tolist(), strict=True):
+            if regions.find(x) != regions.find(y):
+                regions.union(x, y)
+                joined += 1
+    return joined
 
 
 def _halo_unions(regions: _Regions, links: list, has_points: np.ndarray):

@@ -120,11 +120,14 @@ class VSAOptions:
         "Local mode".
     min_region_size : int
         Regions with fewer points join, at the end of the run, the neighbouring
-        region whose union with them adds the least L21 energy (>= 0; 0 or 1:
-        off, the default, so Table 4.1 and `pointatlas.simplify` keep VSA's own
-        regions; ``pointatlas segment`` uses k). A region with no neighbouring
-        region (a small connected component of the graph) stays. See
-        docs/decisions/segment.md "Small regions".
+        region whose union with them adds the least L21 energy among those on
+        whose surface they lie (within the neighbourhood reach of its plane)
+        (>= 0; 0 or 1: off, the default, so Table 4.1 and `pointatlas.simplify`
+        keep VSA's own regions; ``pointatlas segment`` uses k). A region with no
+        such neighbour (off every surface, or a small connected component of the
+        graph) stays; in local mode the step runs before the off-surface step,
+        whose regions of their own stay too. See docs/decisions/segment.md
+        "Small regions".
 
     Raises
     ------

@@ -5,18 +5,28 @@ On noisy clouds VSA leaves many regions of a few points: a point whose normal th
 noise tilted beyond the threshold of every neighbouring region stays a region of
 its own, and nothing in 4.3.3 joins it later (the merge test rejects the union as
 the split test would). Here every region with fewer than ``min_size`` points joins
-the neighbouring region whose proxy fits it best: the one whose union with it
-adds the least L21 energy (Eq. 4.4), as VSA's merge orders its candidates.
+the neighbouring region whose proxy fits it best, among those on whose surface it
+lies: the one whose union with it adds the least L21 energy (Eq. 4.4), as VSA's
+merge orders its candidates.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy import sparse
+from scipy.sparse import csgraph
 
-from ._kernels import boundary_points, canonical_labels, region_pairs
-from ._sums import energy_opt, region_sums, row_norms
+from ._kernels import canonical_labels
+from ._sums import energy_opt, proxy_normals, region_sums, row_norms
+from ._vsa_run import _group_median, _normal_gap, neighbourhood_reach
 
-__all__ = ["added_l21", "merge_small_regions", "small_region_groups"]
+__all__ = [
+    "added_l21",
+    "best_targets",
+    "join_picks",
+    "merge_small_regions",
+    "small_region_groups",
+]
 
 
 def added_l21(s_a, s_b):
@@ -37,13 +47,9 @@ def added_l21(s_a, s_b):
     return out
 
 
-def _best_targets(pairs, ssum, small):
-    """For every small region with a neighbour, the neighbour of least added L21
-    (ties: the smaller id); returns (sources increasing, targets)."""
-    a = np.concatenate([pairs[:, 0], pairs[:, 1]])
-    b = np.concatenate([pairs[:, 1], pairs[:, 0]])
-    sel = small[a]
-    a, b = a[sel], b[sel]
+def best_targets(a, b, ssum):
+    """For every region in ``a`` (directed candidate pairs a -> b), the ``b`` of
+    least added L21 (ties: the smaller id); returns (sources increasing, targets)."""
     cost = added_l21(ssum[a], ssum[b])
     order = np.lexsort((b, cost, a))
     a, b = a[order], b[order]
@@ -52,32 +58,28 @@ def _best_targets(pairs, ssum, small):
     return a[first], b[first]
 
 
-def _roots(n, src, dst):
-    """Follow every region's choice to the end of its chain; two regions that chose
-    each other end at the smaller id. The choices form no longer cycle: along one
-    the added energies would all be equal and each tie would pick a smaller id."""
-    target = np.arange(n, dtype=np.int64)
-    target[src] = dst
-    mutual = (target[dst] == src) & (src < dst)
-    target[src[mutual]] = src[mutual]
-    for _ in range(n):
-        nxt = target[target]
-        if np.array_equal(nxt, target):
-            break
-        target = nxt
-    return target
+def join_picks(n, src, dst):
+    """The regions 0..n-1 after every ``src`` joined its pick ``dst``: the new id of
+    every region (numbered by the smallest old id of each group) and their number.
+
+    The groups are the connected pieces of the picks (chains, two regions that
+    picked each other, and cycles, which the surface test of `_candidates` allows:
+    it is not symmetric)."""
+    graph = sparse.coo_array((np.ones(src.shape[0]), (src, dst)), shape=(n, n))
+    _, comp = csgraph.connected_components(graph, directed=True, connection="weak")
+    return canonical_labels(comp.astype(np.int64))
 
 
 def small_region_groups(pairs, wsum, ssum, counts, min_size):
-    """Join every region with fewer than ``min_size`` points to its best neighbour.
+    """Join every region with fewer than ``min_size`` points to its best neighbour,
+    by region sums alone (the plane test of `merge_small_regions` needs points).
 
     Parameters are per region (ids 0..m-1): W, S, point counts, and ``pairs``
     (E, 2) the neighbouring regions. In rounds, every small region that has a
-    neighbour picks the one whose union adds the least L21 (`added_l21`, ties:
-    the smaller id); all picks of a round join at once (chains end at a region
-    that picked none; two regions that picked each other join), the sums are
-    recomputed and the next round starts, until no small region has a neighbour.
-    Every round joins at least one pair, so at most m - 1 rounds run.
+    neighbour picks the one whose union adds the least L21 (`best_targets`); the
+    picks of a round join at once (`join_picks`), the sums are recomputed and the
+    next round starts, until no small region has a neighbour. Every round joins
+    at least one pair, so at most m - 1 rounds run.
 
     Returns the new id of every region (0..m'-1, numbered by the smallest old id
     of each group) and m'.
@@ -89,10 +91,12 @@ def small_region_groups(pairs, wsum, ssum, counts, min_size):
     wsum, ssum, counts = wsum.copy(), ssum.copy(), counts.copy()
     while pairs.shape[0]:
         small = counts < min_size
-        if not small[pairs].any():
+        a = np.concatenate([pairs[:, 0], pairs[:, 1]])
+        b = np.concatenate([pairs[:, 1], pairs[:, 0]])
+        if not small[a].any():
             break
-        src, dst = _best_targets(pairs, ssum, small)
-        remap, n_new = canonical_labels(_roots(n_cur, src, dst))
+        src, dst = best_targets(a[small[a]], b[small[a]], ssum)
+        remap, n_new = join_picks(n_cur, src, dst)
         group = remap[group]
         wsum = np.bincount(remap, weights=wsum, minlength=n_new)
         ssum = np.stack(
@@ -108,21 +112,69 @@ def small_region_groups(pairs, wsum, ssum, counts, min_size):
     return group, n_cur
 
 
+def _candidates(run, small, rows, cols, reach):
+    """Directed pairs (small region a, neighbouring region b) where a lies on b's
+    surface: the median, over the graph edges (``rows``, ``cols``) from a point
+    of a to a point of b, of their distance along b's proxy normal is at most
+    ``reach``."""
+    labels = run.labels
+    a, b = labels[rows], labels[cols]
+    e = small[a] & (a != b)
+    if not e.any():
+        return a[:0], b[:0]
+    prox = proxy_normals(labels, run.wsum, run.ssum, run.counts, run.normals)
+    a, b = a[e], b[e]
+    gap = _normal_gap(run.points, rows[e], cols[e], prox[b])
+    m = run.m
+    key, inv = np.unique(a * m + b, return_inverse=True)
+    offset = _group_median(inv.reshape(-1), gap, key.shape[0])
+    key = key[offset <= reach]
+    return key // m, key % m
+
+
+def _edges_of(indptr, indices, points):
+    """The graph edges (row, column) of the given points, in their order."""
+    lens = indptr[points + 1] - indptr[points]
+    rows = np.repeat(points, lens)
+    first = np.repeat(np.cumsum(lens) - lens, lens)
+    pos = np.arange(rows.shape[0]) - first + np.repeat(indptr[points], lens)
+    return rows, indices[pos]
+
+
 def merge_small_regions(run, min_size):
     """The step "small_regions" of a `vsa_segment` run (`_vsa_run._VSARun`): its
-    regions with fewer than ``min_size`` points join their best neighbour
-    (`small_region_groups` on the region adjacency of Remark 6); labels, sums and
-    the energy history are updated. Returns the number of regions that joined."""
-    counts = run.counts
-    if min_size <= 1 or not (counts[counts > 0] < min_size).any():
+    regions with fewer than ``min_size`` points join their best neighbour.
+
+    In rounds: every small region picks, among the neighbouring regions on whose
+    surface it lies (`_candidates`, within the neighbourhood reach), the one whose
+    union with it adds the least L21 (`best_targets`); the picks join at once
+    (`join_picks`), labels and sums are updated, until no small region has such a
+    neighbour. A small region off every neighbouring surface (or with no
+    neighbour) stays. A region at the minimum never becomes small again, so only
+    the edges of the points in the regions small at the start are read after the
+    reach. Returns the number of regions that joined.
+    """
+    small = run.counts < min_size
+    if min_size <= 1 or not run.indices.size or not small.any():
         return 0
-    subset = boundary_points(run.indptr, run.indices, run.labels)
-    pairs = region_pairs(run.indptr, run.indices, run.labels, subset)
-    group, m = small_region_groups(pairs, run.wsum, run.ssum, counts, min_size)
-    if m == run.m:
+    reach = neighbourhood_reach(run.indptr, run.indices, run.points)
+    rows, cols = _edges_of(run.indptr, run.indices, np.flatnonzero(small[run.labels]))
+    m_start = run.m
+    while True:
+        src, dst = _candidates(run, run.counts < min_size, rows, cols, reach)
+        if not src.size:
+            break
+        src, dst = best_targets(src, dst, run.ssum)
+        remap, m = join_picks(run.m, src, dst)
+        run.labels, run.m = remap[run.labels], m
+        run.wsum = np.bincount(remap, weights=run.wsum, minlength=m)
+        run.ssum = np.stack(
+            [np.bincount(remap, weights=run.ssum[:, d], minlength=m) for d in range(3)], 1
+        )
+        run.counts = np.bincount(remap, weights=run.counts, minlength=m).astype(np.int64)
+    if run.m == m_start:
         return 0
-    n_joined = run.m - m
-    run.labels, run.m = canonical_labels(group[run.labels])
+    run.labels, run.m = canonical_labels(run.labels)
     run.wsum, run.ssum, run.counts = region_sums(run.labels, run.m, run.w, run.wn)
     run.record("small_regions", energy_opt(run.wsum, run.ssum))
-    return n_joined
+    return m_start - run.m

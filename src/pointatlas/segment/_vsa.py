@@ -201,8 +201,8 @@ def vsa_segment(
     at the end (end of 4.3.2); with ``merge`` and ``eta`` a last merge pass
     ("final_merge") then joins every pair of neighbouring regions whose union
     has L21 < eta, so none is left. With ``min_region_size`` (off by default)
-    every region with fewer points then joins the neighbouring region whose
-    union with it adds the least L21 ("small_regions"). With ``local`` a last
+    every region with fewer points then joins the neighbouring region, on whose
+    surface it lies, whose union with it adds the least L21 ("small_regions"). With ``local`` a last
     step ("off_surface")
     moves every point that lies off its region's local surface (by more than the
     typical neighbourhood reach) to a neighbouring region on whose surface it

@@ -29,6 +29,7 @@ from ._kernels import (
     canonical_labels,
     connected_label_components,
     edge_pairs,
+    farthest_neighbor_distances,
     flood,
     foreign_counts,
     forget_around,
@@ -116,6 +117,13 @@ def _normal_gap(points, a, b, normals):
 def edge_rows(indptr) -> np.ndarray:
     """The row (point) of every entry of a CSR graph's ``indices``."""
     return np.repeat(np.arange(indptr.shape[0] - 1, dtype=np.int64), np.diff(indptr))
+
+
+def neighbourhood_reach(indptr, indices, points) -> float:
+    """The typical neighbourhood reach: the median over the points (with a
+    neighbour) of the distance to their farthest graph neighbour."""
+    far = farthest_neighbor_distances(indptr, indices, points)
+    return float(np.median(far[np.diff(indptr) > 0]))
 
 
 def off_surface_moves(indptr, indices, points, labels, prox, limit, rows=None):
@@ -490,12 +498,10 @@ class _VSARun:
         region over the threshold (docs/decisions/segment.md "Local mode").
         """
         indptr, indices, pts = self.indptr, self.indices, self.points
-        deg = np.diff(indptr)
         if not indices.size:
             return
         rows = edge_rows(indptr)
-        reach = np.maximum.reduceat(row_norms(pts[indices] - pts[rows]), indptr[:-1][deg > 0])
-        limit = float(np.median(reach))
+        limit = neighbourhood_reach(indptr, indices, pts)
         prox = proxy_normals(self.labels, self.wsum, self.ssum, self.counts, self.normals)
         moved, target = off_surface_moves(indptr, indices, pts, self.labels, prox, limit, rows)
         if moved.size:

@@ -248,3 +248,23 @@ def touched_points(indptr, indices, labels, foreign, dirty):
             if labels[j] != li:
                 mark[j] = 1
     return np.flatnonzero(mark)
+
+
+@njit(cache=True, parallel=True)
+def farthest_neighbor_distances(indptr, indices, points):
+    """Per point, the distance to its farthest graph neighbour (0.0 without one):
+    sqrt((dx^2 + dy^2) + dz^2) of q - p, the sum `_sums.row_norms` forms."""
+    n = indptr.shape[0] - 1
+    out = np.zeros(n)
+    for i in prange(n):
+        far = 0.0
+        for e in range(indptr[i], indptr[i + 1]):
+            j = indices[e]
+            dx = points[j, 0] - points[i, 0]
+            dy = points[j, 1] - points[i, 1]
+            dz = points[j, 2] - points[i, 2]
+            d = np.sqrt(dx * dx + dy * dy + dz * dz)
+            if d > far:
+                far = d
+        out[i] = far
+    return out
