@@ -86,6 +86,15 @@ def test_flatness_function_bounds_n_iter_instead_of_running_out_of_memory():
         flatness_denoise(sphere_points(50), k=8, n_iter=10**12)
 
 
-def test_faces_named_as_typed(tmp_path, bare):
+@pytest.mark.parametrize(
+    ("flags", "words"),
+    [
+        (["--faces", "0"], "--faces must be at least 1"),
+        (["--weight", "-5"], "--weight must be a finite number >= 0"),
+        (["--anchor-weight", "0"], "--anchor-weight must be a finite number > 0"),
+        (["--min-region-size", "0"], "--min-region-size must be an integer >= 1"),
+    ],
+)
+def test_simplify_flags_named_as_typed(tmp_path, bare, flags, words):
     out = tmp_path / "out.obj"
-    _refused_first(run("simplify", bare, out, "--faces", "0"), out, "--faces")
+    _refused_first(run("simplify", bare, out, *flags), out, words)

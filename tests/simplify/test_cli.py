@@ -85,7 +85,7 @@ def test_simplify_default_gives_planar_faces(cube_file, tmp_path):
             "--vertices-only",
         ],
     )
-    assert res.exit_code == 1 and "anchor_weight" in res.output
+    assert res.exit_code == 1 and "--anchor-weight" in res.output
 
 
 def test_simplify_star_faces(cube_file, tmp_path):

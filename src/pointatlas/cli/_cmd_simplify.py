@@ -15,7 +15,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from .._core import PointAtlasError, PointSet
+from .._core import PointAtlasError, PointSet, as_float, as_int
 from ..io import write_mesh
 from ..simplify import SimplifyWarning, simplify_points
 from ._app import (
@@ -532,6 +532,11 @@ def simplify_command(
     ):
         if value is not None and value < low:
             raise PointAtlasError(f"{flag} must be at least {low}; got {value}")
+    as_float(weight, "--weight", lo=0.0)
+    if anchor_weight is not None:
+        as_float(anchor_weight, "--anchor-weight", lo=0.0, lo_open=True)
+    if min_region_size is not None:
+        as_int(min_region_size, "--min-region-size", lo=1)
     mesh_in = None if vertices_only else read_mesh_input(infile)
     if mesh_in is not None:
         level = {"n_faces": n_faces, "max_error": max_error, "max_triangles": max_triangles}
