@@ -98,3 +98,16 @@ def test_flatness_function_bounds_n_iter_instead_of_running_out_of_memory():
 def test_simplify_flags_named_as_typed(tmp_path, bare, flags, words):
     out = tmp_path / "out.obj"
     _refused_first(run("simplify", bare, out, *flags), out, words)
+
+
+@pytest.mark.parametrize(
+    ("flags", "words"),
+    [
+        (["--radius", "0.8"], "--radius is for the 2-D cover (--dim 2)"),
+        (["--dim", "2", "--radius", "100"], "--radius must be a finite number in [0.707"),
+        (["--dim", "2", "--layout", "hex"], "--layout must be one of two-radius, tiling"),
+    ],
+)
+def test_cloudsurface_cover_flags_named_as_typed(tmp_path, bare, flags, words):
+    out = tmp_path / "cover"
+    _refused_first(run("cloudsurface", bare, out, "--scale", "0.5", *flags), out, words)

@@ -30,8 +30,9 @@ import typer
 
 from .._core import PointAtlasError, as_float, as_int
 from ..complex import cloud_complex, curve_report, realise_complex, surface_report
-from ..cover import ball_cover, search_cover_scale
+from ..cover import ball_cover, cover_radii, search_cover_scale
 from ._app import app, console, guarded, progress_bar, read_input, say
+from ._flag_checks import named_as_typed
 from ._outputs import (
     check_outputs,
     check_point_output,
@@ -149,7 +150,9 @@ def _run_cover(points, *, scale, search, rotations, offsets, accept, dim, layout
     return cov, res, chosen
 
 
-def _cover_arguments(paths, from_mesh, *, dim, scale, search, rotations, offsets, accept):
+def _cover_arguments(
+    paths, from_mesh, *, dim, scale, search, rotations, offsets, accept, layout, radius
+):
     """IN, OUT_DIR and the dimension from the arguments; one error for a bad combination."""
     if from_mesh is not None:
         if len(paths) != 1:
@@ -171,7 +174,20 @@ def _cover_arguments(paths, from_mesh, *, dim, scale, search, rotations, offsets
         as_int(offsets, "--offsets", lo=0, hi=1000)
         if accept not in (None, "closed", "open"):
             raise PointAtlasError(f"--accept must be closed or open; got {accept!r}")
+        _check_radius(dim, layout, radius)
     return in_path, out_dir, dim
+
+
+def _check_radius(dim: int, layout: str, radius) -> None:
+    """``--layout`` and ``--radius`` checked by `cover_radii`, named as typed."""
+    if radius is not None and dim == 3:
+        raise PointAtlasError(
+            "--radius is for the 2-D cover (--dim 2); the 3-D cover's radii are fixed (Prop. 4)"
+        )
+    try:
+        cover_radii(dim, layout, radius)
+    except (TypeError, ValueError) as exc:
+        raise named_as_typed(exc, {"radius": "--radius", "layout": "--layout"}) from None
 
 
 def _checked_outputs(in_path, out_dir, dim, *, search, rotations, offsets, render, html_report):
@@ -350,7 +366,7 @@ def cloudsurface_command(
     """
     in_path, out_dir, dim = _cover_arguments(
         paths, from_mesh, dim=dim, scale=scale, search=search, rotations=rotations,
-        offsets=offsets, accept=accept,
+        offsets=offsets, accept=accept, layout=layout, radius=radius,
     )  # fmt: skip
     out = _checked_outputs(in_path, out_dir, dim, search=search, rotations=rotations,
                            offsets=offsets, render=render, html_report=html_report)  # fmt: skip
