@@ -233,3 +233,12 @@ def _inside_xy_reference(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
             cross = (x1 - x0) * (y - y0) / (y1 - y0) + x0
         inside ^= spans & (cross < x)
     return inside
+
+
+def winding_reference(x, points, normals, areas):
+    """The winding number of oriented points (discs of ``areas``) at ``x``, summed
+    point by point (`pointatlas.simplify._winding.winding_numbers` groups far ones)."""
+    e = points[None, :, :] - x[:, None, :]
+    r = np.linalg.norm(e, axis=2)
+    dot = np.einsum("mnd,nd->mn", e, normals * areas[:, None])
+    return (dot / np.maximum(r, 1e-300) ** 3).sum(axis=1) / (4.0 * np.pi)

@@ -17,6 +17,7 @@ from .._core import PointAtlasError
 
 __all__ = [
     "MAX_CELLS",
+    "MAX_NODES",
     "Reconstruction",
     "reconstruct_surface",
     "PointDistances",
@@ -26,15 +27,44 @@ __all__ = [
     "transfer_labels",
 ]
 
-#: Largest number of grid cells along the bounding box's longest side.
+#: Largest number of grid cells across the bounding box's second-longest side (a long
+#: thin part gets as many along its length as its points need: across its longest
+#: side, 192 cells lost most of a part 88 units long and 6 thick) ...
 MAX_CELLS = 192
+#: ... and of grid nodes (a cube of 192 cells a side: the field and its work arrays
+#: about 0.5 GB; 2^24 nodes made a 10^6-point scene take 270 s instead of 31 s).
+MAX_NODES = 192**3
 #: Grid step in point spacings (median nearest-neighbour distance).
 SPACING_STEPS = 1.5
 #: Band around the points where the field is the tangent-plane distance (grid steps,
-#: Chebyshev); beyond it every connected region of nodes takes one sign by a vote.
+#: Chebyshev); beyond it every connected region of nodes takes one sign by a vote ...
 BAND = 3
-#: Gaussian smoothing of the field (grid steps).
+#: ... and at least this many point spacings wide (where the band leaks through the
+#: sampling's gaps, the inside of a closed surface takes its side from the winding
+#: number, `_winding_sides`).
+BAND_SPACINGS = 4.5
+#: A piece of the surface that fewer points than this have their nearest triangle on
+#: is a spurious bubble (a sign flip of the field beside the surface), not a part.
+STRAY_POINTS = 8
+#: A point set is closed when its points' discs (normal times area) sum to less
+#: than this share of their area (closed: below 0.015 on every collection model
+#: sampled with 20,000 points; an open sheet: about 1) ...
+CLOSED_DIPOLE = 0.05
+#: ... and then the field's side away from the points is the winding number's where
+#: it is below this or above one minus it (on the surface it is 1/2; near an edge it
+#: tends to the edge's share of the turn: 1/4 inside a convex right angle, 3/4
+#: outside a concave one, and 1/4 made a spurious pocket on a sampled L-bracket) ...
+WINDING_CLEAR = 0.1
+#: ... computed on a lattice of at most about this many grid nodes (every 2nd node
+#: or sparser; interpolated: it is smooth away from the points) ...
+WINDING_NODES = 150_000
+#: ... with the points grouped in cells of this many grid steps.
+WINDING_CELL = 8
+#: Gaussian smoothing of the field (grid steps), and at least this many point
+#: spacings (at one spacing per step, one step left sign noise at edges that made
+#: tunnels: sampled CAD parts came out with Euler characteristic -8 instead of 0).
 SMOOTH_STEPS = 1.0
+SMOOTH_SPACINGS = 1.5
 #: A triangle budget on the points path is kept only while the output stays within
 #: this many times the default bound of the points (never a spike).
 SPIKE_FACTOR = 4.0
@@ -42,8 +72,11 @@ SPIKE_FACTOR = 4.0
 FLAT_SHARE = 0.95
 #: Points whose tangent planes a surface vertex is fitted to (`fit_to_points`) ...
 FIT_NEIGHBORS = 16
-#: ... dropping directions whose weight is below this share of the strongest.
+#: ... dropping directions whose weight is below this share of the strongest, moving
+#: at most this many grid steps (the field rounds a convex edge or bulges past it by
+#: up to about 3 steps at one spacing per step).
 FIT_RCOND = 0.05
+FIT_STEPS = 1.0
 #: Points whose tangent planes are averaged into the field at a node.
 FIELD_K = 8
 #: A triangle farther than this from every point (grid steps), or farther than one
@@ -70,19 +103,52 @@ class Reconstruction:
 
 
 def _spacing(q: np.ndarray, tree: cKDTree) -> float:
-    """Median nearest-neighbour distance of (at most 20,000, evenly strided) points."""
+    """Median distance to the nearest other position (repeated points count once) of
+    at most 20,000 evenly strided points."""
     stride = max(1, q.shape[0] // 20000)
-    d, _ = tree.query(q[::stride], k=2)
-    return float(np.median(d[:, 1]))
+    d, _ = tree.query(q[::stride], k=min(4, q.shape[0]))
+    d = d.reshape(d.shape[0], -1)
+    apart = np.where(d > 0.0, d, np.inf).min(axis=1)  # the nearest at another position
+    apart = apart[np.isfinite(apart)]
+    return float(np.median(apart)) if apart.size else 0.0
 
 
-def _field(q, normals, tree, step, spacing, origin, shape):
+def _grid(size, step: float, spacing: float):
+    """The grid step (at least ``step``) and node counts for a box of ``size``, padded
+    by the band and two steps, with at most about `MAX_NODES` nodes."""
+    for _ in range(8):
+        pad = _band_steps(step, spacing) + 2
+        shape = np.ceil(size / step).astype(np.int64) + 2 * pad + 1
+        grow = (float(np.prod(shape.astype(np.float64))) / MAX_NODES) ** (1.0 / 3.0)
+        if grow <= 1.0:
+            break
+        step *= grow * 1.01
+    return step, tuple(int(x) for x in shape)
+
+
+def _band_steps(step: float, spacing: float) -> int:
+    """The band's width in grid steps: `BAND`, and at least `BAND_SPACINGS` spacings."""
+    return max(BAND, int(np.ceil(BAND_SPACINGS * spacing / step)))
+
+
+def is_closed_sample(q, normals) -> bool:
+    """Whether oriented points sample a closed surface: their normals times their
+    disc areas sum to less than `CLOSED_DIPOLE` of the area (zero for a closed
+    surface, by the divergence theorem; the area itself for a flat sheet)."""
+    from ._winding import point_areas
+
+    area = point_areas(q)
+    return bool(np.linalg.norm(area @ normals) <= CLOSED_DIPOLE * area.sum())
+
+
+def _field(q, normals, tree, step, spacing, origin, shape, closed):
     """Signed field on the grid nodes: tangent-plane distance in the band, +-band
     beyond it (one sign per connected region of nodes, by a vote of its band border)."""
+    width = _band_steps(step, spacing)
     cells = np.floor((q - origin) / step).astype(np.int64)
     occupied = np.zeros(shape, dtype=bool)
     occupied[cells[:, 0], cells[:, 1], cells[:, 2]] = True
-    band = ndimage.binary_dilation(occupied, structure=np.ones((3, 3, 3), bool), iterations=BAND)
+    band = ndimage.binary_dilation(occupied, structure=np.ones((3, 3, 3), bool), iterations=width)
     band[[0, -1], :, :] = band[:, [0, -1], :] = band[:, :, [0, -1]] = False
     nodes = np.argwhere(band)
     x = origin + nodes * step
@@ -115,14 +181,50 @@ def _field(q, normals, tree, step, spacing, origin, shape):
             nb = np.roll(comp, shift, axis=axis)
             pair = band & (nb > 0)
             votes += np.bincount(nb[pair], weights=sign[pair], minlength=n_comp + 1)
-    outside = np.where(votes >= 0.0, 1.0, -1.0) * (BAND + 1) * step
+    outside = np.where(votes >= 0.0, 1.0, -1.0) * (width + 1) * step
     f[~band] = outside[comp[~band]]
     # a smoothing of one grid step removes sign noise near edges and corners (which
     # gives small tunnels); a linear field (a flat face) is left as it is
-    f = ndimage.gaussian_filter(f, sigma=SMOOTH_STEPS, mode="nearest")
+    sigma = max(SMOOTH_STEPS, SMOOTH_SPACINGS * spacing / step)
+    f = ndimage.gaussian_filter(f, sigma=sigma, mode="nearest")
+    if closed:
+        f = _winding_sides(f, q, normals, occupied, step, spacing, origin)
     # the grid's outer layer is outside: the surface is closed inside the grid
-    f[[0, -1], :, :] = f[:, [0, -1], :] = f[:, :, [0, -1]] = (BAND + 1) * step
+    f[[0, -1], :, :] = f[:, [0, -1], :] = f[:, :, [0, -1]] = (width + 1) * step
     f[f == 0.0] = 1e-12 * step  # no node exactly on the level: no degenerate triangles
+    return f
+
+
+def _winding_sides(f, q, normals, occupied, step, spacing, origin):
+    """The field's side, away from the points, by the points' winding number where it
+    is clear (`_winding`): the tangent planes of the nearest points take the wrong
+    side beyond a face's edge, and the vote of a region beyond the band is wrong
+    where the band leaks through a sampling gap or a pocket. Only for a closed
+    sampled surface (its dipoles sum to less than `CLOSED_DIPOLE` of its area: an
+    open sheet has no inside)."""
+    from ._winding import winding_numbers
+
+    shape = np.array(f.shape)
+    stride = max(2, int(np.ceil((shape.prod() / WINDING_NODES) ** (1.0 / 3.0))))
+    axes = [np.arange(0, n, stride) for n in shape]
+    lattice = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    w = winding_numbers(origin + lattice * step, q, normals, WINDING_CELL * step)
+    if w.min() < WINDING_CLEAR - 1.0 and w.max() < 1.0 - WINDING_CLEAR:
+        raise PointAtlasError(
+            f"simplify could not build a surface from these {q.shape[0]} points: their "
+            "normals point in (the points' winding number is -1 inside them)"
+        )
+    w = w.reshape([a.size for a in axes])
+    far_from = ndimage.distance_transform_edt(~occupied) * step
+    # a node whose lattice corners are all more than a spacing from every point (near
+    # the points the winding number is steep: interpolated it made tunnels)
+    far = far_from > spacing + stride * step
+    nodes = np.argwhere(far)
+    w = ndimage.map_coordinates(w, (nodes / stride).T, order=1, mode="nearest")
+    value = f[far]
+    size = np.maximum(np.abs(value), far_from[far])
+    value = np.where(w > 1.0 - WINDING_CLEAR, -size, value)
+    f[far] = np.where(w < WINDING_CLEAR, size, value)
     return f
 
 
@@ -186,9 +288,11 @@ def _split_pinches(verts, tri):
     return out_verts, out_tri
 
 
-def _bubbles(tri, far):
-    """Triangles of closed pieces (vertex-connected) that lie wholly far from the points:
-    small spurious surfaces where the field's sign flips away from the points."""
+def _bubbles(tri, far, nearest):
+    """Triangles of pieces (vertex-connected) that lie wholly far from the points, or
+    that fewer than `STRAY_POINTS` points have their nearest triangle on (``nearest``:
+    every point's nearest triangle): small spurious surfaces where the field's sign
+    flips, away from the points or tucked under the surface beside them."""
     from scipy.sparse import coo_array, csgraph
 
     n = int(tri.max()) + 1
@@ -198,7 +302,8 @@ def _bubbles(tri, far):
     _, comp = csgraph.connected_components(g, directed=False)
     piece = comp[tri[:, 0]]
     near = np.bincount(piece, weights=~far, minlength=comp.max() + 1)
-    return near[piece] == 0
+    owned = np.bincount(piece[nearest], minlength=comp.max() + 1)
+    return (near[piece] == 0) | (owned[piece] < STRAY_POINTS)
 
 
 def reconstruct_surface(q: np.ndarray, normals: np.ndarray) -> Reconstruction:
@@ -215,15 +320,16 @@ def reconstruct_surface(q: np.ndarray, normals: np.ndarray) -> Reconstruction:
     extent = float((hi - lo).max())
     if not extent > 0.0:
         raise PointAtlasError("simplify needs points that span a volume or a surface")
-    step = max(SPACING_STEPS * spacing, extent / MAX_CELLS)
-    pad = BAND + 2
-    origin = lo - pad * step
-    shape = tuple(int(x) for x in np.ceil((hi - lo) / step).astype(np.int64) + 2 * pad + 1)
-    f = _field(q, normals, tree, step, spacing, origin, shape)
+    across = float(np.sort(hi - lo)[-2])
+    step, shape = _grid(hi - lo, max(SPACING_STEPS * spacing, across / MAX_CELLS), spacing)
+    origin = lo - (_band_steps(step, spacing) + 2) * step
+    closed = is_closed_sample(q, normals)
+    f = _field(q, normals, tree, step, spacing, origin, shape, closed)
     if not f.min() < 0.0 < f.max():  # no inside (a few sparse points): no surface
         raise PointAtlasError(
             f"simplify could not build a surface from these {q.shape[0]} points: nothing "
-            "lies inside them on a grid of 1.5 point spacings (too few points, or normals "
+            f"lies inside them on a grid of {SPACING_STEPS:g} point spacings (too few points, "
+            "or normals "
             "that do not point out)"
         )
     verts, tri, _, _ = marching_cubes(f, level=0.0, spacing=(step, step, step), method="lewiner")
@@ -233,8 +339,12 @@ def reconstruct_surface(q: np.ndarray, normals: np.ndarray) -> Reconstruction:
     tn = np.cross(verts[tri[:, 1]] - verts[tri[:, 0]], verts[tri[:, 2]] - verts[tri[:, 0]])
     facing = np.einsum("ij,ij->i", tn, normals[j]) / (np.linalg.norm(tn, axis=1) + 1e-300)
     # beyond an open boundary the surface folds back: far, or facing away from the points
-    cut = _trim(tri, (d > TRIM_STEPS * step) | ((d > step) & (facing < -0.5)))
-    cut |= _bubbles(tri, d > 2.0 * step)
+    # (a closed sample has no open boundary: nothing to cut but bubbles; at a thin
+    # wall the far side's points face away from a triangle a step off its own side)
+    beyond = (d > TRIM_STEPS * step) | ((d > step) & (facing < -0.5))
+    cut = np.zeros(tri.shape[0], dtype=bool) if closed else _trim(tri, beyond)
+    _, nearest = cKDTree(verts[tri].mean(axis=1)).query(q, workers=-1)
+    cut |= _bubbles(tri, d > 2.0 * step, nearest)
     if cut.any():
         tri = tri[~cut]
         used = np.zeros(verts.shape[0], dtype=bool)
@@ -430,7 +540,7 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max
     planes = (pn, offsets, (deviation <= 0.25 * bound) & (width >= rec.step))
     surface = PointSurface(q, normals, tree)
     measure = PointDistances(q, surface)
-    verts = fit_to_points(rec.vertices, rec.triangles, q, normals, tree, rec.step)
+    verts = fit_to_points(rec.vertices, rec.triangles, q, normals, tree, FIT_STEPS * rec.step)
     box = measure.box  # never a vertex outside
     level = Decimation(verts, rec.triangles, lab, planes, 2.0 * rec.step, 0.0, measure, box)
     if max_error is None:

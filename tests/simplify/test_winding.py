@@ -1,0 +1,89 @@
+"""The points' winding number (robust path's inside/outside away from the points)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from pointatlas.simplify._winding import point_areas, winding_numbers
+from pointatlas.synth import sample_mesh
+
+from .cad_shapes import cube_with_square_hole
+from .reference import winding_reference
+
+
+def _sphere(n, seed=0):
+    rng = np.random.default_rng(seed)
+    p = rng.normal(size=(n, 3))
+    p /= np.linalg.norm(p, axis=1, keepdims=True)
+    return p, p.copy()
+
+
+def test_clustered_sum_agrees_with_the_point_by_point_sum():
+    p, n = _sphere(3000)
+    rng = np.random.default_rng(1)
+    x = rng.uniform(-2.0, 2.0, size=(400, 3))
+    x = x[np.abs(np.linalg.norm(x, axis=1) - 1.0) > 0.1]  # away from the points
+    fast = winding_numbers(x, p, n, cell=0.25)
+    slow = winding_reference(x, p, n, point_areas(p))
+    # the far cells' dipoles are first order: a few hundredths, far below the 1/4
+    # margin the field uses
+    assert np.abs(fast - slow).max() < 0.05
+    # one cell per point: every far cell is one point's own dipole, exactly
+    assert np.allclose(winding_numbers(x, p, n, cell=1e-6), slow, atol=1e-12)
+
+
+def test_one_inside_zero_outside_a_sampled_solid_with_a_hole():
+    v, t = cube_with_square_hole()
+    s = sample_mesh(v, t, 20000, rng=0)
+    p, n = np.asarray(s.points), np.asarray(s.normals)
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    rng = np.random.default_rng(2)
+    x = rng.uniform(lo - 0.2 * (hi - lo), hi + 0.2 * (hi - lo), size=(3000, 3))
+    d, _ = cKDTree(p).query(x)
+    x = x[d > 0.05 * np.linalg.norm(hi - lo)]
+    w = winding_numbers(x, p, n, cell=0.1 * np.linalg.norm(hi - lo))
+    inside = _inside(v, t, x)
+    assert inside.any() and (~inside).any()
+    assert np.abs(w[inside] - 1.0).max() < 0.15
+    assert np.abs(w[~inside]).max() < 0.15
+
+
+def _inside(v, t, x):
+    """Inside the closed mesh: an odd number of crossings of a ray along +x (a plain
+    test on its triangles; the ray is nudged off edges by an irrational direction)."""
+    v, t = np.asarray(v, float), np.asarray(t)
+    d = np.array([1.0, np.sqrt(2.0) * 1e-3, np.sqrt(3.0) * 1e-3])
+    a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
+    e1, e2 = b - a, c - a
+    h = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, h)
+    count = np.zeros(x.shape[0], dtype=np.int64)
+    for i in range(x.shape[0]):
+        s = x[i] - a
+        u = np.einsum("ij,ij->i", s, h) / det
+        qv = np.cross(s, e1)
+        vv = (qv @ d) / det
+        tt = np.einsum("ij,ij->i", e2, qv) / det
+        count[i] = int(((u >= 0) & (vv >= 0) & (u + vv <= 1) & (tt > 0)).sum())
+    return count % 2 == 1
+
+
+def test_voxel_surface_of_a_sampled_solid_has_no_sheet_away_from_the_points(monkeypatch):
+    # at one point spacing per grid step, a sampled solid's inside used to leak out
+    # through the sampling's gaps (a surface a band's width inside, cut away after)
+    from pointatlas.simplify import _reconstruct
+    from pointatlas.simplify._distance import PointSurface
+    from pointatlas.simplify._reconstruct import reconstruct_surface
+
+    monkeypatch.setattr(_reconstruct, "SPACING_STEPS", 1.0)
+    v, t = cube_with_square_hole()
+    s = sample_mesh(v, t, 20000, rng=0)
+    p, n = np.asarray(s.points), np.asarray(s.normals)
+    rec = reconstruct_surface(p, n)
+    assert rec.n_trimmed == 0
+    diag = float(np.linalg.norm(np.ptp(p, axis=0)))
+    back = PointSurface(p, n).distance(rec.vertices)
+    # rounded edges and corners are off by a few steps; a leaked sheet by the band's
+    # width (at least 4.5 spacings)
+    assert back.max() < 3.5 * rec.step < 0.02 * diag
