@@ -33,15 +33,6 @@ def assert_user_error(result, *fragments):
 
 
 @pytest.fixture(scope="module")
-def scheduler():
-    """An in-process cluster the commands reach by its address (no worker processes)."""
-    with distributed.LocalCluster(
-        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0"
-    ) as cluster:
-        yield cluster.scheduler_address
-
-
-@pytest.fixture(scope="module")
 def laz(tmp_path_factory):
     """A LAZ 1.4 file (point format 6) with intensity, classification, GPS time, an
     extra-bytes dimension and a VLR, millimetre scales, UTM-like offsets."""

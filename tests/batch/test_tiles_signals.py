@@ -44,15 +44,6 @@ def big_las(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def scheduler():
-    """An in-process cluster the commands reach by its address (no worker processes)."""
-    with distributed.LocalCluster(
-        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0"
-    ) as cluster:
-        yield cluster.scheduler_address
-
-
-@pytest.fixture(scope="module")
 def small_las(tmp_path_factory):
     pts = scan(4_000, seed=5)
     header = laspy.LasHeader(point_format=3, version="1.2")

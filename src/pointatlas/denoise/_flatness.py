@@ -191,8 +191,9 @@ def _flatness_iterations(pts, ks, etas, eps, flatness, *, sigma, progress):
     valid = np.zeros(n, dtype=bool)
     ran = 0
     for t in range(ks.shape[0]):
-        cur, energy, v3, valid = flatness_step(cur, int(ks[t]), float(etas[t]), eps,
-                                               flatness=flatness)  # fmt: skip
+        cur, energy, v3, valid = flatness_step(
+            cur, int(ks[t]), float(etas[t]), eps, flatness=flatness
+        )
         ran += 1
         if progress is not None:
             progress(1)
