@@ -12,7 +12,7 @@ pytest.importorskip("distributed")
 
 from pointatlas.features import classify_dimension, covariance_features  # noqa: E402
 
-from .test_tiles_cli import laz, run, scheduler  # noqa: E402, F401
+from .test_tiles_cli import laz, run  # noqa: E402, F401
 
 
 def _extra(path):

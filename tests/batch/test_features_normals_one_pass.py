@@ -10,7 +10,7 @@ import pytest
 laspy = pytest.importorskip("laspy")
 pytest.importorskip("distributed")
 
-from .test_tiles_cli import assert_user_error, laz, run, scheduler  # noqa: E402, F401
+from .test_tiles_cli import assert_user_error, laz, run  # noqa: E402, F401
 
 
 def _dims(path):

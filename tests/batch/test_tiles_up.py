@@ -19,7 +19,7 @@ from pointatlas.batch import (  # noqa: E402
 from pointatlas.normals import estimate_normals, orient_normals  # noqa: E402
 
 from .test_tiles import points  # noqa: E402, F401
-from .test_tiles_cli import assert_user_error, laz, run, scheduler  # noqa: E402, F401
+from .test_tiles_cli import assert_user_error, laz, run  # noqa: E402, F401
 
 
 def _dims(path):
