@@ -38,8 +38,9 @@ def sweep_model(points: np.ndarray, rel_scales: np.ndarray, rotations: int, offs
     """The search on one point set; a dict of the row's numbers."""
     diag = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
     t0 = time.perf_counter()
-    res = search_cover_scale(points, rel_scales * diag, n_rotations=rotations,
-                             n_offsets=offsets, rng=0, accept="closed")  # fmt: skip
+    res = search_cover_scale(
+        points, rel_scales * diag, n_rotations=rotations, n_offsets=offsets, rng=0, accept="closed"
+    )
     seconds = time.perf_counter() - t0
     ok = np.asarray(res.is_accepted)
     rel = np.asarray(res.scales) / diag
@@ -82,9 +83,12 @@ def main(argv=None) -> int:
             pts = np.asarray(mesh.vertices, dtype=np.float64)
         row = {"model": path.name, **sweep_model(pts, rel, args.rotations, args.offsets)}
         rows.append(row)
-        print(f"{i + 1:3d}/{len(files)} {path.name:40s} accepted {row['accepted_settings']:3d}"
-              f"/{row['settings']} smallest s/diag {row['smallest_accepted_rel_scale']}"
-              f" unsupported {row['best_unsupported_share']:.3f}", flush=True)  # fmt: skip
+        print(
+            f"{i + 1:3d}/{len(files)} {path.name:40s} accepted {row['accepted_settings']:3d}"
+            f"/{row['settings']} smallest s/diag {row['smallest_accepted_rel_scale']}"
+            f" unsupported {row['best_unsupported_share']:.3f}",
+            flush=True,
+        )
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with open(args.out, "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
@@ -92,13 +96,17 @@ def main(argv=None) -> int:
         writer.writerows(rows)
     hit = [r for r in rows if r["accepted_settings"]]
     secs = np.array([r["seconds"] for r in rows])
-    print(f"models with a closed cloud surface: {len(hit)} / {len(rows)} "
-          f"(scales {args.smin:g}-{args.smax:g} x diagonal, {args.scales} scales, "
-          f"{args.rotations} rotations, {args.offsets} offsets; "
-          f"{'vertices' if not args.sample else f'{args.sample} samples'})")  # fmt: skip
-    print(f"median unsupported share of the best setting: "
-          f"{np.median([r['best_unsupported_share'] for r in rows]):.3f}; "
-          f"time median {np.median(secs):.2f} s, total {secs.sum():.1f} s")  # fmt: skip
+    print(
+        f"models with a closed cloud surface: {len(hit)} / {len(rows)} "
+        f"(scales {args.smin:g}-{args.smax:g} x diagonal, {args.scales} scales, "
+        f"{args.rotations} rotations, {args.offsets} offsets; "
+        f"{'vertices' if not args.sample else f'{args.sample} samples'})"
+    )
+    print(
+        f"median unsupported share of the best setting: "
+        f"{np.median([r['best_unsupported_share'] for r in rows]):.3f}; "
+        f"time median {np.median(secs):.2f} s, total {secs.sum():.1f} s"
+    )
     print(f"table: {args.out}")
     return 0
 

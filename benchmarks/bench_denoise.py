@@ -246,8 +246,9 @@ def _measure(points, normals, cv, cf, cn):
     if same:
         # every method's normals signed like the clean ones: orientation is not
         # what the denoisers are compared on (ours come from orient_normals)
-        normals, pca = (np.where(((x * cn).sum(axis=1) < 0)[:, None], -x, x)
-                        for x in (normals, pca))  # fmt: skip
+        normals, pca = (
+            np.where(((x * cn).sum(axis=1) < 0)[:, None], -x, x) for x in (normals, pca)
+        )
     m = denoise_measures(
         points, cv, normals=normals if same else None, clean_normals=cn, clean_faces=cf
     ).as_dict()
@@ -275,14 +276,20 @@ def _print_rows(rows, name):
             continue
         ratio = ""
         if r["method"].startswith("pointatlas") and mls:
-            parts = [f"{r['seconds'] / sec:.1f}x MLS {lab.split('(')[1][:-1]}"
-                     for lab, sec in sorted(mls.items()) if sec > 0]  # fmt: skip
+            parts = [
+                f"{r['seconds'] / sec:.1f}x MLS {lab.split('(')[1][:-1]}"
+                for lab, sec in sorted(mls.items())
+                if sec > 0
+            ]
             ratio = " (" + ", ".join(parts) + ")"
         pca = f" (pca {r['normal_mse_pca']:.4f})" if "normal_mse_pca" in r else ""
         edge = f" edge5 {r['edge5']:.3f}" if "edge5" in r else ""
-        print(f"{name:22s} {r['method']:42s} CD {r['chamfer']:.3e} "
-              f"p2m {r['p2m_mean_unit']:.3e} nMSE {r['normal_mse']:.4f}{pca}{edge} "
-              f"{r['seconds']:.3f} s{ratio}", flush=True)  # fmt: skip
+        print(
+            f"{name:22s} {r['method']:42s} CD {r['chamfer']:.3e} "
+            f"p2m {r['p2m_mean_unit']:.3e} nMSE {r['normal_mse']:.4f}{pca}{edge} "
+            f"{r['seconds']:.3f} s{ratio}",
+            flush=True,
+        )
 
 
 def run(data: Path, scene: bool, inputs_kept=(), methods_kept=(), repeat=1, flatness=False):
@@ -301,12 +308,24 @@ def run(data: Path, scene: bool, inputs_kept=(), methods_kept=(), repeat=1, flat
         rows.append({"input": name, "method": "noisy input", "seconds": 0.0, **base})
         for variant in ("adaptive", "fixed"):
             pts, sec, nrm = timed_min(ours, (noisy, ell, variant), repeat)
-            rows.append({"input": name, "method": f"pointatlas normal-voting ({variant})",
-                         "seconds": sec, **_measure(pts, nrm, cv, cf, cn)})  # fmt: skip
+            rows.append(
+                {
+                    "input": name,
+                    "method": f"pointatlas normal-voting ({variant})",
+                    "seconds": sec,
+                    **_measure(pts, nrm, cv, cf, cn),
+                }
+            )
         if flatness:
             pts, sec, nrm = timed_min(ours_flatness, (noisy, ell, None), repeat)
-            rows.append({"input": name, "method": "pointatlas flatness (default)",
-                         "seconds": sec, **_measure(pts, nrm, cv, cf, cn)})  # fmt: skip
+            rows.append(
+                {
+                    "input": name,
+                    "method": "pointatlas flatness (default)",
+                    "seconds": sec,
+                    **_measure(pts, nrm, cv, cf, cn),
+                }
+            )
         for peer, func in PEERS.items():
             for tuned in (False, True):
                 label = f"{peer} ({'tuned' if tuned else 'default'})"
@@ -321,8 +340,14 @@ def run(data: Path, scene: bool, inputs_kept=(), methods_kept=(), repeat=1, flat
                 except Exception as exc:  # a peer that fails is reported, not fatal
                     print(f"{name}: {peer} failed: {exc}", file=sys.stderr)
                     continue
-                rows.append({"input": name, "method": label, "seconds": sec,
-                             **_measure(pts, None, cv, cf, cn)})  # fmt: skip
+                rows.append(
+                    {
+                        "input": name,
+                        "method": label,
+                        "seconds": sec,
+                        **_measure(pts, None, cv, cf, cn),
+                    }
+                )
         _print_rows(rows, name)
     return rows
 

@@ -95,8 +95,14 @@ def run_plates(methods, n_side, rows):
                     out = denoise(pts, given, method=method).points
                     offs = [float((out[side == s, 2] * s).mean() / sigma) for s in (1, -1)]
                     name = f"plate_{t}sd_{noise}l_{'N' if given is not None else '-'}"
-                    _row(rows, name, method, before, plate_rms(out, h),
-                         f"  side+ {offs[0]:+.2f} side- {offs[1]:+.2f}")  # fmt: skip
+                    _row(
+                        rows,
+                        name,
+                        method,
+                        before,
+                        plate_rms(out, h),
+                        f"  side+ {offs[0]:+.2f} side- {offs[1]:+.2f}",
+                    )
                     rows[-1]["side_offsets"] = offs
 
 

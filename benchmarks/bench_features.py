@@ -125,8 +125,13 @@ def main(argv=None) -> int:
             print(f"peer  {name_peer:32s} {best_p:8.3f} s", flush=True)
 
     if args.no_peers:
-        for name in ("knn", "fixed_k_given", "fixed_k_end_to_end", "optimal_k_given",
-                     "full_search_given"):  # fmt: skip
+        for name in (
+            "knn",
+            "fixed_k_given",
+            "fixed_k_end_to_end",
+            "optimal_k_given",
+            "full_search_given",
+        ):
             pair(name, getattr(suite, f"time_{name}"), None, None, rep)
     else:
         import jakteristics
@@ -144,23 +149,46 @@ def main(argv=None) -> int:
 
         area = 4 * math.pi**2 * 1.0 * 0.3
         radius = 1.5 * math.sqrt(k * area / (math.pi * n))
-        pair("knn", suite.time_knn, "pgeof knn_search",
-             lambda: pgeof.knn_search(xyz, xyz, k), rep)  # fmt: skip
-        pair("fixed_k_given", suite.time_fixed_k_given, "pgeof compute_features",
-             lambda: pgeof.compute_features(xyz, nn20, ptr20, k_min=1), rep)  # fmt: skip
-        pair("fixed_k_end_to_end", suite.time_fixed_k_end_to_end, "pgeof end-to-end",
-             pg_e2e, rep)  # fmt: skip
-        pair("optimal_k_given", suite.time_optimal_k_given, "pgeof compute_features_optimal",
-             lambda: pgeof.compute_features_optimal(
-                 xyz, nn50, ptr50, k_min=10, k_step=1, k_min_search=10), 1)  # fmt: skip
-        pair("fixed_k_end_to_end", suite.time_fixed_k_end_to_end, "jakteristics end-to-end",
-             lambda: jakteristics.compute_features(
-                 suite.points, search_radius=radius, max_k_neighbors=k, num_threads=2,
-                 feature_names=list(jakteristics.FEATURE_NAMES)), 1)  # fmt: skip
+        pair("knn", suite.time_knn, "pgeof knn_search", lambda: pgeof.knn_search(xyz, xyz, k), rep)
+        pair(
+            "fixed_k_given",
+            suite.time_fixed_k_given,
+            "pgeof compute_features",
+            lambda: pgeof.compute_features(xyz, nn20, ptr20, k_min=1),
+            rep,
+        )
+        pair("fixed_k_end_to_end", suite.time_fixed_k_end_to_end, "pgeof end-to-end", pg_e2e, rep)
+        pair(
+            "optimal_k_given",
+            suite.time_optimal_k_given,
+            "pgeof compute_features_optimal",
+            lambda: pgeof.compute_features_optimal(
+                xyz, nn50, ptr50, k_min=10, k_step=1, k_min_search=10
+            ),
+            1,
+        )
+        pair(
+            "fixed_k_end_to_end",
+            suite.time_fixed_k_end_to_end,
+            "jakteristics end-to-end",
+            lambda: jakteristics.compute_features(
+                suite.points,
+                search_radius=radius,
+                max_k_neighbors=k,
+                num_threads=2,
+                feature_names=list(jakteristics.FEATURE_NAMES),
+            ),
+            1,
+        )
         # our search against our fixed k, alternated as well (at least five rounds:
         # the per-round ratio cancels the VM's drift, its median is the robust one)
-        pair("full_search_given", suite.time_full_search_given, "ours fixed_k_given (again)",
-             suite.time_fixed_k_given, max(rep, 5))  # fmt: skip
+        pair(
+            "full_search_given",
+            suite.time_full_search_given,
+            "ours fixed_k_given (again)",
+            suite.time_fixed_k_given,
+            max(rep, 5),
+        )
         rows["fixed_k_given"] = min(rows["fixed_k_given"], peers.pop("ours fixed_k_given (again)"))
 
     print("\nratios (> 1 means pointatlas is faster):")

@@ -194,8 +194,12 @@ def cpu_compare(points: np.ndarray, k: int, repeat: int, *, flann: bool) -> dict
 
 def _cpu_table(title: str, n: int, times: dict) -> str:
     ours = times["pointatlas NeighborIndex.knn"]
-    lines = [f"### {title}", "", "| method | CPU s | us per point | points per CPU-s | "
-             "time / ours |", "|---|---:|---:|---:|---:|"]  # fmt: skip
+    lines = [
+        f"### {title}",
+        "",
+        "| method | CPU s | us per point | points per CPU-s | time / ours |",
+        "|---|---:|---:|---:|---:|",
+    ]
     for name, t in times.items():
         if t is None:
             lines.append(f"| {name} | not installed | | | |")
@@ -210,8 +214,10 @@ def main_cpu(args) -> None:
     """The ``--cpu`` tables."""
     import numba
 
-    print(f"CPU time, k = {args.k}, least of {args.repeat}; numba threads "
-          f"{numba.get_num_threads()}, load average {os.getloadavg()}")  # fmt: skip
+    print(
+        f"CPU time, k = {args.k}, least of {args.repeat}; numba threads "
+        f"{numba.get_num_threads()}, load average {os.getloadavg()}"
+    )
     cases = []
     if args.lidar:
         cases.append(

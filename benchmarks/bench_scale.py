@@ -82,10 +82,16 @@ def _block(rng, x0, y0, n):
     cls.append(np.full(n_roof, 6, np.uint8))
     n_wall = n_b - n_roof
     t = rng.uniform(0, 2 * (w + d), n_wall)
-    wx = np.where(t < w, bx + t, np.where(t < w + d, bx + w, np.where(t < 2 * w + d,
-                  bx + (2 * w + d - t), bx)))  # fmt: skip
-    wy = np.where(t < w, by, np.where(t < w + d, by + (t - w), np.where(t < 2 * w + d,
-                  by + d, by + (2 * (w + d) - t))))  # fmt: skip
+    wx = np.where(
+        t < w,
+        bx + t,
+        np.where(t < w + d, bx + w, np.where(t < 2 * w + d, bx + (2 * w + d - t), bx)),
+    )
+    wy = np.where(
+        t < w,
+        by,
+        np.where(t < w + d, by + (t - w), np.where(t < 2 * w + d, by + d, by + (2 * (w + d) - t))),
+    )
     parts.append(np.column_stack([wx, wy, gz + rng.uniform(0, h, n_wall)]))
     cls.append(np.full(n_wall, 6, np.uint8))
     # a tank (cylinder with a flat top) and poles
@@ -199,8 +205,9 @@ def run_cli(args: list, cores: int) -> dict:
     exe = Path(sys.executable).with_name("pointatlas")
     c0 = _children_cpu()
     t0 = time.perf_counter()
-    proc = subprocess.Popen([str(exe), *map(str, args)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)  # fmt: skip
+    proc = subprocess.Popen(
+        [str(exe), *map(str, args)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     mem = TreeMemory(proc.pid)
     out, err = proc.communicate()
     mem.stop()
@@ -245,34 +252,46 @@ def compare(laz: Path, tmp: Path, tile: float, workers: int, n: int, local: bool
         ("features", ["features", "--k", 20, "--weights", "equal"]),
     ):
         t_path, u_path = tmp / f"{what}_t.laz", tmp / f"{what}_u.laz"
-        rt = run_cli([args[0], laz, t_path, *args[1:], "--tile-size", tile, "--workers", workers],
-                     workers)  # fmt: skip
+        rt = run_cli(
+            [args[0], laz, t_path, *args[1:], "--tile-size", tile, "--workers", workers], workers
+        )
         ru = run_cli([args[0], laz, u_path, *args[1:]], os.cpu_count() or 1)
         import laspy
 
         names = [d for d in laspy.read(u_path).point_format.extra_dimension_names]
         a, b = _las_fields(t_path, names), _las_fields(u_path, names)
         same = all(np.array_equal(a[k], b[k], equal_nan=True) for k in names)
-        out[what] = {"tiled": rt, "untiled": ru, "identical": same, "fields": len(names),
-                     "time_ratio": round(rt["seconds"] / ru["seconds"], 3),
-                     "cpu_ratio": round(rt["cpu_s"] / ru["cpu_s"], 3)}  # fmt: skip
+        out[what] = {
+            "tiled": rt,
+            "untiled": ru,
+            "identical": same,
+            "fields": len(names),
+            "time_ratio": round(rt["seconds"] / ru["seconds"], 3),
+            "cpu_ratio": round(rt["cpu_s"] / ru["cpu_s"], 3),
+        }
         print(json.dumps({what: out[what]}, indent=1), flush=True)
     t_path, u_path = tmp / "seg_t.laz", tmp / "seg_u.laz"
     # the same normals for both: the untiled normals file (PCA + MST)
     nrm = tmp / "normals_mst.laz"
     run_cli(["normals", laz, nrm, "--k", 20], os.cpu_count() or 1)
     mode = ["--local"] if local else []
-    rt = run_cli(["segment", nrm, t_path, *mode, "--tile-size", tile, "--workers", workers],
-                 workers)  # fmt: skip
+    rt = run_cli(
+        ["segment", nrm, t_path, *mode, "--tile-size", tile, "--workers", workers], workers
+    )
     ru = run_cli(["segment", nrm, u_path, *mode], os.cpu_count() or 1)
     qt = json.loads((tmp / "seg_t_regions.json").read_text())["summary"]["quality"]
     su = json.loads((tmp / "seg_u_regions.json").read_text())["summary"]
     qu = {k: su[{"n_regions": "n_regions", "energy": "energy", "mse": "mse"}[k]] for k in qt}
     rel = {k: round(qt[k] / qu[k] - 1.0, 5) for k in qt}
-    out["segment"] = {"local": local, "tiled": rt, "untiled": ru, "tiled_quality": qt,
-                      "untiled_quality": qu,
-                      "relative_difference": rel,
-                      "within_1pct": all(abs(v) <= 0.01 for v in rel.values())}  # fmt: skip
+    out["segment"] = {
+        "local": local,
+        "tiled": rt,
+        "untiled": ru,
+        "tiled_quality": qt,
+        "untiled_quality": qu,
+        "relative_difference": rel,
+        "within_1pct": all(abs(v) <= 0.01 for v in rel.values()),
+    }
     print(json.dumps({"segment": out["segment"]}, indent=1), flush=True)
     return out
 
@@ -290,16 +309,18 @@ def halo_cost(laz: Path, sizes) -> list:
     params = {"mode": "fixed", "k": 20, "flatness": (8, 8)}
     covariance_features(pts[:50_000], 20)  # compile
     rows = []
-    with distributed.Client(processes=False, n_workers=1, threads_per_worker=1,
-                            dashboard_address=None) as client:  # fmt: skip
+    with distributed.Client(
+        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None
+    ) as client:
         for size in sizes:
             for _ in range(2):  # alternate, twice: the box is shared
                 t0 = time.perf_counter()
                 ref = covariance_features(pts, 20).scalar_fields()
                 tu = time.perf_counter() - t0
                 t0 = time.perf_counter()
-                got, run = tiled_features(pts, None, TileOptions(tile_size=size, scheduler=client),
-                                          params)  # fmt: skip
+                got, run = tiled_features(
+                    pts, None, TileOptions(tile_size=size, scheduler=client), params
+                )
                 tt = time.perf_counter() - t0
             same = all(np.array_equal(got[k], ref[k], equal_nan=True) for k in ref)
             row = {
@@ -345,8 +366,7 @@ def warm_task(kind: str, params: dict, threads) -> None:
     if kind == "features":
         features_dispatch(pts, None, params)
     else:
-        orient_normals(pts, estimate_normals(pts, params["k"]), k=params["orient_k"],
-                       method="mst")  # fmt: skip
+        orient_normals(pts, estimate_normals(pts, params["k"]), k=params["orient_k"], method="mst")
 
 
 def _dask_costs(kind: str, params: dict) -> dict:
@@ -363,13 +383,24 @@ def _dask_costs(kind: str, params: dict) -> dict:
     out["dask: import"] = round(time.perf_counter() - t0, 3)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        cluster = _timed(out, "dask: cluster start", distributed.LocalCluster, n_workers=2,
-                         threads_per_worker=1, processes=True, dashboard_address=None,
-                         silence_logs=logging.ERROR)  # fmt: skip
+        cluster = _timed(
+            out,
+            "dask: cluster start",
+            distributed.LocalCluster,
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )
         client = distributed.Client(cluster)
         t0 = time.perf_counter()
-        client.gather([client.submit(warm_task, kind, params, 1, pure=False, workers=[w])
-                       for w in client.nthreads()])  # fmt: skip
+        client.gather(
+            [
+                client.submit(warm_task, kind, params, 1, pure=False, workers=[w])
+                for w in client.nthreads()
+            ]
+        )
         out["dask: first tile per worker"] = round(time.perf_counter() - t0, 3)
         t0 = time.perf_counter()
         client.close()
@@ -403,10 +434,12 @@ def stages(laz: Path, tile: float, kind: str) -> dict:
 
     fparams = {"mode": "fixed", "k": 20, "flatness": (8, 8)}
     nparams = {"k": 20, "orient": "mst", "orient_k": 10, "viewpoint": None}
-    params = {"features": fparams, "normals": nparams,
-              "one-pass": {"k": 20, "orient_k": 10, "features": fparams},
-              "one-pass-up": {"k": 20, "orient_k": 10, "orient": "up",
-                              "features": fparams}}[kind]  # fmt: skip
+    params = {
+        "features": fparams,
+        "normals": nparams,
+        "one-pass": {"k": 20, "orient_k": 10, "features": fparams},
+        "one-pass-up": {"k": 20, "orient_k": 10, "orient": "up", "features": fparams},
+    }[kind]
     numba.set_num_threads(1)  # as a worker of the 2-worker local cluster runs its tiles
     out: dict = {"kind": kind, "tile_size": tile}
     sel = laspy.DecompressionSelection.XY_RETURNS_CHANNEL | laspy.DecompressionSelection.Z
@@ -418,14 +451,22 @@ def stages(laz: Path, tile: float, kind: str) -> dict:
         src.use_normals = False
         src.keep_records(keep)
         opts = TileOptions(tile_size=tile, progress=False)
-        grid = _timed(out, "first pass: decode all, keep records, bounds + subsample",
-                      T._grid_for, src, opts)  # fmt: skip
+        grid = _timed(
+            out, "first pass: decode all, keep records, bounds + subsample", T._grid_for, src, opts
+        )
         warm_task("normals", nparams, None)  # this process's kernels loaded (a warm worker)
         warm_task("features", fparams, None)
         halo, _ = _timed(out, "halo estimate", T._auto_halo, src, 20, opts)
         spill = T._Spill(None)
-        _, sent = _timed(out, "spill pass (tile cut, kept records)", T._spill, src, grid,
-                         dict.fromkeys(range(grid.n_tiles), halo), spill)  # fmt: skip
+        _, sent = _timed(
+            out,
+            "spill pass (tile cut, kept records)",
+            T._spill,
+            src,
+            grid,
+            dict.fromkeys(range(grid.n_tiles), halo),
+            spill,
+        )
         out["tiles"] = len(spill.pieces)
         out["sent per point"] = round(sum(sent.values()) / src.n, 3)
 
@@ -446,22 +487,43 @@ def stages(laz: Path, tile: float, kind: str) -> dict:
         if kind == "one-pass-up":
             nrm = _timed(out, "untiled: up orientation", orient_normals, xyz, nrm, method="up")
         elif nrm is not None:
-            nrm = _timed(out, "untiled: MST orientation", orient_normals, xyz, nrm, k=10,
-                         method="mst", neighbors=table)  # fmt: skip
+            nrm = _timed(
+                out,
+                "untiled: MST orientation",
+                orient_normals,
+                xyz,
+                nrm,
+                k=10,
+                method="mst",
+                neighbors=table,
+            )
         if kind in ("features", "one-pass", "one-pass-up"):
             covariance_features(xyz[:1000], 20)
-            res = _timed(out, "untiled: features kernel", features_dispatch, xyz, None,
-                         fparams, table)  # fmt: skip
+            res = _timed(
+                out, "untiled: features kernel", features_dispatch, xyz, None, fparams, table
+            )
             fields = {**res.scalar_fields(), "dimension_class": classify_dimension(res)}
-        what = {"features": "19 float32 fields", "normals": "normals",
-                "one-pass": "19 float32 fields + normals",
-                "one-pass-up": "19 float32 fields + normals"}[kind]  # fmt: skip
-        _timed(out, f"LAZ write pass (kept records, encode {what})", write_streamed, src,
-               laz.with_name("stages.laz"), fields, normals=nrm,
-               float_type=LAS_FEATURE_FLOAT)  # fmt: skip
+        what = {
+            "features": "19 float32 fields",
+            "normals": "normals",
+            "one-pass": "19 float32 fields + normals",
+            "one-pass-up": "19 float32 fields + normals",
+        }[kind]
+        _timed(
+            out,
+            f"LAZ write pass (kept records, encode {what})",
+            write_streamed,
+            src,
+            laz.with_name("stages.laz"),
+            fields,
+            normals=nrm,
+            float_type=LAS_FEATURE_FLOAT,
+        )
         laz.with_name("stages.laz").unlink(missing_ok=True)
-    dask = _dask_costs("normals" if kind.startswith("one-pass") else kind,
-                       fparams if kind == "features" else nparams)  # fmt: skip
+    dask = _dask_costs(
+        "normals" if kind.startswith("one-pass") else kind,
+        fparams if kind == "features" else nparams,
+    )
     out["cpu"].update(dask.pop("cpu"))
     out.update(dask)
     return out
@@ -482,15 +544,21 @@ def main() -> None:
     )
     parser.add_argument("--halo-cost", action="store_true", help="Halo cost as tiles shrink.")
     parser.add_argument("--no-scale", action="store_true", help="Skip the tiled end-to-end runs.")
-    parser.add_argument("--steps", default="normals,features,segment",
-                        help="Tiled end-to-end runs to do (comma-separated): normals, "
-                             "features, segment, one-pass (features --normals: both in one "
-                             "command, one k-NN), one-pass-up (the same, --orient "
-                             "up).")  # fmt: skip
-    parser.add_argument("--stages", default=None,
-                        help="Per-stage seconds of tiled KIND runs in one process (features, "
-                             "normals, one-pass, one-pass-up; comma-separated), beside the "
-                             "untiled floor.")  # fmt: skip
+    parser.add_argument(
+        "--steps",
+        default="normals,features,segment",
+        help="Tiled end-to-end runs to do (comma-separated): normals, "
+        "features, segment, one-pass (features --normals: both in one "
+        "command, one k-NN), one-pass-up (the same, --orient "
+        "up).",
+    )
+    parser.add_argument(
+        "--stages",
+        default=None,
+        help="Per-stage seconds of tiled KIND runs in one process (features, "
+        "normals, one-pass, one-pass-up; comma-separated), beside the "
+        "untiled floor.",
+    )
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(dir=args.data) as tmp_name:
         tmp = Path(tmp_name)
@@ -504,21 +572,46 @@ def main() -> None:
 
         with laspy.open(laz) as r:
             n = int(r.header.point_count)
-        print(json.dumps({"points": n, "laz_mb": round(laz.stat().st_size / 2**20, 1),
-                          "uptime": os.popen("uptime").read().strip()}), flush=True)  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "points": n,
+                    "laz_mb": round(laz.stat().st_size / 2**20, 1),
+                    "uptime": os.popen("uptime").read().strip(),
+                }
+            ),
+            flush=True,
+        )
         results = {"points": n}
         if not args.no_scale:
             w, ts = args.workers, args.tile_size
             steps = [
                 ("normals", ["normals", laz, tmp / "n.laz", "--k", 20, "--orient", "mst"]),
-                ("features", ["features", tmp / "n.laz", tmp / "f.laz", "--k", 20, "--weights",
-                              "equal"]),
+                (
+                    "features",
+                    ["features", tmp / "n.laz", tmp / "f.laz", "--k", 20, "--weights", "equal"],
+                ),
                 ("segment", ["segment", tmp / "n.laz", tmp / "s.laz"]),
-                ("one-pass", ["features", laz, tmp / "nf.laz", "--k", 20, "--weights", "equal",
-                              "--normals"]),
-                ("one-pass-up", ["features", laz, tmp / "nfu.laz", "--k", 20, "--weights",
-                                 "equal", "--normals", "--orient", "up"]),
-            ]  # fmt: skip
+                (
+                    "one-pass",
+                    ["features", laz, tmp / "nf.laz", "--k", 20, "--weights", "equal", "--normals"],
+                ),
+                (
+                    "one-pass-up",
+                    [
+                        "features",
+                        laz,
+                        tmp / "nfu.laz",
+                        "--k",
+                        20,
+                        "--weights",
+                        "equal",
+                        "--normals",
+                        "--orient",
+                        "up",
+                    ],
+                ),
+            ]
             wanted = set(args.steps.split(","))
             if wanted & {"features", "segment"}:
                 wanted.add("normals")  # they read the normals' output
@@ -536,15 +629,17 @@ def main() -> None:
                 "cpu_s": round(cpu, 2),
                 "points_per_s_per_core": round(n / both / w),
                 "points_per_cpu_s": round(n / cpu),
-                "peak_gib_tree": max(results["normals"]["peak_gib_tree"],
-                                     results["features"]["peak_gib_tree"]),
-            }  # fmt: skip
+                "peak_gib_tree": max(
+                    results["normals"]["peak_gib_tree"], results["features"]["peak_gib_tree"]
+                ),
+            }
             print(json.dumps({"normals+features": results["normals+features"]}), flush=True)
         if args.compare:
             results["compare"] = compare(laz, tmp, args.tile_size, args.workers, n, args.local)
         if args.stages:
-            results["stages"] = [stages(laz, args.tile_size, kind)
-                                 for kind in args.stages.split(",")]  # fmt: skip
+            results["stages"] = [
+                stages(laz, args.tile_size, kind) for kind in args.stages.split(",")
+            ]
             for row in results["stages"]:
                 print(json.dumps(row, indent=1), flush=True)
         if args.halo_cost:

@@ -126,11 +126,26 @@ def main(argv=None) -> int:
         )
     args.out.parent.mkdir(parents=True, exist_ok=True)
     keys = [
-        "model", "points", "path", "faces", "polygons", "vertices", "triangles", "closed",
-        "manifold", "oriented", "euler", "euler_input", "mean_distance_pct",
-        "max_distance_pct", "hausdorff_pct", "truth_hausdorff_pct", "spike", "seconds",
+        "model",
+        "points",
+        "path",
+        "faces",
+        "polygons",
+        "vertices",
+        "triangles",
+        "closed",
+        "manifold",
+        "oriented",
+        "euler",
+        "euler_input",
+        "mean_distance_pct",
+        "max_distance_pct",
+        "hausdorff_pct",
+        "truth_hausdorff_pct",
+        "spike",
+        "seconds",
         "reason",
-    ]  # fmt: skip
+    ]
     with open(args.out, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()

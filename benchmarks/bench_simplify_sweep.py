@@ -134,9 +134,12 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=Path("bench-output/simplify_sweep"))
     parser.add_argument("--cgal", type=int, default=0, help="every K-th model also to CGAL")
     parser.add_argument("--limit", type=int, default=0, help="only the first N models")
-    parser.add_argument("--soup", action="store_true",
-                        help="give every model as a triangle soup (each triangle its own "
-                             "three vertices, as STL and flat-shaded exports)")  # fmt: skip
+    parser.add_argument(
+        "--soup",
+        action="store_true",
+        help="give every model as a triangle soup (each triangle its own "
+        "three vertices, as STL and flat-shaded exports)",
+    )
     parser.add_argument("--regions", action="store_true", help="one face per VSA region")
     args = parser.parse_args(argv)
     files = sorted(p for p in args.models.iterdir() if p.suffix.lower() in MESH_SUFFIXES)

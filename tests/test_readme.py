@@ -67,8 +67,10 @@ def test_readme_cli_tour_runs(tmp_path, monkeypatch):
         if words[0] == "make":
             continue
         assert words[0] == "pointatlas", f"README shell line this test cannot run: {words}"
-        args = [str(SHARED) + a[len("../shared") :] if a.startswith("../shared") else a
-                for a in words[1:]]  # fmt: skip
+        args = [
+            str(SHARED) + a[len("../shared") :] if a.startswith("../shared") else a
+            for a in words[1:]
+        ]
         if any(a.startswith("../shared") for a in words[1:]) and not SHARED.is_dir():
             skipped.append(" ".join(words))
             continue

@@ -123,18 +123,24 @@ def test_as_float_array_accepts_and_copies():
 @pytest.mark.parametrize(
     ("values", "error", "match"),
     [
-        ([0.0, float("nan")], ValueError,
-         r"^a_grid must hold finite angles in \[0, pi\] radians; got nan$"),
+        (
+            [0.0, float("nan")],
+            ValueError,
+            r"^a_grid must hold finite angles in \[0, pi\] radians; got nan$",
+        ),
         ([float("inf")], ValueError, r"; got inf$"),
         ([-0.1, 4.0, 1.0], ValueError, r"; got -0\.1, 4\.0$"),
         ([], ValueError, r"^a_grid must hold at least 1 value\(s\); got 0$"),
-        ([[0.0, 1.0]], ValueError,
-         r"^a_grid must be a flat sequence of numbers; got shape \(1, 2\)$"),
+        (
+            [[0.0, 1.0]],
+            ValueError,
+            r"^a_grid must be a flat sequence of numbers; got shape \(1, 2\)$",
+        ),
         ([True, False], TypeError, r"^a_grid must hold real numbers"),
         (["a"], TypeError, r"^a_grid must hold real numbers"),
         (None, TypeError, r"^a_grid must be a sequence of numbers; got None$"),
     ],
-)  # fmt: skip
+)
 def test_as_float_array_rejects(values, error, match):
     with pytest.raises(error, match=match):
         as_float_array(values, "a_grid", lo=0.0, hi=math.pi, what="angles", unit="radians")

@@ -68,8 +68,11 @@ def test_tiled_one_pass_equals_tiled_chain_and_untiled_features(tmp_path, laz, s
 
 def test_one_pass_refuses_sigmoid_weights(tmp_path, laz):  # noqa: F811
     out = tmp_path / "x.laz"
-    assert_user_error(run("features", laz, out, "--normals", "--weights", "sigmoid"),
-                      "--normals", "pointatlas normals")  # fmt: skip
+    assert_user_error(
+        run("features", laz, out, "--normals", "--weights", "sigmoid"),
+        "--normals",
+        "pointatlas normals",
+    )
 
 
 @pytest.mark.parametrize("orient", ["mst", "up"])

@@ -36,8 +36,9 @@ def _reference(table, normals):
 def test_smooth_pieces_equal_scipy_components_and_links():
     pts = scan(8_000, seed=3)
     table = query_knn(pts, 10)[0]
-    normals = orient_normals(pts, estimate_normals(pts, 10, neighbors=table), k=10,
-                             method="mst", neighbors=table)  # fmt: skip
+    normals = orient_normals(
+        pts, estimate_normals(pts, 10, neighbors=table), k=10, method="mst", neighbors=table
+    )
     labels, uniq, sums = _reference(table, normals)
     assert labels.max() > 2 and uniq.shape[0] > 2  # ground, roof, walls, tank: several pieces
     got_labels, links = _smooth_pieces(table, normals)

@@ -180,8 +180,15 @@ def test_automatic_halo_grows_and_a_given_halo_too_small_is_refused(client, poin
 def test_tiled_segment_quality_within_one_percent(client, points, oriented, tile_size, local):
     from pointatlas.segment import vsa_segment
 
-    params = {"k": 8, "split": True, "merge": True, "switch": "batch", "eta": None,
-              "max_angle": None, "local": local}  # fmt: skip
+    params = {
+        "k": 8,
+        "split": True,
+        "merge": True,
+        "switch": "batch",
+        "eta": None,
+        "max_angle": None,
+        "local": local,
+    }
     labels, q, run = tiled_segment(
         points, oriented, TileOptions(tile_size=tile_size, scheduler=client), params
     )
@@ -204,8 +211,14 @@ def test_tiled_segment_quality_within_one_percent(client, points, oriented, tile
 def test_tiled_segment_eta_regions_stay_under_eta(client, points, oriented):
     from pointatlas.segment import VSAOptions
 
-    params = {"k": 8, "split": True, "merge": True, "switch": "batch", "eta": 25.0,
-              "max_angle": None}  # fmt: skip
+    params = {
+        "k": 8,
+        "split": True,
+        "merge": True,
+        "switch": "batch",
+        "eta": 25.0,
+        "max_angle": None,
+    }
     tiles = TileOptions(tile_size=12.0, scheduler=client)
     labels, q, _ = tiled_segment(points, oriented, tiles, params)
     assert np.all(q["region_l21"] < 25.0)
@@ -245,8 +258,15 @@ def test_tiled_flatness_denoising_matches_untiled(client, points):
     from pointatlas.denoise import flatness_denoise
 
     pts = points[:10_000]
-    params = {"method": "flatness", "k": 14, "eta": 1.0, "eps": 0.1, "n_iter": 3,
-              "schedule": "constant", "k_start": None}  # fmt: skip
+    params = {
+        "method": "flatness",
+        "k": 14,
+        "eta": 1.0,
+        "eps": 0.1,
+        "n_iter": 3,
+        "schedule": "constant",
+        "k_start": None,
+    }
     out, run = tiled_denoise(pts, None, TileOptions(tile_size=15.0, scheduler=client), params)
     ref = flatness_denoise(pts, k=14, n_iter=3)
     assert run.n_tiles > 1
@@ -264,12 +284,20 @@ def test_tiled_normal_voting_with_fixed_counts_equals_untiled_bit_for_bit(client
     # nine scenes side by side (120 x 90): tiles of 30, halo of several 48-neighbour rings
     pts = np.vstack([scan(5_000, seed=s) + [40.0 * (s % 3), 30.0 * (s // 3), 0] for s in range(9)])
     nrm = orient_normals(pts, estimate_normals(pts, 16), k=10, method="mst")
-    params = {"method": method, "rho": 0.9, "tau": 0.3, "n_iter": 1, "filter_iter": 1,
-              "max_step": 0.5, "n_update": 1}  # fmt: skip
+    params = {
+        "method": method,
+        "rho": 0.9,
+        "tau": 0.3,
+        "n_iter": 1,
+        "filter_iter": 1,
+        "max_step": 0.5,
+        "n_update": 1,
+    }
     assert denoise_halo(method, n_iter=1, n_filter_iter=1, n_update=1).exact
     out, run = tiled_denoise(pts, nrm, TileOptions(tile_size=30.0, scheduler=client), params)
-    ref = normal_voting_denoise(pts, nrm, n_iter=1, n_filter_iter=1, n_update=1,
-                                adaptive=method.endswith("adaptive"))  # fmt: skip
+    ref = normal_voting_denoise(
+        pts, nrm, n_iter=1, n_filter_iter=1, n_update=1, adaptive=method.endswith("adaptive")
+    )
     assert run.n_tiles >= 8 and max(run.tile_points.values()) < 0.8 * len(pts)  # real tiles
     assert np.array_equal(out["points"], ref.points)
     assert np.array_equal(out["normals"], ref.normals)

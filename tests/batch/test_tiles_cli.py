@@ -73,8 +73,19 @@ def _kept(src_path, out_path):
 
 def test_tiled_features_on_laz_keep_every_dimension_and_equal_untiled(tmp_path, laz, scheduler):
     tiled, plain = tmp_path / "tiled.laz", tmp_path / "plain.laz"
-    result = run("features", laz, tiled, "--k", 16, "--weights", "equal", "--tile-size", 10,
-                 "--scheduler", scheduler)  # fmt: skip
+    result = run(
+        "features",
+        laz,
+        tiled,
+        "--k",
+        16,
+        "--weights",
+        "equal",
+        "--tile-size",
+        10,
+        "--scheduler",
+        scheduler,
+    )
     assert result.exit_code == 0, result.output
     assert "tiles of 10" in result.stdout and f"wrote {tiled}" in result.stdout
     assert run("features", laz, plain, "--k", 16, "--weights", "equal").exit_code == 0
@@ -129,8 +140,12 @@ def test_tiled_segment_local_reaches_the_tiles(tmp_path, laz, scheduler):
     nrm = np.column_stack([np.asarray(las[c], dtype=np.float64) for c in ("nx", "ny", "nz")])
     with distributed.Client(scheduler) as client:
         # the command's default --min-region-size is k
-        ref, _, _ = tiled_segment(pts, nrm, TileOptions(tile_size=12, scheduler=client),
-                                  {"k": 8, "local": True, "min_region_size": 8})  # fmt: skip
+        ref, _, _ = tiled_segment(
+            pts,
+            nrm,
+            TileOptions(tile_size=12, scheduler=client),
+            {"k": 8, "local": True, "min_region_size": 8},
+        )
     assert np.array_equal(labels[True], ref)
     assert not np.array_equal(labels[True], labels[False])
 
@@ -160,8 +175,19 @@ def test_tiled_ply_in_and_out(tmp_path, scheduler):
     src = tmp_path / "in.ply"
     write_point_set(src, pts, attributes={"intensity": np.arange(6_000, dtype=np.int32)})
     out = tmp_path / "out.ply"
-    result = run("features", src, out, "--k", 14, "--weights", "equal", "--tile-size", 9,
-                 "--scheduler", scheduler)  # fmt: skip
+    result = run(
+        "features",
+        src,
+        out,
+        "--k",
+        14,
+        "--weights",
+        "equal",
+        "--tile-size",
+        9,
+        "--scheduler",
+        scheduler,
+    )
     assert result.exit_code == 0, result.output
     got = read_point_set(out, with_normals=False)
     assert np.array_equal(got.attributes["intensity"], np.arange(6_000))
@@ -175,19 +201,27 @@ def test_tiled_ply_in_and_out(tmp_path, scheduler):
         (("normals", "--tile-size", 0), ["--tile-size must be > 0"]),
         (("normals", "--tile-size", -2), ["--tile-size must be > 0"]),
         (("features", "--halo", 2.0), ["--halo only apply with --tile-size"]),
-        (("normals", "--tile-size", 10, "--halo", 0.001, "--orient", "none"),
-         ["--halo 0.001 is too small for k = 20", "or leave --halo out"]),
+        (
+            ("normals", "--tile-size", 10, "--halo", 0.001, "--orient", "none"),
+            ["--halo 0.001 is too small for k = 20", "or leave --halo out"],
+        ),
         (("normals", "--tile-size", 10, "--orient", "outward"), ["needs the whole surface"]),
         (("segment", "--tile-size", 10, "--method", "region-growing"), ["only vsa is stitched"]),
         (("features", "--tile-size", 10, "--render", "r.png"), ["--render needs every point"]),
-        (("denoise", "--tile-size", 10, "--halo", 0.01, "--method", "flatness"),
-         ["smaller than the reach of 60 denoising iterations"]),
-        (("denoise", "--tile-size", 10, "--method", "normal-voting"),
-         ["--method normal-voting with --tile-size needs --n-iter"]),
-        (("normals", "--tile-size", 10, "--max-memory", "12KB", "--orient", "none"),
-         ["over --max-memory; use a smaller --tile-size"]),
+        (
+            ("denoise", "--tile-size", 10, "--halo", 0.01, "--method", "flatness"),
+            ["smaller than the reach of 60 denoising iterations"],
+        ),
+        (
+            ("denoise", "--tile-size", 10, "--method", "normal-voting"),
+            ["--method normal-voting with --tile-size needs --n-iter"],
+        ),
+        (
+            ("normals", "--tile-size", 10, "--max-memory", "12KB", "--orient", "none"),
+            ["over --max-memory; use a smaller --tile-size"],
+        ),
     ],
-)  # fmt: skip
+)
 def test_bad_tile_options_are_one_line_errors(tmp_path, laz, scheduler, args, fragments):
     cmd, *rest = args
     result = run(cmd, laz, tmp_path / "out.laz", *rest, "--scheduler", scheduler)
@@ -201,8 +235,9 @@ def test_unreachable_scheduler_is_one_line_error(tmp_path, laz, monkeypatch):
     from pointatlas.batch import _tiles
 
     monkeypatch.setattr(_tiles, "CONNECT_TIMEOUT_S", 1)
-    result = run("normals", laz, tmp_path / "o.laz", "--tile-size", 10, "--scheduler",
-                 "tcp://127.0.0.1:9")  # fmt: skip
+    result = run(
+        "normals", laz, tmp_path / "o.laz", "--tile-size", 10, "--scheduler", "tcp://127.0.0.1:9"
+    )
     assert_user_error(result, "--scheduler tcp://127.0.0.1:9: cannot connect within 1 s")
 
 
@@ -211,8 +246,7 @@ def test_empty_laz_is_a_one_line_error(tmp_path, scheduler):
     # error still reaches the user as one line, and nothing is written
     empty = tmp_path / "empty.laz"
     laspy.LasData(laspy.LasHeader(point_format=6, version="1.4")).write(empty)
-    result = run("features", empty, tmp_path / "o.laz", "--tile-size", 10, "--scheduler",
-                 scheduler)  # fmt: skip
+    result = run("features", empty, tmp_path / "o.laz", "--tile-size", 10, "--scheduler", scheduler)
     assert_user_error(result, "no points")
     assert not (tmp_path / "o.laz").exists()
     assert not list(tmp_path.glob(".pointatlas-tiles*"))
@@ -222,8 +256,19 @@ def test_bundled_model_name_runs_by_tiles_like_a_file(tmp_path, scheduler):
     from pointatlas.io import read_point_set
 
     tiled, untiled = tmp_path / "t.ply", tmp_path / "u.ply"
-    result = run("normals", "fandisk", tiled, "--k", 12, "--orient", "none", "--tile-size", 0.4,
-                 "--scheduler", scheduler)  # fmt: skip
+    result = run(
+        "normals",
+        "fandisk",
+        tiled,
+        "--k",
+        12,
+        "--orient",
+        "none",
+        "--tile-size",
+        0.4,
+        "--scheduler",
+        scheduler,
+    )
     assert result.exit_code == 0, result.output
     assert "tiles of 0.4" in result.output
     assert run("normals", "fandisk", untiled, "--k", 12, "--orient", "none").exit_code == 0
@@ -233,10 +278,23 @@ def test_bundled_model_name_runs_by_tiles_like_a_file(tmp_path, scheduler):
 
 
 def test_render_is_refused_with_the_reason(tmp_path, laz, scheduler):
-    result = run("features", laz, tmp_path / "o.laz", "--tile-size", 10, "--render",
-                 tmp_path / "r.png", "--scheduler", scheduler)  # fmt: skip
-    assert_user_error(result, "--render needs every point in one process",
-                      "a tiled run never holds", "leave out --tile-size")  # fmt: skip
+    result = run(
+        "features",
+        laz,
+        tmp_path / "o.laz",
+        "--tile-size",
+        10,
+        "--render",
+        tmp_path / "r.png",
+        "--scheduler",
+        scheduler,
+    )
+    assert_user_error(
+        result,
+        "--render needs every point in one process",
+        "a tiled run never holds",
+        "leave out --tile-size",
+    )
 
 
 def test_tiled_report_views_every_nth_point_of_out(tmp_path, laz, scheduler, monkeypatch):
@@ -244,8 +302,9 @@ def test_tiled_report_views_every_nth_point_of_out(tmp_path, laz, scheduler, mon
 
     monkeypatch.setattr(_reports, "MAX_TILED_VIEW_POINTS", 5_000)
     out, report = tmp_path / "o.laz", tmp_path / "r.html"
-    result = run("segment", laz, out, "--tile-size", 10, "--report", report,
-                 "--scheduler", scheduler)  # fmt: skip
+    result = run(
+        "segment", laz, out, "--tile-size", 10, "--report", report, "--scheduler", scheduler
+    )
     assert result.exit_code == 0, result.output
     assert f"wrote {report}" in result.output
     n = laspy.read(out).header.point_count

@@ -121,8 +121,9 @@ def test_a_hill_cut_by_tile_borders_is_one_region_as_untiled(client, n, seed):
 
     pts, nrm = hill(n, seed)
     ref = vsa_segment(pts, nrm, k=8)  # one region: mean deviation under 10 degrees
-    labels, q, run = tiled_segment(pts, nrm, TileOptions(tile_size=15.0, scheduler=client),
-                                   {"k": 8})  # fmt: skip
+    labels, q, run = tiled_segment(
+        pts, nrm, TileOptions(tile_size=15.0, scheduler=client), {"k": 8}
+    )
     # 16 tiles, one region each; the pieces near the hill top lie metres off the
     # union's plane (the per-point plane test alone left 3 and 2 regions): their
     # strong halo links join all 16

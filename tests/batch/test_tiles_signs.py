@@ -93,8 +93,10 @@ def test_normal_signs_equal_the_plain_reference(seed):
         normals,
         links,
     )
-    arrays = {t: (_piece_key(t, np.fromiter(r, np.int64, len(r))), list(r.values()))
-              for t, r in tops.items()}  # fmt: skip
+    arrays = {
+        t: (_piece_key(t, np.fromiter(r, np.int64, len(r))), list(r.values()))
+        for t, r in tops.items()
+    }
     keys, flips = _normal_signs(halo_parts, arrays, piece_of, normals, links)
     assert keys.dtype == np.int64 and flips.dtype == np.float64
     np.testing.assert_array_equal(keys, ref_keys)

@@ -36,9 +36,14 @@ def _reference(source, grid, halos):
 
 @pytest.mark.parametrize(
     ("size", "halo", "per_tile"),
-    [(10.0, 1.5, False), (10.0, 0.0, False), (7.0, 16.0, False), (10.0, 2.0, True),
-     (0.5, 0.001, False)],
-)  # fmt: skip
+    [
+        (10.0, 1.5, False),
+        (10.0, 0.0, False),
+        (7.0, 16.0, False),
+        (10.0, 2.0, True),
+        (0.5, 0.001, False),
+    ],
+)
 def test_spill_equals_testing_every_neighbour_point(size, halo, per_tile):
     rng = np.random.default_rng(4)
     n = 30_000

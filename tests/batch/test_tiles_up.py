@@ -48,8 +48,9 @@ def knn_calls(monkeypatch):
 
 def test_tiled_up_normals_equal_untiled_and_query_owned_rows_only(client, points, knn_calls):  # noqa: F811
     ref = orient_normals(points, estimate_normals(points, 20), method="up")
-    got, run_ = tiled_normals(points, TileOptions(tile_size=9.0, scheduler=client), k=20,
-                              orient="up")  # fmt: skip
+    got, run_ = tiled_normals(
+        points, TileOptions(tile_size=9.0, scheduler=client), k=20, orient="up"
+    )
     assert run_.n_tiles > 4 and run_.halo_overhead > 1.0
     assert np.array_equal(got, ref) and (got[:, 2] >= 0).all()
     assert "orientation_pieces" not in run_.extra  # nothing stitched

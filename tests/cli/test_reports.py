@@ -125,8 +125,19 @@ def test_deform_report_shows_routes_displacements_and_the_moved_complex(tmp_path
     from pointatlas.io import read_mesh, write_mesh
 
     surface = tmp_path / "hand"
-    result = run("cloudsurface", "--from-mesh", "hand", surface, "--model", "eta2", "--c", "1",
-                 "--samples", "3", "--no-render")  # fmt: skip
+    result = run(
+        "cloudsurface",
+        "--from-mesh",
+        "hand",
+        surface,
+        "--model",
+        "eta2",
+        "--c",
+        "1",
+        "--samples",
+        "3",
+        "--no-render",
+    )
     assert result.exit_code == 0, result.output
     complex_mesh = read_mesh(surface / "complex.ply")
     new_cp = complex_mesh.vertices * 1.5 + 0.1
@@ -164,8 +175,9 @@ def test_deform_report_shows_routes_displacements_and_the_moved_complex(tmp_path
 def test_experiment_report_embeds_the_pictures_and_carries_the_json_numbers(tmp_path):
     out = tmp_path / "s"
     report = out / "report.html"  # inside the folder the run creates
-    result = run("experiment", "simplify", "--case", "dodecahedron", "--out", out,
-                 "--report", report)  # fmt: skip
+    result = run(
+        "experiment", "simplify", "--case", "dodecahedron", "--out", out, "--report", report
+    )
     assert result.exit_code == 0, result.output
     assert f"wrote {report}" in result.stdout
     text = report.read_text()
@@ -176,9 +188,11 @@ def test_experiment_report_embeds_the_pictures_and_carries_the_json_numbers(tmp_
     assert sorted(base64.b64decode(b) for b in embedded) == sorted(p.read_bytes() for p in pngs)
     rows = json.loads((out / "results.json").read_text())
     numbers = [
-        v for row in rows for v in row.values()
+        v
+        for row in rows
+        for v in row.values()
         if isinstance(v, int | float) and not isinstance(v, bool)
-    ]  # fmt: skip
+    ]
     assert len(numbers) > 10
     for value in numbers:
         assert shows(text, value), value

@@ -285,8 +285,11 @@ def test_unsupported_points_match_a_plain_reference():
     want = []
     for p in range(K.n_points):
         cl = tuple(K.clouds_of(p).tolist())
-        ok = (len(cl) == 3 or (len(cl) == 2 and cl in tri_edges)
-              or (len(cl) == 1 and cl[0] in tri_verts))  # fmt: skip
+        ok = (
+            len(cl) == 3
+            or (len(cl) == 2 and cl in tri_edges)
+            or (len(cl) == 1 and cl[0] in tri_verts)
+        )
         want.append(not ok)
     assert unsupported_mask(K).tolist() == want
     assert 0 < sum(want) < K.n_points

@@ -32,9 +32,18 @@ def test_methods_with_clean_measures(files, method):
     out = files / f"out_{method}.ply"
     res = runner.invoke(
         app,
-        ["denoise", str(files / "noisy_n.ply"), str(out), "--method", method, "--n-iter", "3",
-         "--clean", str(files / "clean.obj")],
-    )  # fmt: skip
+        [
+            "denoise",
+            str(files / "noisy_n.ply"),
+            str(out),
+            "--method",
+            method,
+            "--n-iter",
+            "3",
+            "--clean",
+            str(files / "clean.obj"),
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert "point-to-mesh mean" in res.output and f"wrote {out}" in res.output
     ps = read_point_set(out)
@@ -57,9 +66,17 @@ def test_points_without_normals_get_them_estimated(files):
 
 def test_auto_and_render_and_bundled_model(tmp_path):
     res = runner.invoke(
-        app, ["denoise", "synth:cube", str(tmp_path / "o.ply"), "--n-iter", "1",
-              "--render", str(tmp_path / "o.png")],
-    )  # fmt: skip
+        app,
+        [
+            "denoise",
+            "synth:cube",
+            str(tmp_path / "o.ply"),
+            "--n-iter",
+            "1",
+            "--render",
+            str(tmp_path / "o.png"),
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert "normal-voting" in res.output and (tmp_path / "o.png").stat().st_size > 0
     assert "normal-voting-adaptive" not in res.output  # auto: fixed neighbourhoods
@@ -101,9 +118,15 @@ def test_cli_gives_the_api_result_with_and_without_planes(files, tmp_path):
 def test_planes_with_tiles_is_refused(files, tmp_path):
     res = runner.invoke(
         app,
-        ["denoise", str(files / "noisy_n.ply"), str(tmp_path / "t.ply"), "--planes",
-         "--tile-size", "1"],
-    )  # fmt: skip
+        [
+            "denoise",
+            str(files / "noisy_n.ply"),
+            str(tmp_path / "t.ply"),
+            "--planes",
+            "--tile-size",
+            "1",
+        ],
+    )
     assert res.exit_code == 1
     assert "drop --planes or --tile-size" in res.output
 

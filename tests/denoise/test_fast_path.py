@@ -52,13 +52,22 @@ def test_plane_update_matches_reference(seed):
     idx = query_knn(pts, 16)[0]
     k_of = rng.integers(1, 17, size=300).astype(np.int64)
     out = np.empty_like(pts)
-    plane_update_kernel(pts, nrm, *_plane_lists(nrm, idx, k_of, 0.95), 0.02, 1.0 / 0.05**2,
-                        1.0, out, np.empty(300))  # fmt: skip
+    plane_update_kernel(
+        pts, nrm, *_plane_lists(nrm, idx, k_of, 0.95), 0.02, 1.0 / 0.05**2, 1.0, out, np.empty(300)
+    )
     want = ref.plane_update(pts, nrm, idx, k_of, 0.95, 0.02, 0.05)
     np.testing.assert_allclose(out, want, atol=1e-12)
     leaning = np.empty_like(pts)  # later rounds: (2 - beta) n_i + beta n_j
-    plane_update_kernel(pts, nrm, *_plane_lists(nrm, idx, k_of, 0.95), 0.02, 1.0 / 0.05**2,
-                        0.75, leaning, np.empty(300))  # fmt: skip
+    plane_update_kernel(
+        pts,
+        nrm,
+        *_plane_lists(nrm, idx, k_of, 0.95),
+        0.02,
+        1.0 / 0.05**2,
+        0.75,
+        leaning,
+        np.empty(300),
+    )
     want = ref.plane_update(pts, nrm, idx, k_of, 0.95, 0.02, 0.05, beta=0.75)
     np.testing.assert_allclose(leaning, want, atol=1e-12)
     assert not np.allclose(leaning, out, atol=1e-6)
@@ -82,8 +91,9 @@ def test_points_on_spheres_and_cylinders_stay(shape):
     idx = query_knn(pts, 20)[0]
     k_of = np.full(2000, 20, np.int64)
     out = np.empty_like(pts)
-    plane_update_kernel(pts, nrm, *_plane_lists(nrm, idx, k_of, 0.9), 1.0, 1.0 / 0.1**2, 1.0,
-                        out, np.empty(2000))  # fmt: skip
+    plane_update_kernel(
+        pts, nrm, *_plane_lists(nrm, idx, k_of, 0.9), 1.0, 1.0 / 0.1**2, 1.0, out, np.empty(2000)
+    )
     np.testing.assert_allclose(out, pts, atol=1e-13)
     from pointatlas.denoise._sharpen import quadric_update_kernel
 
@@ -100,8 +110,9 @@ def test_feature_classes_match_the_quadric_kernel():
     klass = np.empty(m.n_vertices, np.int64)
     want = np.empty(m.n_vertices, np.int64)
     feature_class_kernel(m.normals, idx, k_of, 0.3, klass)
-    quadric_update_kernel(m.points, m.normals, idx, k_of, 0.9, 0.3, 0.1, False,
-                          np.empty_like(m.points), want)  # fmt: skip
+    quadric_update_kernel(
+        m.points, m.normals, idx, k_of, 0.9, 0.3, 0.1, False, np.empty_like(m.points), want
+    )
     assert np.array_equal(klass, want) and set(klass.tolist()) == {1, 2, 3}
 
 

@@ -16,9 +16,12 @@ def _wavy(n=70, seed=0, lonely=False):
     pts = m.points.copy()
     pts[:, 2] = 6.0 * np.abs(np.sin(pts[:, 0] / 9.0))  # ridges: edge points
     nrm = np.column_stack(
-        [-6.0 / 9.0 * np.sign(np.sin(pts[:, 0] / 9.0)) * np.cos(pts[:, 0] / 9.0),
-         np.zeros(len(pts)), np.ones(len(pts))]
-    )  # fmt: skip
+        [
+            -6.0 / 9.0 * np.sign(np.sin(pts[:, 0] / 9.0)) * np.cos(pts[:, 0] / 9.0),
+            np.zeros(len(pts)),
+            np.ones(len(pts)),
+        ]
+    )
     nrm /= np.linalg.norm(nrm, axis=1)[:, None]
     noisy = add_normal_noise(pts, nrm, 0.3, rng=seed)
     if lonely:
@@ -42,9 +45,13 @@ def _rings_around(table, owned, rings):
 
 @pytest.mark.parametrize(
     "adaptive,n_iter,n_update,n_filter_iter,lonely",
-    [(False, 1, 1, 1, False), (True, 1, 1, 1, False), (False, 2, 1, 1, False),
-     (False, 2, 1, 1, True)],
-)  # fmt: skip
+    [
+        (False, 1, 1, 1, False),
+        (True, 1, 1, 1, False),
+        (False, 2, 1, 1, False),
+        (False, 2, 1, 1, True),
+    ],
+)
 def test_tile_with_the_halo_equals_untiled(adaptive, n_iter, n_update, n_filter_iter, lonely):
     pts, nrm = _wavy(lonely=lonely)
     method = "normal-voting-adaptive" if adaptive else "normal-voting"

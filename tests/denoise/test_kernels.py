@@ -135,8 +135,9 @@ def test_voting_filter_near_degenerate_tensors(tau):
 def test_voting_filter_single_point_keeps_normal():
     nrm = np.array([[0.0, 0.6, 0.8]])
     out = np.empty_like(nrm)
-    voting_filter_kernel(nrm, np.zeros((1, 1), np.int64), np.ones(1, np.int64),
-                         np.ones(1, bool), 0.9, 0.3, out)  # fmt: skip
+    voting_filter_kernel(
+        nrm, np.zeros((1, 1), np.int64), np.ones(1, np.int64), np.ones(1, bool), 0.9, 0.3, out
+    )
     np.testing.assert_allclose(out, nrm)
 
 

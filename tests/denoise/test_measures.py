@@ -42,17 +42,22 @@ def test_point_to_mesh_on_cube_surface_and_offsets():
     d = point_mesh_distance(m.points, m.points, m.faces)
     assert np.abs(d).max() < 1e-15
     q = np.array([[0.0, 0.0, 0.7], [0.6, 0.6, 0.0], [0.1, 0.0, 0.0]])
-    np.testing.assert_allclose(point_mesh_distance(q, m.points, m.faces),
-                               ref.point_to_mesh(q, m.points, m.faces), atol=1e-12)  # fmt: skip
-    np.testing.assert_allclose(point_mesh_distance(q, m.points, m.faces),
-                               [0.2, np.sqrt(0.02), 0.4], atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        point_mesh_distance(q, m.points, m.faces),
+        ref.point_to_mesh(q, m.points, m.faces),
+        atol=1e-12,
+    )
+    np.testing.assert_allclose(
+        point_mesh_distance(q, m.points, m.faces), [0.2, np.sqrt(0.02), 0.4], atol=1e-12
+    )
 
 
 def test_denoise_measures_noise_levels():
     m = cube(8)
     noisy = add_noise(m.points, m.normals, 0.6, k=6, rng=0)
-    r = denoise_measures(noisy, m.points, normals=m.normals, clean_normals=m.normals,
-                         clean_faces=m.faces)  # fmt: skip
+    r = denoise_measures(
+        noisy, m.points, normals=m.normals, clean_normals=m.normals, clean_faces=m.faces
+    )
     assert r.matched == "index" and r.normal_mse == 0.0
     assert r.drift_share == 0.0  # noise along the normals is not tangential
     assert 0 < r.p2m_mean <= r.distance_mean + 1e-12 and r.p2m_max <= r.distance_max + 1e-12

@@ -57,8 +57,9 @@ def test_cube_edges_sharper(noisy_cube):
     assert np.array_equal(out.k, local.k) and out.n_iter == local.n_iter
     # `denoise` = the local denoise and the pieces on one k-NN table of the input
     table = query_knn(noisy, 48)[0]
-    same = snap_planar_pieces(noisy, normal_voting_denoise(noisy, None, adaptive=False),
-                              neighbors=table)  # fmt: skip
+    same = snap_planar_pieces(
+        noisy, normal_voting_denoise(noisy, None, adaptive=False), neighbors=table
+    )
     got = denoise(noisy, None, method="normal-voting")
     assert np.array_equal(got.normals, same.normals) and np.array_equal(got.points, same.points)
 
@@ -96,10 +97,23 @@ def test_pieces_and_assignment(noisy_cube):
     pn = np.empty((n, 3))
     cos_a = math.cos(math.radians(planes.PIECE_ANGLE))
     cos_edge = math.cos(math.radians(planes.PIECE_EDGE_ANGLE))
-    count = planes.pieces_kernel(pts, nrm, graph, table, order, local.feature_class == CLASS_FACE,
-                                 planes.PIECE_DIST * ell, cos_a, planes.PIECE_MIN,
-                                 planes.PIECE_REFITS, cos_edge, planes.PIECE_EDGE_SHARE, label,
-                                 centres, pn)  # fmt: skip
+    count = planes.pieces_kernel(
+        pts,
+        nrm,
+        graph,
+        table,
+        order,
+        local.feature_class == CLASS_FACE,
+        planes.PIECE_DIST * ell,
+        cos_a,
+        planes.PIECE_MIN,
+        planes.PIECE_REFITS,
+        cos_edge,
+        planes.PIECE_EDGE_SHARE,
+        label,
+        centres,
+        pn,
+    )
     assert count == 6
     assert (np.bincount(label[label >= 0]) >= planes.PIECE_MIN).all()
     assert np.allclose(np.linalg.norm(pn[:count], axis=1), 1.0)
@@ -120,15 +134,33 @@ def test_pieces_and_assignment(noisy_cube):
     piece = np.empty(n, dtype=np.int64)
     cos_b = math.cos(math.radians(planes.PIECE_ASSIGN_ANGLE_HIGH))
     amb = planes.PIECE_AMBIGUOUS * ell
-    planes.assign_kernel(pts, nrm, graph, label, centres[:count], pn[:count],
-                         planes.PIECE_DIST * ell, cos_b, amb, 0.75, out, out_pts,
-                         piece)  # fmt: skip
+    planes.assign_kernel(
+        pts,
+        nrm,
+        graph,
+        label,
+        centres[:count],
+        pn[:count],
+        planes.PIECE_DIST * ell,
+        cos_b,
+        amb,
+        0.75,
+        out,
+        out_pts,
+        piece,
+    )
     for i in range(n):  # the plain loop
-        cands = sorted({int(label[j]) for j in graph[i] if label[j] >= 0},
-                       key=lambda q: (abs((pts[i] - centres[q]) @ pn[q]), q))  # fmt: skip
+        cands = sorted(
+            {int(label[j]) for j in graph[i] if label[j] >= 0},
+            key=lambda q: (abs((pts[i] - centres[q]) @ pn[q]), q),
+        )
         dist = [abs((pts[i] - centres[q]) @ pn[q]) for q in cands]
-        ok = (cands and dist[0] <= planes.PIECE_DIST * ell and (len(cands) == 1 or dist[1] >= amb)
-              and abs(nrm[i] @ pn[cands[0]]) >= cos_b)  # fmt: skip
+        ok = (
+            cands
+            and dist[0] <= planes.PIECE_DIST * ell
+            and (len(cands) == 1 or dist[1] >= amb)
+            and abs(nrm[i] @ pn[cands[0]]) >= cos_b
+        )
         assert piece[i] == (cands[0] if ok else -1)
         want = np.sign(nrm[i] @ pn[cands[0]]) * pn[cands[0]] if ok else nrm[i]
         assert np.allclose(out[i], want, atol=0, rtol=0)

@@ -57,8 +57,11 @@ def test_low_noise_run_is_not_polished(no_polish):
 def test_polish_brings_a_very_noisy_sphere_closer(no_polish):
     m = sphere(3000)
     rng = np.random.default_rng(1)
-    ell = float(np.mean(np.linalg.norm(m.points[query_knn(m.points, 7)[0][:, 1:]]
-                                       - m.points[:, None], axis=2)))  # fmt: skip
+    ell = float(
+        np.mean(
+            np.linalg.norm(m.points[query_knn(m.points, 7)[0][:, 1:]] - m.points[:, None], axis=2)
+        )
+    )
     noisy = m.points + rng.normal(size=m.points.shape) * 1.2 * ell
     without = normal_voting_denoise(noisy, None, adaptive=False)
     with pytest.MonkeyPatch.context() as mp:

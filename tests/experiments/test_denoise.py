@@ -27,8 +27,9 @@ def test_table_5_3_on_the_generated_cube(tmp_path):
         assert (r["thesis_noise"], r["thesis_yrs18"], r["thesis_ours"]) == (
             THESIS_TABLE_5_3["cube"][level]
         )
-        assert all(math.isfinite(r[key]) and r[key] >= 0 for key in
-                   ("mse_noise", "mse_yrs18", "mse_ours"))  # fmt: skip
+        assert all(
+            math.isfinite(r[key]) and r[key] >= 0 for key in ("mse_noise", "mse_yrs18", "mse_ours")
+        )
         # the filters remove part of the noise on the cube's flat faces (thesis Table 5.3)
         assert r["mse_ours"] < r["mse_noise"]
     assert rows[0]["mse_noise"] < rows[1]["mse_noise"]  # more noise, larger error

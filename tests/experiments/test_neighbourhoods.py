@@ -63,8 +63,16 @@ def test_model_and_aggregate(models, tmp_path):
     assert sum(summary["k_histogram_percent"]) == pytest.approx(100)
     written = write_neighbourhood_outputs(summary, tmp_path, label="test")
     names = {p.name for p in written}
-    for n in ("table_5_1.csv", "table_5_2.csv", "fig5_4.png", "fig5_5.png", "fig5_6.png",
-              "fig6_3.png", "fig6_6.png", "neighbourhoods.json"):  # fmt: skip
+    for n in (
+        "table_5_1.csv",
+        "table_5_2.csv",
+        "fig5_4.png",
+        "fig5_5.png",
+        "fig5_6.png",
+        "fig6_3.png",
+        "fig6_6.png",
+        "neighbourhoods.json",
+    ):
         assert n in names
     rows = (tmp_path / "table_5_1.csv").read_text().splitlines()
     assert rows[0].startswith("collection,weights") and len(rows) == 3
@@ -75,9 +83,18 @@ def test_command_runs_through_the_batch_runner(models, tmp_path):
     out = tmp_path / "out"
     res = CliRunner().invoke(
         app,
-        ["experiment", "neighbourhoods", "--models", str(models), "--out", str(out),
-         "--workers", "1", "--no-dodecahedron"],
-    )  # fmt: skip
+        [
+            "experiment",
+            "neighbourhoods",
+            "--models",
+            str(models),
+            "--out",
+            str(out),
+            "--workers",
+            "1",
+            "--no-dodecahedron",
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert "Table 5.1" in res.output and "Table 5.2" in res.output
     assert (out / "results" / "cube.json").exists() and (out / "fig5_4.png").exists()

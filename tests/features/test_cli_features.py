@@ -54,9 +54,18 @@ def test_equal_weights_fixed_k_and_render(tmp_path):
     pics.mkdir()
     res = runner.invoke(
         app,
-        ["features", str(src), str(out), "--k", "9", "--render", str(pics / "slab.png"),
-         "--render-size", "160"],
-    )  # fmt: skip
+        [
+            "features",
+            str(src),
+            str(out),
+            "--k",
+            "9",
+            "--render",
+            str(pics / "slab.png"),
+            "--render-size",
+            "160",
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert "fixed k = 9" in res.output
     ps = read_point_set(out)

@@ -298,5 +298,6 @@ def test_eigenpairs_are_accurate_including_double_roots(shape):
         np.testing.assert_allclose(np.linalg.norm(vec, axis=1), 1.0, atol=1e-12)
         resid = np.einsum("nij,nj->ni", cov, vec) - res.eigenvalues[:, col : col + 1] * vec
         assert (np.linalg.norm(resid, axis=1) <= 1e-9 * l1[:, 0]).all()
-    np.testing.assert_allclose(np.abs(np.sum(res.eigenvector_1 * res.eigenvector_3, axis=1)), 0,
-                               atol=1e-9)  # fmt: skip
+    np.testing.assert_allclose(
+        np.abs(np.sum(res.eigenvector_1 * res.eigenvector_3, axis=1)), 0, atol=1e-9
+    )

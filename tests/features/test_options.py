@@ -63,7 +63,7 @@ AB_BAD = [
     ({"a": 1.0, "b": 0.5}, ValueError, _B.format("1") + r"0\.5$"),
     ({"a": 0.0, "b": 3.5}, ValueError, r"^b must be .*; got 3\.5$"),
     ({"a": 0.0, "b": None}, TypeError, r"^b must be a real number; got NoneType None$"),
-]  # fmt: skip
+]
 
 
 @pytest.mark.parametrize(("kwargs", "error", "match"), AB_BAD)

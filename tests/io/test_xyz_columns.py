@@ -121,9 +121,16 @@ def test_coff_vertex_colours_and_noff_normals_are_read_and_kept(tmp_path):
     from tests.cli.helpers import run
 
     coff = tmp_path / "c.off"
-    rows = [f"{x} {y} {z} {r} {g} {b} 255" for x, y, z, r, g, b in
-            [(0, 0, 0, 255, 0, 0), (1, 0, 0, 0, 255, 0), (0, 1, 0, 0, 0, 255),
-             (0, 0, 1, 10, 20, 30), (1, 1, 1, 40, 50, 60)]]  # fmt: skip
+    rows = [
+        f"{x} {y} {z} {r} {g} {b} 255"
+        for x, y, z, r, g, b in [
+            (0, 0, 0, 255, 0, 0),
+            (1, 0, 0, 0, 255, 0),
+            (0, 1, 0, 0, 0, 255),
+            (0, 0, 1, 10, 20, 30),
+            (1, 1, 1, 40, 50, 60),
+        ]
+    ]
     coff.write_text("COFF\n5 1 0\n" + "\n".join(rows) + "\n3 0 1 2\n")
     ps = read_point_set(coff, with_normals=False)
     assert ps.attributes["colors"].dtype == np.uint8

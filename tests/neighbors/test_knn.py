@@ -122,9 +122,12 @@ def test_nan_raises_value_error():
 
 @pytest.mark.parametrize(
     ("k", "exc", "match"),
-    [(0, ValueError, r"k must be an integer in \[1, 5\]"), (2.5, TypeError, "k must be an integer"),
-     (True, TypeError, "k must be an integer")],
-)  # fmt: skip
+    [
+        (0, ValueError, r"k must be an integer in \[1, 5\]"),
+        (2.5, TypeError, "k must be an integer"),
+        (True, TypeError, "k must be an integer"),
+    ],
+)
 def test_bad_k(k, exc, match):
     with pytest.raises(exc, match=match):
         query_knn(np.zeros((5, 3)), k)
@@ -190,8 +193,12 @@ def test_rows_are_the_full_query_rows(name, backend):
     rng = np.random.default_rng(len(pts))
     for k in (1, 5, 20):
         full_idx, full_dist = index.knn(k)
-        for rows in (rng.permutation(len(pts))[: len(pts) // 3], rng.integers(0, len(pts), 50),
-                     np.arange(len(pts)), np.array([len(pts) - 1, 0, 0])):  # fmt: skip
+        for rows in (
+            rng.permutation(len(pts))[: len(pts) // 3],
+            rng.integers(0, len(pts), 50),
+            np.arange(len(pts)),
+            np.array([len(pts) - 1, 0, 0]),
+        ):
             idx, dist = index.knn(k, rows=rows)
             assert idx.shape == (len(rows), k) and dist.shape == (len(rows), k)
             assert idx.dtype == np.int64 and dist.dtype == np.float64
@@ -235,8 +242,13 @@ def test_group_queries_is_a_stable_sort_by_cell(name):
     grid = knn_grid_for(NeighborIndex(pts).points_, 7)
     rng = np.random.default_rng(3)
     n = len(pts)
-    for queries in (np.arange(n), rng.permutation(n)[: n // 2], rng.integers(0, n, 3 * n),
-                    np.array([n - 1, 0, 0, n - 1]), np.empty(0, dtype=np.int64)):  # fmt: skip
+    for queries in (
+        np.arange(n),
+        rng.permutation(n)[: n // 2],
+        rng.integers(0, n, 3 * n),
+        np.array([n - 1, 0, 0, n - 1]),
+        np.empty(0, dtype=np.int64),
+    ):
         got = group_queries(grid, queries)
         for a, b in zip(got, _group_queries_reference(grid, queries), strict=True):
             assert a.dtype == np.int64
@@ -245,12 +257,14 @@ def test_group_queries_is_a_stable_sort_by_cell(name):
 
 @pytest.mark.parametrize(
     ("rows", "exc", "match"),
-    [([0.5, 1.0], TypeError, "rows must be an array of integer indices"),
-     ([True, False], TypeError, "rows must be an array of integer indices"),
-     ([[0, 1]], ValueError, "rows must be one-dimensional"),
-     ([0, 5], ValueError, r"rows must be indices in \[0, 5\); got 1 outside, e.g. 5"),
-     ([-1], ValueError, r"rows must be indices in \[0, 5\)")],
-)  # fmt: skip
+    [
+        ([0.5, 1.0], TypeError, "rows must be an array of integer indices"),
+        ([True, False], TypeError, "rows must be an array of integer indices"),
+        ([[0, 1]], ValueError, "rows must be one-dimensional"),
+        ([0, 5], ValueError, r"rows must be indices in \[0, 5\); got 1 outside, e.g. 5"),
+        ([-1], ValueError, r"rows must be indices in \[0, 5\)"),
+    ],
+)
 def test_bad_rows(rows, exc, match):
     with pytest.raises(exc, match=match):
         NeighborIndex(np.random.default_rng(0).random((5, 3))).knn(2, rows=rows)

@@ -88,9 +88,12 @@ def test_points_on_vertices_edges_and_faces_are_at_zero():
     assert d.max() < 1e-15
     rng = np.random.default_rng(5)
     pts = np.concatenate(
-        [on[rng.choice(len(on), 200, replace=False)] + rng.normal(scale=0.05, size=(200, 3)),
-         rng.normal(size=(100, 3)) * 5.0, rng.normal(size=(10, 3)) * 1e6]
-    )  # fmt: skip
+        [
+            on[rng.choice(len(on), 200, replace=False)] + rng.normal(scale=0.05, size=(200, 3)),
+            rng.normal(size=(100, 3)) * 5.0,
+            rng.normal(size=(10, 3)) * 1e6,
+        ]
+    )
     _check(pts, v, f, atol=1e-14)
 
 

@@ -89,7 +89,7 @@ def test_radius_boundaries(radius):
         (2.0, TypeError, r"^k must be an integer; got float 2\.0$"),
         (NAN, TypeError, r"^k must be an integer; got float nan$"),
     ],
-)  # fmt: skip
+)
 def test_mean_spacing_k(value, error, match):
     with pytest.raises(error, match=match):
         mean_spacing(PTS, value)

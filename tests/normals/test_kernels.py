@@ -67,9 +67,17 @@ def test_sym3_eigen_matches_eigh(eigvals):
 
 @pytest.mark.parametrize(
     "eigvals",
-    [(3.0, 2.0, 1.0), (1.0, 1e-3, 1e-9), (1.0, 1.0, 1e-6), (1.0, 1e-8 * (1 + 1e-6), 1e-8),
-     (1.0, 1.0, 1.0), (1e-250, 5e-251, 1e-252), (1e250, 5e249, 1e248), (0.0, 0.0, 0.0)],
-)  # fmt: skip
+    [
+        (3.0, 2.0, 1.0),
+        (1.0, 1e-3, 1e-9),
+        (1.0, 1.0, 1e-6),
+        (1.0, 1e-8 * (1 + 1e-6), 1e-8),
+        (1.0, 1.0, 1.0),
+        (1e-250, 5e-251, 1e-252),
+        (1e250, 5e249, 1e248),
+        (0.0, 0.0, 0.0),
+    ],
+)
 def test_sym3_eigen_scalars_is_sym3_eigen_bit_for_bit(eigvals):
     """The register version used by the PCA kernel: the same eigenvalues and the
     vectors of the largest and smallest one, bit for bit, also on diagonal and

@@ -103,8 +103,17 @@ def _up_reference(normals):
 
 def test_up_equals_the_plain_reference_and_ignores_input_signs():
     pts, exact = sphere(500)
-    ties = np.array([[0.6, 0.8, 0.0], [0.6, -0.8, 0.0], [-0.6, -0.8, -0.0], [-1.0, 0.0, 0.0],
-                     [-1.0, -0.0, -0.0], [0.0, 0.0, -1.0], [0.0, -0.0, 1.0]])  # fmt: skip
+    ties = np.array(
+        [
+            [0.6, 0.8, 0.0],
+            [0.6, -0.8, 0.0],
+            [-0.6, -0.8, -0.0],
+            [-1.0, 0.0, 0.0],
+            [-1.0, -0.0, -0.0],
+            [0.0, 0.0, -1.0],
+            [0.0, -0.0, 1.0],
+        ]
+    )
     nrm = np.vstack([exact, ties])
     pts = np.vstack([pts, np.zeros((ties.shape[0], 3))])
     unit = nrm / np.linalg.norm(nrm, axis=1)[:, None]

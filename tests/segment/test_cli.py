@@ -157,14 +157,27 @@ def test_vsa_options_of_the_cli_flags():
     from pointatlas.segment import VSAOptions
 
     flags = {
-        "k": 10, "eta": None, "max_angle_deg": 12.0, "seeds": "3,7", "split": False,
-        "merge": True, "switch": "single", "classic": False, "weights": "area", "max_iter": 5,
-    }  # fmt: skip
+        "k": 10,
+        "eta": None,
+        "max_angle_deg": 12.0,
+        "seeds": "3,7",
+        "split": False,
+        "merge": True,
+        "switch": "single",
+        "classic": False,
+        "weights": "area",
+        "max_iter": 5,
+    }
     opts = vsa_options(**flags)
     assert opts == VSAOptions(
-        k=10, max_angle=math.radians(12.0), seeds=[3, 7], split=False, switch="single",
-        weights="area", max_iter=5,
-    )  # fmt: skip
+        k=10,
+        max_angle=math.radians(12.0),
+        seeds=[3, 7],
+        split=False,
+        switch="single",
+        weights="area",
+        max_iter=5,
+    )
     assert vsa_options(**flags, local=True) == opts.replace(local=True)
     with pytest.raises(ValueError, match=r"^--max-angle-deg must be a finite angle in \[0, 180\]"):
         vsa_options(**{**flags, "max_angle_deg": 200.0})
@@ -214,8 +227,12 @@ def test_segment_joins_regions_below_the_minimum_size(tmp_path):
         counts[size] = np.bincount(labels)
         summary = json.loads(out.with_name(f"{out.stem}_regions.json").read_text())["summary"]
         assert summary["min_region_size"] == (8 if size is None else int(size))
-        ref = vsa_segment(ps.points, ps.normals, max_angle=np.radians(10.0),
-                          min_region_size=summary["min_region_size"])  # fmt: skip
+        ref = vsa_segment(
+            ps.points,
+            ps.normals,
+            max_angle=np.radians(10.0),
+            min_region_size=summary["min_region_size"],
+        )
         assert np.array_equal(labels, ref.labels)
     assert counts[None].min() >= 8 and counts["20"].min() >= 20
     assert (counts["0"] < 8).sum() > 50

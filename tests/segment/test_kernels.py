@@ -147,21 +147,44 @@ def test_hold_under_threshold_matches_reference(seed, angle):
     l21 = 2.0 * (wsum - np.linalg.norm(ssum, axis=1))
     eta, min_cos = (None, float(np.median(mean_cos))) if angle else (float(np.median(l21)), None)
     keep = K.hold_under_threshold(
-        moved, new, labels, wsum, ssum, w, wn,
-        0.0 if eta is None else eta, 0.0 if min_cos is None else min_cos, angle,
-    )  # fmt: skip
-    ref = reference.hold_under_threshold_reference(moved, new, labels, wsum, ssum, w, wn, eta,
-                                                   min_cos)  # fmt: skip
+        moved,
+        new,
+        labels,
+        wsum,
+        ssum,
+        w,
+        wn,
+        0.0 if eta is None else eta,
+        0.0 if min_cos is None else min_cos,
+        angle,
+    )
+    ref = reference.hold_under_threshold_reference(
+        moved, new, labels, wsum, ssum, w, wn, eta, min_cos
+    )
     np.testing.assert_array_equal(keep, ref)
     assert 0 < keep.sum() < keep.size
-    over = (lambda ww, ss: np.linalg.norm(ss, axis=1) < min_cos * ww) if angle else (
-        lambda ww, ss: 2.0 * (ww - np.linalg.norm(ss, axis=1)) > eta)  # fmt: skip
+    over = (
+        (lambda ww, ss: np.linalg.norm(ss, axis=1) < min_cos * ww)
+        if angle
+        else (lambda ww, ss: 2.0 * (ww - np.linalg.norm(ss, axis=1)) > eta)
+    )
     before = over(wsum, ssum)
     lab, ws, ss = labels.copy(), wsum.copy(), ssum.copy()
     counts = np.bincount(labels, minlength=m)
     indptr, indices = np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    K.apply_moves(indptr, indices, lab, ws, ss, counts, np.zeros(n, dtype=np.int64), w, wn,
-                  moved[keep], new[keep])  # fmt: skip
+    K.apply_moves(
+        indptr,
+        indices,
+        lab,
+        ws,
+        ss,
+        counts,
+        np.zeros(n, dtype=np.int64),
+        w,
+        wn,
+        moved[keep],
+        new[keep],
+    )
     assert not np.any(over(ws, ss) & ~before & (ws > 0))
 
 

@@ -240,7 +240,7 @@ def test_k_of_graph_helpers_boundaries(cloud):
         ((1.0, 10), {"curvature_split": 1.5}, ValueError, r"^curvature_split .*; got 1\.5$"),
         ((1.0, 10), {"curvature_split": -0.1}, ValueError, r"^curvature_split .*; got -0\.1$"),
     ],
-)  # fmt: skip
+)
 def test_estimate_eta_rejects(args, kwargs, error, match):
     with pytest.raises(error, match=match):
         estimate_eta(*args, **kwargs)

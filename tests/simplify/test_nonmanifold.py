@@ -165,8 +165,11 @@ def _soup(vertices, faces):
 def test_a_triangle_soup_simplifies_as_the_indexed_mesh(shape):
     from pointatlas import data
 
-    m = {"cube": lambda: cube(6), "icosphere": lambda: icosphere(2),
-         "fandisk": lambda: data.load_mesh("fandisk")}[shape]()  # fmt: skip
+    m = {
+        "cube": lambda: cube(6),
+        "icosphere": lambda: icosphere(2),
+        "fandisk": lambda: data.load_mesh("fandisk"),
+    }[shape]()
     f = np.asarray(m.triangles if shape == "fandisk" else m.faces)
     v = np.asarray(m.vertices, dtype=float)
     sv, sf = _soup(v, f)

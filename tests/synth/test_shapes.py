@@ -100,13 +100,16 @@ def test_closed_oriented_manifold(name):
         (cube(4, size=2.0), 8.0, 1e-12),
         (octahedron(3, radius=2.0), 4 / 3 * 8, 1e-12),
         # circumradius 1: edge a = 4 / (sqrt 3 (1 + sqrt 5)), V = (15 + 7 sqrt 5) / 4 a^3
-        (dodecahedron(2), (15 + 7 * np.sqrt(5)) / 4 * (4 / (np.sqrt(3) * (1 + np.sqrt(5)))) ** 3,
-         1e-12),
+        (
+            dodecahedron(2),
+            (15 + 7 * np.sqrt(5)) / 4 * (4 / (np.sqrt(3) * (1 + np.sqrt(5)))) ** 3,
+            1e-12,
+        ),
         (icosphere(4), 4 / 3 * np.pi, 5e-3),
         (torus(1.0, 0.25, n_major=64, n_minor=32), 2 * np.pi**2 * 0.25**2, 1e-2),
         (cylinder(1.0, 2.0, n_around=64, n_height=5, capped=True), 2 * np.pi, 5e-3),
     ],
-)  # fmt: skip
+)
 def test_volumes(mesh, volume, rtol):
     assert signed_volume(mesh.vertices, mesh.faces) == pytest.approx(volume, rel=rtol)
 

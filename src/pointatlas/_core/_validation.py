@@ -84,9 +84,11 @@ def _as_float_array(values, name: str) -> np.ndarray:
     # None, also as np.asarray(None) (a 0-d object array), is a missing array,
     # not a NaN of shape ()
     if values is None or (
-        isinstance(values, np.ndarray) and values.dtype == object and values.ndim == 0
+        isinstance(values, np.ndarray)
+        and values.dtype == object
+        and values.ndim == 0
         and values.item() is None
-    ):  # fmt: skip
+    ):
         raise TypeError(f"{name} must be an array of shape (N, 3); got None")
     try:
         arr = np.asarray(values, dtype=np.float64)

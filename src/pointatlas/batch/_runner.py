@@ -376,9 +376,16 @@ def run_batch(
             if todo:
                 with _client(scheduler, int(n_workers)) as (client, where):
                     n_done = _consume(
-                        client, func, todo, children, results_dir, results, failures, models,
+                        client,
+                        func,
+                        todo,
+                        children,
+                        results_dir,
+                        results,
+                        failures,
+                        models,
                         lambda: bar.advance(task),
-                    )  # fmt: skip
+                    )
             complete = True
     finally:
         elapsed = time.perf_counter() - start

@@ -321,8 +321,10 @@ def _spill(source, grid: TileGrid, halos: dict, spill: _Spill, normals_array=Non
             near = [u for u in grid.neighbours(t, rings[t]) if starts[u + 1] > starts[u]]
             if not near:
                 continue
-            parts = [order[starts[u] : starts[u + 1]] if u == t
-                     else edge[e_starts[u] : e_starts[u + 1]] for u in near]  # fmt: skip
+            parts = [
+                order[starts[u] : starts[u + 1]] if u == t else edge[e_starts[u] : e_starts[u + 1]]
+                for u in near
+            ]
             cand = np.sort(np.concatenate(parts))
             sel = cand[grid.members(xy[cand], owner[cand], t, h)]
             if not sel.size:
@@ -411,8 +413,7 @@ def _tile_progress(enabled: bool, label: str):
 # --------------------------------------------------------------------------- the loop
 
 
-def _estimate_spacing(source, k: int, *, sample: int = 100_000, typical: bool = False,
-                      client=None):  # fmt: skip
+def _estimate_spacing(source, k: int, *, sample: int = 100_000, typical: bool = False, client=None):
     """(mean 6-NN spacing, a high k-NN distance, or with ``typical`` the median one) of
     the full point set, estimated on a
     regular subsample of every ``stride``-th point.
@@ -449,8 +450,22 @@ def _spacing_of(pts, k: int, stride: int, typical: bool):
     return spacing, float(np.quantile(dist[:, kk], 0.9999))
 
 
-def run_tiles(kind, source, grid, params, options, client_info, on_result, *, halo0, fixed, label,
-         normals_array=None, spill_dir=None, memory_per_point=0.0):  # fmt: skip
+def run_tiles(
+    kind,
+    source,
+    grid,
+    params,
+    options,
+    client_info,
+    on_result,
+    *,
+    halo0,
+    fixed,
+    label,
+    normals_array=None,
+    spill_dir=None,
+    memory_per_point=0.0,
+):
     """Spill, submit and collect every tile; grow automatic halos where needed."""
     client, where, threads = client_info
     halos = dict.fromkeys(range(grid.n_tiles), float(halo0))
@@ -483,10 +498,9 @@ def run_tiles(kind, source, grid, params, options, client_info, on_result, *, ha
             run.tile_points.update({t: sent[t] for t in pending})
             retry, errors = [], []
             specs = {
-                t: {"grid": grid, "tile": t, "halo": halos[t], "params": params,
-                    "threads": threads}
+                t: {"grid": grid, "tile": t, "halo": halos[t], "params": params, "threads": threads}
                 for t in pending
-            }  # fmt: skip
+            }
             for t, res in _round(client, kind, specs, spill, 2 * n_workers):
                 if res["status"] == "halo":
                     if fixed:

@@ -49,8 +49,9 @@ _WHY = {
 }
 
 
-def tile_options(tile_size, halo=None, workers=None, scheduler=None, max_memory=None,
-                 *, progress: bool = True):  # fmt: skip
+def tile_options(
+    tile_size, halo=None, workers=None, scheduler=None, max_memory=None, *, progress: bool = True
+):
     """`TileOptions` from the CLI flags, or None without ``--tile-size``.
 
     The other flags without ``--tile-size`` are an error (they would do nothing).
@@ -58,10 +59,14 @@ def tile_options(tile_size, halo=None, workers=None, scheduler=None, max_memory=
     if tile_size is None:
         given = [
             flag
-            for flag, value in (("--halo", halo), ("--workers", workers),
-                                ("--scheduler", scheduler), ("--max-memory", max_memory))
+            for flag, value in (
+                ("--halo", halo),
+                ("--workers", workers),
+                ("--scheduler", scheduler),
+                ("--max-memory", max_memory),
+            )
             if value is not None
-        ]  # fmt: skip
+        ]
         if given:
             raise PointAtlasError(f"{', '.join(given)} only apply with --tile-size")
         return None
@@ -99,12 +104,19 @@ def _region_rows(quality) -> list[dict]:
     for r in range(quality["n_regions"]):
         n = quality["proxy_normals"][r]
         c = quality["centroids"][r]
-        rows.append({
-            "region": r, "n_points": int(quality["region_counts"][r]),
-            "l21": float(quality["region_l21"][r]),
-            "nx": float(n[0]), "ny": float(n[1]), "nz": float(n[2]),
-            "cx": float(c[0]), "cy": float(c[1]), "cz": float(c[2]),
-        })  # fmt: skip
+        rows.append(
+            {
+                "region": r,
+                "n_points": int(quality["region_counts"][r]),
+                "l21": float(quality["region_l21"][r]),
+                "nx": float(n[0]),
+                "ny": float(n[1]),
+                "nz": float(n[2]),
+                "cx": float(c[0]),
+                "cy": float(c[1]),
+                "cz": float(c[2]),
+            }
+        )
     return rows
 
 
@@ -135,8 +147,9 @@ def _side_outputs(kind, out_path: Path, summary: dict) -> list[Path]:
     if kind == "segment":
         rows = _region_rows(summary.pop("regions"))
         buf = io.StringIO()
-        writer = csv.DictWriter(buf, fieldnames=list(rows[0]) if rows else ["region"],
-                                lineterminator="\n")  # fmt: skip
+        writer = csv.DictWriter(
+            buf, fieldnames=list(rows[0]) if rows else ["region"], lineterminator="\n"
+        )
         writer.writeheader()
         writer.writerows(rows)
         written.append(_write_text(Path(f"{stem}_regions.csv"), buf.getvalue()))
@@ -149,8 +162,16 @@ def _side_outputs(kind, out_path: Path, summary: dict) -> list[Path]:
     return written
 
 
-def run_tiled_command(kind: str, in_path, out_path, params: dict, options: TileOptions, *,
-                      normal_params=None, label_colors=None):  # fmt: skip
+def run_tiled_command(
+    kind: str,
+    in_path,
+    out_path,
+    params: dict,
+    options: TileOptions,
+    *,
+    normal_params=None,
+    label_colors=None,
+):
     """Run a command by tiles and write OUT (and its side files).
 
     Parameters
@@ -188,8 +209,15 @@ def run_tiled_command(kind: str, in_path, out_path, params: dict, options: TileO
                     release_pages(cols, labels)
                 return {"colors": cols}
 
-        summary = las_tiled(kind, in_path, out_path, params, options, normal_params=normal_params,
-                            extra_fields=extra)  # fmt: skip
+        summary = las_tiled(
+            kind,
+            in_path,
+            out_path,
+            params,
+            options,
+            normal_params=normal_params,
+            extra_fields=extra,
+        )
     else:
         summary = _in_memory(kind, in_path, out_path, params, options, normal_params, label_colors)
     summary["seconds_total"] = round(time.perf_counter() - t0, 3)
@@ -232,17 +260,22 @@ def _in_memory(kind, in_path, out_path, params, options, normal_params, label_co
         normals = given
         if normal_params is not None:
             normals, run_n = normals_over(
-                ArraySource(ps.points), replace(options, halo=None), k=normal_params["k"],
+                ArraySource(ps.points),
+                replace(options, halo=None),
+                k=normal_params["k"],
                 orient=normal_params.get("orient", "mst"),
-                orient_k=normal_params.get("orient_k", 10), viewpoint=None, client_info=ci,
-            )  # fmt: skip
+                orient_k=normal_params.get("orient_k", 10),
+                viewpoint=None,
+                client_info=ci,
+            )
             summary["normals_tiles"] = run_n.summary()
             if given is not None:
                 ours["input_normals"] = given
             out_normals = normals
         if kind == "normals":
-            out_normals, run = normals_over(ArraySource(ps.points), options, client_info=ci,
-                                             **params)  # fmt: skip
+            out_normals, run = normals_over(
+                ArraySource(ps.points), options, client_info=ci, **params
+            )
             if given is not None:
                 ours["input_normals"] = given
         elif kind == "features":
@@ -251,8 +284,9 @@ def _in_memory(kind, in_path, out_path, params, options, normal_params, label_co
             las_out = Path(out_path).suffix.lower() in LAS_EXTENSIONS
             ours.update(las_feature_fields(fields) if las_out else fields)
         elif kind == "segment":
-            labels, quality, run = segment_over(ArraySource(ps.points, normals), options, params,
-                                                 client_info=ci)  # fmt: skip
+            labels, quality, run = segment_over(
+                ArraySource(ps.points, normals), options, params, client_info=ci
+            )
             summary["quality"] = {k: quality[k] for k in ("n_regions", "energy", "mse")}
             summary["regions"] = quality
             ours["label"] = labels
@@ -323,16 +357,36 @@ def feature_params(*, weights, k, k_range, a_grid, b_grid, flatness, criterion, 
     if weights == "equal":
         if k_range is None:
             return {"mode": "fixed", "k": 14 if k is None else int(k), "flatness": flat}
-        return {"mode": "optimal_k", "k_range": tuple(k_range), "criterion": criterion,
-                "flatness": flat}  # fmt: skip
+        return {
+            "mode": "optimal_k",
+            "k_range": tuple(k_range),
+            "criterion": criterion,
+            "flatness": flat,
+        }
     kr = tuple(k_range) if k_range is not None else ((k, k) if k is not None else (6, 20))
-    return {"mode": "optimal", "k_range": kr, "a_grid": tuple(a_grid), "b_grid": tuple(b_grid),
-            "flatness": flat}  # fmt: skip
+    return {
+        "mode": "optimal",
+        "k_range": kr,
+        "a_grid": tuple(a_grid),
+        "b_grid": tuple(b_grid),
+        "flatness": flat,
+    }
 
 
-def segment_params(*, method, options=None, seeds="all", weights="uniform", classic=False,
-                   k=8, eta=None, max_angle_deg=None, split=True, merge=True,
-                   switch="batch"):  # fmt: skip
+def segment_params(
+    *,
+    method,
+    options=None,
+    seeds="all",
+    weights="uniform",
+    classic=False,
+    k=8,
+    eta=None,
+    max_angle_deg=None,
+    split=True,
+    merge=True,
+    switch="batch",
+):
     """``pointatlas segment``'s settings for the tiled path: one
     `pointatlas.segment.VSAOptions` (``options``, as the untiled command builds it;
     or built here from the flags), checked to be stitchable (VSA from every point,
@@ -350,13 +404,28 @@ def segment_params(*, method, options=None, seeds="all", weights="uniform", clas
         if weights != "uniform":
             raise PointAtlasError("--weights must be uniform with --tile-size")
         angle = None if max_angle_deg is None else math.radians(max_angle_deg)
-        options = VSAOptions(k=int(k), eta=eta, max_angle=angle, split=bool(split),
-                             merge=bool(merge), switch=switch)  # fmt: skip
+        options = VSAOptions(
+            k=int(k), eta=eta, max_angle=angle, split=bool(split), merge=bool(merge), switch=switch
+        )
     return vsa_options(options)
 
 
-def denoise_params(path, *, method, estimate, rho, tau, n_iter, filter_iter, max_step, k, eta,
-                   eps, schedule, k_start):  # fmt: skip
+def denoise_params(
+    path,
+    *,
+    method,
+    estimate,
+    rho,
+    tau,
+    n_iter,
+    filter_iter,
+    max_step,
+    k,
+    eta,
+    eps,
+    schedule,
+    k_start,
+):
     """``pointatlas denoise``'s flags for the tiled path ("auto": the method the untiled
     command runs, `pointatlas.denoise.choose_method`: normal voting)."""
     if method == "auto":
@@ -364,14 +433,26 @@ def denoise_params(path, *, method, estimate, rho, tau, n_iter, filter_iter, max
 
         method = choose_method(np.zeros((1, 3)))
     if method == "flatness":
-        return {"method": method, "k": int(k), "eta": eta, "eps": eps,
-                "n_iter": 60 if n_iter is None else int(n_iter), "schedule": schedule,
-                "k_start": k_start}  # fmt: skip
+        return {
+            "method": method,
+            "k": int(k),
+            "eta": eta,
+            "eps": eps,
+            "n_iter": 60 if n_iter is None else int(n_iter),
+            "schedule": schedule,
+            "k_start": k_start,
+        }
     if n_iter is None:  # untiled: rounds until the points settle; no halo bounds that
         raise PointAtlasError(
             f"--method {method} with --tile-size needs --n-iter (the halo covers a fixed "
             "number of iterations)"
         )
     n_iter = int(n_iter)
-    return {"method": method, "rho": rho, "tau": tau, "n_iter": n_iter,
-            "filter_iter": int(filter_iter), "max_step": max_step}  # fmt: skip
+    return {
+        "method": method,
+        "rho": rho,
+        "tau": tau,
+        "n_iter": n_iter,
+        "filter_iter": int(filter_iter),
+        "max_step": max_step,
+    }

@@ -49,8 +49,9 @@ def normals_features_task(spec, data):
     grid, xyz, owner, owned, bdist = _setup(spec, data)
     out = {"status": "ok", "gidx": data["gidx"][owned]}
     if orient == "mst":
-        table, fail = _certified_table(spec, xyz, owned, bdist, max(k, kf),
-                                       min_cols=max(k, kf, orient_k))  # fmt: skip
+        table, fail = _certified_table(
+            spec, xyz, owned, bdist, max(k, kf), min_cols=max(k, kf, orient_k)
+        )
         if fail:
             return fail
         normals, parts = mst_tile_normals(xyz, table, k, orient_k, data, owner, owned)
@@ -70,9 +71,18 @@ def normals_features_task(spec, data):
     return out
 
 
-def normals_features_over(source, options, params, normal_params, *, normals_out=None,
-                          fields_out=None, spill_dir=None, client_info=None,
-                          label="normals + features"):  # fmt: skip
+def normals_features_over(
+    source,
+    options,
+    params,
+    normal_params,
+    *,
+    normals_out=None,
+    fields_out=None,
+    spill_dir=None,
+    client_info=None,
+    label="normals + features",
+):
     """Normals (``normal_params``: ``k``, ``orient_k``, ``orient`` "mst" (default) or
     "up") and equal-weight features (``params``: mode "fixed" or "optimal_k") of every
     point, one k-NN per tile.
@@ -105,15 +115,28 @@ def normals_features_over(source, options, params, normal_params, *, normals_out
             fields[name][res["gidx"]] = v
         T.release_pages(*fields.values())
 
-    task_params = {"k": k, "orient_k": orient_k, "orient": orient,
-                   "features": T.sent_as(params, fields)}  # fmt: skip
+    task_params = {
+        "k": k,
+        "orient_k": orient_k,
+        "orient": orient,
+        "features": T.sent_as(params, fields),
+    }
     cols = max(k, kf, orient_k) if orient == "mst" else max(k, kf)
     with T._maybe_client(options, client_info) as ci:
         halo0, fixed = T._auto_halo(source, max(k, kf), options, client=ci[0])
         run = T.run_tiles(
-            normals_features_task, source, grid, task_params, options, ci, on_result,
-            halo0=halo0, fixed=fixed, label=label, spill_dir=spill_dir,
-            memory_per_point=8.0 * (3 * (cols + 8) + 60)
-        )  # fmt: skip
+            normals_features_task,
+            source,
+            grid,
+            task_params,
+            options,
+            ci,
+            on_result,
+            halo0=halo0,
+            fixed=fixed,
+            label=label,
+            spill_dir=spill_dir,
+            memory_per_point=8.0 * (3 * (cols + 8) + 60),
+        )
     stitch.finish(run)
     return stitch.normals, fields, run

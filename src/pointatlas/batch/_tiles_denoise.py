@@ -65,20 +65,36 @@ def halo_width(source, params, spacing: float):
 
     method = params["method"]
     if method == "flatness":
-        spec = denoise_halo(method, n_iter=params["n_iter"], k=int(params["k"]),
-                            k_start=params.get("k_start"),
-                            schedule=params.get("schedule") or "constant")  # fmt: skip
+        spec = denoise_halo(
+            method,
+            n_iter=params["n_iter"],
+            k=int(params["k"]),
+            k_start=params.get("k_start"),
+            schedule=params.get("schedule") or "constant",
+        )
     else:
-        spec = denoise_halo(method, n_iter=params["n_iter"],
-                            n_filter_iter=int(params["filter_iter"]),
-                            n_update=params.get("n_update"))  # fmt: skip
+        spec = denoise_halo(
+            method,
+            n_iter=params["n_iter"],
+            n_filter_iter=int(params["filter_iter"]),
+            n_update=params.get("n_update"),
+        )
     _, reach = T._estimate_spacing(source, min(spec.columns, source.n))
     margin = spacing if method == "flatness" else 0.0
     return 1.05 * spec.length(reach + margin), spec
 
 
-def denoise_over(source, options, params, *, spill_dir=None, client_info=None, outs=None,
-                  normals_array=None, label="denoise"):  # fmt: skip
+def denoise_over(
+    source,
+    options,
+    params,
+    *,
+    spill_dir=None,
+    client_info=None,
+    outs=None,
+    normals_array=None,
+    label="denoise",
+):
     # l of normal voting: the mean 6-NN spacing (exact below SPACING_SAMPLE points)
     spacing, _ = T._estimate_spacing(source, 6, sample=SPACING_SAMPLE)
     p = dict(params)
@@ -108,11 +124,20 @@ def denoise_over(source, options, params, *, spill_dir=None, client_info=None, o
 
     with T._maybe_client(options, client_info) as ci:
         run = T.run_tiles(
-            "denoise", source, grid, p, options, ci, on_result, halo0=halo,
-            fixed=options.halo is not None, label=label, spill_dir=spill_dir,
+            "denoise",
+            source,
+            grid,
+            p,
+            options,
+            ci,
+            on_result,
+            halo0=halo,
+            fixed=options.halo is not None,
+            label=label,
+            spill_dir=spill_dir,
             normals_array=normals_array,
-            memory_per_point=8.0 * 200
-        )  # fmt: skip
+            memory_per_point=8.0 * 200,
+        )
     out["spacing"] = spacing
     run.extra["n_fallback"] = n_fallback[0]
     return out, run

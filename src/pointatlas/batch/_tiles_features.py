@@ -38,8 +38,17 @@ def tiled_features(points, normals, options: TileOptions, params: dict):
     return features_over(ArraySource(points, normals), options, params)
 
 
-def features_over(source, options, params, *, out=None, spill_dir=None, client_info=None,
-                   normals_array=None, label="features"):  # fmt: skip
+def features_over(
+    source,
+    options,
+    params,
+    *,
+    out=None,
+    spill_dir=None,
+    client_info=None,
+    normals_array=None,
+    label="features",
+):
     kmax = feature_kmax(params)
     if kmax > source.n:
         raise PointAtlasError(f"k = {kmax} exceeds the number of points ({source.n})")
@@ -58,8 +67,18 @@ def features_over(source, options, params, *, out=None, spill_dir=None, client_i
     with T._maybe_client(options, client_info) as ci:
         halo0, fixed = T._auto_halo(source, kmax, options, client=ci[0])
         run = T.run_tiles(
-            "features", source, grid, T.sent_as(params, fields), options, ci, on_result,
-            halo0=halo0, fixed=fixed, label=label, spill_dir=spill_dir,
-            normals_array=normals_array, memory_per_point=8.0 * (kmax + 60)
-        )  # fmt: skip
+            "features",
+            source,
+            grid,
+            T.sent_as(params, fields),
+            options,
+            ci,
+            on_result,
+            halo0=halo0,
+            fixed=fixed,
+            label=label,
+            spill_dir=spill_dir,
+            normals_array=normals_array,
+            memory_per_point=8.0 * (kmax + 60),
+        )
     return fields, run

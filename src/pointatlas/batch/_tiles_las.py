@@ -216,8 +216,9 @@ LAS_FEATURE_FLOAT = np.float32
 def las_feature_fields(fields: dict) -> dict:
     """``pointatlas features``'s fields as written to LAS/LAZ: float64 as float32 (the
     rounding of ``astype``); integer and uint8 fields unchanged."""
-    return {k: v.astype(LAS_FEATURE_FLOAT) if v.dtype == np.float64 else v
-            for k, v in fields.items()}  # fmt: skip
+    return {
+        k: v.astype(LAS_FEATURE_FLOAT) if v.dtype == np.float64 else v for k, v in fields.items()
+    }
 
 
 def _free_name(name: str, taken: set) -> str:
@@ -227,8 +228,9 @@ def _free_name(name: str, taken: set) -> str:
     return new
 
 
-def _plan_fields(src: LasSource, fields: dict, *, normals: bool, keep_input_normals: bool,
-                 float_type=None):  # fmt: skip
+def _plan_fields(
+    src: LasSource, fields: dict, *, normals: bool, keep_input_normals: bool, float_type=None
+):
     """Output header and the (name, array, column) list of new dimensions
     (``float_type``: the type of float64 fields, default float64)."""
     import laspy
@@ -299,8 +301,16 @@ def _copy_input(out: np.ndarray, rec: np.ndarray) -> None:
         out[name] = rec[name]
 
 
-def write_streamed(src: LasSource, out_path, fields: dict, *, normals=None, points=None,
-                   keep_input_normals: bool = True, float_type=None) -> Path:  # fmt: skip
+def write_streamed(
+    src: LasSource,
+    out_path,
+    fields: dict,
+    *,
+    normals=None,
+    points=None,
+    keep_input_normals: bool = True,
+    float_type=None,
+) -> Path:
     """Write ``src``'s records with our fields (arrays or memory maps of N rows).
 
     ``normals`` (N, 3) replace the input's ``nx, ny, nz`` (whose values go to
@@ -315,9 +325,12 @@ def write_streamed(src: LasSource, out_path, fields: dict, *, normals=None, poin
 
     out_path = Path(out_path)
     header, extra = _plan_fields(
-        src, fields, normals=normals is not None, keep_input_normals=keep_input_normals,
+        src,
+        fields,
+        normals=normals is not None,
+        keep_input_normals=keep_input_normals,
         float_type=float_type,
-    )  # fmt: skip
+    )
     laz = out_path.suffix.lower() == ".laz"
     with atomic_write(out_path, "wb") as fh:
         with laspy.open(fh, mode="w", header=header, do_compress=laz, closefd=False) as writer:
@@ -359,8 +372,16 @@ def _memmap(folder: Path, name: str, dtype, shape):
     return np.lib.format.open_memmap(folder / f"{name}.npy", mode="w+", dtype=dtype, shape=shape)
 
 
-def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, *,
-              normal_params=None, extra_fields=None):  # fmt: skip
+def las_tiled(
+    kind: str,
+    in_path,
+    out_path,
+    params: dict,
+    options: TileOptions,
+    *,
+    normal_params=None,
+    extra_fields=None,
+):
     """Run one command by tiles on a LAS/LAZ file and write LAS/LAZ, streaming.
 
     Parameters
@@ -403,19 +424,26 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
                 normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
                 src.use_normals = False
                 _, run_n = normals_over(
-                    src, replace(options, halo=None), k=normal_params["k"],
+                    src,
+                    replace(options, halo=None),
+                    k=normal_params["k"],
                     orient=normal_params.get("orient", "mst"),
-                    orient_k=normal_params.get("orient_k", 10), viewpoint=None, out=normals,
-                    spill_dir=tmp, client_info=ci, label="normals",
-                )  # fmt: skip
+                    orient_k=normal_params.get("orient_k", 10),
+                    viewpoint=None,
+                    out=normals,
+                    spill_dir=tmp,
+                    client_info=ci,
+                    label="normals",
+                )
                 summary["normals_tiles"] = run_n.summary()
             fields = {}
             write_kwargs = {}
             if kind == "normals":
                 normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
                 src.use_normals = False
-                _, run = normals_over(src, options, out=normals, spill_dir=tmp, client_info=ci,
-                                       **params)  # fmt: skip
+                _, run = normals_over(
+                    src, options, out=normals, spill_dir=tmp, client_info=ci, **params
+                )
                 write_kwargs["normals"] = normals
             elif kind == "features":
                 alloc = _Alloc(tmp, src.n, float_type=LAS_FEATURE_FLOAT)
@@ -423,13 +451,26 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
                     normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
                     src.use_normals = False
                     normals, _, run = normals_features_over(
-                        src, options, params, normal_params, normals_out=normals,
-                        fields_out=alloc, spill_dir=tmp, client_info=ci,
-                    )  # fmt: skip
+                        src,
+                        options,
+                        params,
+                        normal_params,
+                        normals_out=normals,
+                        fields_out=alloc,
+                        spill_dir=tmp,
+                        client_info=ci,
+                    )
                 else:
                     src.use_normals = params["mode"] == "optimal" and normals is None
-                    _, run = features_over(src, options, params, out=alloc, spill_dir=tmp,
-                                           client_info=ci, normals_array=normals)  # fmt: skip
+                    _, run = features_over(
+                        src,
+                        options,
+                        params,
+                        out=alloc,
+                        spill_dir=tmp,
+                        client_info=ci,
+                        normals_array=normals,
+                    )
                 fields = dict(alloc.arrays)
                 write_kwargs["float_type"] = LAS_FEATURE_FLOAT
                 if normals is not None:
@@ -438,9 +479,14 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
                 src.use_normals = normals is None
                 labels = _memmap(tmp, "label", np.int64, (src.n,))
                 labels, quality, run = segment_over(
-                    src, options, params, labels_out=labels, spill_dir=tmp, client_info=ci,
+                    src,
+                    options,
+                    params,
+                    labels_out=labels,
+                    spill_dir=tmp,
+                    client_info=ci,
                     normals_array=normals,
-                )  # fmt: skip
+                )
                 summary["quality"] = {k: quality[k] for k in ("n_regions", "energy", "mse")}
                 summary["regions"] = quality
                 fields = {"label": labels}
@@ -452,8 +498,15 @@ def las_tiled(kind: str, in_path, out_path, params: dict, options: TileOptions, 
                 src.use_normals = normals is None
                 alloc = _Alloc(tmp, src.n)
                 outs = alloc.dict_with(points=(np.float64, 3), normals=(np.float64, 3))
-                out, run = denoise_over(src, options, params, spill_dir=tmp, client_info=ci,
-                                         outs=outs, normals_array=normals)  # fmt: skip
+                out, run = denoise_over(
+                    src,
+                    options,
+                    params,
+                    spill_dir=tmp,
+                    client_info=ci,
+                    outs=outs,
+                    normals_array=normals,
+                )
                 summary["spacing"] = out["spacing"]
                 fields = {k: v for k, v in out.items() if k not in ("points", "normals", "spacing")}
                 write_kwargs.update(points=out["points"], normals=out["normals"])

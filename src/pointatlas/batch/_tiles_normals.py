@@ -83,8 +83,7 @@ def _normal_signs(halo_parts, tops, piece_of, normals, tile_links):
     return keys, rel * root[comp]
 
 
-def tiled_normals(points, options: TileOptions, *, k=20, orient="mst", orient_k=10,
-                  viewpoint=None):  # fmt: skip
+def tiled_normals(points, options: TileOptions, *, k=20, orient="mst", orient_k=10, viewpoint=None):
     """PCA normals by tiles, bit for bit those of the untiled ``pointatlas normals``.
 
     Parameters
@@ -124,8 +123,7 @@ def tiled_normals(points, options: TileOptions, *, k=20, orient="mst", orient_k=
     with the untiled MST wherever the untiled propagation itself is consistent.
     """
     source = ArraySource(points)
-    return normals_over(source, options, k=k, orient=orient, orient_k=orient_k,
-                         viewpoint=viewpoint)  # fmt: skip
+    return normals_over(source, options, k=k, orient=orient, orient_k=orient_k, viewpoint=viewpoint)
 
 
 class _Stitch:
@@ -148,8 +146,12 @@ class _Stitch:
         self.normals[res["gidx"]] = res["normals"]
         if self.piece_of is not None:
             self.piece_of[res["gidx"]] = _piece_key(t, res["piece"])
-            self.halo_parts[t] = (res["halo_gidx"], res["halo_owner"], res["halo_normals"],
-                                  res["halo_piece"])  # fmt: skip
+            self.halo_parts[t] = (
+                res["halo_gidx"],
+                res["halo_owner"],
+                res["halo_normals"],
+                res["halo_piece"],
+            )
             comps, rows = res["tops"]
             self.tops[t] = (_piece_key(t, comps), rows)
             self.tile_links[t] = res["links"]
@@ -159,8 +161,7 @@ class _Stitch:
         if self.piece_of is None:
             return
         normals, piece_of = self.normals, self.piece_of
-        keys, flips = _normal_signs(self.halo_parts, self.tops, piece_of, normals,
-                                    self.tile_links)  # fmt: skip
+        keys, flips = _normal_signs(self.halo_parts, self.tops, piece_of, normals, self.tile_links)
         T.release_pages(normals, piece_of)
         run.extra["orientation_pieces"] = int(keys.size)
         run.extra["flipped_pieces"] = int(np.count_nonzero(flips < 0))
@@ -181,8 +182,19 @@ def check_normal_options(n: int, k: int, orient: str) -> None:
         raise PointAtlasError(f"--k must lie in [3, number of points = {n}]; got {k}")
 
 
-def normals_over(source, options, *, k, orient, orient_k, viewpoint, out=None, spill_dir=None,
-                  client_info=None, label="normals"):  # fmt: skip
+def normals_over(
+    source,
+    options,
+    *,
+    k,
+    orient,
+    orient_k,
+    viewpoint,
+    out=None,
+    spill_dir=None,
+    client_info=None,
+    label="normals",
+):
     n = source.n
     check_normal_options(n, k, orient)
     grid = T._grid_for(source, options)
@@ -191,9 +203,18 @@ def normals_over(source, options, *, k, orient, orient_k, viewpoint, out=None, s
     with T._maybe_client(options, client_info) as ci:
         halo0, fixed = T._auto_halo(source, k, options, client=ci[0])
         run = T.run_tiles(
-            "normals", source, grid, params, options, ci, stitch.on_result, halo0=halo0,
-            fixed=fixed, label=label, spill_dir=spill_dir,
-            memory_per_point=8.0 * (3 * (k + 8) + 40)
-        )  # fmt: skip
+            "normals",
+            source,
+            grid,
+            params,
+            options,
+            ci,
+            stitch.on_result,
+            halo0=halo0,
+            fixed=fixed,
+            label=label,
+            spill_dir=spill_dir,
+            memory_per_point=8.0 * (3 * (k + 8) + 40),
+        )
     stitch.finish(run)
     return stitch.normals, run

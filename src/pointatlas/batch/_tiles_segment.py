@@ -255,8 +255,17 @@ def vsa_options(params):
     return vsa
 
 
-def segment_over(source, options, params, *, labels_out=None, spill_dir=None, client_info=None,
-                 normals_array=None, label="segment"):  # fmt: skip
+def segment_over(
+    source,
+    options,
+    params,
+    *,
+    labels_out=None,
+    spill_dir=None,
+    client_info=None,
+    normals_array=None,
+    label="segment",
+):
     vsa = vsa_options(params)
     k = vsa.k
     grid = T._grid_for(source, options)
@@ -273,10 +282,20 @@ def segment_over(source, options, params, *, labels_out=None, spill_dir=None, cl
 
     with T._maybe_client(options, client_info) as ci:
         run = T.run_tiles(
-            "segment", source, grid, {"vsa": vsa}, options, ci, on_result, halo0=halo0, fixed=fixed,
-            label=label, spill_dir=spill_dir, normals_array=normals_array,
-            memory_per_point=8.0 * (4 * k + 80)
-        )  # fmt: skip
+            "segment",
+            source,
+            grid,
+            {"vsa": vsa},
+            options,
+            ci,
+            on_result,
+            halo0=halo0,
+            fixed=fixed,
+            label=label,
+            spill_dir=spill_dir,
+            normals_array=normals_array,
+            memory_per_point=8.0 * (4 * k + 80),
+        )
     tau2 = float(T._estimate_spacing(source, k, typical=True)[1]) ** 2
     quality, extra = stitch(per_tile, vsa, tau2, labels)
     run.extra.update(extra)
@@ -335,8 +354,14 @@ def stitch(per_tile: dict, vsa, tau2: float, labels: np.ndarray):
     # VSA's local mode: a tile's regions are the untiled run's (docs/decisions/segment.md
     # "Local mode"), so a stitched region holds at most one region of each tile
     tile_of = np.repeat(np.arange(len(tiles)), [per_tile[t]["n_regions"] for t in tiles])
-    regions = _Regions(stats, first, eta, None if eta is not None else math.cos(max_angle), tau2,
-                       tile_of if vsa.local else None)  # fmt: skip
+    regions = _Regions(
+        stats,
+        first,
+        eta,
+        None if eta is not None else math.cos(max_angle),
+        tau2,
+        tile_of if vsa.local else None,
+    )
     has_points = stats[:, 0] > 0
     pairs, n_links = _halo_unions(regions, links, has_points)
     cand = [pairs]
@@ -362,8 +387,12 @@ def stitch(per_tile: dict, vsa, tau2: float, labels: np.ndarray):
     for sl in T._chunked(labels.shape[0]):
         labels[sl] = final[labels[sl]]
         T.release_pages(labels)
-    extra = {"tile_regions": int(has_points.sum()), "halo_unions": n_links,
-             "final_merges": n_final, "small_regions_joined": n_small}  # fmt: skip
+    extra = {
+        "tile_regions": int(has_points.sum()),
+        "halo_unions": n_links,
+        "final_merges": n_final,
+        "small_regions_joined": n_small,
+    }
     return _quality(regions.st[live]), extra
 
 
@@ -435,8 +464,9 @@ def _agreed(pairs, both, counts, tile_of):
     agree on the halo points there: one region (docs/decisions/batch.md)."""
     n_tiles = int(tile_of.max()) + 1
     # links of region r with any region of tile t, keyed r * n_tiles + t
-    key = np.concatenate([pairs[:, 0] * n_tiles + tile_of[pairs[:, 1]],
-                          pairs[:, 1] * n_tiles + tile_of[pairs[:, 0]]])  # fmt: skip
+    key = np.concatenate(
+        [pairs[:, 0] * n_tiles + tile_of[pairs[:, 1]], pairs[:, 1] * n_tiles + tile_of[pairs[:, 0]]]
+    )
     inv = np.unique(key, return_inverse=True)[1].reshape(-1)
     per = np.bincount(inv, weights=np.concatenate([counts, counts]))
     half = pairs.shape[0]

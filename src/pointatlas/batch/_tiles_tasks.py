@@ -136,9 +136,15 @@ def mst_tile_normals(xyz, table, k, orient_k, data, owner, owned):
     normals = orient_normals(xyz, normals, k=ok, method="mst", neighbors=graph)
     comp, links = _smooth_pieces(graph, normals)
     hg, ho = _halo_part(data, owner, owned)
-    parts = {"halo_gidx": hg, "halo_owner": ho, "halo_normals": normals[~owned],
-             "halo_piece": comp[~owned], "piece": comp[owned], "links": links,
-             "tops": _piece_tops(comp, owned, xyz[:, 2], data["gidx"], normals[:, 2])}  # fmt: skip
+    parts = {
+        "halo_gidx": hg,
+        "halo_owner": ho,
+        "halo_normals": normals[~owned],
+        "halo_piece": comp[~owned],
+        "piece": comp[owned],
+        "links": links,
+        "tops": _piece_tops(comp, owned, xyz[:, 2], data["gidx"], normals[:, 2]),
+    }
     return normals, parts
 
 
@@ -274,9 +280,15 @@ def denoise_task(spec, data):
     nrm = data.get("normals")
     if p["method"] == "flatness":
         res = flatness_denoise(
-            xyz, k=p["k"], eta=p["eta"], eps=p["eps"], n_iter=p["n_iter"],
-            schedule=p["schedule"], k_start=p["k_start"], normals=nrm,
-        )  # fmt: skip
+            xyz,
+            k=p["k"],
+            eta=p["eta"],
+            eps=p["eps"],
+            n_iter=p["n_iter"],
+            schedule=p["schedule"],
+            k_start=p["k_start"],
+            normals=nrm,
+        )
     else:
         table = None
         if xyz.shape[0] >= p["columns"]:
@@ -284,11 +296,18 @@ def denoise_task(spec, data):
             if fail:
                 return fail
         res = normal_voting_denoise(
-            xyz, nrm, rho=p["rho"], tau=p["tau"], n_iter=p["n_iter"],
-            n_filter_iter=p["filter_iter"], n_update=p.get("n_update"),
-            adaptive=p["method"] == "normal-voting-adaptive", max_step=p["max_step"],
-            neighbors=table, spacing=p["spacing"],
-        )  # fmt: skip
+            xyz,
+            nrm,
+            rho=p["rho"],
+            tau=p["tau"],
+            n_iter=p["n_iter"],
+            n_filter_iter=p["filter_iter"],
+            n_update=p.get("n_update"),
+            adaptive=p["method"] == "normal-voting-adaptive",
+            max_step=p["max_step"],
+            neighbors=table,
+            spacing=p["spacing"],
+        )
     fields = {
         "displacement": res.displacement[owned],
         "feature_class": res.feature_class[owned],

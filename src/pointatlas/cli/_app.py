@@ -381,8 +381,9 @@ def tile_options(tile_size, halo, workers, scheduler, max_memory, **refused):
     return options
 
 
-def run_tiled(kind: str, in_path, out_path, params: dict, options, *, report=None,
-              **kwargs) -> dict:  # fmt: skip
+def run_tiled(
+    kind: str, in_path, out_path, params: dict, options, *, report=None, **kwargs
+) -> dict:
     """Run a command by tiles (`pointatlas.batch.run_tiled_command`), print a summary
     line and the files written; returns the summary. ``report``: also an HTML report
     whose 3-D view reads every n-th point back from OUT (`write_tiled_report`)."""

@@ -124,29 +124,48 @@ def _search_csv(path: Path, rows: list[dict]) -> Path:
     return write_text(path, buf.getvalue())
 
 
-def _run_cover(points, *, scale, search, rotations, offsets, accept, dim, layout, radius, seed,
-               cloud_points):  # fmt: skip
+def _run_cover(
+    points, *, scale, search, rotations, offsets, accept, dim, layout, radius, seed, cloud_points
+):
     """Fixed scale or search; returns (cover, search result or None, chosen setting).
 
     A fixed scale with ``--rotations``/``--offsets`` searches the placements at that
     scale; the first accepted setting is kept, else the closest (`ScaleSearch.chosen`).
     """
     if search is None and not rotations and not offsets:
-        cov = ball_cover(points, scale, dim=dim, layout=layout, radius=radius,
-                         cloud_points=cloud_points)  # fmt: skip
+        cov = ball_cover(
+            points, scale, dim=dim, layout=layout, radius=radius, cloud_points=cloud_points
+        )
         return cov, None, {"scale": scale, "rotation": 0, "offset": 0}
     grid = np.array([scale]) if search is None else scale_grid(*search)
     total = grid.size * (rotations + 1) * (offsets + 1)
     with progress_bar("cover search", total=total) as advance:
         res = search_cover_scale(
-            points, grid, n_rotations=rotations, n_offsets=offsets, rng=seed, accept=accept,
-            dim=dim, layout=layout, radius=radius, callback=lambda _: advance(),
-        )  # fmt: skip
+            points,
+            grid,
+            n_rotations=rotations,
+            n_offsets=offsets,
+            rng=seed,
+            accept=accept,
+            dim=dim,
+            layout=layout,
+            radius=radius,
+            callback=lambda _: advance(),
+        )
     pick = res.chosen
-    cov = ball_cover(points, dim=dim, layout=layout, radius=radius, cloud_points=cloud_points,
-                     **res.setting(pick))  # fmt: skip
-    chosen = {"scale": float(res.scales[pick]), "rotation": int(res.rotation_index[pick]),
-              "offset": int(res.offset_index[pick])}  # fmt: skip
+    cov = ball_cover(
+        points,
+        dim=dim,
+        layout=layout,
+        radius=radius,
+        cloud_points=cloud_points,
+        **res.setting(pick),
+    )
+    chosen = {
+        "scale": float(res.scales[pick]),
+        "rotation": int(res.rotation_index[pick]),
+        "offset": int(res.offset_index[pick]),
+    }
     return cov, res, chosen
 
 
@@ -238,9 +257,10 @@ def _is_accepted(report, accept, dim) -> bool:
     """A closed (or, with --accept open, any) cloud surface or 1-manifold curve."""
     closed_only = (accept or ("closed" if dim == 3 else "open")) == "closed"
     return (
-        (report.is_cloud_surface and (report.is_closed or not closed_only)) if dim == 3
+        (report.is_cloud_surface and (report.is_closed or not closed_only))
+        if dim == 3
         else (report.is_one_manifold and (report.is_closed or not closed_only))
-    )  # fmt: skip
+    )
 
 
 def _cover_payload(in_path, ps, cov, chosen, report, res, accepted, seed, placeholder, dim):
@@ -275,7 +295,7 @@ def _cover_payload(in_path, ps, cov, chosen, report, res, accepted, seed, placeh
                 }
                 for i in res.accepted
             ],
-        },  # fmt: skip
+        },
     }
     return payload
 
@@ -365,34 +385,74 @@ def cloudsurface_command(
     report.json (topology report and the files of this run with their SHA-256).
     """
     in_path, out_dir, dim = _cover_arguments(
-        paths, from_mesh, dim=dim, scale=scale, search=search, rotations=rotations,
-        offsets=offsets, accept=accept, layout=layout, radius=radius,
-    )  # fmt: skip
-    out = _checked_outputs(in_path, out_dir, dim, search=search, rotations=rotations,
-                           offsets=offsets, render=render, html_report=html_report)  # fmt: skip
+        paths,
+        from_mesh,
+        dim=dim,
+        scale=scale,
+        search=search,
+        rotations=rotations,
+        offsets=offsets,
+        accept=accept,
+        layout=layout,
+        radius=radius,
+    )
+    out = _checked_outputs(
+        in_path,
+        out_dir,
+        dim,
+        search=search,
+        rotations=rotations,
+        offsets=offsets,
+        render=render,
+        html_report=html_report,
+    )
     t0 = time.perf_counter()
     if from_mesh is not None:
-        _from_mesh(in_path, out, model=model, c=c, c_v=c_v, c_h=c_h, t=t, samples=samples,
-                   curvature=curvature, render=render, seed=seed, t0=t0,
-                   html_report=html_report)  # fmt: skip
+        _from_mesh(
+            in_path,
+            out,
+            model=model,
+            c=c,
+            c_v=c_v,
+            c_h=c_h,
+            t=t,
+            samples=samples,
+            curvature=curvature,
+            render=render,
+            seed=seed,
+            t0=t0,
+            html_report=html_report,
+        )
         return
     ps = read_input(in_path, with_normals=False)
-    placeholder = {"n_clouds": np.zeros(ps.n_points, np.int64),
-                   "colors": np.zeros((ps.n_points, 3), np.uint8)}  # fmt: skip
+    placeholder = {
+        "n_clouds": np.zeros(ps.n_points, np.int64),
+        "colors": np.zeros((ps.n_points, 3), np.uint8),
+    }
     check_point_output(out["clouds"], ps, placeholder)
     cov, res, chosen = _run_cover(
-        ps.points, scale=scale, search=search, rotations=rotations, offsets=offsets,
-        accept=accept, dim=dim, layout=layout, radius=radius, seed=seed,
+        ps.points,
+        scale=scale,
+        search=search,
+        rotations=rotations,
+        offsets=offsets,
+        accept=accept,
+        dim=dim,
+        layout=layout,
+        radius=radius,
+        seed=seed,
         cloud_points=cloud_points,
-    )  # fmt: skip
+    )
     K = cov.cloud_complex
     report = surface_report(K) if dim == 3 else curve_report(K)
     written, verts, faces = _write_cover_files(out, ps, cov, chosen, report, res, dim)
     accepted = _is_accepted(report, accept, dim)
     if render:
-        title = (f"{ps.name}: s = {chosen['scale']:g}, {cov.n_clouds} clouds, "
-                 + (("closed " if report.is_closed else "") + ("cloud surface" if dim == 3
-                    else "curve") if accepted else "not accepted"))  # fmt: skip
+        title = f"{ps.name}: s = {chosen['scale']:g}, {cov.n_clouds} clouds, " + (
+            ("closed " if report.is_closed else "") + ("cloud surface" if dim == 3 else "curve")
+            if accepted
+            else "not accepted"
+        )
         written.append(
             _picture(out["picture"], ps.points, K.n_memberships, verts, faces, K.edges, title)
         )
@@ -402,9 +462,18 @@ def cloudsurface_command(
     payload["seconds"] = round(time.perf_counter() - t0, 3)
     if html_report is not None:
         written.append(
-            _html_report(html_report, in_path, payload, ps.points, K.n_memberships, verts,
-                         faces, written, seed)
-        )  # fmt: skip
+            _html_report(
+                html_report,
+                in_path,
+                payload,
+                ps.points,
+                K.n_memberships,
+                verts,
+                faces,
+                written,
+                seed,
+            )
+        )
     write_summary_json(out["json"], payload, written)
     _print_result(report, cov.n_clouds, chosen, accepted, res, payload["seconds"], dim)
     for path in [*written, out["json"]]:
@@ -493,9 +562,17 @@ def _from_mesh(
         raise PointAtlasError(f"{in_path}: --from-mesh needs a mesh with faces")
     tri = mesh.triangles
     mc = clouds_from_mesh(
-        mesh.vertices, tri, model=model, c=c, c_v=c_v, c_h=c_h, t=t, n_samples=samples,
-        curvature=None if curvature == "none" else curvature, rng=seed,
-    )  # fmt: skip
+        mesh.vertices,
+        tri,
+        model=model,
+        c=c,
+        c_v=c_v,
+        c_h=c_h,
+        t=t,
+        n_samples=samples,
+        curvature=None if curvature == "none" else curvature,
+        rng=seed,
+    )
     K = cloud_complex(mc.clouds, mc.points, cloud_points=mc.cloud_points)
     report = surface_report(K)
     verts, faces = realise_complex(K, report)
@@ -511,13 +588,17 @@ def _from_mesh(
     same = bool(np.array_equal(K.triangles, mesh_tri))
     if render:
         title = f"{name}: {model}, {mc.points.shape[0]:,} points, complex = mesh: {same}"
-        written.append(_picture(out["picture"], mc.points, K.n_memberships, verts, faces,
-                                K.edges, title))  # fmt: skip
+        written.append(
+            _picture(out["picture"], mc.points, K.n_memberships, verts, faces, K.edges, title)
+        )
     payload = {
         "input": str(in_path),
         "mode": "from-mesh",
         "model": model,
-        "c": c, "c_v": c_v, "c_h": c_h, "t": t,
+        "c": c,
+        "c_v": c_v,
+        "c_h": c_h,
+        "t": t,
         "samples": samples,
         "curvature": curvature,
         "seed": seed,
@@ -529,15 +610,26 @@ def _from_mesh(
         "points_per_cloud_count": np.bincount(K.n_memberships).tolist(),
         "report": report.summary(),
         "seconds": round(time.perf_counter() - t0, 3),
-    }  # fmt: skip
+    }
     if html_report is not None:
         written.append(
-            _html_report(html_report, in_path, payload, mc.points, K.n_memberships, verts,
-                         faces, written, seed)
-        )  # fmt: skip
+            _html_report(
+                html_report,
+                in_path,
+                payload,
+                mc.points,
+                K.n_memberships,
+                verts,
+                faces,
+                written,
+                seed,
+            )
+        )
     write_summary_json(out["json"], payload, written)
-    console.print(f"Algorithm 1 ({model}): {mc.points.shape[0]:,} points in {K.n_clouds} clouds; "
-                  f"complex equals the mesh: {same}")  # fmt: skip
+    console.print(
+        f"Algorithm 1 ({model}): {mc.points.shape[0]:,} points in {K.n_clouds} clouds; "
+        f"complex equals the mesh: {same}"
+    )
     _print_result(report, K.n_clouds, {}, report.is_cloud_surface, None, payload["seconds"], 3)
     for path in [*written, out["json"]]:
         say(f"wrote {path}")

@@ -82,8 +82,9 @@ def _compute_normals(points, *, k: int, orient: str, orient_k: int, viewpoint, a
     )[0]
 
 
-def normals_and_table(points, *, k: int, orient: str, orient_k: int, viewpoint, advance,
-                      min_cols: int = 0):  # fmt: skip
+def normals_and_table(
+    points, *, k: int, orient: str, orient_k: int, viewpoint, advance, min_cols: int = 0
+):
     """PCA normals at ``k``, oriented by ``orient``, and the k-NN query they came from
     (``(indices, distances)``, at least ``min_cols`` columns: ``features --normals``
     computes its features from the same table)."""

@@ -79,9 +79,12 @@ def deform_command(
     json_path = output.with_suffix(".json")
     check_outputs(
         [surface_dir / "cloudsurface.npz", new_cloud_points, points_path],
-        [("OUT", output, (".ply",)), ("OUT's summary", json_path, None),
-         ("--report", report, REPORT_EXTENSIONS)],
-    )  # fmt: skip
+        [
+            ("OUT", output, (".ply",)),
+            ("OUT's summary", json_path, None),
+            ("--report", report, REPORT_EXTENSIONS),
+        ],
+    )
     K, pts0, faces = load_cloudsurface(surface_dir)
     new_cp = read_input(new_cloud_points, with_normals=False).points
     if new_cp.shape[0] != K.n_clouds:
@@ -100,9 +103,17 @@ def deform_command(
     from ..viz import membership_colors
 
     colors = membership_colors(K.n_memberships)
-    written = [write_point_set(output, res.points, attributes={
-        "route": res.route.astype(np.int64), "n_clouds": np.asarray(K.n_memberships)},
-        colors=colors)]  # fmt: skip
+    written = [
+        write_point_set(
+            output,
+            res.points,
+            attributes={
+                "route": res.route.astype(np.int64),
+                "n_clouds": np.asarray(K.n_memberships),
+            },
+            colors=colors,
+        )
+    ]
     payload = {
         "surface": str(surface_dir),
         "new_cloud_points": str(new_cloud_points),
@@ -115,10 +126,21 @@ def deform_command(
     if report is not None:
         moved_cp = np.asarray(K.cloud_points) if inverse else new_cp
         written.append(
-            _write_deform_report(report, surface_dir, new_cloud_points, pts, res, K, payload,
-                                 mesh=(moved_cp, faces), parameters={"inverse": inverse,
-                                 "points": None if points_path is None else str(points_path)})
-        )  # fmt: skip
+            _write_deform_report(
+                report,
+                surface_dir,
+                new_cloud_points,
+                pts,
+                res,
+                K,
+                payload,
+                mesh=(moved_cp, faces),
+                parameters={
+                    "inverse": inverse,
+                    "points": None if points_path is None else str(points_path),
+                },
+            )
+        )
     write_summary_json(json_path, payload, written)
     c = res.counts()
     console.print(
@@ -140,8 +162,9 @@ def deform_report_table(payload: dict, displacement) -> dict:
     return table
 
 
-def _write_deform_report(path, surface_dir, new_cloud_points, pts, res, K, payload, *, mesh,
-                         parameters) -> Path:  # fmt: skip
+def _write_deform_report(
+    path, surface_dir, new_cloud_points, pts, res, K, payload, *, mesh, parameters
+) -> Path:
     """``deform --report``: the routes, the moved points coloured by displacement, and the
     complex at the moved cloud points as a surface (no surface when it has no triangles)."""
     from .._core import PointSet
@@ -149,13 +172,17 @@ def _write_deform_report(path, surface_dir, new_cloud_points, pts, res, K, paylo
 
     moved = PointSet(res.points, name=Path(surface_dir).name)
     displacement = np.linalg.norm(res.points - pts, axis=1)
-    fields = {"displacement": displacement, "route": res.route.astype(np.int64),
-              "n_clouds": np.asarray(K.n_memberships)}  # fmt: skip
+    fields = {
+        "displacement": displacement,
+        "route": res.route.astype(np.int64),
+        "n_clouds": np.asarray(K.n_memberships),
+    }
     layers = [report_layer(moved, fields, color_by="displacement")]
     vertices, faces = mesh
     if len(faces):
-        layers.append(MeshLayer(vertices, faces, name="complex at the new cloud points",
-                                opacity=0.35))  # fmt: skip
+        layers.append(
+            MeshLayer(vertices, faces, name="complex at the new cloud points", opacity=0.35)
+        )
     summary = {
         "cloud surface": str(surface_dir),
         "new cloud points": str(new_cloud_points),

@@ -95,8 +95,23 @@ def read_clean(path: Path):
     return ps.points, ps.normals, None
 
 
-def _run(ps, method, *, rho, tau, n_iter, n_filter_iter, max_step, k, eta, eps, schedule,
-         k_start, refit, planes):  # fmt: skip
+def _run(
+    ps,
+    method,
+    *,
+    rho,
+    tau,
+    n_iter,
+    n_filter_iter,
+    max_step,
+    k,
+    eta,
+    eps,
+    schedule,
+    k_start,
+    refit,
+    planes,
+):
     """Run the method with a progress bar; returns the DenoiseResult (``refit``: the
     normals were estimated, normal voting refits the returned ones to their faces;
     ``planes``: then the planar pieces step, as `pointatlas.denoise.denoise`)."""
@@ -234,9 +249,12 @@ def _write_out(output, out_ps, ours: dict, json_path) -> Path:
     """OUT with the fields it can hold (`_written_fields`); a note names those left out."""
     fields = _written_fields(output, ours)
     if not fields:
-        say(f"note: {Path(output).suffix} keeps coordinates and normals only: the fields "
+        say(
+            f"note: {Path(output).suffix} keeps coordinates and normals only: the fields "
             f"{', '.join(ours)} are not written (their summary is in {json_path.name}; "
-            "write .ply, .las or .laz for them)", out=err_console)  # fmt: skip
+            "write .ply, .las or .laz for them)",
+            out=err_console,
+        )
     return write_point_output(output, out_ps, fields)
 
 
@@ -333,7 +351,7 @@ def _render_result(render, ps, res, method):
                 scalar_name=name,
                 cmap="Blues",
                 title=res.method,
-            ),  # fmt: skip
+            ),
         ],
         title=f"{ps.name}: denoised ({res.method}, {res.n_iter} iterations)",
     )
@@ -376,19 +394,53 @@ _ReportOption = Annotated[
 ]
 
 
-def _run_tiles(input_path, output, tiles, report, *, method, estimate, normal_k, rho, tau,
-               n_iter, n_filter_iter, max_step, k, eta, eps, schedule, k_start):  # fmt: skip
+def _run_tiles(
+    input_path,
+    output,
+    tiles,
+    report,
+    *,
+    method,
+    estimate,
+    normal_k,
+    rho,
+    tau,
+    n_iter,
+    n_filter_iter,
+    max_step,
+    k,
+    eta,
+    eps,
+    schedule,
+    k_start,
+):
     """``--tile-size``: the run by tiles on dask (`pointatlas.batch`; no planar pieces)."""
     from ..batch._tiles_cli import denoise_params, normal_params_for
 
     params = denoise_params(
-        input_path, method=method, estimate=estimate, rho=rho, tau=tau, n_iter=n_iter,
-        filter_iter=default_filter_iter(refit=False) if n_filter_iter is None
-        else n_filter_iter, max_step=max_step, k=k, eta=eta, eps=eps,
-        schedule=schedule, k_start=k_start,
-    )  # fmt: skip
-    run_tiled("denoise", input_path, output, params, tiles, report=report,
-              normal_params=normal_params_for(input_path, estimate, normal_k))  # fmt: skip
+        input_path,
+        method=method,
+        estimate=estimate,
+        rho=rho,
+        tau=tau,
+        n_iter=n_iter,
+        filter_iter=default_filter_iter(refit=False) if n_filter_iter is None else n_filter_iter,
+        max_step=max_step,
+        k=k,
+        eta=eta,
+        eps=eps,
+        schedule=schedule,
+        k_start=k_start,
+    )
+    run_tiled(
+        "denoise",
+        input_path,
+        output,
+        params,
+        tiles,
+        report=report,
+        normal_params=normal_params_for(input_path, estimate, normal_k),
+    )
 
 
 @app.command("denoise")
@@ -460,20 +512,47 @@ def denoise_command(
             ("--report", report, REPORT_EXTENSIONS),
         ],
     )
-    _check_options(method, schedule, rho=rho, tau=tau, max_step=max_step, eta=eta, eps=eps,
-                   n_filter_iter=n_filter_iter, n_iter=n_iter, k=k, clean=clean)  # fmt: skip
-    tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, clean=clean,
-                         render=render)  # fmt: skip
+    _check_options(
+        method,
+        schedule,
+        rho=rho,
+        tau=tau,
+        max_step=max_step,
+        eta=eta,
+        eps=eps,
+        n_filter_iter=n_filter_iter,
+        n_iter=n_iter,
+        k=k,
+        clean=clean,
+    )
+    tiles = tile_options(
+        tile_size, halo, workers, scheduler, max_memory, clean=clean, render=render
+    )
     if tiles is not None:
         if planes:
             raise PointAtlasError(
                 "--planes grows planar pieces over the whole input, which tiles cannot; "
                 "drop --planes or --tile-size"
             )
-        _run_tiles(input_path, output, tiles, report, method=method, estimate=estimate,
-                   normal_k=normal_k, rho=rho, tau=tau, n_iter=n_iter,
-                   n_filter_iter=n_filter_iter, max_step=max_step, k=k, eta=eta, eps=eps,
-                   schedule=schedule, k_start=k_start)  # fmt: skip
+        _run_tiles(
+            input_path,
+            output,
+            tiles,
+            report,
+            method=method,
+            estimate=estimate,
+            normal_k=normal_k,
+            rho=rho,
+            tau=tau,
+            n_iter=n_iter,
+            n_filter_iter=n_filter_iter,
+            max_step=max_step,
+            k=k,
+            eta=eta,
+            eps=eps,
+            schedule=schedule,
+            k_start=k_start,
+        )
         return
     t0 = time.perf_counter()
     method, ps, estimated = _read_checked(
@@ -484,16 +563,43 @@ def denoise_command(
     n = ps.n_points
     clean_model = read_clean(clean) if clean is not None else None
     t1 = time.perf_counter()
-    res = _run(ps, method, rho=rho, tau=tau, n_iter=n_iter, n_filter_iter=n_filter_iter,
-               max_step=max_step, k=k, eta=eta, eps=eps, schedule=schedule,
-               k_start=k_start, refit=estimated, planes=planes is not False)  # fmt: skip
+    res = _run(
+        ps,
+        method,
+        rho=rho,
+        tau=tau,
+        n_iter=n_iter,
+        n_filter_iter=n_filter_iter,
+        max_step=max_step,
+        k=k,
+        eta=eta,
+        eps=eps,
+        schedule=schedule,
+        k_start=k_start,
+        refit=estimated,
+        planes=planes is not False,
+    )
     seconds = time.perf_counter() - t1
     ours = _our_fields(res, method)
     out_ps = ps.replace(points=res.points, normals=res.normals)
     written = [_write_out(output, out_ps, ours, json_path)]
-    summary = _summary(input_path, res, n, method, seconds, t0, k=k, eta=eta, eps=eps,
-                       schedule=schedule, k_start=k_start, rho=rho, tau=tau,
-                       n_filter_iter=n_filter_iter, max_step=max_step)  # fmt: skip
+    summary = _summary(
+        input_path,
+        res,
+        n,
+        method,
+        seconds,
+        t0,
+        k=k,
+        eta=eta,
+        eps=eps,
+        schedule=schedule,
+        k_start=k_start,
+        rho=rho,
+        tau=tau,
+        n_filter_iter=n_filter_iter,
+        max_step=max_step,
+    )
     if method != "flatness":
         summary["parameters"]["planes"] = planes is not False
     if clean_model is not None:

@@ -28,8 +28,14 @@ __all__ = [
 
 _SIMPLIFY_CASES = ("sphere", "fandisk", "torus", "two_torus", "dodecahedron")
 _TABLE_5_3_MODELS = (
-    "cube", "bearing", "fandisk", "sharp_sphere", "fertility", "octahedron", "rockerarm",
-)  # fmt: skip
+    "cube",
+    "bearing",
+    "fandisk",
+    "sharp_sphere",
+    "fertility",
+    "octahedron",
+    "rockerarm",
+)
 
 _Workers = Annotated[int, typer.Option("--workers", min=1, help="Dask workers.")]
 _Scheduler = Annotated[
@@ -85,8 +91,9 @@ def _write_report(report, study, out, files, summary, parameters, seed=0) -> Non
     from ..experiments import write_experiment_report
 
     files = [Path(f) for f in files if Path(f).resolve() != report.resolve()]
-    write_experiment_report(report, study=study, out=out, files=files, summary=summary,
-                            parameters=parameters, seed=seed)  # fmt: skip
+    write_experiment_report(
+        report, study=study, out=out, files=files, summary=summary, parameters=parameters, seed=seed
+    )
     say(f"wrote {report}")
 
 
@@ -127,8 +134,15 @@ def vsa_command(
             f"avg m {format_value(cols[col]['m']['avg'], 'm')}"
         )
     console.print(f"  wrote {len(written)} files")
-    _write_report(report, "vsa", out, written, {"models": str(models), "files": len(files)},
-                  {"workers": n_workers, "scheduler": scheduler}, seed)  # fmt: skip
+    _write_report(
+        report,
+        "vsa",
+        out,
+        written,
+        {"models": str(models), "files": len(files)},
+        {"workers": n_workers, "scheduler": scheduler},
+        seed,
+    )
 
 
 @experiment_app.command("neighbourhoods")
@@ -186,10 +200,19 @@ def neighbourhoods_command(
     )
     console.print(f"  k*: mean {summary['k_mean']:.3f}, sd {summary['k_sd']:.3f}")
     console.print(f"  wrote {len(written)} files")
-    _write_report(report, "neighbourhoods", out, written,
-                  {"models": str(models), "files": len(files), "collection": name},
-                  {"glob": pattern, "workers": n_workers, "scheduler": scheduler,
-                   "dodecahedron": dodecahedron})  # fmt: skip
+    _write_report(
+        report,
+        "neighbourhoods",
+        out,
+        written,
+        {"models": str(models), "files": len(files), "collection": name},
+        {
+            "glob": pattern,
+            "workers": n_workers,
+            "scheduler": scheduler,
+            "dodecahedron": dodecahedron,
+        },
+    )
 
 
 @experiment_app.command("simplify")
@@ -221,8 +244,15 @@ def simplify_experiment_command(
         console.print(f"{name}: {len(case_rows)} meshes in {time.perf_counter() - t0:.1f} s")
     console.print(write_simplify_outputs(rows, out))
     say(f"outputs in {out.resolve()}")
-    _write_report(report, "simplify", out, _files_since(out, start),
-                  {"cases": ", ".join(case or list(CASES))}, {}, seed)  # fmt: skip
+    _write_report(
+        report,
+        "simplify",
+        out,
+        _files_since(out, start),
+        {"cases": ", ".join(case or list(CASES))},
+        {},
+        seed,
+    )
 
 
 @experiment_app.command("denoise")
@@ -267,8 +297,15 @@ def denoise_experiment_command(
         )
     for path in written:
         say(f"wrote {path}")
-    _write_report(report, "denoise", out, written, {"data": str(data), "models": ", ".join(chosen)},
-                  {"table": table, "figures": figures}, seed)  # fmt: skip
+    _write_report(
+        report,
+        "denoise",
+        out,
+        written,
+        {"data": str(data), "models": ", ".join(chosen)},
+        {"table": table, "figures": figures},
+        seed,
+    )
 
 
 @experiment_app.command("cloudsurfaces")
@@ -285,13 +322,22 @@ def cloudsurfaces_command(
 
     _check_report(report, out)
     _output_folder(out)
-    check_outputs([], [(name, out / name, (".png",)) for name in FIGURES]
-                  + [("cloudsurfaces.csv", out / "cloudsurfaces.csv", None),
-                     ("summary.json", out / "summary.json", None)])  # fmt: skip
+    check_outputs(
+        [],
+        [(name, out / name, (".png",)) for name in FIGURES]
+        + [
+            ("cloudsurfaces.csv", out / "cloudsurfaces.csv", None),
+            ("summary.json", out / "summary.json", None),
+        ],
+    )
     rows, written = run_cloud_surfaces(out, seed=seed)
     for r in rows:
-        console.print(f"  Fig. {r['figure']:5s} {r['quantity']}: {r['ours']}   (thesis: "
-                      f"{r['thesis'] or '-'})", markup=False, highlight=False)  # fmt: skip
+        console.print(
+            f"  Fig. {r['figure']:5s} {r['quantity']}: {r['ours']}   (thesis: "
+            f"{r['thesis'] or '-'})",
+            markup=False,
+            highlight=False,
+        )
     for path in written:
         say(f"wrote {path}")
     _write_report(report, "cloudsurfaces", out, written, {"figures": len(FIGURES)}, {}, seed)

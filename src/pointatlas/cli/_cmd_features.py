@@ -271,9 +271,14 @@ def _normals_and_table(ps, k: int, kf: int, orient: str = "mst"):
     if k < 3 or k > n or kf > n:
         raise PointAtlasError(f"--k must lie in [3, number of points = {n}]; got {max(k, kf)}")
     normals, (table, _) = normals_and_table(
-        ps.points, k=k, orient=orient, orient_k=10, viewpoint=None, advance=lambda: None,
+        ps.points,
+        k=k,
+        orient=orient,
+        orient_k=10,
+        viewpoint=None,
+        advance=lambda: None,
         min_cols=kf,
-    )  # fmt: skip
+    )
     return ps.replace(normals=normals), table
 
 
@@ -434,9 +439,12 @@ def features_command(
     picture_paths = feature_picture_paths(render) if render is not None else (None,) * 3
     check_outputs(
         [input_path],
-        [("OUT", output, POINT_WRITE_EXTENSIONS), ("--report", report, REPORT_EXTENSIONS),
-         *(("--render", p, (".png",)) for p in picture_paths)],
-    )  # fmt: skip
+        [
+            ("OUT", output, POINT_WRITE_EXTENSIONS),
+            ("--report", report, REPORT_EXTENSIONS),
+            *(("--render", p, (".png",)) for p in picture_paths),
+        ],
+    )
     a_vals = _parse_grid_deg(a_grid, "--a-grid-deg")
     b_vals = _parse_grid_deg(b_grid, "--b-grid-deg") if b_grid is not None else a_vals
     weights = _weights_with_normals(weights, estimate_normals)
@@ -446,21 +454,43 @@ def features_command(
         from ..batch._tiles_cli import feature_params, input_has_normals
 
         params = feature_params(
-            weights=weights, k=k, k_range=k_range, a_grid=a_vals, b_grid=b_vals,
-            flatness=flatness, criterion=criterion,
+            weights=weights,
+            k=k,
+            k_range=k_range,
+            a_grid=a_vals,
+            b_grid=b_vals,
+            flatness=flatness,
+            criterion=criterion,
             has_normals=not estimate_normals and input_has_normals(input_path),
-        )  # fmt: skip
-        normal_params = ({"k": 14 if k is None else k, "orient_k": 10, "orient": orient}
-                         if estimate_normals else None)  # fmt: skip
-        run_tiled("features", input_path, output, params, tiles, report=report,
-                  normal_params=normal_params)  # fmt: skip
+        )
+        normal_params = (
+            {"k": 14 if k is None else k, "orient_k": 10, "orient": orient}
+            if estimate_normals
+            else None
+        )
+        run_tiled(
+            "features",
+            input_path,
+            output,
+            params,
+            tiles,
+            report=report,
+            normal_params=normal_params,
+        )
         return
     ps, ours, table, t0 = _read_for(input_path, output, estimate_normals, k, k_range, orient)
     result, mode = compute_features_for(
-        ps.points, ps.normals, k=k, k_range=tuple(k_range) if k_range is not None else None,
-        weights=weights, a_grid=a_vals, b_grid=b_vals, flatness=tuple(flatness),
-        criterion=criterion, neighbors=table,
-    )  # fmt: skip
+        ps.points,
+        ps.normals,
+        k=k,
+        k_range=tuple(k_range) if k_range is not None else None,
+        weights=weights,
+        a_grid=a_vals,
+        b_grid=b_vals,
+        flatness=tuple(flatness),
+        criterion=criterion,
+        neighbors=table,
+    )
     elapsed = time.perf_counter() - t0
     fields = result.scalar_fields()
     fields["dimension_class"] = classify_dimension(result)
@@ -482,10 +512,17 @@ def features_command(
         for p in pictures:
             say(f"  wrote {p}")
     if report is not None:
-        parameters = {"k": k, "k_range": k_range, "weights": weights, "a_grid_deg": a_grid,
-                      "b_grid_deg": b_grid, "flatness": flatness, "criterion": criterion,
-                      "normals": estimate_normals,
-                      "orient": orient if estimate_normals else None}  # fmt: skip
+        parameters = {
+            "k": k,
+            "k_range": k_range,
+            "weights": weights,
+            "a_grid_deg": a_grid,
+            "b_grid_deg": b_grid,
+            "flatness": flatness,
+            "criterion": criterion,
+            "normals": estimate_normals,
+            "orient": orient if estimate_normals else None,
+        }
         _write_features_report(
             report, input_path, ps, result, fields, mode, elapsed, pictures, parameters
         )

@@ -249,9 +249,18 @@ def segment_command(
     }
     json_path = _check_segment_outputs(input_path, output, render, report)
     options = vsa_options(
-        k=k, eta=eta, max_angle_deg=max_angle_deg, seeds=seeds, split=split, merge=merge,
-        switch=switch, classic=classic, weights=weights, max_iter=max_iter, local=local,
-    )  # fmt: skip
+        k=k,
+        eta=eta,
+        max_angle_deg=max_angle_deg,
+        seeds=seeds,
+        split=split,
+        merge=merge,
+        switch=switch,
+        classic=classic,
+        weights=weights,
+        max_iter=max_iter,
+        local=local,
+    )
     if method not in ("vsa", "region-growing"):
         raise PointAtlasError(f"--method must be vsa or region-growing; got {method!r}")
     options = options.replace(min_region_size=_min_region_size(min_region_size, k, method))
@@ -288,9 +297,10 @@ def segment_command(
     written, payload = _write_segment_files(output, ps, res, summary, render=render)
     if report is not None:
         written.append(
-            _write_segment_report(report, input_path, ps, labels, payload, parameters, seed,
-                                  render=render)
-        )  # fmt: skip
+            _write_segment_report(
+                report, input_path, ps, labels, payload, parameters, seed, render=render
+            )
+        )
     write_summary_json(json_path, payload, written)
     _print_segment(summary, [*written, json_path])
 
@@ -325,8 +335,9 @@ def _check_segment_outputs(input_path: Path, output: Path, render, report) -> Pa
     return json_path
 
 
-def _segment_tiled(input_path: Path, output: Path, parameters: dict, options, tiles,
-                   report) -> None:  # fmt: skip
+def _segment_tiled(
+    input_path: Path, output: Path, parameters: dict, options, tiles, report
+) -> None:
     """``segment`` on tiles (`pointatlas.batch`): the command's `VSAOptions`, its
     normal settings from ``parameters``, ``--report`` read back from OUT."""
     from ..batch._tiles_cli import normal_params_for, segment_params
@@ -334,12 +345,17 @@ def _segment_tiled(input_path: Path, output: Path, parameters: dict, options, ti
 
     params = segment_params(method=parameters["method"], options=options)
     run_tiled(
-        "segment", input_path, output, params, tiles, report=report,
+        "segment",
+        input_path,
+        output,
+        params,
+        tiles,
+        report=report,
         normal_params=normal_params_for(
             input_path, parameters["estimate_normals"], parameters["normal_k"]
         ),
         label_colors=lambda lab: (label_colors(lab) * 255).round().astype(np.uint8),
-    )  # fmt: skip
+    )
 
 
 def _read_segment_input(input_path: Path, output: Path, *, estimate, normal_k: int, options):

@@ -542,10 +542,20 @@ def simplify_command(
         level = {"n_faces": n_faces, "max_error": max_error, "max_triangles": max_triangles}
         regions = regions or planarize or (eta, n_faces, chord_tolerance) != (None,) * 3
         _simplify_mesh_command(
-            infile, mesh_in, out, max_angle=max_angle, eta=eta, **level, regions=regions,
-            chord_tolerance=chord_tolerance, planarize=planarize,
-            seed=seed, triangles=triangles, report=report, render=render,
-        )  # fmt: skip
+            infile,
+            mesh_in,
+            out,
+            max_angle=max_angle,
+            eta=eta,
+            **level,
+            regions=regions,
+            chord_tolerance=chord_tolerance,
+            planarize=planarize,
+            seed=seed,
+            triangles=triangles,
+            report=report,
+            render=render,
+        )
         return
     _refuse_mesh_flags(
         infile,
@@ -555,9 +565,17 @@ def simplify_command(
         more=(("--regions", regions or None),),
     )
     options = vsa_options(
-        k=k, eta=eta, max_angle_deg=max_angle_deg, seeds=seeds, split=split, merge=merge,
-        switch=switch, classic=classic, weights=weights, max_iter=max_iter,
-    )  # fmt: skip
+        k=k,
+        eta=eta,
+        max_angle_deg=max_angle_deg,
+        seeds=seeds,
+        split=split,
+        merge=merge,
+        switch=switch,
+        classic=classic,
+        weights=weights,
+        max_iter=max_iter,
+    )
     settings = {
         "path": path,
         "vsa": options,
@@ -572,10 +590,19 @@ def simplify_command(
     }
     level = {"max_error": max_error, "max_triangles": max_triangles}
     _simplify_points_command(
-        infile, out, k=k, estimate=estimate, normal_k=normal_k, use_labels=use_labels,
-        settings=settings, level=level, seed=seed, triangles=triangles, report=report,
+        infile,
+        out,
+        k=k,
+        estimate=estimate,
+        normal_k=normal_k,
+        use_labels=use_labels,
+        settings=settings,
+        level=level,
+        seed=seed,
+        triangles=triangles,
+        report=report,
         render=render,
-    )  # fmt: skip
+    )
 
 
 @demo_step

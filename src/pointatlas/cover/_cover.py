@@ -76,15 +76,30 @@ def cover_radii(dim: int = 3, layout: str = "two-radius", radius: float | None =
             raise ValueError("radius is fixed for the 3-D cover (Prop. 4); give radius=None")
         return R_EVEN_3D, R_ODD_3D
     if layout == "two-radius":
-        r = 1 / math.sqrt(2) if radius is None else as_float(
-            radius, "radius", lo=1 / math.sqrt(2), hi=1.0, hi_open=True,
-            note="Prop. 5 ii, in units of the grid scale",
-        )  # fmt: skip
+        r = (
+            1 / math.sqrt(2)
+            if radius is None
+            else as_float(
+                radius,
+                "radius",
+                lo=1 / math.sqrt(2),
+                hi=1.0,
+                hi_open=True,
+                note="Prop. 5 ii, in units of the grid scale",
+            )
+        )
         return r, 1 / math.sqrt(2) - math.sqrt(max(r * r - 0.5, 0.0))
-    r = 1 / math.sqrt(3) if radius is None else as_float(
-        radius, "radius", lo=1 / math.sqrt(3), hi=math.sqrt(3) / 2,
-        note="Prop. 5 i, in units of the tiling edge",
-    )  # fmt: skip
+    r = (
+        1 / math.sqrt(3)
+        if radius is None
+        else as_float(
+            radius,
+            "radius",
+            lo=1 / math.sqrt(3),
+            hi=math.sqrt(3) / 2,
+            note="Prop. 5 i, in units of the tiling edge",
+        )
+    )
     return r, r
 
 

@@ -33,10 +33,12 @@ def _n_offending(rep, dim: int) -> int:
     """Number of offending simplices of a report (0 for an accepted closed setting)."""
     if dim == 3:
         return int(
-            rep.vertices_not_in_face.size + rep.edges_in_many_faces.shape[0]
-            + rep.vertices_not_fan.size + len(rep.simplices_above_2)
+            rep.vertices_not_in_face.size
+            + rep.edges_in_many_faces.shape[0]
+            + rep.vertices_not_fan.size
+            + len(rep.simplices_above_2)
             + rep.edges_not_in_face.shape[0]
-        )  # fmt: skip
+        )
     return int(rep.vertices_bad_degree.size + rep.n_triangles)
 
 
@@ -88,8 +90,17 @@ class ScaleSearch:
     reports: tuple
 
     def __post_init__(self):
-        for name in ("scales", "rotation_index", "offset_index", "rotations", "offsets",
-                     "n_clouds", "n_offending", "n_unsupported", "is_accepted"):  # fmt: skip
+        for name in (
+            "scales",
+            "rotation_index",
+            "offset_index",
+            "rotations",
+            "offsets",
+            "n_clouds",
+            "n_offending",
+            "n_unsupported",
+            "is_accepted",
+        ):
             readonly(getattr(self, name))
 
     @property
@@ -131,12 +142,26 @@ class ScaleSearch:
                 "n_unsupported": int(self.n_unsupported[i]),
             }
             keys = (
-                ("is_cloud_surface", "is_closed", "n_boundary_loops", "n_components",
-                 "euler_characteristic", "is_orientable", "genus", "dimension")
+                (
+                    "is_cloud_surface",
+                    "is_closed",
+                    "n_boundary_loops",
+                    "n_components",
+                    "euler_characteristic",
+                    "is_orientable",
+                    "genus",
+                    "dimension",
+                )
                 if self.dim == 3
-                else ("is_one_manifold", "is_closed", "n_components", "n_endpoints",
-                      "n_triangles", "euler_characteristic")
-            )  # fmt: skip
+                else (
+                    "is_one_manifold",
+                    "is_closed",
+                    "n_components",
+                    "n_endpoints",
+                    "n_triangles",
+                    "euler_characteristic",
+                )
+            )
             row.update({k: s[k] for k in keys})
             out.append(row)
         return out
@@ -241,8 +266,11 @@ def search_cover_scale(
                     rep = curve_report(cov.cloud_complex)
                     good = rep.is_one_manifold and (rep.is_closed or accept == "open")
                     uns = 0
-                for key, val in zip(cols, (s, r, o, cov.n_clouds, _n_offending(rep, dim), uns,
-                                           good, rep), strict=True):  # fmt: skip
+                for key, val in zip(
+                    cols,
+                    (s, r, o, cov.n_clouds, _n_offending(rep, dim), uns, good, rep),
+                    strict=True,
+                ):
                     cols[key].append(val)
                 if callback is not None:
                     callback(len(cols["rep"]))

@@ -111,9 +111,12 @@ def denoise(
     if method == "flatness":
         return _flatness_sides(points, normals, progress)
     return voting_with_pieces(
-        points, normals, planes=planes, adaptive=method == "normal-voting-adaptive",
+        points,
+        normals,
+        planes=planes,
+        adaptive=method == "normal-voting-adaptive",
         progress=progress,
-    )  # fmt: skip
+    )
 
 
 def voting_with_pieces(points, normals=None, *, planes: bool = True, **options) -> DenoiseResult:
@@ -253,10 +256,16 @@ def snap_planar_pieces(points, result: DenoiseResult, *, neighbors=None) -> Deno
         if neighbors is not None:
             table = check_neighbors(neighbors, pts.shape[0], k=min(PIECE_SEED, pts.shape[0]))
         normals, moved, _ = snap_to_pieces(
-            pts, result.normals, result.feature_class == CLASS_FACE, result.spacing,
-            high_noise=result.n_iter > 1, table=table,
-        )  # fmt: skip
+            pts,
+            result.normals,
+            result.feature_class == CLASS_FACE,
+            result.spacing,
+            high_noise=result.n_iter > 1,
+            table=table,
+        )
     return dataclasses.replace(
-        result, points=moved, normals=normals,
+        result,
+        points=moved,
+        normals=normals,
         displacement=np.sqrt(((moved - start) ** 2).sum(axis=1)),
-    )  # fmt: skip
+    )

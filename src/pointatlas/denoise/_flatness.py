@@ -146,9 +146,17 @@ def flatness_step(points, k: int, eta: float, eps: float, *, flatness=(8, 8)):
     out = np.empty_like(points)
     valid = np.empty(points.shape[0], dtype=bool)
     flatness_move_kernel(
-        points, idx, np.ascontiguousarray(fr.eigenvector_1, dtype=np.float64), v3, energy,
-        np.ascontiguousarray(fr.is_valid, dtype=bool), float(eta), float(eps), out, valid,
-    )  # fmt: skip
+        points,
+        idx,
+        np.ascontiguousarray(fr.eigenvector_1, dtype=np.float64),
+        v3,
+        energy,
+        np.ascontiguousarray(fr.is_valid, dtype=bool),
+        float(eta),
+        float(eps),
+        out,
+        valid,
+    )
     return out, energy, v3, valid
 
 

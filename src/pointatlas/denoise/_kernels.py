@@ -132,9 +132,14 @@ def adaptive_k_kernel(points, normals, idx, k_lo, k_hi, cos_a, best_k, best_edim
             be = math.inf
             for t in range(m):
                 l1, l2, l3 = lanes_stage3(
-                    st[0, t], st[1, t], st[2, t], lanes[0, t], lanes[1, t], lanes[2, t],
+                    st[0, t],
+                    st[1, t],
+                    st[2, t],
+                    lanes[0, t],
+                    lanes[1, t],
+                    lanes[2, t],
                     lanes[3, t],
-                )  # fmt: skip
+                )
                 e = _edim_of(l1, l2, l3)
                 if e < be:
                     be = e
@@ -320,8 +325,7 @@ def plane_lists_kernel(normals, idx, k_of, cos_rho, lists, counts):
 
 
 @njit(parallel=True, cache=True)
-def lonely_normals_kernel(points, normals, idx, k_of, counts, cos_rho, min_count, inv_sigma2,
-                          out):  # fmt: skip
+def lonely_normals_kernel(points, normals, idx, k_of, counts, cos_rho, min_count, inv_sigma2, out):
     """Normals of points with fewer than ``min_count`` planes, replaced by their neighbours'.
 
     A point whose normal is within the cut-off of fewer than ``min_count`` of its
@@ -483,9 +487,13 @@ def _polish_point(points, idx, i, k_normal, k_mean, lam, d2, near, out):
             mx, my, mz = mx + y0, my + y1, mz + y2
     m0, m1, m2 = s0 / cnt, s1 / cnt, s2 / cnt
     _, _, _, _, _, _, nx, ny, nz = eigh3_accurate(
-        c00 / cnt - m0 * m0, c01 / cnt - m0 * m1, c02 / cnt - m0 * m2,
-        c11 / cnt - m1 * m1, c12 / cnt - m1 * m2, c22 / cnt - m2 * m2,
-    )  # fmt: skip
+        c00 / cnt - m0 * m0,
+        c01 / cnt - m0 * m1,
+        c02 / cnt - m0 * m2,
+        c11 / cnt - m1 * m1,
+        c12 / cnt - m1 * m2,
+        c22 / cnt - m2 * m2,
+    )
     if math.isfinite(nx) and math.isfinite(ny) and math.isfinite(nz):
         h = lam * (mx * nx + my * ny + mz * nz) / k_mean
         out[i, 0] = px + h * nx
@@ -558,9 +566,13 @@ def face_normals_kernel(points, normals, lists, counts, out):
             continue
         m0, m1, m2 = s0 / cnt, s1 / cnt, s2 / cnt
         l1, l2, l3, _, _, _, vx, vy, vz = eigh3_accurate(
-            c00 / cnt - m0 * m0, c01 / cnt - m0 * m1, c02 / cnt - m0 * m2,
-            c11 / cnt - m1 * m1, c12 / cnt - m1 * m2, c22 / cnt - m2 * m2,
-        )  # fmt: skip
+            c00 / cnt - m0 * m0,
+            c01 / cnt - m0 * m1,
+            c02 / cnt - m0 * m2,
+            c11 / cnt - m1 * m1,
+            c12 / cnt - m1 * m2,
+            c22 / cnt - m2 * m2,
+        )
         if not l2 > l3 or not (math.isfinite(vx) and math.isfinite(vy) and math.isfinite(vz)):
             continue
         if vx * nx + vy * ny + vz * nz < 0.0:

@@ -116,8 +116,11 @@ def _grow(points, normals, graph, seed, centre, normal, free, mark, stamp, membe
             j = graph[i, c]
             if mark[j] == stamp or not free[j]:
                 continue
-            h = ((points[j, 0] - centre[0]) * normal[0] + (points[j, 1] - centre[1]) * normal[1]
-                 + (points[j, 2] - centre[2]) * normal[2])  # fmt: skip
+            h = (
+                (points[j, 0] - centre[0]) * normal[0]
+                + (points[j, 1] - centre[1]) * normal[1]
+                + (points[j, 2] - centre[2]) * normal[2]
+            )
             g = normals[j, 0] * normal[0] + normals[j, 1] * normal[1] + normals[j, 2] * normal[2]
             if abs(h) > dist or abs(g) < cos_a:
                 continue
@@ -149,8 +152,23 @@ def _edge_share(normals, graph, members, m, mark, inside, seen, seen_stamp, norm
 
 
 @njit(cache=True)
-def pieces_kernel(points, normals, graph, seeds, order, seedable, dist, cos_a, min_size, refits,
-                  cos_edge, edge_share, label, centres, plane_normals):  # fmt: skip
+def pieces_kernel(
+    points,
+    normals,
+    graph,
+    seeds,
+    order,
+    seedable,
+    dist,
+    cos_a,
+    min_size,
+    refits,
+    cos_edge,
+    edge_share,
+    label,
+    centres,
+    plane_normals,
+):
     """Greedy planar pieces (docs/decisions/denoise.md, "Planar pieces").
 
     ``seedable`` points, in ``order``, not yet tried start a piece on the plane of
@@ -182,8 +200,9 @@ def pieces_kernel(points, normals, graph, seeds, order, seedable, dist, cos_a, m
         _fit_plane(points, seeds[s], seeds.shape[1], centre, normal)
         m = 0
         for it in range(refits + 1):
-            m = _grow(points, normals, graph, s, centre, normal, free, mark, stamp, members,
-                      dist, cos_a)  # fmt: skip
+            m = _grow(
+                points, normals, graph, s, centre, normal, free, mark, stamp, members, dist, cos_a
+            )
             stamp += 1
             if m * PIECE_HOPELESS < min_size:  # a curved patch or noise: no refits
                 break
@@ -195,8 +214,9 @@ def pieces_kernel(points, normals, graph, seeds, order, seedable, dist, cos_a, m
             continue
         _fit_plane(points, members, m, centre, normal)
         tests += 1
-        share = _edge_share(normals, graph, members, m, mark, stamp - 1, seen, tests, normal,
-                            cos_edge)  # fmt: skip
+        share = _edge_share(
+            normals, graph, members, m, mark, stamp - 1, seen, tests, normal, cos_edge
+        )
         if share < edge_share:  # bounded by smooth surface: a curved patch
             continue
         for a in range(m):
@@ -210,8 +230,21 @@ def pieces_kernel(points, normals, graph, seeds, order, seedable, dist, cos_a, m
 
 
 @njit(parallel=True, cache=True)
-def assign_kernel(points, normals, graph, label, centres, plane_normals, dist, cos_a,
-                  ambiguous, project, out, out_points, assigned):  # fmt: skip
+def assign_kernel(
+    points,
+    normals,
+    graph,
+    label,
+    centres,
+    plane_normals,
+    dist,
+    cos_a,
+    ambiguous,
+    project,
+    out,
+    out_points,
+    assigned,
+):
     """Each point takes the plane normal (signed like its own) of the piece among its
     ``graph`` row whose plane is nearest, when that plane is within ``dist``, its
     normal within the angle of ``cos_a`` and no second piece's plane is within
@@ -231,9 +264,11 @@ def assign_kernel(points, normals, graph, label, centres, plane_normals, dist, c
             q = label[graph[i, c]]
             if q < 0 or q == best or q == second:
                 continue
-            h = ((points[i, 0] - centres[q, 0]) * plane_normals[q, 0]
-                 + (points[i, 1] - centres[q, 1]) * plane_normals[q, 1]
-                 + (points[i, 2] - centres[q, 2]) * plane_normals[q, 2])  # fmt: skip
+            h = (
+                (points[i, 0] - centres[q, 0]) * plane_normals[q, 0]
+                + (points[i, 1] - centres[q, 1]) * plane_normals[q, 1]
+                + (points[i, 2] - centres[q, 2]) * plane_normals[q, 2]
+            )
             if abs(h) < d_best:
                 second, d_second = best, d_best
                 best, d_best, h_best = q, abs(h), h
@@ -245,8 +280,11 @@ def assign_kernel(points, normals, graph, label, centres, plane_normals, dist, c
         assigned[i] = -1
         if best < 0 or d_best > dist or d_second < ambiguous:
             continue
-        g = (normals[i, 0] * plane_normals[best, 0] + normals[i, 1] * plane_normals[best, 1]
-             + normals[i, 2] * plane_normals[best, 2])  # fmt: skip
+        g = (
+            normals[i, 0] * plane_normals[best, 0]
+            + normals[i, 1] * plane_normals[best, 1]
+            + normals[i, 2] * plane_normals[best, 2]
+        )
         if abs(g) < cos_a:
             continue
         s = -1.0 if g < 0.0 else 1.0
@@ -323,13 +361,38 @@ def snap_to_pieces(points, normals, is_face, spacing, *, high_noise=False, table
     label = np.full(n, -1, dtype=np.int64)
     centres = np.empty((n // PIECE_MIN + 1, 3))
     plane_normals = np.empty_like(centres)
-    count = pieces_kernel(points, normals, graph, table, order, is_face, PIECE_DIST * spacing,
-                          math.cos(math.radians(PIECE_ANGLE)), PIECE_MIN, PIECE_REFITS,
-                          math.cos(math.radians(PIECE_EDGE_ANGLE)), PIECE_EDGE_SHARE, label,
-                          centres, plane_normals)  # fmt: skip
+    count = pieces_kernel(
+        points,
+        normals,
+        graph,
+        table,
+        order,
+        is_face,
+        PIECE_DIST * spacing,
+        math.cos(math.radians(PIECE_ANGLE)),
+        PIECE_MIN,
+        PIECE_REFITS,
+        math.cos(math.radians(PIECE_EDGE_ANGLE)),
+        PIECE_EDGE_SHARE,
+        label,
+        centres,
+        plane_normals,
+    )
     if count:
         angle = PIECE_ASSIGN_ANGLE_HIGH if high_noise else PIECE_ASSIGN_ANGLE
-        assign_kernel(points, normals, graph, label, centres[:count], plane_normals[:count],
-                      PIECE_DIST * spacing, math.cos(math.radians(angle)),
-                      PIECE_AMBIGUOUS * spacing, PIECE_PROJECT, out, out_points, piece)  # fmt: skip
+        assign_kernel(
+            points,
+            normals,
+            graph,
+            label,
+            centres[:count],
+            plane_normals[:count],
+            PIECE_DIST * spacing,
+            math.cos(math.radians(angle)),
+            PIECE_AMBIGUOUS * spacing,
+            PIECE_PROJECT,
+            out,
+            out_points,
+            piece,
+        )
     return out, out_points, piece

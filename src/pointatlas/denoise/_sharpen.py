@@ -48,8 +48,9 @@ def quadric_update_kernel(points, normals, idx, k_of, cos_rho, tau, max_step, sh
         m, t00, t01, t02, t11, t12, t22 = _class_tensor(normals, idx, i, kk, tau)
         klass[i] = m
         if sharpen and m > 1:
-            x0, x1, x2 = _feature_move(points, normals, idx, i, kk, m, cos_rho,
-                                       t00, t01, t02, t11, t12, t22)  # fmt: skip
+            x0, x1, x2 = _feature_move(
+                points, normals, idx, i, kk, m, cos_rho, t00, t01, t02, t11, t12, t22
+            )
         else:
             x0, x1, x2 = _normal_move(points, normals, idx, i, kk, cos_rho)
         length = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)

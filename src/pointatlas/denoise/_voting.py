@@ -300,9 +300,16 @@ def filter_normals(
     with threads_for(pts.shape[0]):
         _, idx, k_def, _ = _neighbourhoods(pts, radius_factor, K_WIDTH if adaptive else 0)
         out, k_of, fallback = _filter_steps(
-            pts, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_iter, adaptive=bool(adaptive),
+            pts,
+            nrm,
+            idx,
+            k_def,
+            rho=rho,
+            tau=tau,
+            n_iter=n_iter,
+            adaptive=bool(adaptive),
             progress=progress,
-        )  # fmt: skip
+        )
     return NormalFilterResult(
         normals=out,
         k=k_of,
@@ -315,8 +322,9 @@ def filter_normals(
     )
 
 
-def _updates(cur, nrm, idx, k_def, lists, counts, *, rho, tau, step, sigma, beta, stop,
-             n_update, sharpen):  # fmt: skip
+def _updates(
+    cur, nrm, idx, k_def, lists, counts, *, rho, tau, step, sigma, beta, stop, n_update, sharpen
+):
     """Point updates of one round with fixed normals and neighbours (Jacobi).
 
     ``lists``/``counts``: the planes of each point (`plane_lists_kernel` on ``nrm``);
@@ -352,8 +360,7 @@ def _planes(cur, nrm, idx, k_def, lists, counts, rho, ell):
     inv_sigma2 = 1.0 / (LONELY_SIGMA * ell) ** 2
     for _ in range(LONELY_PASSES):
         fixed = np.empty_like(nrm)
-        lonely_normals_kernel(cur, nrm, idx, k_def, counts, rho, LONELY_PLANES, inv_sigma2,
-                              fixed)  # fmt: skip
+        lonely_normals_kernel(cur, nrm, idx, k_def, counts, rho, LONELY_PLANES, inv_sigma2, fixed)
         nrm = fixed
         plane_lists_kernel(nrm, idx, k_def, rho, lists, counts)
     return nrm
@@ -369,8 +376,27 @@ def _polish(cur, table):
     return out
 
 
-def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filter_iter,
-            n_update, adaptive, max_step, sharpen, normal_k, refit, progress):  # fmt: skip
+def _rounds(
+    pts,
+    nrm,
+    table,
+    idx,
+    k_def,
+    ell,
+    *,
+    rounds,
+    auto,
+    rho,
+    tau,
+    n_filter_iter,
+    n_update,
+    adaptive,
+    max_step,
+    sharpen,
+    normal_k,
+    refit,
+    progress,
+):
     """The rounds of `normal_voting_denoise`, then the returned normals and classes.
 
     The returned normals: ``n_filter_iter`` more filter steps on the final
@@ -392,16 +418,35 @@ def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filte
         if ran > 1:  # PCA normals of the moved points, signed like the last ones
             nrm = _estimated_normals(cur, table, later_k, like=nrm)
         nrm, k_of, fallback = _filter_steps(
-            cur, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_filter_iter, adaptive=adaptive,
+            cur,
+            nrm,
+            idx,
+            k_def,
+            rho=rho,
+            tau=tau,
+            n_iter=n_filter_iter,
+            adaptive=adaptive,
             progress=progress,
-        )  # fmt: skip
+        )
         nrm = _planes(cur, nrm, idx, k_def, lists, counts, rho, ell)  # this round's planes
         sigma = (UPDATE_SIGMA if ran == 1 else UPDATE_SIGMA_LATER) * ell
         start = cur
-        cur = _updates(cur.copy(), nrm, idx, k_def, lists, counts, rho=rho, tau=tau,
-                       step=max_step * ell, sigma=sigma,
-                       beta=1.0 if ran == 1 else PLANE_BETA_LATER, stop=UPDATE_STOP * ell,
-                       n_update=n_update, sharpen=sharpen)  # fmt: skip
+        cur = _updates(
+            cur.copy(),
+            nrm,
+            idx,
+            k_def,
+            lists,
+            counts,
+            rho=rho,
+            tau=tau,
+            step=max_step * ell,
+            sigma=sigma,
+            beta=1.0 if ran == 1 else PLANE_BETA_LATER,
+            stop=UPDATE_STOP * ell,
+            n_update=n_update,
+            sharpen=sharpen,
+        )
         moved = float(np.sqrt(((cur - start) ** 2).sum(axis=1).mean()))
         if auto and moved <= ROUND_MOVE * ell:
             break
@@ -409,9 +454,16 @@ def _rounds(pts, nrm, table, idx, k_def, ell, *, rounds, auto, rho, tau, n_filte
         cur = _polish(cur, table)  # about 1 l of noise left after the rounds
     if ran and not refit:  # the returned normals: n_filter_iter more steps (sharper edges)
         nrm, k_of, fallback = _filter_steps(
-            cur, nrm, idx, k_def, rho=rho, tau=tau, n_iter=n_filter_iter, adaptive=adaptive,
+            cur,
+            nrm,
+            idx,
+            k_def,
+            rho=rho,
+            tau=tau,
+            n_iter=n_filter_iter,
+            adaptive=adaptive,
             progress=progress,
-        )  # fmt: skip
+        )
     if ran:
         feature_class_kernel(nrm, idx, k_def, tau, klass)
     if ran and refit:  # estimated normals: each point's plane fitted to its face's points
@@ -525,16 +577,30 @@ def normal_voting_denoise(
     True
     """
     pts, nrm, opt = _voting_options(
-        points, normals, rho=rho, tau=tau, n_iter=n_iter, n_filter_iter=n_filter_iter,
-        n_update=n_update, adaptive=adaptive, max_step=max_step, sharpen=sharpen,
-        radius_factor=radius_factor, normal_k=normal_k, neighbors=neighbors, spacing=spacing,
+        points,
+        normals,
+        rho=rho,
+        tau=tau,
+        n_iter=n_iter,
+        n_filter_iter=n_filter_iter,
+        n_update=n_update,
+        adaptive=adaptive,
+        max_step=max_step,
+        sharpen=sharpen,
+        radius_factor=radius_factor,
+        normal_k=normal_k,
+        neighbors=neighbors,
+        spacing=spacing,
         refit_normals=refit_normals,
-    )  # fmt: skip
+    )
     with threads_for(pts.shape[0]):
         table, idx, k_def, ell = _neighbourhoods(
-            pts, opt.pop("radius_factor"), K_WIDTH if opt["adaptive"] else 0,
-            opt.pop("neighbors"), opt.pop("spacing"),
-        )  # fmt: skip
+            pts,
+            opt.pop("radius_factor"),
+            K_WIDTH if opt["adaptive"] else 0,
+            opt.pop("neighbors"),
+            opt.pop("spacing"),
+        )
         if nrm is None:
             nrm = _estimated_normals(pts, table, opt["normal_k"])
         cur, nrm, k_of, fallback, klass, ran = _rounds(
@@ -561,9 +627,24 @@ def _voting_result(pts, cur, nrm, k_of, fallback, klass, ran, ell, adaptive):
     )
 
 
-def _voting_options(points, normals, *, rho, tau, n_iter, n_filter_iter, n_update, adaptive,
-                    max_step, sharpen, radius_factor, normal_k, neighbors, spacing,
-                    refit_normals):  # fmt: skip
+def _voting_options(
+    points,
+    normals,
+    *,
+    rho,
+    tau,
+    n_iter,
+    n_filter_iter,
+    n_update,
+    adaptive,
+    max_step,
+    sharpen,
+    radius_factor,
+    normal_k,
+    neighbors,
+    spacing,
+    refit_normals,
+):
     """Validated input of `normal_voting_denoise`: (points, normals or None, options).
 
     The options are the keywords of `_rounds` plus ``radius_factor``,

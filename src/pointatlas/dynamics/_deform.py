@@ -294,8 +294,11 @@ def _deform(p, K: CloudComplex, cp0, cp1, faces) -> DeformResult:
         m0, m1 = np.cross(u0, n0), np.cross(u1, n1)
         wn, wm = np.einsum("ij,ij->i", w, n0), np.einsum("ij,ij->i", w, m0)
         omega = L1 / np.where(ok, L0, 1.0)
-        new = (b1 + (rho * L1 / 2)[:, None] * u1
-               + omega[:, None] * (wn[:, None] * n1 + wm[:, None] * m1))  # fmt: skip
+        new = (
+            b1
+            + (rho * L1 / 2)[:, None] * u1
+            + omega[:, None] * (wn[:, None] * n1 + wm[:, None] * m1)
+        )
         good = idx[ok]
         out[good] = new[ok]
         route[good] = 2

@@ -45,10 +45,17 @@ __all__ = [
 
 #: the PNG files written, in order
 FIGURES = (
-    "fig2_2_delta_h.png", "fig2_5_eta12.png", "fig2_6_eta3.png", "fig2_9_cube_eta3_mean.png",
-    "fig2_14_curve.png", "fig2_15_ellipse.png", "fig2_17_noisy_sphere.png",
-    "fig2_17_noisy_dodecahedron.png", "fig2_20_lifted_grid.png", "fig2_21_cube_to_sphere.png",
-)  # fmt: skip
+    "fig2_2_delta_h.png",
+    "fig2_5_eta12.png",
+    "fig2_6_eta3.png",
+    "fig2_9_cube_eta3_mean.png",
+    "fig2_14_curve.png",
+    "fig2_15_ellipse.png",
+    "fig2_17_noisy_sphere.png",
+    "fig2_17_noisy_dodecahedron.png",
+    "fig2_20_lifted_grid.png",
+    "fig2_21_cube_to_sphere.png",
+)
 
 _ALPHA = math.pi / 3  # the triangle angle of Figs 2.2, 2.5, 2.6
 
@@ -70,10 +77,16 @@ def density_figures(out: Path, rows: list) -> list[Path]:
             dh = sphere_density(model, ring, _ALPHA, 1.0, c=c)
             ax.plot(s, dh, label=f"c = {c:g}")
             back = math.pi + _ALPHA / 2  # the direction opposite the sector's bisector
-            low = float(sphere_density(model, [[math.cos(back), math.sin(back), 0.0]], _ALPHA,
-                                       1.0, c=c)[0])  # fmt: skip
-            _row(rows, "2.2", f"{model} delta_h at pi + alpha/2, c = {c:g}", round(low, 6),
-                 "c/(c+1)" if model == "eta1" else "(c-1)/(c+1)")  # fmt: skip
+            low = float(
+                sphere_density(model, [[math.cos(back), math.sin(back), 0.0]], _ALPHA, 1.0, c=c)[0]
+            )
+            _row(
+                rows,
+                "2.2",
+                f"{model} delta_h at pi + alpha/2, c = {c:g}",
+                round(low, 6),
+                "c/(c+1)" if model == "eta1" else "(c-1)/(c+1)",
+            )
         ax.axvline(_ALPHA, color="grey", lw=0.8, ls=":")
         ax.axvline(math.pi + _ALPHA / 2, color="grey", lw=0.8, ls="--")
         ax.set_title(f"Fig. 2.2: delta_h of {model} (alpha = pi/3)")
@@ -87,13 +100,18 @@ def density_figures(out: Path, rows: list) -> list[Path]:
     for k, (model, c) in enumerate((("eta1", 0.0), ("eta1", 1.0), ("eta2", 1.0), ("eta2", 3.0))):
         ax = fig.add_subplot(1, 4, k + 1)
         eta = sphere_density(model, dirs.reshape(-1, 3), _ALPHA, 1.0, c=c).reshape(ss.shape)
-        ax.imshow(eta, extent=(0, 2 * math.pi, math.pi, 0), cmap="coolwarm", vmin=0, vmax=1,
-                  aspect="auto")  # fmt: skip
+        ax.imshow(
+            eta, extent=(0, 2 * math.pi, math.pi, 0), cmap="coolwarm", vmin=0, vmax=1, aspect="auto"
+        )
         ax.set_title(f"Fig. 2.5: {model}, c = {c:g}", fontsize=9)
         ax.set_xlabel("azimuth s")
         ax.set_ylabel("polar angle t")
-        _row(rows, "2.5", f"{model} c = {c:g}: mean of eta over the sphere",
-             round(float(np.average(eta, weights=np.sin(tt))), 4))  # fmt: skip
+        _row(
+            rows,
+            "2.5",
+            f"{model} c = {c:g}: mean of eta over the sphere",
+            round(float(np.average(eta, weights=np.sin(tt))), 4),
+        )
     written.append(save_figure(fig, out / FIGURES[1], dpi=80))
     xx, yy = np.meshgrid(np.linspace(-1, 1, 161), np.linspace(-1, 1, 161))
     disc = np.column_stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)])
@@ -108,8 +126,12 @@ def density_figures(out: Path, rows: list) -> list[Path]:
         ax.plot([0, 1, math.cos(_ALPHA)], [0, 0, math.sin(_ALPHA)], "k-", lw=0.8)
         ax.set_title(f"Fig. 2.6: eta3, c_v = {cv:g}, c_h = {ch:g}", fontsize=9)
         ax.set_axis_off()
-        _row(rows, "2.6", f"eta3 c_v = {cv:g}, c_h = {ch:g}: mean of eta over the xy-disc",
-             round(float(eta[inside].mean()), 4))  # fmt: skip
+        _row(
+            rows,
+            "2.6",
+            f"eta3 c_v = {cv:g}, c_h = {ch:g}: mean of eta over the xy-disc",
+            round(float(eta[inside].mean()), 4),
+        )
     written.append(save_figure(fig, out / FIGURES[2], dpi=80))
     return written
 
@@ -127,15 +149,25 @@ def mesh_curvature_figure(out: Path, rows: list, *, seed: int) -> list[Path]:
         rep = surface_report(K)
         same = bool(np.array_equal(K.triangles, mesh_tri))
         label = kind or "plain"
-        _row(rows, "2.9", f"cube 386, eta3, {label}: points / complex = mesh / chi",
-             f"{mc.points.shape[0]} / {same} / {rep.euler_characteristic}",
-             "complex = mesh (pictures)")  # fmt: skip
+        _row(
+            rows,
+            "2.9",
+            f"cube 386, eta3, {label}: points / complex = mesh / chi",
+            f"{mc.points.shape[0]} / {same} / {rep.euler_characteristic}",
+            "complex = mesh (pictures)",
+        )
         title = f"eta3, {label}: {mc.points.shape[0]:,} points"
-        panels.append(PointsPanel(mc.points, colors=membership_colors(K.n_memberships),
-                                  title=title))  # fmt: skip
-    return [render_side_by_side(out / FIGURES[3], panels, size=(1200, 430),
-                                title="Fig. 2.9: cube (386 vertices), eta3 plain / "
-                                "Gaussian / mean curvature")]  # fmt: skip
+        panels.append(
+            PointsPanel(mc.points, colors=membership_colors(K.n_memberships), title=title)
+        )
+    return [
+        render_side_by_side(
+            out / FIGURES[3],
+            panels,
+            size=(1200, 430),
+            title="Fig. 2.9: cube (386 vertices), eta3 plain / Gaussian / mean curvature",
+        )
+    ]
 
 
 def _curve_panel(ax, pts, cov, rep, title):
@@ -170,9 +202,13 @@ def curve_figures(out: Path, rows: list) -> list[Path]:
         f"{rep.n_vertices} / {rep.n_edges} / {rep.n_triangles}",
         "a 1-D complex (picture)",
     )
-    _row(rows, "2.14", "vertices of degree != 2 (the crossing at 0) / chi",
-         f"{rep.vertices_bad_degree.size} (degree {int(deg.max())}) / {rep.euler_characteristic}",
-         "figure eight: chi = -1")  # fmt: skip
+    _row(
+        rows,
+        "2.14",
+        "vertices of degree != 2 (the crossing at 0) / chi",
+        f"{rep.vertices_bad_degree.size} (degree {int(deg.max())}) / {rep.euler_characteristic}",
+        "figure eight: chi = -1",
+    )
     fig = Figure(figsize=(6, 6))
     _curve_panel(
         fig.add_subplot(),
@@ -190,12 +226,23 @@ def curve_figures(out: Path, rows: list) -> list[Path]:
         rep = curve_report(cov.cloud_complex)
         deg = np.bincount(cov.cloud_complex.edges.ravel(), minlength=cov.n_clouds)
         what = "missing information" if k == 0 else "false information"
-        _row(rows, "2.15", f"ellipse 3 x 1, s = {s}: V / E / endpoints / degree > 2 / 1-manifold",
-             f"{rep.n_vertices} / {rep.n_edges} / {rep.n_endpoints} / {int((deg > 2).sum())} / "
-             f"{rep.is_one_manifold}", what)  # fmt: skip
+        _row(
+            rows,
+            "2.15",
+            f"ellipse 3 x 1, s = {s}: V / E / endpoints / degree > 2 / 1-manifold",
+            f"{rep.n_vertices} / {rep.n_edges} / {rep.n_endpoints} / {int((deg > 2).sum())} / "
+            f"{rep.is_one_manifold}",
+            what,
+        )
         ax = fig.add_subplot(1, 2, k + 1)
-        _curve_panel(ax, ell, cov, rep, f"Fig. 2.15: s = {s}: {rep.n_endpoints} endpoints, "
-                     f"{int((deg > 2).sum())} branchings ({what})")  # fmt: skip
+        _curve_panel(
+            ax,
+            ell,
+            cov,
+            rep,
+            f"Fig. 2.15: s = {s}: {rep.n_endpoints} endpoints, "
+            f"{int((deg > 2).sum())} branchings ({what})",
+        )
         f = a - b * b / a  # the medial axis: the segment between the centres of curvature
         ax.plot([-f, f], [0, 0], "b-", lw=1.2)
     written.append(save_figure(fig, out / FIGURES[5], dpi=80))
@@ -214,18 +261,30 @@ def _cover_picture(path, pts, cov, rep, title):
         ),
         MeshPanel(np.nan_to_num(verts), faces, title=f"complex: {faces.shape[0]} triangles"),
     ]
-    return render_side_by_side(path, panels, size=(1000, 520), title=title)  # fmt: skip
+    return render_side_by_side(path, panels, size=(1000, 520), title=title)
 
 
 def noisy_figures(out: Path, rows: list, *, seed: int) -> list[Path]:
     """Fig. 2.17: noisy sphere (10,000 points, 50 %) and dodecahedron (3,842, 25 %)."""
     written = []
     cases = (
-        ("sphere", sphere(10_000), 0.5, np.round(np.arange(0.6, 1.31, 0.1), 2),
-         "s = 1 (rotated sphere): closed, genus 0", FIGURES[6]),
-        ("dodecahedron", dodecahedron(8), 0.25, np.round(np.arange(0.3, 1.01, 0.1), 2),
-         "s = 1.9: closed, genus 0", FIGURES[7]),
-    )  # fmt: skip
+        (
+            "sphere",
+            sphere(10_000),
+            0.5,
+            np.round(np.arange(0.6, 1.31, 0.1), 2),
+            "s = 1 (rotated sphere): closed, genus 0",
+            FIGURES[6],
+        ),
+        (
+            "dodecahedron",
+            dodecahedron(8),
+            0.25,
+            np.round(np.arange(0.3, 1.01, 0.1), 2),
+            "s = 1.9: closed, genus 0",
+            FIGURES[7],
+        ),
+    )
     for name, m, amp, scales, thesis, fname in cases:
         noisy = add_normal_noise(m.points, m.normals, amp, k=12, rng=seed)
         res = search_cover_scale(noisy, scales, n_rotations=3, rng=seed)
@@ -241,12 +300,24 @@ def noisy_figures(out: Path, rows: list, *, seed: int) -> list[Path]:
             " ".join(acc) or "none",
             thesis,
         )
-        _row(rows, "2.17", f"noisy {name}: chosen s / clouds / closed / chi / genus",
-             f"{res.scales[i]:g} / {cov.n_clouds} / {rep.is_closed} / "
-             f"{rep.euler_characteristic} / {rep.genus}", thesis)  # fmt: skip
-        written.append(_cover_picture(out / fname, noisy, cov, rep,
-                                      f"Fig. 2.17: noisy {name}, s = {res.scales[i]:g}, "
-                                      f"{cov.n_clouds} clouds, genus {rep.genus}"))  # fmt: skip
+        _row(
+            rows,
+            "2.17",
+            f"noisy {name}: chosen s / clouds / closed / chi / genus",
+            f"{res.scales[i]:g} / {cov.n_clouds} / {rep.is_closed} / "
+            f"{rep.euler_characteristic} / {rep.genus}",
+            thesis,
+        )
+        written.append(
+            _cover_picture(
+                out / fname,
+                noisy,
+                cov,
+                rep,
+                f"Fig. 2.17: noisy {name}, s = {res.scales[i]:g}, "
+                f"{cov.n_clouds} clouds, genus {rep.genus}",
+            )
+        )
     return written
 
 
@@ -265,13 +336,21 @@ def _dynamics_rows(rows, fig, name, points, cov, rep, res, i, cp1):
     err = float(np.abs(back.points - points).max() / np.abs(points).max())
     c = fwd.counts()
     share = 1.0 - c["unroutable"] / points.shape[0]
-    _row(rows, fig, f"{name}: setting (offset of 24 tried) / clouds / triangles / accepted",
-         f"offset {res.offset_index[i]} {np.round(res.offsets[res.offset_index[i]], 3).tolist()}"
-         f" / {cov.n_clouds} / {rep.n_faces} / {bool(res.is_accepted[i])}",
-         "Prop. 4 cover at the bounding box")  # fmt: skip
-    _row(rows, fig, f"{name}: routed share (triangle / edge / vertex / unroutable)",
-         f"{share:.4f} ({c['triangle']} / {c['edge']} / {c['vertex']} / {c['unroutable']})",
-         "every point moves (pictures)")  # fmt: skip
+    _row(
+        rows,
+        fig,
+        f"{name}: setting (offset of 24 tried) / clouds / triangles / accepted",
+        f"offset {res.offset_index[i]} {np.round(res.offsets[res.offset_index[i]], 3).tolist()}"
+        f" / {cov.n_clouds} / {rep.n_faces} / {bool(res.is_accepted[i])}",
+        "Prop. 4 cover at the bounding box",
+    )
+    _row(
+        rows,
+        fig,
+        f"{name}: routed share (triangle / edge / vertex / unroutable)",
+        f"{share:.4f} ({c['triangle']} / {c['edge']} / {c['vertex']} / {c['unroutable']})",
+        "every point moves (pictures)",
+    )
     _row(rows, fig, f"{name}: forward then inverse, max relative error", f"{err:.1e}", "reversible")
     return fwd, share
 
@@ -309,8 +388,11 @@ def dynamics_figures(out: Path, rows: list, *, seed: int) -> tuple[list[Path], d
             MeshPanel(cp1, faces, title="(c) moved cloud points"),
             PointsPanel(fwd.points, colors=col, title=f"(d) moved: {share:.1%} routed"),
         ]
-        written.append(render_side_by_side(out / fname, panels, size=(1400, 400),
-                                           title=f"Fig. {fig}: {name}, s = {s:g}"))  # fmt: skip
+        written.append(
+            render_side_by_side(
+                out / fname, panels, size=(1400, 400), title=f"Fig. {fig}: {name}, s = {s:g}"
+            )
+        )
     return written, shares
 
 
@@ -343,7 +425,11 @@ def run_cloud_surfaces(out: Path, *, seed: int = 0) -> tuple[list[dict], list[Pa
     written.append(
         write_text(csv_path, csv_records(rows, ["figure", "quantity", "ours", "thesis"]))
     )
-    payload = {"seed": seed, "rows": rows, "routed_share": shares,
-               "seconds": round(time.perf_counter() - t0, 2)}  # fmt: skip
+    payload = {
+        "seed": seed,
+        "rows": rows,
+        "routed_share": shares,
+        "seconds": round(time.perf_counter() - t0, 2),
+    }
     write_summary_json(json_path, payload, written)
     return rows, [*written, json_path]

@@ -72,8 +72,12 @@ THESIS_TABLE_5_3 = {
 }
 
 #: Fig. 6.9: (k, eta, schedule) of panels (b)-(d), then our decreasing schedule
-FIG_6_9_SETTINGS = ((14, 0.5, "constant"), (8, 0.5, "constant"), (28, 1.0, "constant"),
-                    (14, 0.5, "decreasing"))  # fmt: skip
+FIG_6_9_SETTINGS = (
+    (14, 0.5, "constant"),
+    (8, 0.5, "constant"),
+    (28, 1.0, "constant"),
+    (14, 0.5, "decreasing"),
+)
 
 
 def _load_model(name: str, data: Path):
@@ -178,23 +182,37 @@ def fig_6_9(out: Path, *, seed: int = 0, size=(1250, 330)) -> tuple[list[dict], 
     rows.append({"setting": "noisy", **base.as_dict(), "seconds": 0.0})
     for k, eta, schedule in FIG_6_9_SETTINGS:
         t0 = time.perf_counter()
-        r = flatness_denoise(noisy, k=k, eta=eta, eps=0.1, n_iter=60, schedule=schedule,
-                             normals=m.normals)  # fmt: skip
+        r = flatness_denoise(
+            noisy, k=k, eta=eta, eps=0.1, n_iter=60, schedule=schedule, normals=m.normals
+        )
         sec = time.perf_counter() - t0
         label = f"k = {k}, eta = {eta}" + (", decreasing" if schedule == "decreasing" else "")
-        meas = denoise_measures(r.points, m.points, normals=r.normals, clean_normals=m.normals,
-                                clean_faces=m.faces)  # fmt: skip
+        meas = denoise_measures(
+            r.points, m.points, normals=r.normals, clean_normals=m.normals, clean_faces=m.faces
+        )
         rows.append({"setting": label, **meas.as_dict(), "seconds": round(sec, 3)})
         results.append((label, r.points, r.energy))
-    panels = [PointsPanel(p, scalars=e, scalar_name="flatness", cmap="Blues", title=t, clim=(0, 2))
-              if e is not None else PointsPanel(p, title=t) for t, p, e in results]  # fmt: skip
+    panels = [
+        PointsPanel(p, scalars=e, scalar_name="flatness", cmap="Blues", title=t, clim=(0, 2))
+        if e is not None
+        else PointsPanel(p, title=t)
+        for t, p, e in results
+    ]
     meshes = [MeshPanel(p, m.faces, title=t) for t, p, _ in results]
     written = [
-        render_side_by_side(out / "fig6_9_points.png", panels, size=size,
-                            title="Fig. 6.9: flatness denoising, 60 iterations, eps = 0.1"),
-        render_side_by_side(out / "fig6_9_mesh.png", meshes, size=size,
-                            title="Fig. 6.9: the same points with the clean connectivity"),
-    ]  # fmt: skip
+        render_side_by_side(
+            out / "fig6_9_points.png",
+            panels,
+            size=size,
+            title="Fig. 6.9: flatness denoising, 60 iterations, eps = 0.1",
+        ),
+        render_side_by_side(
+            out / "fig6_9_mesh.png",
+            meshes,
+            size=size,
+            title="Fig. 6.9: the same points with the clean connectivity",
+        ),
+    ]
     return rows, written
 
 

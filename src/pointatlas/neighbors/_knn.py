@@ -223,10 +223,28 @@ class NeighborIndex:
         out_d2 = np.empty((n_out, k), dtype=np.float64)
         failed = np.zeros(n_out, dtype=np.bool_)
         K.knn_grid(
-            grid.xs, grid.ys, grid.zs, grid.ids, grid.ukeys, grid.cstart, column_index(grid),
-            grid.lo, grid.h, grid.nx, grid.ny, grid.nz, k, _MAX_RING[self.backend],
-            qcells, qstart, qpos, qout, out_idx, out_d2, failed,
-        )  # fmt: skip
+            grid.xs,
+            grid.ys,
+            grid.zs,
+            grid.ids,
+            grid.ukeys,
+            grid.cstart,
+            column_index(grid),
+            grid.lo,
+            grid.h,
+            grid.nx,
+            grid.ny,
+            grid.nz,
+            k,
+            _MAX_RING[self.backend],
+            qcells,
+            qstart,
+            qpos,
+            qout,
+            out_idx,
+            out_d2,
+            failed,
+        )
         bad = np.flatnonzero(failed)
         if bad.size:
             point = bad if queries is None else queries[bad]
@@ -273,9 +291,7 @@ class NeighborIndex:
                 idx_p = np.empty((q.size, k), dtype=np.int64)
                 d2_p = np.empty((q.size, k), dtype=np.float64)
                 ok = np.empty(q.size, dtype=np.bool_)
-                K.select_candidates(
-                    pts, q, cand, last, k, all_points, gptr, gmem, idx_p, d2_p, ok
-                )  # fmt: skip
+                K.select_candidates(pts, q, cand, last, k, all_points, gptr, gmem, idx_p, d2_p, ok)
                 out_idx[part[ok]] = idx_p[ok]
                 out_d2[part[ok]] = d2_p[ok]
                 still.append(part[~ok])
@@ -314,8 +330,20 @@ class NeighborIndex:
         counts = np.zeros(n, dtype=np.int64)
         dummy_i = np.empty(0, dtype=np.int64)
         dummy_d = np.empty(0, dtype=np.float64)
-        args = (grid.xs, grid.ys, grid.zs, grid.ids, grid.ukeys, grid.cstart, grid.lo, grid.h,
-                grid.nx, grid.ny, grid.nz, r2)  # fmt: skip
+        args = (
+            grid.xs,
+            grid.ys,
+            grid.zs,
+            grid.ids,
+            grid.ukeys,
+            grid.cstart,
+            grid.lo,
+            grid.h,
+            grid.nx,
+            grid.ny,
+            grid.nz,
+            r2,
+        )
         K.radius_grid(*args, counts, dummy_i, dummy_i, dummy_d, False)
         indptr = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(counts, out=indptr[1:])

@@ -403,9 +403,17 @@ class _VSARun:
         """One merge round (4.3.3 b); returns the number of merges."""
         pairs, subset = self._merge_pairs()
         labels, wsum, ssum, counts, n_merge, remap = merge_regions(
-            self.indptr, self.indices, self.labels, self.wsum, self.ssum, self.counts,
-            pairs, subset, self.merge_eta, self.merge_min_cos,
-        )  # fmt: skip
+            self.indptr,
+            self.indices,
+            self.labels,
+            self.wsum,
+            self.ssum,
+            self.counts,
+            pairs,
+            subset,
+            self.merge_eta,
+            self.merge_min_cos,
+        )
         self.labels, self.wsum, self.ssum, self.counts = labels, wsum, ssum, counts
         self.singletons = False
         if n_merge:
@@ -443,9 +451,17 @@ class _VSARun:
                 self.drift[:mp] += row_norms(prox[:mp] - self.prev_prox)
             self.prev_prox = prox
             moved, new = batch_switch_bounded(
-                self.indptr, self.indices, self.normals, self.w, self.labels, prox,
-                self.foreign, VSA_SWITCH_MIN_GAIN, self.drift, self.memo,
-            )  # fmt: skip
+                self.indptr,
+                self.indices,
+                self.normals,
+                self.w,
+                self.labels,
+                prox,
+                self.foreign,
+                VSA_SWITCH_MIN_GAIN,
+                self.drift,
+                self.memo,
+            )
         else:
             point, target, gain = best_single_move(
                 self.indptr, self.indices, self.normals, self.w, self.labels, prox, self.foreign
@@ -456,10 +472,17 @@ class _VSARun:
                 new = np.array([target], dtype=np.int64)
         if self.local and moved.size:
             keep = hold_under_threshold(
-                moved, new, self.labels, self.wsum, self.ssum, self.w, self.wn,
+                moved,
+                new,
+                self.labels,
+                self.wsum,
+                self.ssum,
+                self.w,
+                self.wn,
                 0.0 if self.eta is None else float(self.eta),
-                0.0 if self.min_cos is None else float(self.min_cos), self.eta is None,
-            )  # fmt: skip
+                0.0 if self.min_cos is None else float(self.min_cos),
+                self.eta is None,
+            )
             moved, new = moved[keep], new[keep]
         spent["switch"] += time.perf_counter() - t0
         if not moved.size:
@@ -478,9 +501,18 @@ class _VSARun:
         switch memo of the points and their neighbours forgotten."""
         forget_around(self.indptr, self.indices, moved, self.memo)
         apply_moves(
-            self.indptr, self.indices, self.labels, self.wsum, self.ssum, self.counts,
-            self.foreign, self.w, self.wn, moved, new,
-        )  # fmt: skip
+            self.indptr,
+            self.indices,
+            self.labels,
+            self.wsum,
+            self.ssum,
+            self.counts,
+            self.foreign,
+            self.w,
+            self.wn,
+            moved,
+            new,
+        )
 
     # ------------------------------------------------------------------ end
 
@@ -524,9 +556,17 @@ class _VSARun:
             wsum = np.concatenate([self.wsum, np.zeros(n_new)])
             ssum = np.concatenate([self.ssum, np.zeros((n_new, 3))])
             keep = hold_under_threshold(
-                moved, tgt, self.labels, wsum, ssum, self.w, self.wn, eta, min_cos,
+                moved,
+                tgt,
+                self.labels,
+                wsum,
+                ssum,
+                self.w,
+                self.wn,
+                eta,
+                min_cos,
                 self.eta is None,
-            )  # fmt: skip
+            )
             if keep.all() or own[~keep].all():
                 break
             own |= ~keep
@@ -579,9 +619,17 @@ class _VSARun:
         subset = boundary_points(self.indptr, self.indices, self.labels)
         pairs = region_pairs(self.indptr, self.indices, self.labels, subset)
         labels, _, _, _, n_final, _ = merge_regions(
-            self.indptr, self.indices, self.labels, self.wsum, self.ssum, self.counts,
-            pairs, subset, self.merge_eta, self.merge_min_cos,
-        )  # fmt: skip
+            self.indptr,
+            self.indices,
+            self.labels,
+            self.wsum,
+            self.ssum,
+            self.counts,
+            pairs,
+            subset,
+            self.merge_eta,
+            self.merge_min_cos,
+        )
         if n_final:
             self.labels, self.m = canonical_labels(labels)
             self._resum()

@@ -184,10 +184,16 @@ def simplify_points(
     path, reason = _by_size(path, reason, inp.points.shape[0])
     if path != "robust":
         settings = {
-            "vertices": vertices, "faces": faces, "centers": ctr, "weight": weight,
-            "anchor_weight": anchor_weight, "min_region_size": min_region_size,
-            "repair": repair, "smooth": smooth, "max_boundary_fraction": max_boundary_fraction,
-        }  # fmt: skip
+            "vertices": vertices,
+            "faces": faces,
+            "centers": ctr,
+            "weight": weight,
+            "anchor_weight": anchor_weight,
+            "min_region_size": min_region_size,
+            "repair": repair,
+            "smooth": smooth,
+            "max_boundary_fraction": max_boundary_fraction,
+        }
         mesh, reason = _thesis_mesh(inp, seg_labels, seg_normals, path, settings)
         if mesh is not None and not reason:
             return inp.result(seg, mesh)

@@ -150,15 +150,28 @@ def simplify_segmentation(
     )
     frame, q, pn0, ctr0, nbrs = _start_planes(inp, proxy_normals, centers)
     clean = clean_regions(
-        q, inp.normals, inp.labels, nbrs, pn0, ctr0, k=inp.k,
-        smooth=smooth, min_region_size=min_region_size, repair=repair,
+        q,
+        inp.normals,
+        inp.labels,
+        nbrs,
+        pn0,
+        ctr0,
+        k=inp.k,
+        smooth=smooth,
+        min_region_size=min_region_size,
+        repair=repair,
         max_boundary_fraction=max_boundary_fraction,
-    )  # fmt: skip
+    )
     mv, face_list, used_weight = place_vertices(
-        clean, q, vertices=vertices, faces=faces, weight=weight, anchor_weight=anchor_weight,
+        clean,
+        q,
+        vertices=vertices,
+        faces=faces,
+        weight=weight,
+        anchor_weight=anchor_weight,
         max_distance=None if max_distance is None else float(max_distance) / frame.scale,
         max_iter=max_iter,
-    )  # fmt: skip
+    )
     return assemble_mesh(frame, q, clean, mv, face_list, faces, used_weight, inp)
 
 

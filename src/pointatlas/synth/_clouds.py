@@ -226,9 +226,14 @@ class MeshClouds:
 
     def __post_init__(self):
         for name in (
-            "points", "cloud_indptr", "cloud_members", "cloud_points", "source_face",
-            "source_vertex", "radius",
-        ):  # fmt: skip
+            "points",
+            "cloud_indptr",
+            "cloud_members",
+            "cloud_points",
+            "source_face",
+            "source_vertex",
+            "radius",
+        ):
             readonly(getattr(self, name))
 
     @property

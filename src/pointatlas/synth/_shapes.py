@@ -100,12 +100,21 @@ def icosphere(subdivisions: int = 4, *, radius: float = 1.0) -> SynthMesh:
     g = _GOLDEN
     base = np.array(
         [
-            [-1, g, 0], [1, g, 0], [-1, -g, 0], [1, -g, 0],
-            [0, -1, g], [0, 1, g], [0, -1, -g], [0, 1, -g],
-            [g, 0, -1], [g, 0, 1], [-g, 0, -1], [-g, 0, 1],
+            [-1, g, 0],
+            [1, g, 0],
+            [-1, -g, 0],
+            [1, -g, 0],
+            [0, -1, g],
+            [0, 1, g],
+            [0, -1, -g],
+            [0, 1, -g],
+            [g, 0, -1],
+            [g, 0, 1],
+            [-g, 0, -1],
+            [-g, 0, 1],
         ],
         dtype=np.float64,
-    )  # fmt: skip
+    )
     hull = ConvexHull(base)
     faces = _outward(base, hull.simplices.astype(np.int64), np.zeros(3))
     verts, tris, _ = subdivide(base, faces, 2**s)

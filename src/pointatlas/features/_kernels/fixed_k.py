@@ -193,11 +193,17 @@ def fused_kernel(points, idx, order, k_of, ang, use_normals, a_of, b_of, m1, m2,
             r = t - t0
             code = block_reason[r]
             if code == REASON_OK and not eigen_features_row(
-                out, i,
-                block_cov[r, 0], block_cov[r, 1], block_cov[r, 2],
-                block_cov[r, 3], block_cov[r, 4], block_cov[r, 5],
-                m1, m2,
-            ):  # fmt: skip
+                out,
+                i,
+                block_cov[r, 0],
+                block_cov[r, 1],
+                block_cov[r, 2],
+                block_cov[r, 3],
+                block_cov[r, 4],
+                block_cov[r, 5],
+                m1,
+                m2,
+            ):
                 code = REASON_ZERO_EIGENSUM
             reason[i] = code
             if code != REASON_OK:

@@ -105,9 +105,20 @@ def _offsets_and_angles(points, normals, idx, i, kmax, use_normals, offsets, nbr
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _pair_weights(
-    angles, kmax, use_normals, pair_a, pair_b, n_pairs, dedupe, all_bits,
-    weights, active, seen_masks, ramp, ramp_pairs,
-):  # fmt: skip
+    angles,
+    kmax,
+    use_normals,
+    pair_a,
+    pair_b,
+    n_pairs,
+    dedupe,
+    all_bits,
+    weights,
+    active,
+    seen_masks,
+    ramp,
+    ramp_pairs,
+):
     """Stage 2: the weights (n_pairs, kmax) of the active pairs; returns their number.
 
     For every distinct a the neighbours with angle <= a (a bit mask) and the
@@ -243,9 +254,20 @@ def _candidate_covariances(
                 q = n_cand
                 n_cand += 1
                 c = cov_from_sums(
-                    s0, s1, s2, s3, s4, s5, s6, s7, s8, s9,
-                    mean_k[0, j + 1 - kmin], mean_k[1, j + 1 - kmin], mean_k[2, j + 1 - kmin],
-                )  # fmt: skip
+                    s0,
+                    s1,
+                    s2,
+                    s3,
+                    s4,
+                    s5,
+                    s6,
+                    s7,
+                    s8,
+                    s9,
+                    mean_k[0, j + 1 - kmin],
+                    mean_k[1, j + 1 - kmin],
+                    mean_k[2, j + 1 - kmin],
+                )
                 cand_cov[0, q] = c[0]
                 cand_cov[1, q] = c[1]
                 cand_cov[2, q] = c[2]
@@ -259,9 +281,18 @@ def _candidate_covariances(
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _table_survivors(
-    cand_cov, n_cand, use_tab, tab_flat, n_rho, n_v,
-    stage1, cand_cell, cand_bound, survivors, surv_stage1,
-):  # fmt: skip
+    cand_cov,
+    n_cand,
+    use_tab,
+    tab_flat,
+    n_rho,
+    n_v,
+    stage1,
+    cand_cell,
+    cand_bound,
+    survivors,
+    surv_stage1,
+):
     """Stage 4: the closed form's first stage of every candidate into ``stage1``
     (q, p, p^2, r) and, for E_dim with a table, the survivors of its bounds;
     returns their number.
@@ -274,9 +305,13 @@ def _table_survivors(
     """
     for q in range(n_cand):
         stage1[0, q], stage1[1, q], stage1[2, q], stage1[3, q] = lanes_stage1(
-            cand_cov[0, q], cand_cov[1, q], cand_cov[2, q],
-            cand_cov[3, q], cand_cov[4, q], cand_cov[5, q],
-        )  # fmt: skip
+            cand_cov[0, q],
+            cand_cov[1, q],
+            cand_cov[2, q],
+            cand_cov[3, q],
+            cand_cov[4, q],
+            cand_cov[5, q],
+        )
     n_surv = 0
     upper = np.inf
     if use_tab and n_cand > 0:
@@ -328,9 +363,14 @@ def _survivor_ratios(surv_stage1, n_surv, criterion, stage2, surv_eig, surv_rati
         stage2[0, s], stage2[1, s], stage2[2, s], stage2[3, s] = lanes_stage2(surv_stage1[3, s])
     for s in range(n_surv):
         l1, l2, l3 = lanes_stage3(
-            surv_stage1[0, s], surv_stage1[1, s], surv_stage1[2, s],
-            stage2[0, s], stage2[1, s], stage2[2, s], stage2[3, s],
-        )  # fmt: skip
+            surv_stage1[0, s],
+            surv_stage1[1, s],
+            surv_stage1[2, s],
+            stage2[0, s],
+            stage2[1, s],
+            stage2[2, s],
+            stage2[3, s],
+        )
         surv_eig[0, s] = l1
         surv_eig[1, s] = l2
         surv_eig[2, s] = l3
@@ -412,11 +452,17 @@ def _winner_row(out, i, cand_cov, bq, finite, m1, m2):
     if not finite:
         return REASON_NONFINITE
     if not eigen_features_row(
-        out, i,
-        cand_cov[0, bq], cand_cov[1, bq], cand_cov[2, bq],
-        cand_cov[3, bq], cand_cov[4, bq], cand_cov[5, bq],
-        m1, m2,
-    ):  # fmt: skip
+        out,
+        i,
+        cand_cov[0, bq],
+        cand_cov[1, bq],
+        cand_cov[2, bq],
+        cand_cov[3, bq],
+        cand_cov[4, bq],
+        cand_cov[5, bq],
+        m1,
+        m2,
+    ):
         return REASON_ZERO_EIGENSUM
     return REASON_OK
 
@@ -530,17 +576,37 @@ def optimal_kernel(
                 _no_choice(out, i)
                 continue
             n_active = _pair_weights(
-                angles, kmax, use_normals, pair_a, pair_b, n_pairs, dedupe, all_bits,
-                weights, active, seen_masks, ramp, ramp_pairs,
-            )  # fmt: skip
+                angles,
+                kmax,
+                use_normals,
+                pair_a,
+                pair_b,
+                n_pairs,
+                dedupe,
+                all_bits,
+                weights,
+                active,
+                seen_masks,
+                ramp,
+                ramp_pairs,
+            )
             _prefix_means(offsets, kmin, kmax, mean_k, finite_k)
             n_cand = _candidate_covariances(
                 weights, active, n_active, offsets, kmin, kmax, mean_k, cand_cov, cand_k, cand_pair
             )
             n_surv = _table_survivors(
-                cand_cov, n_cand, use_tab, tab_flat, n_rho, n_v,
-                stage1, cand_cell, cand_bound, survivors, surv_stage1,
-            )  # fmt: skip
+                cand_cov,
+                n_cand,
+                use_tab,
+                tab_flat,
+                n_rho,
+                n_v,
+                stage1,
+                cand_cell,
+                cand_bound,
+                survivors,
+                surv_stage1,
+            )
             _survivor_ratios(surv_stage1, n_surv, criterion, stage2, surv_eig, surv_ratios)
             code, bk, bp, bq = _best_choice(
                 surv_eig, surv_ratios, n_surv, criterion, survivors, cand_k, cand_pair, surv_bound

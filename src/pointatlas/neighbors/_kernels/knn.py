@@ -96,9 +96,30 @@ def _done(bd, bi, qx, qy, qz, lo, h, ci, cj, ck, r, nx, ny, nz, margin):
 
 @njit(cache=True)
 def _scan_shell(
-    xs, ys, zs, ids, ukeys, cstart, colptr, lo, h, ci, cj, ck, r, nx, ny, nz, margin,
-    qx, qy, qz, qid, bd, bi,
-):  # fmt: skip
+    xs,
+    ys,
+    zs,
+    ids,
+    ukeys,
+    cstart,
+    colptr,
+    lo,
+    h,
+    ci,
+    cj,
+    ck,
+    r,
+    nx,
+    ny,
+    nz,
+    margin,
+    qx,
+    qy,
+    qz,
+    qid,
+    bd,
+    bi,
+):
     """Scan the cells at Chebyshev distance exactly r from cell (ci, cj, ck): the
     columns of the ring's rim over z ``ck - r .. ck + r`` (skipped when their box is
     farther than the current last candidate), the inner columns at z ``ck +- r``."""
@@ -135,9 +156,25 @@ def _scan_shell(
 
 @njit(cache=True, inline="always")
 def _block_cells(
-    ukeys, cstart, colptr, lo, h, ci, cj, ck, nx, ny, nz,
-    cell_c, cell_cls, lst_a, lst_b, lst_x, lst_y, lst_z,
-):  # fmt: skip
+    ukeys,
+    cstart,
+    colptr,
+    lo,
+    h,
+    ci,
+    cj,
+    ck,
+    nx,
+    ny,
+    nz,
+    cell_c,
+    cell_cls,
+    lst_a,
+    lst_b,
+    lst_x,
+    lst_y,
+    lst_z,
+):
     """The occupied cells of the 3 x 3 x 3 block around cell (ci, cj, ck), each once:
     own cell (class 0) first, then faces, edges, corners. Entry u: point range
     ``lst_a[u]:lst_b[u]`` and box corner (``lst_x[u]``, ``lst_y[u]``, ``lst_z[u]``);
@@ -171,9 +208,26 @@ def _block_cells(
 
 @njit(cache=True, inline="always")
 def _scan_block(
-    xs, ys, zs, ids, h, margin, p, s, e, n_lst, lst_a, lst_b, lst_x, lst_y, lst_z,
-    ord_d, ord_u, bd, bi,
-):  # fmt: skip
+    xs,
+    ys,
+    zs,
+    ids,
+    h,
+    margin,
+    p,
+    s,
+    e,
+    n_lst,
+    lst_a,
+    lst_b,
+    lst_x,
+    lst_y,
+    lst_z,
+    ord_d,
+    ord_u,
+    bd,
+    bi,
+):
     """The m = len(bd) nearest other points of the point at cell-order position p
     (own cell ``s:e``) among the block's cells into the buffer (``bd``, ``bi``), sorted
     by (d2, index); the path for blocks too large to gather (`_gather_block`).
@@ -415,9 +469,25 @@ def _knn_groups(grid, queries, outputs, k, max_ring, g0, g1):
         c = qcells[g]
         ci, cj, ck = cell_coords(ukeys[c], ny, nz)
         n_lst = _block_cells(
-            ukeys, cstart, colptr, lo, h, ci, cj, ck, nx, ny, nz,
-            cell_c, cell_cls, lst_a, lst_b, lst_x, lst_y, lst_z,
-        )  # fmt: skip
+            ukeys,
+            cstart,
+            colptr,
+            lo,
+            h,
+            ci,
+            cj,
+            ck,
+            nx,
+            ny,
+            nz,
+            cell_c,
+            cell_cls,
+            lst_a,
+            lst_b,
+            lst_x,
+            lst_y,
+            lst_z,
+        )
         s = cstart[c]
         e = cstart[c + 1]
         n_g = _gather_block(xs, ys, zs, ids, n_lst, lst_a, lst_b, gx, gy, gz, gi)
@@ -442,9 +512,26 @@ def _knn_groups(grid, queries, outputs, k, max_ring, g0, g1):
                 done = _select_gathered(dd, gi, n_g, p - s, tau, sd, si, sr, bd, bi)
             if not done:
                 _scan_block(
-                    xs, ys, zs, ids, h, margin, p, s, e, n_lst, lst_a, lst_b,
-                    lst_x, lst_y, lst_z, ord_d, ord_u, bd, bi,
-                )  # fmt: skip
+                    xs,
+                    ys,
+                    zs,
+                    ids,
+                    h,
+                    margin,
+                    p,
+                    s,
+                    e,
+                    n_lst,
+                    lst_a,
+                    lst_b,
+                    lst_x,
+                    lst_y,
+                    lst_z,
+                    ord_d,
+                    ord_u,
+                    bd,
+                    bi,
+                )
             if bi[m - 1] != _SENTINEL and bd[m - 1] > 0.0:
                 tau = bd[m - 1] * 1.05
             r = 1
@@ -454,9 +541,30 @@ def _knn_groups(grid, queries, outputs, k, max_ring, g0, g1):
                     break
                 r += 1
                 _scan_shell(
-                    xs, ys, zs, ids, ukeys, cstart, colptr, lo, h, ci, cj, ck, r,
-                    nx, ny, nz, margin, qx, qy, qz, ids[p], bd, bi,
-                )  # fmt: skip
+                    xs,
+                    ys,
+                    zs,
+                    ids,
+                    ukeys,
+                    cstart,
+                    colptr,
+                    lo,
+                    h,
+                    ci,
+                    cj,
+                    ck,
+                    r,
+                    nx,
+                    ny,
+                    nz,
+                    margin,
+                    qx,
+                    qy,
+                    qz,
+                    ids[p],
+                    bd,
+                    bi,
+                )
             for u in range(m):
                 tb_i[slot, u + 1] = bi[u]
                 tb_d[slot, u + 1] = bd[u]
@@ -465,9 +573,28 @@ def _knn_groups(grid, queries, outputs, k, max_ring, g0, g1):
 
 @njit(cache=True, parallel=True)
 def knn_grid(
-    xs, ys, zs, ids, ukeys, cstart, colptr, lo, h, nx, ny, nz, k, max_ring,
-    qcells, qstart, qpos, qout, out_idx, out_d2, failed,
-):  # fmt: skip
+    xs,
+    ys,
+    zs,
+    ids,
+    ukeys,
+    cstart,
+    colptr,
+    lo,
+    h,
+    nx,
+    ny,
+    nz,
+    k,
+    max_ring,
+    qcells,
+    qstart,
+    qpos,
+    qout,
+    out_idx,
+    out_d2,
+    failed,
+):
     """k nearest neighbours (itself in column 0) of the queried points, on the grid.
 
     Queries come grouped by cell: group g is cell ``qcells[g]`` with the cell-order

@@ -222,11 +222,19 @@ def bvh_distances(points, leaf_corners, boxes, first, count, slack_rel, slack_ab
                 if count[node] > 0:
                     for j in range(first[node], first[node] + count[node]):
                         d = closest_sq(
-                            px, py, pz,
-                            leaf_corners[j, 0], leaf_corners[j, 1], leaf_corners[j, 2],
-                            leaf_corners[j, 3], leaf_corners[j, 4], leaf_corners[j, 5],
-                            leaf_corners[j, 6], leaf_corners[j, 7], leaf_corners[j, 8],
-                        )  # fmt: skip
+                            px,
+                            py,
+                            pz,
+                            leaf_corners[j, 0],
+                            leaf_corners[j, 1],
+                            leaf_corners[j, 2],
+                            leaf_corners[j, 3],
+                            leaf_corners[j, 4],
+                            leaf_corners[j, 5],
+                            leaf_corners[j, 6],
+                            leaf_corners[j, 7],
+                            leaf_corners[j, 8],
+                        )
                         if d < best:
                             best = d
                     if best <= enough:

@@ -59,9 +59,18 @@ def _rotate(a, v, p, q):
     """
     r = 3 - p - q  # the third index
     changed, app, aqq, apq, arp, arq, vp0, vp1, vp2, vq0, vq1, vq2 = _rotate_scalars(
-        a[p, p], a[q, q], a[p, q], a[r, p], a[r, q],
-        v[0, p], v[1, p], v[2, p], v[0, q], v[1, q], v[2, q],
-    )  # fmt: skip
+        a[p, p],
+        a[q, q],
+        a[p, q],
+        a[r, p],
+        a[r, q],
+        v[0, p],
+        v[1, p],
+        v[2, p],
+        v[0, q],
+        v[1, q],
+        v[2, q],
+    )
     a[p, q] = apq  # 0 when negligible (unchanged when already 0)
     a[q, p] = apq
     if not changed:
@@ -188,8 +197,7 @@ def sym3_eigen_scalars(a00, a01, a02, a11, a12, a22):
     c2 = (v02, v12, v22)
     u = c0 if i0 == 0 else (c1 if i0 == 1 else c2)
     nv = c0 if i2 == 0 else (c1 if i2 == 1 else c2)
-    return (d[i0] * scale, d[i1] * scale, d[i2] * scale,
-            u[0], u[1], u[2], nv[0], nv[1], nv[2])  # fmt: skip
+    return (d[i0] * scale, d[i1] * scale, d[i2] * scale, u[0], u[1], u[2], nv[0], nv[1], nv[2])
 
 
 @njit(cache=True)

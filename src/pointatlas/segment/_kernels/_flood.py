@@ -47,9 +47,20 @@ def flood(indptr, indices, normals, seeds, seed_normals):
         labels[seeds[r]] = r
     for r in range(n_seeds):
         heap, base, size = _push_neighbours(
-            indptr, indices, normals, seed_normals, labels, seeds[r], r, n_seeds,
-            heap, base, size, bits, bits_i,
-        )  # fmt: skip
+            indptr,
+            indices,
+            normals,
+            seed_normals,
+            labels,
+            seeds[r],
+            r,
+            n_seeds,
+            heap,
+            base,
+            size,
+            bits,
+            bits_i,
+        )
     while size > 0:
         code = heap[base, 1]
         heap_pop(heap, base, size)
@@ -60,9 +71,20 @@ def flood(indptr, indices, normals, seeds, seed_normals):
         r = code - p * n_seeds
         labels[p] = r
         heap, base, size = _push_neighbours(
-            indptr, indices, normals, seed_normals, labels, p, r, n_seeds,
-            heap, base, size, bits, bits_i,
-        )  # fmt: skip
+            indptr,
+            indices,
+            normals,
+            seed_normals,
+            labels,
+            p,
+            r,
+            n_seeds,
+            heap,
+            base,
+            size,
+            bits,
+            bits_i,
+        )
     return labels
 
 

@@ -263,10 +263,15 @@ def hold_under_threshold(moved, new, labels, wsum, ssum, weights, wn, eta, min_c
                     not was_over[r]
                     and trial_w[r] > 0.0
                     and _over(
-                        trial_w[r], trial_s[r, 0], trial_s[r, 1], trial_s[r, 2],
-                        eta, min_cos, use_angle,
+                        trial_w[r],
+                        trial_s[r, 0],
+                        trial_s[r, 1],
+                        trial_s[r, 2],
+                        eta,
+                        min_cos,
+                        use_angle,
                     )
-                ):  # fmt: skip
+                ):
                     keep[t] = False
                     dropped = True
         if not dropped:
