@@ -1,4 +1,4 @@
-"""Run kernel-vs-reference tests once more with NUMBA_DISABLE_JIT=1 (STYLE section 7).
+"""Run kernel-vs-reference tests once more with NUMBA_DISABLE_JIT=1 (CONTRIBUTING.md, Tests).
 
 The kernels then run as plain Python, so coverage sees their bodies. numba reads the
 switch at import time, so the tests run in a subprocess:

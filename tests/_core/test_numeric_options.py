@@ -1,4 +1,4 @@
-"""The shared numeric-option helpers: as_int, as_float, as_float_array (STYLE 5)."""
+"""The shared numeric-option helpers: as_int, as_float, as_float_array (CONTRIBUTING.md, Code)."""
 
 from __future__ import annotations
 

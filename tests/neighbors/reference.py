@@ -1,4 +1,4 @@
-"""Slow, obvious plain-numpy references for the neighbour kernels (STYLE section 7).
+"""Slow, obvious plain-numpy references for the neighbour kernels (CONTRIBUTING.md, Tests).
 
 Every function builds the full N x N matrix of squared distances on coordinates
 centred on their bounding-box centre, evaluated as ``dx*dx + dy*dy + dz*dz`` (the

@@ -1,5 +1,5 @@
 """Small kernel-vs-reference checks, run JIT-compiled with the suite and once more with
-NUMBA_DISABLE_JIT=1 (STYLE section 7: coverage of the kernel bodies; inputs are tiny)."""
+NUMBA_DISABLE_JIT=1 (CONTRIBUTING.md, Tests: coverage of the kernel bodies; inputs are tiny)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Slow, obvious plain-numpy references for the normals kernels (STYLE section 7)."""
+"""Slow, obvious plain-numpy references for the normals kernels (CONTRIBUTING.md, Tests)."""
 
 from __future__ import annotations
 

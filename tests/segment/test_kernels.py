@@ -535,7 +535,7 @@ def test_classic_vsa_figure_4_1_converges():
     assert res.converged and res.region_counts.tolist() == [41, 1]
 
 
-#: The small kernel-vs-reference tests that run again with the JIT off (STYLE 7):
+#: The small kernel-vs-reference tests that run again with the JIT off (CONTRIBUTING.md, Tests):
 #: one case of every kernel (a pytest ``-k`` expression).
 NO_JIT_SELECTION = " or ".join(
     [
