@@ -33,6 +33,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from bench_simplify_rd import both_ways, kinds, open3d_quadric
 
 from pointatlas.io import read_mesh
 from pointatlas.neighbors import point_mesh_distance
@@ -41,6 +42,9 @@ from pointatlas.simplify import SimplifyWarning, mesh_checks, simplify_points
 from pointatlas.synth import sample_mesh
 
 MESH_SUFFIXES = (".obj", ".off", ".ply", ".stl")
+#: Poisson depths tried for the peer (the better one per model is kept)
+PEER_DEPTHS = (8, 9)
+KINDS = kinds()
 
 
 def _euler(n_vertices: int, tri: np.ndarray) -> int:
@@ -55,7 +59,39 @@ def _both_ways(v, t, v2, t2) -> float:
     return float(max(point_mesh_distance(a, v2, t2).max(), point_mesh_distance(b, v, t).max()))
 
 
-def run_model(path: Path, n_points: int, estimate: bool = False) -> dict:
+def poisson_decimated(points, normals, n_triangles: int, depth: int):
+    """What a user does today: Open3D's screened Poisson at ``depth``, then its quadric
+    decimation to ``n_triangles`` (vertices, triangles)."""
+    import open3d as o3d
+
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.array(points, dtype=float)))
+    cloud.normals = o3d.utility.Vector3dVector(np.array(normals, dtype=float))
+    mesh, _ = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(cloud, depth=depth)
+    v, t = np.asarray(mesh.vertices), np.asarray(mesh.triangles, dtype=np.int64)
+    return open3d_quadric(v, t, n_triangles)
+
+
+def peer_row(v_true, t_true, p, n, n_triangles: int) -> dict:
+    """The better of Poisson depth 8 and 9 + decimation (lower mean distance both ways)."""
+    best = None
+    for depth in PEER_DEPTHS:
+        t0 = time.perf_counter()
+        pv, pt = poisson_decimated(p, n, n_triangles, depth)
+        took = time.perf_counter() - t0
+        d = both_ways(v_true, t_true, pv, pt)
+        if best is None or d["mean"] < best["peer_mean_pct"]:
+            best = {
+                "peer_depth": depth,
+                "peer_triangles": int(pt.shape[0]),
+                "peer_closed": all(mesh_checks(len(pv), pt)) if len(pt) else False,
+                "peer_mean_pct": d["mean"],
+                "peer_hausdorff_pct": d["hausdorff"],
+                "peer_seconds": took,
+            }
+    return best
+
+
+def run_model(path: Path, n_points: int, estimate: bool = False, peer: bool = True) -> dict:
     mesh = read_mesh(path)
     tri = np.asarray(mesh.triangles, dtype=np.int64)
     used = np.unique(tri)
@@ -65,7 +101,8 @@ def run_model(path: Path, n_points: int, estimate: bool = False) -> dict:
     if estimate:
         n = orient_normals(p, estimate_normals(p, k=20))
     diag = float(np.linalg.norm(np.ptp(p, axis=0)))
-    row = {"model": path.name, "points": n_points, "euler_input": euler_in}
+    kind = KINDS.get(path.stem, "organic")
+    row = {"model": path.name, "kind": kind, "points": n_points, "euler_input": euler_in}
     t0 = time.perf_counter()
     try:
         with warnings.catch_warnings():
@@ -96,8 +133,35 @@ def run_model(path: Path, n_points: int, estimate: bool = False) -> dict:
         truth_hausdorff_pct=100.0 * _both_ways(mesh.vertices, tri, mv, mt) / diag,
         spike=bool(((mv < lo) | (mv > hi)).any()),
         seconds=seconds,
+        truth_mean_pct=both_ways(mesh.vertices, tri, mv, mt)["mean"],
     )
+    if peer:
+        row.update(peer_row(mesh.vertices, tri, p, n, int(mt.shape[0])))
     return row
+
+
+def peer_summary(rows: list[dict]) -> list[str]:
+    """Geometric means of ours / Poisson + decimation per kind (distances below 1e-4 %
+    of the diagonal count as equal, as in bench_simplify_rd.py)."""
+    lines = []
+    for kind in ("cad", "organic"):
+        mine = [r for r in rows if r["kind"] == kind and "peer_mean_pct" in r]
+        if not mine:
+            continue
+
+        def gm(ours, theirs, rows=mine):
+            x = [(r[ours] + 1e-4) / (r[theirs] + 1e-4) for r in rows]
+            return float(np.exp(np.mean(np.log(x))))
+
+        over = sum((r["truth_mean_pct"] + 1e-4) / (r["peer_mean_pct"] + 1e-4) > 1.5 for r in mine)
+        lines.append(
+            f"{kind} ({len(mine)}): ours / Poisson + decimation at our triangle count: mean "
+            f"distance {gm('truth_mean_pct', 'peer_mean_pct'):.2f}x, two-sided Hausdorff "
+            f"{gm('truth_hausdorff_pct', 'peer_hausdorff_pct'):.2f}x, time "
+            f"{gm('seconds', 'peer_seconds'):.2f}x; {over} over 1.5x (mean); peer closed "
+            f"{sum(bool(r['peer_closed']) for r in mine)}/{len(mine)}"
+        )
+    return lines
 
 
 def main(argv=None) -> int:
@@ -106,13 +170,14 @@ def main(argv=None) -> int:
     ap.add_argument("--every", type=int, default=3)
     ap.add_argument("--points", type=int, default=20000)
     ap.add_argument("--estimate-normals", action="store_true")
+    ap.add_argument("--no-peer", action="store_true", help="skip Poisson + decimation")
     ap.add_argument("--out", type=Path, default=Path("bench-output/simplify_points.csv"))
     args = ap.parse_args(argv)
     files = sorted(p for p in args.models.iterdir() if p.suffix.lower() in MESH_SUFFIXES)
     files = files[:: args.every]
     rows = []
     for path in files:
-        row = run_model(path, args.points, args.estimate_normals)
+        row = run_model(path, args.points, args.estimate_normals, not args.no_peer)
         rows.append(row)
         print(
             f"{row['model']:40s} {row['path']:7s} faces={row.get('faces', '-')!s:>5} "
@@ -142,8 +207,16 @@ def main(argv=None) -> int:
         "max_distance_pct",
         "hausdorff_pct",
         "truth_hausdorff_pct",
+        "truth_mean_pct",
         "spike",
         "seconds",
+        "kind",
+        "peer_depth",
+        "peer_triangles",
+        "peer_closed",
+        "peer_mean_pct",
+        "peer_hausdorff_pct",
+        "peer_seconds",
         "reason",
     ]
     with open(args.out, "w", newline="") as fh:
@@ -175,6 +248,8 @@ def main(argv=None) -> int:
             f"{sum(r['spike'] for r in done)}; triangles median {np.median(tris):.0f}, "
             f"max {tris.max()}; faces median {np.median([r['faces'] for r in done]):.0f}"
         )
+        for line in peer_summary(done):
+            print(line)
     print(f"written: {args.out}")
     return 0
 
