@@ -231,9 +231,11 @@ class ArraySource:
 
     @property
     def has_normals(self) -> bool:
+        """Whether normals travel with the points."""
         return self.normals is not None
 
     def bounds(self):
+        """Minima and maxima of the coordinates, as two (x, y, z) tuples."""
         from ..neighbors._kernels import bounds
 
         lo, hi = bounds(self.points)
@@ -245,6 +247,7 @@ class ArraySource:
         return self.points[::stride], stride
 
     def chunks(self):
+        """(start, xyz float64, normals or None) chunks of at most 2**22 points."""
         for s in range(0, self.n, _ARRAY_CHUNK):
             e = min(self.n, s + _ARRAY_CHUNK)
             yield s, self.points[s:e], None if self.normals is None else self.normals[s:e]

@@ -55,6 +55,24 @@ def tile_options(
     """`TileOptions` from the CLI flags, or None without ``--tile-size``.
 
     The other flags without ``--tile-size`` are an error (they would do nothing).
+
+    Parameters
+    ----------
+    tile_size : float or None
+        ``--tile-size``: the tiles' side in coordinate units; None runs untiled.
+    halo, workers, scheduler, max_memory
+        ``--halo``, ``--workers`` (2 when not given), ``--scheduler``, ``--max-memory``.
+    progress : bool, default True
+        Show a progress bar.
+
+    Returns
+    -------
+    TileOptions or None
+
+    Raises
+    ------
+    PointAtlasError
+        One of the other flags given without ``--tile-size``.
     """
     if tile_size is None:
         given = [

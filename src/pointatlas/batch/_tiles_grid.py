@@ -123,7 +123,25 @@ class TileGrid:
 
 
 def make_grid(lo, hi, tile_size: float) -> TileGrid:
-    """The grid of ``tile_size`` tiles over the box ``lo``..``hi`` (x/y)."""
+    """The grid of ``tile_size`` tiles over the box ``lo``..``hi`` (x/y).
+
+    Parameters
+    ----------
+    lo, hi : sequence of float
+        The box's lower and upper corners (x, y first; further coordinates are kept).
+    tile_size : float
+        The tiles' side, finite and > 0.
+
+    Returns
+    -------
+    TileGrid
+        At least one tile each way, at most 10**6 tiles.
+
+    Raises
+    ------
+    PointAtlasError
+        A tile size that is not a finite number > 0, or one giving over 10**6 tiles.
+    """
     if not (isinstance(tile_size, int | float) and math.isfinite(tile_size) and tile_size > 0):
         raise PointAtlasError(f"--tile-size must be a finite number > 0; got {tile_size!r}")
     lo = tuple(float(v) for v in lo)

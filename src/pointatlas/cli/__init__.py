@@ -12,10 +12,17 @@ import importlib
 import os
 import signal
 import sys
+from typing import TYPE_CHECKING
 
 from ._signals import STOPPED
 
+if TYPE_CHECKING:
+    import typer
+
 __all__ = ["app", "main"]
+
+app: typer.Typer  # declared for the API reference; bound on first use by __getattr__
+"""The typer application: every ``pointatlas`` command (imported on first use)."""
 
 # command modules (each registers on ``app`` / sub-apps when imported)
 _COMMAND_MODULES = (
@@ -61,6 +68,12 @@ def main() -> None:
 
     Ctrl-C (SIGTERM) while the command modules load prints one line and exits 130
     (143); once a command runs, ``guarded`` handles it (outputs stay as they were).
+
+    Raises
+    ------
+    SystemExit
+        With the command's exit status: 0, 1 (a user error) or 2 (a usage error);
+        after Ctrl-C or SIGTERM the process ends at once with 130 or 143.
     """
     for signum in STOPPED:
         signal.signal(signum, _interrupted_while_starting)
