@@ -14,7 +14,18 @@ __all__ = ["PointSet", "readonly"]
 
 
 def readonly(arr: np.ndarray | None) -> np.ndarray | None:
-    """Return ``arr`` with its writeable flag cleared (None passes through)."""
+    """Return ``arr`` with its writeable flag cleared (None passes through).
+
+    Parameters
+    ----------
+    arr : array_like or None
+        The array (made an ndarray with `numpy.asarray`, not copied when it is one).
+
+    Returns
+    -------
+    ndarray or None
+        The same array, read-only.
+    """
     if arr is None:
         return None
     arr = np.asarray(arr)

@@ -170,7 +170,24 @@ def table_5_3(
 
 
 def fig_6_9(out: Path, *, seed: int = 0, size=(1250, 330)) -> tuple[list[dict], list[Path]]:
-    """Flatness denoising of the noisy dodecahedron (3,842 points, 25 %, 60 iterations)."""
+    """Flatness denoising of the noisy dodecahedron (3,842 points, 25 %, 60 iterations).
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        Existing output folder for ``fig6_9_points.png`` and ``fig6_9_mesh.png``.
+    seed : int
+        Seed of the noise.
+    size : tuple of int
+        Picture size (width, height) in pixels.
+
+    Returns
+    -------
+    rows : list of dict
+        Per setting (the noisy input first): the `denoise_measures` and seconds.
+    written : list of pathlib.Path
+        The two pictures.
+    """
     from ..synth import dodecahedron
     from ..viz import MeshPanel, PointsPanel, render_side_by_side
 
@@ -228,8 +245,27 @@ def write_denoise_outputs(
 ):
     """Table 5.3 and Figs. 6.7-6.9 into ``out``: CSV, PNG and, last, ``summary.json``.
 
-    Returns ``(summary, written)``: the rows of each part and the files in the
-    order written (``summary.json`` last).
+    Parameters
+    ----------
+    out : pathlib.Path
+        Existing output folder.
+    data : pathlib.Path
+        The shared data folder (`table_5_3`).
+    models : sequence of str
+        Names of `TABLE_5_3_MODELS` for the table.
+    table, figures : bool
+        Write Table 5.3; write Figs. 6.7-6.9.
+    seed : int
+        Seed of the noise.
+    progress : callable, optional
+        As in `table_5_3`.
+
+    Returns
+    -------
+    summary : dict
+        The rows of each part (``table_5_3``, ``fig_6_9``) and the seed.
+    written : list of pathlib.Path
+        The files in the order written (``summary.json`` last).
     """
     from .neighbourhoods import noisy_dodecahedron_flatness
 

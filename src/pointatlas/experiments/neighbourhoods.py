@@ -352,7 +352,22 @@ def _energy_figure(title: str, series: dict[str, list], path: Path, note: str = 
 
 
 def write_neighbourhood_outputs(summary: dict, out: Path, *, label: str) -> list[Path]:
-    """Write Tables 5.1/5.2, Figs. 5.4-5.6 and 6.3/6.6 as CSV/JSON/PNG into ``out``."""
+    """Write Tables 5.1/5.2, Figs. 5.4-5.6 and 6.3/6.6 as CSV/JSON/PNG into ``out``.
+
+    Parameters
+    ----------
+    summary : dict
+        `aggregate_neighbourhoods`'s summary.
+    out : pathlib.Path
+        Output folder (made when missing).
+    label : str
+        Collection name in the tables and figures.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written, ``neighbourhoods.json`` first.
+    """
     from matplotlib import colormaps
     from matplotlib.figure import Figure
 

@@ -357,7 +357,20 @@ def results_markdown(rows: list[dict]) -> str:
 
 
 def write_simplify_outputs(rows: list[dict], out: Path) -> str:
-    """Write ``results.json`` and ``results.md`` into ``out``; returns the markdown."""
+    """Write ``results.json`` and ``results.md`` into ``out``.
+
+    Parameters
+    ----------
+    rows : list of dict
+        The result rows of `run_case`.
+    out : pathlib.Path
+        Existing output folder.
+
+    Returns
+    -------
+    str
+        The markdown table (`results_markdown`).
+    """
     write_text(out / "results.json", json.dumps(rows, indent=2, default=float))
     md = results_markdown(rows)
     write_text(out / "results.md", md)

@@ -156,6 +156,18 @@ def aggregate_vsa(results: dict) -> dict:
     ``valid`` models are those where region growing gave a proxy normal for every
     region (the thesis excluded the others, as PCL "failed" there); ``all`` uses
     every model and, for region growing, the models with a finite MSE.
+
+    Parameters
+    ----------
+    results : dict of str to dict
+        Per model, the result of `vsa_model` (`run_batch`'s results).
+
+    Returns
+    -------
+    summary : dict
+        ``table_4_1`` (``valid`` and ``all``: statistics of MSE and region counts per
+        column), ``fig_4_5`` (region-size histograms), ``not_converged`` per column,
+        ``n_models``, ``n_valid`` and ``n_points``.
     """
     names = sorted(results)
     valid = [s for s in names if results[s]["pcl"]["degenerate"] == 0]
@@ -228,7 +240,20 @@ def table_markdown(summary: dict, subset: str = "valid") -> str:
 
 
 def write_vsa_outputs(summary: dict, out: Path) -> list[Path]:
-    """table_4_1.{md,csv,json}, fig_4_5.{png,csv} in ``out``."""
+    """Write table_4_1.{md,csv,json} and fig_4_5.{png,csv} into ``out``.
+
+    Parameters
+    ----------
+    summary : dict
+        `aggregate_vsa`'s summary.
+    out : pathlib.Path
+        Existing output folder.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written, in order.
+    """
     from matplotlib.figure import Figure
 
     written = [write_text(out / "table_4_1.md", table_markdown(summary))]

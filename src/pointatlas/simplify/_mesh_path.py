@@ -223,9 +223,28 @@ def _diagonal(v: np.ndarray) -> float:
 
 
 def surface_diagonal(vertices: np.ndarray, triangles: np.ndarray) -> float:
-    """Bounding-box diagonal of the vertices on at least one triangle (a stray vertex
-    of an export moves neither the default chord tolerance nor a percentage); refuses
-    NaN or Inf vertices (`pointatlas._core.NonFiniteError`)."""
+    """Bounding-box diagonal of the vertices on at least one triangle.
+
+    A stray vertex of an export moves neither the default chord tolerance nor a
+    percentage.
+
+    Parameters
+    ----------
+    vertices : ndarray of shape (V, 3)
+        Vertex coordinates.
+    triangles : ndarray of shape (T, 3)
+        Vertex indices of the triangles.
+
+    Returns
+    -------
+    float
+        The diagonal; 0.0 when no vertex is on a triangle.
+
+    Raises
+    ------
+    NonFiniteError
+        NaN or Inf vertices (`pointatlas._core.NonFiniteError`).
+    """
     v = as_points(vertices, name="vertices", min_points=0)
     return _diagonal(v[used_vertices(v.shape[0], triangles)])
 
