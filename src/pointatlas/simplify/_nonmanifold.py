@@ -1,5 +1,5 @@
 """Cutting a triangle mesh apart at its non-manifold edges and vertices
-(docs/decisions/simplify.md, "Non-manifold inputs").
+(docs/decisions/simplify.md, "Non-manifold and unoriented inputs").
 
 Scans and exports often hold a few edges shared by four (or more) triangles: two
 sheets that touch along an edge, like two cubes sharing one. One such edge spoils
