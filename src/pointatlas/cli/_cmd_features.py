@@ -560,7 +560,7 @@ def demo_features(ps, out_dir: Path, console) -> None:
     if not ps.has_normals:
         raise PointAtlasError("the demo model has no normals")
     t0 = time.perf_counter()
-    from ..experiments.fig_5_3 import fig_5_3
+    from ..experiments.weightings import fig_5_3
 
     stats, written = fig_5_3(ps.points, ps.normals, out_dir, name=ps.name)
     seconds = time.perf_counter() - t0

@@ -6,7 +6,7 @@ this package.
 
 - `table_4_1`: Table 4.1 and Fig. 4.5 (region growing against VSA);
 - `simplify_cases`: thesis 4.4.3, Figs. 4.10-4.14 (simplified meshes);
-- `fig_5_3`: Fig. 5.3 (three weightings side by side);
+- `weightings`: Fig. 5.3 (`fig_5_3`: three weightings side by side);
 - `neighbourhoods`: Tables 5.1/5.2, Figs. 5.4-5.6, 6.3, 6.6-6.8;
 - `denoise`: Table 5.3 and Fig. 6.9 (normal filtering, flatness denoising);
 - `cloud_surfaces`: Chapter A, Figs. 2.2-2.21 (cloud surfaces);
@@ -20,7 +20,6 @@ run_vsa_experiment``), so ``pointatlas --help`` stays fast.
 from ._report import experiment_tables, write_experiment_report
 from .cloud_surfaces import run_cloud_surfaces
 from .denoise import fig_6_9, table_5_3, write_denoise_outputs
-from .fig_5_3 import fig_5_3
 from .neighbourhoods import (
     aggregate_neighbourhoods,
     decrease_cases,
@@ -31,6 +30,7 @@ from .neighbourhoods import (
 )
 from .simplify_cases import run_case, write_simplify_outputs
 from .table_4_1 import aggregate_vsa, run_vsa_experiment, vsa_model, write_vsa_outputs
+from .weightings import fig_5_3
 
 __all__ = [
     "aggregate_neighbourhoods",
