@@ -9,6 +9,7 @@ The rooms are imported explicitly, e.g. ``from pointatlas.neighbors import query
 
 from ._core import PointAtlasError, PointSet
 
+#: the package version (as in pyproject.toml)
 __version__ = "0.1.0"
 
 __all__ = ["PointAtlasError", "PointSet", "__version__"]
