@@ -143,13 +143,13 @@ def test_bad_input_messages():
     with pytest.raises(ValueError, match="points 0..25; got range 26..26"):
         surface_complex(m.vertices, m.labels, k=8, neighbors=np.full((m.n_vertices, 8), 26))
     idx, _ = query_knn(m.vertices, 8)
-    with pytest.raises(ValueError, match="not both"):
+    with pytest.raises(TypeError, match="not both"):
         surface_complex(m.vertices, m.labels, k=8, neighbors=idx, indices=idx)
 
 
 def test_neighbour_table_forms_give_the_same_complex():
     # neighbors= takes query_knn's table, its (indices, distances) tuple or a wider
-    # table (first k columns); indices= is the old name of the same argument
+    # table (first k columns); indices=, its former name: tests/test_vocabulary.py
     m = cube(4)
     own = surface_complex(m.vertices, m.labels, k=8)
     idx, dist = query_knn(m.vertices, 12)
@@ -157,7 +157,6 @@ def test_neighbour_table_forms_give_the_same_complex():
         {"neighbors": idx[:, :8]},
         {"neighbors": (idx[:, :8], dist[:, :8])},
         {"neighbors": idx},
-        {"indices": idx[:, :8]},
     ):
         K = surface_complex(m.vertices, m.labels, k=8, **kwargs)
         assert K.q_tuples == own.q_tuples

@@ -137,7 +137,7 @@ def test_dropping_follows_given_weights_and_ignores_given_indices():
     with pytest.raises(ValueError, match=r"weights must have shape \(386,\)"):
         simplify_points(m.vertices, nrm, weights=w[:10], **ROBUST)
     idx, _ = query_knn(m.vertices, 8)  # rows of all 386 points: recomputed for 383
-    s = simplify_segmentation(m.vertices, nrm, m.labels, indices=idx)
+    s = simplify_segmentation(m.vertices, nrm, m.labels, neighbors=idx)
     assert s.n_dropped == 3 and s.n_faces == 6
 
 

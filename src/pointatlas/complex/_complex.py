@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._core import as_labels, as_points, check_neighbors, readonly
+from .._core._deprecation import renamed_keywords
 from ..neighbors import query_knn
 from ._complex_steps import (
     _Builder,
@@ -241,20 +242,15 @@ class SurfaceComplex:
 # ----------------------------------------------------------------------------------
 
 
-def _neighbour_table(pts: np.ndarray, k: int, neighbors, indices) -> np.ndarray:
-    """The (N, k) k-NN table of `surface_complex`: given (``indices=`` is the former
-    name of ``neighbors=``) and checked, or queried."""
-    if neighbors is not None and indices is not None:
-        raise ValueError(
-            "give the neighbour table as neighbors= (indices= is its old name), not both"
-        )
-    table, name = (indices, "indices") if indices is not None else (neighbors, "neighbors")
-    if table is None:
+def _neighbour_table(pts: np.ndarray, k: int, neighbors) -> np.ndarray:
+    """The (N, k) k-NN table of `surface_complex`: given and checked, or queried."""
+    if neighbors is None:
         return query_knn(pts, k)[0]
-    return check_neighbors(table, pts.shape[0], k=k, name=name)
+    return check_neighbors(neighbors, pts.shape[0], k=k)
 
 
-def surface_complex(points, labels, *, k: int = 8, neighbors=None, indices=None) -> SurfaceComplex:
+@renamed_keywords(indices="neighbors")
+def surface_complex(points, labels, *, k: int = 8, neighbors=None) -> SurfaceComplex:
     """Build the surface-like complex K' of a segmentation (thesis section 3).
 
     Parameters
@@ -269,8 +265,7 @@ def surface_complex(points, labels, *, k: int = 8, neighbors=None, indices=None)
         Precomputed neighbour table, e.g. `pointatlas.neighbors.query_knn`'s result
         (m >= k; its first k columns are used; checked by
         `pointatlas._core.check_neighbors`). None queries the k nearest neighbours.
-    indices : ndarray, optional
-        The former name of ``neighbors``, still accepted; give one of the two.
+        ``indices=`` is its former name (deprecated).
 
     Returns
     -------
@@ -281,10 +276,9 @@ def surface_complex(points, labels, *, k: int = 8, neighbors=None, indices=None)
     Raises
     ------
     ValueError
-        Bad shapes, non-finite points, negative labels, a bad ``neighbors`` table,
-        or both ``neighbors`` and ``indices``.
+        Bad shapes, non-finite points, negative labels or a bad ``neighbors`` table.
     TypeError
-        A non-integer ``neighbors`` table.
+        A non-integer ``neighbors`` table, or both ``neighbors`` and ``indices``.
     PointAtlasError
         ``k`` larger than the number of points.
 
@@ -313,7 +307,7 @@ def surface_complex(points, labels, *, k: int = 8, neighbors=None, indices=None)
             f"labels must be >= 0 (every point in a region); "
             f"{int((lab < 0).sum())} points are unassigned"
         )
-    idx = _neighbour_table(pts, k, neighbors, indices)
+    idx = _neighbour_table(pts, k, neighbors)
     n_regions = int(lab.max()) + 1
     seen_indptr, seen_regions, counts, padded = _region_sets(lab, idx)
 

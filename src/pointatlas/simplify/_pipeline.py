@@ -330,7 +330,7 @@ def _thesis_mesh(inp: _Input, seg_labels, seg_normals, path, settings):
             seg_labels,
             k=inp.k,
             proxy_normals=seg_normals,
-            indices=inp.indices,
+            neighbors=inp.indices,
             **settings,
         )
     except PointAtlasError as exc:

@@ -25,7 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._core import PointAtlasError, as_labels, as_normals, as_points
+from .._core import PointAtlasError, as_labels, as_normals, as_points, check_neighbors
+from .._core._deprecation import renamed_keywords
 from ..neighbors import query_knn
 from ._assemble import assemble_mesh, place_vertices
 from ._checks import check_memory, check_size, usable_normals
@@ -40,6 +41,7 @@ _VERTEX_METHODS = ("fit", "lsq", "optimize")
 _FACE_METHODS = ("general", "star")
 
 
+@renamed_keywords(indices="neighbors")
 def simplify_segmentation(
     points,
     normals,
@@ -58,7 +60,7 @@ def simplify_segmentation(
     smooth: int = 2,
     max_boundary_fraction: float = 0.95,
     max_iter: int = 3000,
-    indices=None,
+    neighbors=None,
 ) -> SimplifiedMesh:
     """Build the simplified polygon mesh of a segmented point set (thesis 4.4).
 
@@ -107,8 +109,11 @@ def simplify_segmentation(
         this fraction of points next to another region) merge first; 1 disables.
     max_iter : int
         Iteration limit of the Eq. 4.12 optimisation.
-    indices : ndarray of shape (N, k), int64, optional
-        Precomputed `pointatlas.neighbors.query_knn` indices (unused if points drop).
+    neighbors : ndarray of shape (N, m), int, or tuple, optional
+        Precomputed neighbour table, e.g. `pointatlas.neighbors.query_knn`'s result
+        (the point itself first; the first ``k`` of m >= k columns are used; checked by
+        `pointatlas._core.check_neighbors`); unused if points are left out. None
+        queries the k nearest neighbours. ``indices=`` is its former name (deprecated).
 
     Returns
     -------
@@ -144,7 +149,7 @@ def simplify_segmentation(
     (8, 6, True, [4, 4, 4, 4, 4, 4])
     """
     weight, anchor_weight = _check_settings(vertices, faces, weight, anchor_weight, max_distance)
-    inp = _usable_input(points, labels, normals, k, proxy_normals, centers, indices)
+    inp = _usable_input(points, labels, normals, k, proxy_normals, centers, neighbors)
     smooth, repair, min_region_size = _clean_settings(
         normals, smooth, repair, min_region_size, inp.k
     )
@@ -222,12 +227,14 @@ class _Input:
     indices: np.ndarray | None  # the given k-NN table, None when points were left out
 
 
-def _usable_input(points, labels, normals, k, proxy_normals, centers, indices) -> _Input:
-    """Check the points, labels and normals; leave out points without a usable normal."""
+def _usable_input(points, labels, normals, k, proxy_normals, centers, neighbors) -> _Input:
+    """Check the points, labels, normals and neighbour table; leave out points without a
+    usable normal."""
     pts = as_points(points)
     n_input = pts.shape[0]
     lab = as_labels(labels, n_input)
     k = check_size(n_input, k)
+    indices = None if neighbors is None else check_neighbors(neighbors, n_input, k=k)
     if (lab < 0).any():
         raise ValueError(f"labels must be >= 0; {int((lab < 0).sum())} points are unassigned")
     n_regions = int(lab.max()) + 1
