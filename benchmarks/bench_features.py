@@ -21,7 +21,7 @@ import tracemalloc
 
 import numpy as np
 
-from pointatlas.features import covariance_features, optimal_k_features, optimal_neighbourhood
+from pointatlas.features import covariance_features, optimal_k_features, optimal_neighborhood
 from pointatlas.neighbors import query_knn
 
 
@@ -81,7 +81,7 @@ class FeaturesSuite:
         return optimal_k_features(self.points, k_range=(10, 50), neighbors=self.idx50)
 
     def time_full_search_given(self):
-        return optimal_neighbourhood(self.points, self.normals, neighbors=self.idx20)
+        return optimal_neighborhood(self.points, self.normals, neighbors=self.idx20)
 
 
 def main(argv=None) -> int:

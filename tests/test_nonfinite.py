@@ -92,12 +92,10 @@ def _flatness_result():
 
 @cache
 def _feature_result():
-    from pointatlas.features import optimal_neighbourhood
+    from pointatlas.features import optimal_neighborhood
 
     m = _mesh()
-    return optimal_neighbourhood(
-        m.vertices, m.normals, a_grid=(0.0,), b_grid=(3.0,), k_range=(6, 7)
-    )
+    return optimal_neighborhood(m.vertices, m.normals, a_grid=(0.0,), b_grid=(3.0,), k_range=(6, 7))
 
 
 def _labels():
@@ -171,7 +169,7 @@ def _calls(tmp_path):
         "pca_normals": lambda a: normals.pca_normals(a["points"], 8),
         "covariance_features": lambda a: features.covariance_features(a["points"], 8),
         "optimal_k_features": lambda a: features.optimal_k_features(a["points"], k_range=(6, 8)),
-        "optimal_neighbourhood": lambda a: features.optimal_neighbourhood(
+        "optimal_neighborhood": lambda a: features.optimal_neighborhood(
             a["points"], a["normals"], a_grid=(0.0,), b_grid=(3.0,), k_range=(6, 7)
         ),
         "weighted_covariances": lambda a: features.weighted_covariances(
@@ -201,7 +199,7 @@ def _calls(tmp_path):
         "add_noise": lambda a: denoise.add_noise(a["points"], a["normals"], 0.01, rng=0),
         "chamfer_distance": lambda a: denoise.chamfer_distance(a["points"], _mesh().vertices),
         "choose_method": lambda a: denoise.choose_method(a["points"]),
-        "default_neighbourhoods": lambda a: denoise.default_neighbourhoods(a["points"]),
+        "default_neighborhoods": lambda a: denoise.default_neighborhoods(a["points"]),
         "denoise": lambda a: denoise.denoise(a["points"], a["normals"]),
         "denoise_measures": lambda a: denoise.denoise_measures(a["points"], _mesh().vertices),
         "filter_normals": lambda a: denoise.filter_normals(a["points"], a["normals"], n_iter=1),

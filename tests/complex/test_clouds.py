@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from pointatlas.complex import (
     CloudComplex,
     cloud_complex,
-    realise_complex,
+    realize_complex,
     surface_complex,
     surface_report,
 )
@@ -206,7 +206,7 @@ def test_realisation_is_coherently_oriented_and_outward():
     m = icosphere(2)
     clouds, _, n = mesh_clouds(m.faces, m.vertices.shape[0])
     K = cloud_complex(clouds, n_points=n, cloud_points=m.vertices)
-    v, f = realise_complex(K)
+    v, f = realize_complex(K)
     directed = {(int(a), int(b)) for t in f for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0]))}
     assert len(directed) == 3 * f.shape[0]  # every directed edge once: coherent
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
@@ -243,4 +243,4 @@ def test_bad_input_messages():
     with pytest.raises(ValueError, match="three distinct vertices"):
         surface_report([[0, 0, 1]])
     with pytest.raises(TypeError, match="CloudComplex"):
-        realise_complex(np.zeros((1, 3)))
+        realize_complex(np.zeros((1, 3)))

@@ -124,14 +124,14 @@ def test_algorithm2_clouds_are_the_non_empty_balls():
     assert isinstance(cov, BallCover)
     K = cov.cloud_complex
     assert K.uncovered_points.size == 0 and K.empty_clouds.size == 0
-    assert cov.centres.shape == (cov.n_clouds, 3) and cov.ball_radius.shape == (cov.n_clouds,)
+    assert cov.centers.shape == (cov.n_clouds, 3) and cov.ball_radius.shape == (cov.n_clouds,)
     # every cloud is exactly the points within its ball
     for c in range(0, cov.n_clouds, 7):
-        d = np.linalg.norm(pts - cov.centres[c], axis=1)
+        d = np.linalg.norm(pts - cov.centers[c], axis=1)
         inside = np.flatnonzero(d <= cov.ball_radius[c] * (1 + 1e-12))
         assert K.cloud(c).tolist() == inside.tolist()
     # centres on the scaled lattice anchored at the bounding-box corner
-    lat = (cov.centres - pts.min(axis=0)) / 0.5
+    lat = (cov.centers - pts.min(axis=0)) / 0.5
     np.testing.assert_allclose(lat, np.round(lat), atol=1e-9)
     assert set(np.round(cov.ball_radius / 0.5, 6)) <= {
         round(math.sqrt(3) / 2, 6),
@@ -171,9 +171,9 @@ def test_rotation_changes_the_cover_but_not_the_coverage():
     b = ball_cover(pts, 0.5, rotation=R)
     assert b.cloud_complex.uncovered_points.size == 0
     # the ball centres of the rotated cover sit on the rotated lattice
-    lat = (b.centres @ R.T - (pts @ R.T).min(axis=0)) / 0.5
+    lat = (b.centers @ R.T - (pts @ R.T).min(axis=0)) / 0.5
     np.testing.assert_allclose(lat, np.round(lat), atol=1e-9)
-    assert a.n_clouds != b.n_clouds or not np.array_equal(a.centres, b.centres)
+    assert a.n_clouds != b.n_clouds or not np.array_equal(a.centers, b.centers)
 
 
 def test_curve_cover_in_the_plane_is_a_one_manifold():
@@ -188,8 +188,8 @@ def test_curve_cover_in_the_plane_is_a_one_manifold():
 
 def test_cloud_points_centre_option():
     pts = fibonacci_sphere(500).vertices
-    cov = ball_cover(pts, 0.6, cloud_points="centre")
-    np.testing.assert_array_equal(cov.cloud_complex.cloud_points, cov.centres)
+    cov = ball_cover(pts, 0.6, cloud_points="center")
+    np.testing.assert_array_equal(cov.cloud_complex.cloud_points, cov.centers)
 
 
 def test_same_input_same_output():
@@ -234,12 +234,12 @@ def test_offset_shifts_the_lattice_against_the_bounding_box():
     off = np.array([0.25, 0.5, 0.75])
     cov = ball_cover(pts, 0.5, offset=off)
     np.testing.assert_array_equal(cov.offset, off)
-    lat = (cov.centres - pts.min(axis=0)) / 0.5 + off
+    lat = (cov.centers - pts.min(axis=0)) / 0.5 + off
     np.testing.assert_allclose(lat, np.round(lat), atol=1e-9)
     assert cov.cloud_complex.uncovered_points.size == 0
     # every cloud is exactly the points within its ball
     for c in range(0, cov.n_clouds, 5):
-        d = np.linalg.norm(pts - cov.centres[c], axis=1)
+        d = np.linalg.norm(pts - cov.centers[c], axis=1)
         inside = np.flatnonzero(d <= cov.ball_radius[c]).tolist()
         assert cov.cloud_complex.cloud(c).tolist() == inside
     o = random_offsets(3, dim=2, rng=1)

@@ -8,7 +8,7 @@ import pytest
 from pointatlas.denoise import (
     THESIS_FILTER_PARAMETERS,
     add_noise,
-    default_neighbourhoods,
+    default_neighborhoods,
     denoise,
     filter_normals,
     normal_mse,
@@ -158,7 +158,7 @@ def test_same_seed_same_output():
 
 def test_default_neighbourhoods_sizes():
     pts = plane_patch(20, 20).points
-    idx, k, ell = default_neighbourhoods(pts, extra=10)
+    idx, k, ell = default_neighborhoods(pts, extra=10)
     assert idx.shape[1] == int(k.max()) + 10 and (idx[:, 0] == np.arange(len(pts))).all()
     assert 12 <= np.median(k) <= 24 and ell > 0  # 21 lattice points within 2.28 h
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 
-from pointatlas.complex import cloud_complex, realise_complex, surface_report
+from pointatlas.complex import cloud_complex, realize_complex, surface_report
 from pointatlas.cover import ball_cover
 from pointatlas.dynamics import DeformResult, deform_points
 from pointatlas.synth import cube, fibonacci_sphere, plane_patch
@@ -23,7 +23,7 @@ def _sphere_cover():
 
 PTS, K = _sphere_cover()
 CP0 = np.asarray(K.cloud_points)
-FACES = realise_complex(K)[1]
+FACES = realize_complex(K)[1]
 
 
 @settings(max_examples=20, deadline=None)
@@ -119,7 +119,7 @@ def test_lifted_planar_grid_fig_2_20_routes_every_point():
     rep = surface_report(Kp)
     assert res.is_accepted[res.chosen] and rep.is_cloud_surface
     assert rep.n_boundary_loops == 1 and rep.genus == 0 and rep.n_components == 1
-    verts, faces = realise_complex(Kp, rep)
+    verts, faces = realize_complex(Kp, rep)
     inner = np.ones(Kp.n_clouds, dtype=bool)
     inner[rep.boundary_edges.ravel()] = False
     cp1 = verts.copy()

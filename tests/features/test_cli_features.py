@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from pointatlas.cli import app
-from pointatlas.features import FEATURE_NAMES, optimal_neighbourhood
+from pointatlas.features import FEATURE_NAMES, optimal_neighborhood
 from pointatlas.io import read_point_set, write_point_set
 from pointatlas.synth import cube
 
@@ -33,7 +33,7 @@ def test_optimal_search_writes_all_fields(cube_file, tmp_path):
     ps = read_point_set(out)
     for name in (*FEATURE_NAMES, "k", "a", "b", "reason", "dimension_class", "eigenvalue_3"):
         assert name in ps.attributes, name
-    want = optimal_neighbourhood(
+    want = optimal_neighborhood(
         m.points,
         m.normals,
         a_grid=[0, math.pi / 6, math.pi],

@@ -9,7 +9,7 @@ import pytest
 from pointatlas.features import (
     angle_pairs,
     covariance_features,
-    optimal_neighbourhood,
+    optimal_neighborhood,
     symmetric_eigenvalues,
     weighted_covariances,
 )
@@ -50,7 +50,7 @@ def test_fixed_k_features_tiny_reference():
 def test_search_tiny_reference():
     pts, nrm, idx = _cloud()
     grid = [0.0, math.pi / 3, math.pi]
-    opt = optimal_neighbourhood(pts, nrm, a_grid=grid, b_grid=grid, k_range=(4, 8), neighbors=idx)
+    opt = optimal_neighborhood(pts, nrm, a_grid=grid, b_grid=grid, k_range=(4, 8), neighbors=idx)
     best, _, _ = ref.brute_force_search(pts, nrm, idx, angle_pairs(grid, grid), 4, 8)
     assert np.allclose(opt.e_dim, best, atol=1e-7)
 

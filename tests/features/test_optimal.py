@@ -9,7 +9,7 @@ from pointatlas.features import (
     angle_pairs,
     covariance_features,
     optimal_k_features,
-    optimal_neighbourhood,
+    optimal_neighborhood,
 )
 from pointatlas.neighbors import query_knn
 from pointatlas.synth import cube
@@ -45,7 +45,7 @@ def _check_against_brute_force(pts, nrm, pairs, kmin, kmax, res_k, res_pair, res
 def test_search_agrees_with_brute_force_over_all_420_choices():
     pts, nrm = _noisy_surface(0, n=21)
     pairs = angle_pairs()
-    res = optimal_neighbourhood(pts, nrm)
+    res = optimal_neighborhood(pts, nrm)
     pair_index = {tuple(p): j for j, p in enumerate(pairs.tolist())}
     res_pair = np.array(
         [
@@ -67,8 +67,8 @@ def test_search_small_grid_exact_ties_and_degenerate():
     # duplicate weight vectors must resolve to smallest k, then a, then b
     g = np.stack(np.meshgrid(np.arange(6.0), np.arange(6.0), [0.0]), -1).reshape(-1, 3)
     nrm = np.tile([0.0, 0.0, 1.0], (36, 1))
-    res = optimal_neighbourhood(g, nrm, k_range=(6, 9))
-    full = optimal_neighbourhood(g, nrm, a_grid=[0.0], b_grid=[0.0], k_range=(6, 9))
+    res = optimal_neighborhood(g, nrm, k_range=(6, 9))
+    full = optimal_neighborhood(g, nrm, a_grid=[0.0], b_grid=[0.0], k_range=(6, 9))
     np.testing.assert_array_equal(res.k, full.k)
     assert (res.a == 0).all() and (res.b == 0).all()  # identical weights: smallest a, b win
     # flipped normals with a sharp cut-off at 0: only the point itself -> all degenerate
@@ -76,7 +76,7 @@ def test_search_small_grid_exact_ties_and_degenerate():
     alt[::2] *= -1
     rng = np.random.default_rng(1)
     pts = rng.random((36, 3))
-    only_zero = optimal_neighbourhood(pts, alt, a_grid=[0.0], b_grid=[0.0], k_range=(2, 3))
+    only_zero = optimal_neighborhood(pts, alt, a_grid=[0.0], b_grid=[0.0], k_range=(2, 3))
     idx = query_knn(pts, 3)[0]
     opposite = (alt[idx[:, 1:], 2] != alt[:, None, 2]).all(axis=1)
     assert np.isinf(only_zero.e_dim[opposite]).all()
@@ -100,7 +100,7 @@ def test_weinmann_optimal_k_matches_brute_force():
 def test_cube_optimal_weights_sharpen_edges():
     m = cube(8)
     eq = optimal_k_features(m.points, k_range=(6, 20), criterion="e_dim")
-    opt = optimal_neighbourhood(m.points, m.normals)
+    opt = optimal_neighborhood(m.points, m.normals)
     assert (opt.reason == 0).all()
     assert opt.e_dim.mean() < eq.e_dim.mean()  # Table 5.1's direction
 
@@ -108,17 +108,17 @@ def test_cube_optimal_weights_sharpen_edges():
 def test_search_validation():
     pts, nrm = _noisy_surface(4, n=30)
     with pytest.raises(ValueError, match="k_min <= k_max"):
-        optimal_neighbourhood(pts, nrm, k_range=(10, 6))
+        optimal_neighborhood(pts, nrm, k_range=(10, 6))
     with pytest.raises(
         ValueError, match=r"a_grid must hold finite angles in \[0, pi\] radians; got 4.0"
     ):
-        optimal_neighbourhood(pts, nrm, a_grid=[0.0, 4.0])
+        optimal_neighborhood(pts, nrm, a_grid=[0.0, 4.0])
     with pytest.raises(ValueError, match="no \\(a, b\\) pair"):
-        optimal_neighbourhood(pts, nrm, a_grid=[2.0], b_grid=[1.0])
+        optimal_neighborhood(pts, nrm, a_grid=[2.0], b_grid=[1.0])
     with pytest.raises(ValueError, match="criterion must be one of"):
         optimal_k_features(pts, criterion="entropy")
     with pytest.raises(ValueError, match="normals must have one row per point"):
-        optimal_neighbourhood(pts, nrm[:5])
+        optimal_neighborhood(pts, nrm[:5])
 
 
 def _smooth_patch(seed, n=36):
@@ -136,7 +136,7 @@ def _smooth_patch(seed, n=36):
 def test_search_with_pruning_agrees_with_brute_force_on_smooth_patch():
     pts, nrm = _smooth_patch(5)
     pairs = angle_pairs()
-    res = optimal_neighbourhood(pts, nrm, k_range=(6, 14))
+    res = optimal_neighborhood(pts, nrm, k_range=(6, 14))
     pair_index = {tuple(p): j for j, p in enumerate(pairs.tolist())}
     res_pair = np.array([pair_index[(a, b)] for a, b in zip(res.a, res.b, strict=True)])
     idx = query_knn(pts, 14)[0]
@@ -251,9 +251,9 @@ def test_table_pruning_leaves_the_search_unchanged(monkeypatch):
     pts, nrm = _noisy_surface(12, n=2000)
     nrm[::13] *= -1
     pts[100:110] = pts[100]
-    with_table = optimal_neighbourhood(pts, nrm)
+    with_table = optimal_neighborhood(pts, nrm)
     monkeypatch.setattr(_optimal, "_edim_bounds", lambda: np.empty((0, 0)))
-    without = optimal_neighbourhood(pts, nrm)
+    without = optimal_neighborhood(pts, nrm)
     for name in ("k", "a", "b", "reason", "e_dim", "eigenvalues", "eigenvector_3"):
         np.testing.assert_array_equal(getattr(with_table, name), getattr(without, name))
 
@@ -274,7 +274,7 @@ def test_reported_row_equals_fused_kernel_at_the_chosen_triple_bit_for_bit():
     nrm[::9] *= -1
     nrm[5] = np.nan
     idx = _neighbourhoods(pts, 20, None)
-    res = optimal_neighbourhood(pts, nrm, neighbors=idx)
+    res = optimal_neighborhood(pts, nrm, neighbors=idx)
     ok = res.reason == 0
     assert ok.sum() > 200 and (res.reason == 1).any()
     unit = _unit_normals_or_nan(nrm, len(pts))

@@ -15,7 +15,7 @@ from pointatlas.features import (
     eigen_features,
     normal_weights,
     optimal_k_features,
-    optimal_neighbourhood,
+    optimal_neighborhood,
 )
 
 N = 40
@@ -131,7 +131,7 @@ GRID_BAD = [
 @pytest.mark.parametrize("which", ["a_grid", "b_grid"])
 def test_angle_grids(which, grid, error, match):
     with pytest.raises(error, match="^" + which + " " + match):
-        optimal_neighbourhood(PTS, NRM, **{which: grid})
+        optimal_neighborhood(PTS, NRM, **{which: grid})
     with pytest.raises(error, match="^" + which + " " + match):
         angle_pairs(**{which: grid})
 
@@ -171,7 +171,7 @@ KRANGE_BAD = [
 @pytest.mark.parametrize(("k_range", "error", "match"), KRANGE_BAD)
 def test_k_range(k_range, error, match):
     with pytest.raises(error, match=match):
-        optimal_neighbourhood(PTS, NRM, k_range=k_range)
+        optimal_neighborhood(PTS, NRM, k_range=k_range)
     with pytest.raises(error, match=match):
         optimal_k_features(PTS, k_range=k_range)
 
@@ -181,5 +181,5 @@ def test_k_range_boundaries(k_range):
     res = optimal_k_features(PTS, k_range=k_range, criterion="e_dim")
     ok = res.k >= 0
     assert ((res.k[ok] >= k_range[0]) & (res.k[ok] <= k_range[1])).all()
-    res = optimal_neighbourhood(PTS, NRM, k_range=k_range, a_grid=[0.0, math.pi])
+    res = optimal_neighborhood(PTS, NRM, k_range=k_range, a_grid=[0.0, math.pi])
     assert res.k.shape == (N,)

@@ -13,7 +13,7 @@ from ._clouds import CloudComplex
 from ._complex import SurfaceComplex
 from ._surface import SurfaceReport, surface_report_core
 
-__all__ = ["CurveReport", "curve_report", "realise_complex", "surface_report"]
+__all__ = ["CurveReport", "curve_report", "realize_complex", "surface_report"]
 
 
 def _edge_ids(edges: np.ndarray, a: np.ndarray, b: np.ndarray, n_vertices: int) -> np.ndarray:
@@ -136,7 +136,7 @@ def surface_report(complex_or_faces, *, n_vertices: int | None = None) -> Surfac
     return surface_report_core(n, edges, f, e, src, dst, n_faces=tri.shape[0], present=present)
 
 
-def realise_complex(cloud_complex: CloudComplex, report: SurfaceReport | None = None):
+def realize_complex(cloud_complex: CloudComplex, report: SurfaceReport | None = None):
     """Geometric realisation of a cloud complex as a triangle mesh (Def. 10).
 
     Parameters
@@ -159,7 +159,7 @@ def realise_complex(cloud_complex: CloudComplex, report: SurfaceReport | None = 
     --------
     >>> from pointatlas.complex import cloud_complex
     >>> K = cloud_complex([[0, 3], [1, 3], [2, 3]], [[0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 0]])
-    >>> v, f = realise_complex(K)
+    >>> v, f = realize_complex(K)
     >>> f.tolist()
     [[0, 1, 2]]
     """

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._core import as_float, as_int, check_finite, readonly
+from .._core._deprecation import warn_renamed
 from .._core.tolerances import COVER_MAX_CELLS_PER_AXIS, COVER_RADIUS_RTOL, COVER_ROTATION_TOL
 from ..complex import CloudComplex
 from ..complex._clouds import cloud_centroids, complex_from_membership
@@ -252,8 +253,9 @@ class BallCover:
     origin : ndarray of shape (3,), float64
         Lattice point 0 in rotated coordinates: the rotated points' bounding-box
         corner minus ``offset`` s.
-    centres : ndarray of shape (C, 3), float64
-        Centre of every non-empty ball (= cloud), in input coordinates.
+    centers : ndarray of shape (C, 3), float64
+        Center of every non-empty ball (= cloud), in input coordinates (``centres``,
+        the former name, still reads it with a `DeprecationWarning`).
     ball_radius : ndarray of shape (C,), float64
         Radius of every cloud's ball.
     lattice_index : ndarray of shape (C, 3), int64
@@ -261,7 +263,7 @@ class BallCover:
         (i + j/2, j sqrt(3)/2) s).
     cloud_complex : CloudComplex
         The clouds (non-empty balls, ordered by lattice index) and their cloud
-        complex; cloud points are the clouds' centroids (or the ball centres).
+        complex; cloud points are the clouds' centroids (or the ball centers).
     """
 
     dim: int
@@ -271,19 +273,25 @@ class BallCover:
     rotation: np.ndarray
     offset: np.ndarray
     origin: np.ndarray
-    centres: np.ndarray
+    centers: np.ndarray
     ball_radius: np.ndarray
     lattice_index: np.ndarray
     cloud_complex: CloudComplex
 
     def __post_init__(self):
-        for name in ("rotation", "offset", "origin", "centres", "ball_radius", "lattice_index"):
+        for name in ("rotation", "offset", "origin", "centers", "ball_radius", "lattice_index"):
             readonly(getattr(self, name))
 
     @property
     def n_clouds(self) -> int:
         """Number of clouds (non-empty balls)."""
-        return int(self.centres.shape[0])
+        return int(self.centers.shape[0])
+
+    @property
+    def centres(self) -> np.ndarray:
+        """Former name of ``centers`` (deprecated)."""
+        warn_renamed("BallCover.centres", "BallCover.centers", stacklevel=3)
+        return self.centers
 
 
 def _membership(y: np.ndarray, dim: int, layout: str, r_even: float, r_odd: float):
@@ -365,11 +373,11 @@ def cover_prepared(
     np.cumsum(np.bincount(cloud_of, minlength=n_clouds), out=cloud_indptr[1:])
     idx = decode(ucodes)
     c_lattice = centre(idx)
-    centres = (c_lattice * scale + origin) @ R  # back to input coordinates
+    centers = (c_lattice * scale + origin) @ R  # back to input coordinates
     if dim == 2:
-        centres[:, 2] = 0.0
-    if cloud_points == "centre":
-        cp = centres.copy()
+        centers[:, 2] = 0.0
+    if cloud_points == "center":
+        cp = centers.copy()
     else:
         cp = cloud_centroids(cloud_indptr, cloud_members, pts)
     K = complex_from_membership(
@@ -384,7 +392,7 @@ def cover_prepared(
         rotation=R.copy(),
         offset=off.copy(),
         origin=origin,
-        centres=centres,
+        centers=centers,
         ball_radius=radius(idx) * scale,
         lattice_index=idx.astype(np.int64),
         cloud_complex=K,
@@ -425,14 +433,15 @@ def ball_cover(
         [0, 1) (in 2-D also (2,); the z entry is ignored). Default 0: the lattice
         starts at the bounding-box corner (Algorithm 2). A plane or cube face lying in
         a lattice layer gives no triangles; a shift (or a rotation) moves it off.
-    cloud_points : {"centroid", "centre"}
+    cloud_points : {"centroid", "center"}
         Realisation of each cloud: the centroid of its points (the default) or
-        its ball centre.
+        its ball center (``"centre"``, the former spelling, still works with a
+        `DeprecationWarning`).
 
     Returns
     -------
     cover : BallCover
-        The non-empty balls (= clouds) with centres and radii, and their
+        The non-empty balls (= clouds) with centers and radii, and their
         `CloudComplex`; every point lies in at least one cloud.
 
     Raises
@@ -468,8 +477,11 @@ def ball_cover(
     r_even, r_odd = cover_radii(dim, layout, radius)
     pts = prepare_points(points, dim)
     s = as_float(scale, "scale", lo=0.0, lo_open=True, note="the grid scale")
-    if cloud_points not in ("centroid", "centre"):
-        raise ValueError(f"cloud_points must be 'centroid' or 'centre'; got {cloud_points!r}")
+    if cloud_points == "centre":
+        warn_renamed("ball_cover(cloud_points='centre')", "cloud_points='center'")
+        cloud_points = "center"
+    if cloud_points not in ("centroid", "center"):
+        raise ValueError(f"cloud_points must be 'centroid' or 'center'; got {cloud_points!r}")
     R = _as_rotation(rotation, dim)
     off = as_offset(offset, dim)
     extent = float((pts.max(axis=0) - pts.min(axis=0)).max())

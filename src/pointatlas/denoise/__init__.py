@@ -9,6 +9,7 @@ models and the measures of the denoising literature (normal MSE, Chamfer,
 point-to-mesh, tangential drift).
 """
 
+from .._core._deprecation import deprecated_alias
 from ._api import (
     DENOISE_METHODS,
     choose_method,
@@ -30,7 +31,7 @@ from ._noise import NOISE_KINDS, add_impulsive_noise, add_noise
 from ._result import DenoiseResult, NormalFilterResult
 from ._voting import (
     THESIS_FILTER_PARAMETERS,
-    default_neighbourhoods,
+    default_neighborhoods,
     filter_normals,
     normal_voting_denoise,
 )
@@ -49,7 +50,7 @@ __all__ = [
     "chamfer_distance",
     "choose_method",
     "default_filter_iter",
-    "default_neighbourhoods",
+    "default_neighborhoods",
     "denoise",
     "denoise_halo",
     "denoise_measures",
@@ -62,3 +63,6 @@ __all__ = [
     "unit_sphere_transform",
     "voting_with_pieces",
 ]
+
+# Former (British) names: they still work and warn, naming the new name (not in __all__).
+default_neighbourhoods = deprecated_alias(default_neighborhoods, "default_neighbourhoods")

@@ -509,7 +509,7 @@ def table_distances_kernel(points, idx, out):
     """``out[i, c]`` = |p_idx[i, c] - p_i| for a neighbour table (default neighbourhoods).
 
     The same arithmetic for a whole point set and for a tile of it, so the
-    neighbourhood sizes k_i of `default_neighbourhoods` agree bit for bit wherever
+    neighbourhood sizes k_i of `default_neighborhoods` agree bit for bit wherever
     the tables do.
 
     Parameters

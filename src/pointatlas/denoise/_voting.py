@@ -42,7 +42,7 @@ from ._threads import threads_for
 
 __all__ = [
     "THESIS_FILTER_PARAMETERS",
-    "default_neighbourhoods",
+    "default_neighborhoods",
     "filter_normals",
     "normal_voting_denoise",
 ]
@@ -98,7 +98,7 @@ def _check_common(points, normals, rho, tau, radius_factor, *, optional=False):
     return pts, nrm, rho, tau, radius_factor
 
 
-def default_neighbourhoods(
+def default_neighborhoods(
     points, *, radius_factor: float = RADIUS_FACTOR, extra: int = 0
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """The default neighbourhoods of the normal voting filter ([YRS+18], reconstructed).
@@ -131,7 +131,7 @@ def default_neighbourhoods(
     Examples
     --------
     >>> from pointatlas.synth import plane_patch
-    >>> idx, k, ell = default_neighbourhoods(plane_patch(20, 20).points)
+    >>> idx, k, ell = default_neighborhoods(plane_patch(20, 20).points)
     >>> int(k.min()) >= 7, idx.shape[1] == int(k.max())
     (True, True)
     """
@@ -143,7 +143,7 @@ def default_neighbourhoods(
 
 
 def _neighbourhoods(pts, radius_factor, extra, neighbors=None, spacing=None):
-    """`default_neighbourhoods` on validated input; returns (table, idx, k, l).
+    """`default_neighborhoods` on validated input; returns (table, idx, k, l).
 
     ``table`` is the whole index table (queried: ``min(48 + extra, N)`` columns,
     so its first 20 columns can serve normal estimation; or ``neighbors``, a
@@ -262,7 +262,7 @@ def filter_normals(
         [k_i - 10, k_i + 10] (k_i its default size, values below 1 left out) with
         least E_dim (Eq. 5.7) under a = b = arccos(rho) cut-off weights.
     radius_factor : float
-        Default neighbourhood radius in units of l (`default_neighbourhoods`).
+        Default neighbourhood radius in units of l (`default_neighborhoods`).
     progress : callable, optional
         Called with 1 after every iteration.
 
@@ -524,7 +524,7 @@ def normal_voting_denoise(
         Use [YRS+18]'s restricted quadric update instead (off by default: it also
         pulls face points near an edge onto it, docs/decisions/denoise.md).
     radius_factor : float
-        Neighbourhood radius in l (default 3.5; [7, 48] points, `default_neighbourhoods`).
+        Neighbourhood radius in l (default 3.5; [7, 48] points, `default_neighborhoods`).
     normal_k : int
         Neighbours of the PCA normals of the input when ``normals`` is None
         (default 20); rounds after the first fit max(normal_k, 30) moved points.

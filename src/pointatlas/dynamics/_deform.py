@@ -15,7 +15,7 @@ import numpy as np
 
 from .._core import as_points, readonly
 from .._core.tolerances import DEFORM_ANTIPODAL_TOL, DEFORM_DEGENERATE_RTOL
-from ..complex import CloudComplex, realise_complex
+from ..complex import CloudComplex, realize_complex
 
 __all__ = ["DeformResult", "deform_points"]
 
@@ -145,7 +145,7 @@ def deform_points(
         Cloud points at time 0 (default ``cloud_complex.cloud_points``).
     faces : array_like of shape (F, 3), int64, optional
         The triangles of ``cloud_complex`` with a coherent orientation (default: from
-        `pointatlas.complex.realise_complex`).
+        `pointatlas.complex.realize_complex`).
     inverse : bool
         Map points at time 1 back to time 0 (the two realisations swap roles).
 
@@ -211,7 +211,7 @@ def deform_points(
         if cp0.shape[0] != K.n_clouds:
             raise ValueError(f"cloud_points must have shape ({K.n_clouds}, 3); got {cp0.shape}")
     if faces is None:
-        faces = realise_complex(K)[1]
+        faces = realize_complex(K)[1]
     else:
         faces = np.asarray(faces)
         if faces.dtype.kind not in "iu" or faces.shape != K.triangles.shape:

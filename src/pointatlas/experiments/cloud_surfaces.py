@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..complex import cloud_complex, curve_report, realise_complex, surface_report
+from ..complex import cloud_complex, curve_report, realize_complex, surface_report
 from ..cover import ball_cover, search_cover_scale
 from ..dynamics import deform_points
 from ..io import write_summary_json, write_text
@@ -173,7 +173,7 @@ def mesh_curvature_figure(out: Path, rows: list, *, seed: int) -> list[Path]:
 def _curve_panel(ax, pts, cov, rep, title):
     from matplotlib.patches import Circle
 
-    for c, r in zip(cov.centres, cov.ball_radius, strict=True):
+    for c, r in zip(cov.centers, cov.ball_radius, strict=True):
         ax.add_patch(Circle(c[:2], r, fill=False, lw=0.4, color="0.6"))
     col = membership_colors(cov.cloud_complex.n_memberships) / 255.0
     ax.scatter(pts[:, 0], pts[:, 1], s=1.5, c=col)
@@ -252,7 +252,7 @@ def curve_figures(out: Path, rows: list) -> list[Path]:
 def _cover_picture(path, pts, cov, rep, title):
     from ..viz import MeshPanel, PointsPanel, render_side_by_side
 
-    verts, faces = realise_complex(cov.cloud_complex, rep)
+    verts, faces = realize_complex(cov.cloud_complex, rep)
     panels = [
         PointsPanel(
             pts,
@@ -369,7 +369,7 @@ def dynamics_figures(out: Path, rows: list, *, seed: int) -> tuple[list[Path], d
         ("2.21", "cube 1,538 (edge 2)", cube_pts, 1.0, "closed", FIGURES[9]),
     ):
         cov, rep, res, i = _dynamics_case(pts, s, accept, seed=seed)
-        verts, faces = realise_complex(cov.cloud_complex, rep)
+        verts, faces = realize_complex(cov.cloud_complex, rep)
         cp0 = np.nan_to_num(verts)
         if fig == "2.20":  # lift every cloud point off the boundary
             inner = np.ones(cov.n_clouds, dtype=bool)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..features import classify_dimension, optimal_k_features, optimal_neighbourhood
+from ..features import classify_dimension, optimal_k_features, optimal_neighborhood
 
 __all__ = ["fig_5_3"]
 
@@ -43,10 +43,10 @@ def fig_5_3(points, normals, out_dir, *, name: str) -> tuple[dict, list[Path]]:
     cut = math.acos(0.9)
     results = {
         "equal weights [WJM14]": optimal_k_features(points, k_range=(6, 20), criterion="e_dim"),
-        "cut-off a = b = arccos 0.9": optimal_neighbourhood(
+        "cut-off a = b = arccos 0.9": optimal_neighborhood(
             points, normals, a_grid=[cut], b_grid=[cut]
         ),
-        "optimal (a, b, k), Eq. 5.9": optimal_neighbourhood(points, normals),
+        "optimal (a, b, k), Eq. 5.9": optimal_neighborhood(points, normals),
     }
     out = Path(out_dir)
     stats = {}

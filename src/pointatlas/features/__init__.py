@@ -8,6 +8,7 @@ optimal-k mode and a fixed-k mode. Degenerate neighbourhoods give NaN plus a
 reason code (`REASON_CODES`), never a crash.
 """
 
+from .._core._deprecation import deprecated_alias
 from ._dimension import DIMENSION_CLASSES, classify_dimension
 from ._features import (
     FEATURE_NAMES,
@@ -23,7 +24,7 @@ from ._optimal import (
     THESIS_K_RANGE,
     angle_pairs,
     optimal_k_features,
-    optimal_neighbourhood,
+    optimal_neighborhood,
 )
 from ._weights import cosine_sigmoid, normal_angles, normal_weights
 
@@ -42,7 +43,10 @@ __all__ = [
     "normal_angles",
     "normal_weights",
     "optimal_k_features",
-    "optimal_neighbourhood",
+    "optimal_neighborhood",
     "symmetric_eigenvalues",
     "weighted_covariances",
 ]
+
+# Former (British) names: they still work and warn, naming the new name (not in __all__).
+optimal_neighbourhood = deprecated_alias(optimal_neighborhood, "optimal_neighbourhood")

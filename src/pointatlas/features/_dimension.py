@@ -19,7 +19,7 @@ def classify_dimension(result: FeatureResult) -> np.ndarray:
     ----------
     result : FeatureResult
         Output of `covariance_features`, `optimal_k_features` or
-        `optimal_neighbourhood`.
+        `optimal_neighborhood`.
 
     Returns
     -------

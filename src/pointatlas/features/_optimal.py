@@ -23,7 +23,7 @@ __all__ = [
     "THESIS_K_RANGE",
     "angle_pairs",
     "optimal_k_features",
-    "optimal_neighbourhood",
+    "optimal_neighborhood",
 ]
 
 #: A = B = {0, pi/6, ..., pi} of thesis 5.4 (7 values, 28 pairs a <= b)
@@ -109,7 +109,7 @@ def angle_pairs(a_grid=THESIS_ANGLE_GRID, b_grid=THESIS_ANGLE_GRID) -> np.ndarra
     return pairs.reshape(-1, 2)
 
 
-def optimal_neighbourhood(
+def optimal_neighborhood(
     points,
     normals,
     *,
@@ -171,7 +171,7 @@ def optimal_neighbourhood(
     >>> import numpy as np
     >>> rng = np.random.default_rng(0)
     >>> pts = rng.random((60, 3))
-    >>> r = optimal_neighbourhood(pts, np.tile([0.0, 0.0, 1.0], (60, 1)))
+    >>> r = optimal_neighborhood(pts, np.tile([0.0, 0.0, 1.0], (60, 1)))
     >>> bool(((r.k >= 6) & (r.k <= 20)).all())
     True
     """
@@ -228,7 +228,7 @@ def optimal_k_features(
 
     Notes
     -----
-    Same running-sum kernel as `optimal_neighbourhood` with one all-ones weight
+    Same running-sum kernel as `optimal_neighborhood` with one all-ones weight
     vector. Ties: smallest k.
 
     Examples

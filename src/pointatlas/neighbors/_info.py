@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._core import PointAtlasError, PointSet
+from .._core._deprecation import renamed_keywords
 from ._graph import mean_spacing
 from ._knn import query_knn
 
@@ -20,7 +21,8 @@ def _duplicates(points: np.ndarray) -> int:
     return int(points.shape[0] - np.unique(rows).shape[0])
 
 
-def knn_component_sizes(indices: np.ndarray) -> np.ndarray:
+@renamed_keywords(indices="neighbors")
+def knn_component_sizes(neighbors: np.ndarray) -> np.ndarray:
     """Sizes of the connected components of the symmetric k-NN graph, largest first.
 
     Same partition as `pointatlas.neighbors.knn_components` (i ~ j when either is
@@ -30,8 +32,9 @@ def knn_component_sizes(indices: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    indices : ndarray of shape (N, k), int64
-        `query_knn` indices (column 0 is the point itself).
+    neighbors : ndarray of shape (N, k), int64
+        `query_knn`'s neighbour table (column 0 is the point itself); ``indices=``
+        is its former name (deprecated).
 
     Returns
     -------
@@ -48,10 +51,10 @@ def knn_component_sizes(indices: np.ndarray) -> np.ndarray:
     from scipy import sparse
     from scipy.sparse import csgraph
 
-    n, k = indices.shape
+    n, k = neighbors.shape
     rows = np.repeat(np.arange(n, dtype=np.int64), k)
     graph = sparse.csr_array(
-        (np.ones(n * k, dtype=np.int8), (rows, indices.reshape(-1))), shape=(n, n)
+        (np.ones(n * k, dtype=np.int8), (rows, neighbors.reshape(-1))), shape=(n, n)
     )
     _, labels = csgraph.connected_components(graph, directed=True, connection="weak")
     return np.sort(np.bincount(labels))[::-1]

@@ -9,14 +9,14 @@ from typer.testing import CliRunner
 
 from pointatlas.cli import app
 from pointatlas.experiments._stats import moments, pooled
-from pointatlas.experiments.neighbourhoods import (
-    aggregate_neighbourhoods,
+from pointatlas.experiments.neighborhoods import (
+    aggregate_neighborhoods,
     decrease_cases,
     energy_histogram,
-    neighbourhood_model,
-    write_neighbourhood_outputs,
+    neighborhood_model,
+    write_neighborhood_outputs,
 )
-from pointatlas.features import THESIS_ANGLE_GRID, optimal_neighbourhood
+from pointatlas.features import THESIS_ANGLE_GRID, optimal_neighborhood
 from pointatlas.io import write_mesh
 from pointatlas.neighbors import query_knn
 from pointatlas.synth import cube, torus
@@ -44,14 +44,14 @@ def test_energy_histogram_bins():
 @pytest.mark.slow
 def test_model_and_aggregate(models, tmp_path):
     rng = np.random.default_rng(0)
-    res = {p.stem: neighbourhood_model(str(p), rng) for p in sorted(models.iterdir())}
+    res = {p.stem: neighborhood_model(str(p), rng) for p in sorted(models.iterdir())}
     json.dumps(res)  # JSON-serialisable, as the batch runner needs
     cube_res = res["cube"]
     assert cube_res["n_points"] == 6 * 16 + 2
     hist = np.asarray(cube_res["pair_k_histogram"])
     assert hist.shape == (28, 15) and hist.sum() == cube_res["n_points"]
     assert sum(cube_res["a_cases"]) == cube_res["n_points"]
-    summary = aggregate_neighbourhoods(res)
+    summary = aggregate_neighborhoods(res)
     t1 = summary["table_5_1"]
     assert t1["optimal"]["n"] == summary["n_points"]
     # Table 5.1's direction: the optimal weights lower the mean classification error
@@ -61,7 +61,7 @@ def test_model_and_aggregate(models, tmp_path):
     assert t2["a=0"] + t2["a-"] + t2["not a-"] == pytest.approx(100)
     assert t2["b=a"] + t2["b-"] + t2["not b-"] == pytest.approx(100)
     assert sum(summary["k_histogram_percent"]) == pytest.approx(100)
-    written = write_neighbourhood_outputs(summary, tmp_path, label="test")
+    written = write_neighborhood_outputs(summary, tmp_path, label="test")
     names = {p.name for p in written}
     for n in (
         "table_5_1.csv",
@@ -104,7 +104,7 @@ def test_command_runs_through_the_batch_runner(models, tmp_path):
 
 def test_decrease_cases_match_direct_checks():
     pts, nrm = _noisy_surface(3, n=40)
-    res = optimal_neighbourhood(pts, nrm)
+    res = optimal_neighborhood(pts, nrm)
     a_case, b_case = decrease_cases(pts, nrm, res)
     grid = np.array(THESIS_ANGLE_GRID)
     idx = query_knn(pts, 20)[0]
@@ -128,7 +128,7 @@ def test_angle_grid_nan_in_decrease_cases():
     rng = np.random.default_rng(5)
     pts = rng.random((40, 3)) * [1.0, 1.0, 0.1]
     nrm = np.tile([0.0, 0.0, 1.0], (40, 1)) + rng.normal(scale=0.2, size=(40, 3))
-    res = optimal_neighbourhood(pts, nrm, k_range=(6, 8))
+    res = optimal_neighborhood(pts, nrm, k_range=(6, 8))
     with pytest.raises(ValueError, match=r"^a_grid must hold finite angles .*; got nan$"):
         decrease_cases(pts, nrm, res, a_grid=[0.0, math.nan, math.pi])
 
