@@ -25,7 +25,7 @@ def _reference(source, grid, halos):
     for start, xyz, _ in source.chunks():
         owner = grid.owner(xyz[:, :2])
         for t, h in halos.items():
-            near = np.isin(owner, grid.neighbours(t, rings[t]))
+            near = np.isin(owner, grid.neighbors(t, rings[t]))
             cand = np.flatnonzero(near)
             sel = cand[grid.members(xyz[cand, :2], owner[cand], t, h)]
             if sel.size:

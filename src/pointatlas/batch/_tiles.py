@@ -321,7 +321,7 @@ def _spill(source, grid: TileGrid, halos: dict, spill: _Spill, normals_array=Non
         edge = order[_near_border(grid, xy, i, j, reach)[order]]  # by owner, then index
         e_starts = np.searchsorted(owner[edge], np.arange(grid.n_tiles + 1))
         for t, h in halos.items():
-            near = [u for u in grid.neighbours(t, rings[t]) if starts[u + 1] > starts[u]]
+            near = [u for u in grid.neighbors(t, rings[t]) if starts[u + 1] > starts[u]]
             if not near:
                 continue
             parts = [

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._core import PointAtlasError
+from .._core._deprecation import warn_renamed
 
 __all__ = ["TileGrid", "exact_tile_knn", "make_grid"]
 
@@ -112,7 +113,7 @@ class TileGrid:
             inf = np.minimum(inf, s)
         return inf
 
-    def neighbours(self, tile: int, rings: int) -> list[int]:
+    def neighbors(self, tile: int, rings: int) -> list[int]:
         """Tiles within ``rings`` cells of ``tile`` (itself included), sorted."""
         i, j = tile % self.nx, tile // self.nx
         out = []
@@ -120,6 +121,11 @@ class TileGrid:
             for ii in range(max(0, i - rings), min(self.nx, i + rings + 1)):
                 out.append(jj * self.nx + ii)
         return out
+
+    def neighbours(self, tile: int, rings: int) -> list[int]:
+        """Former name of `neighbors` (deprecated)."""
+        warn_renamed("TileGrid.neighbours", "TileGrid.neighbors")
+        return self.neighbors(tile, rings)
 
 
 def make_grid(lo, hi, tile_size: float) -> TileGrid:

@@ -196,7 +196,7 @@ def _piece_tops(comp, owned, z, gidx, nz):
 def features_dispatch(points, normals, params, neighbors=None):
     """The feature mode of ``params``: "fixed" (equal weights, k), "optimal_k"
     (equal weights, k_range, criterion) or "optimal" (sigmoid (a, b, k) search)."""
-    from ..features import covariance_features, optimal_k_features, optimal_neighbourhood
+    from ..features import covariance_features, optimal_k_features, optimal_neighborhood
 
     mode = params["mode"]
     flat = tuple(params["flatness"])
@@ -211,7 +211,7 @@ def features_dispatch(points, normals, params, neighbors=None):
             flatness=flat,
         )
     if mode == "optimal":
-        return optimal_neighbourhood(
+        return optimal_neighborhood(
             points,
             normals,
             a_grid=params["a_grid"],

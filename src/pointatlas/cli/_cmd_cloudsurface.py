@@ -29,7 +29,7 @@ import numpy as np
 import typer
 
 from .._core import PointAtlasError, as_float, as_int
-from ..complex import cloud_complex, curve_report, realise_complex, surface_report
+from ..complex import cloud_complex, curve_report, realize_complex, surface_report
 from ..cover import ball_cover, cover_radii, search_cover_scale
 from ._app import app, console, guarded, progress_bar, read_input, say
 from ._flag_checks import named_as_typed
@@ -236,7 +236,7 @@ def _write_cover_files(out, ps, cov, chosen, report, res, dim):
     """
     K = cov.cloud_complex
     written = []
-    verts, faces = realise_complex(K, report) if dim == 3 else (np.asarray(K.cloud_points), None)
+    verts, faces = realize_complex(K, report) if dim == 3 else (np.asarray(K.cloud_points), None)
     written.append(_write_clouds(out["clouds"], ps, K.n_memberships))
     if dim == 3:
         from ..io import write_mesh
@@ -575,7 +575,7 @@ def _from_mesh(
     )
     K = cloud_complex(mc.clouds, mc.points, cloud_points=mc.cloud_points)
     report = surface_report(K)
-    verts, faces = realise_complex(K, report)
+    verts, faces = realize_complex(K, report)
     from .._core import PointSet
 
     ps = PointSet(mc.points, None, {"source_face": mc.source_face}, name=name)

@@ -169,14 +169,14 @@ def neighbourhoods_command(
     report: _Report = None,
 ) -> None:
     """Tables 5.1/5.2, Figs. 5.4-5.6 and the flatness histograms on a collection."""
-    from ..experiments.neighbourhoods import run_neighbourhoods
+    from ..experiments.neighborhoods import run_neighborhoods
 
     _check_report(report, out)
     files = _model_files(models, pattern)
     name = label or models.name
     _output_folder(out)
     say(f"{name}: {len(files)} models -> {out}")
-    summary, written, failures = run_neighbourhoods(
+    summary, written, failures = run_neighborhoods(
         files,
         out,
         label=name,

@@ -25,7 +25,7 @@ from ..features import (
     classify_dimension,
     covariance_features,
     optimal_k_features,
-    optimal_neighbourhood,
+    optimal_neighborhood,
 )
 from ._app import (
     HaloOption,
@@ -109,7 +109,7 @@ def compute_features_for(
         )
         return res, f"optimal k in {k_range[0]}..{k_range[1]} by {criterion}, equal weights"
     kr = k_range if k_range is not None else ((k, k) if k is not None else (6, 20))
-    res = optimal_neighbourhood(
+    res = optimal_neighborhood(
         points, normals, a_grid=a_grid, b_grid=b_grid, k_range=kr, flatness=flatness
     )
     n_pairs = sum(1 for a in a_grid for b in b_grid if a <= b)
@@ -564,7 +564,7 @@ def demo_features(ps, out_dir: Path, console) -> None:
 
     stats, written = fig_5_3(ps.points, ps.normals, out_dir, name=ps.name)
     seconds = time.perf_counter() - t0
-    best = optimal_neighbourhood(ps.points, ps.normals)
+    best = optimal_neighborhood(ps.points, ps.normals)
     fields = best.scalar_fields()
     fields["dimension_class"] = classify_dimension(best)
     write_point_set(out_dir / f"{ps.name}_features.ply", ps, attributes=fields)
