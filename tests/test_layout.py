@@ -39,7 +39,7 @@ LONG_FUNCTIONS = {
     "features/_kernels/optimal.py:optimal_kernel": (142, "named per-thread scratch arrays"),
     "neighbors/_kernels/knn.py:_knn_groups": (141, "numba kernel: ring search per group"),
     "simplify/_pipeline.py:simplify_points": (126, "the points path's steps in order"),
-    "simplify/_segmentation.py:simplify_segmentation": (133, "thesis path, steps in order"),
+    "simplify/_segmentation.py:simplify_segmentation": (136, "thesis path, steps in order"),
 }
 
 
