@@ -12,7 +12,6 @@ settings and the decreasing schedule, with distances to the clean model.
 from __future__ import annotations
 
 import contextlib
-import json
 import time
 from pathlib import Path
 
@@ -27,7 +26,7 @@ from ..denoise import (
     flatness_denoise,
     normal_mse,
 )
-from ..io import write_text
+from ..io import write_json, write_text
 from ._files import csv_records
 
 __all__ = [
@@ -281,5 +280,5 @@ def write_denoise_outputs(
         summary["fig_6_9"] = rows
         written += pics
         written.append(write_text(out / "fig6_9.csv", csv_records(rows)))
-    written.append(write_text(out / "summary.json", json.dumps(summary, indent=1) + "\n"))
+    written.append(write_json(out / "summary.json", summary, indent=1))
     return summary, written

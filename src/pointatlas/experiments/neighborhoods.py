@@ -11,7 +11,6 @@ PNG, CSV and JSON; `noisy_dodecahedron_flatness` adds Figs. 6.7/6.8.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from pathlib import Path
@@ -37,7 +36,7 @@ from ..features._features import (
 )
 from ..features._kernels import REASON_OK
 from ..features._optimal import _check_grid
-from ..io import write_text
+from ..io import write_json, write_text
 from ..neighbors import query_knn
 from ._files import csv_rows, save_figure
 from ._stats import moments, pooled
@@ -372,7 +371,7 @@ def write_neighborhood_outputs(summary: dict, out: Path, *, label: str) -> list[
     from matplotlib.figure import Figure
 
     out.mkdir(parents=True, exist_ok=True)
-    written = [write_text(out / "neighbourhoods.json", json.dumps(summary, indent=1))]
+    written = [write_json(out / "neighbourhoods.json", summary, indent=1)]
     t1 = summary["table_5_1"]
     rows = [["collection", "weights", "n_points", "min", "mean", "max", "sd"]]
     for key, name in (("equal", "equal weights [WJM14]"), ("optimal", "ours Eq. 5.9")):

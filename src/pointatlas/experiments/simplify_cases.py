@@ -12,7 +12,6 @@ default constrained plane fit, ``vertices="fit"``) and returns its numbers;
 
 from __future__ import annotations
 
-import json
 import math
 import time
 import warnings
@@ -21,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .._core import PointAtlasError
-from ..io import write_text
+from ..io import write_json, write_text
 from ..segment import vsa_segment
 from ..simplify import SimplifyWarning, simplify_segmentation
 
@@ -371,7 +370,7 @@ def write_simplify_outputs(rows: list[dict], out: Path) -> str:
     str
         The markdown table (`results_markdown`).
     """
-    write_text(out / "results.json", json.dumps(rows, indent=2, default=float))
+    write_json(out / "results.json", rows, indent=2)
     md = results_markdown(rows)
     write_text(out / "results.md", md)
     return md

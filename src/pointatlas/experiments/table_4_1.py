@@ -17,7 +17,6 @@ writes them; `run_vsa_experiment` does all three on a folder of models.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from pathlib import Path
@@ -25,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .._core import PointAtlasError
-from ..io import write_text
+from ..io import write_json, write_text
 from ..segment import region_growing, vsa_segment
 from ._files import csv_rows, save_figure
 from ._stats import describe
@@ -264,7 +263,7 @@ def write_vsa_outputs(summary: dict, out: Path) -> list[Path]:
             for kind in ("mse", "m"):
                 rows.append([subset, f"{stat} {kind}", *(cols[c][kind][stat] for c in COLUMNS)])
     written.append(write_text(out / "table_4_1.csv", csv_rows(rows)))
-    written.append(write_text(out / "table_4_1.json", json.dumps(summary, indent=1)))
+    written.append(write_json(out / "table_4_1.json", summary, indent=1))
     fig45 = summary["fig_4_5"]
     rows = [["size", *COLUMNS]]
     for i in range(fig45["bound"]):

@@ -7,6 +7,7 @@ atomic (:func:`atomic_write`).
 from ._atomic import atomic_write
 from ._attrs import merge_attributes
 from ._errors import PointAtlasIOError
+from ._json import json_text, to_json_safe, write_json
 from ._mesh import Mesh, fan_triangulate, vertex_normals
 from ._plan import POINT_WRITE_EXTENSIONS, check_point_set_writable
 from ._read import MESH_EXTENSIONS, POINT_EXTENSIONS, as_point_set, read_mesh, read_point_set
@@ -24,10 +25,13 @@ __all__ = [
     "check_point_set_writable",
     "fan_triangulate",
     "file_record",
+    "json_text",
     "merge_attributes",
     "read_mesh",
     "read_point_set",
+    "to_json_safe",
     "vertex_normals",
+    "write_json",
     "write_mesh",
     "write_point_set",
     "write_summary_json",

@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import hashlib
-import json
-import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
 
 from ._atomic import atomic_write
+from ._json import to_json_safe, write_json
 
 __all__ = ["file_record", "write_summary_json", "write_text"]
 
@@ -69,19 +68,6 @@ def file_record(path, relative_to) -> dict:
     return {"path": name, "bytes": path.stat().st_size, "sha256": digest.hexdigest()}
 
 
-def _finite(value):
-    """JSON-ready copy: NaN/Inf become None, numpy scalars plain numbers, tuples lists."""
-    if isinstance(value, dict):
-        return {str(k): _finite(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(v) for v in value]
-    if hasattr(value, "item") and not isinstance(value, str | bytes):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 def write_summary_json(path, payload: dict, written: Sequence) -> Path:
     """Write a JSON summary last, naming the files of the set it completes.
 
@@ -90,7 +76,8 @@ def write_summary_json(path, payload: dict, written: Sequence) -> Path:
     path : str or os.PathLike
         The summary file.
     payload : dict
-        The summary; non-finite numbers are written as null.
+        The summary, converted by `to_json_safe` (non-finite numbers are written as
+        null, numpy values as plain numbers and lists).
     written : sequence of path
         The files of the set; each gets a record (path relative to the summary,
         bytes, sha256) in the summary's ``"files"`` list, so a reader that finds the
@@ -103,10 +90,6 @@ def write_summary_json(path, payload: dict, written: Sequence) -> Path:
     """
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
-    body = _finite(dict(payload))
+    body = to_json_safe(dict(payload))
     body["files"] = [file_record(p, folder) for p in written]
-    text = json.dumps(body, indent=1, allow_nan=False)
-    with atomic_write(path, "w") as fh:
-        fh.write(text)
-        fh.write("\n")
-    return path
+    return write_json(path, body, indent=1)

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from ..io import to_json_safe
 from ._view3d import MeshLayer, PointsLayer, view_data
 
 __all__ = ["ReportSection", "viewer_script", "write_report"]
@@ -118,7 +119,7 @@ def _cell(value) -> str:
         items = [_short(v) for v in value]
         return f"<td>{html.escape(', '.join(items))}</td>"
     if isinstance(value, dict):
-        return f"<td>{html.escape(json.dumps(_plain(value)))}</td>"
+        return f"<td>{html.escape(json.dumps(to_json_safe(value, default=str)))}</td>"
     return f"<td>{html.escape(str(value))}</td>"
 
 
@@ -127,18 +128,6 @@ def _short(value) -> str:
         number = value.item() if hasattr(value, "item") else value
         return f"{number:.6g}" if isinstance(number, float) else str(number)
     return str(value)
-
-
-def _plain(value):
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple | np.ndarray):
-        return [_plain(v) for v in value]
-    if hasattr(value, "item"):
-        return value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value if isinstance(value, int | float | str | bool) or value is None else str(value)
 
 
 def _table_html(name: str, table) -> str:
