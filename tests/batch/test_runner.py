@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pointatlas.batch import BatchReport, list_models, run_batch, to_jsonable
+from pointatlas.batch import BatchReport, list_models, run_batch
 
 from . import funcs
 
@@ -222,18 +222,3 @@ def test_list_models_shared_collection():
     models = list_models(folder)
     assert len(models) == 149
     assert models == sorted(models)
-
-
-def test_to_jsonable():
-    value = {
-        "a": np.arange(3, dtype=np.int16),
-        np.int64(2): np.float64(np.nan),
-        "s": {3, 1},
-        "p": Path("x/y"),
-    }
-    plain = to_jsonable(value)
-    assert plain["a"] == [0, 1, 2] and type(plain["a"][0]) is int
-    assert np.isnan(plain["2"]) and plain["s"] == [1, 3] and plain["p"] == "x/y"
-    json.dumps(plain)
-    with pytest.raises(TypeError, match=r"result\['k'\]: cannot store object"):
-        to_jsonable({"k": object()})

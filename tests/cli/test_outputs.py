@@ -252,10 +252,10 @@ def test_outputs_get_the_umask_permissions(scan_ply, tmp_path):
 
 
 def test_batch_results_get_the_umask_permissions(tmp_path):
-    from pointatlas.batch._runner import _write_json
+    from pointatlas.io import write_json  # the batch runner's writer
     from pointatlas.io._atomic import _UMASK
 
-    _write_json(tmp_path / "r.json", {"a": 1})
+    write_json(tmp_path / "r.json", {"a": 1})
     assert stat.S_IMODE((tmp_path / "r.json").stat().st_mode) == 0o666 & ~_UMASK
 
 

@@ -1,6 +1,8 @@
 """Batch runs over model collections and tiled processing of large scans on dask (layer 5)."""
 
-from ._runner import BatchReport, list_models, run_batch, to_jsonable
+from .._core._deprecation import deprecated_alias
+from ..io import to_json_safe
+from ._runner import BatchReport, list_models, run_batch
 from ._tiles import ArraySource, TiledRun, TileOptions
 from ._tiles_cli import run_tiled_command, tile_options
 from ._tiles_denoise import tiled_denoise
@@ -27,5 +29,8 @@ __all__ = [
     "tiled_features",
     "tiled_normals",
     "tiled_segment",
-    "to_jsonable",
 ]
+
+# Former name of `pointatlas.io.to_json_safe`, the one JSON rule (NaN -> null; it kept
+# NaN): it still works and warns (not in __all__).
+to_jsonable = deprecated_alias(to_json_safe, "to_jsonable", new_name="pointatlas.io.to_json_safe")

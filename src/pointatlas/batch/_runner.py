@@ -19,8 +19,9 @@ from types import MappingProxyType
 import numpy as np
 
 from .._core._interrupt import interrupts_deferred
+from ..io import to_json_safe, write_json
 
-__all__ = ["BatchReport", "list_models", "run_batch", "to_jsonable"]
+__all__ = ["BatchReport", "list_models", "run_batch"]
 
 #: default model patterns of `list_models`
 MODEL_PATTERNS = ("*.obj", "*.off", "*.ply", "*.stl")
@@ -65,65 +66,6 @@ class BatchReport:
         object.__setattr__(self, "failures", MappingProxyType(dict(self.failures)))
 
 
-def to_jsonable(value):
-    """Convert numpy scalars/arrays, paths, tuples and sets into plain JSON types.
-
-    Parameters
-    ----------
-    value : object
-        A result: dicts, lists, tuples, numbers, strings, numpy values, paths.
-
-    Returns
-    -------
-    plain : object
-        The same structure with dict keys as str, numpy arrays as (nested) lists,
-        numpy scalars as Python numbers, paths as str. Non-finite floats stay
-        ``nan``/``inf`` (written as ``NaN``/``Infinity``, which Python's json reads).
-
-    Raises
-    ------
-    TypeError
-        A value of another type (its type and position are named).
-
-    Examples
-    --------
-    >>> to_jsonable({"a": np.arange(2), 3: np.float32(0.5), "p": (1, 2)})
-    {'a': [0, 1], '3': 0.5, 'p': [1, 2]}
-    """
-    return _plain(value, "result")
-
-
-def _plain(value, where: str):
-    if value is None or isinstance(value, bool | str):
-        return value
-    if isinstance(value, int | float):
-        return value
-    if isinstance(value, np.generic):
-        return _plain(value.item(), where)
-    if isinstance(value, np.ndarray):
-        if value.dtype.kind not in "biufU" and value.dtype != object:
-            raise TypeError(f"{where}: cannot store an array of dtype {value.dtype} as JSON")
-        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value.tolist())]
-    if isinstance(value, Path):
-        return str(value)
-    if isinstance(value, Mapping):
-        return {str(_plain(k, where)): _plain(v, f"{where}[{k!r}]") for k, v in value.items()}
-    if isinstance(value, list | tuple | set | frozenset):
-        items = sorted(value, key=repr) if isinstance(value, set | frozenset) else value
-        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(items)]
-    raise TypeError(f"{where}: cannot store {type(value).__name__} as JSON")
-
-
-def _write_json(path: Path, payload) -> None:
-    """Write JSON atomically (:func:`pointatlas.io.atomic_write`: umask permissions)."""
-    from ..io import atomic_write
-
-    text = json.dumps(payload, indent=2, sort_keys=False)
-    with atomic_write(path, "w") as fh:
-        fh.write(text)
-        fh.write("\n")
-
-
 def _read_json(path: Path):
     """The stored object, or None if the file is missing or unreadable."""
     try:
@@ -150,9 +92,8 @@ def _run_task(func, path: str, seed_seq):
         result = func(path, rng)
         if not isinstance(result, Mapping):
             raise TypeError(f"func must return a dict; got {type(result).__name__}")
-        plain = _plain(result, "result")
-        json.dumps(plain)  # fail here (recorded) rather than when writing
-        return "ok", plain, time.perf_counter() - start
+        # JSON types now (a failure is recorded here rather than when writing)
+        return "ok", to_json_safe(result), time.perf_counter() - start
     except Exception as exc:  # any failure of one model is recorded, never fatal
         return "error", _error_record(exc), time.perf_counter() - start
 
@@ -302,7 +243,8 @@ def run_batch(
     func : callable
         A module-level (picklable) function ``func(path: str, rng:
         numpy.random.Generator) -> dict`` whose result is JSON-serialisable after
-        numpy values are converted (`to_jsonable`). Workers import its module, so it
+        numpy values are converted (`pointatlas.io.to_json_safe`: NaN and infinities
+        become None). Workers import its module, so it
         must be importable there (functions from ``__main__`` are pickled by value).
     inputs : iterable of str or path-like
         Model files. They are sorted; their file stems (names without extension)
@@ -415,7 +357,7 @@ def _write_summary(out, label, seed, where, complete, counts, elapsed, failures,
         "failures": dict(sorted(failures.items())),
         "models": dict(sorted(models.items())),
     }
-    _write_json(out / "summary.json", summary)
+    write_json(out / "summary.json", summary, indent=2)
 
 
 def _consume(client, func, todo, children, results_dir, results, failures, models, advance):
@@ -435,14 +377,14 @@ def _consume(client, func, todo, children, results_dir, results, failures, model
             status, payload, seconds = "error", _error_record(exc), math.nan
         record = {"input": path, "index": index}
         if status == "ok":
-            _write_json(results_dir / f"{stem}{_RESULT_SUFFIX}", payload)
+            write_json(results_dir / f"{stem}{_RESULT_SUFFIX}", payload, indent=2)
             with contextlib.suppress(FileNotFoundError):
                 os.unlink(results_dir / f"{stem}{_ERROR_SUFFIX}")
             results[stem] = payload
             record["status"] = "done"
             n_done += 1
         else:
-            _write_json(results_dir / f"{stem}{_ERROR_SUFFIX}", {**record, **payload})
+            write_json(results_dir / f"{stem}{_ERROR_SUFFIX}", {**record, **payload}, indent=2)
             failures[stem] = f"{payload['type']}: {payload['message']}"
             record["status"] = "failed"
         record["elapsed_s"] = None if math.isnan(seconds) else round(seconds, 4)

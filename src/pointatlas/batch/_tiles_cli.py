@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 import time
 from dataclasses import replace
@@ -146,20 +145,10 @@ def _write_text(path: Path, text: str) -> Path:
     return path
 
 
-def _json_safe(value):
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, np.generic):
-        return _json_safe(value.item())
-    return value
-
-
 def _side_outputs(kind, out_path: Path, summary: dict) -> list[Path]:
     """Segment: OUT_regions.csv and OUT_regions.json; denoise: OUT_denoise.json."""
+    from ..io import write_json
+
     stem = out_path.with_suffix("")
     written = []
     if kind == "segment":
@@ -171,12 +160,10 @@ def _side_outputs(kind, out_path: Path, summary: dict) -> list[Path]:
         writer.writeheader()
         writer.writerows(rows)
         written.append(_write_text(Path(f"{stem}_regions.csv"), buf.getvalue()))
-        payload = {"summary": _json_safe(summary), "regions": _json_safe(rows)}
-        written.append(_write_text(Path(f"{stem}_regions.json"), json.dumps(payload, indent=2)))
+        payload = {"summary": summary, "regions": rows}
+        written.append(write_json(Path(f"{stem}_regions.json"), payload, indent=2))
     elif kind == "denoise":
-        written.append(
-            _write_text(Path(f"{stem}_denoise.json"), json.dumps(_json_safe(summary), indent=2))
-        )
+        written.append(write_json(Path(f"{stem}_denoise.json"), summary, indent=2))
     return written
 
 

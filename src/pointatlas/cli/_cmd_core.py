@@ -8,7 +8,6 @@ terminal.
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 from typing import Annotated
@@ -23,6 +22,7 @@ from ..io import (
     POINT_WRITE_EXTENSIONS,
     read_mesh,
     read_point_set,
+    write_json,
     write_point_set,
 )
 from ..neighbors import point_set_info, query_knn
@@ -50,7 +50,6 @@ from ._outputs import (
     check_outputs,
     check_point_output,
     write_point_output,
-    write_text,
 )
 from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 
@@ -270,7 +269,7 @@ def demo_info(ps: PointSet, out_dir: Path, console) -> None:
     """The model: size, bounding box, spacing, k-NN components."""
     info = point_set_info(ps, k=8)
     console.print(info_table(info, title=f"{escape(ps.name)} (bundled)"))
-    write_text(out_dir / f"{ps.name}_info.json", json.dumps(info, indent=2))
+    write_json(out_dir / f"{ps.name}_info.json", info, indent=2)
 
 
 @demo_step
@@ -301,7 +300,7 @@ def demo_normals(ps: PointSet, out_dir: Path, console) -> PointSet:
     table.add_row("flipped fraction", f"{stats['flipped_fraction']:.4f}")
     table.add_row("written", escape(str(path)))
     console.print(table)
-    write_text(out_dir / f"{ps.name}_normals.json", json.dumps(stats, indent=2))
+    write_json(out_dir / f"{ps.name}_normals.json", stats, indent=2)
     return ps.with_attributes(normal_error_deg=error)
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated
 
@@ -13,6 +12,7 @@ from .._core import PointAtlasError
 from ..io import (
     MESH_EXTENSIONS,
     POINT_WRITE_EXTENSIONS,
+    json_text,
     write_mesh,
     write_point_set,
 )
@@ -43,7 +43,7 @@ def data_list_command(
         for r in _data_module().info()
     ]
     if as_json:
-        typer.echo(json.dumps(rows, indent=2))
+        typer.echo(json_text(rows, indent=2))
         return
     table = Table(title="bundled models (pointatlas data export NAME OUT)", title_justify="left")
     table.add_column("name", style="bold", no_wrap=True)

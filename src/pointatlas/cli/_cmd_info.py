@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated
 
@@ -12,7 +11,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from .._core import PointSet
-from ..io import MESH_EXTENSIONS, read_mesh, read_point_set
+from ..io import MESH_EXTENSIONS, json_text, read_mesh, read_point_set
 from ..neighbors import knn_components, point_set_info, query_knn
 from ._app import app, console, err_console, guarded, progress_bar, read_input, say
 from ._outputs import check_outputs
@@ -112,7 +111,7 @@ def info_command(
         advance()
     info = {"file": str(file), **info}
     if as_json:
-        typer.echo(json.dumps(info, indent=2))
+        typer.echo(json_text(info, indent=2))
     else:
         say(f"file: {file}")
         console.print(info_table(info))

@@ -17,6 +17,7 @@ import numpy as np
 import typer
 
 from .._core import PointAtlasError, as_int
+from ..io import to_json_safe
 from ..segment import VSAOptions, region_growing, vsa_segment
 from ._app import (
     ClassicOption,
@@ -153,12 +154,6 @@ def table_paths(output: Path) -> tuple[Path, Path]:
     return Path(f"{stem}_regions.csv"), Path(f"{stem}_regions.json")
 
 
-def _json_safe(value):
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 def _write_tables(output: Path, rows: list[dict]) -> tuple[Path, dict]:
     """Write the per-region CSV; returns its path and the JSON-ready rows."""
     from ..io import atomic_write
@@ -171,7 +166,7 @@ def _write_tables(output: Path, rows: list[dict]) -> tuple[Path, dict]:
     writer.writerows(rows)
     with atomic_write(csv_path, "w") as fh:
         fh.write(buf.getvalue())
-    return csv_path, [{key: _json_safe(val) for key, val in row.items()} for row in rows]
+    return csv_path, to_json_safe(rows)
 
 
 @app.command("segment")
@@ -404,7 +399,7 @@ def _write_segment_files(output: Path, ps, res, summary: dict, *, render):
             )
         )
     payload = {
-        "summary": {key: _json_safe(val) for key, val in summary.items()},
+        "summary": to_json_safe(summary),
         "regions": json_rows,
     }
     return written, payload

@@ -6,7 +6,6 @@ Also registers the demo step (segment and simplify the demo model); the
 
 from __future__ import annotations
 
-import json
 import math
 import warnings
 from pathlib import Path
@@ -16,7 +15,7 @@ import numpy as np
 import typer
 
 from .._core import PointAtlasError, PointSet, as_float, as_int
-from ..io import write_mesh
+from ..io import write_json, write_mesh
 from ..simplify import SimplifyWarning, simplify_points
 from ._app import (
     ClassicOption,
@@ -45,7 +44,7 @@ from ._app import (
 from ._cmd_core import REPORT_EXTENSIONS
 from ._flag_checks import vsa_counts
 from ._mesh_io import read_mesh_input, write_simplified, write_triangles
-from ._outputs import check_outputs, write_summary_json, write_text
+from ._outputs import check_outputs, write_summary_json
 from ._simplify_report import (
     render_simplification,
     render_surface,
@@ -622,6 +621,6 @@ def demo_simplify(ps: PointSet, out_dir: Path, console) -> None:
         mesh,
         title=f"{ps.name}: VSA (eta = {DEMO_ETA:g}) and the simplified mesh",
     )
-    write_text(out_dir / f"{ps.name}_simplified.json", json.dumps(mesh.summary(), indent=2))
+    write_json(out_dir / f"{ps.name}_simplified.json", mesh.summary(), indent=2)
     console.print(simplification_table(mesh, result.segmentation))
     say(f"mesh: {obj}\npicture: {png}")

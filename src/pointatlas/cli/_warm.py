@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import contextlib
 import io
-import json
 import sys
 import tempfile
 import time
@@ -126,4 +125,6 @@ def warmup_command(
     runs this; a first run then starts at once)."""
     held = warm(commands or None, say=say)
     if json_path is not None:
-        json_path.write_text(json.dumps(held, indent=2))
+        from ..io import write_json
+
+        write_json(json_path, held, indent=2)
