@@ -69,7 +69,6 @@ def deprecated_alias(func, old_name: str, *, new_name: str | None = None):
 
     alias.__name__ = alias.__qualname__ = old_name
     alias.__doc__ = f"Deprecated alias of `{new}` (the former name, kept for old code)."
-    alias.__deprecated_alias_of__ = new
     return alias
 
 
@@ -121,7 +120,6 @@ def renamed_keywords(**old_to_new: str):
                 kwargs[new] = kwargs.pop(old)
             return func(*args, **kwargs)
 
-        wrapper.__renamed_keywords__ = dict(old_to_new)
         return wrapper
 
     return decorate
