@@ -37,18 +37,18 @@ def sigterm_caught():
 def test_a_signal_during_a_command_says_so_and_keeps_outputs(
     tmp_path, monkeypatch, sigterm_caught, signum, code, line
 ):
-    from pointatlas.cli import _cmd_core
+    from pointatlas.cli.jobs import _normals
 
     src, out = tmp_path / "in.ply", tmp_path / "out.ply"
     write_point_set(src, sphere_points(200))
     out.write_bytes(b"previous")
-    real = _cmd_core.estimate_normals
+    real = _normals.estimate_normals
 
     def signalled(*args, **kw):
         os.kill(os.getpid(), signum)  # the handler runs when this returns
         return real(*args, **kw)
 
-    monkeypatch.setattr(_cmd_core, "estimate_normals", signalled)
+    monkeypatch.setattr(_normals, "estimate_normals", signalled)
     before = signal.getsignal(signal.SIGINT)  # Python's, or what an earlier test left
     result = run("normals", src, out, "--k", "8")
     assert result.exit_code == code, result.output

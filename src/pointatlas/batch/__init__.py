@@ -4,27 +4,37 @@ from .._core._deprecation import deprecated_alias
 from ..io import to_json_safe
 from ._runner import BatchReport, list_models, run_batch
 from ._tiles import ArraySource, TiledRun, TileOptions
-from ._tiles_cli import run_tiled_command, tile_options
 from ._tiles_denoise import tiled_denoise
 from ._tiles_features import tiled_features
+from ._tiles_files import input_has_normals, run_tile_job
 from ._tiles_grid import TileGrid, make_grid
-from ._tiles_las import LasSource, las_tiled
+from ._tiles_jobs import (
+    DenoiseTileJob,
+    FeaturesTileJob,
+    NormalsTileJob,
+    SegmentTileJob,
+)
+from ._tiles_las import LasSource, las_feature_fields
 from ._tiles_normals import tiled_normals
 from ._tiles_segment import tiled_segment
 
 __all__ = [
     "ArraySource",
     "BatchReport",
+    "DenoiseTileJob",
+    "FeaturesTileJob",
     "LasSource",
+    "NormalsTileJob",
+    "SegmentTileJob",
     "TileGrid",
     "TileOptions",
     "TiledRun",
-    "las_tiled",
+    "input_has_normals",
+    "las_feature_fields",
     "list_models",
     "make_grid",
     "run_batch",
-    "run_tiled_command",
-    "tile_options",
+    "run_tile_job",
     "tiled_denoise",
     "tiled_features",
     "tiled_normals",

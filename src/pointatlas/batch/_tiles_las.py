@@ -2,7 +2,7 @@
 
 Reading: ``laspy.open(path).chunk_iterator(n)``, decoding only x, y, z (and the
 ``nx, ny, nz`` extra bytes when used) for the scan and spill passes; a LAZ file
-run by `las_tiled` is decoded once, its raw records kept in a memory map of the
+run by `run_tile_job` is decoded once, its raw records kept in a memory map of the
 temporary folder for the later passes (`LasSource.keep_records`). Writing:
 ``laspy.open(fh, mode="w", header=...)`` with a copy of the input header plus our
 fields as extra-bytes dimensions; every input dimension is copied record by record
@@ -14,26 +14,15 @@ from __future__ import annotations
 
 import copy
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from .._core import PointAtlasError, as_normals
 from ..io._las import check_las_complete
-from ._tiles import (
-    TileOptions,
-    release_pages,
-    tile_client,
-)
-from ._tiles_combined import normals_features_over
-from ._tiles_denoise import denoise_over
-from ._tiles_features import features_over
-from ._tiles_normals import normals_over
-from ._tiles_segment import segment_over
-from ._tiles_tmp import clean_tmp, make_tmp
+from ._tiles import release_pages
 
-__all__ = ["LAS_EXTENSIONS", "LasSource", "las_feature_fields", "las_tiled"]
+__all__ = ["LAS_EXTENSIONS", "LAS_FEATURE_FLOAT", "LasSource", "las_feature_fields"]
 
 #: Extensions streamed by chunks.
 LAS_EXTENSIONS = (".las", ".laz")
@@ -213,12 +202,23 @@ class LasSource:
 LAS_FEATURE_FLOAT = np.float32
 
 
-def las_feature_fields(fields: dict) -> dict:
-    """``pointatlas features``'s fields as written to LAS/LAZ: float64 as float32 (the
-    rounding of ``astype``); integer and uint8 fields unchanged."""
-    return {
-        k: v.astype(LAS_FEATURE_FLOAT) if v.dtype == np.float64 else v for k, v in fields.items()
-    }
+def las_feature_fields(fields: dict, float_type=LAS_FEATURE_FLOAT) -> dict:
+    """``pointatlas features``'s fields as written to LAS/LAZ.
+
+    Parameters
+    ----------
+    fields : dict of str to ndarray
+        Per-point fields.
+    float_type : numpy dtype
+        The type of float64 fields in the file (float32, `LAS_FEATURE_FLOAT`).
+
+    Returns
+    -------
+    fields : dict of str to ndarray
+        float64 fields as ``float_type`` (the rounding of ``astype``), integer and
+        uint8 fields unchanged.
+    """
+    return {k: v.astype(float_type) if v.dtype == np.float64 else v for k, v in fields.items()}
 
 
 def _free_name(name: str, taken: set) -> str:
@@ -366,190 +366,3 @@ def write_streamed(
                 writer.write_points(out)
                 release_pages(*fields.values(), normals, points)
     return out_path
-
-
-def _memmap(folder: Path, name: str, dtype, shape):
-    return np.lib.format.open_memmap(folder / f"{name}.npy", mode="w+", dtype=dtype, shape=shape)
-
-
-def las_tiled(
-    kind: str,
-    in_path,
-    out_path,
-    params: dict,
-    options: TileOptions,
-    *,
-    normal_params=None,
-    extra_fields=None,
-):
-    """Run one command by tiles on a LAS/LAZ file and write LAS/LAZ, streaming.
-
-    Parameters
-    ----------
-    kind : {"normals", "features", "segment", "denoise"}
-        The command.
-    in_path, out_path : path-like
-        Input and output (.las/.laz).
-    params : dict
-        The command's parameters (see `tiled_normals`, `tiled_features`,
-        `tiled_segment`, `tiled_denoise`).
-    options : TileOptions
-        Tiling and cluster.
-    normal_params : dict, optional
-        ``k``, ``orient_k`` and ``orient`` ("mst" when not given, or "up") of normals
-        estimated first when the command needs normals (segment, normal voting) and
-        the input has none, or when re-estimation is asked for; with "features" and
-        equal weights, estimated in the features' tasks from the same k-NN
-        (`normals_features_over`) and written.
-
-    Returns
-    -------
-    summary : dict
-        Points, tiles, halo, timings (decode, compute, encode), quality measures.
-    """
-    src = LasSource(in_path)
-    t0 = time.perf_counter()
-    tmp = make_tmp(options, Path(out_path))
-    summary = {"points": src.n}
-    try:
-        src.keep_records(tmp)  # LAZ: decoded once, by the first pass
-        src.bounds()  # the first pass (bounds, subsample): an empty file fails here
-        with tile_client(options) as ci:
-            summary["scheduler"] = ci[1]
-            normals = None
-            # features --normals: one k-NN per tile for both (equal weights)
-            combined = kind == "features" and normal_params is not None
-            combined = combined and params["mode"] != "optimal"
-            if normal_params is not None and not combined:
-                normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
-                src.use_normals = False
-                _, run_n = normals_over(
-                    src,
-                    replace(options, halo=None),
-                    k=normal_params["k"],
-                    orient=normal_params.get("orient", "mst"),
-                    orient_k=normal_params.get("orient_k", 10),
-                    viewpoint=None,
-                    out=normals,
-                    spill_dir=tmp,
-                    client_info=ci,
-                    label="normals",
-                )
-                summary["normals_tiles"] = run_n.summary()
-            fields = {}
-            write_kwargs = {}
-            if kind == "normals":
-                normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
-                src.use_normals = False
-                _, run = normals_over(
-                    src, options, out=normals, spill_dir=tmp, client_info=ci, **params
-                )
-                write_kwargs["normals"] = normals
-            elif kind == "features":
-                alloc = _Alloc(tmp, src.n, float_type=LAS_FEATURE_FLOAT)
-                if combined:
-                    normals = _memmap(tmp, "normals", np.float64, (src.n, 3))
-                    src.use_normals = False
-                    normals, _, run = normals_features_over(
-                        src,
-                        options,
-                        params,
-                        normal_params,
-                        normals_out=normals,
-                        fields_out=alloc,
-                        spill_dir=tmp,
-                        client_info=ci,
-                    )
-                else:
-                    src.use_normals = params["mode"] == "optimal" and normals is None
-                    _, run = features_over(
-                        src,
-                        options,
-                        params,
-                        out=alloc,
-                        spill_dir=tmp,
-                        client_info=ci,
-                        normals_array=normals,
-                    )
-                fields = dict(alloc.arrays)
-                write_kwargs["float_type"] = LAS_FEATURE_FLOAT
-                if normals is not None:
-                    write_kwargs["normals"] = normals
-            elif kind == "segment":
-                src.use_normals = normals is None
-                labels = _memmap(tmp, "label", np.int64, (src.n,))
-                labels, quality, run = segment_over(
-                    src,
-                    options,
-                    params,
-                    labels_out=labels,
-                    spill_dir=tmp,
-                    client_info=ci,
-                    normals_array=normals,
-                )
-                summary["quality"] = {k: quality[k] for k in ("n_regions", "energy", "mse")}
-                summary["regions"] = quality
-                fields = {"label": labels}
-                if extra_fields is not None:
-                    fields.update(extra_fields(labels, tmp))
-                if normals is not None:
-                    write_kwargs["normals"] = normals
-            elif kind == "denoise":
-                src.use_normals = normals is None
-                alloc = _Alloc(tmp, src.n)
-                outs = alloc.dict_with(points=(np.float64, 3), normals=(np.float64, 3))
-                out, run = denoise_over(
-                    src,
-                    options,
-                    params,
-                    spill_dir=tmp,
-                    client_info=ci,
-                    outs=outs,
-                    normals_array=normals,
-                )
-                summary["spacing"] = out["spacing"]
-                fields = {k: v for k, v in out.items() if k not in ("points", "normals", "spacing")}
-                write_kwargs.update(points=out["points"], normals=out["normals"])
-            else:
-                raise ValueError(f"unknown kind {kind!r}")
-            summary["tiles"] = run.summary()
-            summary.update({f"tiles_{k}": v for k, v in run.extra.items() if np.isscalar(v)})
-        t1 = time.perf_counter()
-        write_streamed(src, out_path, fields, **write_kwargs)
-        t2 = time.perf_counter()
-        summary["seconds"] = {
-            "total": round(t2 - t0, 3),
-            "tiles (incl. reading)": round(t1 - t0, 3),
-            "writing (incl. reading)": round(t2 - t1, 3),
-        }
-    finally:
-        clean_tmp(tmp)
-    return summary
-
-
-class _Alloc(dict):
-    """Lazy memory maps of N rows in the temporary folder (a dict of arrays);
-    ``float_type``: float64 results are stored (and rounded) as that type, the type
-    they are written in (features: float32, as `las_feature_fields` rounds)."""
-
-    def __init__(self, folder: Path, n: int, float_type=None):
-        super().__init__()
-        self.folder = folder
-        self.n = n
-        self.float_type = float_type
-
-    @property
-    def arrays(self):
-        return dict(self)
-
-    def new(self, name, dtype, width=None):
-        shape = (self.n,) if width is None else (self.n, width)
-        if self.float_type is not None and np.dtype(dtype) == np.float64:
-            dtype = self.float_type
-        self[name] = _memmap(self.folder, f"out_{name}", dtype, shape)  # not "normals.npy"
-        return self[name]
-
-    def dict_with(self, **spec):
-        for name, (dtype, width) in spec.items():
-            self.new(name, dtype, width)
-        return self

@@ -6,30 +6,30 @@ and registers its commands; ``cli/__init__.py`` imports the command modules.
 
 from __future__ import annotations
 
-import contextlib
 import functools
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
 import numpy as np
 import typer
-from rich.console import Console
 from rich.markup import escape
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    SpinnerColumn,
-    TextColumn,
-    TimeElapsedColumn,
-)
 
 from .._core import PointAtlasError
 from .._core._interrupt import interrupt_requested
 from ._signals import stop_signals_handled, stopped_line
 from ._typed import TypedArgsGroup
+from .jobs import (
+    console,
+    err_console,
+    fill_unusable_normals,
+    progress_bar,
+    read_input,
+    read_with_normals,
+    run_tiled,
+    say,
+    tile_options,
+)
 
 __all__ = [
     "DEMO_STEPS",
@@ -54,6 +54,7 @@ __all__ = [
     "read_input",
     "read_with_normals",
     "say",
+    "fill_unusable_normals",
     "angle_deg_option",
     "ClassicOption",
     "EtaOption",
@@ -82,31 +83,6 @@ data_app = typer.Typer(help="Bundled models: list and export.", no_args_is_help=
 experiment_app = typer.Typer(help="Reproduce the thesis' experiments.", no_args_is_help=True)
 app.add_typer(data_app, name="data")
 app.add_typer(experiment_app, name="experiment")
-
-# soft_wrap: a printed line is never broken at the terminal width (paths stay whole
-# when the output is piped or the terminal is narrow); tables still fit the width.
-#: Width of tables when the output is not a terminal (a pipe, a file, a test runner):
-#: wide enough that no table of ours wraps, whatever COLUMNS says.
-PIPE_WIDTH = 160
-
-
-def _console(stderr: bool = False) -> Console:
-    stream = sys.stderr if stderr else sys.stdout
-    is_tty = hasattr(stream, "isatty") and stream.isatty()
-    return Console(stderr=stderr, soft_wrap=True, width=None if is_tty else PIPE_WIDTH)
-
-
-console = _console()
-err_console = _console(stderr=True)
-
-
-def say(*parts, out: Console | None = None) -> None:
-    """Print text verbatim on one line: no markup, no highlighting, no wrapping.
-
-    For lines a script may read (``wrote PATH``): brackets in paths stay as they
-    are and long paths are not broken.
-    """
-    (out or console).print(*parts, markup=False, highlight=False, soft_wrap=True, emoji=False)
 
 
 def _one_line(exc: BaseException) -> str:
@@ -167,30 +143,6 @@ def guarded(func):
     return wrapper
 
 
-@contextlib.contextmanager
-def progress_bar(description: str, total: int | None = None, *, transient: bool = True):
-    """A rich progress bar on stderr; yields ``advance(n=1)``.
-
-    Hidden automatically when stderr is not a terminal and the task is short.
-    """
-    with Progress(
-        SpinnerColumn(),
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=err_console,
-        transient=transient,
-        disable=not sys.stderr.isatty(),
-    ) as progress:
-        task = progress.add_task(description, total=total)
-
-        def advance(n: int = 1):
-            progress.advance(task, n)
-
-        yield advance
-
-
 #: The steps of ``pointatlas demo``, run in order on the demo model. A step is
 #: ``step(ps, out_dir, console) -> PointSet | None``: ``ps`` the model's PointSet
 #: (points + area-weighted mesh normals; earlier steps may have added attributes),
@@ -207,36 +159,6 @@ def demo_step(func: Callable) -> Callable:
     """Decorator: append ``func`` to :data:`DEMO_STEPS` and return it unchanged."""
     DEMO_STEPS.append(func)
     return func
-
-
-#: The text files whose column layout was printed (a command may read IN twice).
-_ANNOUNCED: set[tuple[str, str]] = set()
-
-
-def read_input(path, *, with_normals: bool = True, zero_normals: str = "raise"):
-    """Read IN: a point set or mesh file, or, where no such file exists, a bundled
-    model name (``pointatlas data list``: ``fandisk``, ``synth:cube``, ...)."""
-    from ..io import read_point_set
-
-    p = Path(path)
-    if p.is_dir():
-        raise PointAtlasError(f"{path}: is a folder; give a point-set or mesh file")
-    if not p.exists():
-        from .. import data
-
-        if str(path) in data.names():
-            ps = data.load(str(path))
-            return ps if with_normals else ps.replace(normals=None)
-        if not p.suffix:
-            raise PointAtlasError(
-                f"{path}: no such file and not a bundled model; bundled: {', '.join(data.names())}"
-            )
-    ps = read_point_set(p, with_normals=with_normals, zero_normals=zero_normals)
-    note = ps.meta.get("columns")  # how a text file's columns were read: said once
-    if note and (str(p), note) not in _ANNOUNCED:
-        _ANNOUNCED.add((str(p), note))
-        say(f"{p}: {note}", out=err_console)
-    return ps
 
 
 def angle_deg_option(value, flag: str, *, lo: float = 0.0, hi: float = 180.0):
@@ -367,53 +289,6 @@ MaxMemoryOption = Annotated[
 ]
 
 
-def tile_options(tile_size, halo, workers, scheduler, max_memory, **refused):
-    """The ``TileOptions`` of the tile flags, or None without ``--tile-size``.
-
-    ``refused``: flags that cannot run by tiles (``report=path``); any that is
-    given with ``--tile-size`` is a one-line error.
-    """
-    from ..batch import tile_options as make
-    from ..batch._tiles_cli import refuse
-
-    options = make(tile_size, halo, workers, scheduler, max_memory, progress=sys.stderr.isatty())
-    refuse(options, **refused)
-    return options
-
-
-def run_tiled(
-    kind: str, in_path, out_path, params: dict, options, *, report=None, **kwargs
-) -> dict:
-    """Run a command by tiles (`pointatlas.batch.run_tiled_command`), print a summary
-    line and the files written; returns the summary. ``report``: also an HTML report
-    whose 3-D view reads every n-th point back from OUT (`write_tiled_report`)."""
-    from ..batch import run_tiled_command
-
-    summary, written = run_tiled_command(kind, in_path, out_path, params, options, **kwargs)
-    if report is not None:
-        from ._reports import write_tiled_report
-
-        written = [*written, write_tiled_report(report, kind, in_path, out_path, params, summary)]
-    tiles = summary["tiles"]
-    line = (
-        f"{kind}: {summary['points']:,} points in {tiles['tiles']} tiles of "
-        f"{tiles['tile_size']:g} (halo {tiles['halo_min']:.4g}"
-        + (f"-{tiles['halo_max']:.4g}" if tiles["halo_max"] != tiles["halo_min"] else "")
-        + f", {tiles['points_sent_per_point']:.2f} points sent per point) on "
-        f"{summary['scheduler']}, {summary['seconds_total']:.1f} s"
-    )
-    say(line)
-    quality = summary.get("quality")
-    if quality:
-        say(
-            f"  {quality['n_regions']} regions, energy {quality['energy']:.6g}, "
-            f"MSE {quality['mse']:.3e}"
-        )
-    for path in written:
-        say(f"wrote {path}")
-    return summary
-
-
 def parse_seeds(text: str):
     """``--seeds``: ``"all"``, a count (``"12"``) or comma-separated indices (``"0,5,9"``)."""
     text = text.strip()
@@ -475,119 +350,3 @@ def vsa_options(
         from ._flag_checks import VSA_FLAGS, named_as_typed
 
         raise named_as_typed(exc, VSA_FLAGS) from None
-
-
-def _check_min_points(path, ps, min_points: int, what: str, check=None) -> None:
-    if ps.n_points < min_points:
-        raise PointAtlasError(
-            f"{path}: {what or 'this command'} needs at least {min_points} points; "
-            f"got {ps.n_points}"
-        )
-    if check is not None:
-        check(ps.n_points)
-
-
-def fill_unusable_normals(path, kept, normal_k: int):
-    """The whole of IN with a normal for every point, from ``kept`` (IN read with
-    ``zero_normals="drop"``: the points whose stored normal is usable, their
-    original indices in ``source_index``).
-
-    A point without a usable normal (zero or non-finite in the file; a mesh vertex
-    on no face) gets the PCA normal of its ``normal_k`` nearest points (all points
-    of IN; at most all of them), signed like the sum of its neighbours' usable
-    normals (kept as PCA gives it when none of them has one). A note on stderr
-    gives their number. Nothing is left out: every point and attribute of IN is
-    there, in the input order (docs/decisions/cli.md).
-    """
-    from ..neighbors import NeighborIndex
-
-    full = read_input(path, with_normals=False)
-    n = full.n_points
-    if kept.n_points == 0:  # no usable normal at all: estimated as for an input without
-        return full
-    good = np.zeros(n, dtype=np.bool_)
-    good[kept.attributes["source_index"]] = True
-    normals = np.zeros((n, 3))
-    normals[good] = kept.normals
-    missing = np.flatnonzero(~good)
-    k = min(max(int(normal_k), 3), n)
-    idx, _ = NeighborIndex(full.points).knn(k, rows=missing)
-    nb = full.points[idx]  # (M, k, 3)
-    centred = nb - nb.mean(axis=1, keepdims=True)
-    cov = np.einsum("mki,mkj->mij", centred, centred)
-    pca = np.linalg.eigh(cov)[1][:, :, 0]  # eigenvector of the smallest eigenvalue
-    votes = normals[idx].sum(axis=1)  # the neighbours' usable normals (zero rows: none)
-    flip = (pca * votes).sum(axis=1) < 0.0
-    pca[flip] *= -1.0
-    normals[missing] = pca / np.linalg.norm(pca, axis=1, keepdims=True)
-    say(
-        f"note: {missing.size:,} of {n:,} points had no usable normal (zero or non-finite; "
-        f"mesh vertices on no face); they got PCA normals of their {k} nearest points, "
-        "signed like their neighbours'",
-        out=err_console,
-    )
-    return full.replace(normals=normals)
-
-
-def read_with_normals(
-    path,
-    *,
-    estimate: bool | None = None,
-    normal_k: int = 20,
-    min_points: int = 1,
-    what: str = "",
-    check=None,
-):
-    """Read IN and make sure it has normals; returns the PointSet.
-
-    ``estimate`` None (default of the commands): the input's normals are used; an
-    input without normals gets PCA normals (``normal_k`` neighbours, MST
-    orientation), and a line on stderr says so. True: normals are estimated even
-    when the input has some; the input's normals are kept as the attribute
-    ``input_normals``. False: an input without normals is an error. Points whose
-    stored normal is unusable (zero length, NaN; mesh vertices on no face) get one
-    from their neighbours (`fill_unusable_normals`), with a note giving their
-    number. An input with fewer than ``min_points``
-    points is refused before anything is estimated (``what`` names the job), and so
-    is one that ``check`` (called with the number of points) refuses: the options
-    bounded by N (`pointatlas.cli._flag_checks`).
-    """
-    from .._core import as_int
-
-    as_int(normal_k, "--normal-k", lo=3)
-    if estimate:
-        ps = read_input(path, with_normals=False)
-        try:
-            given = read_input(path).normals
-        except PointAtlasError:  # some points without a normal: nothing to keep
-            given = None
-        if given is not None:  # kept as input_normals (pa_ prefixed if that name is taken)
-            from ..io import merge_attributes
-
-            name = list(merge_attributes(ps.attributes, {"input_normals": given}))[-1]
-            ps = ps.with_attributes(**{name: given})
-    else:
-        ps = read_input(path, zero_normals="drop")
-        if "source_index" in ps.attributes:  # rare: some points lack a usable normal
-            ps = fill_unusable_normals(path, ps, normal_k)
-        if ps.normals is not None:
-            _check_min_points(path, ps, min_points, what, check)
-            return ps
-        if estimate is False:
-            raise PointAtlasError(
-                f"{path}: the input has no normals; drop --no-estimate-normals to estimate them"
-            )
-    _check_min_points(path, ps, min_points, what, check)
-    from ._cmd_core import _compute_normals
-
-    as_int(normal_k, "--normal-k", lo=3, hi=ps.n_points, note="the number of points")
-    say(
-        f"estimating normals: PCA with k = {normal_k}, MST orientation"
-        + ("" if estimate else " (the input has none)"),
-        out=err_console,
-    )
-    with progress_bar("normals", total=2) as advance:
-        normals = _compute_normals(
-            ps.points, k=normal_k, orient="mst", orient_k=10, viewpoint=None, advance=advance
-        )
-    return ps.replace(normals=normals)

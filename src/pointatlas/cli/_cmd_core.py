@@ -18,6 +18,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from .._core import PointAtlasError, PointSet
+from ..batch import NormalsTileJob
 from ..io import (
     POINT_WRITE_EXTENSIONS,
     read_mesh,
@@ -25,8 +26,8 @@ from ..io import (
     write_json,
     write_point_set,
 )
-from ..neighbors import point_set_info, query_knn
-from ..normals import angle_error, compare_normals, estimate_normals, orient_normals
+from ..neighbors import point_set_info
+from ..normals import angle_error, compare_normals
 from ._app import (
     DEMO_STEPS,
     HaloOption,
@@ -40,7 +41,6 @@ from ._app import (
     demo_step,
     guarded,
     progress_bar,
-    read_input,
     run_tiled,
     say,
     tile_options,
@@ -52,6 +52,7 @@ from ._outputs import (
     write_point_output,
 )
 from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
+from .jobs import ORIENT_METHODS, compute_normals, read_keeping_normals
 
 __all__ = [
     "DEMO_STEPS",
@@ -64,70 +65,8 @@ __all__ = [
     "step_name",
 ]
 
-#: Orientation methods of ``pointatlas normals`` (``none`` keeps PCA signs; ``up``:
-#: n_z >= 0 per point, the lidar convention, `pointatlas.normals.orient_normals`).
-ORIENT_METHODS = ("mst", "outward", "viewpoint", "up", "none")
 #: Model used by ``pointatlas demo``.
 DEMO_MODEL = "fandisk"
-
-
-# --------------------------------------------------------------------------- helpers
-
-
-def _compute_normals(points, *, k: int, orient: str, orient_k: int, viewpoint, advance):
-    """Normals of ``points`` as the ``normals`` command computes them."""
-    return normals_and_table(
-        points, k=k, orient=orient, orient_k=orient_k, viewpoint=viewpoint, advance=advance
-    )[0]
-
-
-def normals_and_table(
-    points, *, k: int, orient: str, orient_k: int, viewpoint, advance, min_cols: int = 0
-):
-    """PCA normals at ``k``, oriented by ``orient``, and the k-NN query they came from
-    (``(indices, distances)``, at least ``min_cols`` columns: ``features --normals``
-    computes its features from the same table)."""
-    if orient not in ORIENT_METHODS:
-        raise PointAtlasError(
-            f"--orient must be one of {', '.join(ORIENT_METHODS)}; got {orient!r}"
-        )
-    if orient == "viewpoint" and viewpoint is None:
-        raise PointAtlasError("--orient viewpoint needs --viewpoint X Y Z")
-    if viewpoint is not None and orient != "viewpoint":
-        raise PointAtlasError("--viewpoint is only used with --orient viewpoint")
-    n = points.shape[0]
-    if k < 3 or k > n:
-        raise PointAtlasError(f"--k must lie in [3, number of points = {n}]; got {k}")
-    if orient_k < 2:
-        raise PointAtlasError(f"--orient-k must be at least 2; got {orient_k}")
-    orient_k = min(orient_k, n)  # tiny inputs: the whole set is the neighbourhood
-    graph = orient in ("mst", "outward")
-    neighbors = query_knn(points, max(max(k, orient_k) if graph else k, min_cols))
-    unoriented = estimate_normals(points, k, neighbors=neighbors)
-    advance()
-    if orient == "none":
-        oriented = unoriented
-    elif orient == "viewpoint":
-        oriented = orient_normals(points, unoriented, method="viewpoint", viewpoint=viewpoint)
-    elif orient == "up":
-        oriented = orient_normals(points, unoriented, method="up")
-    else:
-        oriented = orient_normals(
-            points, unoriented, k=orient_k, method=orient, neighbors=neighbors
-        )
-    advance()
-    return oriented, neighbors
-
-
-def read_keeping_normals(path):
-    """IN as the normals commands read it: every point, without normals, and the
-    input's own normals (when every point has one) as the field ``input_normals``."""
-    try:
-        ps = read_input(path)
-    except PointAtlasError:  # some points without a normal: nothing to keep
-        return read_input(path, with_normals=False), {}
-    ours = {} if ps.normals is None else {"input_normals": ps.normals}
-    return ps.replace(normals=None), ours
 
 
 # --------------------------------------------------------------------------- normals
@@ -181,15 +120,16 @@ def normals_command(
         )
     tiles = tile_options(tile_size, halo, workers, scheduler, max_memory)
     if tiles is not None:
+        job = NormalsTileJob(k=k, orient=orient, orient_k=orient_k, viewpoint=viewpoint)
         params = {"k": k, "orient": orient, "orient_k": orient_k, "viewpoint": viewpoint}
-        run_tiled("normals", in_path, out_path, params, tiles, report=report)
+        run_tiled("normals", job, in_path, out_path, tiles, report=report, parameters=params)
         return
     ps, ours = read_keeping_normals(in_path)
     reference = ours.get("input_normals")
     check_point_output(out_path, ps.replace(normals=np.zeros((ps.n_points, 3)) + 1.0), ours)
     t0 = time.perf_counter()
     with progress_bar("normals", total=2) as advance:
-        normals = _compute_normals(
+        normals = compute_normals(
             ps.points, k=k, orient=orient, orient_k=orient_k, viewpoint=viewpoint, advance=advance
         )
     seconds = time.perf_counter() - t0
@@ -279,7 +219,7 @@ def demo_normals(ps: PointSet, out_dir: Path, console) -> PointSet:
         raise PointAtlasError("the demo model has no reference normals")
     t0 = time.perf_counter()
     with progress_bar("normals", total=2) as advance:
-        estimated = _compute_normals(
+        estimated = compute_normals(
             ps.points, k=20, orient="mst", orient_k=10, viewpoint=None, advance=advance
         )
     seconds = time.perf_counter() - t0

@@ -53,6 +53,7 @@ from ._outputs import (
     write_point_output,
     write_summary_json,
 )
+from .jobs import denoise_job, denoise_side_files, normal_job_for
 
 __all__ = ["denoise_command", "read_clean", "summary_path"]
 
@@ -415,12 +416,8 @@ def _run_tiles(
     k_start,
 ):
     """``--tile-size``: the run by tiles on dask (`pointatlas.batch`; no planar pieces)."""
-    from ..batch._tiles_cli import denoise_params, normal_params_for
-
-    params = denoise_params(
-        input_path,
+    job = denoise_job(
         method=method,
-        estimate=estimate,
         rho=rho,
         tau=tau,
         n_iter=n_iter,
@@ -434,12 +431,15 @@ def _run_tiles(
     )
     run_tiled(
         "denoise",
+        job,
         input_path,
         output,
-        params,
         tiles,
+        normals=normal_job_for(input_path, estimate, normal_k),
+        side_files=denoise_side_files,
         report=report,
-        normal_params=normal_params_for(input_path, estimate, normal_k),
+        parameters=job.params,
+        color_by="displacement",
     )
 
 

@@ -16,6 +16,7 @@ import numpy as np
 import typer
 
 from .._core import PointAtlasError, as_float_array
+from ..batch import NormalsTileJob, input_has_normals, las_feature_fields
 from ..features import (
     DIMENSION_CLASSES,
     FEATURE_NAMES,
@@ -47,6 +48,7 @@ from ._app import (
 )
 from ._outputs import check_outputs, check_point_output, write_point_output
 from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
+from .jobs import feature_job, normals_and_table, read_keeping_normals
 
 __all__ = [
     "compute_features_for",
@@ -239,8 +241,6 @@ def _weights_with_normals(weights: str, estimate: bool) -> str:
 def _read_for_normals(input_path, output):
     """IN for ``--normals``: every point (as `normals` reads it), the input's normals
     kept as ``input_normals``; OUT checked for them, the normals and the features."""
-    from ._cmd_core import read_keeping_normals
-
     ps, ours = read_keeping_normals(input_path)
     n = ps.n_points
     check_point_output(output, ps.replace(normals=np.ones((n, 3))), {**ours, **_placeholder(n)})
@@ -265,8 +265,6 @@ def _normals_and_table(ps, k: int, kf: int, orient: str = "mst"):
     """PCA normals at ``k`` oriented by ``orient`` ("mst": orientation graph k = 10, as
     `normals`; "up") and the k-NN table they share with the features (``kf`` columns at
     least)."""
-    from ._cmd_core import normals_and_table
-
     n = ps.n_points
     if k < 3 or k > n or kf > n:
         raise PointAtlasError(f"--k must lie in [3, number of points = {n}]; got {max(k, kf)}")
@@ -287,8 +285,6 @@ def _as_written(output, fields: dict) -> dict:
     extra bytes (docs/decisions/io.md, "LAS/LAZ: feature fields as float32")."""
     if Path(output).suffix.lower() not in (".las", ".laz"):
         return fields
-    from ..batch._tiles_las import las_feature_fields
-
     return las_feature_fields(fields)
 
 
@@ -451,9 +447,7 @@ def features_command(
     orient = _orient_for(orient, estimate_normals)
     tiles = tile_options(tile_size, halo, workers, scheduler, max_memory, render=render)
     if tiles is not None:
-        from ..batch._tiles_cli import feature_params, input_has_normals
-
-        params = feature_params(
+        job = feature_job(
             weights=weights,
             k=k,
             k_range=k_range,
@@ -463,19 +457,21 @@ def features_command(
             criterion=criterion,
             has_normals=not estimate_normals and input_has_normals(input_path),
         )
-        normal_params = (
-            {"k": 14 if k is None else k, "orient_k": 10, "orient": orient}
+        normals = (
+            NormalsTileJob(k=14 if k is None else k, orient_k=10, orient=orient)
             if estimate_normals
             else None
         )
         run_tiled(
             "features",
+            job,
             input_path,
             output,
-            params,
             tiles,
+            normals=normals,
             report=report,
-            normal_params=normal_params,
+            parameters=job.params,
+            color_by="dimension_class",
         )
         return
     ps, ours, table, t0 = _read_for(input_path, output, estimate_normals, k, k_range, orient)

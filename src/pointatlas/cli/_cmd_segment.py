@@ -61,6 +61,7 @@ from ._outputs import (
     write_summary_json,
 )
 from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
+from .jobs import normal_job_for, segment_job, segment_side_files
 
 __all__ = ["region_table", "segment_command", "segment_point_set", "table_paths"]
 
@@ -335,21 +336,25 @@ def _segment_tiled(
 ) -> None:
     """``segment`` on tiles (`pointatlas.batch`): the command's `VSAOptions`, its
     normal settings from ``parameters``, ``--report`` read back from OUT."""
-    from ..batch._tiles_cli import normal_params_for, segment_params
     from ..viz import label_colors
 
-    params = segment_params(method=parameters["method"], options=options)
+    job = segment_job(
+        method=parameters["method"],
+        options=options,
+        label_colors=lambda lab: (label_colors(lab) * 255).round().astype(np.uint8),
+    )
+    normals = normal_job_for(input_path, parameters["estimate_normals"], parameters["normal_k"])
     run_tiled(
         "segment",
+        job,
         input_path,
         output,
-        params,
         tiles,
+        normals=normals,
+        side_files=segment_side_files,
         report=report,
-        normal_params=normal_params_for(
-            input_path, parameters["estimate_normals"], parameters["normal_k"]
-        ),
-        label_colors=lambda lab: (label_colors(lab) * 255).round().astype(np.uint8),
+        parameters=job.vsa,
+        color_by="label",
     )
 
 

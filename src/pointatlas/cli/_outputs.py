@@ -26,8 +26,15 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from .._core import PointAtlasError
-from ..io import file_record, write_summary_json, write_text
-from ..io._atomic import name_problem, output_problem, output_target, remove_stale_temp_files
+from ..io import (
+    file_record,
+    name_problem,
+    output_problem,
+    output_target,
+    remove_stale_temp_files,
+    write_summary_json,
+    write_text,
+)
 from ._typed import typed_spellings
 
 __all__ = [

@@ -28,8 +28,6 @@ Z_UP_EXTENSIONS = (".las", ".laz")
 REPORT_EXTENSIONS = (".html", ".htm")
 #: Most points a tiled run's report reads back from OUT for its 3-D view.
 MAX_TILED_VIEW_POINTS = 200_000
-#: The field a tiled run's report colours by first, per command.
-_TILED_COLOR_BY = {"features": "dimension_class", "segment": "label", "denoise": "displacement"}
 
 
 def report_summary(path, ps: PointSet) -> dict:
@@ -123,19 +121,21 @@ def _plain_parameters(params) -> dict:
     return {k: v if np.isscalar(v) or v is None else str(v) for k, v in params.items()}
 
 
-def write_tiled_report(report, kind: str, in_path, out_path, params: dict, summary: dict):
-    """``--report`` of a tiled run: the tiles' numbers and a 3-D view of every n-th
-    point read back from OUT (the view only; the computation used every point)."""
+def write_tiled_report(
+    report, name: str, in_path, out_path, params, summary: dict, *, color_by=None
+):
+    """``--report`` of a tiled run of the command ``name``: the tiles' numbers and a
+    3-D view of every n-th point read back from OUT, coloured by ``color_by`` when
+    OUT has that field (the view only; the computation used every point)."""
     from ..viz import PointsLayer, write_report
 
     points, fields, n_total, step = read_back_view(out_path)
-    color_by = _TILED_COLOR_BY.get(kind)
     tables = {"tiles": summary["tiles"]}
     if summary.get("quality"):
         tables["quality"] = summary["quality"]
     write_report(
         report,
-        title=f"pointatlas {kind} by tiles: {Path(in_path).name}",
+        title=f"pointatlas {name} by tiles: {Path(in_path).name}",
         summary={
             "file": str(in_path),
             "output": str(out_path),

@@ -23,6 +23,7 @@ from ._optimal import (
     THESIS_ANGLE_GRID,
     THESIS_K_RANGE,
     angle_pairs,
+    decrease_cases,
     optimal_k_features,
     optimal_neighborhood,
 )
@@ -39,6 +40,7 @@ __all__ = [
     "classify_dimension",
     "cosine_sigmoid",
     "covariance_features",
+    "decrease_cases",
     "eigen_features",
     "normal_angles",
     "normal_weights",

@@ -11,17 +11,20 @@ from .._core import PointAtlasError, as_float_array, as_k, as_points
 from ._features import (
     FeatureResult,
     _check_flatness,
+    _choice_features,
     _neighbourhoods,
     _spatial_order,
     _unit_normals_or_nan,
     packed_result,
 )
 from ._kernels import N_OUT, REASON_OK, edim_table, optimal_kernel
+from ._weights import normal_angles
 
 __all__ = [
     "THESIS_ANGLE_GRID",
     "THESIS_K_RANGE",
     "angle_pairs",
+    "decrease_cases",
     "optimal_k_features",
     "optimal_neighborhood",
 ]
@@ -288,3 +291,82 @@ def _run_optimal(pts, nrm, idx, kmin, kmax, pairs, *, criterion, flatness) -> Fe
         reason=reason,
         flatness=(m1, m2),
     )
+
+
+def decrease_cases(
+    points,
+    normals,
+    result: FeatureResult,
+    *,
+    a_grid=THESIS_ANGLE_GRID,
+    b_grid=THESIS_ANGLE_GRID,
+    neighbors=None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Table 5.2's cases: could the chosen a or b go one grid step lower?
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3)
+        The coordinates the search ran on.
+    normals : array_like of shape (N, 3)
+        The normals the search ran on.
+    result : FeatureResult
+        Output of `optimal_neighborhood` on these points and grids.
+    a_grid, b_grid : sequence of float
+        The grids of the search (radians).
+    neighbors : array_like of shape (N, >= k_max), int, optional
+        The neighbour table of the search.
+
+    Returns
+    -------
+    a_case : ndarray of shape (N,), int8
+        0: a* is the smallest grid value ("a = 0"); 1: a one step lower (same b*, k*)
+        gives a non-degenerate covariance ("a-"); 2: it degenerates ("not a-");
+        -1: no valid triple.
+    b_case : ndarray of shape (N,), int8
+        0: b* = a* or no grid value in [a*, b*) ("b = a"); 1: b one step lower is
+        non-degenerate ("b-"); 2: it degenerates ("not b-"); -1: no valid triple.
+
+    Raises
+    ------
+    ValueError
+        Shapes that do not match ``result``; bad grids (as `angle_pairs`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pts = np.random.default_rng(0).random((40, 3))
+    >>> nrm = np.tile([0.0, 0.0, 1.0], (40, 1))
+    >>> r = optimal_neighborhood(pts, nrm)
+    >>> a_case, b_case = decrease_cases(pts, nrm, r)
+    >>> sorted(set(a_case.tolist()))
+    [0]
+    """
+    pts = as_points(points)
+    n = pts.shape[0]
+    if result.n_points != n:
+        raise ValueError(f"result has {result.n_points} points; points has {n}")
+    ag = _check_grid(a_grid, "a_grid")
+    bg = _check_grid(b_grid, "b_grid")
+    ok = result.reason == REASON_OK
+    kmax = int(result.k[ok].max()) if ok.any() else 1
+    idx = _neighbourhoods(pts, kmax, neighbors)
+    angles = normal_angles(_unit_normals_or_nan(normals, n), idx)
+    a_star = np.where(ok, result.a, ag[0])
+    b_star = np.where(ok, result.b, bg[-1])
+    k_of = np.where(ok, result.k, kmax).astype(np.int64)
+
+    ia = np.searchsorted(ag, a_star - 1e-12)
+    a_min = ia == 0
+    a_low = ag[np.maximum(ia - 1, 0)]
+    ra = _choice_features(pts, idx, k_of, angles, a_low, b_star, (2, 2)).reason
+    a_case = np.where(a_min, 0, np.where(ra == REASON_OK, 1, 2)).astype(np.int8)
+
+    ib = np.searchsorted(bg, b_star - 1e-12)
+    b_low = bg[np.maximum(ib - 1, 0)]
+    b_min = (ib == 0) | (b_low < a_star - 1e-12) | (np.abs(b_star - a_star) <= 1e-12)
+    rb = _choice_features(pts, idx, k_of, angles, a_star, np.maximum(b_low, a_star), (2, 2)).reason
+    b_case = np.where(b_min, 0, np.where(rb == REASON_OK, 1, 2)).astype(np.int8)
+    a_case[~ok] = -1
+    b_case[~ok] = -1
+    return a_case, b_case

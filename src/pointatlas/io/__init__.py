@@ -4,7 +4,13 @@ Every read error is a :class:`PointAtlasIOError` naming the file; every write is
 atomic (:func:`atomic_write`).
 """
 
-from ._atomic import atomic_write
+from ._atomic import (
+    atomic_write,
+    name_problem,
+    output_problem,
+    output_target,
+    remove_stale_temp_files,
+)
 from ._attrs import merge_attributes
 from ._errors import PointAtlasIOError
 from ._json import json_text, to_json_safe, write_json
@@ -27,8 +33,12 @@ __all__ = [
     "file_record",
     "json_text",
     "merge_attributes",
+    "name_problem",
+    "output_problem",
+    "output_target",
     "read_mesh",
     "read_point_set",
+    "remove_stale_temp_files",
     "to_json_safe",
     "vertex_normals",
     "write_json",

@@ -1,0 +1,44 @@
+"""The commands' jobs, below every interface: reading IN (normals estimated when
+missing), computing, writing, printing.
+
+The typer commands (``cli/_cmd_*.py``) map their flags onto these functions and the
+application (``cli/_app.py``) shares their consoles; nothing here imports the
+commands or the application (docs/decisions/cli.md, "Layout").
+"""
+
+from ._console import PIPE_WIDTH, console, err_console, progress_bar, say
+from ._inputs import fill_unusable_normals, read_input, read_keeping_normals, read_with_normals
+from ._normals import ORIENT_METHODS, compute_normals, normals_and_table
+from ._tiled import (
+    denoise_job,
+    denoise_side_files,
+    feature_job,
+    normal_job_for,
+    run_tiled,
+    segment_job,
+    segment_side_files,
+    tile_options,
+)
+
+__all__ = [
+    "ORIENT_METHODS",
+    "PIPE_WIDTH",
+    "compute_normals",
+    "console",
+    "denoise_job",
+    "denoise_side_files",
+    "err_console",
+    "feature_job",
+    "fill_unusable_normals",
+    "normal_job_for",
+    "normals_and_table",
+    "progress_bar",
+    "read_input",
+    "read_keeping_normals",
+    "read_with_normals",
+    "run_tiled",
+    "say",
+    "segment_job",
+    "segment_side_files",
+    "tile_options",
+]
