@@ -184,3 +184,22 @@ def test_fewer_than_ten_points_without_normals():
         r = normal_voting_denoise(pts, None, adaptive=adaptive)
         assert r.points.shape == (8, 3) and np.isfinite(r.points).all()
         np.testing.assert_allclose(np.linalg.norm(r.normals, axis=1), 1.0)
+
+
+@pytest.mark.parametrize(
+    ("call", "name", "why"),
+    [
+        (lambda m: filter_normals(m.points, m.normals, n_iter=10**12), "n_iter", "filter step"),
+        (lambda m: normal_voting_denoise(m.points, m.normals, n_iter=10**12), "n_iter", "round"),
+        (
+            lambda m: normal_voting_denoise(m.points, m.normals, n_filter_iter=10**12),
+            "n_filter_iter",
+            "filter step",
+        ),
+    ],
+)
+def test_iteration_counts_are_capped_before_any_work(call, name, why):
+    """10^12 iterations are refused in one line at once (not run for ages)."""
+    msg = rf"^{name} must be an integer in \[0, 100000\] \(each {why} is a pass over every point\)"
+    with pytest.raises(ValueError, match=msg):
+        call(cube(4))

@@ -1,7 +1,7 @@
 """Layer 0: array conventions, validation, rng, tolerances, the PointSet container."""
 
 from ._pointset import PointSet, readonly
-from ._scalars import as_float, as_float_array, as_int, as_k
+from ._scalars import as_float, as_float_array, as_int, as_iterations, as_k
 from ._validation import (
     as_labels,
     as_normals,
@@ -21,6 +21,7 @@ __all__ = [
     "as_float",
     "as_float_array",
     "as_int",
+    "as_iterations",
     "as_k",
     "as_labels",
     "as_normals",

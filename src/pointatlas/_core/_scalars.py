@@ -12,9 +12,9 @@ import operator
 import numpy as np
 
 from .errors import PointAtlasError
-from .tolerances import MAX_LISTED_INDICES
+from .tolerances import MAX_ITERATIONS, MAX_LISTED_INDICES
 
-__all__ = ["as_float", "as_float_array", "as_int", "as_k"]
+__all__ = ["as_float", "as_float_array", "as_int", "as_iterations", "as_k"]
 
 
 def _describe(value) -> str:
@@ -111,6 +111,19 @@ def as_int(
             f"{name} must be an integer{_range_text(lo, hi, False, False)}{extra}; got {out}"
         )
     return int(out)
+
+
+def as_iterations(value, name: str, note: str) -> int:
+    """An iteration count in [0, ``MAX_ITERATIONS``]: each iteration is a pass over
+    the points, so a count like 10^12 is refused at once (with ``note`` saying why)
+    instead of running for ages or sizing a schedule that does not fit in memory.
+
+    Examples
+    --------
+    >>> as_iterations(60, "n_iter", "each step is a pass over every point")
+    60
+    """
+    return as_int(value, name, lo=0, hi=MAX_ITERATIONS, note=note)
 
 
 def as_k(k, n_points: int, *, name: str = "k", minimum: int = 1) -> int:

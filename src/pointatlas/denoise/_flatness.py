@@ -7,8 +7,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .._core import PointAtlasError, as_float, as_int, as_normals, as_points
-from .._core.tolerances import MAX_ITERATIONS
+from .._core import PointAtlasError, as_float, as_int, as_iterations, as_normals, as_points
 from ..features import covariance_features
 from ..neighbors import mean_spacing, query_knn
 from ._defaults import (
@@ -215,8 +214,7 @@ def _flatness_iterations(pts, ks, etas, eps, flatness, *, sigma, progress):
 def _as_n_iter(n_iter) -> int:
     """A given iteration count, at most ``MAX_ITERATIONS``: the schedule holds one k per
     iteration, so 10^12 would ask for terabytes."""
-    note = "each iteration is a pass over every point"
-    return as_int(n_iter, "n_iter", lo=0, hi=MAX_ITERATIONS, note=note)
+    return as_iterations(n_iter, "n_iter", "each iteration is a pass over every point")
 
 
 def flatness_denoise(

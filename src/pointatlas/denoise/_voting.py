@@ -4,7 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._core import PointAtlasError, as_float, as_int, as_normals, as_points, check_neighbors
+from .._core import (
+    PointAtlasError,
+    as_float,
+    as_int,
+    as_iterations,
+    as_normals,
+    as_points,
+    check_neighbors,
+)
 from .._core.tolerances import (
     DENOISE_K_MAX,
     DENOISE_K_MIN,
@@ -87,6 +95,10 @@ LATER_NORMAL_K = 30
 #: the update's plane normal (2 - beta) n_i + beta n_j in later rounds (1 in the
 #: first: the symmetric form; docs/decisions/denoise.md, "Later rounds' planes")
 PLANE_BETA_LATER = 0.75
+
+
+_STEP = "each filter step is a pass over every point"
+_ROUND = "each round is a pass over every point"
 
 
 def _check_common(points, normals, rho, tau, radius_factor, *, optional=False):
@@ -296,7 +308,7 @@ def filter_normals(
     True
     """
     pts, nrm, rho, tau, radius_factor = _check_common(points, normals, rho, tau, radius_factor)
-    n_iter = as_int(n_iter, "n_iter", lo=0)
+    n_iter = as_iterations(n_iter, "n_iter", _STEP)
     with threads_for(pts.shape[0]):
         _, idx, k_def, _ = _neighbourhoods(pts, radius_factor, K_WIDTH if adaptive else 0)
         out, k_of, fallback = _filter_steps(
@@ -661,11 +673,11 @@ def _voting_options(
     if n_filter_iter is None:
         n_filter_iter = default_filter_iter(refit)
     opt = {
-        "rounds": MAX_ROUNDS if n_iter is None else as_int(n_iter, "n_iter", lo=0),
+        "rounds": MAX_ROUNDS if n_iter is None else as_iterations(n_iter, "n_iter", _ROUND),
         "auto": n_iter is None,
         "rho": rho,
         "tau": tau,
-        "n_filter_iter": as_int(n_filter_iter, "n_filter_iter", lo=0),
+        "n_filter_iter": as_iterations(n_filter_iter, "n_filter_iter", _STEP),
         "n_update": None if n_update is None else as_int(n_update, "n_update", lo=0),
         "adaptive": adaptive,
         "max_step": as_float(max_step, "max_step", lo=0.0),
