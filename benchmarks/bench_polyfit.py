@@ -31,8 +31,10 @@ normals with a plane index per point (-1 for none), one run per ``--planes`` ent
 * ``ransac``: none; the driver detects the planes by CGAL's efficient RANSAC (planes
   only, default parameters, seed 0), as CGAL's example without input planes does.
 
-PolyFit is run with a wall-clock limit (``--timeout``, 120 s) and not at all when it
-builds more than ``--max-candidates`` candidate faces (2,500: GLPK stalls beyond); a
+PolyFit is run with a wall-clock limit (``--timeout``, 120 s); it is not solved when
+it has more than ``--max-planes`` planes (100: building its candidate faces alone
+takes minutes with a few hundred; 36 planes already give over 4,000 candidates) or
+builds more than ``--max-candidates`` candidate faces (2,500: GLPK stalls beyond). A
 stall, a crash or a refusal is recorded as such and not retried.
 
 PolyFit keeps the candidate faces it selects as separate polygons (convex: pieces of
@@ -45,10 +47,13 @@ before the closed / manifold / oriented checks (`pointatlas.simplify.mesh_checks
 One CSV row per model: ours (path, faces, triangles, closed, manifold, oriented, mean
 and two-sided Hausdorff distance to the truth as `both_ways` of bench_simplify_rd.py,
 % of the truth's diagonal, seconds) and the same per PolyFit variant, with its status
-(solved, too many candidates, timeout, failed, crashed), planes and candidate faces.
-The summary per kind counts, on the models PolyFit solved, those where ours has <=
-faces and <= mean distance (and <= Hausdorff distance), and how many of each are
-closed.
+(solved, solved with no face, too many planes or candidates, timeout, failed,
+crashed), planes and candidate faces; where PolyFit solved, ours again with its
+triangle count as the budget (``max_triangles``; ``matched_*``, unless
+``--no-matched``). The summary per kind counts, on the models PolyFit solved, those
+where ours (at its default, and at PolyFit's triangle count) has <= faces and <= mean
+distance (and <= Hausdorff distance, distances within 1e-4 % equal), and how many
+are closed.
 """
 
 from __future__ import annotations
@@ -77,7 +82,15 @@ HEADERS = (
 )
 #: distances below this (% of the diagonal) count as equal, as in bench_simplify_rd.py
 EPS_PCT = 1e-4
-STATUS = {0: "solved", 1: "failed", 2: "bad input", 3: "too many candidates"}
+#: columns of ours at PolyFit's triangle count
+MATCHED = ("faces", "triangles", "closed", "mean_pct", "hausdorff_pct")
+STATUS = {
+    0: "solved",
+    1: "failed",
+    2: "bad input",
+    3: "too many candidates",
+    4: "too many planes",
+}
 
 
 def build(build_dir: Path) -> tuple[Path | None, str]:
@@ -148,13 +161,13 @@ def polygon_stats(vertices: np.ndarray, polygons: list[np.ndarray]) -> dict:
     }
 
 
-def run_polyfit(exe, p, n, planes, max_candidates: int, timeout: float, ransac: bool) -> dict:
+def run_polyfit(exe, p, n, planes, limits: tuple[int, int], timeout: float, ransac: bool) -> dict:
     """One PolyFit run: status, planes, candidates, mesh measures (no truth yet)."""
     row: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
         src, dst = Path(tmp) / "in.txt", Path(tmp) / "out.off"
         np.savetxt(src, np.column_stack([p, n, planes]), fmt=["%.17g"] * 6 + ["%d"])
-        cmd = [str(exe), str(src), str(dst), str(max_candidates)] + (["ransac"] if ransac else [])
+        cmd = [str(exe), str(src), str(dst), *map(str, limits)] + (["ransac"] if ransac else [])
         t0 = time.perf_counter()
         try:
             res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
@@ -169,15 +182,17 @@ def run_polyfit(exe, p, n, planes, max_candidates: int, timeout: float, ransac: 
                 row["status"] = f"crashed (signal {-res.returncode})"
             else:
                 row["status"] = STATUS.get(res.returncode, f"exit {res.returncode}")
-            if res.returncode not in (0, 3):
+            if res.returncode not in (0, 3, 4):
                 row["note"] = res.stderr.strip().replace("\n", " ")[:200]
         for line in out.splitlines():
             key, *vals = line.split()
-            if key == "planes":
-                row["planes"], row["candidates"] = int(vals[0]), int(vals[2])
+            if key in ("planes", "candidates"):
+                row[key] = int(vals[0])
             elif key == "seconds":
                 row["seconds"] = float(vals[0])
         row.setdefault("seconds", wall)
+        if row["status"] == "solved" and dst.read_text().split()[2] == "0":
+            row["status"] = "solved, no face"  # it kept none of the candidates
         if row["status"] != "solved":
             return row
         mesh = read_mesh(dst)
@@ -212,7 +227,32 @@ def face_labels(points, vertices, triangles, triangle_face) -> np.ndarray:
     return np.asarray(triangle_face)[got["primitive_ids"].numpy().astype(np.int64)]
 
 
-def run_model(path: Path, n_points: int, exe, variants, max_candidates, timeout) -> dict:
+def ours(p, n, v_true, t_true, **options) -> tuple[dict, object]:
+    """`simplify_points` with ``options``, measured against the truth: (row, result)."""
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SimplifyWarning)
+        r = simplify_points(p, n, **options)
+    seconds = time.perf_counter() - t0
+    m = r.mesh
+    mv, mt = np.asarray(m.vertices), np.asarray(m.triangles, dtype=np.int64)
+    closed, manifold, oriented = mesh_checks(m.n_vertices, mt)
+    d = both_ways(v_true, t_true, mv, mt)
+    row = {
+        "path": r.path,
+        "faces": m.n_faces,
+        "triangles": int(mt.shape[0]),
+        "closed": closed,
+        "manifold": manifold,
+        "oriented": oriented,
+        "mean_pct": d["mean"],
+        "hausdorff_pct": d["hausdorff"],
+        "seconds": seconds,
+    }
+    return row, r
+
+
+def run_model(path: Path, n_points: int, exe, variants, limits, timeout, matched) -> dict:
     mesh = read_mesh(path)
     v_true, t_true = mesh.vertices, np.asarray(mesh.triangles, dtype=np.int64)
     sample = sample_mesh(v_true, t_true, n_points, rng=0)
@@ -220,44 +260,63 @@ def run_model(path: Path, n_points: int, exe, variants, max_candidates, timeout)
     row = {"model": path.name, "kind": KINDS.get(path.stem, "organic"), "points": n_points}
     t0 = time.perf_counter()
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", SimplifyWarning)
-            r = simplify_points(p, n)
+        got, r = ours(p, n, v_true, t_true)
     except Exception as exc:  # noqa: BLE001 - a crash is a result here
         row.update(path="error", seconds=time.perf_counter() - t0, note=repr(exc)[:200])
         return row
-    seconds = time.perf_counter() - t0
+    row.update(got)
     m = r.mesh
-    mv, mt = np.asarray(m.vertices), np.asarray(m.triangles, dtype=np.int64)
-    closed, manifold, oriented = mesh_checks(m.n_vertices, mt)
-    d = both_ways(v_true, t_true, mv, mt)
-    row.update(
-        path=r.path,
-        faces=m.n_faces,
-        triangles=int(mt.shape[0]),
-        closed=closed,
-        manifold=manifold,
-        oriented=oriented,
-        mean_pct=d["mean"],
-        hausdorff_pct=d["hausdorff"],
-        seconds=seconds,
-    )
-    labels = {"faces": face_labels(p, mv, mt, np.asarray(m.triangle_face)), "ransac": None}
+    tri_face = np.asarray(m.triangle_face)
+    labels = {"faces": face_labels(p, m.vertices, m.triangles, tri_face), "ransac": None}
     labels["regions"] = np.full(len(p), -1, dtype=np.int64)
     labels["regions"][np.asarray(r.point_index)] = np.asarray(r.labels)
     for name in variants:
         planes = labels[name] if labels[name] is not None else np.full(len(p), -1)
-        got = run_polyfit(exe, p, n, planes, max_candidates, timeout, name == "ransac")
+        got = run_polyfit(exe, p, n, planes, limits, timeout, name == "ransac")
         if "_mesh" in got:
             pv, pt = got.pop("_mesh")
             d = both_ways(v_true, t_true, pv, pt)
             got.update(mean_pct=d["mean"], hausdorff_pct=d["hausdorff"])
+            if matched:
+                # ours with PolyFit's triangle count as its budget
+                try:
+                    at, _ = ours(p, n, v_true, t_true, max_triangles=got["triangles"])
+                    got.update({f"matched_{k}": at[k] for k in MATCHED})
+                except Exception as exc:  # noqa: BLE001 - a crash is a result here
+                    got["note"] = f"ours at PolyFit's size: {exc!r}"[:200]
         row.update({f"{name}_{k}": val for k, val in got.items()})
     return row
 
 
 def _leq(a: float, b: float) -> bool:
     return a <= b + EPS_PCT
+
+
+def _wins(solved, name, prefix="") -> str:
+    """Of ``solved``: ours (or ours at PolyFit's size) <= faces, and <= mean distance,
+    and <= Hausdorff; lower mean distance alone; closed."""
+    rows = [r for r in solved if f"{prefix}mean_pct" in r]
+    if not rows:
+        return "none"
+    ours_of = {r["model"]: {k: r[f"{prefix}{k}"] for k in MATCHED} for r in rows}
+
+    def theirs(r, key):
+        return r[f"{name}_{key}"]
+
+    fewer = [r for r in rows if ours_of[r["model"]]["faces"] <= theirs(r, "faces")]
+    both = [r for r in fewer if _leq(ours_of[r["model"]]["mean_pct"], theirs(r, "mean_pct"))]
+    hd = [r for r in both if _leq(ours_of[r["model"]]["hausdorff_pct"], theirs(r, "hausdorff_pct"))]
+    nearer = [r for r in rows if _leq(ours_of[r["model"]]["mean_pct"], theirs(r, "mean_pct"))]
+    return (
+        f"<= faces {len(fewer)}/{len(rows)}, <= faces and <= mean distance {len(both)}, "
+        f"and <= Hausdorff too {len(hd)}; <= mean distance alone {len(nearer)}; faces "
+        f"median {np.median([ours_of[r['model']]['faces'] for r in rows]):.0f} vs "
+        f"{np.median([theirs(r, 'faces') for r in rows]):.0f}, mean distance median "
+        f"{np.median([ours_of[r['model']]['mean_pct'] for r in rows]):.3f} % vs "
+        f"{np.median([theirs(r, 'mean_pct') for r in rows]):.3f} %; closed "
+        f"{sum(bool(ours_of[r['model']]['closed']) for r in rows)} vs "
+        f"{sum(bool(theirs(r, 'closed')) for r in rows)}"
+    )
 
 
 def summary(rows: list[dict], variants) -> list[str]:
@@ -272,17 +331,15 @@ def summary(rows: list[dict], variants) -> list[str]:
             for r in mine:
                 s = r.get(f"{name}_status", "-")
                 stat[s] = stat.get(s, 0) + 1
-            fewer = [r for r in solved if r["faces"] <= r[f"{name}_faces"]]
-            both = [r for r in fewer if _leq(r["mean_pct"], r[f"{name}_mean_pct"])]
-            hd = [r for r in both if _leq(r["hausdorff_pct"], r[f"{name}_hausdorff_pct"])]
             lines.append(
                 f"{kind} ({len(mine)}), PolyFit on {name} planes: "
                 + ", ".join(f"{k} {v}" for k, v in sorted(stat.items()))
-                + f"; of the {len(solved)} solved, ours <= faces {len(fewer)}, <= faces and "
-                f"<= mean distance {len(both)}, and <= Hausdorff too {len(hd)}; closed: ours "
-                f"{sum(bool(r['closed']) for r in solved)}/{len(solved)}, PolyFit "
-                f"{sum(bool(r.get(f'{name}_closed')) for r in solved)}/{len(solved)}"
             )
+            if solved:
+                lines.append(f"  ours (default) vs PolyFit: {_wins(solved, name)}")
+                lines.append(
+                    f"  ours at PolyFit's triangle count: {_wins(solved, name, f'{name}_matched_')}"
+                )
         lines.append(
             f"{kind}: ours closed {sum(bool(r['closed']) for r in mine)}/{len(mine)} models"
         )
@@ -300,6 +357,12 @@ def main(argv=None) -> int:
         help="PolyFit's planes, comma-separated runs: faces (our output's faces), "
         "regions (our point labels), ransac (CGAL's efficient RANSAC)",
     )
+    ap.add_argument(
+        "--no-matched",
+        action="store_true",
+        help="skip ours at PolyFit's triangle count (a second simplify_points run)",
+    )
+    ap.add_argument("--max-planes", type=int, default=100)
     ap.add_argument("--max-candidates", type=int, default=2500)
     ap.add_argument("--timeout", type=float, default=120.0, help="seconds per PolyFit run")
     ap.add_argument("--build", type=Path, default=Path("bench-output/polyfit-build"))
@@ -315,7 +378,8 @@ def main(argv=None) -> int:
     files = sorted(p for p in args.models.iterdir() if p.suffix.lower() in MESH_SUFFIXES)
     rows = []
     for path in files[:: args.every]:
-        row = run_model(path, args.points, exe, variants, args.max_candidates, args.timeout)
+        limits = (args.max_planes, args.max_candidates)
+        row = run_model(path, args.points, exe, variants, limits, args.timeout, not args.no_matched)
         rows.append(row)
         text = (
             f"{row['model']:40s} {row['kind']:7s} ours: faces={row.get('faces', '-')!s:>4} "
@@ -365,6 +429,7 @@ def main(argv=None) -> int:
                 "mean_pct",
                 "hausdorff_pct",
                 "seconds",
+                *(f"matched_{k}" for k in MATCHED),
                 "note",
             )
         ]

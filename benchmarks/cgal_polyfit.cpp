@@ -1,16 +1,18 @@
 // CGAL PolyFit (Polygonal_surface_reconstruction, GLPK as the solver) for
 // bench_polyfit.py.
 //
-// usage: cgal_polyfit IN.txt OUT.off MAX_CANDIDATES [ransac]
+// usage: cgal_polyfit IN.txt OUT.off MAX_PLANES MAX_CANDIDATES [ransac]
 //
 // IN.txt: one point a line, "x y z nx ny nz plane" (plane: index of the point's
 // plane, -1 for none). With "ransac" the plane column is ignored and the planes are
 // detected here by CGAL's efficient RANSAC (its default parameters, seed 0).
 // OUT.off: the selected candidate faces (polygons) as an OFF file.
-// stdout: "planes P candidates C" once the candidate faces are built, then
-// "seconds S" (the whole reconstruction: detection, candidates and the solve).
+// stdout: "planes P" (given or detected), "candidates C" once the candidate faces
+// are built, then "seconds S" (the whole reconstruction: detection, candidates and
+// the solve).
 // Exit status: 0 done, 1 CGAL gave up (its message on stderr), 2 bad usage or input,
-// 3 more than MAX_CANDIDATES candidate faces (GLPK stalls on those; not solved).
+// 3 more than MAX_CANDIDATES candidate faces (GLPK stalls on those; not solved),
+// 4 more than MAX_PLANES planes (building the candidates alone takes minutes).
 #define CGAL_USE_GLPK 1
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -117,8 +119,8 @@ static void write_off(const char* path, const Mesh& mesh) {
 }
 
 int main(int argc, char** argv) {
-  if (argc != 4 && !(argc == 5 && std::string(argv[4]) == "ransac")) {
-    std::cerr << "usage: cgal_polyfit IN.txt OUT.off MAX_CANDIDATES [ransac]\n";
+  if (argc != 5 && !(argc == 6 && std::string(argv[5]) == "ransac")) {
+    std::cerr << "usage: cgal_polyfit IN.txt OUT.off MAX_PLANES MAX_CANDIDATES [ransac]\n";
     return 2;
   }
   CGAL::get_default_random() = CGAL::Random(0);  // RANSAC's draws: deterministic
@@ -129,7 +131,8 @@ int main(int argc, char** argv) {
     std::cerr << "cannot read " << argv[1] << "\n";
     return 2;
   }
-  const std::size_t max_candidates = std::stoul(argv[3]);
+  const int max_planes = std::stoi(argv[3]);
+  const std::size_t max_candidates = std::stoul(argv[4]);
   Index_range range(points.size());
   std::iota(range.begin(), range.end(), std::size_t(0));
   Point_map point_map = CGAL::make_property_map(points);
@@ -137,13 +140,17 @@ int main(int argc, char** argv) {
   Plane_map plane_map = CGAL::make_property_map(planes);
 
   auto t0 = std::chrono::steady_clock::now();
-  if (argc == 5) detect_planes(range, point_map, normal_map, planes);
+  if (argc == 6) detect_planes(range, point_map, normal_map, planes);
   const int n_planes = renumber(planes);
+  std::cout << "planes " << n_planes << std::endl;
+  if (n_planes > max_planes) {
+    std::cerr << "more than " << max_planes << " planes: not solved\n";
+    return 4;
+  }
   PolyFit polyfit(range, point_map, normal_map, plane_map);
   Mesh candidates;
   polyfit.output_candidate_faces(candidates);
-  std::cout << "planes " << n_planes << " candidates " << candidates.number_of_faces()
-            << std::endl;
+  std::cout << "candidates " << candidates.number_of_faces() << std::endl;
   if (!polyfit.error_message().empty()) {
     std::cerr << polyfit.error_message() << "\n";
     return 1;
