@@ -19,7 +19,7 @@ as nine contiguous ranges found by binary search; no dense 3-D array exists.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 __all__ = [
     "bounds",
@@ -55,12 +55,12 @@ def bounds(pts):
     return lo, hi
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def grid_keys(pts, lo, inv_h, nx, ny, nz):
     """Cell key of every point, clamped into the grid."""
     n = pts.shape[0]
     keys = np.empty(n, dtype=np.int64)
-    for p in prange(n):
+    for p in range(n):
         i = np.int64(np.floor((pts[p, 0] - lo[0]) * inv_h))
         j = np.int64(np.floor((pts[p, 1] - lo[1]) * inv_h))
         kz = np.int64(np.floor((pts[p, 2] - lo[2]) * inv_h))
@@ -91,14 +91,14 @@ def cell_starts(sorted_keys):
     return ukeys, cstart
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def gather_sorted(pts, order):
     """Coordinates in cell order as three contiguous arrays (structure of arrays)."""
     n = order.shape[0]
     xs = np.empty(n)
     ys = np.empty(n)
     zs = np.empty(n)
-    for p in prange(n):
+    for p in range(n):
         o = order[p]
         xs[p] = pts[o, 0]
         ys[p] = pts[o, 1]
@@ -106,7 +106,7 @@ def gather_sorted(pts, order):
     return xs, ys, zs
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def occupancy_levels(xs, ys, zs, ukeys, cstart, lo, h, ny, nz):
     """Point-weighted occupancy sums at cell sizes h, h/2 and h/4.
 
@@ -119,7 +119,7 @@ def occupancy_levels(xs, ys, zs, ukeys, cstart, lo, h, ny, nz):
     s1 = 0.0
     s2 = 0.0
     inv_q = 4.0 / h
-    for c in prange(n_cells):
+    for c in range(n_cells):
         cnt = np.zeros(64, dtype=np.int64)
         same = np.ones(64, dtype=np.bool_)
         fx = np.empty(64)
@@ -198,7 +198,7 @@ def interleaved_chunks(n_cells):
     return n_chunks, stride
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def chunk_cells(t, stride, n_chunks, n_cells):
     """Cells ``c0 .. c1 - 1`` of parallel iteration t (chunk ``(t * stride) % n_chunks``
     of `interleaved_chunks`)."""
@@ -216,7 +216,7 @@ def sq_dist(xs, ys, zs, p, qx, qy, qz):
     return dx * dx + dy * dy + dz * dz
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def cell_coords(key, ny, nz):
     """(i, j, k) of the cell with key ``(i * ny + j) * nz + k``."""
     ck = key % nz
@@ -224,10 +224,10 @@ def cell_coords(key, ny, nz):
     return tt // ny, tt % ny, ck
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def lower_bound(a, x):
     """First position in the sorted ``a`` whose value is >= x."""
-    return _lower_bound_in(a, 0, a.shape[0], x)
+    return _lower_bound_in(a, np.int64(0), a.shape[0], x)
 
 
 @njit(cache=True)
@@ -244,7 +244,7 @@ def column_starts(ukeys, n_cols, nz):
     return colptr
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _lower_bound_in(a, lo, hi, x):
     """First position in ``lo:hi`` of the sorted ``a`` whose value is >= x."""
     while lo < hi:
@@ -256,7 +256,7 @@ def _lower_bound_in(a, lo, hi, x):
     return lo
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def cells_in_column(ukeys, colptr, i, j, z0, z1, ny, nz):
     """Positions ``ca:cb`` in ``ukeys`` of the occupied cells (i, j, z0..z1) (inclusive,
     already clipped). With a column index ``colptr`` (`column_starts`) the search runs
