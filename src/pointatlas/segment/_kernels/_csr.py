@@ -9,7 +9,9 @@ lies in another region (``foreign`` counts those neighbours).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..._core._sort import radix_sort_payload
 
 
 @njit(cache=True)
@@ -129,11 +131,28 @@ def connected_label_components(indptr, indices, labels):
 
 @njit(cache=True)
 def _pairs_of_keys(key, m):
-    """Distinct pair keys a * m + b as sorted (a, b) rows."""
-    key = np.unique(key)
-    out = np.empty((key.shape[0], 2), dtype=np.int64)
-    out[:, 0] = key // m
-    out[:, 1] = key % m
+    """Distinct pair keys a * m + b (>= 0) as sorted (a, b) rows; ``key`` is
+    overwritten. A radix sort (`radix_sort_payload`, which the merge compiles
+    anyway) rather than ``np.unique``, whose sort numba compiles in seconds."""
+    n = key.shape[0]
+    srt, _ = radix_sort_payload(
+        key.view(np.uint64),
+        np.zeros(n, dtype=np.int64),
+        np.empty(n, dtype=np.uint64),
+        np.empty(n, dtype=np.int64),
+    )
+    n_out = 0
+    for t in range(n):
+        if t == 0 or srt[t] != srt[t - 1]:
+            n_out += 1
+    out = np.empty((n_out, 2), dtype=np.int64)
+    c = 0
+    for t in range(n):
+        if t == 0 or srt[t] != srt[t - 1]:
+            v = np.int64(srt[t])
+            out[c, 0] = v // m
+            out[c, 1] = v % m
+            c += 1
     return out
 
 
@@ -152,7 +171,7 @@ def region_pairs(indptr, indices, labels, subset):
                 count += 1
     if count == 0:
         return np.empty((0, 2), dtype=np.int64)
-    m = 0
+    m = np.int64(0)  # not a literal: `_pairs_of_keys` compiles for int64 only
     for i in range(labels.shape[0]):
         if labels[i] + 1 > m:
             m = labels[i] + 1
@@ -200,20 +219,20 @@ def _foreign_count(indptr, indices, labels, i):
     return c
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def foreign_counts(indptr, indices, labels):
     """Number of graph neighbours of every point that lie in another region."""
     n = labels.shape[0]
     out = np.zeros(n, dtype=np.int64)
-    for i in prange(n):
+    for i in range(n):
         out[i] = _foreign_count(indptr, indices, labels, i)
     return out
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def recount_foreign(indptr, indices, labels, foreign, points):
     """`foreign_counts` recomputed in place for ``points`` only."""
-    for s in prange(points.shape[0]):
+    for s in range(points.shape[0]):
         i = points[s]
         foreign[i] = _foreign_count(indptr, indices, labels, i)
 
@@ -224,7 +243,7 @@ def boundary_points(indptr, indices, labels):
     return np.flatnonzero(foreign_counts(indptr, indices, labels) > 0)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def touched_points(indptr, indices, labels, foreign, dirty):
     """Boundary points next to a region flagged in ``dirty`` (increasing).
 
@@ -233,12 +252,11 @@ def touched_points(indptr, indices, labels, foreign, dirty):
     whose W, S changed since a step last looked at every point, the points not
     returned see the same proxies and the same neighbouring labels as then, so a
     switch or merge step restricted to the returned points decides exactly as a
-    full scan would. (Parallel: threads may store the same 1 into a flag twice,
-    which is harmless.)
+    full scan would.
     """
     n = labels.shape[0]
     mark = np.zeros(n, dtype=np.uint8)
-    for i in prange(n):
+    for i in range(n):
         if foreign[i] == 0 or not dirty[labels[i]]:
             continue
         mark[i] = 1
@@ -250,13 +268,13 @@ def touched_points(indptr, indices, labels, foreign, dirty):
     return np.flatnonzero(mark)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def farthest_neighbor_distances(indptr, indices, points):
     """Per point, the distance to its farthest graph neighbour (0.0 without one):
     sqrt((dx^2 + dy^2) + dz^2) of q - p, the sum `_sums.row_norms` forms."""
     n = indptr.shape[0] - 1
     out = np.zeros(n)
-    for i in prange(n):
+    for i in range(n):
         far = 0.0
         for e in range(indptr[i], indptr[i + 1]):
             j = indices[e]

@@ -118,7 +118,9 @@ def heap_push(heap, base, size, key, code):
     if size == heap.shape[0] - _SLACK:
         grown = np.empty((2 * size + _SLACK, 2), dtype=np.int64)
         grown_base = heap_base(grown)
-        grown[grown_base : grown_base + size] = heap[base : base + size]
+        for r in range(size):  # a loop: a slice assignment compiles numba's shape checks
+            grown[grown_base + r, 0] = heap[base + r, 0]
+            grown[grown_base + r, 1] = heap[base + r, 1]
         heap = grown
         base = grown_base
     heap[base + size, 0] = key

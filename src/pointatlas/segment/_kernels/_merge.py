@@ -215,14 +215,15 @@ def _find32(parent, i):
 
 @njit(cache=True)
 def _aligned_sums(wsum, ssum):
-    """Rows (W, Sx, Sy, Sz) per region, 32 bytes each, starting on a 32-byte
-    boundary: a row never straddles two cache lines."""
+    """Rows (W, Sx, Sy, Sz) per region, 32 bytes each: numba allocates arrays on a
+    32-byte boundary, so a row never straddles two cache lines."""
     m = wsum.shape[0]
-    ws_buf = np.empty(4 * m + 4)
-    ws_lead = ((32 - ws_buf.ctypes.data % 32) % 32) // 8
-    ws = ws_buf[ws_lead : ws_lead + 4 * m].reshape(m, 4)
-    ws[:, 0] = wsum
-    ws[:, 1:] = ssum
+    ws = np.empty((m, 4))
+    for r in range(m):
+        ws[r, 0] = wsum[r]
+        ws[r, 1] = ssum[r, 0]
+        ws[r, 2] = ssum[r, 1]
+        ws[r, 3] = ssum[r, 2]
     return ws
 
 
@@ -250,9 +251,18 @@ def _initial_stream(pairs, ws, eta, min_cos, use_angle):
             increasing = False
             break
     if not increasing:
-        by_pair = np.argsort(p0, kind="mergesort")
-        k0 = k0[by_pair]
-        p0 = p0[by_pair]
+        # stably by pair code (>= 0): the radix sort `_sort_entries` compiles anyway
+        codes, by_pair = radix_sort_payload(
+            p0.view(np.uint64).copy(),
+            np.arange(n_init),
+            np.empty(n_init, dtype=np.uint64),
+            np.empty(n_init, dtype=np.int64),
+        )
+        p0 = codes.view(np.int64)
+        k1 = np.empty(n_init)
+        for e in range(n_init):
+            k1[e] = k0[by_pair[e]]
+        k0 = k1
     return _sort_entries(k0, p0)  # stable: ties stay sorted by pair
 
 

@@ -60,7 +60,15 @@ def _consider(d, h, li, best, best_label, top, low):
 
 @njit(cache=True, parallel=True)
 def batch_switch(
-    indptr, indices, normals, weights, labels, proxy_normals, foreign, min_gain, candidates
+    indptr,
+    indices,
+    normals,
+    weights,
+    labels,
+    proxy_normals,
+    foreign,
+    min_gain,
+    candidates,
 ):
     """Every boundary point moves to the neighbouring region whose proxy fits best.
 
@@ -96,43 +104,29 @@ def batch_switch(
     return candidates[pos], new
 
 
-@njit(cache=True, parallel=True)
-def batch_switch_bounded(
-    indptr, indices, normals, weights, labels, proxy_normals, foreign, min_gain, drift, memo
+#: chunks of points `batch_switch_bounded` hands to its parallel loop
+_SWITCH_CHUNKS = 256
+
+
+@njit(cache=True)
+def _switch_points(
+    indptr,
+    indices,
+    normals,
+    weights,
+    labels,
+    proxy_normals,
+    foreign,
+    min_gain,
+    drift,
+    memo,
+    target,
+    i0,
+    i1,
 ):
-    """`batch_switch` over every boundary point, skipping points proven to stay.
-
-    Gives exactly the moves of `batch_switch` over all boundary points. A point
-    that was examined and stayed keeps, in ``memo``, the margin by which it
-    stayed: with cur = n_i . N_own and best = max over neighbouring regions of
-    n_i . N_h, margin = cur - best. ``drift`` (m,) holds, per region, the summed
-    proxy movement sum_t |N_l(t) - N_l(t - 1)| since a reference time; as
-    |n . (N(t) - N(t0))| <= that sum's increase, cur can drop and every
-    n_i . N_h grow by at most the drift of their regions, so while no label in
-    the point's neighbourhood changed and
-
-        margin(t0) - (drift growth of its own region + of its foreign regions) > tol
-
-    the point still stays (it would need best - cur > min_gain / (2 w) >= 0 to
-    move) and is skipped. Tighter, as proxies are unit vectors: with
-    r = n - N(t0), n . (N(t) - N(t0)) = -|N(t) - N(t0)|^2 / 2 + r . (N(t) - N(t0)),
-    so a region whose drift grew by D moves the point's dot product by at most
-    rho D + D^2 / 2, rho = max |n - N(t0)| over its own and foreign regions; the
-    test is margin - (rho G + G^2 / 2) > tol with G the summed drift growth.
-    ``memo`` (N, 6) float64 stores per point: the margin (NaN: must be examined,
-    e.g. a neighbour's label changed), the drift sum at t0, the ids of up to 3
-    foreign regions (as floats; -1 none; a point next to more regions is always
-    examined) and rho. When the bound fails, the point is decided over the
-    remembered foreign regions alone (the same cur, best and tie rule as a full
-    examination, without reading its neighbours' labels: none of them changed),
-    and the memo is refreshed with the values a full examination would store.
-    The caller sets column 0 to NaN for moved points and their neighbours, for
-    points next to merged regions, and renumbers the stored ids after a merge.
-    Returns moved points (increasing) and new labels.
-    """
-    n = labels.shape[0]
-    target = np.full(n, -1, dtype=np.int64)
-    for i in prange(n):
+    """`batch_switch_bounded` for the points i0 .. i1 - 1 (serial): sets ``target[i]``
+    for a point that moves and refreshes its ``memo`` row."""
+    for i in range(i0, i1):
         if foreign[i] == 0 or weights[i] <= 0.0:
             continue
         li = labels[i]
@@ -201,6 +195,74 @@ def batch_switch_bounded(
             memo[i, 3] = f1
             memo[i, 4] = f2
             memo[i, 5] = np.sqrt(max(2.0 - 2.0 * low, 0.0)) + 1e-12
+
+
+@njit(cache=True, parallel=True)
+def batch_switch_bounded(
+    indptr,
+    indices,
+    normals,
+    weights,
+    labels,
+    proxy_normals,
+    foreign,
+    min_gain,
+    drift,
+    memo,
+):
+    """`batch_switch` over every boundary point, skipping points proven to stay.
+
+    Gives exactly the moves of `batch_switch` over all boundary points. A point
+    that was examined and stayed keeps, in ``memo``, the margin by which it
+    stayed: with cur = n_i . N_own and best = max over neighbouring regions of
+    n_i . N_h, margin = cur - best. ``drift`` (m,) holds, per region, the summed
+    proxy movement sum_t |N_l(t) - N_l(t - 1)| since a reference time; as
+    |n . (N(t) - N(t0))| <= that sum's increase, cur can drop and every
+    n_i . N_h grow by at most the drift of their regions, so while no label in
+    the point's neighbourhood changed and
+
+        margin(t0) - (drift growth of its own region + of its foreign regions) > tol
+
+    the point still stays (it would need best - cur > min_gain / (2 w) >= 0 to
+    move) and is skipped. Tighter, as proxies are unit vectors: with
+    r = n - N(t0), n . (N(t) - N(t0)) = -|N(t) - N(t0)|^2 / 2 + r . (N(t) - N(t0)),
+    so a region whose drift grew by D moves the point's dot product by at most
+    rho D + D^2 / 2, rho = max |n - N(t0)| over its own and foreign regions; the
+    test is margin - (rho G + G^2 / 2) > tol with G the summed drift growth.
+    ``memo`` (N, 6) float64 stores per point: the margin (NaN: must be examined,
+    e.g. a neighbour's label changed), the drift sum at t0, the ids of up to 3
+    foreign regions (as floats; -1 none; a point next to more regions is always
+    examined) and rho. When the bound fails, the point is decided over the
+    remembered foreign regions alone (the same cur, best and tie rule as a full
+    examination, without reading its neighbours' labels: none of them changed),
+    and the memo is refreshed with the values a full examination would store.
+    The caller sets column 0 to NaN for moved points and their neighbours, for
+    points next to merged regions, and renumbers the stored ids after a merge.
+    Returns moved points (increasing) and new labels. The points are decided in
+    `_SWITCH_CHUNKS` parallel chunks, each one call of `_switch_points` (numba's
+    parallel passes see a one-call loop, which compiles in a fraction of the time).
+    """
+    n = labels.shape[0]
+    target = np.full(n, -1, dtype=np.int64)
+    n_chunks = min(n, _SWITCH_CHUNKS)
+    for c in prange(n_chunks):
+        i0 = c * n // n_chunks
+        i1 = (c + 1) * n // n_chunks
+        _switch_points(
+            indptr,
+            indices,
+            normals,
+            weights,
+            labels,
+            proxy_normals,
+            foreign,
+            min_gain,
+            drift,
+            memo,
+            target,
+            i0,
+            i1,
+        )
     return _compact_moves(target)
 
 
@@ -278,11 +340,10 @@ def hold_under_threshold(moved, new, labels, wsum, ssum, weights, wn, eta, min_c
             return keep
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def renumber_memo(memo, remap):
-    """Renumber the foreign-region ids of the examined points after a merge
-    (rows are independent: parallel)."""
-    for i in prange(memo.shape[0]):
+    """Renumber the foreign-region ids of the examined points after a merge."""
+    for i in range(memo.shape[0]):
         if memo[i, 0] == memo[i, 0]:
             for c in range(2, 5):
                 h = np.int64(memo[i, c])
