@@ -24,7 +24,7 @@ def _extra(path):
 @pytest.mark.parametrize("suffix", [".las", ".laz"])
 def test_float_features_are_float32_of_the_float64_results(tmp_path, laz, suffix):  # noqa: F811
     out = tmp_path / f"f{suffix}"
-    assert run("features", laz, out, "--k", 16, "--weights", "equal").exit_code == 0
+    assert run("features", laz, out, "--k", 16, "--weighting", "equal").exit_code == 0
     las, got = _extra(out)
     pts = np.column_stack([np.asarray(las[c], dtype=np.float64) for c in "xyz"])
     res = covariance_features(pts, 16)
@@ -40,7 +40,7 @@ def test_float_features_are_float32_of_the_float64_results(tmp_path, laz, suffix
 
 def test_tiled_float_features_equal_untiled_and_ply_keeps_float64(tmp_path, laz, scheduler):  # noqa: F811
     tiled, plain, ply = tmp_path / "t.laz", tmp_path / "u.laz", tmp_path / "u.ply"
-    args = ("--k", 16, "--weights", "equal")
+    args = ("--k", 16, "--weighting", "equal")
     assert (
         run("features", laz, tiled, *args, "--tile-size", 10, "--scheduler", scheduler).exit_code
         == 0

@@ -37,8 +37,8 @@ def _same_files(a, b, normals_from):
 def test_one_pass_equals_normals_then_features(tmp_path, laz):  # noqa: F811
     nrm, chain, one = tmp_path / "n.laz", tmp_path / "chain.laz", tmp_path / "one.laz"
     assert run("normals", laz, nrm, "--k", 12).exit_code == 0
-    assert run("features", nrm, chain, "--k", 12, "--weights", "equal").exit_code == 0
-    result = run("features", laz, one, "--k", 12, "--normals")
+    assert run("features", nrm, chain, "--k", 12, "--weighting", "equal").exit_code == 0
+    result = run("features", laz, one, "--k", 12, "--estimate-normals")
     assert result.exit_code == 0, result.output
     dims = _same_files(one, chain, nrm)
     assert {"nx", "ny", "nz", "linearity", "dimension_class"} <= set(dims)
@@ -50,11 +50,11 @@ def test_tiled_one_pass_equals_tiled_chain_and_untiled_features(tmp_path, laz, s
     nrm, chain, one = tmp_path / "n.laz", tmp_path / "chain.laz", tmp_path / "one.laz"
     plain = tmp_path / "plain.laz"
     assert run("normals", laz, nrm, "--k", 12, *tiles).exit_code == 0
-    assert run("features", nrm, chain, "--k", 12, "--weights", "equal", *tiles).exit_code == 0
-    result = run("features", laz, one, "--k", 12, "--normals", *tiles)
+    assert run("features", nrm, chain, "--k", 12, "--weighting", "equal", *tiles).exit_code == 0
+    result = run("features", laz, one, "--k", 12, "--estimate-normals", *tiles)
     assert result.exit_code == 0, result.output
     dims = _same_files(one, chain, nrm)  # the same halo (k = 12 both): the same stitching
-    assert run("features", laz, plain, "--k", 12, "--normals").exit_code == 0
+    assert run("features", laz, plain, "--k", 12, "--estimate-normals").exit_code == 0
     ref = _dims(plain)[1]
     for name in ref:
         if name not in ("nx", "ny", "nz"):
@@ -69,8 +69,8 @@ def test_tiled_one_pass_equals_tiled_chain_and_untiled_features(tmp_path, laz, s
 def test_one_pass_refuses_sigmoid_weights(tmp_path, laz):  # noqa: F811
     out = tmp_path / "x.laz"
     assert_user_error(
-        run("features", laz, out, "--normals", "--weights", "sigmoid"),
-        "--normals",
+        run("features", laz, out, "--estimate-normals", "--weighting", "sigmoid"),
+        "--estimate-normals",
         "pointatlas normals",
     )
 
@@ -84,7 +84,7 @@ def test_tiled_one_pass_on_ply_equals_untiled_features(tmp_path, laz, scheduler,
     ply = tmp_path / "in.ply"
     write_point_set(ply, read_point_set(laz, with_normals=False))
     tiled, plain = tmp_path / "t.ply", tmp_path / "u.ply"
-    args = ("--k", 12, "--normals", "--orient", orient)
+    args = ("--k", 12, "--estimate-normals", "--orient", orient)
     result = run("features", ply, tiled, *args, "--tile-size", 10, "--scheduler", scheduler)
     assert result.exit_code == 0, result.output
     assert run("features", ply, plain, *args).exit_code == 0

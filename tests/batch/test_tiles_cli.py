@@ -79,7 +79,7 @@ def test_tiled_features_on_laz_keep_every_dimension_and_equal_untiled(tmp_path, 
         tiled,
         "--k",
         16,
-        "--weights",
+        "--weighting",
         "equal",
         "--tile-size",
         10,
@@ -88,7 +88,7 @@ def test_tiled_features_on_laz_keep_every_dimension_and_equal_untiled(tmp_path, 
     )
     assert result.exit_code == 0, result.output
     assert "tiles of 10" in result.stdout and f"wrote {tiled}" in result.stdout
-    assert run("features", laz, plain, "--k", 16, "--weights", "equal").exit_code == 0
+    assert run("features", laz, plain, "--k", 16, "--weighting", "equal").exit_code == 0
     out = _kept(laz, tiled)
     ref = laspy.read(plain)
     ours = [d for d in ref.point_format.extra_dimension_names if d != "reflectance"]
@@ -181,7 +181,7 @@ def test_tiled_ply_in_and_out(tmp_path, scheduler):
         out,
         "--k",
         14,
-        "--weights",
+        "--weighting",
         "equal",
         "--tile-size",
         9,

@@ -77,18 +77,21 @@ def test_one_pass_up_tiled_equals_untiled_and_the_two_commands(tmp_path, laz, sc
     tiles = ("--tile-size", 10, "--scheduler", scheduler)
     one_t, one_u = tmp_path / "one_t.laz", tmp_path / "one_u.laz"
     nrm, feat = tmp_path / "n.laz", tmp_path / "f.laz"
-    result = run("features", laz, one_t, "--k", 12, "--normals", "--orient", "up", *tiles)
+    result = run("features", laz, one_t, "--k", 12, "--estimate-normals", "--orient", "up", *tiles)
     assert result.exit_code == 0, result.output
     assert knn_calls and all(knn_calls)  # owned rows only: no MST, no stitching
-    assert run("features", laz, one_u, "--k", 12, "--normals", "--orient", "up").exit_code == 0
+    assert (
+        run("features", laz, one_u, "--k", 12, "--estimate-normals", "--orient", "up").exit_code
+        == 0
+    )
     a, b = _dims(one_t), _dims(one_u)
     assert list(a) == list(b) and {"nx", "linearity", "dimension_class"} <= set(a)
     for name in b:
         assert a[name].dtype == b[name].dtype, name
         assert np.array_equal(a[name], b[name], equal_nan=True), name
-    # the normals of `normals --orient up`, the features of `features --weights equal`
+    # the normals of `normals --orient up`, the features of `features --weighting equal`
     assert run("normals", laz, nrm, "--k", 12, "--orient", "up").exit_code == 0
-    assert run("features", laz, feat, "--k", 12, "--weights", "equal").exit_code == 0
+    assert run("features", laz, feat, "--k", 12, "--weighting", "equal").exit_code == 0
     assert np.array_equal(_normals(a), _normals(_dims(nrm)))
     f = _dims(feat)
     for name in f:
@@ -96,7 +99,7 @@ def test_one_pass_up_tiled_equals_untiled_and_the_two_commands(tmp_path, laz, sc
             assert np.array_equal(a[name], f[name], equal_nan=True), name
     # the same axes as the MST one pass, signs up
     mst = tmp_path / "mst.laz"
-    assert run("features", laz, mst, "--k", 12, "--normals").exit_code == 0
+    assert run("features", laz, mst, "--k", 12, "--estimate-normals").exit_code == 0
     n_m, n_a = _normals(_dims(mst)), _normals(a)
     assert (n_a[:, 2] >= 0).all()
     assert ((n_a == n_m).all(axis=1) | (n_a == -n_m).all(axis=1)).all()
@@ -105,9 +108,9 @@ def test_one_pass_up_tiled_equals_untiled_and_the_two_commands(tmp_path, laz, sc
 @pytest.mark.parametrize(
     ("args", "fragments"),
     [
-        (("--orient", "up"), ["--orient only applies with --normals"]),
-        (("--normals", "--orient", "outward"), ["mst, up", "'outward'"]),
-        (("--normals", "--orient", "viewpoint", "--tile-size", 10), ["mst, up"]),
+        (("--orient", "up"), ["--orient only applies with --estimate-normals"]),
+        (("--estimate-normals", "--orient", "outward"), ["mst, up", "'outward'"]),
+        (("--estimate-normals", "--orient", "viewpoint", "--tile-size", 10), ["mst, up"]),
     ],
 )
 def test_features_orient_errors_are_one_line(tmp_path, laz, args, fragments):  # noqa: F811

@@ -48,9 +48,9 @@ def test_cloudsurface_from_mesh_and_deform_round_trip(tmp_path):
             "--from-mesh",
             "hand",
             out,
-            "--model",
+            "--density",
             "eta2",
-            "--c",
+            "--density-c",
             "1",
             "--samples",
             "3",
@@ -71,7 +71,7 @@ def test_cloudsurface_from_mesh_and_deform_round_trip(tmp_path):
             tmp_path / "new.ply",
             tmp_path / "back.ply",
             "--inverse",
-            "--points",
+            "--move",
             tmp_path / "moved.ply",
         ]
     )
@@ -103,8 +103,8 @@ def test_user_errors_are_one_line(tmp_path):
     assert res.exit_code == 1 and "--scale must be a finite number > 0" in res.output
     res = _run(["cloudsurface", "synth:sphere", tmp_path / "x", "--search", "1", "0.5", "0.1"])
     assert res.exit_code == 1 and "--search SMAX" in res.output
-    res = _run(["cloudsurface", "--from-mesh", "hand", tmp_path / "y", "--model", "eta9"])
-    assert res.exit_code == 1 and "--model must be one of" in res.output
+    res = _run(["cloudsurface", "--from-mesh", "hand", tmp_path / "y", "--density", "eta9"])
+    assert res.exit_code == 1 and "--density must be one of" in res.output
     res = _run(["deform", tmp_path, tmp_path / "n.ply", tmp_path / "o.ply"])
     assert res.exit_code == 1 and "no cloudsurface.npz" in res.output
     res = _run(["cloudsurface", "synth:sphere", tmp_path / "missing" / "deeper", "--scale", "1"])
@@ -154,7 +154,7 @@ def test_from_mesh_defaults_are_valid_for_every_model(tmp_path):
     for model in ("eta1", "eta2", "eta3"):
         out = tmp_path / model
         res = runner.invoke(
-            app, ["cloudsurface", "--from-mesh", "synth:cube", str(out), "--model", model]
+            app, ["cloudsurface", "--from-mesh", "synth:cube", str(out), "--density", model]
         )
         assert res.exit_code == 0, res.output
         report = json.loads((out / "report.json").read_text())

@@ -134,14 +134,14 @@ def png_size(path):
 @pytest.mark.parametrize("color_by", ["normals", "labels", "height", "z"])
 def test_render_points(sphere_ply, tmp_path, color_by):
     out = tmp_path / f"{color_by}.png"
-    result = run("render", sphere_ply, out, "--color-by", color_by, "--size", 300, 200)
+    result = run("render", sphere_ply, out, "--color-by", color_by, "--render-size", 300, 200)
     assert result.exit_code == 0, result.output
     assert png_size(out) == (300, 200)
 
 
 def test_render_mesh_and_bad_field(cube_obj, sphere_ply, tmp_path):
     out = tmp_path / "cube.png"
-    result = run("render", cube_obj, out, "--title", "cube", "--size", 200, 200)
+    result = run("render", cube_obj, out, "--title", "cube", "--render-size", 200, 200)
     assert result.exit_code == 0, result.output
     assert png_size(out) == (200, 200)
     assert_user_error(
@@ -307,7 +307,7 @@ def test_info_mesh_with_unreferenced_vertex(tmp_path):
     assert info["points"] == 4 and info["faces"] == 1
     assert info["normals"] is False  # one vertex has no normal: all points kept
     out = tmp_path / "extra.png"
-    assert run("render", path, out, "--size", 120, 120).exit_code == 0
+    assert run("render", path, out, "--render-size", 120, 120).exit_code == 0
     assert run("normals", path, tmp_path / "n.ply", "--k", "3").exit_code == 0
 
 
@@ -317,6 +317,6 @@ def test_paths_with_brackets_are_printed_verbatim(tmp_path):
     result = run("info", src)
     assert result.exit_code == 0 and "scan[1].xyz" in result.stdout
     out = tmp_path / "pic[2].png"
-    result = run("render", src, out, "--size", 100, 100)
+    result = run("render", src, out, "--render-size", 100, 100)
     assert result.exit_code == 0 and "pic[2].png" in result.stdout
     assert_user_error(run("render", src, out, "--as", "mesh"), "no faces")

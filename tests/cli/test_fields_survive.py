@@ -18,7 +18,7 @@ MESH_FORMATS = (".obj", ".off", ".stl")
 # fast settings: the property is about the fields, not about the numbers
 COMMANDS = {
     "segment": ["--max-angle-deg", "20"],
-    "features": ["--k", "10", "--weights", "equal"],
+    "features": ["--k", "10", "--weighting", "equal"],
     "normals": ["--k", "10", "--orient", "none"],
 }
 

@@ -90,7 +90,7 @@ def test_flatness_function_bounds_n_iter_instead_of_running_out_of_memory():
     ("flags", "words"),
     [
         (["--faces", "0"], "--faces must be at least 1"),
-        (["--weight", "-5"], "--weight must be a finite number >= 0"),
+        (["--vertex-weight", "-5"], "--vertex-weight must be a finite number >= 0"),
         (["--anchor-weight", "0"], "--anchor-weight must be a finite number > 0"),
         (["--min-region-size", "0"], "--min-region-size must be an integer >= 1"),
     ],

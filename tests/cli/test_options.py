@@ -47,7 +47,7 @@ CASES = [
     ("normals", [], "--orient-k", "1", "orient-k"),
     ("render", [], "--azimuth-deg", "nan", "azimuth"),
     ("render", [], "--elevation-deg", "91", "elevation"),
-    ("render", [], "--size", "0 0", "size"),
+    ("render", [], "--render-size", "0 0", "size"),
     ("info", [], "--k", "1", "k"),
 ]
 

@@ -166,7 +166,7 @@ def test_segment_keeps_every_input_field_and_prefixes_clashes(scan_ply, tmp_path
 def test_features_keeps_every_input_field(scan_ply, tmp_path):
     src = read_point_set(scan_ply)
     out = tmp_path / "f.ply"
-    result = run("features", scan_ply, out, "--k", "10", "--weights", "equal")
+    result = run("features", scan_ply, out, "--k", "10", "--weighting", "equal")
     assert result.exit_code == 0, result.output
     got = read_point_set(out)
     for name, values in src.attributes.items():
@@ -296,7 +296,7 @@ def test_long_paths_and_narrow_terminals_print_paths_whole(tmp_path):
 def test_interrupt_swallowed_by_library_code_still_exits_130(scan_ply, tmp_path, monkeypatch):
     """A request recorded by the SIGINT handler wins even when the exception is lost."""
     from pointatlas._core._interrupt import request_interrupt
-    from pointatlas.cli import _cmd_segment
+    from pointatlas.cli.jobs import _segment as _cmd_segment
 
     out = tmp_path / "seg.ply"
     out.write_bytes(b"previous")
@@ -315,7 +315,7 @@ def test_interrupt_swallowed_by_library_code_still_exits_130(scan_ply, tmp_path,
 
 def test_interrupt_surfacing_as_system_error_exits_130(scan_ply, tmp_path, monkeypatch):
     from pointatlas._core._interrupt import request_interrupt
-    from pointatlas.cli import _cmd_segment
+    from pointatlas.cli.jobs import _segment as _cmd_segment
 
     def numba_style(*args, **kw):
         request_interrupt()

@@ -78,9 +78,9 @@ def test_equal_weights_fixed_k_and_render(tmp_path):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--weights", "sigmoid"], "needs normals"),
+        (["--weighting", "sigmoid"], "needs normals"),
         (["--k", "8", "--k-range", "6", "9"], "not both"),
-        (["--weights", "odd"], "--weights must be"),
+        (["--weighting", "odd"], "--weighting must be"),
         (["--a-grid-deg", "0,x"], "comma-separated"),
         (["--flatness", "3", "8"], "even"),
     ],

@@ -1,5 +1,5 @@
 """Tiled normals and features from one k-NN table per tile (``pointatlas features
---normals``): PCA normals, MST-oriented and stitched across tiles as `tiled_normals`
+--estimate-normals``): PCA normals, MST-oriented and stitched across tiles as `tiled_normals`
 does, or made n_z >= 0 per point (``--orient up``, bit for bit the untiled ones), and
 equal-weight features of the owned points bit for bit those of the untiled run.
 
@@ -91,14 +91,14 @@ def normals_features_over(
     """
     if params["mode"] == "optimal":
         raise PointAtlasError(
-            "--normals computes the normals in the same pass as the features; sigmoid "
+            "--estimate-normals computes the normals in the same pass as the features; sigmoid "
             "weights need them first: run `pointatlas normals`, then `features`"
         )
     n = source.n
     k, orient_k = int(normal_params["k"]), int(normal_params.get("orient_k", 10))
     orient = normal_params.get("orient", "mst")
     if orient not in ("mst", "up"):
-        raise PointAtlasError(f"--orient with --normals must be mst or up; got {orient!r}")
+        raise PointAtlasError(f"--orient with --estimate-normals must be mst or up; got {orient!r}")
     check_normal_options(n, k, orient)
     kf = feature_kmax(params)
     if kf > n:

@@ -54,7 +54,9 @@ __all__ = [
     "read_input",
     "read_with_normals",
     "say",
+    "deprecated_option",
     "fill_unusable_normals",
+    "renamed_flag",
     "angle_deg_option",
     "ClassicOption",
     "EtaOption",
@@ -159,6 +161,25 @@ def demo_step(func: Callable) -> Callable:
     """Decorator: append ``func`` to :data:`DEMO_STEPS` and return it unchanged."""
     DEMO_STEPS.append(func)
     return func
+
+
+def renamed_flag(new: str, value, old: str, old_value):
+    """The value of a renamed flag: ``value`` (given as ``new``, or its default), or,
+    when the old spelling ``old`` was given (a hidden alias kept for one release,
+    docs/decisions/cli.md "One vocabulary"), ``old_value``, with a one-line notice
+    on stderr. An old spelling that was not given is None (False for a switch)."""
+    if old_value is None or old_value is False:
+        return value
+    say(
+        f"warning: {old} is deprecated; use {new} (the old name goes in the next release)",
+        out=err_console,
+    )
+    return old_value
+
+
+def deprecated_option(old: str, new: str):
+    """The hidden typer option of a flag's old spelling ``old`` (see `renamed_flag`)."""
+    return typer.Option(old, hidden=True, help=f"Deprecated spelling of {new}.")
 
 
 def angle_deg_option(value, flag: str, *, lo: float = 0.0, hi: float = 180.0):

@@ -31,7 +31,16 @@ import typer
 from .._core import PointAtlasError, as_float, as_int
 from ..complex import cloud_complex, curve_report, realize_complex, surface_report
 from ..cover import ball_cover, cover_radii, search_cover_scale
-from ._app import app, console, guarded, progress_bar, read_input, say
+from ._app import (
+    app,
+    console,
+    deprecated_option,
+    guarded,
+    progress_bar,
+    read_input,
+    renamed_flag,
+    say,
+)
 from ._flag_checks import named_as_typed
 from ._outputs import (
     check_outputs,
@@ -308,11 +317,14 @@ _PathsArgument = Annotated[
         "with --from-mesh only OUT_DIR.",
     ),
 ]
-_ModelOption = Annotated[str, typer.Option("--model", help="--from-mesh: eta1, eta2 or eta3.")]
+_ModelOption = Annotated[
+    str, typer.Option("--density", help="--from-mesh: density model eta1, eta2 or eta3.")
+]
 _COption = Annotated[
     float | None,
     typer.Option(
-        "--c", help="--from-mesh: eta1/eta2 parameter c (default 0 for eta1, 1 for eta2)."
+        "--density-c",
+        help="--from-mesh: eta1/eta2 parameter c (default 0 for eta1, 1 for eta2).",
     ),
 ]
 
@@ -355,10 +367,15 @@ def cloudsurface_command(
     ] = None,
     model: _ModelOption = "eta1",
     c: _COption = None,
-    c_v: Annotated[float, typer.Option("--c-v", help="--from-mesh: eta3 parameter c_v.")] = 0.5,
-    c_h: Annotated[float, typer.Option("--c-h", help="--from-mesh: eta3 parameter c_h.")] = 0.5,
+    c_v: Annotated[
+        float, typer.Option("--density-c-v", help="--from-mesh: eta3 parameter c_v.")
+    ] = 0.5,
+    c_h: Annotated[
+        float, typer.Option("--density-c-h", help="--from-mesh: eta3 parameter c_h.")
+    ] = 0.5,
     t: Annotated[
-        float, typer.Option("--t", help="--from-mesh: ball radius position in [0, 1).")
+        float,
+        typer.Option("--radius-position", help="--from-mesh: ball radius position t in [0, 1)."),
     ] = 0.5,
     samples: Annotated[
         int, typer.Option("--samples", help="--from-mesh: samples per vertex and triangle.")
@@ -377,6 +394,11 @@ def cloudsurface_command(
             help="Also write an HTML report with a 3-D view of the clouds and the complex.",
         ),
     ] = None,
+    old_model: Annotated[str | None, deprecated_option("--model", "--density")] = None,
+    old_c: Annotated[float | None, deprecated_option("--c", "--density-c")] = None,
+    old_c_v: Annotated[float | None, deprecated_option("--c-v", "--density-c-v")] = None,
+    old_c_h: Annotated[float | None, deprecated_option("--c-h", "--density-c-h")] = None,
+    old_t: Annotated[float | None, deprecated_option("--t", "--radius-position")] = None,
 ):
     """Cloud surface of a point set (ball cover, Algorithm 2) or of a mesh (Algorithm 1).
 
@@ -384,6 +406,11 @@ def cloudsurface_command(
     mesh, cloudsurface.npz (for ``deform``), report.txt, a picture and, last,
     report.json (topology report and the files of this run with their SHA-256).
     """
+    model = renamed_flag("--density", model, "--model", old_model)
+    c = renamed_flag("--density-c", c, "--c", old_c)
+    c_v = renamed_flag("--density-c-v", c_v, "--c-v", old_c_v)
+    c_h = renamed_flag("--density-c-h", c_h, "--c-h", old_c_h)
+    t = renamed_flag("--radius-position", t, "--t", old_t)
     in_path, out_dir, dim = _cover_arguments(
         paths,
         from_mesh,
@@ -544,7 +571,7 @@ def _from_mesh(
     from ..synth import clouds_from_mesh
 
     if model not in _MODELS:
-        raise PointAtlasError(f"--model must be one of {', '.join(_MODELS)}; got {model!r}")
+        raise PointAtlasError(f"--density must be one of {', '.join(_MODELS)}; got {model!r}")
     if curvature not in ("none", "gaussian", "mean"):
         raise PointAtlasError(f"--curvature must be none, gaussian or mean; got {curvature!r}")
     p = Path(in_path)

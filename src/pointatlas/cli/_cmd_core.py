@@ -18,7 +18,6 @@ from rich.markup import escape
 from rich.table import Table
 
 from .._core import PointAtlasError, PointSet
-from ..batch import NormalsTileJob
 from ..io import (
     POINT_WRITE_EXTENSIONS,
     read_mesh,
@@ -41,18 +40,15 @@ from ._app import (
     demo_step,
     guarded,
     progress_bar,
-    run_tiled,
     say,
     tile_options,
 )
 from ._cmd_info import info_table
 from ._outputs import (
     check_outputs,
-    check_point_output,
-    write_point_output,
 )
 from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
-from .jobs import ORIENT_METHODS, compute_normals, read_keeping_normals
+from .jobs import NormalsOptions, compute_normals, run_normals
 
 __all__ = [
     "DEMO_STEPS",
@@ -110,81 +106,36 @@ def normals_command(
     ``input_normals`` and compared with the new ones (angle error, flipped
     fraction).
     """
-    check_outputs(
-        [in_path],
-        [("OUT", out_path, POINT_WRITE_EXTENSIONS), ("--report", report, REPORT_EXTENSIONS)],
+    options = NormalsOptions(
+        k=k, orient=orient, orient_k=orient_k, viewpoint=viewpoint, report=report
     )
-    if orient not in ORIENT_METHODS:
-        raise PointAtlasError(
-            f"--orient must be one of {', '.join(ORIENT_METHODS)}; got {orient!r}"
-        )
     tiles = tile_options(tile_size, halo, workers, scheduler, max_memory)
-    if tiles is not None:
-        job = NormalsTileJob(k=k, orient=orient, orient_k=orient_k, viewpoint=viewpoint)
-        params = {"k": k, "orient": orient, "orient_k": orient_k, "viewpoint": viewpoint}
-        run_tiled("normals", job, in_path, out_path, tiles, report=report, parameters=params)
-        return
-    ps, ours = read_keeping_normals(in_path)
-    reference = ours.get("input_normals")
-    check_point_output(out_path, ps.replace(normals=np.zeros((ps.n_points, 3)) + 1.0), ours)
-    t0 = time.perf_counter()
-    with progress_bar("normals", total=2) as advance:
-        normals = compute_normals(
-            ps.points, k=k, orient=orient, orient_k=orient_k, viewpoint=viewpoint, advance=advance
-        )
-    seconds = time.perf_counter() - t0
-    written = write_point_output(out_path, ps.replace(normals=normals), ours)
+    result = run_normals(in_path, out_path, options, tiles=tiles)
+    if result.tiled is None:
+        _print_normals(in_path, options, result)
+
+
+def _print_normals(in_path: Path, options: NormalsOptions, result) -> None:
+    """The table of ``normals`` (points, settings, time, the comparison with IN's
+    normals), then the files written."""
     table = Table(
         title=f"normals of {escape(in_path.name)}", show_header=False, title_justify="left"
     )
     table.add_column("property", style="bold")
     table.add_column("value")
-    table.add_row("points", f"{ps.n_points:,}")
-    table.add_row("k / orientation", f"{k} / {orient}")
-    table.add_row("time", f"{seconds:.2f} s")
-    stats = None
-    if reference is not None:
-        stats = compare_normals(normals, reference)
+    table.add_row("points", f"{result.n_points:,}")
+    table.add_row("k / orientation", f"{options.k} / {options.orient}")
+    table.add_row("time", f"{result.seconds:.2f} s")
+    stats = result.stats
+    if stats is not None:
         table.add_row(
             "mean angle error vs input normals", f"{stats['mean_angle_error_deg']:.2f} deg"
         )
         table.add_row("  ignoring sign", f"{stats['mean_unoriented_error_deg']:.2f} deg")
         table.add_row("flipped fraction", f"{stats['flipped_fraction']:.4f}")
-    if report is not None:
-        _write_normals_report(
-            report,
-            in_path,
-            ps,
-            normals,
-            reference,
-            stats,
-            {"k": k, "orient": orient, "orient_k": orient_k, "viewpoint": viewpoint},
-            seconds,
-        )
     console.print(table)
-    say(f"wrote {written}")
-    if report is not None:
-        say(f"wrote {report}")
-
-
-def _write_normals_report(path, in_path, ps, normals, reference, stats, parameters, seconds):
-    """``normals --report``: the comparison numbers and the points coloured by error/normal."""
-    from ..viz import write_report
-
-    result = {"points": ps.n_points, "seconds": round(seconds, 3), **(stats or {})}
-    ours = {}
-    if reference is not None:
-        ours["normal_error_deg"] = np.degrees(angle_error(normals, reference))
-    ours.update(nx=normals[:, 0], ny=normals[:, 1], nz=normals[:, 2])
-    write_report(
-        path,
-        title=f"pointatlas normals: {Path(in_path).name}",
-        summary=report_summary(in_path, ps),
-        parameters=parameters,
-        tables={"result": result},
-        layers=[report_layer(ps, ours)],
-        up=report_up(in_path),
-    )
+    for path in result.written:
+        say(f"wrote {path}")
 
 
 # --------------------------------------------------------------------------- render

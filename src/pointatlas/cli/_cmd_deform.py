@@ -11,7 +11,7 @@ import typer
 
 from .._core import PointAtlasError
 from ..complex import cloud_complex
-from ._app import app, console, guarded, read_input, say
+from ._app import app, console, deprecated_option, guarded, read_input, renamed_flag, say
 from ._outputs import check_outputs, write_summary_json
 from ._reports import REPORT_EXTENSIONS, report_layer
 
@@ -56,7 +56,7 @@ def deform_command(
     ] = False,
     points_path: Annotated[
         Path | None,
-        typer.Option("--points", help="Points to move (default: the cloud surface's points)."),
+        typer.Option("--move", help="Points to move (default: the cloud surface's points)."),
     ] = None,
     report: Annotated[
         Path | None,
@@ -66,6 +66,7 @@ def deform_command(
             "(coloured by displacement) and the moved complex (.html).",
         ),
     ] = None,
+    old_points: Annotated[Path | None, deprecated_option("--points", "--move")] = None,
 ):
     """Move the points of a cloud surface with its cloud points (Algorithm 3).
 
@@ -76,6 +77,7 @@ def deform_command(
     """
     from ..dynamics import deform_points
 
+    points_path = renamed_flag("--move", points_path, "--points", old_points)
     json_path = output.with_suffix(".json")
     check_outputs(
         [surface_dir / "cloudsurface.npz", new_cloud_points, points_path],
@@ -95,7 +97,7 @@ def deform_command(
     pts = pts0 if points_path is None else read_input(points_path, with_normals=False).points
     if pts.shape[0] != K.n_points:
         raise PointAtlasError(
-            f"--points {points_path}: has {pts.shape[0]} points; the cloud surface has {K.n_points}"
+            f"--move {points_path}: has {pts.shape[0]} points; the cloud surface has {K.n_points}"
         )
     t0 = time.perf_counter()
     res = deform_points(pts, K, new_cp, faces=faces, inverse=inverse)

@@ -36,10 +36,12 @@ from ._app import (
     WorkersOption,
     app,
     console,
+    deprecated_option,
     err_console,
     guarded,
     progress_bar,
     read_with_normals,
+    renamed_flag,
     run_tiled,
     say,
     tile_options,
@@ -206,7 +208,7 @@ def _check_options(
     as_float(rho, "--rho", lo=-1.0, hi=1.0)
     as_float(tau, "--tau", lo=0.0, hi=1.0, lo_open=True)
     as_float(max_step, "--max-step", lo=0.0)
-    as_float(eta, "--eta", lo=0.0, hi=1.0)
+    as_float(eta, "--plane-weight", lo=0.0, hi=1.0)
     as_float(eps, "--eps", lo=0.0, lo_open=True)
     check_iterations(n_filter_iter, "--filter-iter")
     check_iterations(n_iter, "--n-iter")
@@ -474,7 +476,10 @@ def denoise_command(
     k: Annotated[
         int, typer.Option("--k", help="Flatness: neighbours, the point itself included.")
     ] = 28,
-    eta: Annotated[float, typer.Option("--eta", help="Flatness: weight of the plane term.")] = 1.0,
+    eta: Annotated[
+        float,
+        typer.Option("--plane-weight", help="Flatness: weight of the plane term (eta of Eq. 6.3)."),
+    ] = 1.0,
     eps: Annotated[float, typer.Option("--eps", help="Flatness: step scale.")] = 0.1,
     schedule: Annotated[
         str, typer.Option("--schedule", help="Flatness: constant or decreasing (large k first).")
@@ -493,6 +498,7 @@ def denoise_command(
     workers: WorkersOption = None,
     scheduler: SchedulerOption = None,
     max_memory: MaxMemoryOption = None,
+    old_eta: Annotated[float | None, deprecated_option("--eta", "--plane-weight")] = None,
 ):
     """Denoise a point set: normal voting with adaptive k (thesis 5.4) or flatness (Eq. 6.3).
 
@@ -502,6 +508,7 @@ def denoise_command(
     """
     from ..io import POINT_WRITE_EXTENSIONS
 
+    eta = renamed_flag("--plane-weight", eta, "--eta", old_eta)
     json_path = summary_path(output)
     check_outputs(
         [input_path, clean],

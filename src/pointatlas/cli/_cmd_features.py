@@ -39,9 +39,11 @@ from ._app import (
     app,
     console,
     demo_step,
+    deprecated_option,
     fill_unusable_normals,
     guarded,
     read_input,
+    renamed_flag,
     run_tiled,
     say,
     tile_options,
@@ -89,12 +91,12 @@ def compute_features_for(
     """Dispatch to fixed-k / optimal-k / optimal (a, b, k); returns (result, mode text).
     ``neighbors``: a k-NN table of at least the largest k (equal weights only)."""
     if weights not in ("auto", "sigmoid", "equal"):
-        raise PointAtlasError(f"--weights must be sigmoid, equal or auto; got {weights!r}")
+        raise PointAtlasError(f"--weighting must be sigmoid, equal or auto; got {weights!r}")
     if weights == "auto":
         weights = "sigmoid" if normals is not None else "equal"
     if weights == "sigmoid" and normals is None:
         raise PointAtlasError(
-            "--weights sigmoid needs normals; the input has none (use --weights equal "
+            "--weighting sigmoid needs normals; the input has none (use --weighting equal "
             "or a mesh / a point file with nx, ny, nz)"
         )
     if k is not None and k_range is not None:
@@ -227,19 +229,19 @@ def _placeholder(n: int) -> dict:
 
 
 def _weights_with_normals(weights: str, estimate: bool) -> str:
-    """``--normals`` computes the normals in the features' pass: equal weights only."""
+    """``--estimate-normals`` computes the normals in the features' pass: equal weights only."""
     if not estimate:
         return weights
     if weights == "sigmoid":
         raise PointAtlasError(
-            "--normals computes the normals in the same pass as the features; sigmoid "
+            "--estimate-normals computes the normals in the same pass as the features; sigmoid "
             "weights need them first: run `pointatlas normals`, then `features`"
         )
     return "equal" if weights == "auto" else weights
 
 
 def _read_for_normals(input_path, output):
-    """IN for ``--normals``: every point (as `normals` reads it), the input's normals
+    """IN for ``--estimate-normals``: every point (as `normals` reads it), the input's normals
     kept as ``input_normals``; OUT checked for them, the normals and the features."""
     ps, ours = read_keeping_normals(input_path)
     n = ps.n_points
@@ -341,35 +343,36 @@ _RenderSizeOption = Annotated[
 _NormalsOption = Annotated[
     bool,
     typer.Option(
-        "--normals",
+        "--estimate-normals",
         help="Also estimate PCA normals at --k (default 14), oriented by --orient, from the "
         "same k-NN table as the features (equal weights); written as nx, ny, nz.",
     ),
 ]
-#: ``--orient`` of ``--normals`` (`NORMALS_ORIENT`; docs/decisions/batch.md, "Tiles —
+#: ``--orient`` of ``--estimate-normals`` (`NORMALS_ORIENT`; docs/decisions/batch.md, "Tiles —
 #: normals and features in one pass")
 _OrientOption = Annotated[
     str | None,
     typer.Option(
         "--orient",
-        help="With --normals: mst (default; Hoppe's propagation, as `normals`) or up (nz >= 0 "
-        "per point, the lidar convention; by tiles no stitching, cheaper).",
+        help="With --estimate-normals: mst (default; Hoppe's propagation, as `normals`) or up "
+        "(nz >= 0 per point, the lidar convention; by tiles no stitching, cheaper).",
     ),
 ]
-#: Orientations of ``features --normals``.
+#: Orientations of ``features --estimate-normals``.
 NORMALS_ORIENT = ("mst", "up")
 
 
 def _orient_for(orient, estimate: bool) -> str:
-    """``--orient`` checked: with ``--normals`` mst (default) or up; else not given."""
+    """``--orient`` checked: with ``--estimate-normals`` mst (default) or up; else not given."""
     if not estimate:
         if orient is not None:
-            raise PointAtlasError("--orient only applies with --normals")
+            raise PointAtlasError("--orient only applies with --estimate-normals")
         return "mst"
     orient = "mst" if orient is None else orient
     if orient not in NORMALS_ORIENT:
         raise PointAtlasError(
-            f"--orient with --normals must be one of {', '.join(NORMALS_ORIENT)}; got {orient!r}"
+            f"--orient with --estimate-normals must be one of {', '.join(NORMALS_ORIENT)}; "
+            f"got {orient!r}"
         )
     return orient
 
@@ -391,7 +394,7 @@ def features_command(
     weights: Annotated[
         str,
         typer.Option(
-            "--weights",
+            "--weighting",
             help="sigmoid: search the (a, b) grid on normal angles (Eq. 5.9); equal: "
             "unweighted; auto: sigmoid when the input has normals.",
         ),
@@ -421,17 +424,23 @@ def features_command(
     workers: WorkersOption = None,
     scheduler: SchedulerOption = None,
     max_memory: MaxMemoryOption = None,
+    old_weights: Annotated[str | None, deprecated_option("--weights", "--weighting")] = None,
+    old_normals: Annotated[bool, deprecated_option("--normals", "--estimate-normals")] = False,
 ) -> None:
     """Eigen-features per point (linearity ... flatness) with the optimal neighbourhood.
 
     Writes OUT with every input field kept and the features added (a feature whose
     name the input already uses gets the prefix ``pa_``); with ``--report`` also an
-    HTML report with per-field statistics and a 3-D view. ``--normals`` does the work
-    of ``normals --k K --orient O`` then ``features --k K --weights equal`` in one pass
+    HTML report with per-field statistics and a 3-D view. ``--estimate-normals`` does the work
+    of ``normals --k K --orient O`` then ``features --k K --weighting equal`` in one pass
     (one k-NN query); the input's normals are kept as ``input_normals``.
     """
     from ..io import POINT_WRITE_EXTENSIONS
 
+    weights = renamed_flag("--weighting", weights, "--weights", old_weights)
+    estimate_normals = renamed_flag(
+        "--estimate-normals", estimate_normals, "--normals", old_normals
+    )
     picture_paths = feature_picture_paths(render) if render is not None else (None,) * 3
     check_outputs(
         [input_path],

@@ -17,8 +17,10 @@ from ..io import (
 )
 from ._app import (
     app,
+    deprecated_option,
     guarded,
     progress_bar,
+    renamed_flag,
     say,
 )
 from ._outputs import (
@@ -154,10 +156,9 @@ def render_command(
         ),
     ] = "normals",
     title: Annotated[str | None, typer.Option("--title", help="Picture title.")] = None,
-    size: Annotated[tuple[int, int], typer.Option("--size", help="Width and height (pixels).")] = (
-        1024,
-        1024,
-    ),
+    size: Annotated[
+        tuple[int, int], typer.Option("--render-size", help="Width and height (pixels).")
+    ] = (1024, 1024),
     azimuth_deg: Annotated[float, typer.Option("--azimuth-deg", help="View azimuth.")] = 35.0,
     elevation_deg: Annotated[float, typer.Option("--elevation-deg", help="View elevation.")] = 25.0,
     up: Annotated[
@@ -169,8 +170,12 @@ def render_command(
     draw: Annotated[
         str, typer.Option("--as", help="auto (mesh when the file has faces), points or mesh.")
     ] = "auto",
+    old_size: Annotated[
+        tuple[int, int] | None, deprecated_option("--size", "--render-size")
+    ] = None,
 ):
     """Render a point set or mesh to a PNG (offscreen, fixed camera)."""
+    size = renamed_flag("--render-size", size, "--size", old_size)
     with progress_bar("rendering") as advance:
         path = render_file(
             in_path,

@@ -35,9 +35,11 @@ from ._app import (
     app,
     console,
     demo_step,
+    deprecated_option,
     err_console,
     guarded,
     read_with_normals,
+    renamed_flag,
     say,
     vsa_options,
 )
@@ -298,7 +300,7 @@ CentersOption = Annotated[
     str, typer.Option("--centers", help="Proxy plane point: centroid or seed (C_i).")
 ]
 WeightOption = Annotated[
-    float, typer.Option("--weight", help="w~ of Eq. 4.11 (--vertices optimize).")
+    float, typer.Option("--vertex-weight", help="w~ of Eq. 4.11 (--vertices optimize).")
 ]
 AnchorWeightOption = Annotated[
     float | None,
@@ -496,6 +498,7 @@ def simplify_command(
     triangles: TrianglesOption = None,
     report: ReportOption = None,
     render: RenderOption = None,
+    old_weight: Annotated[float | None, deprecated_option("--weight", "--vertex-weight")] = None,
 ):
     """Simplify a mesh or a point set into a polygon mesh with planar faces.
 
@@ -514,6 +517,7 @@ def simplify_command(
     With ``--report`` the JSON report is written last and names every file of the
     run with its SHA-256.
     """
+    weight = renamed_flag("--vertex-weight", weight, "--weight", old_weight)
     check_outputs(
         [infile],
         [
@@ -531,7 +535,7 @@ def simplify_command(
     ):
         if value is not None and value < low:
             raise PointAtlasError(f"{flag} must be at least {low}; got {value}")
-    as_float(weight, "--weight", lo=0.0)
+    as_float(weight, "--vertex-weight", lo=0.0)
     if anchor_weight is not None:
         as_float(anchor_weight, "--anchor-weight", lo=0.0, lo_open=True)
     if min_region_size is not None:

@@ -9,6 +9,8 @@ commands or the application (docs/decisions/cli.md, "Layout").
 from ._console import PIPE_WIDTH, console, err_console, progress_bar, say
 from ._inputs import fill_unusable_normals, read_input, read_keeping_normals, read_with_normals
 from ._normals import ORIENT_METHODS, compute_normals, normals_and_table
+from ._normals_job import NormalsOptions, NormalsResult, run_normals
+from ._segment import SegmentOptions, SegmentResult, run_segment
 from ._tiled import (
     denoise_job,
     denoise_side_files,
@@ -22,7 +24,11 @@ from ._tiled import (
 
 __all__ = [
     "ORIENT_METHODS",
+    "NormalsOptions",
+    "NormalsResult",
     "PIPE_WIDTH",
+    "SegmentOptions",
+    "SegmentResult",
     "compute_normals",
     "console",
     "denoise_job",
@@ -36,6 +42,8 @@ __all__ = [
     "read_input",
     "read_keeping_normals",
     "read_with_normals",
+    "run_normals",
+    "run_segment",
     "run_tiled",
     "say",
     "segment_job",

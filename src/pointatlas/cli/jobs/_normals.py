@@ -1,5 +1,6 @@
-"""PCA normals as the commands compute them: ``normals``, the normals a command
-estimates when its input has none (`read_with_normals`) and ``features --normals``."""
+"""PCA normals as the commands compute them: the ``normals`` job (`run_normals`), the
+normals a command estimates when its input has none (`read_with_normals`) and
+``features --estimate-normals``."""
 
 from __future__ import annotations
 

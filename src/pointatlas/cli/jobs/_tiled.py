@@ -115,12 +115,12 @@ def feature_job(*, weights, k, k_range, a_grid, b_grid, flatness, criterion, has
     dispatch): equal weights -> "fixed" (k, default 14) or "optimal_k" (k_range);
     sigmoid -> "optimal" over k_range (default 6..20, or k..k)."""
     if weights not in ("auto", "sigmoid", "equal"):
-        raise PointAtlasError(f"--weights must be sigmoid, equal or auto; got {weights!r}")
+        raise PointAtlasError(f"--weighting must be sigmoid, equal or auto; got {weights!r}")
     if weights == "auto":
         weights = "sigmoid" if has_normals else "equal"
     if weights == "sigmoid" and not has_normals:
         raise PointAtlasError(
-            "--weights sigmoid needs normals; the input has none (use --weights equal "
+            "--weighting sigmoid needs normals; the input has none (use --weighting equal "
             "or a mesh / a point file with nx, ny, nz)"
         )
     if k is not None and k_range is not None:
