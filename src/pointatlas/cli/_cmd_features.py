@@ -50,7 +50,7 @@ from ._app import (
 )
 from ._outputs import check_outputs, check_point_output, write_point_output
 from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
-from .jobs import feature_job, normals_and_table, read_keeping_normals
+from .jobs import feature_job, feature_weighting, normals_and_table, read_keeping_normals
 
 __all__ = [
     "compute_features_for",
@@ -90,17 +90,7 @@ def compute_features_for(
 ) -> tuple[FeatureResult, str]:
     """Dispatch to fixed-k / optimal-k / optimal (a, b, k); returns (result, mode text).
     ``neighbors``: a k-NN table of at least the largest k (equal weights only)."""
-    if weights not in ("auto", "sigmoid", "equal"):
-        raise PointAtlasError(f"--weighting must be sigmoid, equal or auto; got {weights!r}")
-    if weights == "auto":
-        weights = "sigmoid" if normals is not None else "equal"
-    if weights == "sigmoid" and normals is None:
-        raise PointAtlasError(
-            "--weighting sigmoid needs normals; the input has none (use --weighting equal "
-            "or a mesh / a point file with nx, ny, nz)"
-        )
-    if k is not None and k_range is not None:
-        raise PointAtlasError("give --k or --k-range, not both")
+    weights = feature_weighting(weights, has_normals=normals is not None, k=k, k_range=k_range)
     if weights == "equal":
         if k_range is None:
             kk = 14 if k is None else k

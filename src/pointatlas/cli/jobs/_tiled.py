@@ -31,6 +31,7 @@ __all__ = [
     "denoise_job",
     "denoise_side_files",
     "feature_job",
+    "feature_weighting",
     "normal_job_for",
     "refuse",
     "run_tiled",
@@ -110,10 +111,9 @@ def normal_job_for(path, estimate, normal_k: int) -> NormalsTileJob | None:
     return NormalsTileJob(k=int(normal_k), orient_k=10)
 
 
-def feature_job(*, weights, k, k_range, a_grid, b_grid, flatness, criterion, has_normals):
-    """The `FeaturesTileJob` of ``pointatlas features``'s flags (as its untiled
-    dispatch): equal weights -> "fixed" (k, default 14) or "optimal_k" (k_range);
-    sigmoid -> "optimal" over k_range (default 6..20, or k..k)."""
+def feature_weighting(weights: str, *, has_normals: bool, k, k_range) -> str:
+    """``features --weighting`` resolved: "sigmoid" or "equal" ("auto": sigmoid when IN
+    has normals), checked with ``--k`` / ``--k-range`` (one of them at most)."""
     if weights not in ("auto", "sigmoid", "equal"):
         raise PointAtlasError(f"--weighting must be sigmoid, equal or auto; got {weights!r}")
     if weights == "auto":
@@ -125,6 +125,14 @@ def feature_job(*, weights, k, k_range, a_grid, b_grid, flatness, criterion, has
         )
     if k is not None and k_range is not None:
         raise PointAtlasError("give --k or --k-range, not both")
+    return weights
+
+
+def feature_job(*, weights, k, k_range, a_grid, b_grid, flatness, criterion, has_normals):
+    """The `FeaturesTileJob` of ``pointatlas features``'s flags (as its untiled
+    dispatch): equal weights -> "fixed" (k, default 14) or "optimal_k" (k_range);
+    sigmoid -> "optimal" over k_range (default 6..20, or k..k)."""
+    weights = feature_weighting(weights, has_normals=has_normals, k=k, k_range=k_range)
     flat = tuple(int(v) for v in flatness)
     if weights == "equal":
         if k_range is None:
