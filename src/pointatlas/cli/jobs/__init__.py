@@ -7,6 +7,7 @@ commands or the application (docs/decisions/cli.md, "Layout").
 """
 
 from ._console import PIPE_WIDTH, console, err_console, progress_bar, say
+from ._denoise import DenoiseOptions, DenoiseResult, run_denoise
 from ._inputs import fill_unusable_normals, read_input, read_keeping_normals, read_with_normals
 from ._normals import ORIENT_METHODS, compute_normals, normals_and_table
 from ._normals_job import NormalsOptions, NormalsResult, run_normals
@@ -24,6 +25,8 @@ from ._tiled import (
 )
 
 __all__ = [
+    "DenoiseOptions",
+    "DenoiseResult",
     "ORIENT_METHODS",
     "NormalsOptions",
     "NormalsResult",
@@ -44,6 +47,7 @@ __all__ = [
     "read_input",
     "read_keeping_normals",
     "read_with_normals",
+    "run_denoise",
     "run_normals",
     "run_segment",
     "run_tiled",
