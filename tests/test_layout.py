@@ -34,7 +34,6 @@ LONG_FUNCTIONS = {
         174,
         "one typer option per line, + 5 old spellings",
     ),
-    "cli/_cmd_features.py:features_command": (152, "one typer option per line, + 2 old spellings"),
     "cli/_cmd_simplify.py:simplify_command": (144, "one typer option per line, + an old spelling"),
     "cover/_search.py:search_cover_scale": (121, "the scale search reads as one loop"),
     "denoise/_voting.py:normal_voting_denoise": (134, "the thesis' rounds in one driver"),

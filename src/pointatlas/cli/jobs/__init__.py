@@ -8,6 +8,7 @@ commands or the application (docs/decisions/cli.md, "Layout").
 
 from ._console import PIPE_WIDTH, console, err_console, progress_bar, say
 from ._denoise import DenoiseOptions, DenoiseResult, run_denoise
+from ._features import FeaturesOptions, FeaturesResult, reason_counts, run_features
 from ._inputs import fill_unusable_normals, read_input, read_keeping_normals, read_with_normals
 from ._normals import ORIENT_METHODS, compute_normals, normals_and_table
 from ._normals_job import NormalsOptions, NormalsResult, run_normals
@@ -27,6 +28,8 @@ from ._tiled import (
 __all__ = [
     "DenoiseOptions",
     "DenoiseResult",
+    "FeaturesOptions",
+    "FeaturesResult",
     "ORIENT_METHODS",
     "NormalsOptions",
     "NormalsResult",
@@ -44,10 +47,12 @@ __all__ = [
     "normal_job_for",
     "normals_and_table",
     "progress_bar",
+    "reason_counts",
     "read_input",
     "read_keeping_normals",
     "read_with_normals",
     "run_denoise",
+    "run_features",
     "run_normals",
     "run_segment",
     "run_tiled",
