@@ -2,17 +2,11 @@
 scan of all points for far queries (numba kernels; validated input assumed).
 
 Ordering convention: a neighbour j of query q is keyed by ``(d2, j)`` with
-``d2 = dx*dx + dy*dy + dz*dz`` in float64 (evaluated in exactly this order), so
-exact ties are broken by the smaller index; column 0 of a row is the query itself.
-See `grid` for the sorted-cell grid and its column index. Every path computes the
-same d2 of the same pairs and certifies its rows, so all give the same rows bit for
-bit (docs/decisions/neighbors.md, "Backends").
-
-Only the helpers of the per-point inner loops (`_insert`, `_box_d2`,
-`_count_within`, `grid.sq_dist`) are ``inline="always"``: numba's own inlining
-types a helper again at every call site, which cost the first compile of a k-NN
-query about 10 CPU-seconds; the other helpers are calls that LLVM may inline
-(same results, same speed on 10^6 points within the noise of the measurement).
+``d2 = dx*dx + dy*dy + dz*dz`` in float64 (evaluated in exactly this order), so exact ties
+are broken by the smaller index; column 0 of a row is the query itself. See `grid` for the
+sorted-cell grid and its column index. Every path computes the same d2 of the same pairs and
+certifies its rows, so all give the same rows bit for bit (docs/decisions/neighbors.md,
+"Backends"). Only per-point leaf helpers are ``inline="always"`` (slow for numba to compile).
 """
 
 from __future__ import annotations
