@@ -156,7 +156,7 @@ def _client(scheduler, n_workers: int):
                         threads_per_worker=1,
                         processes=True,
                         dashboard_address=None,
-                        silence_logs=logging.ERROR,
+                        silence_logs=logging.CRITICAL,
                     )
                 )
                 client = stack.enter_context(distributed.Client(cluster))

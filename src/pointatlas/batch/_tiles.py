@@ -377,7 +377,7 @@ def tile_client(options: TileOptions):
                         threads_per_worker=1,
                         processes=True,
                         dashboard_address=None,
-                        silence_logs=logging.ERROR,
+                        silence_logs=logging.CRITICAL,
                         **kwargs,
                     )
                 )
