@@ -359,7 +359,7 @@ def cloudsurface_command(
         float | None, typer.Option("--radius", help="2-D cover: big radius in units of s.")
     ] = None,
     cloud_points: Annotated[
-        str, typer.Option("--cloud-points", help="Realisation: centroid or centre (ball).")
+        str, typer.Option("--cloud-points", help="Realisation: centroid or center (ball).")
     ] = "centroid",
     from_mesh: Annotated[
         Path | None,
