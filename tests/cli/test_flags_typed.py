@@ -111,3 +111,53 @@ def test_simplify_flags_named_as_typed(tmp_path, bare, flags, words):
 def test_cloudsurface_cover_flags_named_as_typed(tmp_path, bare, flags, words):
     out = tmp_path / "cover"
     _refused_first(run("cloudsurface", bare, out, "--scale", "0.5", *flags), out, words)
+
+
+@pytest.fixture
+def bare_las(tmp_path):
+    """300 sphere points without normals, as LAS (a tiled run reads its header)."""
+    path = tmp_path / "bare.las"
+    write_point_set(path, sphere_points(N))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("command", "flags", "words"),
+    [
+        ("segment", ["--k", "100000000000"], "--k must be an integer in [1, 300]"),
+        ("segment", ["--normal-k", "100000"], "--normal-k must be an integer in [3, 300]"),
+        (
+            "denoise",
+            ["--method", "flatness", "--k", "100000000000"],
+            "--k must be an integer in [3, 299] (the number of points - 1)",
+        ),
+        (
+            "denoise",
+            ["--method", "flatness", "--k-start", "100000"],
+            "--k-start must be an integer in [28, 299]",
+        ),
+        ("features", ["--k", "100000000000"], "--k must be an integer in [1, 300]"),
+        ("features", ["--k-range", "5", "100000"], "--k-range must be an integer in [1, 300]"),
+    ],
+)
+def test_tiled_runs_check_counts_against_the_header_before_any_work(
+    tmp_path, bare_las, command, flags, words
+):
+    """A tiled run refuses what the untiled one refuses, before a tile starts (a huge
+    --k ran a tile's k-NN kernel for hours, deaf to Ctrl-C): no temporary folder."""
+    out = tmp_path / "out.las"
+    result = run(command, bare_las, out, "--tile-size", "1", *flags)
+    _refused_first(result, out, words)
+    assert not list(tmp_path.glob(".pointatlas-tiles*")), list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    ("flags", "words"),
+    [
+        (["--k", "100000"], "--k must be an integer in [1, 300]"),
+        (["--k-range", "5", "100000"], "--k-range must be an integer in [1, 300]"),
+    ],
+)
+def test_features_counts_named_as_typed(tmp_path, bare, flags, words):
+    out = tmp_path / "out.ply"
+    _refused_first(run("features", bare, out, "--weighting", "equal", *flags), out, words)

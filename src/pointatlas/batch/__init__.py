@@ -6,7 +6,7 @@ from ._runner import BatchReport, list_models, run_batch
 from ._tiles import ArraySource, TiledRun, TileOptions
 from ._tiles_denoise import tiled_denoise
 from ._tiles_features import tiled_features
-from ._tiles_files import input_has_normals, run_tile_job
+from ._tiles_files import input_has_normals, input_point_count, run_tile_job
 from ._tiles_grid import TileGrid, make_grid
 from ._tiles_jobs import (
     DenoiseTileJob,
@@ -30,6 +30,7 @@ __all__ = [
     "TileOptions",
     "TiledRun",
     "input_has_normals",
+    "input_point_count",
     "las_feature_fields",
     "list_models",
     "make_grid",

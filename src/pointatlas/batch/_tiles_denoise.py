@@ -102,8 +102,10 @@ def denoise_over(
     need, spec = halo_width(source, p, spacing)
     p["columns"] = spec.columns
     if options.halo is not None and options.halo < need:
+        # flatness' n_iter None: at most FLATNESS_MAX_ITER, the halo's rings
+        iterations = spec.rings if p["n_iter"] is None else p["n_iter"]
         raise PointAtlasError(
-            f"--halo {options.halo:g} is smaller than the reach of {p['n_iter']} denoising "
+            f"--halo {options.halo:g} is smaller than the reach of {iterations} denoising "
             f"iterations ({need:.4g}); use --halo {need:.4g} or more, or leave it out"
         )
     halo = float(options.halo) if options.halo is not None else need

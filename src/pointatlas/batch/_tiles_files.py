@@ -21,7 +21,7 @@ from ._tiles_jobs import ArrayStore, MappedStore, TileContext
 from ._tiles_las import LAS_EXTENSIONS, LasSource, las_feature_fields, write_streamed
 from ._tiles_tmp import clean_tmp, make_tmp
 
-__all__ = ["input_has_normals", "run_tile_job"]
+__all__ = ["input_has_normals", "input_point_count", "run_tile_job"]
 
 
 def run_tile_job(job, in_path, out_path, options, *, normals=None) -> dict:
@@ -189,3 +189,29 @@ def input_has_normals(path) -> bool:
         return _read_whole(p).normals is not None
     except PointAtlasError:
         return False
+
+
+def input_point_count(path) -> int:
+    """The number of points a tiled run of IN reads, before any work.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A point file (LAS/LAZ: its header's count, nothing else read), or a bundled
+        model name.
+
+    Returns
+    -------
+    n_points : int
+        Points in IN.
+
+    Notes
+    -----
+    The commands check their counts against it (``segment --k`` at most N, flatness'
+    ``--k`` below N) before a tiled run starts: a k-NN query of a huge k in a
+    tile's kernel would run for hours without a signal getting through.
+    """
+    p = Path(path)
+    if p.suffix.lower() in LAS_EXTENSIONS:
+        return LasSource(p).n
+    return _read_whole(p, with_normals=False).n_points

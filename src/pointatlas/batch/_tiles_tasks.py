@@ -270,24 +270,28 @@ def denoise_task(spec, data):
     Normal voting reads the tile's exact k-NN table (``columns`` of
     `pointatlas.denoise.denoise_halo`, owned rows certified) and the global l
     (``spacing``), so its owned points are those of the untiled run wherever the
-    counts are fixed. Flatness re-queries its neighbours on the moved points.
+    counts are fixed. Flatness re-queries its neighbours on the moved points. A
+    tile whose heights over the first result are two sheets (a thin plate) runs
+    each side apart, as the untiled command (`flatness_with_sides`,
+    `voting_with_pieces` without pieces; docs/decisions/batch.md, "Tiles —
+    denoising").
     """
-    from ..denoise import flatness_denoise, normal_voting_denoise
+    from ..denoise import flatness_with_sides, voting_with_pieces
 
     _threads(spec)
     p = spec["params"]
     grid, xyz, owner, owned, bdist = _setup(spec, data)
     nrm = data.get("normals")
     if p["method"] == "flatness":
-        res = flatness_denoise(
+        res = flatness_with_sides(
             xyz,
+            nrm,
             k=p["k"],
             eta=p["eta"],
             eps=p["eps"],
             n_iter=p["n_iter"],
             schedule=p["schedule"],
             k_start=p["k_start"],
-            normals=nrm,
         )
     else:
         table = None
@@ -295,9 +299,11 @@ def denoise_task(spec, data):
             table, fail = _certified_table(spec, xyz, owned, bdist, p["columns"])
             if fail:
                 return fail
-        res = normal_voting_denoise(
+        res = voting_with_pieces(
             xyz,
             nrm,
+            planes=False,
+            neighbors=table,
             rho=p["rho"],
             tau=p["tau"],
             n_iter=p["n_iter"],
@@ -305,7 +311,6 @@ def denoise_task(spec, data):
             n_update=p.get("n_update"),
             adaptive=p["method"] == "normal-voting-adaptive",
             max_step=p["max_step"],
-            neighbors=table,
             spacing=p["spacing"],
         )
     fields = {

@@ -19,8 +19,10 @@ from .._core.tolerances import MAX_ITERATIONS, MAX_LISTED_INDICES
 __all__ = [
     "VSA_FLAGS",
     "check_iterations",
+    "feature_counts",
     "flatness_counts",
     "named_as_typed",
+    "normal_k_check",
     "vsa_counts",
 ]
 
@@ -59,6 +61,11 @@ def check_iterations(value: int | None, flag: str) -> None:
         )
 
 
+def normal_k_check(normal_k: int, n_points: int) -> None:
+    """``--normal-k`` (the PCA neighbours of estimated normals) in [3, N]."""
+    as_int(normal_k, "--normal-k", lo=3, hi=n_points, note="the number of points")
+
+
 def vsa_counts(options) -> Callable[[int], None]:
     """The check of ``--k`` and ``--seeds`` against the number of points N (the bounds
     `pointatlas.segment.vsa_segment` applies, named by their flags)."""
@@ -90,5 +97,19 @@ def flatness_counts(k: int, k_start: int | None) -> Callable[[int], None]:
         as_int(k, "--k", lo=3, hi=n_points - 1, note="the number of points - 1")
         if k_start is not None:
             as_int(k_start, "--k-start", lo=k, hi=n_points - 1, note="--k .. number of points - 1")
+
+    return check
+
+
+def feature_counts(k: int | None, k_range) -> Callable[[int], None]:
+    """The check of ``features --k`` and ``--k-range`` against the number of points
+    (the bounds of `pointatlas.features`, named by their flags)."""
+
+    def check(n_points: int) -> None:
+        if k is not None:
+            as_int(k, "--k", lo=1, hi=n_points, note="the number of points")
+        if k_range is not None:
+            for end in k_range:
+                as_int(end, "--k-range", lo=1, hi=n_points, note="the number of points")
 
     return check

@@ -14,6 +14,7 @@ from ._api import (
     DENOISE_METHODS,
     choose_method,
     denoise,
+    flatness_with_sides,
     snap_planar_pieces,
     voting_with_pieces,
 )
@@ -57,6 +58,7 @@ __all__ = [
     "filter_normals",
     "flatness_denoise",
     "flatness_schedule",
+    "flatness_with_sides",
     "normal_mse",
     "normal_voting_denoise",
     "snap_planar_pieces",

@@ -24,6 +24,7 @@ __all__ = [
     "DENOISE_METHODS",
     "choose_method",
     "denoise",
+    "flatness_with_sides",
     "snap_planar_pieces",
     "voting_with_pieces",
 ]
@@ -109,7 +110,7 @@ def denoise(
     if method == "auto":
         method = choose_method(points, normals)
     if method == "flatness":
-        return _flatness_sides(points, normals, progress)
+        return flatness_with_sides(points, normals, progress=progress)
     return voting_with_pieces(
         points,
         normals,
@@ -119,7 +120,9 @@ def denoise(
     )
 
 
-def voting_with_pieces(points, normals=None, *, planes: bool = True, **options) -> DenoiseResult:
+def voting_with_pieces(
+    points, normals=None, *, planes: bool = True, neighbors=None, **options
+) -> DenoiseResult:
     """`normal_voting_denoise` with ``options``, then (``planes``) `snap_planar_pieces`.
 
     Parameters
@@ -131,9 +134,13 @@ def voting_with_pieces(points, normals=None, *, planes: bool = True, **options) 
     planes : bool
         Run the planar pieces after the local denoise (the default of `denoise`
         and ``pointatlas denoise``).
+    neighbors : array_like of shape (N, m), int, optional
+        The input's k-NN rows (the point first), at least min(48 (+10 adaptive), N)
+        columns, the first of which are used, e.g. a tile's exact table; None:
+        queried here.
     **options
         Keywords of `normal_voting_denoise` (``rho``, ``tau``, ``n_iter``,
-        ``adaptive``, ``progress``, ...), not ``neighbors``.
+        ``adaptive``, ``spacing``, ``progress``, ...).
 
     Returns
     -------
@@ -150,7 +157,10 @@ def voting_with_pieces(points, normals=None, *, planes: bool = True, **options) 
     width = DENOISE_K_MAX + (DENOISE_K_WIDTH if options.get("adaptive") else 0)
     # one thread for small inputs on a busy machine (_threads.py), also for the query
     with threads_for(n):
-        table = query_knn(pts, min(width, n))[0]
+        if neighbors is None:
+            table = query_knn(pts, min(width, n))[0]
+        else:
+            table = check_neighbors(neighbors, n, k=min(width, n))
         result = normal_voting_denoise(pts, normals, neighbors=table, **options)
         side = two_sides(pts, result.points, result.normals, table, result.spacing)
         if side is not None:  # a thin plate: each side on its own, no pieces (merge up to sign)
@@ -174,22 +184,58 @@ def _voting_sides(pts, normals, first, side, table, options) -> DenoiseResult:
     )
 
 
-def _flatness_sides(points, normals, progress) -> DenoiseResult:
-    """`flatness_denoise` at its defaults; on a thin plate (`two_sides`) each side's
-    points run apart."""
-    first = flatness_denoise(points, normals=normals, progress=progress)
+def flatness_with_sides(points, normals=None, *, progress=None, **options) -> DenoiseResult:
+    """`flatness_denoise` with ``options``; on a thin plate each side runs apart.
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3), float64
+        Noisy positions.
+    normals : array_like of shape (N, 3), float64, optional
+        Oriented normals (flatness only uses them to sign its own).
+    progress : callable, optional
+        Called with 1 after every iteration of the first run.
+    **options
+        Keywords of `flatness_denoise` (``k``, ``eta``, ``eps``, ``n_iter``,
+        ``schedule``, ``k_start``, ...).
+
+    Returns
+    -------
+    result : DenoiseResult
+        As `flatness_denoise`; on a thin plate the points of each side are those of a
+        run over that side alone.
+
+    Notes
+    -----
+    The heights of the input over the first result are tested for two sheets
+    (`two_sides`, docs/decisions/denoise.md, "Thin plates"): flatness pulls both
+    sides of a plate thinner than about 3 noise sigmas onto its mid-plane. Each
+    side then runs again on its own, when it has more points than ``k`` (and
+    ``k_start``).
+
+    Examples
+    --------
+    >>> from pointatlas.synth import plane_patch, add_normal_noise
+    >>> m = plane_patch(12, 12)
+    >>> noisy = add_normal_noise(m.points, m.normals, 0.3, rng=0)
+    >>> flatness_with_sides(noisy, k=14).points.shape
+    (144, 3)
+    """
+    first = flatness_denoise(points, normals=normals, progress=progress, **options)
     pts = as_points(points)
     n = pts.shape[0]
     with threads_for(n):
         table = query_knn(pts, min(DENOISE_K_MAX, n))[0]
         side = two_sides(pts, first.points, first.normals, table, first.spacing)
-    if side is None or min((side > 0).sum(), (side < 0).sum()) <= FLATNESS_K:
+    k = max(options.get("k") or FLATNESS_K, options.get("k_start") or 0)
+    if side is None or min((side > 0).sum(), (side < 0).sum()) <= k:
         return first
     out = np.empty_like(pts)
     energy = np.empty(n)
     for s in (1.0, -1.0):
         part = side == s
-        r = flatness_denoise(pts[part], normals=None if normals is None else first.normals[part])
+        given = None if normals is None else first.normals[part]
+        r = flatness_denoise(pts[part], normals=given, **options)
         out[part], energy[part] = r.points, r.energy
     return dataclasses.replace(
         first, points=out, energy=energy, displacement=np.sqrt(((out - pts) ** 2).sum(axis=1))

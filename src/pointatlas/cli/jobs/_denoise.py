@@ -21,10 +21,10 @@ from ...denoise import (
     choose_method,
     default_filter_iter,
     denoise_measures,
-    flatness_denoise,
+    flatness_with_sides,
     voting_with_pieces,
 )
-from .._flag_checks import check_iterations, flatness_counts
+from .._flag_checks import check_iterations, flatness_counts, normal_k_check
 from .._outputs import (
     XYZ_EXTENSIONS,
     check_outputs,
@@ -197,17 +197,27 @@ def _run_tiles(input_path, output, tiles, o: DenoiseOptions) -> dict:
         schedule=o.schedule,
         k_start=o.k_start,
     )
+    normals = normal_job_for(input_path, o.estimate_normals, o.normal_k)
+    flatness = flatness_counts(o.k, o.k_start) if job.params["method"] == "flatness" else None
+
+    def check(n_points: int) -> None:  # bounded by the input, before any work
+        if flatness is not None:
+            flatness(n_points)
+        if normals is not None:
+            normal_k_check(o.normal_k, n_points)
+
     return run_tiled(
         "denoise",
         job,
         input_path,
         output,
         tiles,
-        normals=normal_job_for(input_path, o.estimate_normals, o.normal_k),
+        normals=normals,
         side_files=denoise_side_files,
         report=o.report,
         parameters=job.params,
         color_by="displacement",
+        check=check,
     )
 
 
@@ -261,15 +271,15 @@ def _run(
     if method == "flatness":
         # n_iter None: at most 60, stopped once the points moved about the noise
         with progress_bar("flatness iterations", total=n_iter) as advance:
-            return flatness_denoise(
+            return flatness_with_sides(
                 ps.points,
+                ps.normals,
                 k=k,
                 eta=eta,
                 eps=eps,
                 n_iter=n_iter,
                 schedule=schedule,
                 k_start=k_start,
-                normals=ps.normals,
                 progress=advance,
             )
     # n_iter None: rounds until the points settle (normal_voting_denoise); total unknown;

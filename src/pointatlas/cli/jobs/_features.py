@@ -28,6 +28,7 @@ from ...features import (
     optimal_k_features,
     optimal_neighborhood,
 )
+from .._flag_checks import feature_counts
 from .._outputs import check_outputs, check_point_output, write_point_output
 from .._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
 from ._inputs import fill_unusable_normals, read_input, read_keeping_normals
@@ -114,6 +115,7 @@ def run_features(in_path, out_path, options: FeaturesOptions, tiles=None) -> Fea
             None, tiled=_run_tiles(in_path, out_path, o, tiles, weights, orient, a_vals, b_vals)
         )
     ps, ours, table, t0 = _read_for(in_path, out_path, estimate, o.k, o.k_range, orient)
+    feature_counts(o.k, o.k_range)(ps.n_points)
     result, mode = compute_features_for(
         ps.points,
         ps.normals,
@@ -187,6 +189,7 @@ def _run_tiles(in_path, out_path, o: FeaturesOptions, tiles, weights, orient, a_
         report=o.report,
         parameters=job.params,
         color_by="dimension_class",
+        check=feature_counts(o.k, o.k_range),
     )
 
 

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._core import PointAtlasError
+from .._flag_checks import normal_k_check
 from ._console import err_console, progress_bar, say
 from ._normals import compute_normals
 
@@ -144,7 +145,7 @@ def read_with_normals(
                 f"{path}: the input has no normals; drop --no-estimate-normals to estimate them"
             )
     _check_min_points(path, ps, min_points, what, check)
-    as_int(normal_k, "--normal-k", lo=3, hi=ps.n_points, note="the number of points")
+    normal_k_check(normal_k, ps.n_points)
     say(
         f"estimating normals: PCA with k = {normal_k}, MST orientation"
         + ("" if estimate else " (the input has none)"),

@@ -23,6 +23,7 @@ from ...batch import (
     SegmentTileJob,
     TileOptions,
     input_has_normals,
+    input_point_count,
     run_tile_job,
 )
 from ._console import say
@@ -181,7 +182,9 @@ def denoise_job(
                 "k": int(k),
                 "eta": eta,
                 "eps": eps,
-                "n_iter": 60 if n_iter is None else int(n_iter),
+                # None: each tile stops once its points moved about the noise, as
+                # the untiled default (at most 60 iterations: the halo's rings)
+                "n_iter": None if n_iter is None else int(n_iter),
                 "schedule": schedule,
                 "k_start": k_start,
             }
@@ -264,11 +267,18 @@ def run_tiled(
     report=None,
     parameters=None,
     color_by: str | None = None,
+    check=None,
 ) -> dict:
     """Run a command's ``job`` by tiles, write its side files (``side_files(OUT,
     summary) -> paths``) and ``report`` (an HTML report whose 3-D view reads every
     n-th point back from OUT, coloured by ``color_by``; ``parameters`` in its table),
-    print a summary line and the files written; returns the summary."""
+    print a summary line and the files written; returns the summary.
+
+    ``check`` (``n_points -> None``, raising `PointAtlasError`) refuses options
+    bounded by the input's size before any work, as the untiled commands do
+    (`pointatlas.batch.input_point_count`: a LAS header's count)."""
+    if check is not None:
+        check(input_point_count(in_path))
     summary = run_tile_job(job, in_path, out_path, options, normals=normals)
     written = [Path(out_path)]
     if side_files is not None:
