@@ -242,3 +242,21 @@ def winding_reference(x, points, normals, areas):
     r = np.linalg.norm(e, axis=2)
     dot = np.einsum("mnd,nd->mn", e, normals * areas[:, None])
     return (dot / np.maximum(r, 1e-300) ** 3).sum(axis=1) / (4.0 * np.pi)
+
+
+def band_field_reference(x, points, normals, dist, idx, step, spacing):
+    """The robust path's field at nodes ``x`` from their nearest points (``dist``,
+    ``idx`` (n, k), nearest first), in numpy over all nodes at once
+    (`pointatlas.simplify._kernels.band_field`): the Gaussian-weighted mean of the
+    tangent-plane distances of the neighbours within the nearest + ``spacing``; where
+    they disagree on the side, the nearest point's distance with their vote's sign."""
+    near = dist <= dist[:, :1] + spacing
+    w = np.where(near, np.exp(-((dist / step) ** 2)) + 1e-300, 0.0)
+    w /= w.sum(axis=1, keepdims=True)
+    signed = np.einsum("nkd,nkd->nk", normals[idx], x[:, None, :] - points[idx])
+    values = (w * signed).sum(axis=1)
+    side = np.sign(signed) * (np.abs(signed) > 1e-9 * step) * near  # on a plane: abstains
+    split = (side > 0).any(axis=1) & (side < 0).any(axis=1)
+    vote = side[split].sum(axis=1) + (w[split] * side[split]).sum(axis=1)
+    values[split] = np.where(vote >= 0.0, 1.0, -1.0) * dist[split, 0]
+    return values

@@ -1,5 +1,5 @@
-"""numba kernels of the decimation step (`_decimate.py`); plain-numpy references in
-tests/simplify/reference.py."""
+"""numba kernels of the decimation step (`_decimate.py`) and of the robust path's field
+(`_reconstruct.py`); plain-numpy references in tests/simplify/reference.py."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import heapq
 import numpy as np
 from numba import njit
 
-__all__ = ["collapse_edges", "collapse_position", "replay", "turns_over"]
+__all__ = ["band_field", "collapse_edges", "collapse_position", "replay", "turns_over"]
 
 
 @njit(cache=True)
@@ -296,3 +296,78 @@ def replay(n_vertices, tri, kept, gone, position, m):
         a, b, c = rep[tri[f, 0]], rep[tri[f, 1]], rep[tri[f, 2]]
         alive[f] = a != b and b != c and a != c
     return rep, moved, at, alive
+
+
+@njit(cache=True)
+def _numpy_sum(a, n) -> float:
+    """The sum of ``a[:n]`` (n <= 128) in numpy's order (`np.sum` of a row: pairwise,
+    eight partial sums from 8 elements on), so the kernel's field is numpy's bit for
+    bit."""
+    if n < 8:
+        s = 0.0
+        for i in range(n):
+            s += a[i]
+        return s
+    r0, r1, r2, r3, r4, r5, r6, r7 = a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]
+    top = n - n % 8
+    for i in range(8, top, 8):
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
+    s = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    for i in range(top, n):
+        s += a[i]
+    return s
+
+
+@njit(cache=True)
+def band_field(x, dist, gauss, idx, q, normals, step, spacing):
+    """The robust path's field at band nodes ``x`` (n, 3) from their ``k`` <= 128
+    nearest points (``dist``, ``idx`` (n, k), nearest first; ``gauss`` =
+    exp(-(dist / step)^2), from numpy, whose exp may differ from LLVM's in the last
+    bit): the weighted mean of the points' tangent-plane distances n . (x - p) over
+    the neighbours within the nearest + ``spacing``; where those disagree on the side,
+    the distance to the nearest point with the sign of their vote (`_reconstruct._field`).
+    Sums in numpy's order (the dot product as (n0 e0 + n2 e2) + n1 e1, as numpy's
+    einsum adds three terms): the plain-numpy reference's values bit for bit."""
+    n, k = dist.shape
+    out = np.empty(n)
+    w = np.empty(k)
+    signed = np.empty(k)
+    side = np.empty(k)
+    tmp = np.empty(k)
+    tol = 1e-9 * step
+    for i in range(n):
+        reach = dist[i, 0] + spacing
+        for m in range(k):
+            j = idx[i, m]
+            w[m] = gauss[i, m] + 1e-300 if dist[i, m] <= reach else 0.0
+            e0 = x[i, 0] - q[j, 0]
+            e1 = x[i, 1] - q[j, 1]
+            e2 = x[i, 2] - q[j, 2]
+            signed[m] = (normals[j, 0] * e0 + normals[j, 2] * e2) + normals[j, 1] * e1
+        total = _numpy_sum(w, k)
+        pos = False
+        neg = False
+        for m in range(k):
+            w[m] /= total
+            tmp[m] = w[m] * signed[m]
+            s = signed[m]
+            side[m] = 0.0
+            if abs(s) > tol and dist[i, m] <= reach:  # on a plane: abstains
+                side[m] = 1.0 if s > 0.0 else -1.0
+                pos |= s > 0.0
+                neg |= s < 0.0
+        value = _numpy_sum(tmp, k)
+        if pos and neg:  # the planes disagree: the nearest point's distance, voted
+            for m in range(k):
+                tmp[m] = w[m] * side[m]
+            vote = _numpy_sum(side, k) + _numpy_sum(tmp, k)
+            value = dist[i, 0] if vote >= 0.0 else -dist[i, 0]
+        out[i] = value
+    return out

@@ -151,25 +151,7 @@ def _field(q, normals, tree, step, spacing, origin, shape, closed):
     band = ndimage.binary_dilation(occupied, structure=np.ones((3, 3, 3), bool), iterations=width)
     band[[0, -1], :, :] = band[:, [0, -1], :] = band[:, :, [0, -1]] = False
     nodes = np.argwhere(band)
-    x = origin + nodes * step
-    k = min(FIELD_K, q.shape[0])
-    d, j = tree.query(x, k=k, workers=-1)
-    if k == 1:
-        d, j = d[:, None], j[:, None]
-    # only the neighbours about as near as the nearest one speak (the far side of a
-    # thin wall is left out)
-    near = d <= d[:, :1] + spacing
-    w = np.where(near, np.exp(-((d / step) ** 2)) + 1e-300, 0.0)
-    w /= w.sum(axis=1, keepdims=True)
-    signed = np.einsum("nkd,nkd->nk", normals[j], x[:, None, :] - q[j])
-    values = (w * signed).sum(axis=1)
-    # where the neighbours' planes disagree on the side (near an edge or a corner,
-    # where a plane extended past its face is wrong), the distance to the nearest
-    # point with the weighted vote's sign
-    side = np.sign(signed) * (np.abs(signed) > 1e-9 * step) * near  # on a plane: abstains
-    split = (side > 0).any(axis=1) & (side < 0).any(axis=1)
-    vote = side[split].sum(axis=1) + (w[split] * side[split]).sum(axis=1)
-    values[split] = np.where(vote >= 0.0, 1.0, -1.0) * d[split, 0]
+    values = _band_values(q, normals, tree, origin + nodes * step, step, spacing)
     f = np.zeros(shape, dtype=np.float64)
     f[band] = values
     # regions of nodes beyond the band: one sign each, by the band nodes next to them
@@ -193,6 +175,26 @@ def _field(q, normals, tree, step, spacing, origin, shape, closed):
     f[[0, -1], :, :] = f[:, [0, -1], :] = f[:, :, [0, -1]] = (width + 1) * step
     f[f == 0.0] = 1e-12 * step  # no node exactly on the level: no degenerate triangles
     return f
+
+
+def _band_values(q, normals, tree, x, step, spacing):
+    """The field at band nodes ``x``: the Gaussian-weighted mean of the `FIELD_K`
+    nearest points' tangent-plane distances n . (x - p), only the neighbours about
+    as near as the nearest one speaking (the far side of a thin wall is left out);
+    where their planes disagree on the side (near an edge or a corner, where a plane
+    extended past its face is wrong), the distance to the nearest point with the
+    weighted vote's sign (`band_field`; plain-numpy reference in
+    tests/simplify/reference.py)."""
+    from ._kernels import band_field
+
+    k = min(FIELD_K, q.shape[0])
+    d, j = tree.query(x, k=k, workers=-1)
+    d, j = d.reshape(x.shape[0], k), j.reshape(x.shape[0], k).astype(np.int64, copy=False)
+    gauss = np.exp(-((d / step) ** 2))
+    # writable C copies: one compiled signature whatever the caller's arrays
+    q = np.array(q, dtype=np.float64, order="C")
+    normals = np.array(normals, dtype=np.float64, order="C")
+    return band_field(x, d, gauss, j, q, normals, float(step), float(spacing))
 
 
 def _winding_sides(f, q, normals, occupied, step, spacing, origin):
