@@ -362,21 +362,35 @@ def fan_starts(points: np.ndarray, ids=None, edges=None):
     if n <= 3:
         yield 0
         return
-    normal = np.cross(p, np.roll(p, -1, axis=0)).sum(axis=0)  # Newell
-    turn = np.cross(p - np.roll(p, 1, axis=0), np.roll(p, -1, axis=0) - p) @ normal
+    after = np.concatenate((p[1:], p[:1]))  # np.roll(p, -1, axis=0)
+    normal = _cross(p, after).sum(axis=0)  # Newell
+    turn = _cross(p - np.concatenate((p[-1:], p[:-1])), after - p) @ normal
     scale = np.abs(turn).max(initial=0.0)
     order = np.argsort(turn >= 0.0, kind="stable")  # reflex vertices first
     flat = []
     for s in order.tolist():
         if edges is not None and _diagonal_in(ids, s, edges):
             continue
-        d = np.roll(p, -s, axis=0)[1:] - p[s]
-        area = np.cross(d[:-1], d[1:]) @ normal
+        d = np.concatenate((p[s + 1 :], p[:s])) - p[s]
+        area = _cross(d[:-1], d[1:]) @ normal
         if (area > 1e-12 * scale).all():
             yield s
         elif (area >= -1e-12 * scale).all():
             flat.append(s)
     yield from flat
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross`` of (n, 3) rows: the same products and differences, without its
+    axis handling (which costs more than the arithmetic on a polygon's few rows)."""
+    return np.stack(
+        (
+            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+        ),
+        axis=1,
+    )
 
 
 def _diagonal_in(ids, s: int, edges) -> bool:
