@@ -156,6 +156,7 @@ def _calls(tmp_path):
         "Mesh": lambda a: io.Mesh(a["vertices"], a["faces"]),
         "vertex_normals": lambda a: io.vertex_normals(a["vertices"], a["faces"]),
         "NeighborIndex": lambda a: neighbors.NeighborIndex(a["points"]),
+        "MeshDistanceIndex": lambda a: neighbors.MeshDistanceIndex(a["vertices"], a["faces"]),
         "knn_components": lambda a: neighbors.knn_components(a["points"], 4),
         "knn_graph": lambda a: neighbors.knn_graph(a["points"], 4),
         "mean_spacing": lambda a: neighbors.mean_spacing(a["points"]),

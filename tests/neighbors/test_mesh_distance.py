@@ -1,13 +1,13 @@
 """`point_mesh_distance` against a brute-force plain-numpy reference (every point
 against every triangle), on random meshes, degenerate triangles, points on the
-surface and far away."""
+surface and far away; `MeshDistanceIndex` (hints, `all_within`) against it."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pointatlas.neighbors import point_mesh_distance
+from pointatlas.neighbors import MeshDistanceIndex, point_mesh_distance
 from pointatlas.synth import torus
 from tests.jit_off import JIT_OFF, run_module_without_jit
 
@@ -135,6 +135,53 @@ def test_small_inputs_and_errors():
         point_mesh_distance([[0, 0]], tri, [[0, 1, 2]])
 
 
+def _torus_points(seed, n=300):
+    m = torus(n_major=30, n_minor=14)
+    rng = np.random.default_rng(seed)
+    v, f = m.points, m.faces
+    pts = v[rng.integers(0, len(v), n)] + rng.normal(scale=0.08, size=(n, 3))
+    return pts, v, f, rng
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_index_hints_give_the_same_distances(seed):
+    pts, v, f, rng = _torus_points(seed)
+    plain = point_mesh_distance(pts, v, f)
+    index = MeshDistanceIndex(v, f)
+    np.testing.assert_allclose(plain, reference(pts, v, f), rtol=1e-12, atol=1e-13)
+    np.testing.assert_array_equal(index.distance(pts), plain)
+    # a random triangle, a near one, or none per point: the same values bit for bit
+    hint = rng.integers(-1, len(f), len(pts))
+    np.testing.assert_array_equal(index.distance(pts, hint=hint), plain)
+    near = np.argmin(np.linalg.norm(pts[:, None] - v[f].mean(axis=1)[None], axis=2), axis=1)
+    np.testing.assert_array_equal(index.distance(pts, hint=near), plain)
+    # within: every value up to it stays up to it, every larger one is exact
+    w = float(np.median(plain))
+    got = index.distance(pts, within=w, hint=near)
+    assert np.all(got[plain <= w] <= w)
+    np.testing.assert_array_equal(got[plain > w], plain[plain > w])
+    with pytest.raises(ValueError, match="hint must hold one triangle"):
+        index.distance(pts, hint=np.full(len(pts), len(f)))
+    with pytest.raises(ValueError, match="hint must hold one triangle"):
+        index.distance(pts, hint=[0])
+
+
+@pytest.mark.parametrize("seed", [2, 3])
+def test_index_all_within_decides_as_the_distances(seed):
+    pts, v, f, rng = _torus_points(seed)
+    index = MeshDistanceIndex(v, f)
+    top = float(point_mesh_distance(pts, v, f).max())
+    below = float(np.nextafter(top, 0.0))
+    for bound in (0.0, 0.01, below, top, 2 * top):
+        want = bool(point_mesh_distance(pts, v, f, within=bound).max() <= bound)
+        assert index.all_within(pts, bound) is want
+        assert index.all_within(pts, bound, hint=rng.integers(-1, len(f), len(pts))) is want
+    assert index.all_within(pts, top) and not index.all_within(pts, below)
+    assert index.all_within(np.empty((0, 3)), 0.0)
+    with pytest.raises(ValueError, match="bound"):
+        index.all_within(pts, -1.0)
+
+
 @pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
 def test_kernels_without_jit():
-    run_module_without_jit(__file__, select="soup or degenerate or small_inputs")
+    run_module_without_jit(__file__, select="soup or degenerate or small_inputs or index")

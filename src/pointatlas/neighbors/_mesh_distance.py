@@ -1,4 +1,5 @@
-"""Exact distance from points to a triangle mesh (`point_mesh_distance`)."""
+"""Exact distance from points to a triangle mesh (`point_mesh_distance`, and
+`MeshDistanceIndex` for many queries against one mesh)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numpy as np
 from .._core import as_float, as_points
 from ._kernels.mesh_distance import build_bvh, bvh_distances
 
-__all__ = ["point_mesh_distance"]
+__all__ = ["MeshDistanceIndex", "point_mesh_distance"]
 
 #: most triangles in a leaf of the hierarchy
 _LEAF_SIZE = 8
@@ -89,23 +90,95 @@ def point_mesh_distance(points, vertices, triangles, *, within: float = 0.0) -> 
     verts = as_points(vertices, name="vertices")
     within = as_float(within, "within", lo=0.0)
     tri = _as_triangles(triangles, verts.shape[0])
-    out = np.empty(pts.shape[0])
     if pts.shape[0] == 0:
+        return np.empty(0)
+    return MeshDistanceIndex(verts, tri).distance(pts, within=within)
+
+
+class MeshDistanceIndex:
+    """A triangle mesh prepared for `point_mesh_distance` queries: the hierarchy is
+    built once, every query gives what `point_mesh_distance` gives on the mesh.
+
+    Parameters
+    ----------
+    vertices : array_like of shape (V, 3), float64
+    triangles : array_like of shape (T, 3), int
+        As in `point_mesh_distance` (T >= 1).
+
+    Examples
+    --------
+    >>> index = MeshDistanceIndex([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    >>> index.distance([[0.2, 0.2, 1.0]]), index.all_within([[0.2, 0.2, 1.0]], 0.5)
+    (array([1.]), False)
+    """
+
+    def __init__(self, vertices, triangles):
+        verts = as_points(vertices, name="vertices")
+        tri = _as_triangles(triangles, verts.shape[0])
+        lo, hi = verts.min(axis=0), verts.max(axis=0)
+        self._center = lo + 0.5 * (hi - lo)
+        corners = np.ascontiguousarray((verts - self._center)[tri].reshape(-1, 9))
+        self._boxes, self._first, self._count, order = build_bvh(corners, _LEAF_SIZE)
+        self._leaf_corners = np.ascontiguousarray(corners[order])
+        self._position = np.empty(tri.shape[0], dtype=np.int64)
+        self._position[order] = np.arange(tri.shape[0])
+        self._slack = (_PRUNE_RTOL * float(np.linalg.norm(hi - lo))) ** 2
+        self.n_triangles = int(tri.shape[0])
+
+    def distance(self, points, *, within: float = 0.0, hint=None) -> np.ndarray:
+        """Distance of every point to the mesh, as `point_mesh_distance` (``within``
+        likewise). ``hint`` (N,) int, optional: a triangle per point (-1: none) to
+        measure first; a near one makes the search shorter, the values are the same
+        (exact ones exactly, those up to ``within`` some value up to it)."""
+        pts = as_points(points, min_points=0)
+        within = as_float(within, "within", lo=0.0)
+        out = np.empty(pts.shape[0])
+        self._run(pts, out, within, np.inf, hint)
         return out
-    lo, hi = verts.min(axis=0), verts.max(axis=0)
-    center = lo + 0.5 * (hi - lo)
-    corners = np.ascontiguousarray((verts - center)[tri].reshape(-1, 9))
-    boxes, first, count, order = build_bvh(corners, _LEAF_SIZE)
-    extent = float(np.linalg.norm(hi - lo))
-    bvh_distances(
-        np.ascontiguousarray(pts - center),
-        np.ascontiguousarray(corners[order]),
-        boxes,
-        first,
-        count,
-        _PRUNE_RTOL,
-        (_PRUNE_RTOL * extent) ** 2,
-        out,
-        float(within) ** 2,
-    )
-    return out
+
+    def all_within(self, points, bound: float, *, hint=None) -> bool:
+        """Whether every point is at most ``bound`` from the mesh: the same answer as
+        ``distance(points, within=bound).max() <= bound`` (True without points), but
+        boxes beyond ``bound`` are skipped and the search ends at the first point
+        beyond it. ``hint`` as in `distance`."""
+        pts = as_points(points, min_points=0)
+        bound = as_float(bound, "bound", lo=0.0)
+        return not self._run(pts, np.empty(pts.shape[0]), bound, bound, hint)
+
+    def _run(self, pts, out, within, bound, hint) -> bool:
+        """Run the kernel; whether a point was found beyond ``bound``."""
+        if pts.shape[0] == 0:
+            return False
+        start = np.zeros(0, dtype=np.int64)
+        if hint is not None:
+            hint = np.asarray(hint, dtype=np.int64).reshape(-1)
+            if hint.shape[0] != pts.shape[0] or hint.max(initial=-1) >= self.n_triangles:
+                raise ValueError(
+                    f"hint must hold one triangle (< {self.n_triangles}) or -1 per point"
+                )
+            start = np.where(hint >= 0, self._position[np.maximum(hint, 0)], -1)
+            # points of one hint in a row: each starts from the one before it
+            order = np.argsort(start, kind="stable")
+            pts, start, sorted_out = pts[order], start[order], np.empty_like(out)
+            found = self._kernel(pts, start, sorted_out, within, bound)
+            out[order] = sorted_out
+            return found
+        return self._kernel(pts, start, out, within, bound)
+
+    def _kernel(self, pts, start, out, within, bound) -> bool:
+        stop = np.zeros(1, dtype=np.int64)
+        bvh_distances(
+            np.ascontiguousarray(pts - self._center),
+            self._leaf_corners,
+            self._boxes,
+            self._first,
+            self._count,
+            start,
+            _PRUNE_RTOL,
+            self._slack,
+            out,
+            float(within) ** 2,
+            float(bound),
+            stop,
+        )
+        return bool(stop[0])

@@ -122,6 +122,11 @@ class Collapses:
     def mesh(self, m: int):
         """The mesh after the first ``m`` collapses: ``(vertices, triangles, kept,
         source)`` as `decimate` returns them."""
+        return self.mesh_and_map(m)[:4]
+
+    def mesh_and_map(self, m: int):
+        """`mesh` and ``went`` (V,): the output vertex every input vertex became (-1
+        for a vertex on no triangle)."""
         n_v = self.vertices.shape[0]
         rep, moved, at, alive = replay(
             n_v, self.triangles, self.kept, self.gone, self.position, int(m)
@@ -129,10 +134,12 @@ class Collapses:
         v = np.where(moved[:, None], at, self.vertices)
         kept = np.flatnonzero(alive)
         tri = rep[self.triangles[kept]]
-        used = np.unique(tri)
+        is_used = np.zeros(n_v, dtype=bool)
+        is_used[tri.reshape(-1)] = True
+        used = np.flatnonzero(is_used)  # np.unique(tri), without its sort
         remap = np.full(n_v, -1, dtype=np.int64)
         remap[used] = np.arange(used.size)
-        return v[used], remap[tri], kept, used
+        return v[used], remap[tri], kept, used, remap[rep]
 
 
 def collapse_all(vertices, triangles, *, labels=None, planes=None, structure=1.0) -> Collapses:

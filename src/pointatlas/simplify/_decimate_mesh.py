@@ -15,8 +15,9 @@ import dataclasses
 import numpy as np
 
 from .._core import as_float, as_int, as_points
+from ..neighbors import MeshDistanceIndex
 from ._decimate import Collapses, collapse_all
-from ._distance import back_distances
+from ._distance import back_distances, output_samples_on
 from ._mesh import point_mesh_distance
 from ._mesh_path import (
     FLAT_MERGE_ANGLE,
@@ -116,7 +117,7 @@ def decimate_mesh(
     labels = _merge_flat(s, graph, labels, min(angle, FLAT_MERGE_ANGLE))
     planes = flat_planes(verts, tri, labels, int(labels.max()) + 1, FLAT_RTOL * diag)
     on = verts if run_used is None else verts[run_used]  # the vertices on a triangle
-    measure = MeshDistances(on, verts, tri)
+    measure = MeshDistances(on, verts, tri, run_used)
     level = Decimation(verts, tri, labels, planes, _PLACE_STEP * diag, 1e-9 * diag, measure)
     res = level.result(level.steps_for(max_triangles, max_error), PLANAR_RTOL * diag)
     if run_used is not None:
@@ -126,27 +127,51 @@ def decimate_mesh(
 
 class MeshDistances:
     """Whether an output is within a bound of a mesh both ways, as `surface_result`
-    measures it: ``on`` (the input vertices on a triangle) to the output, and the
-    output's vertices and samples (`back_distances`) to the input's triangles."""
+    measures it: ``on`` (the input vertices on a triangle; ``on_ids`` their rows of
+    ``verts``, None: all) to the output, and the output's vertices and samples
+    (`back_distances`) to the input's triangles (their hierarchy built once).
 
-    def __init__(self, on, verts, tri):
-        self.on, self.verts, self.tri = on, verts, tri
+    The decimation's lineage makes the searches short without changing a value:
+    every output triangle is an input triangle (``kept``), measured first from the
+    samples on it, and every input vertex went to an output vertex (``went``), whose
+    first triangle is measured first from it (`MeshDistanceIndex`'s ``hint``)."""
 
-    def within(self, out_v, out_t, bound: float) -> bool:
-        if point_mesh_distance(self.on, out_v, out_t, within=bound).max() > bound:
+    def __init__(self, on, verts, tri, on_ids=None):
+        self.on, self.verts, self.tri, self.on_ids = on, verts, tri, on_ids
+        self.index = MeshDistanceIndex(verts, tri)
+
+    def within(self, out_v, out_t, bound: float, lineage=None) -> bool:
+        """``lineage``: ``(kept, went)`` of `Collapses.mesh_and_map`, optional."""
+        there, back = self._hints(out_v, out_t, lineage)
+        if not MeshDistanceIndex(out_v, out_t).all_within(self.on, bound, hint=there):
             return False
-        return bool(back_distances(out_v, out_t, self.verts, self.tri, within=bound).max() <= bound)
+        samples, on = output_samples_on(out_v, out_t)
+        return self.index.all_within(samples, bound, hint=None if back is None else back[on])
 
     def error(self, out_v, out_t) -> float:
         """The largest distance both ways."""
         there = point_mesh_distance(self.on, out_v, out_t).max()
-        return float(max(there, back_distances(out_v, out_t, self.verts, self.tri).max()))
+        return float(max(there, back_distances(out_v, out_t, self.index).max()))
 
-    def report(self, out_v, out_t):
+    def report(self, out_v, out_t, lineage=None):
         """The distances `surface_result` reports: every vertex to the output, and the
         output's samples back to the input."""
-        there = point_mesh_distance(self.verts, out_v, out_t)
-        return there, back_distances(out_v, out_t, self.verts, self.tri)
+        hint, back = self._hints(out_v, out_t, lineage, every=True)
+        there = MeshDistanceIndex(out_v, out_t).distance(self.verts, hint=hint)
+        samples, on = output_samples_on(out_v, out_t)
+        return there, self.index.distance(samples, hint=None if back is None else back[on])
+
+    def _hints(self, out_v, out_t, lineage, every=False):
+        """The output triangle to measure first from every input vertex (of ``on``,
+        or of ``verts`` when ``every``), and the input triangle of every output one."""
+        if lineage is None:
+            return None, None
+        kept, went = lineage
+        first = np.full(out_v.shape[0] + 1, -1, dtype=np.int64)  # the last: none
+        first[out_t[::-1].reshape(-1)] = np.repeat(np.arange(out_t.shape[0] - 1, -1, -1), 3)
+        if not every and self.on_ids is not None:
+            went = went[self.on_ids]
+        return first[went], kept
 
 
 class Decimation:
@@ -164,20 +189,35 @@ class Decimation:
         self.step, self.still, self.measure, self.box = step, still, measure, box
         self.n_regions = int(labels.max()) + 1
         self.seq: Collapses = collapse_all(verts, tri, labels=labels, planes=planes)
+        self._kept_level = None
 
     def placed(self, m: int):
         """The mesh after ``m`` collapses with its vertices on their flat planes."""
-        out_v, out_t, kept, source = self.seq.mesh(m)
+        return self._placed(m)[:4]
+
+    def _placed(self, m: int):
+        """`placed` and the lineage ``(kept, went)`` (`MeshDistances`); the level last
+        found within the bound is kept (`result` asks for it again)."""
+        if self._kept_level is not None and self._kept_level[0] == m:
+            return self._kept_level[1]
+        out_v, out_t, kept, source, went = self.seq.mesh_and_map(m)
         face = self.labels[kept]
         out_v = place_on_planes(out_v, out_t, face, *self.planes, self.step, self.still)
         if self.box is not None:  # no vertex beyond the box (lo, hi)
             out_v = np.clip(out_v, *self.box)
-        return out_v, out_t, face, source
+        return out_v, out_t, face, source, (kept, went)
 
     def within(self, m: int, bound: float) -> bool:
         """Whether the output after ``m`` collapses is within ``bound`` (``measure``)."""
-        out_v, out_t, _, _ = self.placed(m)
-        return self.measure.within(out_v, out_t, bound)
+        placed = self._placed(m)
+        out_v, out_t, _, _, lineage = placed
+        if isinstance(self.measure, MeshDistances):
+            ok = self.measure.within(out_v, out_t, bound, lineage)
+        else:
+            ok = self.measure.within(out_v, out_t, bound)
+        if ok:
+            self._kept_level = (m, placed)
+        return ok
 
     def error(self, m: int) -> float:
         """The largest distance both ways after ``m`` collapses (``measure``)."""
@@ -217,8 +257,12 @@ class Decimation:
     def result(self, m: int, planar_tol: float) -> SurfaceSimplification:
         """The `SurfaceSimplification` after ``m`` collapses: one face per region
         that kept a triangle (a small region can be collapsed away whole)."""
-        out_v, out_t, region, source = self.placed(m)
+        out_v, out_t, region, source, lineage = self._placed(m)
         present, face = np.unique(region, return_inverse=True)
+        if isinstance(self.measure, MeshDistances):
+            distances = self.measure.report(out_v, out_t, lineage)
+        else:
+            distances = self.measure.report(out_v, out_t)
         res = surface_result(
             self.verts,
             self.tri,
@@ -232,6 +276,6 @@ class Decimation:
             planar_tol=planar_tol,
             chord_tolerance=float("nan"),
             n_refined=0,
-            distances=self.measure.report(out_v, out_t),
+            distances=distances,
         )
         return dataclasses.replace(res, face_region=present.astype(np.int64))

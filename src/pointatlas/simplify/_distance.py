@@ -12,10 +12,17 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..neighbors import point_mesh_distance
+from ..neighbors import MeshDistanceIndex, point_mesh_distance
 from ..synth import sample_mesh
 
-__all__ = ["BACK_SAMPLES", "DISC_NEIGHBOR", "PointSurface", "back_distances", "output_samples"]
+__all__ = [
+    "BACK_SAMPLES",
+    "DISC_NEIGHBOR",
+    "PointSurface",
+    "back_distances",
+    "output_samples",
+    "output_samples_on",
+]
 
 #: Area-uniform samples of the output surface measured back to the input.
 BACK_SAMPLES = 20_000
@@ -67,19 +74,39 @@ def output_samples(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0) ->
     >>> output_samples(v, np.array([[0, 1, 2]]), n=5).shape
     (8, 3)
     """
+    return output_samples_on(vertices, triangles, n, seed)[0]
+
+
+def output_samples_on(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0):
+    """`output_samples` and a triangle each sample lies on (one around a vertex).
+
+    Examples
+    --------
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.0]])
+    >>> output_samples_on(v, np.array([[0, 1, 2], [2, 1, 3]]), n=2)[1].tolist()
+    [0, 0, 0, 1, 1, 0]
+    """
     v = np.asarray(vertices, dtype=np.float64)
     t = np.asarray(triangles, dtype=np.int64)
-    corners = v[np.unique(t)]
+    is_used = np.zeros(v.shape[0], dtype=bool)
+    is_used[t.reshape(-1)] = True
+    used = np.flatnonzero(is_used)  # np.unique(t), without its sort
+    around = np.zeros(v.shape[0], dtype=np.int64)
+    # the first triangle around every vertex (reversed: the first write is the last)
+    around[t[::-1].reshape(-1)] = np.repeat(np.arange(t.shape[0] - 1, -1, -1), 3)
+    corners, on = v[used], around[used]
     area = np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
     if t.shape[0] == 0 or not area.sum() > 0.0:
-        return corners
-    return np.vstack([corners, sample_mesh(v, t, n, rng=seed).points])
+        return corners, on
+    sample = sample_mesh(v, t, n, rng=seed)
+    return np.vstack([corners, sample.points]), np.concatenate([on, sample.face_index])
 
 
 def back_distances(out_v, out_t, in_v, in_t=None, *, within: float = 0.0) -> np.ndarray:
-    """Distance of `output_samples` to the input: its triangles, or its points'
-    surface (a `PointSurface`, or the nearest point when ``in_v`` is an array);
-    ``within``: as in `point_mesh_distance`, triangles only.
+    """Distance of `output_samples` to the input: its triangles (or their
+    `MeshDistanceIndex`), or its points' surface (a `PointSurface`, or the nearest
+    point when ``in_v`` is an array); ``within``: as in `point_mesh_distance`,
+    triangles only.
 
     Examples
     --------
@@ -91,6 +118,8 @@ def back_distances(out_v, out_t, in_v, in_t=None, *, within: float = 0.0) -> np.
     samples = output_samples(out_v, out_t)
     if isinstance(in_v, PointSurface):
         return in_v.distance(samples)
+    if isinstance(in_v, MeshDistanceIndex):
+        return in_v.distance(samples, within=within)
     if in_t is None:
         return cKDTree(np.asarray(in_v, dtype=np.float64)).query(samples, workers=-1)[0]
     return point_mesh_distance(samples, in_v, np.asarray(in_t, dtype=np.int64), within=within)

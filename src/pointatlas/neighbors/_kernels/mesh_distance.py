@@ -184,7 +184,9 @@ def _box_sq(px, py, pz, boxes, node):
 
 
 @njit(cache=True, parallel=True)
-def bvh_distances(points, leaf_corners, boxes, first, count, slack_rel, slack_abs, out, enough=0.0):
+def bvh_distances(
+    points, leaf_corners, boxes, first, count, start, slack_rel, slack_abs, out, enough, bound, stop
+):
     """Distance from every point to the nearest triangle of a `build_bvh` hierarchy.
 
     Parameters
@@ -193,6 +195,12 @@ def bvh_distances(points, leaf_corners, boxes, first, count, slack_rel, slack_ab
     leaf_corners : (T, 9) float64
         ``corners[order]``: the triangles in leaf order.
     boxes, first, count : arrays of `build_bvh`
+    start : (N,) or (0,) int64
+        Position (in leaf order) of a triangle to measure first, -1 for none; an
+        empty array: none for every point. A hinted point also measures the nearest
+        triangle found for the chunk's previous point (points in the order of their
+        hints share it). Only the order of the search changes (the first distances
+        bound the descent), not the minimum found.
     slack_rel, slack_abs : float
         A box is skipped when its squared distance exceeds
         ``best * (1 + slack_rel) + slack_abs`` (round-off margin of the bound).
@@ -201,49 +209,55 @@ def bvh_distances(points, leaf_corners, boxes, first, count, slack_rel, slack_ab
     enough : float
         A squared distance at which a point's search stops (0: exact); its value is
         then some distance at most ``sqrt(enough)``.
+    bound : float
+        Boxes farther than ``bound`` (with the margin) are skipped, and the first
+        point found farther than ``bound`` sets ``stop[0] = 1``: the points not yet
+        measured are skipped (their ``out`` is undefined). ``inf``: neither.
+    stop : (1,) int64
+        Set to 1 when a point is farther than ``bound`` (read, never cleared).
     """
     n = points.shape[0]
     n_chunks = (n + _CHUNK - 1) // _CHUNK
     grow = 1.0 + slack_rel
+    cut = bound * bound * grow + slack_abs
+    hinted = start.shape[0] > 0
     for ch in prange(n_chunks):
         st = np.empty(_STACK, dtype=np.int64)
         sd = np.empty(_STACK)
+        last = -1  # the nearest triangle of the chunk's previous point
         for i in range(ch * _CHUNK, min(n, (ch + 1) * _CHUNK)):
+            if stop[0] != 0:
+                break
             px, py, pz = points[i, 0], points[i, 1], points[i, 2]
             best = np.inf
+            if hinted and start[i] >= 0:
+                best = _leaf_sq(px, py, pz, leaf_corners, start[i])
+                if best > enough and last >= 0:
+                    best = min(best, _leaf_sq(px, py, pz, leaf_corners, last))
+            if best <= enough:
+                out[i] = np.sqrt(best)
+                continue
             st[0] = 0
             sd[0] = 0.0
             top = 1
             while top > 0:
                 top -= 1
                 node = st[top]
-                if sd[top] > best * grow + slack_abs:
+                limit = min(best * grow + slack_abs, cut)
+                if sd[top] > limit:
                     continue
                 if count[node] > 0:
                     for j in range(first[node], first[node] + count[node]):
-                        d = closest_sq(
-                            px,
-                            py,
-                            pz,
-                            leaf_corners[j, 0],
-                            leaf_corners[j, 1],
-                            leaf_corners[j, 2],
-                            leaf_corners[j, 3],
-                            leaf_corners[j, 4],
-                            leaf_corners[j, 5],
-                            leaf_corners[j, 6],
-                            leaf_corners[j, 7],
-                            leaf_corners[j, 8],
-                        )
+                        d = _leaf_sq(px, py, pz, leaf_corners, j)
                         if d < best:
                             best = d
+                            last = j
                     if best <= enough:
                         break
                     continue
                 left = first[node]
                 dl = _box_sq(px, py, pz, boxes, left)
                 dr = _box_sq(px, py, pz, boxes, left + 1)
-                limit = best * grow + slack_abs
                 # push the farther child first: the nearer one is taken next
                 if dl <= dr:
                     if dr <= limit:
@@ -260,3 +274,24 @@ def bvh_distances(points, leaf_corners, boxes, first, count, slack_rel, slack_ab
                         st[top], sd[top] = left + 1, dr
                         top += 1
             out[i] = np.sqrt(best)
+            if out[i] > bound:
+                stop[0] = 1
+
+
+@njit(cache=True, inline="always")
+def _leaf_sq(px, py, pz, leaf_corners, j):
+    """Squared distance from p to the triangle at leaf position ``j``."""
+    return closest_sq(
+        px,
+        py,
+        pz,
+        leaf_corners[j, 0],
+        leaf_corners[j, 1],
+        leaf_corners[j, 2],
+        leaf_corners[j, 3],
+        leaf_corners[j, 4],
+        leaf_corners[j, 5],
+        leaf_corners[j, 6],
+        leaf_corners[j, 7],
+        leaf_corners[j, 8],
+    )
