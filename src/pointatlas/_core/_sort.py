@@ -68,7 +68,10 @@ def radix_sort_payload(keys, payload, keys2, payload2):
             count[p, ((key >> np.uint64(_DIGIT_BITS * p)) & mask) + 1] += 1
     for p in range(_N_PASSES):
         c = count[p]
-        if c.max() == n:
+        one_bucket = False  # all keys share the digit: the pass keeps the order
+        for d in range(n_buckets + 1):  # a loop: numba's c.max() compiles for a second
+            one_bucket = one_bucket or c[d] == n
+        if one_bucket:
             continue
         for d in range(n_buckets):
             c[d + 1] += c[d]
@@ -117,8 +120,11 @@ def morton_order(points, bits):
     """
     n = points.shape[0]
     n_cells = 1 << (3 * bits)
-    lo = np.full(3, np.inf)
-    hi = np.full(3, -np.inf)
+    lo = np.empty(3)  # np.empty + a loop, not np.full: one spelling less to compile
+    hi = np.empty(3)
+    for d in range(3):
+        lo[d] = np.inf
+        hi[d] = -np.inf
     for i in range(n):
         x = points[i, 0]
         y = points[i, 1]

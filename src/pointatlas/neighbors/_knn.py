@@ -24,6 +24,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .._core import as_float, as_k, as_points, readonly
+from .._core._threads import run_chunks
 from .._core.tolerances import RADIUS_QUERY_WIDEN
 from . import _kernels as K
 from ._grid import (
@@ -222,29 +223,11 @@ class NeighborIndex:
         out_idx = np.empty((n_out, k), dtype=np.int64)
         out_d2 = np.empty((n_out, k), dtype=np.float64)
         failed = np.zeros(n_out, dtype=np.bool_)
-        K.knn_grid(
-            grid.xs,
-            grid.ys,
-            grid.zs,
-            grid.ids,
-            grid.ukeys,
-            grid.cstart,
-            column_index(grid),
-            grid.lo,
-            grid.h,
-            grid.nx,
-            grid.ny,
-            grid.nz,
-            k,
-            _MAX_RING[self.backend],
-            qcells,
-            qstart,
-            qpos,
-            qout,
-            out_idx,
-            out_d2,
-            failed,
-        )
+        cells = (grid.xs, grid.ys, grid.zs, grid.ids, grid.ukeys, grid.cstart)
+        cells += (column_index(grid), grid.lo, grid.h, grid.nx, grid.ny, grid.nz)
+        outputs = (out_idx, out_d2, failed)
+        args = (cells, (qcells, qstart, qpos, qout), outputs, k, _MAX_RING[self.backend])
+        run_chunks(K.knn_grid, qcells.size, args)
         bad = np.flatnonzero(failed)
         if bad.size:
             point = bad if queries is None else queries[bad]

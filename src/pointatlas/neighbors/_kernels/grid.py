@@ -119,12 +119,15 @@ def occupancy_levels(xs, ys, zs, ukeys, cstart, lo, h, ny, nz):
     s1 = 0.0
     s2 = 0.0
     inv_q = 4.0 / h
+    cnt = np.empty(64, dtype=np.int64)
+    same = np.empty(64, dtype=np.bool_)
+    fx = np.empty(64)
+    fy = np.empty(64)
+    fz = np.empty(64)
     for c in range(n_cells):
-        cnt = np.zeros(64, dtype=np.int64)
-        same = np.ones(64, dtype=np.bool_)
-        fx = np.empty(64)
-        fy = np.empty(64)
-        fz = np.empty(64)
+        for s in range(64):
+            cnt[s] = 0
+            same[s] = True
         key = ukeys[c]
         kz = key % nz
         t = key // nz

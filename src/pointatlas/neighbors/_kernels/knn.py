@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..._core.tolerances import GRID_CELL_MARGIN, KDTREE_CERTIFY_RTOL
-from .grid import cell_coords, cells_in_column, interleaved_chunks, sq_dist
+from .grid import cell_coords, cells_in_column, sq_dist
 
 __all__ = ["knn_brute", "knn_grid", "select_candidates", "sqrt_inplace"]
 
@@ -427,14 +427,27 @@ def _flush_rows(tb_i, tb_d, tb_r, nb, out_idx, out_d2):
             out_d2[row, u] = tb_d[b, u]
 
 
-@njit(cache=True)
-def _knn_groups(grid, queries, outputs, k, max_ring, g0, g1):
-    """`knn_grid` for the query groups g0 .. g1 - 1 (one chunk, serial); ``grid``,
-    ``queries`` and ``outputs`` are `knn_grid`'s arguments in tuples.
+@njit(cache=True, nogil=True)
+def knn_grid(grid, queries, outputs, k, max_ring, g0, g1):
+    """k nearest neighbours (itself in column 0) of the queried points of the groups
+    g0 .. g1 - 1, on the grid (serial; the GIL released, so the caller runs pieces of
+    the groups on several threads at once, `run_chunks`).
 
-    A function of its own rather than the body of `knn_grid`'s ``prange``: numba's
-    parallel passes then see a one-call loop, which cuts the first compile of the
-    k-NN query from about 45 to 30 CPU-seconds (same code, same results).
+    ``grid`` is ``(xs, ys, zs, ids, ukeys, cstart, colptr, lo, h, nx, ny, nz)``,
+    ``queries`` ``(qcells, qstart, qpos, qout)`` and ``outputs`` ``(out_idx, out_d2,
+    failed)``. Queries come grouped by cell: group g is cell ``qcells[g]`` with the
+    cell-order positions ``qpos[qstart[g]:qstart[g + 1]]``, written to output rows
+    ``qout`` (all points: ``qcells = arange``, ``qstart = cstart``, ``qpos = arange``,
+    ``qout = ids``). Per group the occupied cells of its 3 x 3 x 3 block are listed
+    once (`_block_cells`) and their points gathered (`_gather_block`); each query
+    then takes its m = k - 1 best from the gathered block (`_select_gathered`; too
+    large a block: `_scan_block`) and searches further rings (`_scan_shell`) until
+    `_done`. A query not certified after ``max_ring`` rings, or `_hopeless` after
+    `_PATIENCE`, sets ``failed`` (the caller answers those rows exactly elsewhere).
+    Finished rows go through a buffer (`_ROW_BUFFER`). Every row is exact and
+    computed by one call, so the rows do not depend on how the groups are split:
+    threads rather than numba's ``parallel=True``, whose compile cost about 5 of
+    the query's 15 CPU-seconds on an empty cache.
     """
     xs, ys, zs, ids, ukeys, cstart, colptr, lo, h, nx, ny, nz = grid
     qcells, qstart, qpos, qout = queries
@@ -569,55 +582,6 @@ def _knn_groups(grid, queries, outputs, k, max_ring, g0, g1):
                 tb_i[slot, u + 1] = bi[u]
                 tb_d[slot, u + 1] = bd[u]
     _flush_rows(tb_i, tb_d, tb_r, nb, out_idx, out_d2)
-
-
-@njit(cache=True, parallel=True)
-def knn_grid(
-    xs,
-    ys,
-    zs,
-    ids,
-    ukeys,
-    cstart,
-    colptr,
-    lo,
-    h,
-    nx,
-    ny,
-    nz,
-    k,
-    max_ring,
-    qcells,
-    qstart,
-    qpos,
-    qout,
-    out_idx,
-    out_d2,
-    failed,
-):
-    """k nearest neighbours (itself in column 0) of the queried points, on the grid.
-
-    Queries come grouped by cell: group g is cell ``qcells[g]`` with the cell-order
-    positions ``qpos[qstart[g]:qstart[g + 1]]``, written to output rows ``qout``
-    (all points: ``qcells = arange``, ``qstart = cstart``, ``qpos = arange``,
-    ``qout = ids``). Per group the occupied cells of its 3 x 3 x 3 block are listed
-    once (`_block_cells`) and their points gathered (`_gather_block`); each query
-    then takes its m = k - 1 best from the gathered block (`_select_gathered`; too
-    large a block: `_scan_block`) and searches further rings (`_scan_shell`) until
-    `_done`. A query not certified after ``max_ring`` rings, or `_hopeless` after
-    `_PATIENCE`, sets ``failed`` (the caller answers those rows exactly elsewhere).
-    Finished rows go through a per-thread buffer (`_ROW_BUFFER`). Each chunk of
-    groups is one call of `_knn_groups`.
-    """
-    n_groups = qcells.shape[0]
-    n_chunks, stride = interleaved_chunks(n_groups)
-    for t in prange(n_chunks):
-        chunk = (t * stride) % n_chunks
-        g0 = chunk * n_groups // n_chunks
-        g1 = (chunk + 1) * n_groups // n_chunks
-        grid = (xs, ys, zs, ids, ukeys, cstart, colptr, lo, h, nx, ny, nz)
-        queries = (qcells, qstart, qpos, qout)
-        _knn_groups(grid, queries, (out_idx, out_d2, failed), k, max_ring, g0, g1)
 
 
 # ------------------------------------------------------------------- k-d tree path

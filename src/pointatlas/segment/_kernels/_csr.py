@@ -255,16 +255,19 @@ def touched_points(indptr, indices, labels, foreign, dirty):
     full scan would.
     """
     n = labels.shape[0]
-    mark = np.zeros(n, dtype=np.uint8)
+    # bool, as `boundary_points`' flatnonzero, and np.empty + a loop: compiled once
+    mark = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        mark[i] = False
     for i in range(n):
         if foreign[i] == 0 or not dirty[labels[i]]:
             continue
-        mark[i] = 1
+        mark[i] = True
         li = labels[i]
         for t in range(indptr[i], indptr[i + 1]):
             j = indices[t]
             if labels[j] != li:
-                mark[j] = 1
+                mark[j] = True
     return np.flatnonzero(mark)
 
 
@@ -273,7 +276,7 @@ def farthest_neighbor_distances(indptr, indices, points):
     """Per point, the distance to its farthest graph neighbour (0.0 without one):
     sqrt((dx^2 + dy^2) + dz^2) of q - p, the sum `_sums.row_norms` forms."""
     n = indptr.shape[0] - 1
-    out = np.zeros(n)
+    out = np.empty(n)
     for i in range(n):
         far = 0.0
         for e in range(indptr[i], indptr[i + 1]):

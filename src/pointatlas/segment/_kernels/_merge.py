@@ -167,22 +167,51 @@ def _acceptable(cost, w, s, eta, min_cos, use_angle):
     return (s >= min_cos * w) if use_angle else (cost < eta)
 
 
-@njit(cache=True, parallel=True)
-def _pair_costs(pairs, ws, eta, min_cos, use_angle):
-    """Union cost (+0.0 for -0.0: keys compare by their bits) of every pair and
-    whether the union is acceptable (`greedy_merge`'s initial entries; parallel,
-    the region sums of the pairs a few rows ahead prefetched)."""
+@njit(cache=True)
+def _initial_entries(pairs, ws, eta, min_cos, use_angle):
+    """The acceptable pairs as entries, in the order of ``pairs``: their union cost
+    (+0.0 for -0.0: keys compare by their bits) and pair code (a << 32) | b, and
+    whether the codes increase (`greedy_merge`'s initial entries; the region sums of
+    the pairs a few rows ahead prefetched). Serial: a parallel loop cost numba about
+    a CPU-second of compile for a pass that is a small part of the merge."""
     n = pairs.shape[0]
-    costs = np.empty(n)
-    keep = np.empty(n, dtype=np.bool_)
-    for e in prange(n):
+    keys = np.empty(n)
+    codes = np.empty(n, dtype=np.int64)
+    n_init = 0
+    for e in range(n):
         if e + _AHEAD_PARENT < n:
             _prefetch(ws, pairs[e + _AHEAD_PARENT, 0])
             _prefetch(ws, pairs[e + _AHEAD_PARENT, 1])
-        cost, w, s = _union_cost(ws, pairs[e, 0], pairs[e, 1])
-        keep[e] = _acceptable(cost, w, s, eta, min_cos, use_angle)
-        costs[e] = cost + 0.0
-    return costs, keep
+        a = pairs[e, 0]
+        b = pairs[e, 1]
+        cost, w, s = _union_cost(ws, a, b)
+        if _acceptable(cost, w, s, eta, min_cos, use_angle):
+            keys[n_init] = cost + 0.0
+            codes[n_init] = (min(a, b) << 32) | max(a, b)
+            n_init += 1
+    increasing = True
+    for e in range(1, n_init):
+        if codes[e] <= codes[e - 1]:
+            increasing = False
+            break
+    return keys[:n_init], codes[:n_init], increasing
+
+
+@njit(cache=True)
+def _by_code(keys, codes):
+    """Entries (``keys``, ``codes``) ordered stably by pair code (codes >= 0), with
+    the radix sort of `_sort_entries`."""
+    n = codes.shape[0]
+    sorted_codes, by_pair = radix_sort_payload(
+        codes.view(np.uint64).copy(),
+        np.arange(n),
+        np.empty(n, dtype=np.uint64),
+        np.empty(n, dtype=np.int64),
+    )
+    by_code = np.empty(n)
+    for e in range(n):
+        by_code[e] = keys[by_pair[e]]
+    return by_code, sorted_codes.view(np.int64)
 
 
 @njit(cache=True)
@@ -225,45 +254,6 @@ def _aligned_sums(wsum, ssum):
         ws[r, 2] = ssum[r, 1]
         ws[r, 3] = ssum[r, 2]
     return ws
-
-
-@njit(cache=True)
-def _initial_stream(pairs, ws, eta, min_cos, use_angle):
-    """The acceptable pairs as entries (cost bits, pair code), sorted by (cost,
-    pair): ``pairs`` are ordered by code first (when not already increasing),
-    then stably by cost."""
-    n_init = 0
-    k0 = np.empty(pairs.shape[0], dtype=np.float64)
-    p0 = np.empty(pairs.shape[0], dtype=np.int64)
-    costs, keep = _pair_costs(pairs, ws, eta, min_cos, use_angle)
-    for e in range(pairs.shape[0]):
-        if keep[e]:
-            a = pairs[e, 0]
-            b = pairs[e, 1]
-            k0[n_init] = costs[e]
-            p0[n_init] = (min(a, b) << 32) | max(a, b)
-            n_init += 1
-    k0 = k0[:n_init]
-    p0 = p0[:n_init]
-    increasing = True
-    for e in range(1, n_init):
-        if p0[e] <= p0[e - 1]:
-            increasing = False
-            break
-    if not increasing:
-        # stably by pair code (>= 0): the radix sort `_sort_entries` compiles anyway
-        codes, by_pair = radix_sort_payload(
-            p0.view(np.uint64).copy(),
-            np.arange(n_init),
-            np.empty(n_init, dtype=np.uint64),
-            np.empty(n_init, dtype=np.int64),
-        )
-        p0 = codes.view(np.int64)
-        k1 = np.empty(n_init)
-        for e in range(n_init):
-            k1[e] = k0[by_pair[e]]
-        k0 = k1
-    return _sort_entries(k0, p0)  # stable: ties stay sorted by pair
 
 
 @njit(cache=True, inline="always")
@@ -340,7 +330,6 @@ def _roots(parent):
     return roots
 
 
-@njit(cache=True)
 def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
     """Cheapest-union-first merging on the region adjacency graph (4.3.3 b).
 
@@ -372,13 +361,33 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
     the result, is that of the plain loop. The loop is one function (about 60
     lines) because its state (stream head, heap, versions, dedupe table) is
     shared by every step.
+
+    The stages (`_aligned_sums`, `_initial_entries`, `_by_code` when the pairs
+    are not in code order, `_sort_entries`, `_merge_stream`) are kernels called
+    from Python one after the other: numba optimizes and emits the code of a kernel
+    together with every kernel it calls, so one kernel calling the others would
+    compile their code a second time (about a CPU-second on an empty cache), and
+    `_by_code` compiles only for an input that needs it.
     """
     m = wsum.shape[0]
     if m >= 2**31 - 1:
         raise ValueError("greedy_merge: at most 2**31 - 2 regions")
     ws = _aligned_sums(wsum, ssum)
+    keys, codes, increasing = _initial_entries(pairs, ws, eta, min_cos, use_angle)
+    if not increasing:
+        keys, codes = _by_code(keys, codes)
+    ks, ps = _sort_entries(keys, codes)  # stable: ties stay sorted by pair
+    return _merge_stream(ks, ps, ws, pairs.shape[0], eta, min_cos, use_angle)
+
+
+@njit(cache=True)
+def _merge_stream(ks, ps, ws, n_pairs, eta, min_cos, use_angle):
+    """`greedy_merge`'s loop over the sorted initial entries (``ks`` key bits, ``ps``
+    pair codes) and the heap of pushed-back ones; ``ws`` the region sums (`_aligned_sums`,
+    updated in place), ``n_pairs`` the number of adjacent pairs (sizes the dedupe
+    table). Returns the root of every region and the number of merges."""
+    m = ws.shape[0]
     parent = np.arange(m).astype(np.int32)
-    ks, ps = _initial_stream(pairs, ws, eta, min_cos, use_angle)
     n_init = ks.shape[0]
     head = 0
     heap, base = heap_new(4096)
@@ -390,10 +399,13 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
     # (`_queued_before`; a slot's code and stamp share a row)
     version = np.zeros(m, dtype=np.int64)
     n_slots = 1024
-    while n_slots < pairs.shape[0]:
+    while n_slots < n_pairs:
         n_slots *= 2
     mask = n_slots - 1
-    slots = np.full((n_slots, 2), -1, dtype=np.int64)
+    slots = np.empty((n_slots, 2), dtype=np.int64)
+    for t in range(n_slots):  # a loop, not np.full: one spelling less to compile
+        slots[t, 0] = -1
+        slots[t, 1] = -1
     ahead_parent = 0  # stream entries whose parents were prefetched
     ahead_sums = 0  # stream entries whose (probable) roots' sums were prefetched
     while size > 0 or head < n_init:

@@ -7,6 +7,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..._core._threads import run_chunks
+
 
 @njit(cache=True)
 def _compact_moves(target):
@@ -104,11 +106,7 @@ def batch_switch(
     return candidates[pos], new
 
 
-#: chunks of points `batch_switch_bounded` hands to its parallel loop
-_SWITCH_CHUNKS = 256
-
-
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _switch_points(
     indptr,
     indices,
@@ -124,8 +122,9 @@ def _switch_points(
     i0,
     i1,
 ):
-    """`batch_switch_bounded` for the points i0 .. i1 - 1 (serial): sets ``target[i]``
-    for a point that moves and refreshes its ``memo`` row."""
+    """`batch_switch_bounded` for the points i0 .. i1 - 1 (serial; the GIL released,
+    so `run_chunks` runs pieces of the points on several threads at once): sets
+    ``target[i]`` for a point that moves and refreshes its ``memo`` row."""
     for i in range(i0, i1):
         if foreign[i] == 0 or weights[i] <= 0.0:
             continue
@@ -197,7 +196,6 @@ def _switch_points(
             memo[i, 5] = np.sqrt(max(2.0 - 2.0 * low, 0.0)) + 1e-12
 
 
-@njit(cache=True, parallel=True)
 def batch_switch_bounded(
     indptr,
     indices,
@@ -239,30 +237,15 @@ def batch_switch_bounded(
     The caller sets column 0 to NaN for moved points and their neighbours, for
     points next to merged regions, and renumbers the stored ids after a merge.
     Returns moved points (increasing) and new labels. The points are decided in
-    `_SWITCH_CHUNKS` parallel chunks, each one call of `_switch_points` (numba's
-    parallel passes see a one-call loop, which compiles in a fraction of the time).
+    pieces, each one call of `_switch_points`, on Python threads (`run_chunks`): a
+    parallel loop without numba's ``parallel=True``, whose compile cost 1.4
+    CPU-seconds; every point's decision and memo row are its own, so the result
+    does not depend on the threads.
     """
     n = labels.shape[0]
     target = np.full(n, -1, dtype=np.int64)
-    n_chunks = min(n, _SWITCH_CHUNKS)
-    for c in prange(n_chunks):
-        i0 = c * n // n_chunks
-        i1 = (c + 1) * n // n_chunks
-        _switch_points(
-            indptr,
-            indices,
-            normals,
-            weights,
-            labels,
-            proxy_normals,
-            foreign,
-            min_gain,
-            drift,
-            memo,
-            target,
-            i0,
-            i1,
-        )
+    args = (indptr, indices, normals, weights, labels, proxy_normals, foreign, min_gain)
+    run_chunks(_switch_points, n, (*args, drift, memo, target))
     return _compact_moves(target)
 
 

@@ -1,0 +1,61 @@
+"""A loop of independent chunks run on Python threads, each chunk one call of a serial
+``nogil`` numba kernel: the parallel loop of a kernel without numba's ``parallel=True``,
+whose first compile costs several CPU-seconds per kernel (docs/decisions/cli.md,
+"First run")."""
+
+from __future__ import annotations
+
+import threading
+
+import numba
+
+__all__ = ["run_chunks"]
+
+#: pieces handed out per thread: a thread that finishes early (its points were
+#: cheap, or its core busy) takes the next piece; each piece is one kernel call
+#: (about 10 microseconds of dispatch)
+_PIECES_PER_THREAD = 8
+
+
+def run_chunks(kernel, n_items: int, args: tuple) -> None:
+    """Call ``kernel(*args, i0, i1)`` for pieces ``[i0, i1)`` covering ``range(n_items)``.
+
+    ``kernel`` is a serial numba kernel compiled with ``nogil=True`` whose calls for
+    different pieces write disjoint parts of its outputs, so the result does not
+    depend on the number of threads or on which thread runs which piece. The pieces
+    run on ``numba.get_num_threads()`` threads (the calling thread's setting: one
+    thread runs everything in the caller), the calling thread among them; a thread
+    takes the next piece when it is done with one. An exception of a piece is raised
+    in the caller once every thread has stopped.
+    """
+    n_threads = min(numba.get_num_threads(), n_items)
+    if n_threads <= 1:
+        kernel(*args, 0, n_items)
+        return
+    n_pieces = min(n_items, _PIECES_PER_THREAD * n_threads)
+    lock = threading.Lock()
+    state = {"next": 0, "error": None}
+
+    def work() -> None:
+        while True:
+            with lock:
+                piece = state["next"]
+                if piece >= n_pieces or state["error"] is not None:
+                    return
+                state["next"] = piece + 1
+            try:
+                kernel(*args, piece * n_items // n_pieces, (piece + 1) * n_items // n_pieces)
+            except BaseException as exc:  # re-raised in the caller below
+                with lock:
+                    if state["error"] is None:
+                        state["error"] = exc
+                return
+
+    threads = [threading.Thread(target=work, daemon=True) for _ in range(n_threads - 1)]
+    for thread in threads:
+        thread.start()
+    work()
+    for thread in threads:
+        thread.join()
+    if state["error"] is not None:
+        raise state["error"]
