@@ -181,6 +181,23 @@ def test_mesh_checks_detect_open_flipped_and_pinched_meshes():
     assert mesh_checks(7, two) == (True, False, True)
 
 
+def test_vertex_links_at_once_match_the_per_vertex_walk():
+    from pointatlas.simplify._mesh import link_is_one_fan, links_are_one_fan, vertex_links
+
+    rng = np.random.default_rng(11)
+    tet = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    cases = [tet, tet[:3], np.concatenate([tet, tet + 3]), np.array([[0, 0, 1], [0, 1, 2]])]
+    for _ in range(300):  # small random soups: pinches, open fans, repeated corners
+        n = int(rng.integers(3, 9))
+        cases.append(rng.integers(0, n, size=(int(rng.integers(1, 10)), 3)))
+    seen = set()
+    for tri in cases:
+        want = all(link_is_one_fan(e) for e in vertex_links(tri).values())
+        assert links_are_one_fan(np.asarray(tri, dtype=np.int64)) is want, tri.tolist()
+        seen.add(want)
+    assert seen == {True, False}
+
+
 def test_region_proxies():
     m = cube(4, size=2.0)
     p = region_proxies(m.vertices, m.normals, m.labels)

@@ -11,6 +11,8 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from .._core import readonly
 from ..complex import SurfaceComplex
@@ -304,7 +306,27 @@ def mesh_checks(n_vertices: int, triangles) -> tuple[bool, bool, bool]:
     oriented = bool((dcnt == 1).all())
     manifold = bool((cnt <= 2).all())
     if manifold:
-        # link of every vertex: the opposite edges of its triangles must form one
-        # path or cycle (connected, degrees <= 2)
-        manifold = all(link_is_one_fan(edges) for edges in vertex_links(tri).values())
+        manifold = links_are_one_fan(tri)
     return closed, manifold, oriented
+
+
+def links_are_one_fan(tri: np.ndarray) -> bool:
+    """Whether the link of every vertex of ``tri`` is one fan (`link_is_one_fan` of
+    every `vertex_links` entry, at once): the opposite edges (p, q) of a vertex w's
+    triangles join the nodes (w, p) and (w, q); every node has degree <= 2 and each
+    vertex's nodes form one connected component."""
+    centre = tri.reshape(-1)
+    p = tri[:, [1, 2, 0]].reshape(-1)
+    q = tri[:, [2, 0, 1]].reshape(-1)
+    _, node = unique_pairs(
+        np.concatenate([np.column_stack([centre, p]), np.column_stack([centre, q])]),
+        return_inverse=True,
+    )
+    node = node.reshape(-1)
+    n_nodes = int(node.max()) + 1
+    if np.bincount(node, minlength=n_nodes).max() > 2:
+        return False
+    k = centre.shape[0]
+    graph = coo_matrix((np.ones(k, dtype=np.int8), (node[:k], node[k:])), (n_nodes, n_nodes))
+    n_comp, _ = connected_components(graph, directed=False)
+    return n_comp == np.unique(centre).size

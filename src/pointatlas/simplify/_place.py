@@ -50,18 +50,22 @@ def flat_planes(vertices, triangles, labels, n_regions: int, tol: float):
     lab = np.asarray(labels, dtype=np.int64)
     pairs = unique_pairs(np.column_stack([np.repeat(lab, 3), tri.reshape(-1)]))
     bounds = np.searchsorted(pairs[:, 0], np.arange(n_regions + 1))
+    size = np.diff(bounds)
     normals = np.zeros((n_regions, 3))
     offsets = np.zeros(n_regions)
     flat = np.zeros(n_regions, dtype=bool)
-    for r in range(n_regions):
-        pts = v[pairs[bounds[r] : bounds[r + 1], 1]]
-        if pts.shape[0] < 3:
-            continue
-        centre = pts.mean(axis=0)
-        _, sv, vt = np.linalg.svd(pts - centre, full_matrices=False)
-        normals[r] = vt[-1]
-        offsets[r] = vt[-1] @ centre
-        flat[r] = sv[1] > 0.0 and np.abs((pts - centre) @ vt[-1]).max() <= tol
+    for c in np.unique(size[size >= 3]):
+        # the regions of c vertices at once: a (k, c, 3) stack, one LAPACK call each
+        # and the same BLAS products as one region alone (the same planes bit for bit)
+        regions = np.flatnonzero(size == c)
+        pts = v[pairs[bounds[regions][:, None] + np.arange(c), 1]]
+        centre = pts.mean(axis=1)
+        _, sv, vt = np.linalg.svd(pts - centre[:, None, :], full_matrices=False)
+        normal = np.ascontiguousarray(vt[:, -1])
+        normals[regions] = normal
+        offsets[regions] = np.matmul(normal[:, None, :], centre[:, :, None])[:, 0, 0]
+        height = np.matmul(pts - centre[:, None, :], normal[:, :, None])[:, :, 0]
+        flat[regions] = (sv[:, 1] > 0.0) & (np.abs(height).max(axis=1) <= tol)
     return normals, offsets, flat
 
 

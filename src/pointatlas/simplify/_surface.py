@@ -34,6 +34,7 @@ from ._arcs import (
     split_arcs,
 )
 from ._distance import back_distances
+from ._mesh import unique_pairs
 from ._place import FLAT_RTOL, flat_planes, place_on_planes, triangle_normals
 from ._polygons import PLANAR_RTOL, face_polygons
 from ._surface_faces import bad_regions, face_of_loops, loop_vertices
@@ -210,7 +211,7 @@ def _surface(vertices: np.ndarray, triangles: np.ndarray) -> _Surface:
     areas = 0.5 * length
     directed = np.stack([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]], axis=1).reshape(-1, 2)
     und = np.sort(directed, axis=1)
-    edge_verts, inverse, counts = np.unique(und, axis=0, return_inverse=True, return_counts=True)
+    edge_verts, inverse, counts = unique_pairs(und, return_inverse=True, return_counts=True)
     inverse = inverse.reshape(-1)
     face_edges = inverse.reshape(n_faces, 3)
     owner = np.repeat(np.arange(n_faces, dtype=np.int64), 3)
@@ -267,7 +268,7 @@ def _vertex_label_count(s: _Surface, labels: np.ndarray) -> np.ndarray:
     """Number of distinct regions around every vertex (the input's boundary counts one)."""
     n = s.vertices.shape[0]
     t = s.triangles
-    pairs = np.unique(np.stack([t.reshape(-1), np.repeat(labels, 3)], axis=1), axis=0)
+    pairs = unique_pairs(np.stack([t.reshape(-1), np.repeat(labels, 3)], axis=1))
     count = np.bincount(pairs[:, 0], minlength=n)
     open_edges = s.edge_verts[s.edge_faces[:, 1] < 0]
     on_border = np.zeros(n, dtype=bool)
