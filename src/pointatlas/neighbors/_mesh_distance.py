@@ -17,6 +17,9 @@ _LEAF_SIZE = 8
 #: the rounding error of a computed point-triangle distance, so the minimum found
 #: is the minimum over all triangles
 _PRUNE_RTOL = 1e-9
+#: hinted points are measured in the Morton order of the cells of a grid of 2^this
+#: cells a side over their box (near points one after the other)
+_ORDER_BITS = 8
 
 
 def _as_triangles(triangles, n_vertices: int) -> np.ndarray:
@@ -157,8 +160,9 @@ class MeshDistanceIndex:
                     f"hint must hold one triangle (< {self.n_triangles}) or -1 per point"
                 )
             start = np.where(hint >= 0, self._position[np.maximum(hint, 0)], -1)
-            # points of one hint in a row: each starts from the one before it
-            order = np.argsort(start, kind="stable")
+            # near points in a row (Morton order of cells): each starts from the nearest
+            # triangle of the one before it
+            order = np.argsort(_grid_cells(pts), kind="stable")
             pts, start, sorted_out = pts[order], start[order], np.empty_like(out)
             found = self._kernel(pts, start, sorted_out, within, bound)
             out[order] = sorted_out
@@ -182,3 +186,16 @@ class MeshDistanceIndex:
             stop,
         )
         return bool(stop[0])
+
+
+def _grid_cells(pts, bits: int = _ORDER_BITS):
+    """Morton code of every point's cell in a 2^bits per axis grid over their box."""
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    side = 1 << bits
+    scale = side / np.maximum(hi - lo, 1e-300)
+    cell = np.minimum(((pts - lo) * scale).astype(np.int64), side - 1)
+    code = np.zeros(pts.shape[0], dtype=np.int64)
+    for b in range(bits):  # interleave the bits: x, y, z, x, y, z, ...
+        for d in range(3):
+            code |= ((cell[:, d] >> b) & 1) << (3 * b + d)
+    return code

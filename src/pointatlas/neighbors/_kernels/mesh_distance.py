@@ -198,8 +198,8 @@ def bvh_distances(
     start : (N,) or (0,) int64
         Position (in leaf order) of a triangle to measure first, -1 for none; an
         empty array: none for every point. A hinted point also measures the nearest
-        triangle found for the chunk's previous point (points in the order of their
-        hints share it). Only the order of the search changes (the first distances
+        triangle found for the chunk's previous point (near points one after the
+        other share it). Only the order of the search changes (the first distances
         bound the descent), not the minimum found.
     slack_rel, slack_abs : float
         A box is skipped when its squared distance exceeds
