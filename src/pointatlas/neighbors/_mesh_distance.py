@@ -194,8 +194,10 @@ def _grid_cells(pts, bits: int = _ORDER_BITS):
     side = 1 << bits
     scale = side / np.maximum(hi - lo, 1e-300)
     cell = np.minimum(((pts - lo) * scale).astype(np.int64), side - 1)
-    code = np.zeros(pts.shape[0], dtype=np.int64)
-    for b in range(bits):  # interleave the bits: x, y, z, x, y, z, ...
-        for d in range(3):
-            code |= ((cell[:, d] >> b) & 1) << (3 * b + d)
-    return code
+    return _SPREAD[cell[:, 0]] | (_SPREAD[cell[:, 1]] << 1) | (_SPREAD[cell[:, 2]] << 2)
+
+
+#: bit b of a cell coordinate at bit 3 b (a Morton code is x | y << 1 | z << 2)
+_SPREAD = sum(
+    ((np.arange(1 << _ORDER_BITS, dtype=np.int64) >> b) & 1) << (3 * b) for b in range(_ORDER_BITS)
+)

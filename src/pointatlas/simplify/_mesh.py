@@ -22,8 +22,26 @@ __all__ = [
     "SimplifiedMesh",
     "mesh_checks",
     "point_mesh_distance",
+    "unique_ints",
     "unique_pairs",
 ]
+
+
+def unique_ints(values) -> np.ndarray:
+    """``np.unique(values)`` of an integer array (its sorted distinct values) by one
+    sort: numpy's hashing `np.unique` (no ``return_*``) is about 15x slower on
+    integer arrays of 10^4-10^5 values.
+
+    Examples
+    --------
+    >>> unique_ints(np.array([[3, 1], [3, 2]]))
+    array([1, 2, 3])
+    """
+    s = np.sort(np.asarray(values).reshape(-1))
+    keep = np.empty(s.shape[0], dtype=bool)
+    keep[:1] = True
+    np.not_equal(s[1:], s[:-1], out=keep[1:])
+    return s[keep]
 
 
 def unique_pairs(pairs, *, return_inverse=False, return_counts=False):
@@ -39,11 +57,11 @@ def unique_pairs(pairs, *, return_inverse=False, return_counts=False):
     p = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     low = p.min(axis=0) if p.size else np.zeros(2, dtype=np.int64)
     width = int(p[:, 1].max() - low[1]) + 1 if p.size else 1
-    out = np.unique(
-        (p[:, 0] - low[0]) * width + (p[:, 1] - low[1]),
-        return_inverse=return_inverse,
-        return_counts=return_counts,
-    )
+    key = (p[:, 0] - low[0]) * width + (p[:, 1] - low[1])
+    if return_inverse or return_counts:
+        out = np.unique(key, return_inverse=return_inverse, return_counts=return_counts)
+    else:
+        out = unique_ints(key)
     keys = out[0] if isinstance(out, tuple) else out
     rows = np.column_stack([keys // width + low[0], keys % width + low[1]])
     return (rows, *out[1:]) if isinstance(out, tuple) else rows
@@ -329,4 +347,4 @@ def links_are_one_fan(tri: np.ndarray) -> bool:
     k = centre.shape[0]
     graph = coo_matrix((np.ones(k, dtype=np.int8), (node[:k], node[k:])), (n_nodes, n_nodes))
     n_comp, _ = connected_components(graph, directed=False)
-    return n_comp == np.unique(centre).size
+    return n_comp == unique_ints(centre).size

@@ -14,7 +14,7 @@ import numpy as np
 from scipy import sparse
 
 from .._core import as_float, as_points
-from ._mesh import unique_pairs
+from ._mesh import unique_ints, unique_pairs
 from ._nonmanifold import repair_mesh_input
 from ._surface import SurfaceSimplification, _face_graph, _Surface, _surface, simplify_surface
 
@@ -486,5 +486,5 @@ def _merge_flat(s: _Surface, graph, labels: np.ndarray, max_angle: float) -> np.
     _, first = np.unique(merged, return_index=True)
     order = np.argsort(first, kind="stable")
     rank = np.empty(n_regions, dtype=np.int64)
-    rank[np.unique(merged)[order]] = np.arange(order.size)
+    rank[unique_ints(merged)[order]] = np.arange(order.size)
     return rank[merged]

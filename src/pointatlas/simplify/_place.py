@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._mesh import unique_pairs
+from ._mesh import unique_ints, unique_pairs
 
 __all__ = ["FLAT_RTOL", "flat_planes", "place_on_planes", "triangle_normals"]
 
@@ -133,7 +133,7 @@ def _unflip(v0, x, tri, rounds: int = 4):
         bad &= np.linalg.norm(before, axis=1) > 0.0
         if not bad.any():
             break
-        back = np.unique(tri[bad])
+        back = unique_ints(tri[bad])
         x[back] = v0[back]
     return x
 

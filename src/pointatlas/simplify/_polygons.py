@@ -19,6 +19,7 @@ from collections import deque
 import numpy as np
 
 from ._faces import plane_deviation
+from ._mesh import unique_ints
 from ._readers import ear_clip_triangles, fan_triangles
 
 __all__ = ["PLANAR_RTOL", "face_polygons", "planar_pieces"]
@@ -73,8 +74,8 @@ def face_polygons(vertices, triangles, triangle_face, face_loops, tol: float):
     pieces, piece_face = [], []
     for f, loops in enumerate(face_loops):
         mine = t[order[bounds[f] : bounds[f + 1]]]
-        simple = len(loops) == 1 and np.unique(loops[0]).size == loops[0].size >= 3
-        inside = np.unique(mine).size != loops[0].size if simple else True
+        simple = len(loops) == 1 and unique_ints(loops[0]).size == loops[0].size >= 3
+        inside = unique_ints(mine).size != loops[0].size if simple else True
         if simple and not inside and plane_deviation(v[loops[0]]) <= tol:
             mine_pieces = [(np.asarray(loops[0], dtype=np.int64), mine)]
         elif alone[bounds[f] : bounds[f + 1]].all():  # each triangle its own piece
@@ -190,7 +191,7 @@ def _pieces(
     if n == 0:
         return []
     pts = np.asarray(vertices, dtype=np.float64)
-    flat = plane_deviation(pts[np.unique(tri)]) <= tol
+    flat = plane_deviation(pts[unique_ints(tri)]) <= tol
     by_edge: dict[tuple[int, int], list[int]] = {}
     rows = tri.tolist()
     for k, (a, b, c) in enumerate(rows):

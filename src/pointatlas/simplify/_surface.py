@@ -34,7 +34,7 @@ from ._arcs import (
     split_arcs,
 )
 from ._distance import back_distances
-from ._mesh import unique_pairs
+from ._mesh import unique_ints, unique_pairs
 from ._place import FLAT_RTOL, flat_planes, place_on_planes, triangle_normals
 from ._polygons import PLANAR_RTOL, face_polygons
 from ._surface_faces import bad_regions, face_of_loops, loop_vertices
@@ -308,7 +308,7 @@ def _planarize(v0, tri, tface, kept, normals, offsets, bound, *, weight=1e-3, ro
     planar = ~kept[tface]
     pv = tri[planar].reshape(-1)
     pf = np.repeat(tface[planar], 3)
-    key = np.unique(pv * (int(tface.max(initial=0)) + 1) + pf)
+    key = unique_ints(pv * (int(tface.max(initial=0)) + 1) + pf)
     pv, pf = key // (int(tface.max(initial=0)) + 1), key % (int(tface.max(initial=0)) + 1)
     nrm = normals[pf]
     mat = np.zeros((n_v, 3, 3))
@@ -330,7 +330,7 @@ def _planarize(v0, tri, tface, kept, normals, offsets, bound, *, weight=1e-3, ro
         bad = ok_before & ~(np.einsum("ij,ij->i", after, face_n) > 0.0)
         if not bad.any():
             break
-        back = np.unique(tri[bad])
+        back = unique_ints(tri[bad])
         x[back] = v0[back]
     return x
 
@@ -367,7 +367,7 @@ def simplify_surface(
     run = _RegionFaces(s, lab, normals, tol)
     run.refine()
     all_t, all_f, loops_out = run.settle(closed_input)
-    used = np.unique(all_t)
+    used = unique_ints(all_t)
     remap = np.full(verts.shape[0], -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
     out_t = remap[all_t]

@@ -14,7 +14,7 @@ import mapbox_earcut
 import numpy as np
 
 from ._faces import _signed_area
-from ._mesh import link_is_one_fan, vertex_links
+from ._mesh import link_is_one_fan, unique_ints, vertex_links
 
 __all__ = ["bad_regions", "face_of_loops", "loop_vertices"]
 
@@ -71,7 +71,7 @@ def _edges_match(tri: np.ndarray, loops) -> bool:
     dk = d[:, 0] * n + d[:, 1]
     rk = d[:, 1] * n + d[:, 0]
     wk = want[:, 0] * n + want[:, 1]
-    if np.unique(dk).size != dk.size or np.unique(wk).size != wk.size:
+    if unique_ints(dk).size != dk.size or unique_ints(wk).size != wk.size:
         return False
     inner = np.isin(dk, rk)
     return bool(np.array_equal(np.sort(dk[~inner]), np.sort(wk)))
