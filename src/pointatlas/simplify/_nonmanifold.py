@@ -101,7 +101,12 @@ def repair_mesh_input(vertices: np.ndarray, triangles: np.ndarray) -> MeshRepair
     degenerate = (ordered[:, 0] == ordered[:, 1]) | (ordered[:, 1] == ordered[:, 2])
     triangle_of = np.arange(n_in, dtype=np.int64)
     if n_in:
-        _, uniq, twin = np.unique(ordered, axis=0, return_index=True, return_inverse=True)
+        if n_vert**3 < 2**63:  # one integer per sorted triangle: the rows' order
+            o = ordered.astype(np.int64, copy=False)
+            key = (o[:, 0] * n_vert + o[:, 1]) * n_vert + o[:, 2]
+            _, uniq, twin = np.unique(key, return_index=True, return_inverse=True)
+        else:
+            _, uniq, twin = np.unique(ordered, axis=0, return_index=True, return_inverse=True)
         twin = uniq[twin.reshape(-1)]
         keep = ~degenerate & (twin == np.arange(n_in))
         if not keep.all():
