@@ -76,27 +76,47 @@ def turns_over(v, faces, w, x) -> bool:
 @njit(cache=True)
 def _flips(v, tri, f, w, x) -> bool:
     """Whether moving vertex ``w`` of triangle ``f`` to ``x`` turns it by 90 degrees or
-    more, or shrinks its area below 1e-6 of what it was."""
-    p = np.empty((3, 3))
-    for i in range(3):
-        vi = tri[f, i]
-        for d in range(3):
-            p[i, d] = x[d] if vi == w else v[vi, d]
-    b0 = v[tri[f, 1]] - v[tri[f, 0]]
-    b1 = v[tri[f, 2]] - v[tri[f, 0]]
-    before = np.cross(b0, b1)
-    after = np.cross(p[1] - p[0], p[2] - p[0])
-    bb = before[0] * before[0] + before[1] * before[1] + before[2] * before[2]
-    ab = after[0] * before[0] + after[1] * before[1] + after[2] * before[2]
-    aa = after[0] * after[0] + after[1] * after[1] + after[2] * after[2]
+    more, or shrinks its area below 1e-6 of what it was. On scalars (the collapse
+    loop asks this of every triangle around an edge it tries: arrays here made it
+    allocate a few million times on a fan of a flat face); the same products and
+    sums as ``np.cross`` of the edge vectors."""
+    i0, i1, i2 = tri[f, 0], tri[f, 1], tri[f, 2]
+    b00, b01, b02 = v[i1, 0] - v[i0, 0], v[i1, 1] - v[i0, 1], v[i1, 2] - v[i0, 2]
+    b10, b11, b12 = v[i2, 0] - v[i0, 0], v[i2, 1] - v[i0, 1], v[i2, 2] - v[i0, 2]
+    n0 = b01 * b12 - b02 * b11
+    n1 = b02 * b10 - b00 * b12
+    n2 = b00 * b11 - b01 * b10
+    p00, p01, p02 = _corner(v, i0, w, x)
+    p10, p11, p12 = _corner(v, i1, w, x)
+    p20, p21, p22 = _corner(v, i2, w, x)
+    a00, a01, a02 = p10 - p00, p11 - p01, p12 - p02
+    a10, a11, a12 = p20 - p00, p21 - p01, p22 - p02
+    m0 = a01 * a12 - a02 * a11
+    m1 = a02 * a10 - a00 * a12
+    m2 = a00 * a11 - a01 * a10
+    bb = n0 * n0 + n1 * n1 + n2 * n2
+    ab = m0 * n0 + m1 * n1 + m2 * n2
+    aa = m0 * m0 + m1 * m1 + m2 * m2
     return ab <= 0.0 or aa <= 1e-12 * bb
 
 
 @njit(cache=True)
-def _edge_entry(v, q, a, b, version, tie):
+def _corner(v, i, w, x):
+    """Vertex ``i``'s position, ``x`` when it is the moving vertex ``w``."""
+    if i == w:
+        return x[0], x[1], x[2]
+    return v[i, 0], v[i, 1], v[i, 2]
+
+
+@njit(cache=True)
+def _edge_entry(v, q, a, b, version, tie, qab):
     """The heap entry of edge (a, b): cost (plus ``tie`` x the squared squared length,
-    so that flat parts decimate evenly), ends, their versions, position."""
-    cost, x, y, z = collapse_position(q[a] + q[b], v[a], v[b])
+    so that flat parts decimate evenly), ends, their versions, position. ``qab``
+    (4, 4) is scratch for the edge's quadric (no array made per entry)."""
+    for i in range(4):
+        for j in range(4):
+            qab[i, j] = q[a, i, j] + q[b, i, j]
+    cost, x, y, z = collapse_position(qab, v[a], v[b])
     d0, d1, d2 = v[a, 0] - v[b, 0], v[a, 1] - v[b, 1], v[a, 2] - v[b, 2]
     dd = d0 * d0 + d1 * d1 + d2 * d2
     return (max(cost, 0.0) + tie * dd * dd, a, b, version[a], version[b], x, y, z)
@@ -224,9 +244,10 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie):
     mark = np.zeros((n_v, 2), dtype=np.int64)
     stamp = np.zeros(2, dtype=np.int64)
     shared = np.zeros(2, dtype=np.int64)
-    heap = [_edge_entry(v, q, edges[0, 0], edges[0, 1], version, tie)]
+    qab = np.empty((4, 4))
+    heap = [_edge_entry(v, q, edges[0, 0], edges[0, 1], version, tie, qab)]
     for e in range(1, edges.shape[0]):
-        heap.append(_edge_entry(v, q, edges[e, 0], edges[e, 1], version, tie))
+        heap.append(_edge_entry(v, q, edges[e, 0], edges[e, 1], version, tie, qab))
     heapq.heapify(heap)
     kept = np.empty(n_v, dtype=np.int64)
     gone = np.empty(n_v, dtype=np.int64)
@@ -268,7 +289,7 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie):
                 u = tri[f, i]
                 if u != a and mark[u, 0] != stamp[0]:
                     mark[u, 0] = stamp[0]
-                    heapq.heappush(heap, _edge_entry(v, q, a, u, version, tie))
+                    heapq.heappush(heap, _edge_entry(v, q, a, u, version, tie, qab))
             c = nxt[c]
     return kept[:n], gone[:n], position[:n], removed[:n], costs[:n]
 
