@@ -139,13 +139,14 @@ class MeshDistances:
     def __init__(self, on, verts, tri, on_ids=None):
         self.on, self.verts, self.tri, self.on_ids = on, verts, tri, on_ids
         self.index = MeshDistanceIndex(verts, tri)
+        self._last = None  # (out_v, out_t, its index, samples and their triangles)
 
     def within(self, out_v, out_t, bound: float, lineage=None) -> bool:
         """``lineage``: ``(kept, went)`` of `Collapses.mesh_and_map`, optional."""
         there, back = self._hints(out_v, out_t, lineage)
-        if not MeshDistanceIndex(out_v, out_t).all_within(self.on, bound, hint=there):
+        if not self._output_index(out_v, out_t).all_within(self.on, bound, hint=there):
             return False
-        samples, on = output_samples_on(out_v, out_t)
+        samples, on = self._samples(out_v, out_t)
         return self.index.all_within(samples, bound, hint=None if back is None else back[on])
 
     def error(self, out_v, out_t) -> float:
@@ -157,9 +158,25 @@ class MeshDistances:
         """The distances `surface_result` reports: every vertex to the output, and the
         output's samples back to the input."""
         hint, back = self._hints(out_v, out_t, lineage, every=True)
-        there = MeshDistanceIndex(out_v, out_t).distance(self.verts, hint=hint)
-        samples, on = output_samples_on(out_v, out_t)
+        there = self._output_index(out_v, out_t).distance(self.verts, hint=hint)
+        samples, on = self._samples(out_v, out_t)
         return there, self.index.distance(samples, hint=None if back is None else back[on])
+
+    def _output_index(self, out_v, out_t) -> MeshDistanceIndex:
+        """The output's `MeshDistanceIndex`; the last output's is kept (the level
+        search ends on the level `report` measures: the same arrays)."""
+        last = self._last
+        if last is not None and last[0] is out_v and last[1] is out_t:
+            return last[2]
+        self._last = (out_v, out_t, MeshDistanceIndex(out_v, out_t), None)
+        return self._last[2]
+
+    def _samples(self, out_v, out_t):
+        """`output_samples_on` of the output (kept with its index)."""
+        index = self._output_index(out_v, out_t)
+        if self._last[3] is None:
+            self._last = (out_v, out_t, index, output_samples_on(out_v, out_t))
+        return self._last[3]
 
     def _hints(self, out_v, out_t, lineage, every=False):
         """The output triangle to measure first from every input vertex (of ``on``,
