@@ -162,7 +162,7 @@ class MeshDistanceIndex:
             start = np.where(hint >= 0, self._position[np.maximum(hint, 0)], -1)
             # near points in a row (Morton order of cells): each starts from the nearest
             # triangle of the one before it
-            order = np.argsort(_grid_cells(pts), kind="stable")
+            order = np.argsort(_grid_cells(pts))  # any order of ties: the same values
             pts, start, sorted_out = pts[order], start[order], np.empty_like(out)
             found = self._kernel(pts, start, sorted_out, within, bound)
             out[order] = sorted_out

@@ -5,7 +5,8 @@ assumed).
 * `closest_sq`: squared distance from a point to one triangle (Ericson, Real-Time
   Collision Detection 5.1.5; a zero-area triangle is the union of its edges);
 * `build_bvh`: the hierarchy (median split of the centroids along the longest
-  axis, leaves of at most ``leaf_size`` triangles, axis-aligned boxes);
+  axis by quickselect, leaves of at most ``leaf_size`` triangles, axis-aligned
+  boxes);
 * `bvh_distances`: the distance of every point, skipping every box farther than
   the best triangle found so far (with a round-off slack, so the minimum is the
   one a brute-force scan over all triangles finds).
@@ -161,10 +162,8 @@ def build_bvh(corners, leaf_size):
         for k in (1, 2):
             if chi[k] - clo[k] > chi[axis] - clo[axis]:
                 axis = k
-        sub = order[s:e].copy()
-        rank = np.argsort(cen[sub, axis], kind="mergesort")
-        order[s:e] = sub[rank]
         mid = (s + e) // 2
+        _select(order, cen, axis, s, e, mid)
         first[node] = n_nodes
         count[node] = 0
         st_node[top], st_s[top], st_e[top] = n_nodes, s, mid
@@ -172,6 +171,35 @@ def build_bvh(corners, leaf_size):
         top += 2
         n_nodes += 2
     return boxes[:n_nodes].copy(), first[:n_nodes].copy(), count[:n_nodes].copy(), order
+
+
+@njit(cache=True)
+def _select(order, cen, axis, s, e, k):
+    """Reorder ``order[s:e]`` so that the triangles before position ``k`` have
+    centroids at most, and those from ``k`` on at least, the k-th smallest along
+    ``axis`` (Hoare's quickselect, median-of-three pivots; O(e - s) expected)."""
+    lo, hi = s, e - 1
+    while hi > lo:
+        a = cen[order[lo], axis]
+        b = cen[order[(lo + hi) // 2], axis]
+        c = cen[order[hi], axis]
+        pivot = max(min(a, b), min(max(a, b), c))
+        i, j = lo, hi
+        while i <= j:
+            while cen[order[i], axis] < pivot:
+                i += 1
+            while cen[order[j], axis] > pivot:
+                j -= 1
+            if i <= j:
+                order[i], order[j] = order[j], order[i]
+                i += 1
+                j -= 1
+        if k <= j:
+            hi = j
+        elif k >= i:
+            lo = i
+        else:
+            return
 
 
 @njit(cache=True, inline="always")
