@@ -11,12 +11,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 from rich.markup import escape
 
 from .._core import PointAtlasError
 from .._core._interrupt import interrupt_requested
+from ._flag_checks import angle_deg_option, parse_seeds, vsa_options
 from ._signals import stop_signals_handled, stopped_line
 from ._typed import TypedArgsGroup
 from .jobs import (
@@ -182,15 +182,6 @@ def deprecated_option(old: str, new: str):
     return typer.Option(old, hidden=True, help=f"Deprecated spelling of {new}.")
 
 
-def angle_deg_option(value, flag: str, *, lo: float = 0.0, hi: float = 180.0):
-    """Validate an angle flag in degrees (finite, in [lo, hi]); None passes through."""
-    from .._core import as_float
-
-    if value is None:
-        return None
-    return as_float(value, flag, lo=lo, hi=hi, what="angle", unit="degrees")
-
-
 #: ``--estimate-normals/--no-estimate-normals`` of every command that needs normals
 #: (see `read_with_normals`); the same flag and help everywhere.
 EstimateNormalsOption = Annotated[
@@ -308,66 +299,3 @@ MaxMemoryOption = Annotated[
         rich_help_panel="Tiles",
     ),
 ]
-
-
-def parse_seeds(text: str):
-    """``--seeds``: ``"all"``, a count (``"12"``) or comma-separated indices (``"0,5,9"``)."""
-    text = text.strip()
-    if text.lower() == "all":
-        return "all"
-    try:
-        if "," in text:
-            return np.array([int(t) for t in text.split(",") if t.strip()], dtype=np.int64)
-        value = int(text)
-    except ValueError:
-        raise PointAtlasError(
-            f"--seeds must be 'all', a count or comma-separated indices; got {text!r}"
-        ) from None
-    if value < 1:
-        raise PointAtlasError(f"--seeds must be 'all', a count >= 1 or indices; got {text!r}")
-    return value
-
-
-def vsa_options(
-    *,
-    k: int,
-    eta: float | None,
-    max_angle_deg: float | None,
-    seeds: str,
-    split: bool,
-    merge: bool,
-    switch: str,
-    classic: bool,
-    weights: str,
-    max_iter: int,
-    local: bool = False,
-):
-    """The VSA flags (`VSAKOption`, `EtaOption`, ...) as a
-    `pointatlas.segment.VSAOptions`: ``--seeds`` parsed, degrees to radians; a
-    bad ``--switch``, ``--max-angle-deg`` or ``--seeds`` is named by its flag."""
-    import math
-
-    from ..segment import VSAOptions
-
-    if switch not in ("batch", "single", "none"):
-        raise PointAtlasError(f"--switch must be batch, single or none; got {switch!r}")
-    max_angle = angle_deg_option(max_angle_deg, "--max-angle-deg")
-    seeds = parse_seeds(seeds)
-    try:
-        return VSAOptions(
-            k=k,
-            eta=eta,
-            max_angle=None if max_angle is None else math.radians(max_angle),
-            seeds=seeds,
-            split=split,
-            merge=merge,
-            switch=switch,
-            classic=classic,
-            weights=weights,
-            max_iter=max_iter,
-            local=local,
-        )
-    except (TypeError, ValueError) as exc:  # VSAOptions names its fields: name the flags
-        from ._flag_checks import VSA_FLAGS, named_as_typed
-
-        raise named_as_typed(exc, VSA_FLAGS) from None

@@ -1,22 +1,18 @@
-"""``pointatlas simplify``: VSA segmentation -> surface-like complex -> polygon mesh.
-
-Also registers the demo step (segment and simplify the demo model); the
-``pointatlas experiment simplify`` reproductions live in `pointatlas.experiments`.
-"""
+"""``pointatlas simplify``: its flags as `SimplifyOptions` for the job
+(`pointatlas.cli.jobs.run_simplify`: the mesh path, or the thesis' points path, 4.4,
+and the robust path), what it prints, and the demo step (segment and simplify the
+demo model); the ``pointatlas experiment simplify`` reproductions live in
+`pointatlas.experiments`."""
 
 from __future__ import annotations
 
-import math
-import warnings
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
-from .._core import PointAtlasError, PointSet, as_float, as_int
+from .._core import PointAtlasError, PointSet
 from ..io import write_json, write_mesh
-from ..simplify import SimplifyWarning, simplify_points
 from ._app import (
     ClassicOption,
     EstimateNormalsOption,
@@ -31,191 +27,27 @@ from ._app import (
     VSAKOption,
     VSASeedOption,
     WeightsOption,
-    angle_deg_option,
     app,
     console,
     demo_step,
     deprecated_option,
-    err_console,
     guarded,
-    read_with_normals,
     renamed_flag,
     say,
-    vsa_options,
 )
-from ._cmd_core import REPORT_EXTENSIONS
-from ._flag_checks import vsa_counts
-from ._mesh_io import read_mesh_input, write_simplified, write_triangles
-from ._outputs import check_outputs, write_summary_json
-from ._simplify_report import (
+from .jobs import (
+    SimplifyOptions,
     render_simplification,
-    render_surface,
+    run_simplify,
     simplification_table,
+    simplify_quietly,
     surface_table,
 )
 
-__all__ = ["render_simplification", "simplification_table"]
+__all__ = ["DEMO_ETA", "demo_simplify", "simplify_command"]
 
-#: OUT and --triangles formats (STL: the earcut triangles, `write_simplified`)
-MESH_OUT = (".obj", ".ply", ".off", ".stl")
 #: Segmentation of the demo model: VSA from every point, split/merge threshold eta.
 DEMO_ETA = 20.0
-
-
-def _say_missed_target(res, *, n_faces, max_triangles, max_error) -> None:
-    """One warning line when the level asked for was not reached (the output is the
-    closest level; the table and report describe it)."""
-    missed = []
-    if n_faces is not None and res.n_faces != n_faces:
-        missed.append(f"--faces {n_faces}: the closest level has {res.n_faces} faces")
-    if max_triangles is not None and len(res.triangles) > max_triangles:
-        missed.append(
-            f"--max-triangles {max_triangles}: the coarsest level has {len(res.triangles)}"
-        )
-    if max_error is not None:
-        reached = max(res.distance_max, res.back_distance_max)
-        if reached > max_error:
-            missed.append(f"--max-error {max_error:.4g}: the finest level is {reached:.4g} away")
-    for line in missed:
-        err_console.print(f"[bold yellow]warning:[/] not reachable: {line}", highlight=False)
-
-
-def _length_option(text: str | None, flag: str, diagonal: float) -> float | None:
-    """A length, or a percentage of the bounding-box diagonal (``0.5%``)."""
-    from .._core import as_float
-
-    if text is None:
-        return None
-    raw = text.strip()
-    try:
-        value = float(raw[:-1]) / 100.0 * diagonal if raw.endswith("%") else float(raw)
-    except ValueError:
-        raise PointAtlasError(
-            f"{flag} must be a length or a percentage of the diagonal such as 0.5%; got {text!r}"
-        ) from None
-    return as_float(value, flag, lo=0.0, lo_open=True, what="length")
-
-
-def _simplify_mesh_command(
-    infile,
-    mesh_in,
-    out,
-    *,
-    max_angle,
-    eta,
-    n_faces,
-    max_error,
-    max_triangles,
-    regions,
-    chord_tolerance,
-    planarize,
-    seed,
-    triangles,
-    report,
-    render,
-):
-    from ..simplify import decimate_mesh, simplify_mesh, surface_diagonal
-
-    v = mesh_in.vertices
-    diagonal = surface_diagonal(v, mesh_in.triangles)
-    bound = _length_option(max_error, "--max-error", diagonal)
-    if not regions:
-        res = _run(
-            v,
-            mesh_in.triangles,
-            max_triangles,
-            max_error=bound,
-            max_angle=max_angle,
-            rng=seed,
-            function=decimate_mesh,
-        )
-    else:
-        res = _run(
-            v,
-            mesh_in.triangles,
-            max_angle=max_angle,
-            eta=eta,
-            n_faces=n_faces,
-            max_error=bound,
-            max_triangles=max_triangles,
-            chord_tolerance=_length_option(chord_tolerance, "--chord-tolerance", diagonal),
-            planarize=planarize,
-            rng=seed,
-            function=simplify_mesh,
-        )
-    _say_missed_target(res, n_faces=n_faces, max_triangles=max_triangles, max_error=bound)
-    written = [write_simplified(out, res)]
-    if triangles is not None:
-        written.append(write_triangles(triangles, res))
-    if render is not None:
-        written.append(render_surface(render, mesh_in, res, title=Path(str(infile)).name))
-    if report is not None:
-        info = {
-            "input": str(infile),
-            "input_vertices": int(mesh_in.n_vertices),
-            "input_faces": int(mesh_in.n_faces),
-            "seed": seed,
-            **res.summary(),
-            "method": "regions" if regions else "decimate",
-        }
-        if Path(report).suffix.lower() in REPORT_EXTENSIONS:
-            from ..viz import MeshLayer
-
-            layers = [
-                MeshLayer(
-                    mesh_in.vertices,
-                    mesh_in.triangles,
-                    face_labels=res.face_labels,
-                    name="input triangles by region",
-                ),
-                MeshLayer(
-                    res.vertices,
-                    [p.tolist() for p in res.polygons],
-                    face_labels=res.polygon_face,
-                    name="simplified mesh",
-                ),
-            ]
-            written.append(_html_report(report, infile, info, written, layers, seed))
-        else:
-            written.append(write_summary_json(report, info, written))
-    how = "regions (one face per VSA region)" if regions else "decimate (structure-aware)"
-    console.print(surface_table(res, title=Path(str(infile)).name, path=how))
-    for path in written:
-        say(f"written: {path}")
-
-
-def _html_report(path, infile, info: dict, written, layers, seed: int):
-    """The HTML report of ``simplify``: the numbers, the pictures written, a 3-D view."""
-    from ..viz import write_report
-
-    numbers = {
-        k: v for k, v in info.items() if not isinstance(v, dict | list | tuple) and k != "input"
-    }
-    pictures = [p for p in written if Path(p).suffix.lower() == ".png"]
-    return write_report(
-        path,
-        title=f"pointatlas simplify: {Path(str(infile)).name}",
-        summary={"file": str(infile), "files written": ", ".join(str(p) for p in written)},
-        parameters={k: info[k] for k in ("seed",) if k in info},
-        tables={"result": numbers},
-        pictures=pictures,
-        layers=layers,
-        seed=seed,
-    )
-
-
-def _run(*args, function=simplify_points, **kw):
-    """simplify_points (or ``function``), each SimplifyWarning one yellow line."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", SimplifyWarning)
-        result = function(*args, **kw)
-    for w in caught:
-        if issubclass(w.category, SimplifyWarning):
-            err_console.print(f"[bold yellow]warning:[/] {w.message}", highlight=False)
-        else:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    return result
-
 
 # ------------------------------------------------------------------ the command's options
 
@@ -356,110 +188,6 @@ RenderOption = Annotated[
 ]
 
 
-def _level_angle(eta, max_angle_deg, n_faces, max_error, max_triangles=None) -> float | None:
-    """Check that one level of detail is given at most; the angle in radians or None."""
-    levels = [
-        ("--eta", eta),
-        ("--max-angle-deg", max_angle_deg),
-        ("--faces", n_faces),
-        ("--max-error", max_error),
-        ("--max-triangles", max_triangles),
-    ]
-    given = [flag for flag, value in levels if value is not None]
-    if len(given) > 1:
-        raise PointAtlasError(
-            "give one of --eta, --max-angle-deg, --faces, --max-error, --max-triangles; "
-            f"got {', '.join(given)}"
-        )
-    if max_angle_deg is None:
-        return None
-    return math.radians(angle_deg_option(max_angle_deg, "--max-angle-deg"))
-
-
-def _refuse_mesh_flags(infile, *, planarize, n_faces, chord_tolerance, more=()):
-    """The mesh path's flags, given with a point input: one clear error."""
-    for flag, value in (
-        ("--planarize", planarize or None),
-        ("--faces", n_faces),
-        ("--chord-tolerance", chord_tolerance),
-        *more,
-    ):
-        if value is not None:
-            raise PointAtlasError(
-                f"{flag} needs a mesh input (a file with faces); {infile} is a point set "
-                "or --vertices-only was given: use --max-error, --max-triangles, --eta or "
-                "--max-angle-deg"
-            )
-
-
-def _simplify_points_command(
-    infile, out, *, k, estimate, normal_k, use_labels, settings, level, seed, **outputs
-):
-    """The points path of ``simplify``: read, simplify_points, write the outputs."""
-    triangles, report, render = outputs["triangles"], outputs["report"], outputs["render"]
-    ps = read_with_normals(
-        infile,
-        estimate=estimate,
-        normal_k=normal_k,
-        min_points=max(4, k),
-        what=f"simplify with k = {k} (--k)",
-        check=vsa_counts(settings["vsa"]),
-    )
-    normals = ps.normals
-    given = ps.attributes.get("label") if use_labels else None
-    if given is not None:
-        say("segmentation: the input's 'label' field (--no-labels runs VSA instead)")
-    diagonal = float(np.linalg.norm(np.ptp(ps.points, axis=0)))
-    bound = _length_option(level["max_error"], "--max-error", diagonal)
-    result = _run(
-        ps.points,
-        normals,
-        labels=given,
-        rng=seed,
-        max_error=bound,
-        max_triangles=level["max_triangles"],
-        **settings,
-    )
-    mesh = result.mesh
-    if result.path == "robust":
-        _say_missed_target(mesh, n_faces=None, max_triangles=None, max_error=bound)
-    robust = result.path == "robust"
-    written = [write_simplified(out, mesh)]
-    if triangles is not None:
-        written.append(write_triangles(triangles, mesh))
-    used = ps.points[result.point_index] if result.point_index.size else ps.points
-    if render is not None:
-        picture = render_simplification(
-            render, used, normals[result.point_index], mesh, title=ps.name, labels=result.labels
-        )
-        written.append(picture)
-    if report is not None:
-        info = {"input": str(infile), "seed": seed, **result.summary()}
-        if not robust:
-            info["complex"] = mesh.surface_complex.summary()
-        if Path(report).suffix.lower() in REPORT_EXTENSIONS:
-            from ..viz import MeshLayer, PointsLayer
-
-            layers = [
-                PointsLayer(used, {"region": np.asarray(result.labels)}, name="points by region"),
-                MeshLayer(
-                    mesh.vertices,
-                    [p.tolist() for p in mesh.polygons],
-                    face_labels=mesh.face_region[mesh.polygon_face],
-                    name="simplified mesh",
-                ),
-            ]
-            written.append(_html_report(report, infile, info, written, layers, seed))
-        else:
-            written.append(write_summary_json(report, info, written))
-    if robust:
-        console.print(surface_table(mesh, title=ps.name, path=f"robust ({result.reason})"))
-    else:
-        console.print(simplification_table(mesh, result.segmentation, title=ps.name))
-    for name in written:
-        say(f"written: {name}")
-
-
 @app.command("simplify")
 @guarded
 def simplify_command(
@@ -518,56 +246,7 @@ def simplify_command(
     run with its SHA-256.
     """
     weight = renamed_flag("--vertex-weight", weight, "--weight", old_weight)
-    check_outputs(
-        [infile],
-        [
-            ("OUT", out, MESH_OUT),
-            ("--triangles", triangles, MESH_OUT),
-            ("--render", render, (".png",)),
-            ("--report", report, (".json", *REPORT_EXTENSIONS)),
-        ],
-    )
-    max_angle = _level_angle(eta, max_angle_deg, n_faces, max_error, max_triangles)
-    for flag, value, low in (
-        ("--max-triangles", max_triangles, 1),
-        ("--faces", n_faces, 1),
-        ("--smooth", smooth, 0),
-    ):
-        if value is not None and value < low:
-            raise PointAtlasError(f"{flag} must be at least {low}; got {value}")
-    as_float(weight, "--vertex-weight", lo=0.0)
-    if anchor_weight is not None:
-        as_float(anchor_weight, "--anchor-weight", lo=0.0, lo_open=True)
-    if min_region_size is not None:
-        as_int(min_region_size, "--min-region-size", lo=1)
-    mesh_in = None if vertices_only else read_mesh_input(infile)
-    if mesh_in is not None:
-        level = {"n_faces": n_faces, "max_error": max_error, "max_triangles": max_triangles}
-        regions = regions or planarize or (eta, n_faces, chord_tolerance) != (None,) * 3
-        _simplify_mesh_command(
-            infile,
-            mesh_in,
-            out,
-            max_angle=max_angle,
-            eta=eta,
-            **level,
-            regions=regions,
-            chord_tolerance=chord_tolerance,
-            planarize=planarize,
-            seed=seed,
-            triangles=triangles,
-            report=report,
-            render=render,
-        )
-        return
-    _refuse_mesh_flags(
-        infile,
-        planarize=planarize,
-        n_faces=n_faces,
-        chord_tolerance=chord_tolerance,
-        more=(("--regions", regions or None),),
-    )
-    options = vsa_options(
+    options = SimplifyOptions(
         k=k,
         eta=eta,
         max_angle_deg=max_angle_deg,
@@ -578,34 +257,42 @@ def simplify_command(
         classic=classic,
         weights=weights,
         max_iter=max_iter,
-    )
-    settings = {
-        "path": path,
-        "vsa": options,
-        "vertices": vertices,
-        "faces": face_method,
-        "centers": centers,
-        "weight": weight,
-        "anchor_weight": anchor_weight,
-        "min_region_size": min_region_size,
-        "repair": repair,
-        "smooth": smooth,
-    }
-    level = {"max_error": max_error, "max_triangles": max_triangles}
-    _simplify_points_command(
-        infile,
-        out,
-        k=k,
-        estimate=estimate,
-        normal_k=normal_k,
-        use_labels=use_labels,
-        settings=settings,
-        level=level,
         seed=seed,
+        n_faces=n_faces,
+        max_error=max_error,
+        max_triangles=max_triangles,
+        regions=regions,
+        chord_tolerance=chord_tolerance,
+        planarize=planarize,
+        vertices_only=vertices_only,
+        path=path,
+        vertices=vertices,
+        face_method=face_method,
+        centers=centers,
+        vertex_weight=weight,
+        anchor_weight=anchor_weight,
+        min_region_size=min_region_size,
+        repair=repair,
+        smooth=smooth,
+        use_labels=use_labels,
+        estimate_normals=estimate,
+        normal_k=normal_k,
         triangles=triangles,
         report=report,
         render=render,
     )
+    _print_simplify(run_simplify(infile, out, options))
+
+
+def _print_simplify(result) -> None:
+    """The console lines of ``simplify``: the quality table of the path taken, then
+    the files written."""
+    if result.how is None:
+        console.print(simplification_table(result.mesh, result.segmentation, title=result.title))
+    else:
+        console.print(surface_table(result.mesh, title=result.title, path=result.how))
+    for path in result.written:
+        say(f"written: {path}")
 
 
 @demo_step
@@ -613,7 +300,7 @@ def demo_simplify(ps: PointSet, out_dir: Path, console) -> None:
     """Segmentation (VSA) and simplified polygon mesh, side by side."""
     if not ps.has_normals:
         raise PointAtlasError("the demo model has no normals")
-    result = _run(ps.points, ps.normals, eta=DEMO_ETA)
+    result = simplify_quietly(ps.points, ps.normals, eta=DEMO_ETA)
     mesh = result.mesh
     obj = write_mesh(
         out_dir / f"{ps.name}_simplified.obj", mesh.vertices, [p.tolist() for p in mesh.polygons]

@@ -13,6 +13,8 @@ from ._inputs import fill_unusable_normals, read_input, read_keeping_normals, re
 from ._normals import ORIENT_METHODS, compute_normals, normals_and_table
 from ._normals_job import NormalsOptions, NormalsResult, run_normals
 from ._segment import SegmentOptions, SegmentResult, run_segment
+from ._simplify import SimplifyOptions, SimplifyResult, run_simplify, simplify_quietly
+from ._simplify_report import render_simplification, simplification_table, surface_table
 from ._tiled import (
     denoise_job,
     denoise_side_files,
@@ -36,6 +38,8 @@ __all__ = [
     "PIPE_WIDTH",
     "SegmentOptions",
     "SegmentResult",
+    "SimplifyOptions",
+    "SimplifyResult",
     "compute_normals",
     "console",
     "denoise_job",
@@ -48,6 +52,7 @@ __all__ = [
     "normals_and_table",
     "progress_bar",
     "reason_counts",
+    "render_simplification",
     "read_input",
     "read_keeping_normals",
     "read_with_normals",
@@ -55,9 +60,13 @@ __all__ = [
     "run_features",
     "run_normals",
     "run_segment",
+    "run_simplify",
     "run_tiled",
     "say",
     "segment_job",
     "segment_side_files",
+    "simplification_table",
+    "simplify_quietly",
+    "surface_table",
     "tile_options",
 ]

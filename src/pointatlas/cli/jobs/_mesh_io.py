@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .._core import PointAtlasError
-from ..io import write_mesh
+from ..._core import PointAtlasError
+from ...io import write_mesh
 
 __all__ = ["read_mesh_input", "write_simplified", "write_triangles"]
 
@@ -16,8 +16,8 @@ __all__ = ["read_mesh_input", "write_simplified", "write_triangles"]
 def read_mesh_input(infile):
     """The input as a triangle mesh when it has faces (a mesh file or a bundled model
     with a mesh), else None."""
-    from .. import data
-    from ..io import MESH_EXTENSIONS, read_mesh
+    from ... import data
+    from ...io import MESH_EXTENSIONS, read_mesh
 
     p = Path(infile)
     if p.is_file():
@@ -39,7 +39,7 @@ def write_triangles(path, mesh) -> Path:
     holds face colours (PLY, OFF), so every viewer shows the polygons."""
     colors = None
     if Path(path).suffix.lower() in (".ply", ".off"):
-        from ..viz import label_colors
+        from ...viz import label_colors
 
         colors = np.round(label_colors(mesh.triangle_face) * 255).astype(np.uint8)
     return write_mesh(path, mesh.vertices, mesh.triangles, face_colors=colors)

@@ -1,4 +1,5 @@
-"""The report of ``pointatlas simplify``: tables and side-by-side pictures."""
+"""The report of ``pointatlas simplify``: the console tables, the side-by-side pictures
+and the HTML report."""
 
 from __future__ import annotations
 
@@ -6,7 +7,13 @@ from pathlib import Path
 
 from rich.table import Table
 
-__all__ = ["render_simplification", "render_surface", "simplification_table", "surface_table"]
+__all__ = [
+    "render_simplification",
+    "render_surface",
+    "simplification_table",
+    "surface_table",
+    "write_html_report",
+]
 
 
 def simplification_table(mesh, seg=None, *, title: str | None = None) -> Table:
@@ -33,7 +40,7 @@ def render_simplification(
     path: Path, points, normals, mesh, *, title: str | None = None, labels=None
 ):
     """Side-by-side picture: the segmented points and the simplified mesh."""
-    from ..viz import MeshPanel, PointsPanel, fit_camera, render_side_by_side
+    from ...viz import MeshPanel, PointsPanel, fit_camera, render_side_by_side
 
     camera = fit_camera(points)
     labels = mesh.labels if labels is None else labels
@@ -70,7 +77,7 @@ def surface_table(
 
 def render_surface(path: Path, mesh_in, res, *, title: str | None = None):
     """Side-by-side picture: the input's triangles by region and the simplified mesh."""
-    from ..viz import MeshPanel, fit_camera, render_side_by_side
+    from ...viz import MeshPanel, fit_camera, render_side_by_side
 
     camera = fit_camera(mesh_in.vertices)
     panels = [
@@ -89,6 +96,26 @@ def render_surface(path: Path, mesh_in, res, *, title: str | None = None):
         ),
     ]
     return render_side_by_side(path, panels, title=title, view=camera, size=(1800, 900))
+
+
+def write_html_report(path, infile, info: dict, written, layers, seed: int):
+    """The HTML report of ``simplify``: the numbers, the pictures written, a 3-D view."""
+    from ...viz import write_report
+
+    numbers = {
+        k: v for k, v in info.items() if not isinstance(v, dict | list | tuple) and k != "input"
+    }
+    pictures = [p for p in written if Path(p).suffix.lower() == ".png"]
+    return write_report(
+        path,
+        title=f"pointatlas simplify: {Path(str(infile)).name}",
+        summary={"file": str(infile), "files written": ", ".join(str(p) for p in written)},
+        parameters={k: info[k] for k in ("seed",) if k in info},
+        tables={"result": numbers},
+        pictures=pictures,
+        layers=layers,
+        seed=seed,
+    )
 
 
 def _written_rows(table: Table, s: dict) -> None:
