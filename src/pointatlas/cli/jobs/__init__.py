@@ -6,7 +6,10 @@ application (``cli/_app.py``) shares their consoles; nothing here imports the
 commands or the application (docs/decisions/cli.md, "Layout").
 """
 
+from ._cloud_files import load_cloudsurface
+from ._cloudsurface import CloudSurfaceOptions, CloudSurfaceResult, run_cloudsurface, scale_grid
 from ._console import PIPE_WIDTH, console, err_console, progress_bar, say
+from ._deform import DeformOptions, DeformResult, run_deform
 from ._denoise import DenoiseOptions, DenoiseResult, run_denoise
 from ._features import FeaturesOptions, FeaturesResult, reason_counts, run_features
 from ._inputs import fill_unusable_normals, read_input, read_keeping_normals, read_with_normals
@@ -28,6 +31,10 @@ from ._tiled import (
 )
 
 __all__ = [
+    "CloudSurfaceOptions",
+    "CloudSurfaceResult",
+    "DeformOptions",
+    "DeformResult",
     "DenoiseOptions",
     "DenoiseResult",
     "FeaturesOptions",
@@ -47,6 +54,7 @@ __all__ = [
     "err_console",
     "feature_job",
     "feature_weighting",
+    "load_cloudsurface",
     "fill_unusable_normals",
     "normal_job_for",
     "normals_and_table",
@@ -56,6 +64,8 @@ __all__ = [
     "read_input",
     "read_keeping_normals",
     "read_with_normals",
+    "run_cloudsurface",
+    "run_deform",
     "run_denoise",
     "run_features",
     "run_normals",
@@ -63,6 +73,7 @@ __all__ = [
     "run_simplify",
     "run_tiled",
     "say",
+    "scale_grid",
     "segment_job",
     "segment_side_files",
     "simplification_table",
