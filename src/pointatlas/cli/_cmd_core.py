@@ -43,12 +43,11 @@ from ._app import (
     say,
     tile_options,
 )
-from ._cmd_info import info_table
 from ._outputs import (
     check_outputs,
 )
 from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
-from .jobs import NormalsOptions, compute_normals, run_normals
+from .jobs import NormalsOptions, compute_normals, info_table, run_normals
 
 __all__ = [
     "DEMO_STEPS",

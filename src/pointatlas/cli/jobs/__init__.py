@@ -12,6 +12,7 @@ from ._console import PIPE_WIDTH, console, err_console, progress_bar, say
 from ._deform import DeformOptions, DeformResult, run_deform
 from ._denoise import DenoiseOptions, DenoiseResult, run_denoise
 from ._features import FeaturesOptions, FeaturesResult, reason_counts, run_features
+from ._info import InfoOptions, InfoResult, info_fields, info_table, run_info
 from ._inputs import fill_unusable_normals, read_input, read_keeping_normals, read_with_normals
 from ._normals import ORIENT_METHODS, compute_normals, normals_and_table
 from ._normals_job import NormalsOptions, NormalsResult, run_normals
@@ -38,6 +39,8 @@ __all__ = [
     "DenoiseOptions",
     "DenoiseResult",
     "FeaturesOptions",
+    "InfoOptions",
+    "InfoResult",
     "FeaturesResult",
     "ORIENT_METHODS",
     "NormalsOptions",
@@ -56,6 +59,8 @@ __all__ = [
     "feature_weighting",
     "load_cloudsurface",
     "fill_unusable_normals",
+    "info_fields",
+    "info_table",
     "normal_job_for",
     "normals_and_table",
     "progress_bar",
@@ -68,6 +73,7 @@ __all__ = [
     "run_deform",
     "run_denoise",
     "run_features",
+    "run_info",
     "run_normals",
     "run_segment",
     "run_simplify",
