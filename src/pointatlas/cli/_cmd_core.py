@@ -12,21 +12,12 @@ import time
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 from rich.markup import escape
 from rich.table import Table
 
 from .._core import PointAtlasError, PointSet
-from ..io import (
-    POINT_WRITE_EXTENSIONS,
-    read_mesh,
-    read_point_set,
-    write_json,
-    write_point_set,
-)
-from ..neighbors import point_set_info
-from ..normals import angle_error, compare_normals
+from ..io import POINT_WRITE_EXTENSIONS, read_mesh, read_point_set
 from ._app import (
     DEMO_STEPS,
     HaloOption,
@@ -39,15 +30,12 @@ from ._app import (
     console,
     demo_step,
     guarded,
-    progress_bar,
     say,
     tile_options,
 )
-from ._outputs import (
-    check_outputs,
-)
+from ._outputs import check_outputs
 from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
-from .jobs import NormalsOptions, compute_normals, info_table, run_normals
+from .jobs import NormalsOptions, info_file, info_table, normals_files, picture_file, run_normals
 
 __all__ = [
     "DEMO_STEPS",
@@ -157,29 +145,14 @@ def _data_module():
 @demo_step
 def demo_info(ps: PointSet, out_dir: Path, console) -> None:
     """The model: size, bounding box, spacing, k-NN components."""
-    info = point_set_info(ps, k=8)
+    info = info_file(ps, out_dir)
     console.print(info_table(info, title=f"{escape(ps.name)} (bundled)"))
-    write_json(out_dir / f"{ps.name}_info.json", info, indent=2)
 
 
 @demo_step
 def demo_normals(ps: PointSet, out_dir: Path, console) -> PointSet:
     """Normals: PCA estimate (k = 20), MST orientation, compared with the mesh normals."""
-    if not ps.has_normals:
-        raise PointAtlasError("the demo model has no reference normals")
-    t0 = time.perf_counter()
-    with progress_bar("normals", total=2) as advance:
-        estimated = compute_normals(
-            ps.points, k=20, orient="mst", orient_k=10, viewpoint=None, advance=advance
-        )
-    seconds = time.perf_counter() - t0
-    stats = compare_normals(estimated, ps.normals)
-    error = np.degrees(angle_error(estimated, ps.normals))
-    path = write_point_set(
-        out_dir / f"{ps.name}_normals.ply",
-        ps.replace(normals=estimated),
-        attributes={"normal_error_deg": error},
-    )
+    stats, error, seconds, path = normals_files(ps, out_dir)
     table = Table(show_header=False)
     table.add_column("property", style="bold")
     table.add_column("value")
@@ -190,47 +163,13 @@ def demo_normals(ps: PointSet, out_dir: Path, console) -> PointSet:
     table.add_row("flipped fraction", f"{stats['flipped_fraction']:.4f}")
     table.add_row("written", escape(str(path)))
     console.print(table)
-    write_json(out_dir / f"{ps.name}_normals.json", stats, indent=2)
     return ps.with_attributes(normal_error_deg=error)
 
 
 @demo_step
 def demo_picture(ps: PointSet, out_dir: Path, console) -> None:
     """Picture: the model and the normal error of the PCA estimate."""
-    from ..viz import MeshPanel, PointsPanel, fit_camera, render_side_by_side
-
-    panels = []
-    mesh = None
-    try:
-        mesh = _data_module().load_mesh(ps.name)
-    except (AttributeError, PointAtlasError, ValueError, OSError):
-        mesh = None
-    if mesh is not None:
-        panels.append(
-            MeshPanel(mesh.vertices, mesh.faces, face_offsets=mesh.face_offsets, title="mesh")
-        )
-    else:
-        panels.append(PointsPanel(ps.points, normals=ps.normals, title="points"))
-    if "normal_error_deg" in ps.attributes:
-        panels.append(
-            PointsPanel(
-                ps.points,
-                normals=ps.normals,
-                scalars=ps.attributes["normal_error_deg"],
-                scalar_name="PCA normal error (deg)",
-                cmap="YlOrRd",
-                clim=(0.0, 30.0),
-                title="points: normal error (k = 20, MST)",
-            )
-        )
-    camera = fit_camera(ps.points)
-    path = render_side_by_side(
-        out_dir / f"{ps.name}.png",
-        panels,
-        title=f"{ps.name}: {ps.n_points:,} points",
-        view=camera,
-        size=(900 * len(panels), 900),
-    )
+    path = picture_file(ps, out_dir)
     console.print(f"picture: {escape(str(path))}")
 
 

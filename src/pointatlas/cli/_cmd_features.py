@@ -4,18 +4,14 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import Annotated
 
 import numpy as np
 import typer
 
-from .._core import PointAtlasError
 from ..features import (
     REASON_CODES,
-    classify_dimension,
-    optimal_neighborhood,
 )
 from ._app import (
     HaloOption,
@@ -34,7 +30,7 @@ from ._app import (
     say,
     tile_options,
 )
-from .jobs import FeaturesOptions, reason_counts, run_features
+from .jobs import FeaturesOptions, features_files, reason_counts, run_features
 
 __all__ = ["demo_features", "features_command"]
 
@@ -180,19 +176,7 @@ def demo_features(ps, out_dir: Path, console) -> None:
     """Features: optimal normal-weighted neighbourhoods and the fandisk classification."""
     from rich.table import Table
 
-    from ..io import write_point_set
-
-    if not ps.has_normals:
-        raise PointAtlasError("the demo model has no normals")
-    t0 = time.perf_counter()
-    from ..experiments.weightings import fig_5_3
-
-    stats, written = fig_5_3(ps.points, ps.normals, out_dir, name=ps.name)
-    seconds = time.perf_counter() - t0
-    best = optimal_neighborhood(ps.points, ps.normals)
-    fields = best.scalar_fields()
-    fields["dimension_class"] = classify_dimension(best)
-    write_point_set(out_dir / f"{ps.name}_features.ply", ps, attributes=fields)
+    stats, seconds = features_files(ps, out_dir)
     table = Table(title=f"Fig. 5.3 on {ps.name} ({seconds:.1f} s)")
     for col in ("weights", "mean E_dim", "degenerate", "linear / planar / scattered"):
         table.add_column(col)

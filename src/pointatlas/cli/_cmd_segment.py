@@ -11,7 +11,6 @@ import numpy as np
 import typer
 
 from .._core import PointAtlasError, as_int
-from ..segment import vsa_segment
 from ._app import (
     ClassicOption,
     EstimateNormalsOption,
@@ -43,7 +42,7 @@ from ._app import (
     tile_options,
     vsa_options,
 )
-from .jobs import SegmentOptions, run_segment
+from .jobs import SegmentOptions, run_segment, segment_files
 
 __all__ = ["demo_segment", "segment_command"]
 
@@ -194,25 +193,7 @@ def _min_region_size(value, k: int, method: str) -> int:
 @demo_step
 def demo_segment(ps, out_dir, console):
     """Segmentation: VSA from every point with split and merge (eta = 25)."""
-    from ..io import write_point_set
-    from ..viz import label_colors, render_points
-
-    res = vsa_segment(ps.points, ps.normals, k=8, eta=25.0)
-    colors = (label_colors(res.labels) * 255).round().astype(np.uint8)
-    write_point_set(
-        out_dir / f"{ps.name}_segments.ply",
-        ps.points,
-        normals=ps.normals,
-        attributes={"label": np.asarray(res.labels)},
-        colors=colors,
-    )
-    path = render_points(
-        out_dir / f"{ps.name}_segments.png",
-        ps.points,
-        normals=ps.normals,
-        labels=res.labels,
-        title=f"{ps.name}: VSA, eta = 25, {res.n_regions} regions",
-    )
+    res, path = segment_files(ps, out_dir)
     console.print(
         f"VSA: {res.n_regions} regions, MSE {res.mse:.3e}, {res.n_iter} iterations "
         f"({res.stop_reason}); picture: {path}"

@@ -11,8 +11,7 @@ from typing import Annotated
 
 import typer
 
-from .._core import PointAtlasError, PointSet
-from ..io import write_json, write_mesh
+from .._core import PointSet
 from ._app import (
     ClassicOption,
     EstimateNormalsOption,
@@ -36,18 +35,15 @@ from ._app import (
     say,
 )
 from .jobs import (
+    DEMO_ETA,
     SimplifyOptions,
-    render_simplification,
     run_simplify,
     simplification_table,
-    simplify_quietly,
+    simplify_files,
     surface_table,
 )
 
 __all__ = ["DEMO_ETA", "demo_simplify", "simplify_command"]
-
-#: Segmentation of the demo model: VSA from every point, split/merge threshold eta.
-DEMO_ETA = 20.0
 
 # ------------------------------------------------------------------ the command's options
 
@@ -298,20 +294,6 @@ def _print_simplify(result) -> None:
 @demo_step
 def demo_simplify(ps: PointSet, out_dir: Path, console) -> None:
     """Segmentation (VSA) and simplified polygon mesh, side by side."""
-    if not ps.has_normals:
-        raise PointAtlasError("the demo model has no normals")
-    result = simplify_quietly(ps.points, ps.normals, eta=DEMO_ETA)
-    mesh = result.mesh
-    obj = write_mesh(
-        out_dir / f"{ps.name}_simplified.obj", mesh.vertices, [p.tolist() for p in mesh.polygons]
-    )
-    png = render_simplification(
-        out_dir / f"{ps.name}_simplified.png",
-        ps.points,
-        ps.normals,
-        mesh,
-        title=f"{ps.name}: VSA (eta = {DEMO_ETA:g}) and the simplified mesh",
-    )
-    write_json(out_dir / f"{ps.name}_simplified.json", mesh.summary(), indent=2)
-    console.print(simplification_table(mesh, result.segmentation))
+    result, obj, png = simplify_files(ps, out_dir)
+    console.print(simplification_table(result.mesh, result.segmentation))
     say(f"mesh: {obj}\npicture: {png}")

@@ -10,6 +10,15 @@ from ._cloud_files import load_cloudsurface
 from ._cloudsurface import CloudSurfaceOptions, CloudSurfaceResult, run_cloudsurface, scale_grid
 from ._console import PIPE_WIDTH, console, err_console, progress_bar, say
 from ._deform import DeformOptions, DeformResult, run_deform
+from ._demo import (
+    DEMO_ETA,
+    features_files,
+    info_file,
+    normals_files,
+    picture_file,
+    segment_files,
+    simplify_files,
+)
 from ._denoise import DenoiseOptions, DenoiseResult, run_denoise
 from ._features import FeaturesOptions, FeaturesResult, reason_counts, run_features
 from ._info import InfoOptions, InfoResult, info_fields, info_table, run_info
@@ -32,6 +41,7 @@ from ._tiled import (
 )
 
 __all__ = [
+    "DEMO_ETA",
     "CloudSurfaceOptions",
     "CloudSurfaceResult",
     "DeformOptions",
@@ -57,12 +67,16 @@ __all__ = [
     "err_console",
     "feature_job",
     "feature_weighting",
+    "features_files",
     "load_cloudsurface",
     "fill_unusable_normals",
     "info_fields",
+    "info_file",
     "info_table",
     "normal_job_for",
     "normals_and_table",
+    "normals_files",
+    "picture_file",
     "progress_bar",
     "reason_counts",
     "render_simplification",
@@ -81,8 +95,10 @@ __all__ = [
     "say",
     "scale_grid",
     "segment_job",
+    "segment_files",
     "segment_side_files",
     "simplification_table",
+    "simplify_files",
     "simplify_quietly",
     "surface_table",
     "tile_options",
