@@ -1,5 +1,13 @@
 """Layer 0: array conventions, validation, rng, tolerances, the PointSet container."""
 
+from ._deprecation import deprecated_alias
+from ._interrupt import (
+    STOP_SIGNALS,
+    clear_interrupt,
+    interrupt_requested,
+    interrupt_signal,
+    request_interrupt,
+)
 from ._pointset import PointSet, readonly
 from ._scalars import as_float, as_float_array, as_int, as_iterations, as_k
 from ._validation import (
@@ -18,6 +26,7 @@ __all__ = [
     "NonFiniteError",
     "PointAtlasError",
     "PointSet",
+    "STOP_SIGNALS",
     "as_float",
     "as_float_array",
     "as_int",
@@ -30,6 +39,11 @@ __all__ = [
     "as_vectors",
     "check_finite",
     "check_neighbors",
+    "clear_interrupt",
+    "deprecated_alias",
     "describe_indices",
+    "interrupt_requested",
+    "interrupt_signal",
     "readonly",
+    "request_interrupt",
 ]

@@ -34,25 +34,50 @@ _SIGNAL = [signal.SIGINT]  # the signal of the request (one slot, set before the
 
 
 def request_interrupt(signum: int = signal.SIGINT) -> None:
-    """Record that the user asked to stop (called from a signal handler)."""
+    """Record that the user asked to stop (called from a signal handler).
+
+    Parameters
+    ----------
+    signum : int
+        The signal that asked (one of `STOP_SIGNALS`); the first request since the
+        last `clear_interrupt` is the one `interrupt_signal` reports.
+    """
     if not _REQUESTED.is_set():
         _SIGNAL[0] = signum
     _REQUESTED.set()
 
 
 def clear_interrupt() -> None:
-    """Forget an earlier request (at the start of a command)."""
+    """Forget an earlier request (at the start of a command).
+
+    Notes
+    -----
+    After it, `interrupt_requested` is False and `interrupt_signal` None until the
+    next `request_interrupt`.
+    """
     _REQUESTED.clear()
     _SIGNAL[0] = signal.SIGINT
 
 
 def interrupt_requested() -> bool:
-    """True once :func:`request_interrupt` was called and not cleared since."""
+    """Whether the user asked to stop.
+
+    Returns
+    -------
+    requested : bool
+        True once :func:`request_interrupt` was called and not cleared since.
+    """
     return _REQUESTED.is_set()
 
 
 def interrupt_signal() -> int | None:
-    """The signal of the first request since the last clear (None without one)."""
+    """The signal of the first request since the last clear.
+
+    Returns
+    -------
+    signum : int or None
+        The signal `request_interrupt` recorded first; None without a request.
+    """
     return _SIGNAL[0] if _REQUESTED.is_set() else None
 
 

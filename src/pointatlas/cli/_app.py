@@ -14,8 +14,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from .._core import PointAtlasError
-from .._core._interrupt import interrupt_requested
+from .._core import PointAtlasError, interrupt_requested
 from ._flag_checks import angle_deg_option, parse_seeds, vsa_options
 from ._signals import stop_signals_handled, stopped_line
 from ._typed import TypedArgsGroup

@@ -1,6 +1,6 @@
 """Ctrl-C (SIGINT) and SIGTERM while a command runs: recorded, then one line.
 
-The handlers record the request (:mod:`pointatlas._core._interrupt`) and raise
+The handlers record the request (`pointatlas._core.request_interrupt`) and raise
 ``KeyboardInterrupt``; `pointatlas.cli._app.guarded` turns it into the line and
 exit status of `STOPPED`. Kept apart from ``_app`` so that ``cli/__init__.py``
 reads the table before the heavy imports.
@@ -13,7 +13,7 @@ import signal
 import sys
 import threading
 
-from .._core._interrupt import (
+from .._core import (
     STOP_SIGNALS,
     clear_interrupt,
     interrupt_requested,

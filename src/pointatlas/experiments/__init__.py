@@ -17,7 +17,7 @@ modules inside its commands (``from pointatlas.experiments.table_4_1 import
 run_vsa_experiment``), so ``pointatlas --help`` stays fast.
 """
 
-from .._core._deprecation import deprecated_alias
+from .._core import deprecated_alias
 from ._report import experiment_tables, write_experiment_report
 from .cloud_surfaces import run_cloud_surfaces
 from .denoise import fig_6_9, table_5_3, write_denoise_outputs
