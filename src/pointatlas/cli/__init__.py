@@ -1,9 +1,10 @@
 """Command-line interface ``pointatlas`` (typer + rich).
 
 Command modules register themselves on import; add one name per module to
-``_COMMAND_MODULES`` (``_cmd_core`` first, the rest sorted): the help lists the
-commands and ``demo`` runs the steps in that order. They are imported on first use
-of ``app``, so that ``main`` can install its Ctrl-C handler before the heavy imports.
+``_COMMAND_MODULES`` (``_cmd_info`` and ``_cmd_core`` first, the rest sorted): the
+help lists the commands (``info``, ``normals``, ``demo`` first) and ``demo`` runs the
+steps in that order. They are imported on first use of ``app``, so that ``main`` can
+install its Ctrl-C handler before the heavy imports.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ app: typer.Typer  # declared for the API reference; bound on first use by __geta
 
 # command modules (each registers on ``app`` / sub-apps when imported)
 _COMMAND_MODULES = (
+    "_cmd_info",
     "_cmd_core",
     "_cmd_cloudsurface",
     "_cmd_data",
@@ -33,7 +35,6 @@ _COMMAND_MODULES = (
     "_cmd_denoise",
     "_cmd_experiment",
     "_cmd_features",
-    "_cmd_info",
     "_cmd_render",
     "_cmd_segment",
     "_cmd_simplify",
