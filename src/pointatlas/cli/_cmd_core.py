@@ -8,7 +8,6 @@ terminal.
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import Annotated
 
@@ -17,7 +16,6 @@ from rich.markup import escape
 from rich.table import Table
 
 from .._core import PointAtlasError, PointSet
-from ..io import POINT_WRITE_EXTENSIONS, read_mesh, read_point_set
 from ._app import (
     DEMO_STEPS,
     HaloOption,
@@ -33,20 +31,17 @@ from ._app import (
     say,
     tile_options,
 )
-from ._outputs import check_outputs
-from ._reports import REPORT_EXTENSIONS, report_layer, report_summary, report_up
-from .jobs import NormalsOptions, info_file, info_table, normals_files, picture_file, run_normals
+from .jobs import (
+    NormalsOptions,
+    info_file,
+    info_table,
+    normals_files,
+    picture_file,
+    run_demo_steps,
+    run_normals,
+)
 
-__all__ = [
-    "DEMO_STEPS",
-    "REPORT_EXTENSIONS",
-    "report_layer",
-    "report_summary",
-    "report_up",
-    "run_demo",
-    "select_steps",
-    "step_name",
-]
+__all__ = ["DEMO_STEPS", "demo_command", "normals_command", "run_demo", "select_steps", "step_name"]
 
 #: Model used by ``pointatlas demo``.
 DEMO_MODEL = "fandisk"
@@ -131,14 +126,6 @@ def _print_normals(in_path: Path, options: NormalsOptions, result) -> None:
 # --------------------------------------------------------------------------- data
 
 
-def _data_module():
-    try:
-        from .. import data
-    except ImportError as exc:  # pragma: no cover - the data room ships with the package
-        raise PointAtlasError(f"bundled models are not available ({exc})") from None
-    return data
-
-
 # --------------------------------------------------------------------------- demo
 
 
@@ -195,101 +182,9 @@ def select_steps(only: str | None) -> list:
 
 
 def run_demo(out_dir: Path, *, model: str = DEMO_MODEL, steps=None) -> list[Path]:
-    """Run the demo steps on a bundled model; returns the files written."""
-    out_dir = Path(out_dir)
-    check_outputs([], folders=[("--out", out_dir)])
-    out_dir.mkdir(exist_ok=True)
-    data = _data_module()
-    if model not in data.names():
-        raise PointAtlasError(f"unknown model {model!r}; bundled: {', '.join(data.names())}")
-    ps = data.load(model)
-    start = time.time() - 1.0
-    steps = list(DEMO_STEPS if steps is None else steps)
-    sections = []
-    seen: set[str] = set()
-    was_recording = console.record
-    console.record = True
-    console.export_text(clear=True)  # drop anything recorded before the demo
-    try:
-        for i, step in enumerate(steps, 1):
-            heading = (step.__doc__ or step.__name__).strip().splitlines()[0]
-            step_start = time.time() - 1.0
-            console.rule(f"[bold]{i}/{len(steps)}  {heading}", align="left")
-            result = step(ps, out_dir, console)
-            if isinstance(result, PointSet):
-                ps = result
-            text = console.export_html(
-                clear=True, inline_styles=True, code_format="<pre class='log'>{code}</pre>"
-            )
-            files = sorted(
-                p.name
-                for p in out_dir.iterdir()
-                if p.is_file() and p.stat().st_mtime >= step_start and p.name not in seen
-            )
-            seen.update(files)
-            layers = _step_layers(out_dir, files, ps)
-            sections.append((f"{i}/{len(steps)} {heading}", text, files, layers))
-    finally:
-        console.record = was_recording
-    write_demo_report(out_dir / "report.html", model, sections)
-    return sorted(p for p in out_dir.iterdir() if p.is_file() and p.stat().st_mtime >= start)
-
-
-def _step_layers(out_dir: Path, files, ps: PointSet) -> list:
-    """The 3-D view of a demo step: the point set and meshes it wrote.
-
-    The first point file of the step is shown with its fields; without one, the
-    demo's current point set (with the fields the steps so far added). Mesh files
-    (.obj, .off, .stl) are shown as surfaces.
-    """
-    from ..viz import MeshLayer
-
-    point_set = None
-    meshes = []
-    for name in files:
-        ext = Path(name).suffix.lower()
-        if ext in (".obj", ".off", ".stl"):
-            mesh = read_mesh(out_dir / name)
-            if mesh.n_faces:
-                meshes.append(
-                    MeshLayer(mesh.vertices, mesh.faces, face_offsets=mesh.face_offsets, name=name)
-                )
-        elif ext in POINT_WRITE_EXTENSIONS and point_set is None:
-            point_set = read_point_set(out_dir / name, zero_normals="drop")
-    return [report_layer(point_set if point_set is not None else ps, {}), *meshes]
-
-
-def write_demo_report(path: Path, model: str, sections) -> Path:
-    """Write the demo's HTML report: each step's console output, pictures, files and 3-D view.
-
-    ``sections`` is a list of ``(heading, html_of_console_output, file_names,
-    layers)``; PNGs are shown inline and other files linked (paths relative to the
-    report's folder); ``layers`` (`pointatlas.viz.PointsLayer` / ``MeshLayer``)
-    make the step's interactive 3-D view.
-    """
-    from ..viz import ReportSection, write_report
-
-    path = Path(path)
-    folder = path.parent
-    parts = []
-    for heading, text, files, layers in sections:
-        parts.append(
-            ReportSection(
-                heading,
-                log_html=text,
-                pictures=[folder / name for name in files if name.endswith(".png")],
-                layers=layers,
-                links=[n for n in files if not n.endswith(".png") and n != path.name],
-            )
-        )
-    return write_report(
-        path,
-        title=f"pointatlas demo on the bundled model {model}",
-        summary={"model": model},
-        parameters={"steps": ", ".join(heading for heading, *_ in sections)},
-        sections=parts,
-        link_pictures=True,
-    )
+    """Run the demo steps (all registered: `DEMO_STEPS`, or ``steps``) on a bundled
+    model (`pointatlas.cli.jobs.run_demo_steps`); returns the files written."""
+    return run_demo_steps(out_dir, DEMO_STEPS if steps is None else steps, model=model)
 
 
 @app.command("demo")

@@ -22,12 +22,12 @@ from ._app import (
     guarded,
     say,
 )
-from ._cmd_core import _data_module
 from ._outputs import (
     XYZ_EXTENSIONS,
     check_outputs,
     check_point_output,
 )
+from .jobs import bundled_data
 
 __all__ = ["data_export_command", "data_list_command"]
 
@@ -40,7 +40,7 @@ def data_list_command(
     """List the bundled models and synthetic shapes (name, points, licence, source)."""
     rows = [
         {"name": r.name, "points": r.n_points, "license": r.license, "source": r.source}
-        for r in _data_module().info()
+        for r in bundled_data().info()
     ]
     if as_json:
         typer.echo(json_text(rows, indent=2))
@@ -77,7 +77,7 @@ def data_export_command(
     .las .laz), or ``--points`` with .ply, write the points with their normals and
     attributes (e.g. the ground-truth ``labels`` of synthetic shapes).
     """
-    data = _data_module()
+    data = bundled_data()
     ext = out_path.suffix.lower()
     check_outputs(
         [], [("OUT", out_path, tuple(sorted(set(MESH_EXTENSIONS) | set(POINT_WRITE_EXTENSIONS))))]

@@ -19,6 +19,7 @@ from ._demo import (
     segment_files,
     simplify_files,
 )
+from ._demo_run import bundled_data, run_demo_steps, write_demo_report
 from ._denoise import DenoiseOptions, DenoiseResult, run_denoise
 from ._features import FeaturesOptions, FeaturesResult, reason_counts, run_features
 from ._info import InfoOptions, InfoResult, info_fields, info_table, run_info
@@ -63,6 +64,7 @@ __all__ = [
     "compute_normals",
     "console",
     "denoise_job",
+    "bundled_data",
     "denoise_side_files",
     "err_console",
     "feature_job",
@@ -85,6 +87,7 @@ __all__ = [
     "read_with_normals",
     "run_cloudsurface",
     "run_deform",
+    "run_demo_steps",
     "run_denoise",
     "run_features",
     "run_info",
@@ -102,4 +105,5 @@ __all__ = [
     "simplify_quietly",
     "surface_table",
     "tile_options",
+    "write_demo_report",
 ]
