@@ -18,7 +18,7 @@ import numpy as np
 from .._core import PointAtlasError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ._surface import _Surface
+    from ._triangles import _Surface
 
 __all__ = [
     "MAX_REFINE",

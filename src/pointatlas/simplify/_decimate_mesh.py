@@ -32,7 +32,8 @@ from ._mesh_path import (
 )
 from ._place import FLAT_RTOL, flat_planes, place_on_planes
 from ._polygons import PLANAR_RTOL
-from ._surface import SurfaceSimplification, _face_graph, _surface, surface_result
+from ._surface import SurfaceSimplification, surface_result
+from ._triangles import _face_graph, _surface
 
 __all__ = ["MAX_ERROR", "Decimation", "MeshDistances", "decimate_mesh"]
 

@@ -16,7 +16,8 @@ from scipy import sparse
 from .._core import as_float, as_points
 from ._mesh import unique_ints, unique_pairs
 from ._nonmanifold import repair_mesh_input
-from ._surface import SurfaceSimplification, _face_graph, _Surface, _surface, simplify_surface
+from ._surface import SurfaceSimplification, simplify_surface
+from ._triangles import _face_graph, _Surface, _surface
 
 __all__ = ["simplify_mesh", "surface_diagonal"]
 

@@ -523,7 +523,7 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max
     from ._decimate_mesh import MAX_ERROR, Decimation
     from ._distance import PointSurface
     from ._polygons import PLANAR_RTOL
-    from ._surface import _face_graph, _surface
+    from ._triangles import _face_graph, _surface
 
     rec = reconstruct_surface(q, normals)
     s = _surface(rec.vertices, rec.triangles)
