@@ -69,3 +69,22 @@ def test_a_cold_cache_is_announced_once_on_stderr(tmp_path):
         reader.join(timeout=600)
         proc.kill()
     assert COMPILE_NOTICE in lines, lines
+
+
+def test_every_warm_up_step_runs_without_error(monkeypatch):
+    # cloudsurface asks for --scale or --search: its steps stopped at that error,
+    # compiled nothing, and the warm-up said "0 more kernels" with exit status 0
+    from pointatlas.cli import _load_app, _warm
+
+    calls = []
+    real = _warm._run_quietly
+
+    def run(app, args):
+        calls.append(args[0])
+        real(app, args)
+
+    monkeypatch.setattr(_warm, "_run_quietly", run)
+    _warm.warm(["cloudsurface", "deform"], say=lambda line: None)
+    assert calls == ["cloudsurface", "cloudsurface", "deform"]
+    with pytest.raises(RuntimeError, match="give exactly one of --scale"):
+        _warm._run_quietly(_load_app(), ["cloudsurface", "torus_coarse", "x"])

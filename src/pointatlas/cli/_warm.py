@@ -46,9 +46,9 @@ WARM_STEPS: dict[str, list[list[str]]] = {
         ["simplify", "{tmp}/points.ply", "{tmp}/simplify_points.obj"],
     ],
     "denoise": [["denoise", WARM_MODEL, "{tmp}/denoise.ply"]],
-    "cloudsurface": [["cloudsurface", WARM_MODEL, "{tmp}/cloudsurface"]],
+    "cloudsurface": [["cloudsurface", WARM_MODEL, "{tmp}/cloudsurface", "--scale", "1"]],
     "deform": [
-        ["cloudsurface", WARM_MODEL, "{tmp}/deform_cs"],
+        ["cloudsurface", WARM_MODEL, "{tmp}/deform_cs", "--scale", "1"],
         ["deform", "{tmp}/deform_cs", "{tmp}/deform_cs/complex.ply", "{tmp}/deform.ply"],
     ],
 }
@@ -71,14 +71,17 @@ def compiled_kernels() -> dict[str, int]:
 
 
 def _run_quietly(app, args: list[str]) -> None:
-    """Run one command in process, its output swallowed; a failure raises."""
+    """Run one command in process, its output swallowed; a failure raises (an error
+    the command reports is its exit code, which click returns without
+    ``standalone_mode``: a warm-up step that stopped at its error compiled nothing)."""
     out = io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(out):
         try:
-            app(args, standalone_mode=False)
+            code = app(args, standalone_mode=False)
         except SystemExit as exc:  # typer.Exit from a command
-            if exc.code not in (0, None):
-                raise RuntimeError(f"pointatlas {' '.join(args)}: {out.getvalue()}") from exc
+            code = exc.code
+    if code not in (0, None):
+        raise RuntimeError(f"pointatlas {' '.join(args)}: {out.getvalue().strip()}")
 
 
 def warm(commands=None, *, say=print) -> dict[str, list[str]]:
