@@ -10,9 +10,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from pointatlas._core import PointAtlasError
 from pointatlas.neighbors import query_knn
 from pointatlas.normals import estimate_normals, orient_normals
-from pointatlas.segment import VSAOptions, vsa_segment
+from pointatlas.segment import VSAOptions, pick_merge_targets, vsa_segment
 from pointatlas.segment._kernels import canonical_labels
 from pointatlas.segment._small import added_l21, join_picks, small_region_groups
 from pointatlas.synth import add_normal_noise, cube, sample_mesh
@@ -183,3 +184,34 @@ def test_min_region_size_is_validated():
         VSAOptions(min_region_size=-1)
     with pytest.raises(TypeError, match="min_region_size"):
         VSAOptions(min_region_size=2.5)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_pick_merge_targets_is_the_least_added_l21_of_a_plain_loop(seed):
+    rng = np.random.default_rng(seed)
+    ssum = rng.normal(size=(30, 3)) * rng.uniform(0.1, 5.0, size=(30, 1))
+    ssum[7] = ssum[3]  # two equal targets: the smaller id wins
+    a = rng.integers(0, 30, size=200)
+    b = rng.integers(0, 30, size=200)
+    a, b = np.append(a, [11, 11]), np.append(b, [7, 3])
+    src, dst = pick_merge_targets(a, b, ssum)
+
+    def added(x, y):  # 2 (|S_a| + |S_b| - |S_a + S_b|), Eq. 4.4 at the optimal normals
+        n = np.linalg.norm
+        return 2.0 * (n(ssum[x]) + n(ssum[y]) - n(ssum[x] + ssum[y]))
+
+    assert src.tolist() == sorted(set(a.tolist()))
+    for x, y in zip(src.tolist(), dst.tolist(), strict=True):
+        options = sorted(set(b[a == x].tolist()))
+        costs = [added(x, t) for t in options]
+        best = min(costs)
+        # the pick is the least, up to the reference's cancellation; ties by id
+        near = [t for t, c in zip(options, costs, strict=True) if c <= best + 1e-9]
+        assert y == near[0]
+
+
+def test_pick_merge_targets_refuses_mismatched_arrays():
+    with pytest.raises(PointAtlasError, match="one length"):
+        pick_merge_targets(np.arange(3), np.arange(2), np.zeros((3, 3)))
+    with pytest.raises(PointAtlasError, match=r"\(R, 3\)"):
+        pick_merge_targets(np.arange(3), np.arange(3), np.zeros((3, 2)))

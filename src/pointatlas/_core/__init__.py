@@ -1,11 +1,12 @@
 """Layer 0: array conventions, validation, rng, tolerances, the PointSet container."""
 
-from ._deprecation import deprecated_alias
+from ._deprecation import deprecated_alias, warn_renamed
 from ._interrupt import (
     STOP_SIGNALS,
     clear_interrupt,
     interrupt_requested,
     interrupt_signal,
+    interrupts_deferred,
     request_interrupt,
 )
 from ._pointset import PointSet, readonly
@@ -44,6 +45,8 @@ __all__ = [
     "describe_indices",
     "interrupt_requested",
     "interrupt_signal",
+    "interrupts_deferred",
     "readonly",
     "request_interrupt",
+    "warn_renamed",
 ]

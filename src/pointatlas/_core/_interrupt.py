@@ -95,9 +95,17 @@ def interrupts_deferred(*, children: bool = False):
     for the whole process group; their parent stops them. Elsewhere than in the main
     thread of a POSIX process, the parts that cannot be done are left out.
 
-    With ``children``, the block starts processes with :mod:`multiprocessing`: its
-    resource tracker is started first, because starting it unblocks the two
-    signals in the thread that starts it (CPython's ``resource_tracker``).
+    Parameters
+    ----------
+    children : bool
+        The block starts processes with :mod:`multiprocessing`: its resource tracker
+        is started first, because starting it unblocks the two signals in the thread
+        that starts it (CPython's ``resource_tracker``).
+
+    Yields
+    ------
+    None
+        The block runs inside the ``with`` statement.
     """
     if children and hasattr(signal, "pthread_sigmask"):
         from multiprocessing import resource_tracker

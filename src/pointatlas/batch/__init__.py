@@ -1,6 +1,6 @@
 """Batch runs over model collections and tiled processing of large scans on dask (layer 5)."""
 
-from .._core._deprecation import deprecated_alias
+from .._core import deprecated_alias
 from ..io import to_json_safe
 from ._runner import BatchReport, list_models, run_batch
 from ._tiles import ArraySource, TiledRun, TileOptions

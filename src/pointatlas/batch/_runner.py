@@ -18,7 +18,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .._core._interrupt import interrupts_deferred
+from .._core import interrupts_deferred
 from ..io import to_json_safe, write_json
 
 __all__ = ["BatchReport", "list_models", "run_batch"]

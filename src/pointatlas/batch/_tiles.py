@@ -24,8 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._core import PointAtlasError
-from .._core._interrupt import interrupts_deferred
+from .._core import PointAtlasError, interrupts_deferred
 from ._tiles_grid import TileGrid, make_grid
 from ._tiles_tasks import run_task
 
@@ -236,7 +235,7 @@ class ArraySource:
 
     def bounds(self):
         """Minima and maxima of the coordinates, as two (x, y, z) tuples."""
-        from ..neighbors._kernels import bounds
+        from .._core.kernels import bounds
 
         lo, hi = bounds(self.points)
         return tuple(lo.tolist()), tuple(hi.tolist())

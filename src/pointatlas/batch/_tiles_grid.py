@@ -12,8 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._core import PointAtlasError
-from .._core._deprecation import warn_renamed
+from .._core import PointAtlasError, warn_renamed
 
 __all__ = ["TileGrid", "exact_tile_knn", "make_grid"]
 

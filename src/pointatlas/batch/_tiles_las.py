@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .._core import PointAtlasError, as_normals
-from ..io._las import check_las_complete
+from ..io import check_las_complete
 from ._tiles import release_pages
 
 __all__ = ["LAS_EXTENSIONS", "LAS_FEATURE_FLOAT", "LasSource", "las_feature_fields"]

@@ -403,7 +403,7 @@ def _join_small(regions: _Regions, pairs: np.ndarray, has_points: np.ndarray, mi
     "small_regions" does (`VSAOptions.min_region_size`); a tile joined its own
     small regions already, this joins those cut by tile borders. Returns the
     number of regions that joined."""
-    from ..segment._small import best_targets
+    from ..segment import pick_merge_targets
 
     total = regions.st.shape[0]
     pairs = pairs[has_points[pairs[:, 0]] & has_points[pairs[:, 1]]] if pairs.size else pairs
@@ -420,7 +420,7 @@ def _join_small(regions: _Regions, pairs: np.ndarray, has_points: np.ndarray, mi
         keep = np.array([regions.near(x, y) for x, y in pairs_ab], dtype=bool)
         if not keep.any():
             break
-        src, dst = best_targets(a[keep], b[keep], regions.st[:, 1:4])
+        src, dst = pick_merge_targets(a[keep], b[keep], regions.st[:, 1:4])
         for x, y in zip(src.tolist(), dst.tolist(), strict=True):
             if regions.find(x) != regions.find(y):
                 regions.union(x, y)

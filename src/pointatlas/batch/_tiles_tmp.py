@@ -11,8 +11,8 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from .._core._interrupt import interrupts_deferred
-from ..io._atomic import remove_stale_temp_files, temp_prefix
+from .._core import interrupts_deferred
+from ..io import remove_stale_temp_files, temp_prefix
 
 __all__ = ["TMP_NAME", "clean_tmp", "make_tmp"]
 

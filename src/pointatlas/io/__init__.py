@@ -10,10 +10,12 @@ from ._atomic import (
     output_problem,
     output_target,
     remove_stale_temp_files,
+    temp_prefix,
 )
 from ._attrs import merge_attributes
 from ._errors import PointAtlasIOError
 from ._json import json_text, to_json_safe, write_json
+from ._las import check_las_complete
 from ._mesh import Mesh, fan_triangulate, vertex_normals
 from ._plan import POINT_WRITE_EXTENSIONS, check_point_set_writable
 from ._read import MESH_EXTENSIONS, POINT_EXTENSIONS, as_point_set, read_mesh, read_point_set
@@ -28,6 +30,7 @@ __all__ = [
     "PointAtlasIOError",
     "as_point_set",
     "atomic_write",
+    "check_las_complete",
     "check_point_set_writable",
     "fan_triangulate",
     "file_record",
@@ -39,6 +42,7 @@ __all__ = [
     "read_mesh",
     "read_point_set",
     "remove_stale_temp_files",
+    "temp_prefix",
     "to_json_safe",
     "vertex_normals",
     "write_json",

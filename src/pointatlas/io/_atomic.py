@@ -269,7 +269,20 @@ def _fsync_folder(folder: Path) -> None:
 
 
 def temp_prefix(path) -> str:
-    """Prefix of :func:`atomic_write`'s temporary files for ``path`` (name and pid)."""
+    """Prefix of :func:`atomic_write`'s temporary files for ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output file.
+
+    Returns
+    -------
+    prefix : str
+        ``.<name>.pa<pid>.``: the file's name and this process's id, which
+        :func:`remove_stale_temp_files` reads to tell a dead writer's files from a
+        running one's (a tiled run names its temporary folder so).
+    """
     return f".{Path(os.fspath(path)).name}.pa{os.getpid()}."
 
 

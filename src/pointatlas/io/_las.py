@@ -67,13 +67,24 @@ def _las_layout(head: bytes) -> _LasLayout | None:
 
 
 def check_las_complete(path) -> None:
-    """Refuse a LAS/LAZ file shorter than its header says, in words (private).
+    """Refuse a LAS/LAZ file shorter than its header says, in words.
 
-    Raises `PointAtlasIOError` naming the file: a file cut inside its header, before
-    the first point record, before the last point record of an uncompressed file, or
-    before the end of the compressed points of a LAZ file (the chunk table offset
-    stored at the start of the points). Files that are not LAS at all are left to
-    laspy's own error.
+    The readers call it before laspy (whose errors on a cut file name no size), and
+    so does the tiled LAS source (`pointatlas.batch.LasSource`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file. One that cannot be opened, or that is not LAS at all, passes: the
+        reader reports it (laspy's own error).
+
+    Raises
+    ------
+    PointAtlasIOError
+        Naming the file: a file cut inside its header, before the first point
+        record, before the last point record of an uncompressed file, or before the
+        end of the compressed points of a LAZ file (the chunk table offset stored at
+        the start of the points).
     """
     try:
         size = os.path.getsize(path)

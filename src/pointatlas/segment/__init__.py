@@ -10,6 +10,7 @@ from ._eta import estimate_eta
 from ._graph import region_adjacency
 from ._options import VSAOptions
 from ._region_growing import RegionGrowingResult, region_growing, surface_curvature
+from ._small import pick_merge_targets
 from ._vsa import VSAResult, vsa_segment
 from ._weights import area_weights
 
@@ -19,6 +20,7 @@ __all__ = [
     "VSAResult",
     "area_weights",
     "estimate_eta",
+    "pick_merge_targets",
     "region_adjacency",
     "region_growing",
     "surface_curvature",

@@ -16,15 +16,16 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
 
+from .._core import PointAtlasError
 from ._kernels import canonical_labels
 from ._sums import energy_opt, proxy_normals, region_sums, row_norms
 from ._vsa_run import _group_median, _normal_gap, neighbourhood_reach
 
 __all__ = [
     "added_l21",
-    "best_targets",
     "join_picks",
     "merge_small_regions",
+    "pick_merge_targets",
     "small_region_groups",
 ]
 
@@ -47,9 +48,39 @@ def added_l21(s_a, s_b):
     return out
 
 
-def best_targets(a, b, ssum):
-    """For every region in ``a`` (directed candidate pairs a -> b), the ``b`` of
-    least added L21 (ties: the smaller id); returns (sources increasing, targets)."""
+def pick_merge_targets(a, b, ssum):
+    """The neighbour each small region joins: the one whose union adds the least L21.
+
+    The rule of `VSAOptions.min_region_size` (docs/decisions/segment.md "Small
+    regions"), shared with the stitching of tiled segmentations
+    (`pointatlas.batch.tiled_segment`). The added energy is that of Eq. 4.4 at the
+    optimal normals, computed from the region sums alone.
+
+    Parameters
+    ----------
+    a, b : (M,) int64 arrays
+        Directed candidate pairs ``a[i] -> b[i]``: region ``a[i]`` may join ``b[i]``.
+    ssum : (R, 3) float64 array
+        Per region, the area-weighted sum of its point normals (the S of Eq. 4.4).
+
+    Returns
+    -------
+    sources : (P,) int64 array
+        The distinct regions of ``a``, increasing.
+    targets : (P,) int64 array
+        For each source, the ``b`` of least added L21 (ties: the smaller id).
+
+    Raises
+    ------
+    PointAtlasError
+        When ``a`` and ``b`` are not two integer arrays of one length or ``ssum`` is
+        not (R, 3) (ids out of range: numpy's ``IndexError``).
+    """
+    a, b, ssum = np.asarray(a), np.asarray(b), np.asarray(ssum)
+    if a.ndim != 1 or a.shape != b.shape or a.dtype.kind not in "iu" or b.dtype.kind not in "iu":
+        raise PointAtlasError("pick_merge_targets: a and b must be integer arrays of one length")
+    if ssum.ndim != 2 or ssum.shape[1] != 3:
+        raise PointAtlasError(f"pick_merge_targets: ssum must be (R, 3), got {ssum.shape}")
     cost = added_l21(ssum[a], ssum[b])
     order = np.lexsort((b, cost, a))
     a, b = a[order], b[order]
@@ -76,7 +107,7 @@ def small_region_groups(pairs, wsum, ssum, counts, min_size):
 
     Parameters are per region (ids 0..m-1): W, S, point counts, and ``pairs``
     (E, 2) the neighbouring regions. In rounds, every small region that has a
-    neighbour picks the one whose union adds the least L21 (`best_targets`); the
+    neighbour picks the one whose union adds the least L21 (`pick_merge_targets`); the
     picks of a round join at once (`join_picks`), the sums are recomputed and the
     next round starts, until no small region has a neighbour. Every round joins
     at least one pair, so at most m - 1 rounds run.
@@ -95,7 +126,7 @@ def small_region_groups(pairs, wsum, ssum, counts, min_size):
         b = np.concatenate([pairs[:, 1], pairs[:, 0]])
         if not small[a].any():
             break
-        src, dst = best_targets(a[small[a]], b[small[a]], ssum)
+        src, dst = pick_merge_targets(a[small[a]], b[small[a]], ssum)
         remap, n_new = join_picks(n_cur, src, dst)
         group = remap[group]
         wsum = np.bincount(remap, weights=wsum, minlength=n_new)
@@ -147,7 +178,7 @@ def merge_small_regions(run, min_size):
 
     In rounds: every small region picks, among the neighbouring regions on whose
     surface it lies (`_candidates`, within the neighbourhood reach), the one whose
-    union with it adds the least L21 (`best_targets`); the picks join at once
+    union with it adds the least L21 (`pick_merge_targets`); the picks join at once
     (`join_picks`), labels and sums are updated, until no small region has such a
     neighbour. A small region off every neighbouring surface (or with no
     neighbour) stays. A region at the minimum never becomes small again, so only
@@ -164,7 +195,7 @@ def merge_small_regions(run, min_size):
         src, dst = _candidates(run, run.counts < min_size, rows, cols, reach)
         if not src.size:
             break
-        src, dst = best_targets(src, dst, run.ssum)
+        src, dst = pick_merge_targets(src, dst, run.ssum)
         remap, m = join_picks(run.m, src, dst)
         run.labels, run.m = remap[run.labels], m
         run.wsum = np.bincount(remap, weights=run.wsum, minlength=m)

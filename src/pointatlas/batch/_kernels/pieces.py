@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ...segment._kernels._csr import find_root, union_min
+from ..._core.kernels import find_root, union_min
 
 __all__ = ["piece_tops_kernel", "smooth_pieces_kernel"]
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ...segment._kernels._csr import find_root
+from ..._core.kernels import find_root
 
 __all__ = ["signed_forest_kernel"]
 

@@ -21,6 +21,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..._core.kernels import bounds
+
 __all__ = [
     "bounds",
     "cell_coords",
@@ -37,22 +39,6 @@ __all__ = [
     "occupancy_levels",
     "sq_dist",
 ]
-
-
-@njit(cache=True)
-def bounds(pts):
-    """Per-axis minimum and maximum of an (N >= 1, 3) array (``pts.min(axis=0)``,
-    ``pts.max(axis=0)`` in one pass; numpy's strided axis-0 reductions are slow)."""
-    lo = pts[0].copy()
-    hi = pts[0].copy()
-    for p in range(1, pts.shape[0]):
-        for d in range(3):
-            v = pts[p, d]
-            if v < lo[d]:
-                lo[d] = v
-            if v > hi[d]:
-                hi[d] = v
-    return lo, hi
 
 
 @njit(cache=True)

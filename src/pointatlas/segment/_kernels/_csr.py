@@ -12,6 +12,7 @@ import numpy as np
 from numba import njit
 
 from ..._core._sort import radix_sort_payload
+from ..._core.kernels import find_root, union_min
 
 
 @njit(cache=True)
@@ -62,32 +63,6 @@ def symmetric_csr(nbr, n):
                 last = raw[t]
         out_ptr[i + 1] = pos
     return out_ptr, raw[:pos].copy()
-
-
-@njit(cache=True)
-def find_root(parent, i):
-    """Root of i in the union-find forest ``parent`` (roots: ``parent[r] == r``),
-    with path compression."""
-    root = i
-    while parent[root] != root:
-        root = parent[root]
-    while parent[i] != root:  # path compression
-        nxt = parent[i]
-        parent[i] = root
-        i = nxt
-    return root
-
-
-@njit(cache=True, inline="always")
-def union_min(parent, i, j):
-    """Join the sets of i and j under the smaller of their two roots."""
-    ri = find_root(parent, i)
-    rj = find_root(parent, j)
-    if ri != rj:
-        if ri < rj:
-            parent[rj] = ri
-        else:
-            parent[ri] = rj
 
 
 @njit(cache=True)
