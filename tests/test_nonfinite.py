@@ -205,6 +205,7 @@ def _calls(tmp_path):
         "denoise_measures": lambda a: denoise.denoise_measures(a["points"], _mesh().vertices),
         "filter_normals": lambda a: denoise.filter_normals(a["points"], a["normals"], n_iter=1),
         "flatness_denoise": lambda a: denoise.flatness_denoise(a["points"], k=8, n_iter=1),
+        "flatness_with_sides": lambda a: denoise.flatness_with_sides(a["points"], k=8, n_iter=1),
         "normal_voting_denoise": lambda a: denoise.normal_voting_denoise(
             a["points"], a["normals"], n_iter=1
         ),
