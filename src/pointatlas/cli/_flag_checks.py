@@ -27,6 +27,7 @@ __all__ = [
     "flatness_counts",
     "named_as_typed",
     "normal_k_check",
+    "normal_k_counts",
     "parse_seeds",
     "vsa_counts",
     "vsa_options",
@@ -70,6 +71,11 @@ def check_iterations(value: int | None, flag: str) -> None:
 def normal_k_check(normal_k: int, n_points: int) -> None:
     """``--normal-k`` (the PCA neighbours of estimated normals) in [3, N]."""
     as_int(normal_k, "--normal-k", lo=3, hi=n_points, note="the number of points")
+
+
+def normal_k_counts(normal_k: int) -> Callable[[int], None]:
+    """`normal_k_check` as a check of the number of points (a tiled run's ``checks``)."""
+    return lambda n_points: normal_k_check(normal_k, n_points)
 
 
 def vsa_counts(options) -> Callable[[int], None]:

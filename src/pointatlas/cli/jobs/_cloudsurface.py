@@ -145,31 +145,22 @@ def run_cloudsurface(in_path, out_dir, options: CloudSurfaceOptions, tiles=None)
         in_path, ps, cov, chosen, report, res, accepted, o.seed, placeholder, dim
     )
     payload["seconds"] = round(time.perf_counter() - t0, 3)
+    written = _finish(o, in_path, out, payload, ps.points, K, verts, faces, written)
+    return CloudSurfaceResult(
+        payload, report, cov.n_clouds, dim, accepted, written, chosen=chosen, search=res
+    )
+
+
+def _finish(o, in_path, out, payload, points, K, verts, faces, written) -> list:
+    """The HTML report (``--report``) and, last, report.json: every file written."""
     if o.report is not None:
         written.append(
             write_cloudsurface_report(
-                o.report,
-                in_path,
-                payload,
-                ps.points,
-                K.n_memberships,
-                verts,
-                faces,
-                written,
-                o.seed,
+                o.report, in_path, payload, points, K.n_memberships, verts, faces, written, o.seed
             )
         )
     write_summary_json(out["json"], payload, written)
-    return CloudSurfaceResult(
-        payload,
-        report,
-        cov.n_clouds,
-        dim,
-        accepted,
-        [*written, out["json"]],
-        chosen=chosen,
-        search=res,
-    )
+    return [*written, out["json"]]
 
 
 def scale_grid(smin: float, smax: float, step: float) -> np.ndarray:
@@ -438,27 +429,7 @@ def _from_mesh(in_path, out, o: CloudSurfaceOptions, t0: float) -> CloudSurfaceR
         "report": report.summary(),
         "seconds": round(time.perf_counter() - t0, 3),
     }
-    if o.report is not None:
-        written.append(
-            write_cloudsurface_report(
-                o.report,
-                in_path,
-                payload,
-                mc.points,
-                K.n_memberships,
-                verts,
-                faces,
-                written,
-                o.seed,
-            )
-        )
-    write_summary_json(out["json"], payload, written)
+    written = _finish(o, in_path, out, payload, mc.points, K, verts, faces, written)
     return CloudSurfaceResult(
-        payload,
-        report,
-        K.n_clouds,
-        3,
-        report.is_cloud_surface,
-        [*written, out["json"]],
-        from_mesh=True,
+        payload, report, K.n_clouds, 3, report.is_cloud_surface, written, from_mesh=True
     )

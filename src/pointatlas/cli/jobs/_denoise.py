@@ -24,7 +24,7 @@ from ...denoise import (
     flatness_with_sides,
     voting_with_pieces,
 )
-from .._flag_checks import check_iterations, flatness_counts, normal_k_check
+from .._flag_checks import check_iterations, flatness_counts, normal_k_counts
 from .._outputs import (
     XYZ_EXTENSIONS,
     check_outputs,
@@ -198,14 +198,6 @@ def _run_tiles(input_path, output, tiles, o: DenoiseOptions) -> dict:
         k_start=o.k_start,
     )
     normals = normal_job_for(input_path, o.estimate_normals, o.normal_k)
-    flatness = flatness_counts(o.k, o.k_start) if job.params["method"] == "flatness" else None
-
-    def check(n_points: int) -> None:  # bounded by the input, before any work
-        if flatness is not None:
-            flatness(n_points)
-        if normals is not None:
-            normal_k_check(o.normal_k, n_points)
-
     return run_tiled(
         "denoise",
         job,
@@ -217,7 +209,11 @@ def _run_tiles(input_path, output, tiles, o: DenoiseOptions) -> dict:
         report=o.report,
         parameters=job.params,
         color_by="displacement",
-        check=check,
+        # bounded by the input, before any work
+        checks=(
+            flatness_counts(o.k, o.k_start) if job.params["method"] == "flatness" else None,
+            None if normals is None else normal_k_counts(o.normal_k),
+        ),
     )
 
 

@@ -189,7 +189,7 @@ def _run_tiles(in_path, out_path, o: FeaturesOptions, tiles, weights, orient, a_
         report=o.report,
         parameters=job.params,
         color_by="dimension_class",
-        check=feature_counts(o.k, o.k_range),
+        checks=(feature_counts(o.k, o.k_range),),
     )
 
 

@@ -18,7 +18,7 @@ import numpy as np
 from ..._core import PointAtlasError
 from ...io import to_json_safe
 from ...segment import VSAOptions, region_growing, vsa_segment
-from .._flag_checks import normal_k_check, vsa_counts
+from .._flag_checks import normal_k_counts, vsa_counts
 from .._outputs import (
     check_outputs,
     check_point_output,
@@ -253,21 +253,12 @@ def _segment_tiled(input_path, output, options: SegmentOptions, tiles) -> dict:
         report=options.report,
         parameters=job.vsa,
         color_by="label",
-        check=_counts_check(options, normals),
+        # --k, --seeds (and --normal-k when normals are estimated) against the input
+        checks=(
+            vsa_counts(options.vsa),
+            None if normals is None else normal_k_counts(options.normal_k),
+        ),
     )
-
-
-def _counts_check(options: SegmentOptions, normals):
-    """``--k``, ``--seeds`` (and ``--normal-k`` when normals are estimated) against
-    the input's number of points, before a tiled run starts."""
-    vsa = vsa_counts(options.vsa)
-
-    def check(n_points: int) -> None:
-        vsa(n_points)
-        if normals is not None:
-            normal_k_check(options.normal_k, n_points)
-
-    return check
 
 
 def _read_segment_input(input_path: Path, output: Path, *, estimate, normal_k: int, options):

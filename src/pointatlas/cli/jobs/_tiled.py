@@ -267,18 +267,21 @@ def run_tiled(
     report=None,
     parameters=None,
     color_by: str | None = None,
-    check=None,
+    checks=(),
 ) -> dict:
     """Run a command's ``job`` by tiles, write its side files (``side_files(OUT,
     summary) -> paths``) and ``report`` (an HTML report whose 3-D view reads every
     n-th point back from OUT, coloured by ``color_by``; ``parameters`` in its table),
     print a summary line and the files written; returns the summary.
 
-    ``check`` (``n_points -> None``, raising `PointAtlasError`) refuses options
-    bounded by the input's size before any work, as the untiled commands do
-    (`pointatlas.batch.input_point_count`: a LAS header's count)."""
-    if check is not None:
-        check(input_point_count(in_path))
+    ``checks`` (``n_points -> None`` each, raising `PointAtlasError`; None entries
+    skipped) refuse options bounded by the input's size before any work, as the
+    untiled commands do (`pointatlas.batch.input_point_count`: a LAS header's count)."""
+    checks = [c for c in checks if c is not None]
+    if checks:
+        n_points = input_point_count(in_path)
+        for check in checks:
+            check(n_points)
     summary = run_tile_job(job, in_path, out_path, options, normals=normals)
     written = [Path(out_path)]
     if side_files is not None:
