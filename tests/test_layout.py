@@ -19,7 +19,6 @@ MAX_FUNCTION_LINES = 120
 LONG_FILES = {
     "denoise/_voting.py": (691, "the normal-voting filter, its kernels and driver together"),
     "features/_kernels/optimal.py": (621, "the fused optimal-search kernel's scratch layout"),
-    "neighbors/_kernels/knn.py": (675, "the grid k-NN kernels share one cell layout"),
     "segment/_vsa_run.py": (640, "the VSA loop and its per-iteration bookkeeping"),
 }
 
@@ -28,7 +27,6 @@ LONG_FUNCTIONS = {
     "cover/_search.py:search_cover_scale": (121, "the scale search reads as one loop"),
     "denoise/_voting.py:normal_voting_denoise": (134, "the thesis' rounds in one driver"),
     "features/_kernels/optimal.py:optimal_kernel": (142, "named per-thread scratch arrays"),
-    "neighbors/_kernels/knn.py:knn_grid": (154, "numba kernel: ring search per group"),
     "simplify/_pipeline.py:simplify_points": (126, "the points path's steps in order"),
     "simplify/_segmentation.py:simplify_segmentation": (136, "thesis path, steps in order"),
 }

@@ -225,9 +225,17 @@ class NeighborIndex:
         failed = np.zeros(n_out, dtype=np.bool_)
         cells = (grid.xs, grid.ys, grid.zs, grid.ids, grid.ukeys, grid.cstart)
         cells += (column_index(grid), grid.lo, grid.h, grid.nx, grid.ny, grid.nz)
-        outputs = (out_idx, out_d2, failed)
-        args = (cells, (qcells, qstart, qpos, qout), outputs, k, _MAX_RING[self.backend])
-        run_chunks(K.knn_grid, qcells.size, args)
+        grouped = (qcells, qstart, qpos, qout)
+        # the block of each query's cell, then the rows it left (`_kernels.knn_rings`)
+        state = np.zeros(qpos.size, dtype=np.uint8)
+        run_chunks(K.knn_grid, qcells.size, (cells, grouped, (out_idx, out_d2, state), k))
+        slots = np.flatnonzero(state)
+        if slots.size:
+            of_slot = np.searchsorted(qstart, slots, side="right") - 1
+            outputs = (out_idx, out_d2, failed)
+            pending = (slots, of_slot, state)
+            args = (cells, grouped, outputs, k, _MAX_RING[self.backend], pending)
+            run_chunks(K.knn_grid_rings, slots.size, args)
         bad = np.flatnonzero(failed)
         if bad.size:
             point = bad if queries is None else queries[bad]

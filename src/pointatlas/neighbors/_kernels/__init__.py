@@ -2,8 +2,9 @@
 
 * `grid`: the compact sorted-cell grid (keys, occupied cells, column index, occupancy
   levels);
-* `knn`: k nearest neighbours on the grid, the k-d tree path's selection, the scan of
-  all points for far queries;
+* `knn`: k nearest neighbours on the grid from each cell's 3 x 3 x 3 block, the k-d
+  tree path's selection, the scan of all points for far queries;
+* `knn_rings`: the grid rows the block leaves (a per-query block scan, further rings);
 * `radius`: closed-ball queries and row sorting;
 * `graph`: CSR structure and edge lengths of the k-NN graph;
 * `mesh_distance`: the bounding-volume hierarchy of the exact point-to-mesh distance
@@ -29,6 +30,7 @@ from .grid import (
     occupancy_levels,
 )
 from .knn import knn_brute, knn_grid, select_candidates, sqrt_inplace
+from .knn_rings import knn_grid_rings
 from .radius import radius_grid, sort_rows
 
 __all__ = [
@@ -42,6 +44,7 @@ __all__ = [
     "group_by_cell",
     "knn_brute",
     "knn_grid",
+    "knn_grid_rings",
     "occupancy_levels",
     "radius_grid",
     "select_candidates",

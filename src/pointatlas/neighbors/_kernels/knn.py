@@ -1,4 +1,5 @@
-"""k nearest neighbours on the grid, the exact selection of the k-d tree path and the
+"""k nearest neighbours on the grid from each cell's 3 x 3 x 3 block (the rows it
+leaves are finished by `knn_rings`), the exact selection of the k-d tree path and the
 scan of all points for far queries (numba kernels; validated input assumed).
 
 Ordering convention: a neighbour j of query q is keyed by ``(d2, j)`` with
@@ -15,28 +16,12 @@ import numpy as np
 from numba import njit, prange
 
 from ..._core.tolerances import GRID_CELL_MARGIN, KDTREE_CERTIFY_RTOL
-from .grid import cell_coords, cells_in_column, sq_dist
+from .grid import cell_coords, cells_in_column
 
 __all__ = ["knn_brute", "knn_grid", "select_candidates", "sqrt_inplace"]
 
 #: an empty buffer slot (larger than every index)
 _SENTINEL = np.iinfo(np.int64).max
-
-
-@njit(cache=True, inline="always")
-def _box_d2(qx, qy, qz, x0, x1, y0, y1, z0, z1, margin):
-    """Squared distance from q to a box, shrunk by ``margin`` (conservative)."""
-    gx = max(x0 - qx, qx - x1) - margin
-    gy = max(y0 - qy, qy - y1) - margin
-    gz = max(z0 - qz, qz - z1) - margin
-    d = 0.0
-    if gx > 0.0:
-        d += gx * gx
-    if gy > 0.0:
-        d += gy * gy
-    if gz > 0.0:
-        d += gz * gz
-    return d
 
 
 @njit(cache=True, inline="always")
@@ -49,19 +34,6 @@ def _insert(bd, bi, d2, j):
         pos -= 1
     bd[pos] = d2
     bi[pos] = j
-
-
-@njit(cache=True)
-def _scan(xs, ys, zs, ids, a, b, qx, qy, qz, qid, bd, bi):
-    """Offer the points a..b (cell order) to the buffer of query ``qid``."""
-    last = bd.shape[0] - 1
-    for p in range(a, b):
-        d2 = sq_dist(xs, ys, zs, p, qx, qy, qz)
-        w = bd[last]
-        if d2 < w or (d2 == w and ids[p] < bi[last]):
-            j = ids[p]
-            if j != qid:
-                _insert(bd, bi, d2, j)
 
 
 @njit(cache=True)
@@ -92,66 +64,6 @@ def _done(bd, bi, qx, qy, qz, lo, h, ci, cj, ck, r, nx, ny, nz, margin):
     if b <= 0.0:
         return False
     return bd[last] < b * b
-
-
-@njit(cache=True)
-def _scan_shell(
-    xs,
-    ys,
-    zs,
-    ids,
-    ukeys,
-    cstart,
-    colptr,
-    lo,
-    h,
-    ci,
-    cj,
-    ck,
-    r,
-    nx,
-    ny,
-    nz,
-    margin,
-    qx,
-    qy,
-    qz,
-    qid,
-    bd,
-    bi,
-):
-    """Scan the cells at Chebyshev distance exactly r from cell (ci, cj, ck): the
-    columns of the ring's rim over z ``ck - r .. ck + r`` (skipped when their box is
-    farther than the current last candidate), the inner columns at z ``ck +- r``."""
-    last = bd.shape[0] - 1
-    for i in range(max(ci - r, 0), min(ci + r, nx - 1) + 1):
-        x0 = lo[0] + i * h
-        for j in range(max(cj - r, 0), min(cj + r, ny - 1) + 1):
-            y0 = lo[1] + j * h
-            if abs(i - ci) == r or abs(j - cj) == r:
-                z0 = max(ck - r, 0)
-                z1 = min(ck + r, nz - 1)
-                if bi[last] != _SENTINEL:
-                    z_lo = lo[2] + z0 * h
-                    z_hi = lo[2] + (z1 + 1) * h
-                    bx = _box_d2(qx, qy, qz, x0, x0 + h, y0, y0 + h, z_lo, z_hi, margin)
-                    if bx > bd[last]:
-                        continue
-                ca, cb = cells_in_column(ukeys, colptr, i, j, z0, z1, ny, nz)
-                if ca < cb:
-                    _scan(xs, ys, zs, ids, cstart[ca], cstart[cb], qx, qy, qz, qid, bd, bi)
-            else:
-                for z in (ck - r, ck + r):
-                    if z < 0 or z > nz - 1:
-                        continue
-                    if bi[last] != _SENTINEL:
-                        z_lo = lo[2] + z * h
-                        bx = _box_d2(qx, qy, qz, x0, x0 + h, y0, y0 + h, z_lo, z_lo + h, margin)
-                        if bx > bd[last]:
-                            continue
-                    ca, cb = cells_in_column(ukeys, colptr, i, j, z, z, ny, nz)
-                    if ca < cb:
-                        _scan(xs, ys, zs, ids, cstart[ca], cstart[cb], qx, qy, qz, qid, bd, bi)
 
 
 @njit(cache=True)
@@ -204,75 +116,6 @@ def _block_cells(
                 lst_x[n_lst] = lo[0] + (tt2 // ny) * h
                 n_lst += 1
     return n_lst
-
-
-@njit(cache=True)
-def _scan_block(
-    xs,
-    ys,
-    zs,
-    ids,
-    h,
-    margin,
-    p,
-    s,
-    e,
-    n_lst,
-    lst_a,
-    lst_b,
-    lst_x,
-    lst_y,
-    lst_z,
-    ord_d,
-    ord_u,
-    bd,
-    bi,
-):
-    """The m = len(bd) nearest other points of the point at cell-order position p
-    (own cell ``s:e``) among the block's cells into the buffer (``bd``, ``bi``), sorted
-    by (d2, index); the path for blocks too large to gather (`_gather_block`).
-
-    Own cell first, in index order, stopping once m exact duplicates are found;
-    then the other block cells sorted by their box distance, stopping at the first
-    box farther than the current m-th candidate.
-    """
-    m = bd.shape[0]
-    qid = ids[p]
-    qx = xs[p]
-    qy = ys[p]
-    qz = zs[p]
-    for u in range(m):
-        bd[u] = np.inf
-        bi[u] = _SENTINEL
-    for pp in range(s, e):
-        if bd[m - 1] == 0.0:
-            break
-        d2 = sq_dist(xs, ys, zs, pp, qx, qy, qz)
-        w = bd[m - 1]
-        if d2 < w or (d2 == w and ids[pp] < bi[m - 1]):
-            if ids[pp] != qid:
-                _insert(bd, bi, d2, ids[pp])
-    if bd[m - 1] == 0.0:
-        return
-    n_ord = 0
-    for u in range(1, n_lst):
-        x0 = lst_x[u]
-        y0 = lst_y[u]
-        zz = lst_z[u]
-        bx = _box_d2(qx, qy, qz, x0, x0 + h, y0, y0 + h, zz, zz + h, margin)
-        v = n_ord
-        while v > 0 and ord_d[v - 1] > bx:
-            ord_d[v] = ord_d[v - 1]
-            ord_u[v] = ord_u[v - 1]
-            v -= 1
-        ord_d[v] = bx
-        ord_u[v] = u
-        n_ord += 1
-    for v in range(n_ord):
-        if ord_d[v] > bd[m - 1]:
-            break
-        u = ord_u[v]
-        _scan(xs, ys, zs, ids, lst_a[u], lst_b[u], qx, qy, qz, qid, bd, bi)
 
 
 @njit(cache=True, inline="always")
@@ -393,21 +236,8 @@ def _block_distances(gx, gy, gz, n, qx, qy, qz, dd):
 #: lie within it (their ranking costs the square of their number).
 _SELECT_SLACK = 1.2
 
-#: Rings searched before `_hopeless` may hand a query to the caller's far path.
-_PATIENCE = 5
-
-
-@njit(cache=True)
-def _hopeless(bd, bi, h, max_ring):
-    """Whether ``max_ring`` rings cannot certify the query: its buffer is not full, or
-    its current m-th distance exceeds ``max_ring + 1`` cells (far outliers, sparse
-    halos; the caller's exact far path answers them sooner)."""
-    last = bd.shape[0] - 1
-    reach = (max_ring + 1) * h
-    return bi[last] == _SENTINEL or bd[last] >= reach * reach
-
-
-#: Gathered block size: blocks with more points take the per-query path (`_scan_block`).
+#: Gathered block size: blocks with more points take the per-query path
+#: (`knn_rings._scan_block`).
 _GATHER = 512
 
 #: Rows a thread finishes into its own buffer before copying them to their output rows
@@ -427,31 +257,42 @@ def _flush_rows(tb_i, tb_d, tb_r, nb, out_idx, out_d2):
             out_d2[row, u] = tb_d[b, u]
 
 
+#: `knn_grid`'s mark of a query slot: the block certified its row (final), the row
+#: holds the block's best but needs further rings, or the block was too large to
+#: gather (or its ties too many to select) and the row is still empty; the last two
+#: are finished by `knn_rings.knn_grid_rings`
+_CERTIFIED = 0
+_NEEDS_RINGS = 1
+_NEEDS_BLOCK = 2
+
+
 @njit(cache=True, nogil=True)
-def knn_grid(grid, queries, outputs, k, max_ring, g0, g1):
+def knn_grid(grid, queries, outputs, k, g0, g1):
     """k nearest neighbours (itself in column 0) of the queried points of the groups
-    g0 .. g1 - 1, on the grid (serial; the GIL released, so the caller runs pieces of
-    the groups on several threads at once, `run_chunks`).
+    g0 .. g1 - 1 from the 3 x 3 x 3 block of their cell, on the grid (serial; the
+    GIL released, so the caller runs pieces of the groups on several threads at
+    once, `run_chunks`).
 
     ``grid`` is ``(xs, ys, zs, ids, ukeys, cstart, colptr, lo, h, nx, ny, nz)``,
     ``queries`` ``(qcells, qstart, qpos, qout)`` and ``outputs`` ``(out_idx, out_d2,
-    failed)``. Queries come grouped by cell: group g is cell ``qcells[g]`` with the
-    cell-order positions ``qpos[qstart[g]:qstart[g + 1]]``, written to output rows
-    ``qout`` (all points: ``qcells = arange``, ``qstart = cstart``, ``qpos = arange``,
-    ``qout = ids``). Per group the occupied cells of its 3 x 3 x 3 block are listed
-    once (`_block_cells`) and their points gathered (`_gather_block`); each query
-    then takes its m = k - 1 best from the gathered block (`_select_gathered`; too
-    large a block: `_scan_block`) and searches further rings (`_scan_shell`) until
-    `_done`. A query not certified after ``max_ring`` rings, or `_hopeless` after
-    `_PATIENCE`, sets ``failed`` (the caller answers those rows exactly elsewhere).
-    Finished rows go through a buffer (`_ROW_BUFFER`). Every row is exact and
-    computed by one call, so the rows do not depend on how the groups are split:
-    threads rather than numba's ``parallel=True``, whose compile cost about 5 of
-    the query's 15 CPU-seconds on an empty cache.
+    state)``. Queries come grouped by cell: group g is cell ``qcells[g]`` with the
+    cell-order positions ``qpos[qstart[g]:qstart[g + 1]]`` (query slots), written to
+    output rows ``qout`` (all points: ``qcells = arange``, ``qstart = cstart``,
+    ``qpos = arange``, ``qout = ids``). Per group the occupied cells of its block are
+    listed once (`_block_cells`) and their points gathered (`_gather_block`); each
+    query then takes its m = k - 1 best from the gathered block (`_select_gathered`).
+    ``state`` (per query slot) records what the block left (`_NEEDS_RINGS`,
+    `_NEEDS_BLOCK`); `knn_rings.knn_grid_rings` finishes those rows, so its kernels
+    (the per-query block scan, the ring search) compile only for inputs that need
+    them (most rows of a surface sample are certified by their block). Finished
+    rows go through a buffer (`_ROW_BUFFER`). Every row is exact, so the rows do not
+    depend on how the groups are split: threads rather than numba's
+    ``parallel=True``, whose compile cost about 5 of the query's 15 CPU-seconds on
+    an empty cache.
     """
     xs, ys, zs, ids, ukeys, cstart, colptr, lo, h, nx, ny, nz = grid
     qcells, qstart, qpos, qout = queries
-    out_idx, out_d2, failed = outputs
+    out_idx, out_d2, state = outputs
     m = k - 1
     margin = GRID_CELL_MARGIN * h
     bd = np.empty(max(m, 1))
@@ -463,8 +304,6 @@ def knn_grid(grid, queries, outputs, k, max_ring, g0, g1):
     lst_x = np.empty(27)
     lst_y = np.empty(27)
     lst_z = np.empty(27)
-    ord_d = np.empty(27)
-    ord_u = np.empty(27, dtype=np.int64)
     gx = np.empty(_GATHER)
     gy = np.empty(_GATHER)
     gz = np.empty(_GATHER)
@@ -477,6 +316,7 @@ def knn_grid(grid, queries, outputs, k, max_ring, g0, g1):
     tb_d = np.empty((_ROW_BUFFER, k))
     tb_r = np.empty(_ROW_BUFFER, dtype=np.int64)
     nb = np.int64(0)  # not a literal: `_flush_rows` compiles for int64 only
+    one = np.int64(1)  # the first ring; not a literal: `_done` compiles for int64 only
     tau = 0.25 * h * h
     for g in range(g0, g1):
         c = qcells[g]
@@ -502,7 +342,6 @@ def knn_grid(grid, queries, outputs, k, max_ring, g0, g1):
             lst_z,
         )
         s = cstart[c]
-        e = cstart[c + 1]
         n_g = _gather_block(xs, ys, zs, ids, n_lst, lst_a, lst_b, gx, gy, gz, gi)
         for w in range(qstart[g], qstart[g + 1]):
             p = qpos[w]
@@ -524,60 +363,12 @@ def knn_grid(grid, queries, outputs, k, max_ring, g0, g1):
                 _block_distances(gx, gy, gz, n_g, qx, qy, qz, dd)
                 done = _select_gathered(dd, gi, n_g, p - s, tau, sd, si, sr, bd, bi)
             if not done:
-                _scan_block(
-                    xs,
-                    ys,
-                    zs,
-                    ids,
-                    h,
-                    margin,
-                    p,
-                    s,
-                    e,
-                    n_lst,
-                    lst_a,
-                    lst_b,
-                    lst_x,
-                    lst_y,
-                    lst_z,
-                    ord_d,
-                    ord_u,
-                    bd,
-                    bi,
-                )
+                state[w] = _NEEDS_BLOCK
+                continue
             if bi[m - 1] != _SENTINEL and bd[m - 1] > 0.0:
                 tau = bd[m - 1] * 1.05
-            r = np.int64(1)  # not a literal: `_done` compiles for int64 only
-            while not _done(bd, bi, qx, qy, qz, lo, h, ci, cj, ck, r, nx, ny, nz, margin):
-                if r >= max_ring or (r >= _PATIENCE and _hopeless(bd, bi, h, max_ring)):
-                    failed[qout[w]] = True
-                    break
-                r += 1
-                _scan_shell(
-                    xs,
-                    ys,
-                    zs,
-                    ids,
-                    ukeys,
-                    cstart,
-                    colptr,
-                    lo,
-                    h,
-                    ci,
-                    cj,
-                    ck,
-                    r,
-                    nx,
-                    ny,
-                    nz,
-                    margin,
-                    qx,
-                    qy,
-                    qz,
-                    ids[p],
-                    bd,
-                    bi,
-                )
+            if not _done(bd, bi, qx, qy, qz, lo, h, ci, cj, ck, one, nx, ny, nz, margin):
+                state[w] = _NEEDS_RINGS
             for u in range(m):
                 tb_i[slot, u + 1] = bi[u]
                 tb_d[slot, u + 1] = bd[u]
