@@ -104,11 +104,12 @@ def connected_label_components(indptr, indices, labels):
     return canonical_labels(roots)
 
 
-@njit(cache=True)
-def _pairs_of_keys(key, m):
-    """Distinct pair keys a * m + b (>= 0) as sorted (a, b) rows; ``key`` is
-    overwritten. A radix sort (`radix_sort_payload`, which the merge compiles
-    anyway) rather than ``np.unique``, whose sort numba compiles in seconds."""
+def pairs_of_keys(key, m):
+    """Distinct pair keys a * m + b (>= 0) as sorted (a, b) rows; ``key`` (int64) is
+    overwritten. The shared radix sort (`radix_sort_payload`, which the grid k-NN
+    compiles for the same types) called from Python and numpy's bit views and
+    de-duplication: numba's ``np.unique`` sort compiles for seconds, its ``view`` for
+    a tenth of a second per dtype pair."""
     n = key.shape[0]
     srt, _ = radix_sort_payload(
         key.view(np.uint64),
@@ -116,37 +117,28 @@ def _pairs_of_keys(key, m):
         np.empty(n, dtype=np.uint64),
         np.empty(n, dtype=np.int64),
     )
-    n_out = 0
-    for t in range(n):
-        if t == 0 or srt[t] != srt[t - 1]:
-            n_out += 1
-    out = np.empty((n_out, 2), dtype=np.int64)
-    c = 0
-    for t in range(n):
-        if t == 0 or srt[t] != srt[t - 1]:
-            v = np.int64(srt[t])
-            out[c, 0] = v // m
-            out[c, 1] = v % m
-            c += 1
+    srt = srt.view(np.int64)
+    first = np.ones(n, dtype=np.bool_)
+    np.not_equal(srt[1:], srt[:-1], out=first[1:])
+    distinct = srt[first]
+    out = np.empty((distinct.shape[0], 2), dtype=np.int64)
+    if distinct.shape[0]:
+        np.floor_divide(distinct, m, out=out[:, 0])
+        np.remainder(distinct, m, out=out[:, 1])
     return out
 
 
 @njit(cache=True)
-def region_pairs(indptr, indices, labels, subset):
-    """Distinct region pairs (a < b) joined by a graph edge at a point of ``subset``.
-
-    With ``subset`` the boundary points (or all points) that is the region
-    adjacency of Remark 6. Sorted by (a, b).
-    """
+def _region_pair_keys(indptr, indices, labels, subset):
+    """The keys li * m + lj (li < lj, m = largest label + 1; repeats kept) of the
+    edges at the points of ``subset`` between regions, and m (`region_pairs`)."""
     count = 0
     for s in range(subset.shape[0]):
         i = subset[s]
         for t in range(indptr[i], indptr[i + 1]):
             if labels[indices[t]] > labels[i]:
                 count += 1
-    if count == 0:
-        return np.empty((0, 2), dtype=np.int64)
-    m = np.int64(0)  # not a literal: `_pairs_of_keys` compiles for int64 only
+    m = 0
     for i in range(labels.shape[0]):
         if labels[i] + 1 > m:
             m = labels[i] + 1
@@ -160,7 +152,17 @@ def region_pairs(indptr, indices, labels, subset):
             if lj > li:
                 key[c] = li * m + lj
                 c += 1
-    return _pairs_of_keys(key, m)
+    return key, m
+
+
+def region_pairs(indptr, indices, labels, subset):
+    """Distinct region pairs (a < b) joined by a graph edge at a point of ``subset``.
+
+    With ``subset`` the boundary points (or all points) that is the region
+    adjacency of Remark 6. Sorted by (a, b).
+    """
+    key, m = _region_pair_keys(indptr, indices, labels, subset)
+    return pairs_of_keys(key, m)
 
 
 @njit(cache=True)
@@ -212,13 +214,11 @@ def recount_foreign(indptr, indices, labels, foreign, points):
         foreign[i] = _foreign_count(indptr, indices, labels, i)
 
 
-@njit(cache=True)
 def boundary_points(indptr, indices, labels):
     """Points with at least one neighbour in another region, increasing."""
     return np.flatnonzero(foreign_counts(indptr, indices, labels) > 0)
 
 
-@njit(cache=True)
 def touched_points(indptr, indices, labels, foreign, dirty):
     """Boundary points next to a region flagged in ``dirty`` (increasing).
 
@@ -227,13 +227,18 @@ def touched_points(indptr, indices, labels, foreign, dirty):
     whose W, S changed since a step last looked at every point, the points not
     returned see the same proxies and the same neighbouring labels as then, so a
     switch or merge step restricted to the returned points decides exactly as a
-    full scan would.
+    full scan would. The points are marked by a kernel and listed by numpy's
+    ``flatnonzero`` (numba's compiles for half a CPU-second).
     """
+    mark = np.zeros(labels.shape[0], dtype=np.bool_)
+    _mark_touched(indptr, indices, labels, foreign, dirty, mark)
+    return np.flatnonzero(mark)
+
+
+@njit(cache=True)
+def _mark_touched(indptr, indices, labels, foreign, dirty, mark):
+    """`touched_points` as a mask: sets ``mark`` (all False) at the points it returns."""
     n = labels.shape[0]
-    # bool, as `boundary_points`' flatnonzero, and np.empty + a loop: compiled once
-    mark = np.empty(n, dtype=np.bool_)
-    for i in range(n):
-        mark[i] = False
     for i in range(n):
         if foreign[i] == 0 or not dirty[labels[i]]:
             continue
@@ -243,7 +248,6 @@ def touched_points(indptr, indices, labels, foreign, dirty):
             j = indices[t]
             if labels[j] != li:
                 mark[j] = True
-    return np.flatnonzero(mark)
 
 
 @njit(cache=True)

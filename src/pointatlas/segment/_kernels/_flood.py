@@ -30,18 +30,23 @@ def _push_neighbours(
     return heap, base, size
 
 
-@njit(cache=True)
 def flood(indptr, indices, normals, seeds, seed_normals):
     """Priority-queue flood of thesis 4.2.1/4.2.2 from ``seeds`` (region r = seeds[r]).
 
     Queue key |n_j - N_r|^2; ties by smaller point index, then smaller region.
     Points the flood cannot reach keep label -1.
     """
+    bits, bits_i = key_buffer()
+    return _flood(indptr, indices, normals, seeds, seed_normals, bits, bits_i)
+
+
+@njit(cache=True)
+def _flood(indptr, indices, normals, seeds, seed_normals, bits, bits_i):
+    """`flood` with its key buffer (`key_buffer`)."""
     n = normals.shape[0]
     n_seeds = seeds.shape[0]
     labels = np.full(n, -1, dtype=np.int64)
     heap, base = heap_new(max(16, 2 * n_seeds + 16))
-    bits, bits_i = key_buffer()
     size = 0
     for r in range(n_seeds):
         labels[seeds[r]] = r

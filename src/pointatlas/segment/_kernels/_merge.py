@@ -8,7 +8,7 @@ from numba import njit, prange
 
 from ..._core._prefetch import prefetch_row as _prefetch
 from ..._core._sort import radix_sort_payload
-from ._csr import _pairs_of_keys
+from ._csr import pairs_of_keys
 from ._heap import heap_new, heap_pop, heap_push, key_buffer, less_entry
 
 #: `merge_candidate_pairs` marks pairs in a byte table (cheap regions x all
@@ -24,7 +24,6 @@ def _is_candidate(li, lj, dirty, cost, limit):
     return lj != li and (dirty[li] or dirty[lj]) and cost[li] + cost[lj] < limit
 
 
-@njit(cache=True, parallel=True)
 def merge_candidate_pairs(indptr, indices, labels, foreign, dirty, cost, limit, points):
     """Neighbouring region pairs (a < b, sorted) that a merge pass must look at.
 
@@ -42,9 +41,19 @@ def merge_candidate_pairs(indptr, indices, labels, foreign, dirty, cost, limit, 
     in a byte table with one row per region of cost < limit / 2 (parallel
     threads only ever store 1, so races are harmless) and the few distinct keys
     sorted; when that table would be large compared with the scan, the raw keys
-    are sorted instead (`_candidate_pairs_sorted`). Same result either way.
+    are sorted instead (`_candidate_pairs_sorted`). Same result either way. The
+    kernels (`_candidate_keys`) give the pair keys, `pairs_of_keys` the pairs.
     """
     limit = limit + 1e-9 * (1.0 + abs(limit))  # round-off slack: never drop a candidate
+    key = _candidate_keys(indptr, indices, labels, foreign, dirty, cost, limit, points)
+    return pairs_of_keys(key, cost.shape[0])
+
+
+@njit(cache=True, parallel=True)
+def _candidate_keys(indptr, indices, labels, foreign, dirty, cost, limit, points):
+    """The keys a * m + b of `merge_candidate_pairs` (``limit`` with its slack; keys
+    may repeat), by the byte table or, when that would be large, by
+    `_candidate_keys_sorted`."""
     half = 0.5 * limit
     n = points.shape[0]
     m = cost.shape[0]
@@ -55,9 +64,9 @@ def merge_candidate_pairs(indptr, indices, labels, foreign, dirty, cost, limit, 
             row[r] = mc
             mc += 1
     if mc == 0:
-        return np.empty((0, 2), dtype=np.int64)
+        return np.empty(0, dtype=np.int64)
     if mc * m > _PAIR_TABLE_BYTES_PER_POINT * n + (1 << 20):
-        return _candidate_pairs_sorted(indptr, indices, labels, foreign, dirty, cost, limit, points)
+        return _candidate_keys_sorted(indptr, indices, labels, foreign, dirty, cost, limit, points)
     table = np.zeros(mc * m, dtype=np.uint8)
     for s in prange(n):
         i = points[s]
@@ -83,8 +92,6 @@ def merge_candidate_pairs(indptr, indices, labels, foreign, dirty, cost, limit, 
             k += table[t]
         per_row[c + 1] = k
     start = np.cumsum(per_row)
-    if start[mc] == 0:
-        return np.empty((0, 2), dtype=np.int64)
     key = np.empty(start[mc], dtype=np.int64)
     for c in prange(mc):
         a = cheap[c]
@@ -93,13 +100,19 @@ def merge_candidate_pairs(indptr, indices, labels, foreign, dirty, cost, limit, 
             if table[c * m + b]:
                 key[k] = min(a, b) * m + max(a, b)
                 k += 1
-    return _pairs_of_keys(key, m)
+    return key
 
 
-@njit(cache=True, parallel=True)
 def _candidate_pairs_sorted(indptr, indices, labels, foreign, dirty, cost, limit, points):
     """`merge_candidate_pairs` by sorting every qualifying edge's pair key
     (``limit`` already has its round-off slack)."""
+    key = _candidate_keys_sorted(indptr, indices, labels, foreign, dirty, cost, limit, points)
+    return pairs_of_keys(key, cost.shape[0])
+
+
+@njit(cache=True, parallel=True)
+def _candidate_keys_sorted(indptr, indices, labels, foreign, dirty, cost, limit, points):
+    """The pair key of every qualifying edge (`_candidate_pairs_sorted`)."""
     half = 0.5 * limit
     n = points.shape[0]
     m = cost.shape[0]
@@ -118,8 +131,6 @@ def _candidate_pairs_sorted(indptr, indices, labels, foreign, dirty, cost, limit
                 c += 1
         per_point[s + 1] = c
     start = np.cumsum(per_point)
-    if start[n] == 0:
-        return np.empty((0, 2), dtype=np.int64)
     key = np.empty(start[n], dtype=np.int64)
     for s in prange(n):
         if per_point[s + 1] == 0:
@@ -132,7 +143,7 @@ def _candidate_pairs_sorted(indptr, indices, labels, foreign, dirty, cost, limit
             if _is_candidate(li, lj, dirty, cost, limit):
                 key[c] = min(li, lj) * m + max(li, lj)
                 c += 1
-    return _pairs_of_keys(key, m)
+    return key
 
 
 #: how many stream entries ahead `greedy_merge` prefetches the union-find parents
@@ -197,24 +208,19 @@ def _initial_entries(pairs, ws, eta, min_cos, use_angle):
     return keys[:n_init], codes[:n_init], increasing
 
 
-@njit(cache=True)
 def _by_code(keys, codes):
     """Entries (``keys``, ``codes``) ordered stably by pair code (codes >= 0), with
     the radix sort of `_sort_entries`."""
     n = codes.shape[0]
     sorted_codes, by_pair = radix_sort_payload(
         codes.view(np.uint64).copy(),
-        np.arange(n),
+        np.arange(n, dtype=np.int64),
         np.empty(n, dtype=np.uint64),
         np.empty(n, dtype=np.int64),
     )
-    by_code = np.empty(n)
-    for e in range(n):
-        by_code[e] = keys[by_pair[e]]
-    return by_code, sorted_codes.view(np.int64)
+    return keys[by_pair], sorted_codes.view(np.int64)
 
 
-@njit(cache=True)
 def _sort_entries(keys, codes):
     """Key bits and codes sorted stably by key: ``stable_argsort`` and two gathers
     in one LSD radix sort that carries the code (no random gather afterwards).
@@ -222,7 +228,9 @@ def _sort_entries(keys, codes):
     ``keys`` are non-negative doubles without -0.0, whose int64 bits order as
     the values do; passes whose digit is the same for every key are skipped.
     Same output as ``keys[order].view(np.int64), codes[order]`` with ``order =
-    stable_argsort(keys)``.
+    stable_argsort(keys)``. The bit views are numpy's (`_sort_entries` and `_by_code`
+    call the radix sort from Python): numba's ``view`` compiles for a tenth of a
+    second per dtype pair.
     """
     n = keys.shape[0]
     k, v = radix_sort_payload(
@@ -363,11 +371,12 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
     shared by every step.
 
     The stages (`_aligned_sums`, `_initial_entries`, `_by_code` when the pairs
-    are not in code order, `_sort_entries`, `_merge_stream`) are kernels called
-    from Python one after the other: numba optimizes and emits the code of a kernel
+    are not in code order, `_sort_entries`, `_merge_stream`) are called from
+    Python one after the other: numba optimizes and emits the code of a kernel
     together with every kernel it calls, so one kernel calling the others would
-    compile their code a second time (about a CPU-second on an empty cache), and
-    `_by_code` compiles only for an input that needs it.
+    compile their code a second time (about a CPU-second on an empty cache). The
+    two sorts are the shared radix sort called from Python with numpy's bit views
+    (the grid k-NN compiles it for the same types), so they compile nothing.
     """
     m = wsum.shape[0]
     if m >= 2**31 - 1:
@@ -377,15 +386,17 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
     if not increasing:
         keys, codes = _by_code(keys, codes)
     ks, ps = _sort_entries(keys, codes)  # stable: ties stay sorted by pair
-    return _merge_stream(ks, ps, ws, pairs.shape[0], eta, min_cos, use_angle)
+    buffer = key_buffer()
+    return _merge_stream(ks, ps, ws, pairs.shape[0], eta, min_cos, use_angle, buffer)
 
 
 @njit(cache=True)
-def _merge_stream(ks, ps, ws, n_pairs, eta, min_cos, use_angle):
+def _merge_stream(ks, ps, ws, n_pairs, eta, min_cos, use_angle, buffer):
     """`greedy_merge`'s loop over the sorted initial entries (``ks`` key bits, ``ps``
     pair codes) and the heap of pushed-back ones; ``ws`` the region sums (`_aligned_sums`,
     updated in place), ``n_pairs`` the number of adjacent pairs (sizes the dedupe
-    table). Returns the root of every region and the number of merges."""
+    table), ``buffer`` a `key_buffer`. Returns the root of every region and the number
+    of merges."""
     m = ws.shape[0]
     parent = np.arange(m).astype(np.int32)
     n_init = ks.shape[0]
@@ -393,7 +404,7 @@ def _merge_stream(ks, ps, ws, n_pairs, eta, min_cos, use_angle):
     heap, base = heap_new(4096)
     size = 0
     n_merges = 0
-    bits, bits_i = key_buffer()
+    bits, bits_i = buffer
     # duplicates: many point edges map to the same region pair; remember the
     # region versions each pair was last pushed with and drop stale copies
     # (`_queued_before`; a slot's code and stamp share a row)
