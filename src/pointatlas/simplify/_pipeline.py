@@ -16,6 +16,7 @@ from ._mesh import SimplifiedMesh
 from ._proxies import region_proxies
 from ._reconstruct import robust_mesh
 from ._segmentation import simplify_segmentation
+from ._sides import turn_outward
 from ._surface import SurfaceSimplification
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -51,6 +52,11 @@ class PointSimplification:
     labels : ndarray of shape (M,), int64
         Face region of every point used (the thesis' ``mesh.labels``, or the region
         of the point's nearest triangle on the robust path).
+    n_turned : int
+        Normals turned to the outside before anything else: where the normals'
+        dipole sum says open but their outward sides, asked of a voxel grid, make
+        the sample closed (estimated normals whose orientation crossed a thin wall;
+        docs/decisions/simplify.md, "Normals turned to the outside").
     """
 
     segmentation: VSAResult | None
@@ -60,6 +66,7 @@ class PointSimplification:
     path: str = "thesis"
     reason: str = ""
     labels: np.ndarray | None = None
+    n_turned: int = 0
 
     def __post_init__(self):
         readonly(self.point_index)
@@ -69,7 +76,12 @@ class PointSimplification:
 
     def summary(self) -> dict:
         """The mesh's report with the path taken and why."""
-        return {**self.mesh.summary(), "path": self.path, "path_reason": self.reason}
+        return {
+            **self.mesh.summary(),
+            "path": self.path,
+            "path_reason": self.reason,
+            "normals_turned": self.n_turned,
+        }
 
 
 def simplify_points(
@@ -257,6 +269,7 @@ class _Input:
     frame: Frame
     q: np.ndarray  # the points in the working frame
     indices: np.ndarray  # their k-NN table (working frame)
+    n_turned: int  # normals turned to the outside (`_sides.turn_outward`)
 
     @property
     def point_index(self) -> np.ndarray:
@@ -270,6 +283,7 @@ class _Input:
             mesh=mesh,
             point_index=point_index,
             n_dropped=self.n_input - point_index.size,
+            n_turned=self.n_turned,
             **robust,
         )
 
@@ -292,8 +306,9 @@ def _prepare(points, normals, opts) -> _Input:
     check_memory(pts.shape[0], k)
     frame = frame_of(pts)
     q = frame.to_local(pts)
+    nrm, n_turned = turn_outward(q, nrm)
     idx, _ = query_knn(q, k)
-    return _Input(pts, nrm, keep, n_input, k, opts, frame, q, idx)
+    return _Input(pts, nrm, keep, n_input, k, opts, frame, q, idx, n_turned)
 
 
 def _segment(inp: _Input, labels, centers, rng):

@@ -1,0 +1,125 @@
+"""Normals turned to the outside of a closed point set whose orientation broke
+(private): `simplify_points` runs it on its input before anything else.
+
+PCA normals oriented by propagation (`pointatlas.normals.orient_normals`) lose the
+sign on thin walls: when both sides of a wall lie within a neighbourhood, the
+propagation crosses the wall and turns one side's whole surface inward (every 6th
+collection model sampled with 20,000 points: a connected half of `hfd_edge`'s points,
+a third of a cable holder's). The robust path then takes the sample for an open one
+and its surface comes out open. Here, when the normals' dipole test says open
+(`is_closed_sample`), every point asks a voxel grid which of its two sides is the
+outside: the grid's cells farther than a sampling gap from every point, connected to
+the grid's border, are the outside; a point's outward side is the one where the
+distance to the outside falls (probed a little beyond that gap on both sides). The
+answers are smoothed over the point's neighbours on its own side of a wall, and the
+new normals are kept only when they make the sample closed. Decisions:
+docs/decisions/simplify.md, "Normals turned to the outside".
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from ..neighbors import query_knn
+from ._reconstruct import is_closed_sample
+
+__all__ = ["GAP_SPACINGS", "MAX_CELLS", "outside_votes", "turn_outward"]
+
+#: Cells farther than this many point spacings (median nearest-neighbour distance)
+#: plus one cell from every point are empty: the largest sampling gap of 20,000
+#: uniform samples is about 3.6 spacings across its radius, and a gap let the
+#: outside into a cable holder's inside at 2.5.
+GAP_SPACINGS = 4.5
+#: At most about this many cells in the grid (a coarser cell beyond).
+MAX_CELLS = 4_000_000
+#: Neighbours smoothing the votes (the point itself included), and the rounds.
+SMOOTH_K = 10
+SMOOTH_ROUNDS = 2
+
+
+def _grid(q: np.ndarray, spacing: float):
+    """Cell size, origin, shape and the empty-cell radius of the probing grid."""
+    lo, hi = q.min(axis=0), q.max(axis=0)
+    ext = hi - lo
+    step = spacing
+    while True:
+        reach = GAP_SPACINGS * spacing + step
+        pad = int(np.ceil(reach / step)) + 4
+        shape = np.ceil(ext / step).astype(np.int64) + 2 * pad + 1
+        if int(np.prod(shape)) <= MAX_CELLS:
+            break
+        step *= 1.25
+    return step, lo - pad * step, shape, reach
+
+
+def outside_votes(q: np.ndarray, normals: np.ndarray, spacing: float) -> np.ndarray:
+    """Per point +1 when its normal points to the outside, -1 when it points in,
+    0 when both sides are alike (an open sheet: both sides outside).
+
+    The outside: grid cells farther than the empty-cell radius from every point,
+    connected to the grid's border (the inside of a closed sample does not reach
+    it). Each point compares the distance to the outside at two depths on either side.
+    """
+    step, origin, shape, reach = _grid(q, spacing)
+    cells = np.floor((q - origin) / step).astype(np.int64)
+    occupied = np.ones(tuple(shape), dtype=bool)
+    occupied[tuple(cells.T)] = False
+    empty = ndimage.distance_transform_edt(occupied) * step > reach
+    del occupied
+    lab, _ = ndimage.label(empty)
+    outside = lab == lab[0, 0, 0]  # the padded corner is always empty
+    del lab, empty
+    depth = ndimage.distance_transform_edt(~outside)
+    top = shape - 1
+
+    def at(x):
+        c = np.clip(np.floor((x - origin) / step).astype(np.int64), 0, top)
+        return depth[tuple(c.T)]
+
+    votes = np.zeros(q.shape[0])
+    for probe in (reach + 1.5 * step, reach + 2.5 * step):
+        votes += np.sign(at(q - probe * normals) - at(q + probe * normals))
+    return np.sign(votes)
+
+
+def _smoothed(q, normals, votes, indices) -> np.ndarray:
+    """Votes taken over the neighbours on the same side of a wall (normals within
+    60 degrees of parallel, the edge within 30 degrees of the tangent plane; a
+    neighbour's vote counts with the sign of n_i . n_j)."""
+    n, k = indices.shape
+    i = np.repeat(np.arange(n), k)
+    j = indices.reshape(-1)
+    e = q[j] - q[i]
+    length = np.linalg.norm(e, axis=1)
+    along = np.abs(np.einsum("ij,ij->i", normals[i], e)) < 0.5 * length
+    c = np.einsum("ij,ij->i", normals[i], normals[j])
+    w = np.where((length == 0) | (along & (np.abs(c) > 0.5)), np.sign(c), 0.0)
+    v = votes
+    for _ in range(SMOOTH_ROUNDS):
+        s = np.bincount(i, weights=w * v[j], minlength=n)
+        v = np.where(s != 0, np.sign(s), v)
+    return v
+
+
+def turn_outward(q: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, int]:
+    """``normals`` with the inward-turned ones flipped, and how many were; unchanged
+    (0) when the dipole test already finds the sample closed or the flipped normals
+    would not make it closed (an open sheet, a shape open to the grid's border)."""
+    if q.shape[0] < SMOOTH_K or is_closed_sample(q, normals):
+        return normals, 0
+    idx, dist = query_knn(q, SMOOTH_K)
+    near = np.asarray(dist)[:, 1:]
+    positive = near[near > 0]
+    if positive.size == 0:
+        return normals, 0
+    spacing = float(np.median(near[:, 0][near[:, 0] > 0])) if (near[:, 0] > 0).any() else 0.0
+    spacing = spacing or float(np.median(positive))
+    votes = _smoothed(q, normals, outside_votes(q, normals, spacing), np.asarray(idx))
+    flip = votes < 0
+    if not flip.any():
+        return normals, 0
+    turned = np.where(flip[:, None], -normals, normals)
+    if not is_closed_sample(q, turned):
+        return normals, 0
+    return turned, int(flip.sum())
