@@ -39,7 +39,7 @@ STEPS = (
     ("      band values", "simplify/_reconstruct.py", "_band_values"),
     ("      winding number sides", "simplify/_reconstruct.py", "_winding_sides"),
     ("    marching cubes", "skimage/measure/_marching_cubes_lewiner.py", "marching_cubes"),
-    ("  fit to the points' planes", "simplify/_reconstruct.py", "fit_to_points"),
+    ("  fit to the points' planes", "simplify/_snap.py", "fit_to_points"),
     ("  decimation: collapses", "simplify/_decimate_mesh.py", "__init__"),
     ("  decimation: level search", "simplify/_decimate_mesh.py", "steps_for"),
     ("  decimation: result", "simplify/_decimate_mesh.py", "result"),

@@ -23,7 +23,6 @@ __all__ = [
     "PointDistances",
     "region_planes",
     "robust_mesh",
-    "fit_to_points",
     "transfer_labels",
 ]
 
@@ -70,13 +69,6 @@ SMOOTH_SPACINGS = 1.5
 SPIKE_FACTOR = 4.0
 #: A region is flat when this share of its points lie near its plane.
 FLAT_SHARE = 0.95
-#: Points whose tangent planes a surface vertex is fitted to (`fit_to_points`) ...
-FIT_NEIGHBORS = 16
-#: ... dropping directions whose weight is below this share of the strongest, moving
-#: at most this many grid steps (the field rounds a convex edge or bulges past it by
-#: up to about 3 steps at one spacing per step).
-FIT_RCOND = 0.05
-FIT_STEPS = 1.0
 #: Points whose tangent planes are averaged into the field at a node.
 FIELD_K = 8
 #: A triangle farther than this from every point (grid steps), or farther than one
@@ -482,30 +474,6 @@ class PointDistances:
         return there, back_distances(out_v, out_t, self.surface)
 
 
-def fit_to_points(verts, tri, q, normals, tree, bound: float, k: int = FIT_NEIGHBORS):
-    """The surface's vertices moved onto the points' tangent planes: each to the
-    least-squares point of its ``k`` nearest points' planes (a quadric error
-    function as in dual contouring: onto the plane on a face, onto the line where
-    two faces meet, to the corner of three), about where it is, with directions
-    below `FIT_RCOND` of the strongest dropped (no move along a plane or an edge),
-    at most ``bound``; triangles that would turn over keep their vertices."""
-    from ._place import _unflip
-
-    _, j = tree.query(verts, k=min(k, q.shape[0]), workers=-1)
-    j = j.reshape(verts.shape[0], -1)
-    n = normals[j]
-    h = np.einsum("vki,vki->vk", n, q[j] - verts[:, None, :])
-    a = np.einsum("vki,vkj->vij", n, n)
-    b = np.einsum("vki,vk->vi", n, h)
-    w, u = np.linalg.eigh(a)
-    keep = w > FIT_RCOND * w[:, -1:]
-    inv = np.where(keep, 1.0 / np.where(keep, w, 1.0), 0.0)
-    move = np.einsum("vij,vj,vkj,vk->vi", u, inv, u, b)
-    length = np.linalg.norm(move, axis=1)
-    move *= np.minimum(1.0, bound / np.maximum(length, 1e-300))[:, None]
-    return _unflip(verts, verts + move, tri)
-
-
 def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max_triangles=None):
     """The robust path: the points' surface (`reconstruct_surface`), its triangles
     labelled by the points' regions (`transfer_labels`), then the structure-aware
@@ -520,9 +488,10 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max
     """
     import dataclasses
 
-    from ._decimate_mesh import MAX_ERROR, Decimation
+    from ._decimate_mesh import MAX_ERROR
     from ._distance import PointSurface
     from ._polygons import PLANAR_RTOL
+    from ._snap import FIT_STEPS, PointsDecimation, fit_to_points
     from ._triangles import _face_graph, _surface
 
     rec = reconstruct_surface(q, normals)
@@ -544,7 +513,20 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max
     measure = PointDistances(q, surface)
     verts = fit_to_points(rec.vertices, rec.triangles, q, normals, tree, FIT_STEPS * rec.step)
     box = measure.box  # never a vertex outside
-    level = Decimation(verts, rec.triangles, lab, planes, 2.0 * rec.step, 0.0, measure, box)
+    # a vertex placed on its planes stays there only within a quarter of the bound of
+    # the points' surface (or no farther than it was): a wrong plane is not followed
+    level = PointsDecimation(
+        verts,
+        rec.triangles,
+        lab,
+        planes,
+        2.0 * rec.step,
+        0.0,
+        measure,
+        box,
+        0.25 * bound,
+        FIT_STEPS * rec.step,
+    )
     if max_error is None:
         # the default bound, or what the points' surface itself reaches, if more
         bound = max(bound, 1.1 * level.error(0))

@@ -1,0 +1,130 @@
+"""The points path's vertices on the points: fitted to their tangent planes, and
+placed on the regions' planes only where the points agree (private).
+
+The mesh path's `place_on_planes` moves every vertex of a flat region onto its plane
+(two regions: their line, three: their corner), at most two grid steps on the points
+path, so that the voxel surface's rounded edges and corners come back. On the points
+path a region's label comes from its nearest point, and VSA's regions reach a spacing
+or two past their face: a vertex on the points' surface labelled with a plane it does
+not lie on was moved up to two grid steps off the points (sampled fandisk: vertices
+0.01 % of the diagonal from the points' discs placed 0.9 % off them, which raised the
+default bound to 0.95 % and the output to 1.3 % of the truth). Here a placed vertex
+keeps its place only while it stays within a tolerance of the points' surface (or no
+farther than it was): a restored sharp edge or corner lies on the discs of the points
+beside it and passes; a vertex flung along a wrong plane goes back. And every level's
+vertices farther than the tolerance from the points' surface (a collapse can leave a
+vertex where its quadric alone put it: on sampled fandisk 0.86 % off at 3,000
+triangles, undone a few hundred collapses later) are fitted to the points' tangent
+planes again (`fit_to_points`), kept where that brings them nearer.
+Decisions in docs/decisions/simplify.md ("The points path's robust path").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._decimate_mesh import Decimation
+from ._place import _unflip, place_on_planes
+
+__all__ = [
+    "FIT_NEIGHBORS",
+    "FIT_RCOND",
+    "FIT_STEPS",
+    "PointsDecimation",
+    "fit_to_points",
+    "placed_near_points",
+    "refit_far",
+]
+
+#: Points whose tangent planes a surface vertex is fitted to (`fit_to_points`) ...
+FIT_NEIGHBORS = 16
+#: ... dropping directions whose weight is below this share of the strongest, moving
+#: at most this many grid steps (the field rounds a convex edge or bulges past it by
+#: up to about 3 steps at one spacing per step).
+FIT_RCOND = 0.05
+FIT_STEPS = 1.0
+
+
+def _fit_moves(x, q, normals, tree, bound: float, k: int = FIT_NEIGHBORS) -> np.ndarray:
+    """Each of ``x`` to the least-squares point of its ``k`` nearest points' tangent
+    planes about where it is (directions below `FIT_RCOND` of the strongest dropped),
+    at most ``bound``: the moves."""
+    _, j = tree.query(x, k=min(k, q.shape[0]), workers=-1)
+    j = j.reshape(x.shape[0], -1)
+    n = normals[j]
+    h = np.einsum("vki,vki->vk", n, q[j] - x[:, None, :])
+    a = np.einsum("vki,vkj->vij", n, n)
+    b = np.einsum("vki,vk->vi", n, h)
+    w, u = np.linalg.eigh(a)
+    keep = w > FIT_RCOND * w[:, -1:]
+    inv = np.where(keep, 1.0 / np.where(keep, w, 1.0), 0.0)
+    move = np.einsum("vij,vj,vkj,vk->vi", u, inv, u, b)
+    length = np.linalg.norm(move, axis=1)
+    return move * np.minimum(1.0, bound / np.maximum(length, 1e-300))[:, None]
+
+
+def fit_to_points(verts, tri, q, normals, tree, bound: float, k: int = FIT_NEIGHBORS):
+    """The surface's vertices moved onto the points' tangent planes: each to the
+    least-squares point of its ``k`` nearest points' planes (a quadric error
+    function as in dual contouring: onto the plane on a face, onto the line where
+    two faces meet, to the corner of three), about where it is, with directions
+    below `FIT_RCOND` of the strongest dropped (no move along a plane or an edge),
+    at most ``bound``; triangles that would turn over keep their vertices."""
+    return _unflip(verts, verts + _fit_moves(verts, q, normals, tree, bound, k), tri)
+
+
+def refit_far(x, tri, surface, tol: float, bound: float) -> np.ndarray:
+    """``x`` with every vertex farther than ``tol`` from the points' ``surface``
+    (`PointSurface`, with normals) fitted to the points' tangent planes (at most
+    ``bound``), where that brings it nearer; no triangle turned over."""
+    far = np.flatnonzero(surface.distance(x) > tol)
+    if far.size == 0:
+        return x
+    at = x[far] + _fit_moves(x[far], surface.points, surface.normals, surface.tree, bound)
+    better = surface.distance(at) < surface.distance(x[far])
+    if not better.any():
+        return x
+    y = x.copy()
+    y[far[better]] = at[better]
+    return _unflip(x, y, tri)
+
+
+def placed_near_points(v0, placed, triangles, surface, tol: float) -> np.ndarray:
+    """``placed`` with every vertex that moved more than ``tol`` and ended farther than
+    ``tol`` from the points' ``surface`` (`PointSurface`), and farther than ``v0`` was,
+    put back at ``v0``; then no triangle turned over (`_unflip`)."""
+    moved = np.flatnonzero(np.linalg.norm(placed - v0, axis=1) > tol)
+    if moved.size == 0:
+        return placed
+    after = surface.distance(placed[moved])
+    before = surface.distance(v0[moved])
+    back = moved[(after > tol) & (after > before)]
+    if back.size == 0:
+        return placed
+    x = placed.copy()
+    x[back] = v0[back]
+    return _unflip(v0, x, triangles)
+
+
+class PointsDecimation(Decimation):
+    """`Decimation` whose placement onto the flat regions' planes is kept only where it
+    stays within ``tol`` of the points' surface (`placed_near_points`), and whose
+    vertices farther than ``tol`` from it are fitted to the points again, at most
+    ``fit_bound`` (`refit_far`); ``measure`` is the points' (`PointDistances`, its
+    ``surface`` the points' discs)."""
+
+    def __init__(self, verts, tri, labels, planes, step, still, measure, box, tol, fit_bound):
+        super().__init__(verts, tri, labels, planes, step, still, measure, box)
+        self.tol, self.fit_bound = float(tol), float(fit_bound)
+
+    def _placed(self, m: int):
+        if self._kept_level is not None and self._kept_level[0] == m:
+            return self._kept_level[1]
+        out_v, out_t, kept, source, went = self.seq.mesh_and_map(m)
+        face = self.labels[kept]
+        x = place_on_planes(out_v, out_t, face, *self.planes, self.step, self.still)
+        x = placed_near_points(out_v, x, out_t, self.measure.surface, self.tol)
+        x = refit_far(x, out_t, self.measure.surface, self.tol, self.fit_bound)
+        if self.box is not None:  # no vertex beyond the box (lo, hi)
+            x = np.clip(x, *self.box)
+        return x, out_t, face, source, (kept, went)
