@@ -386,19 +386,20 @@ def greedy_merge(pairs, wsum, ssum, eta, min_cos, use_angle):
     if not increasing:
         keys, codes = _by_code(keys, codes)
     ks, ps = _sort_entries(keys, codes)  # stable: ties stay sorted by pair
+    parent = np.arange(m, dtype=np.int32)  # union-find, updated by the loop
     buffer = key_buffer()
-    return _merge_stream(ks, ps, ws, pairs.shape[0], eta, min_cos, use_angle, buffer)
+    return _merge_stream(ks, ps, ws, parent, pairs.shape[0], eta, min_cos, use_angle, buffer)
 
 
 @njit(cache=True)
-def _merge_stream(ks, ps, ws, n_pairs, eta, min_cos, use_angle, buffer):
+def _merge_stream(ks, ps, ws, parent, n_pairs, eta, min_cos, use_angle, buffer):
     """`greedy_merge`'s loop over the sorted initial entries (``ks`` key bits, ``ps``
     pair codes) and the heap of pushed-back ones; ``ws`` the region sums (`_aligned_sums`,
-    updated in place), ``n_pairs`` the number of adjacent pairs (sizes the dedupe
-    table), ``buffer`` a `key_buffer`. Returns the root of every region and the number
-    of merges."""
+    updated in place), ``parent`` the union-find (int32 ``arange(m)``; numpy's, as
+    numba's ``arange`` and ``astype`` compile apart), ``n_pairs`` the number of
+    adjacent pairs (sizes the dedupe table), ``buffer`` a `key_buffer`. Returns the
+    root of every region and the number of merges."""
     m = ws.shape[0]
-    parent = np.arange(m).astype(np.int32)
     n_init = ks.shape[0]
     head = 0
     heap, base = heap_new(4096)

@@ -10,22 +10,10 @@ from numba import njit, prange
 from ..._core._threads import run_chunks
 
 
-@njit(cache=True)
 def _compact_moves(target):
     """Positions with target >= 0 (increasing) and their targets."""
-    count = 0
-    for s in range(target.shape[0]):
-        if target[s] >= 0:
-            count += 1
-    pos = np.empty(count, dtype=np.int64)
-    new = np.empty(count, dtype=np.int64)
-    c = 0
-    for s in range(target.shape[0]):
-        if target[s] >= 0:
-            pos[c] = s
-            new[c] = target[s]
-            c += 1
-    return pos, new
+    pos = np.flatnonzero(target >= 0)
+    return pos, target[pos]
 
 
 @njit(cache=True, inline="always")
@@ -60,7 +48,6 @@ def _consider(d, h, li, best, best_label, top, low):
     return best, best_label, top, low
 
 
-@njit(cache=True, parallel=True)
 def batch_switch(
     indptr,
     indices,
@@ -82,6 +69,24 @@ def batch_switch(
     smaller region label. Returns the moved points (increasing) and their new
     labels; ``labels`` is not changed.
     """
+    args = (indptr, indices, normals, weights, labels, proxy_normals, foreign, min_gain)
+    pos, new = _compact_moves(_switch_targets(*args, candidates))
+    return candidates[pos], new
+
+
+@njit(cache=True, parallel=True)
+def _switch_targets(
+    indptr,
+    indices,
+    normals,
+    weights,
+    labels,
+    proxy_normals,
+    foreign,
+    min_gain,
+    candidates,
+):
+    """`batch_switch`'s decisions: per candidate its new label, or -1 to stay."""
     nc = candidates.shape[0]
     target = np.full(nc, -1, dtype=np.int64)
     for s in prange(nc):
@@ -102,8 +107,7 @@ def batch_switch(
                 best_label = h
         if best_label != li and 2.0 * weights[i] * (best - cur) > min_gain:
             target[s] = best_label
-    pos, new = _compact_moves(target)
-    return candidates[pos], new
+    return target
 
 
 @njit(cache=True, nogil=True)
