@@ -69,32 +69,58 @@ def min_cell_size(ext: np.ndarray) -> float:
     return hi_h
 
 
+def _cell_keys(pts: np.ndarray, lo: np.ndarray, inv_h: float, dims) -> np.ndarray:
+    """Cell key ``(i * ny + j) * nz + k`` of every point, clamped into the grid."""
+    keys = np.zeros(pts.shape[0], dtype=np.int64)
+    for d, size in enumerate(dims):
+        cell = np.floor((pts[:, d] - lo[d]) * inv_h).astype(np.int64)
+        np.clip(cell, 0, size - 1, out=cell)
+        keys *= size
+        keys += cell
+    return keys
+
+
 def build_grid(pts: np.ndarray, h: float, h_min: float | None = None) -> Grid:
     """Sort ``pts`` into cells of size ``h`` (enlarged if keys would overflow; ``h_min``:
-    `min_cell_size` of the points' extent when the caller has it)."""
+    `min_cell_size` of the points' extent when the caller has it).
+
+    numpy around one kernel, the shared radix sort of the cell keys (stable:
+    ``np.argsort(kind="stable")``): each pass over the points is one numpy call, as
+    fast as a kernel's loop, and compiles nothing (docs/decisions/cli.md, "First run").
+    """
     lo, hi = K.bounds(pts)
     ext = hi - lo
     h = max(float(h), min_cell_size(ext) if h_min is None else h_min)
     nx, ny, nz = _dims(ext, h)
-    keys = K.grid_keys(pts, lo, 1.0 / h, nx, ny, nz)
-    # stable radix sort of the (non-negative) cell keys: np.argsort(kind="stable")
+    keys = _cell_keys(pts, lo, 1.0 / h, (nx, ny, nz))
     n = keys.shape[0]
     sorted_keys, order = radix_sort_payload(
-        keys.view(np.uint64), np.arange(n), np.empty(n, dtype=np.uint64), np.empty(n, np.int64)
+        keys.view(np.uint64),
+        np.arange(n, dtype=np.int64),
+        np.empty(n, dtype=np.uint64),
+        np.empty(n, dtype=np.int64),
     )
-    ukeys, cstart = K.cell_starts(sorted_keys.view(np.int64))
-    xs, ys, zs = K.gather_sorted(pts, order)
+    sorted_keys = sorted_keys.view(np.int64)
+    first = np.ones(n, dtype=np.bool_)
+    np.not_equal(sorted_keys[1:], sorted_keys[:-1], out=first[1:])
+    starts = np.flatnonzero(first)
+    ukeys = sorted_keys[starts]
+    cstart = np.append(starts, n).astype(np.int64)
+    xs, ys, zs = (pts[order, d] for d in range(3))
     return Grid(xs, ys, zs, order, ukeys, cstart, lo, h, nx, ny, nz)
 
 
 def column_index(grid: Grid) -> np.ndarray:
-    """The grid's x/y column index (`_kernels.column_starts`), or an empty array when
-    it would hold more than `_MAX_COLUMNS_PER_POINT` entries per point (the kernels
-    then bisect all cells)."""
+    """The grid's x/y column index ``colptr`` (n_cols + 1,): the occupied cells of
+    column ``col = i * ny + j`` are ``colptr[col]:colptr[col + 1]`` (positions in
+    ``ukeys``); an empty array when it would hold more than `_MAX_COLUMNS_PER_POINT`
+    entries per point (the kernels then bisect all cells)."""
     n_cols = grid.nx * grid.ny
     if n_cols > _MAX_COLUMNS_PER_POINT * grid.xs.shape[0] + 1024:
         return np.empty(0, dtype=np.int64)
-    return K.column_starts(grid.ukeys, n_cols, grid.nz)
+    colptr = np.zeros(n_cols + 1, dtype=np.int64)
+    np.cumsum(np.bincount(grid.ukeys // grid.nz, minlength=n_cols), out=colptr[1:])
+    return colptr
 
 
 def group_queries(grid: Grid, queries: np.ndarray):

@@ -1,7 +1,7 @@
 """numba kernels of the neighbour queries, one module per stage (validated input assumed).
 
-* `grid`: the compact sorted-cell grid (keys, occupied cells, column index, occupancy
-  levels);
+* `grid`: the compact sorted-cell grid's look-ups (cells of a column, occupancy levels,
+  queries grouped by cell; the grid itself is built by numpy in ``_grid``);
 * `knn`: k nearest neighbours on the grid from each cell's 3 x 3 x 3 block, the k-d
   tree path's selection, the scan of all points for far queries;
 * `knn_rings`: the grid rows the block leaves (a per-query block scan, further rings);
@@ -22,10 +22,6 @@ centred (``_knn.NeighborIndex``), int64 indices, and the grid built by
 from .graph import edge_lengths, graph_structure
 from .grid import (
     bounds,
-    cell_starts,
-    column_starts,
-    gather_sorted,
-    grid_keys,
     group_by_cell,
     occupancy_levels,
 )
@@ -35,12 +31,8 @@ from .radius import radius_grid, sort_rows
 
 __all__ = [
     "bounds",
-    "cell_starts",
-    "column_starts",
     "edge_lengths",
-    "gather_sorted",
     "graph_structure",
-    "grid_keys",
     "group_by_cell",
     "knn_brute",
     "knn_grid",

@@ -26,70 +26,15 @@ from ..._core.kernels import bounds
 __all__ = [
     "bounds",
     "cell_coords",
-    "cell_starts",
     "cells_in_column",
     "chunk_cells",
     "column_range",
-    "column_starts",
-    "gather_sorted",
-    "grid_keys",
     "group_by_cell",
     "interleaved_chunks",
     "lower_bound",
     "occupancy_levels",
     "sq_dist",
 ]
-
-
-@njit(cache=True)
-def grid_keys(pts, lo, inv_h, nx, ny, nz):
-    """Cell key of every point, clamped into the grid."""
-    n = pts.shape[0]
-    keys = np.empty(n, dtype=np.int64)
-    for p in range(n):
-        i = np.int64(np.floor((pts[p, 0] - lo[0]) * inv_h))
-        j = np.int64(np.floor((pts[p, 1] - lo[1]) * inv_h))
-        kz = np.int64(np.floor((pts[p, 2] - lo[2]) * inv_h))
-        i = min(max(i, 0), nx - 1)
-        j = min(max(j, 0), ny - 1)
-        kz = min(max(kz, 0), nz - 1)
-        keys[p] = (i * ny + j) * nz + kz
-    return keys
-
-
-@njit(cache=True)
-def cell_starts(sorted_keys):
-    """Occupied cell keys and their point ranges from sorted keys."""
-    n = sorted_keys.shape[0]
-    n_cells = 0
-    for p in range(n):
-        if p == 0 or sorted_keys[p] != sorted_keys[p - 1]:
-            n_cells += 1
-    ukeys = np.empty(n_cells, dtype=np.int64)
-    cstart = np.empty(n_cells + 1, dtype=np.int64)
-    c = 0
-    for p in range(n):
-        if p == 0 or sorted_keys[p] != sorted_keys[p - 1]:
-            ukeys[c] = sorted_keys[p]
-            cstart[c] = p
-            c += 1
-    cstart[n_cells] = n
-    return ukeys, cstart
-
-
-@njit(cache=True)
-def gather_sorted(pts, order):
-    """Coordinates in cell order as three contiguous arrays (structure of arrays)."""
-    n = order.shape[0]
-    xs = np.empty(n)
-    ys = np.empty(n)
-    zs = np.empty(n)
-    for p in range(n):
-        o = order[p]
-        xs[p] = pts[o, 0]
-        ys[p] = pts[o, 1]
-        zs[p] = pts[o, 2]
-    return xs, ys, zs
 
 
 @njit(cache=True)
@@ -220,20 +165,6 @@ def lower_bound(a, x):
 
 
 @njit(cache=True)
-def column_starts(ukeys, n_cols, nz):
-    """``colptr`` (n_cols + 1,): the occupied cells of column ``col = i * ny + j`` are
-    ``colptr[col]:colptr[col + 1]`` (positions in ``ukeys``)."""
-    colptr = np.empty(n_cols + 1, dtype=np.int64)
-    c = 0
-    n_cells = ukeys.shape[0]
-    for col in range(n_cols + 1):
-        while c < n_cells and ukeys[c] < col * nz:
-            c += 1
-        colptr[col] = c
-    return colptr
-
-
-@njit(cache=True)
 def _lower_bound_in(a, lo, hi, x):
     """First position in ``lo:hi`` of the sorted ``a`` whose value is >= x."""
     while lo < hi:
@@ -248,7 +179,7 @@ def _lower_bound_in(a, lo, hi, x):
 @njit(cache=True)
 def cells_in_column(ukeys, colptr, i, j, z0, z1, ny, nz):
     """Positions ``ca:cb`` in ``ukeys`` of the occupied cells (i, j, z0..z1) (inclusive,
-    already clipped). With a column index ``colptr`` (`column_starts`) the search runs
+    already clipped). With a column index ``colptr`` (`_grid.column_index`) the search runs
     inside the column; with an empty ``colptr`` it bisects all cells."""
     col = i * ny + j
     base = col * nz
