@@ -165,6 +165,36 @@ def morton_order(points, bits):
     return order
 
 
+def _morton_order_numpy(points, bits):
+    """`morton_order` in numpy around the shared radix sort (its bit interleave and
+    `morton_bits` run as Python on numpy arrays), the same order bit for bit
+    (tests/_core/test_sort.py): what `spatial_renumbering` calls, so that a command
+    whose kernels do not call `morton_order` does not compile it (about 1.3
+    CPU-seconds, docs/decisions/cli.md "First run")."""
+    n = points.shape[0]
+    n_cells = 1 << (3 * bits)
+    side = 1 << bits
+    finite = np.isfinite(points).all(axis=1)
+    code = np.full(n, n_cells, dtype=np.int64)
+    if finite.any():
+        pts = points[finite]
+        lo = pts.min(axis=0)
+        ext = pts.max(axis=0) - lo
+        scale = np.zeros(3)
+        np.divide(side, ext, out=scale, where=ext > 0)
+        q = ((pts - lo) * scale).astype(np.int64)
+        np.clip(q, 0, side - 1, out=q)
+        spread = _spread3.py_func  # the kernel's helper, run by numpy on int64 columns
+        code[finite] = spread(q[:, 0]) | (spread(q[:, 1]) << 1) | (spread(q[:, 2]) << 2)
+    _, order = radix_sort_payload(
+        code.view(np.uint64),
+        np.arange(n, dtype=np.int64),
+        np.empty(n, dtype=np.uint64),
+        np.empty(n, dtype=np.int64),
+    )
+    return order
+
+
 def spatial_renumbering(points):
     """``(order, inv)``: new point r is old point ``order[r]`` (`morton_order` with
     `morton_bits`), old point i is new point ``inv[i]``.
@@ -173,22 +203,16 @@ def spatial_renumbering(points):
     merging) run much faster on renumbered points, whose neighbours then sit close
     in memory, than on a spatially random input order.
     """
-    order = morton_order(points, morton_bits(points.shape[0]))
+    order = _morton_order_numpy(points, morton_bits.py_func(points.shape[0]))
     inv = np.empty(order.shape[0], dtype=np.int64)
     inv[order] = np.arange(order.shape[0])
     return order, inv
 
 
-@njit(cache=True)
 def permute_table(table, order, inv):
     """Row r of the result is row ``order[r]`` of ``table`` with every entry j >= 0
     replaced by ``inv[j]`` (entries < 0 kept): the neighbour table of the points
-    renumbered by `spatial_renumbering` (serial: 0.03 s for 10^6 rows of 8)."""
-    n, c = table.shape
-    out = np.empty((n, c), dtype=np.int64)
-    for r in range(n):
-        src = order[r]
-        for t in range(c):
-            j = table[src, t]
-            out[r, t] = inv[j] if j >= 0 else j
-    return out
+    renumbered by `spatial_renumbering` (numpy: called once per run, as fast as a
+    kernel)."""
+    rows = table[order]
+    return np.where(rows >= 0, inv[np.maximum(rows, 0)], rows).astype(np.int64, copy=False)
