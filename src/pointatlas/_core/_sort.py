@@ -165,6 +165,11 @@ def morton_order(points, bits):
     return order
 
 
+def _python(kernel):
+    """The Python function of a numba kernel (the kernel itself with the JIT off)."""
+    return getattr(kernel, "py_func", kernel)
+
+
 def _morton_order_numpy(points, bits):
     """`morton_order` in numpy around the shared radix sort (its bit interleave and
     `morton_bits` run as Python on numpy arrays), the same order bit for bit
@@ -184,7 +189,7 @@ def _morton_order_numpy(points, bits):
         np.divide(side, ext, out=scale, where=ext > 0)
         q = ((pts - lo) * scale).astype(np.int64)
         np.clip(q, 0, side - 1, out=q)
-        spread = _spread3.py_func  # the kernel's helper, run by numpy on int64 columns
+        spread = _python(_spread3)  # the kernel's helper, run by numpy on int64 columns
         code[finite] = spread(q[:, 0]) | (spread(q[:, 1]) << 1) | (spread(q[:, 2]) << 2)
     _, order = radix_sort_payload(
         code.view(np.uint64),
@@ -203,7 +208,7 @@ def spatial_renumbering(points):
     merging) run much faster on renumbered points, whose neighbours then sit close
     in memory, than on a spatially random input order.
     """
-    order = _morton_order_numpy(points, morton_bits.py_func(points.shape[0]))
+    order = _morton_order_numpy(points, _python(morton_bits)(points.shape[0]))
     inv = np.empty(order.shape[0], dtype=np.int64)
     inv[order] = np.arange(order.shape[0])
     return order, inv

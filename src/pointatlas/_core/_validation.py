@@ -342,9 +342,9 @@ def check_neighbors(
         table = table[:, :k]
     table = np.ascontiguousarray(table, dtype=np.int64)
     if check_range and table.size:
-        from ._ranges import index_range  # numba: loaded on first use, not on import
-
-        lo, hi = index_range(table)
+        # numpy's reductions: a few milliseconds per million rows, and no kernel for a
+        # first run to compile (docs/decisions/cli.md, "First run")
+        lo, hi = int(table.min()), int(table.max())
         if hi >= n_points or (lo < 0 and not allow_negative):
             allowed = f"< {n_points}" if allow_negative else f"0..{n_points - 1}"
             raise PointAtlasError(f"{name} must index points {allowed}; got range {lo}..{hi}")
