@@ -245,21 +245,17 @@ def _mark_touched(indptr, indices, labels, foreign, dirty, mark):
                 mark[j] = True
 
 
-@njit(cache=True)
 def farthest_neighbor_distances(indptr, indices, points):
     """Per point, the distance to its farthest graph neighbour (0.0 without one):
-    sqrt((dx^2 + dy^2) + dz^2) of q - p, the sum `_sums.row_norms` forms."""
+    sqrt((dx^2 + dy^2) + dz^2) of q - p, the sum `_sums.row_norms` forms (numpy:
+    called once per run, as fast as a kernel)."""
     n = indptr.shape[0] - 1
-    out = np.empty(n)
-    for i in range(n):
-        far = 0.0
-        for e in range(indptr[i], indptr[i + 1]):
-            j = indices[e]
-            dx = points[j, 0] - points[i, 0]
-            dy = points[j, 1] - points[i, 1]
-            dz = points[j, 2] - points[i, 2]
-            d = np.sqrt(dx * dx + dy * dy + dz * dz)
-            if d > far:
-                far = d
-        out[i] = far
+    deg = np.diff(indptr)
+    rows = np.repeat(np.arange(n, dtype=np.int64), deg)
+    diff = points[indices] - points[rows]
+    dist = np.sqrt((diff[:, 0] * diff[:, 0] + diff[:, 1] * diff[:, 1]) + diff[:, 2] * diff[:, 2])
+    out = np.zeros(n)
+    has = deg > 0
+    if has.any():
+        out[has] = np.maximum.reduceat(dist, indptr[:-1][has])
     return out

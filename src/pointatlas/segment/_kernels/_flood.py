@@ -96,9 +96,10 @@ def _flood(indptr, indices, normals, seeds, seed_normals, bits, bits_i):
 @njit(cache=True)
 def best_points(labels, m, normals, proxy_normals):
     """Point of every region with least |n_j - N_i|^2 (ties: smaller index)."""
-    best = np.full(m, -1, dtype=np.int64)
-    best_dev = np.empty(m)  # np.empty + a loop: one spelling less to compile
+    best = np.empty(m, dtype=np.int64)  # np.empty + a loop: one spelling less to compile
+    best_dev = np.empty(m)
     for r in range(m):
+        best[r] = -1
         best_dev[r] = np.inf
     for i in range(labels.shape[0]):
         r = labels[i]
