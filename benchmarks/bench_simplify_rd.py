@@ -22,10 +22,13 @@ Each output is measured both ways against the input surface with one metric
 seeded area samples to the output, and the output's vertices and 20,000 samples to
 the input. ``mean`` is the average of the two directions' mean distances,
 ``hausdorff`` the larger maximum, both in % of the bounding-box diagonal; ``closed``
-is closed + manifold + oriented (`mesh_checks`). One CSV row per model, level and
-method; the summary prints, per kind (CAD parts, by the manifest's notes, and
-organic shapes), the geometric mean of ours / the best quadric decimator for the
-mean and the Hausdorff distance, the worst model, and the time ratio.
+is closed + manifold + oriented (`mesh_checks`), ``euler`` V - E + F. One CSV row
+per model, level and method; the summary prints, per kind (CAD parts, by the
+manifest's notes, and organic shapes), the geometric mean of ours / the best quadric
+decimator for the mean and the Hausdorff distance, the worst model, and the time
+ratio; then the same against the peers whose output keeps our topology (closedness
+and Euler characteristic: ours keeps the input's), since MeshLab's collapses may
+close a hole or open the surface at the smallest budgets.
 """
 
 from __future__ import annotations
@@ -93,6 +96,17 @@ PEERS = {
 }
 
 
+def euler_characteristic(t) -> int:
+    """V - E + F of the vertices on triangles, the edges and the triangles."""
+    t = np.asarray(t, dtype=np.int64)
+    if len(t) == 0:
+        return 0
+    edges = np.unique(
+        np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), 1), axis=0
+    )
+    return int(np.unique(t).size - len(edges) + len(t))
+
+
 def _row(model, kind, level, method, v, t, v_out, t_out, seconds) -> dict:
     used = np.unique(t_out)
     closed = all(mesh_checks(len(v_out), t_out)) if len(t_out) else False
@@ -104,6 +118,7 @@ def _row(model, kind, level, method, v, t, v_out, t_out, seconds) -> dict:
         "triangles": int(len(t_out)),
         "vertices": int(used.size),
         "closed": closed,
+        "euler": euler_characteristic(t_out),
         "seconds": round(seconds, 3),
         **{k: round(float(x), 5) for k, x in both_ways(v, t, v_out, t_out).items()},
     }
@@ -166,16 +181,21 @@ def _summary(rows: list[dict], ours_method: str) -> list[str]:
         if not mine:
             continue
         ratios = {"mean": [], "hausdorff": [], "seconds": []}
-        worst = (0.0, None)
+        topo = {"mean": [], "hausdorff": []}  # against the peers that keep our topology
+        worst, over_changed = (0.0, None), 0
         for model, level, _ in mine:
             ours = key[(model, level, ours_method)]
             peers = [key[(model, level, m)] for m in PEERS if (model, level, m) in key]
             for metric in ratios:
-                # distances below 1e-4 % of the diagonal (exact on both sides) count as
-                # equal; seconds below 1 ms likewise
-                floor = 1e-4 if metric != "seconds" else 1e-3
-                best = min(p[metric] for p in peers)
-                ratios[metric].append((ours[metric] + floor) / (best + floor))
+                ratios[metric].append(_ratio(ours, peers, metric))
+            same = [
+                p for p in peers if (p["closed"], p["euler"]) == (ours["closed"], ours["euler"])
+            ]
+            if same:
+                for metric in topo:
+                    topo[metric].append(_ratio(ours, same, metric))
+            if ratios["mean"][-1] > 1.5 and min(peers, key=lambda p: p["mean"]) not in same:
+                over_changed += 1
             if ratios["mean"][-1] > worst[0]:
                 worst = (ratios["mean"][-1], f"{model} at level {level}")
         gm = {m: float(np.exp(np.mean(np.log(x)))) for m, x in ratios.items()}
@@ -196,7 +216,23 @@ def _summary(rows: list[dict], ours_method: str) -> list[str]:
             f"{worst[0]:.2f}x ({worst[1]}); {over} cases over 1.5x; ours closed "
             f"{100 * closed:.0f} %"
         )
+        if topo["mean"]:
+            gk = {m: float(np.exp(np.mean(np.log(x)))) for m, x in topo.items()}
+            lines.append(
+                f"{ours_method}, {kind}: of the cases over 1.5x, {over_changed} against a "
+                "peer output that changed the topology (closedness or Euler characteristic "
+                f"not ours); against the peers that keep it ({len(topo['mean'])} cases): "
+                f"mean {gk['mean']:.2f}x, Hausdorff {gk['hausdorff']:.2f}x, "
+                f"{sum(r > 1.5 for r in topo['mean'])} cases over 1.5x"
+            )
     return lines
+
+
+def _ratio(ours: dict, peers: list[dict], metric: str) -> float:
+    """Ours / the best of ``peers``; distances below 1e-4 % of the diagonal (exact on
+    both sides) count as equal, seconds below 1 ms likewise."""
+    floor = 1e-4 if metric != "seconds" else 1e-3
+    return (ours[metric] + floor) / (min(p[metric] for p in peers) + floor)
 
 
 def plot(rows: list[dict], path: Path, models: list[str]) -> None:

@@ -68,3 +68,17 @@ def l_bracket():
 
 def cube_with_square_hole():
     return extrude([[0, 0], [3, 0], [3, 3], [0, 3]], [[[1, 1], [2, 1], [2, 2], [1, 2]]], height=3.0)
+
+
+def subdivide(vertices, triangles):
+    """Every triangle split into four at its edges' midpoints (flat faces stay flat,
+    as a CAD export tessellated finer): (vertices, triangles)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    t = np.asarray(triangles, dtype=np.int64)
+    sides = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    edges, inverse = np.unique(sides, axis=0, return_inverse=True)
+    ab, bc, ca = (v.shape[0] + inverse.reshape(3, -1)).tolist()
+    a, b, c = t.T.tolist()
+    mid = 0.5 * (v[edges[:, 0]] + v[edges[:, 1]])
+    tris = [np.column_stack(x) for x in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))]
+    return np.vstack([v, mid]), np.concatenate(tris)

@@ -86,6 +86,53 @@ def test_as_close_as_open3d_quadric_decimation_at_equal_triangles():
         assert mine <= 1.25 * theirs, (name, mine, theirs)
 
 
+@pytest.mark.parametrize(("shape", "target"), [("l_bracket", 20), ("cube_with_square_hole", 40)])
+def test_a_finely_meshed_cad_part_at_a_small_budget_is_as_close_as_open3d(shape, target):
+    # twice subdivided (320 and 512 triangles): the structured decimation alone was
+    # 1.62x and 1.59x Open3D's two-sided mean at these budgets (the planes' quadrics
+    # steer the last collapses once the flat faces cannot all be kept); the plain
+    # decimation, kept when nearer, is 1.10x and 1.06x
+    o3d = pytest.importorskip("open3d")
+    v, t = C.subdivide(*C.subdivide(*getattr(C, shape)()))
+    ours = decimate_mesh(v, t, target)
+    assert len(ours.triangles) == target and ours.is_closed and ours.is_oriented
+    assert ours.euler_characteristic == len(v) - len(t) // 2  # V - E + F kept
+    assert ours.polygon_planarity.max() <= 1e-12
+    mesh = o3d.geometry.TriangleMesh(
+        o3d.utility.Vector3dVector(v), o3d.utility.Vector3iVector(t.astype(np.int32))
+    )
+    peer = mesh.simplify_quadric_decimation(target_number_of_triangles=target)
+    pv, pt = np.asarray(peer.vertices), np.asarray(peer.triangles, dtype=np.int64)
+    assert len(pt) == target
+    mine = _two_sided_mean(v, t, ours.vertices, ours.triangles)
+    assert mine <= 1.25 * _two_sided_mean(v, t, pv, pt)
+
+
+def test_a_budget_keeps_the_nearer_of_the_structured_and_the_plain_decimation():
+    from pointatlas.simplify import _decimate_mesh as D
+
+    v, t = C.subdivide(*C.subdivide(*C.cube_with_square_hole()))
+    seen = []
+    real = D._nearer_within
+
+    def spy(structured, plain, budget):
+        chosen = real(structured, plain, budget)
+        for level in (structured, plain):
+            m = level.steps_for(budget, None)
+            there, back = level.distances(m)
+            seen.append((level is chosen[0], there.mean() + back.mean()))
+        return chosen
+
+    D._nearer_within = spy
+    try:
+        res = decimate_mesh(v, t, 40)
+    finally:
+        D._nearer_within = real
+    (kept_s, near_s), (kept_p, near_p) = seen
+    assert kept_p == (near_p < near_s) and kept_s != kept_p
+    assert res.distance_mean + res.back_distance_mean == min(near_s, near_p)
+
+
 @pytest.mark.parametrize("seed", range(20))
 def test_kernels_agree_with_the_numpy_references(seed):
     from pointatlas.simplify._kernels import collapse_position, turns_over

@@ -119,11 +119,34 @@ def decimate_mesh(
     planes = flat_planes(verts, tri, labels, int(labels.max()) + 1, FLAT_RTOL * diag)
     on = verts if run_used is None else verts[run_used]  # the vertices on a triangle
     measure = MeshDistances(on, verts, tri, run_used)
-    level = Decimation(verts, tri, labels, planes, _PLACE_STEP * diag, 1e-9 * diag, measure)
-    res = level.result(level.steps_for(max_triangles, max_error), PLANAR_RTOL * diag)
+    args = (verts, tri, labels, planes, _PLACE_STEP * diag, 1e-9 * diag, measure)
+    level = Decimation(*args)
+    if max_triangles is not None and planes[2].any():
+        plain = Decimation(*args, structure=0.0)
+        level, m, distances = _nearer_within(level, plain, max_triangles)
+    else:
+        m, distances = level.steps_for(max_triangles, max_error), None
+    res = level.result(m, PLANAR_RTOL * diag, distances)
     if run_used is not None:
         res = _unreferenced_apart(res, run_used)
     return res if repair is None else repair.back(res)
+
+
+def _nearer_within(structured: Decimation, plain: Decimation, budget: int):
+    """``(decimation, collapses, distances)``: of the structured decimation and the
+    plain one (no plane quadrics), each at its first level within the triangle
+    ``budget``, the one that meets the budget; both or neither (the surface's
+    topology stops the collapses first): the one with the smaller two-sided mean
+    distance of the report, ties to the structured one. At small budgets the flat
+    regions can no longer all be kept, and their planes' quadrics then steer the last
+    collapses away from the shape (docs/decisions/simplify.md, "Decimation")."""
+    options = []
+    for level in (structured, plain):
+        m = level.steps_for(budget, None)
+        there, back = level.distances(m)
+        near = (there.mean() if there.size else 0.0) + (back.mean() if back.size else 0.0)
+        options.append((level.seq.n_triangles(m) > budget, near, level, m, (there, back)))
+    return min(options, key=lambda o: o[:2])[2:]
 
 
 class MeshDistances:
@@ -196,17 +219,22 @@ class Decimation:
     """The collapse sequence of a labelled triangle mesh and its levels of detail.
 
     ``planes``: (normals, offsets, flat) of the regions (`flat_planes`), in the
-    quadrics and for the placement (vertices move at most ``step``; those within
-    ``still`` of their planes stay); ``measure.within(out_v, out_t, bound)`` decides
-    the error bound (`MeshDistances`, or the points' on the points path); ``box``
-    (lo, hi): vertices are clipped into it.
+    quadrics (weighted by ``structure``; 0: plain quadrics) and for the placement
+    (vertices move at most ``step``; those within ``still`` of their planes stay);
+    ``measure.within(out_v, out_t, bound)`` decides the error bound
+    (`MeshDistances`, or the points' on the points path); ``box`` (lo, hi): vertices
+    are clipped into it.
     """
 
-    def __init__(self, verts, tri, labels, planes, step, still, measure, box=None):
+    def __init__(
+        self, verts, tri, labels, planes, step, still, measure, box=None, *, structure=1.0
+    ):
         self.verts, self.tri, self.labels, self.planes = verts, tri, labels, planes
         self.step, self.still, self.measure, self.box = step, still, measure, box
         self.n_regions = int(labels.max()) + 1
-        self.seq: Collapses = collapse_all(verts, tri, labels=labels, planes=planes)
+        self.seq: Collapses = collapse_all(
+            verts, tri, labels=labels, planes=planes, structure=structure
+        )
         self._kept_level = None
 
     def placed(self, m: int):
@@ -272,15 +300,24 @@ class Decimation:
                 hi = mid
         return lo
 
-    def result(self, m: int, planar_tol: float) -> SurfaceSimplification:
-        """The `SurfaceSimplification` after ``m`` collapses: one face per region
-        that kept a triangle (a small region can be collapsed away whole)."""
-        out_v, out_t, region, source, lineage = self._placed(m)
-        present, face = np.unique(region, return_inverse=True)
+    def distances(self, m: int):
+        """``(there, back)``: the distances the report gives after ``m`` collapses
+        (``measure.report``); the level is kept for `result`."""
+        placed = self._placed(m)
+        out_v, out_t, _, _, lineage = placed
+        self._kept_level = (m, placed)
         if isinstance(self.measure, MeshDistances):
-            distances = self.measure.report(out_v, out_t, lineage)
-        else:
-            distances = self.measure.report(out_v, out_t)
+            return self.measure.report(out_v, out_t, lineage)
+        return self.measure.report(out_v, out_t)
+
+    def result(self, m: int, planar_tol: float, distances=None) -> SurfaceSimplification:
+        """The `SurfaceSimplification` after ``m`` collapses: one face per region
+        that kept a triangle (a small region can be collapsed away whole);
+        ``distances``: those of `distances` (``m``), when already measured."""
+        if distances is None:
+            distances = self.distances(m)
+        out_v, out_t, region, source, _ = self._placed(m)
+        present, face = np.unique(region, return_inverse=True)
         res = surface_result(
             self.verts,
             self.tri,
