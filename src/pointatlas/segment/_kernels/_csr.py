@@ -169,14 +169,23 @@ def region_pairs(indptr, indices, labels, subset):
     return pairs_of_keys(key, m)
 
 
+@njit(cache=True)
 def edge_pairs(indptr, indices):
-    """All graph edges (i < j), sorted: the region pairs when every point is a region
-    (numpy: called once per run, as fast as a kernel)."""
-    rows = np.repeat(np.arange(indptr.shape[0] - 1, dtype=np.int64), np.diff(indptr))
-    upper = indices > rows
-    out = np.empty((int(np.count_nonzero(upper)), 2), dtype=np.int64)
-    out[:, 0] = rows[upper]
-    out[:, 1] = indices[upper]
+    """All graph edges (i < j), sorted: the region pairs when every point is a region."""
+    n = indptr.shape[0] - 1
+    count = 0
+    for i in range(n):
+        for t in range(indptr[i], indptr[i + 1]):
+            if indices[t] > i:
+                count += 1
+    out = np.empty((count, 2), dtype=np.int64)
+    c = 0
+    for i in range(n):
+        for t in range(indptr[i], indptr[i + 1]):
+            if indices[t] > i:
+                out[c, 0] = i
+                out[c, 1] = indices[t]
+                c += 1
     return out
 
 
@@ -245,17 +254,21 @@ def _mark_touched(indptr, indices, labels, foreign, dirty, mark):
                 mark[j] = True
 
 
+@njit(cache=True)
 def farthest_neighbor_distances(indptr, indices, points):
     """Per point, the distance to its farthest graph neighbour (0.0 without one):
-    sqrt((dx^2 + dy^2) + dz^2) of q - p, the sum `_sums.row_norms` forms (numpy:
-    called once per run, as fast as a kernel)."""
+    sqrt((dx^2 + dy^2) + dz^2) of q - p, the sum `_sums.row_norms` forms."""
     n = indptr.shape[0] - 1
-    deg = np.diff(indptr)
-    rows = np.repeat(np.arange(n, dtype=np.int64), deg)
-    diff = points[indices] - points[rows]
-    dist = np.sqrt((diff[:, 0] * diff[:, 0] + diff[:, 1] * diff[:, 1]) + diff[:, 2] * diff[:, 2])
-    out = np.zeros(n)
-    has = deg > 0
-    if has.any():
-        out[has] = np.maximum.reduceat(dist, indptr[:-1][has])
+    out = np.empty(n)
+    for i in range(n):
+        far = 0.0
+        for e in range(indptr[i], indptr[i + 1]):
+            j = indices[e]
+            dx = points[j, 0] - points[i, 0]
+            dy = points[j, 1] - points[i, 1]
+            dz = points[j, 2] - points[i, 2]
+            d = np.sqrt(dx * dx + dy * dy + dz * dz)
+            if d > far:
+                far = d
+        out[i] = far
     return out
