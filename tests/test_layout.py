@@ -27,7 +27,6 @@ LONG_FUNCTIONS = {
     "cover/_search.py:search_cover_scale": (121, "the scale search reads as one loop"),
     "denoise/_voting.py:normal_voting_denoise": (134, "the thesis' rounds in one driver"),
     "features/_kernels/optimal.py:optimal_kernel": (142, "named per-thread scratch arrays"),
-    "simplify/_pipeline.py:simplify_points": (126, "the points path's steps in order"),
     "simplify/_segmentation.py:simplify_segmentation": (136, "thesis path, steps in order"),
 }
 

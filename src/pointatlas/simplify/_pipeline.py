@@ -129,10 +129,11 @@ def simplify_points(
         `simplify_segmentation`). ``"robust"``: the points' surface on a voxel grid
         (marching cubes), fitted to the points' tangent planes and decimated as on
         the mesh path (docs/decisions/simplify.md). ``"auto"`` (default): the robust
-        one for more than `AUTO_THESIS_POINTS` (17,000) points or a level of detail;
-        else the thesis path, and the robust one when its mesh fails, is not manifold
-        and oriented with valid faces, is open where the points' surface is closed or
-        is far from the points; ``path`` and ``reason`` say which and why.
+        one above `AUTO_THESIS_POINTS` points or `AUTO_THESIS_REGIONS` regions, or for
+        a level of detail; else the thesis path, and the robust one when its mesh
+        fails, is not manifold and oriented with valid faces, is open where the
+        points' surface is closed or is far from the points; ``path`` and ``reason``
+        say which and why.
     labels : array_like of shape (N,), int, optional
         A segmentation to use instead of VSA's (e.g. the ``label`` field written by
         ``pointatlas segment``): regions are renumbered 0..R-1 in order of their
@@ -183,32 +184,25 @@ def simplify_points(
     >>> r.mesh.n_faces, r.mesh.n_vertices, r.mesh.is_closed, r.n_dropped
     (6, 8, True, 0)
     """
-    # imported here so the meshing half of the room works on its own
-    from ..segment import VSAOptions
-
     level = _level(max_error, max_triangles)
     path, reason = _path_of(path, level)
-    inp = _prepare(points, normals, (VSAOptions() if vsa is None else vsa).replace(**vsa_settings))
-    if not (isinstance(centers, str) and centers in ("seed", "centroid")):
-        raise ValueError(f"centers must be 'centroid' or 'seed'; got {centers!r}")
+    inp = _prepare(points, normals, vsa, vsa_settings)
     seg, seg_labels, seg_normals, ctr = _segment(inp, labels, centers, rng)
-    mesh = None
-    path, reason = _by_size(path, reason, inp.points.shape[0])
-    if path != "robust":
-        settings = {
-            "vertices": vertices,
-            "faces": faces,
-            "centers": ctr,
-            "weight": weight,
-            "anchor_weight": anchor_weight,
-            "min_region_size": min_region_size,
-            "repair": repair,
-            "smooth": smooth,
-            "max_boundary_fraction": max_boundary_fraction,
-        }
-        mesh, reason = _thesis_mesh(inp, seg_labels, seg_normals, path, settings)
-        if mesh is not None and not reason:
-            return inp.result(seg, mesh)
+    path, reason = _auto_choice(path, reason, inp.points.shape[0], seg_labels)
+    settings = {
+        "vertices": vertices,
+        "faces": faces,
+        "centers": ctr,
+        "weight": weight,
+        "anchor_weight": anchor_weight,
+        "min_region_size": min_region_size,
+        "repair": repair,
+        "smooth": smooth,
+        "max_boundary_fraction": max_boundary_fraction,
+    }
+    mesh, reason = _thesis_mesh(inp, seg_labels, seg_normals, path, reason, settings)
+    if mesh is not None and not reason:
+        return inp.result(seg, mesh)
     return _robust_result(inp, seg, seg_labels, seg_normals, mesh, reason, level)
 
 
@@ -235,12 +229,27 @@ def _path_of(path: str, level: dict) -> tuple[str, str]:
     return path, "path='robust' was asked for"
 
 
-def _by_size(path: str, reason: str, n_points: int) -> tuple[str, str]:
-    """``auto`` goes to the robust path at once above `AUTO_THESIS_POINTS` points."""
+#: ... and with more than this many regions (VSA's, or the labels given) the robust
+#: path at once: over the bundled models and every 25th collection model sampled with
+#: 2,000-16,000 points the thesis mesh was kept with at most 116 regions and never
+#: with more, and a failed attempt took a median 67 % of its run (23-94 %)
+#: (benchmarks/bench_simplify_auto.py, docs/decisions/simplify.md).
+AUTO_THESIS_REGIONS = 128
+
+
+def _auto_choice(path: str, reason: str, n_points: int, labels) -> tuple[str, str]:
+    """``auto`` goes to the robust path at once above `AUTO_THESIS_POINTS` points or
+    `AUTO_THESIS_REGIONS` regions."""
+    n_regions = int(labels.max()) + 1 if labels.size else 0
     if path == "auto" and n_points > AUTO_THESIS_POINTS:
         return "robust", (
             f"{n_points:,} points: the thesis path is tried up to "
             f"{AUTO_THESIS_POINTS:,} (path='thesis' forces it)"
+        )
+    if path == "auto" and n_regions > AUTO_THESIS_REGIONS:
+        return "robust", (
+            f"{n_regions} regions: the thesis path is tried up to {AUTO_THESIS_REGIONS} "
+            "(path='thesis' forces it)"
         )
     return path, reason
 
@@ -288,9 +297,14 @@ class _Input:
         )
 
 
-def _prepare(points, normals, opts) -> _Input:
-    """Check the input, leave out points without a usable normal, find the working
-    frame and the k-NN table (memory checked first)."""
+def _prepare(points, normals, vsa, vsa_settings) -> _Input:
+    """Check the input, leave out points without a usable normal, turn inward normals
+    out (`turn_outward`), find the working frame and the k-NN table (memory checked
+    first); ``vsa`` and ``vsa_settings`` give the VSA options."""
+    # imported here so the meshing half of the room works on its own
+    from ..segment import VSAOptions
+
+    opts = (VSAOptions() if vsa is None else vsa).replace(**vsa_settings)
     weights = opts.weights
     pts = as_points(points)
     n_input = pts.shape[0]
@@ -315,6 +329,9 @@ def _segment(inp: _Input, labels, centers, rng):
     """VSA (or the given labels): (VSAResult or None, labels, proxy normals, centers)."""
     from ..segment import vsa_segment
 
+    if not (isinstance(centers, str) and centers in ("seed", "centroid")):
+        raise ValueError(f"centers must be 'centroid' or 'seed'; got {centers!r}")
+
     if labels is None:
         seg = vsa_segment(inp.points, inp.normals, options=inp.options, rng=rng)
         seg_labels, seg_normals = np.asarray(seg.labels), np.asarray(seg.proxy_normals)
@@ -335,9 +352,11 @@ def _segment(inp: _Input, labels, centers, rng):
     return None, seg_labels, np.asarray(prox.normals), ctr
 
 
-def _thesis_mesh(inp: _Input, seg_labels, seg_normals, path, settings):
+def _thesis_mesh(inp: _Input, seg_labels, seg_normals, path, reason, settings):
     """The thesis path's mesh and why it is not kept: (mesh or None, reason; "" when
-    it is kept)."""
+    it is kept); (None, ``reason``) on the robust path."""
+    if path == "robust":
+        return None, reason
     try:
         mesh = simplify_segmentation(
             inp.points,
