@@ -32,6 +32,19 @@ def test_readme_python_tour_runs(tmp_path, monkeypatch):
     assert (tmp_path / "features.ply").stat().st_size > 0
     seg = namespace["seg"]
     assert seg.converged and seg.labels.min() == 0
+    # what the tour's comments say of its results
+    mesh, dec, part = namespace["mesh"], namespace["dec"], namespace["part"]
+    assert mesh.is_closed and mesh.is_oriented and mesh.planarity_error.max() < 1e-12
+    assert dec.is_closed and dec.summary()["hausdorff"] <= 0.005 * (1 + 1e-9) * _diagonal(
+        namespace["tri"]
+    )
+    assert (part.is_closed, part.is_manifold, part.euler_characteristic) == (True, True, 2)
+    assert abs(part.n_faces - 30) <= 2
+
+
+def _diagonal(mesh) -> float:
+    v = mesh.vertices
+    return float(((v.max(axis=0) - v.min(axis=0)) ** 2).sum() ** 0.5)
 
 
 def readme_shell_lines(text: str) -> list[list[str]]:
