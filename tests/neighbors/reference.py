@@ -27,16 +27,18 @@ def squared_distances(points) -> np.ndarray:
 
 def knn_reference(points, k: int) -> tuple[np.ndarray, np.ndarray]:
     """k nearest: the point itself in column 0, the others by (distance, index)."""
-    d2 = squared_distances(points)
-    n = d2.shape[0]
+    q = centred(points)
+    n = q.shape[0]
     idx = np.empty((n, k), dtype=np.int64)
     dist = np.empty((n, k), dtype=np.float64)
+    ids = np.arange(n)
     for i in range(n):
-        others = np.array([j for j in range(n) if j != i], dtype=np.int64)
-        order = np.lexsort((others, d2[i, others]))  # by distance, then index
-        row = np.concatenate([[i], others[order][: k - 1]])
+        d = q - q[i]  # one row of `squared_distances`, the same expression
+        d2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
+        order = np.lexsort((ids, d2))  # by distance, then index
+        row = np.concatenate([[i], order[order != i][: k - 1]])
         idx[i] = row
-        dist[i] = np.sqrt(d2[i, row])
+        dist[i] = np.sqrt(d2[row])
         dist[i, 0] = 0.0
     return idx, dist
 
