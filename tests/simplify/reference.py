@@ -249,7 +249,8 @@ def band_field_reference(x, points, normals, dist, idx, step, spacing):
     ``idx`` (n, k), nearest first), in numpy over all nodes at once
     (`pointatlas.simplify._kernels.band_field`): the Gaussian-weighted mean of the
     tangent-plane distances of the neighbours within the nearest + ``spacing``; where
-    they disagree on the side, the nearest point's distance with their vote's sign."""
+    they disagree on the side, the nearest point's distance, outside at a convex turn
+    of the surface, inside at a concave one, else with their vote's sign."""
     near = dist <= dist[:, :1] + spacing
     w = np.where(near, np.exp(-((dist / step) ** 2)) + 1e-300, 0.0)
     w /= w.sum(axis=1, keepdims=True)
@@ -258,5 +259,17 @@ def band_field_reference(x, points, normals, dist, idx, step, spacing):
     side = np.sign(signed) * (np.abs(signed) > 1e-9 * step) * near  # on a plane: abstains
     split = (side > 0).any(axis=1) & (side < 0).any(axis=1)
     vote = side[split].sum(axis=1) + (w[split] * side[split]).sum(axis=1)
+    # the nearest point outside whose plane the node lies and the nearest inside:
+    # each below the other's plane (convex: outside), above it (concave: inside)
+    rows = np.flatnonzero(split)
+    ja = idx[rows, np.argmax(side[rows] > 0, axis=1)]
+    jb = idx[rows, np.argmax(side[rows] < 0, axis=1)]
+    e = points[jb] - points[ja]
+    reach = 0.1 * np.linalg.norm(e, axis=1)
+    below_a = np.einsum("nd,nd->n", normals[ja], e)
+    below_b = -np.einsum("nd,nd->n", normals[jb], e)
+    turn = np.where((below_a < -reach) & (below_b < -reach), 1.0, 0.0)
+    turn = np.where((below_a > reach) & (below_b > reach), -1.0, turn)
+    vote = np.where(turn != 0.0, turn, vote)
     values[split] = np.where(vote >= 0.0, 1.0, -1.0) * dist[split, 0]
     return values

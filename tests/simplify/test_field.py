@@ -100,3 +100,19 @@ def test_band_field_tiny_reference_more_neighbors_than_eight():
 def test_kernels_without_jit():
     out = run_module_without_jit(__file__, select="tiny_reference")
     assert "2 passed" in out, out[-500:]
+
+
+def test_band_field_takes_the_side_of_a_convex_or_concave_turn_over_the_vote():
+    """A node beyond a convex edge (solid x < 0, z < 0): four points of the top face
+    say inside, one of the side face outside; the edge is convex (each point lies
+    below the other's plane), so the node is outside, at the nearest point's distance
+    (the vote alone said inside: a bulge past the edge). Normals flipped (the
+    complement, a concave edge): inside."""
+    top = [[-0.1, 0.0, 0.0], [-0.1, 0.1, 0.0], [-0.1, -0.1, 0.0], [-0.2, 0.0, 0.0]]
+    p = np.array([*top, [0.0, 0.0, -0.4]])
+    n = np.array([[0, 0, 1.0]] * 4 + [[1.0, 0, 0]])
+    x = np.array([[0.3, 0.0, -0.1]])
+    nearest = float(np.linalg.norm(x[0] - p[0]))
+    for sign in (1.0, -1.0):
+        fast, slow = _both(p, sign * n, x, 0.5, 5.0, k=5)
+        assert fast[0] == slow[0] == pytest.approx(sign * nearest, abs=1e-15)

@@ -347,6 +347,41 @@ def _numpy_sum(a, n) -> float:
 
 
 @njit(cache=True)
+def _edge_turn(side, row, q, normals, k):
+    """Whether the surface turns convex (1) or concave (-1) between the nearest point
+    outside whose plane a node lies (``side`` +1) and the nearest inside (-1): each
+    lies below the other's plane by more than `EDGE_TURN` of their distance (convex:
+    the solid is the intersection of their half-spaces, a node outside one is
+    outside), or above it (concave: the union, a node inside one is inside); 0 when
+    neither (a saddle, or two points of one flat face)."""
+    a = -1
+    b = -1
+    for m in range(k):
+        if side[m] > 0.0 and a < 0:
+            a = m
+        if side[m] < 0.0 and b < 0:
+            b = m
+    ja, jb = row[a], row[b]
+    e0 = q[jb, 0] - q[ja, 0]
+    e1 = q[jb, 1] - q[ja, 1]
+    e2 = q[jb, 2] - q[ja, 2]
+    reach = EDGE_TURN * np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    below_a = (normals[ja, 0] * e0 + normals[ja, 2] * e2) + normals[ja, 1] * e1
+    below_b = -((normals[jb, 0] * e0 + normals[jb, 2] * e2) + normals[jb, 1] * e1)
+    if below_a < -reach and below_b < -reach:
+        return 1.0
+    if below_a > reach and below_b > reach:
+        return -1.0
+    return 0.0
+
+
+#: `_edge_turn`: two points turn convex or concave when each lies this share of their
+#: distance below (above) the other's plane (their normals more than about 11 degrees
+#: apart).
+EDGE_TURN = 0.1
+
+
+@njit(cache=True)
 def band_field(x, dist, gauss, idx, q, normals, step, spacing):
     """The robust path's field at band nodes ``x`` (n, 3) from their ``k`` <= 128
     nearest points (``dist``, ``idx`` (n, k), nearest first; ``gauss`` =
@@ -385,10 +420,12 @@ def band_field(x, dist, gauss, idx, q, normals, step, spacing):
                 pos |= s > 0.0
                 neg |= s < 0.0
         value = _numpy_sum(tmp, k)
-        if pos and neg:  # the planes disagree: the nearest point's distance, voted
-            for m in range(k):
-                tmp[m] = w[m] * side[m]
-            vote = _numpy_sum(side, k) + _numpy_sum(tmp, k)
-            value = dist[i, 0] if vote >= 0.0 else -dist[i, 0]
+        if pos and neg:  # the planes disagree: the nearest point's distance, signed
+            turn = _edge_turn(side, idx[i], q, normals, k)
+            if turn == 0.0:  # neither convex nor concave: the neighbours' vote
+                for m in range(k):
+                    tmp[m] = w[m] * side[m]
+                turn = _numpy_sum(side, k) + _numpy_sum(tmp, k)
+            value = dist[i, 0] if turn >= 0.0 else -dist[i, 0]
         out[i] = value
     return out
