@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import warnings
 
 import numpy as np
@@ -135,8 +134,35 @@ def test_read_mesh_rejects_point_formats(tmp_path):
 
 def test_garbage_las(tmp_path):
     f = tmp_path / "g.las"
-    f.write_bytes(b"LASF" + os.urandom(300))
+    f.write_bytes(b"LASF" + np.random.default_rng(0).bytes(300))
     _expect(f, "cannot read LAS/LAZ")
+
+
+@pytest.mark.parametrize("seed", range(40))
+@pytest.mark.parametrize("version", [None, (1, 2), (1, 4)])
+def test_random_bytes_after_lasf_are_refused_at_once(tmp_path, seed, version):
+    """laspy reads as many records as a header declares, on past the end of the file:
+    300 random bytes after "LASF" (the former test's os.urandom) once ran for minutes
+    and took 19 GB. Any such file is refused in one line, before laspy reads it."""
+    body = bytearray(b"LASF" + np.random.default_rng(seed).bytes(400))
+    if version is not None:
+        body[24:26] = bytes(version)
+    f = tmp_path / "g.las"
+    f.write_bytes(bytes(body))
+    _expect(f, "cannot read LAS/LAZ|(truncated|corrupt) LA[SZ] file")
+
+
+def test_declared_records_beyond_the_file_are_named(tmp_path):
+    f = tmp_path / "v.las"
+    write_point_set(f, np.arange(30.0).reshape(10, 3))
+    data = bytearray(f.read_bytes())
+    data[100:104] = (10**6).to_bytes(4, "little")  # VLRs declared
+    f.write_bytes(bytes(data))
+    _expect(f, "declares 1,000,000 variable-length records")
+    data = bytearray(f.read_bytes())
+    data[24:26] = bytes([2, 0])
+    f.write_bytes(bytes(data))
+    _expect(f, "version 2.0")
 
 
 def test_write_errors(tmp_path):

@@ -32,6 +32,10 @@ _MAX_EXTRA_NAME = 32
 _MIN_HEADER = 227
 #: Where the LAS 1.4 header keeps its 64-bit point count, and the header size that holds it.
 _COUNT64_AT, _COUNT64_HEADER = 247, 255
+#: Bytes of a VLR's header and of an EVLR's header (LAS 1.4 R15, tables 5 and 7).
+_VLR_HEADER, _EVLR_HEADER = 54, 60
+#: Where LAS 1.4 keeps the start of its first EVLR (uint64) and their count (uint32).
+_EVLR_AT = 235
 #: lazrs' words for a compressed stream that ends early.
 _LAZ_EOF = "failed to fill whole buffer"
 
@@ -102,6 +106,8 @@ def check_las_complete(path) -> None:
             f"truncated LAS/LAZ file: {size:,} bytes, shorter than the smallest LAS header "
             f"({_MIN_HEADER} bytes)",
         )
+    if head[:4] == b"LASF":
+        _check_header(path, head, lay)
     if lay is None:
         return
     if size < lay.header_size:
@@ -116,6 +122,7 @@ def check_las_complete(path) -> None:
             f"truncated {lay.kind} file: the header puts the first point at byte "
             f"{lay.point_offset:,}, but the file has {size:,} bytes",
         )
+    _check_records(path, head, size, lay)
     if not lay.compressed:
         need = lay.point_offset + lay.n_points * lay.record_length
         if size < need:
@@ -133,6 +140,48 @@ def check_las_complete(path) -> None:
             path,
             f"truncated LAZ file: the header declares {lay.n_points:,} points whose "
             f"compressed data runs {end}, but the file has {size:,} bytes",
+        )
+
+
+def _check_header(path, head: bytes, lay: _LasLayout | None) -> None:
+    """Refuse a ``LASF`` header that is no LAS 1.0-1.4 one or whose sizes contradict
+    each other, before laspy reads it (see `_check_records`)."""
+    major, minor = head[24], head[25]
+    if major != 1 or minor > 4:
+        raise fail(
+            path, f"cannot read LAS/LAZ: the header says version {major}.{minor} (1.0-1.4 are read)"
+        )
+    if lay is None:
+        header_size, point_offset = struct.unpack_from("<HI", head, 94)
+        raise fail(
+            path,
+            f"cannot read LAS/LAZ: the header's size ({header_size:,} bytes) and first "
+            f"point's offset ({point_offset:,}) contradict each other",
+        )
+
+
+def _check_records(path, head: bytes, size: int, lay: _LasLayout) -> None:
+    """Refuse a header that declares more (E)VLRs than the file holds: laspy reads a
+    declared count of records on past the end of the file (300 random bytes after
+    ``LASF`` once ran for minutes and took 19 GB)."""
+    header_size, point_offset, minor = lay.header_size, lay.point_offset, head[25]
+    n_vlrs = struct.unpack_from("<I", head, 100)[0]
+    need = header_size + _VLR_HEADER * n_vlrs
+    if need > point_offset:  # (the file holds its first point's offset: checked before)
+        raise fail(
+            path,
+            f"corrupt {lay.kind} file: the header declares {n_vlrs:,} variable-length "
+            f"records from byte {header_size:,}, so at least {need:,} bytes, but puts "
+            f"the first point at byte {point_offset:,}",
+        )
+    if minor < 4 or header_size < _COUNT64_HEADER or len(head) < _COUNT64_HEADER:
+        return
+    start, n_evlrs = struct.unpack_from("<QI", head, _EVLR_AT)
+    if n_evlrs and start + _EVLR_HEADER * n_evlrs > size:
+        raise fail(
+            path,
+            f"truncated or corrupt {lay.kind} file: the header declares {n_evlrs:,} extended "
+            f"variable-length records from byte {start:,}, but the file has {size:,} bytes",
         )
 
 
