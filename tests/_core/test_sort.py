@@ -6,7 +6,13 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pointatlas._core._sort import morton_bits, morton_order, permute_table, spatial_renumbering
+from pointatlas._core._sort import (
+    morton_bits,
+    morton_order,
+    permute_table,
+    sorted_key_runs,
+    spatial_renumbering,
+)
 
 
 @settings(max_examples=25, deadline=None)
@@ -67,3 +73,17 @@ def test_permute_table_matches_numpy(n, c, seed):
     assert np.array_equal(got, want)
     # renumbering back restores the table
     assert np.array_equal(permute_table(got, inv, order), table)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 300), st.sampled_from([3, 1000, 2**40, 2**62]), st.integers(0, 2**32 - 1))
+def test_sorted_key_runs_matches_numpy(n, high, seed):
+    # keys with repeats (small ranges) and keys spanning the high bytes: the stable
+    # order, the sorted keys and the run starts are numpy's argsort and unique
+    keys = np.random.default_rng(seed).integers(0, high, size=n, dtype=np.int64)
+    srt, order, first = sorted_key_runs(keys.copy())
+    want = np.argsort(keys, kind="stable")
+    assert np.array_equal(order, want)
+    assert np.array_equal(srt, keys[want])
+    _, starts = np.unique(keys[want], return_index=True)
+    assert np.array_equal(np.flatnonzero(first), starts)

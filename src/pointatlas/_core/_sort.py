@@ -12,6 +12,7 @@ __all__ = [
     "morton_order",
     "permute_table",
     "radix_sort_payload",
+    "sorted_key_runs",
     "spatial_renumbering",
     "stable_argsort",
 ]
@@ -86,6 +87,29 @@ def radix_sort_payload(keys, payload, keys2, payload2):
         keys, keys2 = keys2, keys
         payload, payload2 = payload2, payload
     return keys, payload
+
+
+def sorted_key_runs(keys):
+    """``(sorted_keys, order, first)`` of non-negative int64 ``keys``, from numpy.
+
+    `radix_sort_payload` on the keys' uint64 view with the indices as payload
+    (stable: ``order`` is ``np.argsort(keys, kind="stable")``), and ``first[i]`` true
+    where ``sorted_keys[i]`` starts a run of equal keys. ``keys`` is overwritten.
+    Shared by the grid k-NN's cells and the segmentation's region pairs: called
+    from Python, it compiles no ``view`` or ``np.unique`` in a kernel (each compiles
+    for a tenth of a second to seconds; docs/decisions/cli.md, "First run").
+    """
+    n = keys.shape[0]
+    sorted_keys, order = radix_sort_payload(
+        keys.view(np.uint64),
+        np.arange(n, dtype=np.int64),
+        np.empty(n, dtype=np.uint64),
+        np.empty(n, dtype=np.int64),
+    )
+    sorted_keys = sorted_keys.view(np.int64)
+    first = np.ones(n, dtype=np.bool_)
+    np.not_equal(sorted_keys[1:], sorted_keys[:-1], out=first[1:])
+    return sorted_keys, order, first
 
 
 @njit(cache=True, inline="always", error_model="numpy")

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._core._sort import radix_sort_payload
+from .._core._sort import sorted_key_runs
 from .._core.tolerances import RADIUS_QUERY_WIDEN
 from . import _kernels as K
 
@@ -94,15 +94,7 @@ def build_grid(pts: np.ndarray, h: float, h_min: float | None = None) -> Grid:
     nx, ny, nz = _dims(ext, h)
     keys = _cell_keys(pts, lo, 1.0 / h, (nx, ny, nz))
     n = keys.shape[0]
-    sorted_keys, order = radix_sort_payload(
-        keys.view(np.uint64),
-        np.arange(n, dtype=np.int64),
-        np.empty(n, dtype=np.uint64),
-        np.empty(n, dtype=np.int64),
-    )
-    sorted_keys = sorted_keys.view(np.int64)
-    first = np.ones(n, dtype=np.bool_)
-    np.not_equal(sorted_keys[1:], sorted_keys[:-1], out=first[1:])
+    sorted_keys, order, first = sorted_key_runs(keys)
     starts = np.flatnonzero(first)
     ukeys = sorted_keys[starts]
     cstart = np.append(starts, n).astype(np.int64)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..._core._sort import radix_sort_payload
+from ..._core._sort import sorted_key_runs
 from ..._core.kernels import find_root, union_min
 
 
@@ -110,20 +110,10 @@ def connected_label_components(indptr, indices, labels):
 
 def pairs_of_keys(key, m):
     """Distinct pair keys a * m + b (>= 0) as sorted (a, b) rows; ``key`` (int64) is
-    overwritten. The shared radix sort (`radix_sort_payload`, which the grid k-NN
-    compiles for the same types) called from Python and numpy's bit views and
-    de-duplication: numba's ``np.unique`` sort compiles for seconds, its ``view`` for
-    a tenth of a second per dtype pair."""
-    n = key.shape[0]
-    srt, _ = radix_sort_payload(
-        key.view(np.uint64),
-        np.zeros(n, dtype=np.int64),
-        np.empty(n, dtype=np.uint64),
-        np.empty(n, dtype=np.int64),
-    )
-    srt = srt.view(np.int64)
-    first = np.ones(n, dtype=np.bool_)
-    np.not_equal(srt[1:], srt[:-1], out=first[1:])
+    overwritten. The shared radix sort and run mask (`sorted_key_runs`, which the
+    grid k-NN uses for its cells) called from Python: numba's ``np.unique`` sort
+    compiles for seconds, its ``view`` for a tenth of a second per dtype pair."""
+    srt, _, first = sorted_key_runs(key)
     distinct = srt[first]
     out = np.empty((distinct.shape[0], 2), dtype=np.int64)
     if distinct.shape[0]:
