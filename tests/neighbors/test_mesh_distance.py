@@ -182,6 +182,24 @@ def test_index_all_within_decides_as_the_distances(seed):
         index.all_within(pts, -1.0)
 
 
+def test_index_measures_in_any_given_order_with_the_same_values():
+    pts, v, f, rng = _torus_points(4)
+    index = MeshDistanceIndex(v, f)
+    plain = point_mesh_distance(pts, v, f)
+    hint = rng.integers(-1, len(f), len(pts))
+    morton = MeshDistanceIndex.point_order(pts)
+    assert np.array_equal(np.sort(morton), np.arange(len(pts)))
+    for order in (morton, rng.permutation(len(pts)), np.arange(len(pts))[::-1]):
+        np.testing.assert_array_equal(index.distance(pts, hint=hint, order=order), plain)
+        top = float(plain.max())
+        assert index.all_within(pts, top, hint=hint, order=order)
+        assert not index.all_within(pts, float(np.nextafter(top, 0.0)), hint=hint, order=order)
+    with pytest.raises(ValueError, match="order must be a permutation of the 300 points"):
+        index.distance(pts, hint=hint, order=np.zeros(len(pts), dtype=np.int64))
+    with pytest.raises(ValueError, match="order must be a permutation"):
+        index.all_within(pts, 1.0, hint=hint, order=morton[:-1])
+
+
 @pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
 def test_kernels_without_jit():
     run_module_without_jit(__file__, select="soup or degenerate or small_inputs or index")

@@ -247,3 +247,27 @@ def test_placement_agrees_with_the_one_vertex_at_a_time_reference(seed):
     moved = ~np.all(got == v, axis=1)  # the others stayed, or the flip guard put them back
     np.testing.assert_allclose(got[moved], want[moved], rtol=0, atol=1e-12)
     assert moved.sum() > 10
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_output_samples_are_sample_mesh_bit_for_bit(seed):
+    from pointatlas.simplify._distance import _samples_in_order, output_samples_on
+
+    rng = np.random.default_rng(seed)
+    v = rng.normal(size=(40, 3)) * 10.0 ** rng.uniform(-3, 3)
+    t = rng.integers(0, 40, size=(60, 3))
+    t[::4] = t[0, [0, 0, 1]]  # zero-area triangles are never drawn
+    used = np.unique(t)
+    for n in (1, 7, 20_000):
+        want = sample_mesh(v, t, n, rng=seed)
+        samples, on, order = _samples_in_order(v, t, n, seed)
+        np.testing.assert_array_equal(samples[: used.size], v[used])
+        np.testing.assert_array_equal(samples[used.size :], want.points)
+        np.testing.assert_array_equal(on[used.size :], want.face_index)
+        assert np.all(np.any(t[on[: used.size]] == used[:, None], axis=1))
+        # the order: a permutation, the vertices first, then the samples by triangle
+        np.testing.assert_array_equal(np.sort(order), np.arange(samples.shape[0]))
+        np.testing.assert_array_equal(order[: used.size], np.arange(used.size))
+        assert np.all(np.diff(on[order[used.size :]]) >= 0)
+        got = output_samples_on(v, t, n, seed)
+        np.testing.assert_array_equal(got[0], samples)

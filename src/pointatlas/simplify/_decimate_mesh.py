@@ -17,7 +17,7 @@ import numpy as np
 from .._core import as_float, as_int, as_points
 from ..neighbors import MeshDistanceIndex
 from ._decimate import Collapses, collapse_all
-from ._distance import back_distances, output_samples_on
+from ._distance import _samples_in_order, back_distances
 from ._mesh import point_mesh_distance
 from ._mesh_path import (
     FLAT_MERGE_ANGLE,
@@ -163,15 +163,18 @@ class MeshDistances:
     def __init__(self, on, verts, tri, on_ids=None):
         self.on, self.verts, self.tri, self.on_ids = on, verts, tri, on_ids
         self.index = MeshDistanceIndex(verts, tri)
-        self._last = None  # (out_v, out_t, its index, samples and their triangles)
+        self._last = None  # (out_v, out_t, its index, samples, their triangles, order)
+        self._orders = {}  # the order to measure ``on`` and ``verts`` in, made once
 
     def within(self, out_v, out_t, bound: float, lineage=None) -> bool:
         """``lineage``: ``(kept, went)`` of `Collapses.mesh_and_map`, optional."""
         there, back = self._hints(out_v, out_t, lineage)
-        if not self._output_index(out_v, out_t).all_within(self.on, bound, hint=there):
+        index = self._output_index(out_v, out_t)
+        if not index.all_within(self.on, bound, hint=there, order=self._order("on", there)):
             return False
-        samples, on = self._samples(out_v, out_t)
-        return self.index.all_within(samples, bound, hint=None if back is None else back[on])
+        samples, on, order = self._samples(out_v, out_t)
+        hint = None if back is None else back[on]
+        return self.index.all_within(samples, bound, hint=hint, order=order)
 
     def error(self, out_v, out_t) -> float:
         """The largest distance both ways."""
@@ -182,9 +185,21 @@ class MeshDistances:
         """The distances `surface_result` reports: every vertex to the output, and the
         output's samples back to the input."""
         hint, back = self._hints(out_v, out_t, lineage, every=True)
-        there = self._output_index(out_v, out_t).distance(self.verts, hint=hint)
-        samples, on = self._samples(out_v, out_t)
-        return there, self.index.distance(samples, hint=None if back is None else back[on])
+        index = self._output_index(out_v, out_t)
+        there = index.distance(self.verts, hint=hint, order=self._order("verts", hint))
+        samples, on, order = self._samples(out_v, out_t)
+        return there, self.index.distance(
+            samples, hint=None if back is None else back[on], order=order
+        )
+
+    def _order(self, name: str, hint):
+        """The order to measure ``on`` or ``verts`` in (`MeshDistanceIndex.point_order`,
+        the same at every level: made once); None without a hint."""
+        if hint is None:
+            return None
+        if name not in self._orders:
+            self._orders[name] = MeshDistanceIndex.point_order(getattr(self, name))
+        return self._orders[name]
 
     def _output_index(self, out_v, out_t) -> MeshDistanceIndex:
         """The output's `MeshDistanceIndex`; the last output's is kept (the level
@@ -196,10 +211,11 @@ class MeshDistances:
         return self._last[2]
 
     def _samples(self, out_v, out_t):
-        """`output_samples_on` of the output (kept with its index)."""
+        """`output_samples_on` of the output and an order to measure them in (by
+        triangle: near samples one after the other), kept with its index."""
         index = self._output_index(out_v, out_t)
         if self._last[3] is None:
-            self._last = (out_v, out_t, index, output_samples_on(out_v, out_t))
+            self._last = (out_v, out_t, index, _samples_in_order(out_v, out_t))
         return self._last[3]
 
     def _hints(self, out_v, out_t, lineage, every=False):

@@ -9,11 +9,12 @@ point (a point set).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ..neighbors import MeshDistanceIndex, point_mesh_distance
-from ..synth import sample_mesh
 
 __all__ = [
     "BACK_SAMPLES",
@@ -86,6 +87,19 @@ def output_samples_on(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0)
     >>> output_samples_on(v, np.array([[0, 1, 2], [2, 1, 3]]), n=2)[1].tolist()
     [0, 0, 0, 1, 1, 0]
     """
+    samples, on, _ = _samples_in_order(vertices, triangles, n, seed)
+    return samples, on
+
+
+def _samples_in_order(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0):
+    """`output_samples_on` and an order to measure them in (a permutation: the
+    vertices, then the area samples by triangle), for `MeshDistanceIndex`'s ``order``.
+
+    The area samples are `sample_mesh`'s (``rng=seed``) bit for bit: the same draws
+    (made once per ``n`` and ``seed``, `_draws`), each triangle drawn by the inverse
+    CDF of the cumulative areas and the point by the same barycentric weights, the
+    triangles found by one pass over the sorted draws instead of a binary search
+    each (a test compares the two)."""
     v = np.asarray(vertices, dtype=np.float64)
     t = np.asarray(triangles, dtype=np.int64)
     is_used = np.zeros(v.shape[0], dtype=bool)
@@ -95,11 +109,41 @@ def output_samples_on(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0)
     # the first triangle around every vertex (reversed: the first write is the last)
     around[t[::-1].reshape(-1)] = np.repeat(np.arange(t.shape[0] - 1, -1, -1), 3)
     corners, on = v[used], around[used]
-    area = np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
-    if t.shape[0] == 0 or not area.sum() > 0.0:
-        return corners, on
-    sample = sample_mesh(v, t, n, rng=seed)
-    return np.vstack([corners, sample.points]), np.concatenate([on, sample.face_index])
+    a = v[t[:, 0]]
+    double_area = np.linalg.norm(np.cross(v[t[:, 1]] - a, v[t[:, 2]] - a), axis=1)
+    if t.shape[0] == 0 or not double_area.sum() > 0.0:
+        return corners, on, np.arange(used.size)
+    u_sorted, by_draw, weights = _draws(n, seed)
+    cum = np.cumsum(double_area)
+    # the triangle of the i-th smallest draw d: the number of cum[j] <= d, i.e. of
+    # the j whose first draw not below cum[j] comes at or before i
+    first = np.searchsorted(u_sorted * cum[-1], cum, side="left")
+    face = np.empty(n, dtype=np.int64)
+    face[by_draw] = np.cumsum(np.bincount(first, minlength=n + 1)[:n])
+    # a draw rounded up to the total goes to the last positive-area triangle
+    face = np.minimum(face, np.flatnonzero(double_area > 0)[-1])
+    wa, wb, wc = weights
+    corner = v[t[face]]
+    pts = wa[:, None] * corner[:, 0] + wb[:, None] * corner[:, 1] + wc[:, None] * corner[:, 2]
+    order = np.concatenate([np.arange(used.size), used.size + by_draw])
+    return np.vstack([corners, pts]), np.concatenate([on, face]), order
+
+
+@functools.lru_cache(maxsize=4)
+def _draws(n: int, seed: int):
+    """`sample_mesh`'s random numbers for ``n`` samples and ``rng=seed``, which do not
+    depend on the mesh: the triangle draws in [0, 1) sorted, their order, and the
+    barycentric weights (3, n) (read-only)."""
+    gen = np.random.default_rng(seed)
+    u = gen.random(n)
+    r1, r2 = gen.random((2, n))
+    s1 = np.sqrt(r1)
+    weights = np.stack([1.0 - s1, s1 * (1.0 - r2), s1 * r2])
+    by_draw = np.argsort(u, kind="stable")
+    out = (u[by_draw], by_draw, weights)
+    for x in out:
+        x.flags.writeable = False
+    return out
 
 
 def back_distances(out_v, out_t, in_v, in_t=None, *, within: float = 0.0) -> np.ndarray:
