@@ -271,3 +271,30 @@ def test_output_samples_are_sample_mesh_bit_for_bit(seed):
         assert np.all(np.diff(on[order[used.size :]]) >= 0)
         got = output_samples_on(v, t, n, seed)
         np.testing.assert_array_equal(got[0], samples)
+        # the first k area samples alone: the same points, measured by triangle
+        k = min(n, 5)
+        part, part_on, part_order = _samples_in_order(v, t, n, seed, first=k)
+        np.testing.assert_array_equal(part, samples[: used.size + k])
+        np.testing.assert_array_equal(part_on, on[: used.size + k])
+        assert np.all(np.diff(part_on[part_order[used.size :]]) >= 0)
+
+
+@pytest.mark.parametrize(("name", "first"), [("fandisk", 1), ("torus", 1), ("eight", 200)])
+def test_the_level_search_on_a_subset_of_the_samples_finds_the_full_search_level(
+    monkeypatch, name, first
+):
+    # the default level searched on `first` area samples back (then the level found
+    # measured on all, and the search run again on all where it fails: on the torus
+    # and eight, not on fandisk) against the search on all 20,000 every time
+    import pointatlas.simplify._decimate_mesh as dm
+
+    m = data.load_mesh(name)
+    monkeypatch.setattr(dm, "SEARCH_SAMPLES", None)
+    full = decimate_mesh(m.vertices, m.triangles)
+    monkeypatch.setattr(dm, "SEARCH_SAMPLES", first)
+    sub = decimate_mesh(m.vertices, m.triangles)
+    np.testing.assert_array_equal(sub.triangles, full.triangles)
+    np.testing.assert_array_equal(sub.vertices, full.vertices)
+    assert sub.back_distance_max == full.back_distance_max
+    bound = dm.MAX_ERROR * np.linalg.norm(np.ptp(m.vertices, axis=0))
+    assert max(sub.distance_max, sub.back_distance_max) <= bound

@@ -163,14 +163,15 @@ def collapse_all(vertices, triangles, *, labels=None, planes=None, structure=1.0
 
 
 def _vertex_quadrics(v, tri, labels, planes, structure) -> np.ndarray:
+    """(V, 4, 4) quadric of every vertex: its triangles' planes, its open boundary
+    edges' planes and, weighted by ``structure``, its flat regions' planes. Summed in
+    that order, each term in turn, as ``np.add.at`` would (`_summed`)."""
     n_v = v.shape[0]
     cross = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
     area = 0.5 * np.linalg.norm(cross, axis=1)
     normal = cross / np.maximum(2.0 * area, 1e-300)[:, None]
     kf = _plane_quadrics(normal, np.einsum("ij,ij->i", normal, v[tri[:, 0]]), area)
-    q = np.zeros((n_v, 4, 4))
-    for c in range(3):
-        np.add.at(q, tri[:, c], kf)
+    at, terms = [tri[:, 0], tri[:, 1], tri[:, 2]], [kf, kf, kf]
     # open boundary: an edge in one triangle, the plane through it across the triangle
     directed = np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1).reshape(-1, 2)
     owner = np.repeat(np.arange(tri.shape[0]), 3)
@@ -186,18 +187,32 @@ def _vertex_quadrics(v, tri, labels, planes, structure) -> np.ndarray:
         ke = _plane_quadrics(
             side, np.einsum("ij,ij->i", side, v[e[:, 0]]), _BOUNDARY_WEIGHT * length
         )
-        np.add.at(q, e[:, 0], ke)
-        np.add.at(q, e[:, 1], ke)
+        at += [e[:, 0], e[:, 1]]
+        terms += [ke, ke]
     if labels is not None and planes is not None and structure > 0.0:
         normals, offsets, flat = planes
         lab = np.asarray(labels, dtype=np.int64)
         pairs = unique_pairs(np.column_stack([tri.reshape(-1), np.repeat(lab, 3)]))
         pairs = pairs[flat[pairs[:, 1]]]
-        vertex_area = np.zeros(n_v)
-        for c in range(3):
-            np.add.at(vertex_area, tri[:, c], area / 3.0)
+        vertex_area = _summed([tri[:, 0], tri[:, 1], tri[:, 2]], [area / 3.0] * 3, n_v)
         kp = _plane_quadrics(
             normals[pairs[:, 1]], offsets[pairs[:, 1]], structure * vertex_area[pairs[:, 0]]
         )
-        np.add.at(q, pairs[:, 0], kp)
-    return q
+        at.append(pairs[:, 0])
+        terms.append(kp)
+    return _summed(at, [k.reshape(-1, 16) for k in terms], n_v).reshape(n_v, 4, 4)
+
+
+def _summed(at, terms, n: int) -> np.ndarray:
+    """``out[at[k][i]] += terms[k][i]`` for every k and i in turn, from zeros (n,) or
+    (n, C): the sums of ``np.add.at`` term after term, bit for bit (``np.bincount``
+    adds its weights in their order, one column at a time), without its per-element
+    cost."""
+    idx = np.concatenate(at)
+    if terms[0].ndim == 1:
+        return np.bincount(idx, weights=np.concatenate(terms), minlength=n)
+    out = np.empty((n, terms[0].shape[1]))
+    for c in range(out.shape[1]):
+        w = np.concatenate([k[:, c] for k in terms])
+        out[:, c] = np.bincount(idx, weights=w, minlength=n)
+    return out

@@ -91,9 +91,11 @@ def output_samples_on(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0)
     return samples, on
 
 
-def _samples_in_order(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0):
+def _samples_in_order(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0, first=None):
     """`output_samples_on` and an order to measure them in (a permutation: the
-    vertices, then the area samples by triangle), for `MeshDistanceIndex`'s ``order``.
+    vertices, then the area samples by triangle), for `MeshDistanceIndex`'s ``order``;
+    ``first``: only the first this many of the ``n`` area samples (the same points,
+    a subset measured first).
 
     The area samples are `sample_mesh`'s (``rng=seed``) bit for bit: the same draws
     (made once per ``n`` and ``seed``, `_draws`), each triangle drawn by the inverse
@@ -113,13 +115,17 @@ def _samples_in_order(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0)
     double_area = np.linalg.norm(np.cross(v[t[:, 1]] - a, v[t[:, 2]] - a), axis=1)
     if t.shape[0] == 0 or not double_area.sum() > 0.0:
         return corners, on, np.arange(used.size)
-    u_sorted, by_draw, weights = _draws(n, seed)
+    u, u_sorted, by_draw, weights = _draws(n, seed)
     cum = np.cumsum(double_area)
-    # the triangle of the i-th smallest draw d: the number of cum[j] <= d, i.e. of
-    # the j whose first draw not below cum[j] comes at or before i
-    first = np.searchsorted(u_sorted * cum[-1], cum, side="left")
-    face = np.empty(n, dtype=np.int64)
-    face[by_draw] = np.cumsum(np.bincount(first, minlength=n + 1)[:n])
+    if first is not None and first < n:
+        face = np.searchsorted(cum, u[:first] * cum[-1], side="right")
+        by_draw, weights = np.argsort(face, kind="stable"), weights[:, :first]
+    else:
+        # the triangle of the i-th smallest draw d: the number of cum[j] <= d, i.e.
+        # of the j whose first draw not below cum[j] comes at or before i
+        start = np.searchsorted(u_sorted * cum[-1], cum, side="left")
+        face = np.empty(n, dtype=np.int64)
+        face[by_draw] = np.cumsum(np.bincount(start, minlength=n + 1)[:n])
     # a draw rounded up to the total goes to the last positive-area triangle
     face = np.minimum(face, np.flatnonzero(double_area > 0)[-1])
     wa, wb, wc = weights
@@ -132,7 +138,7 @@ def _samples_in_order(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0)
 @functools.lru_cache(maxsize=4)
 def _draws(n: int, seed: int):
     """`sample_mesh`'s random numbers for ``n`` samples and ``rng=seed``, which do not
-    depend on the mesh: the triangle draws in [0, 1) sorted, their order, and the
+    depend on the mesh: the triangle draws in [0, 1), sorted, their order, and the
     barycentric weights (3, n) (read-only)."""
     gen = np.random.default_rng(seed)
     u = gen.random(n)
@@ -140,7 +146,7 @@ def _draws(n: int, seed: int):
     s1 = np.sqrt(r1)
     weights = np.stack([1.0 - s1, s1 * (1.0 - r2), s1 * r2])
     by_draw = np.argsort(u, kind="stable")
-    out = (u[by_draw], by_draw, weights)
+    out = (u, u[by_draw], by_draw, weights)
     for x in out:
         x.flags.writeable = False
     return out
