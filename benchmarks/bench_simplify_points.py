@@ -188,9 +188,20 @@ def main(argv=None) -> int:
     ap.add_argument("--estimate-normals", action="store_true")
     ap.add_argument("--no-peer", action="store_true", help="skip Poisson + decimation")
     ap.add_argument("--out", type=Path, default=Path("bench-output/simplify_points.csv"))
+    ap.add_argument(
+        "--only", nargs="+", default=None, help="of the selected models, only these (file stems)"
+    )
+    ap.add_argument(
+        "--shard", default=None, help="I/N: the I-th (from 0) of N interleaved parts of the models"
+    )
     args = ap.parse_args(argv)
     files = sorted(p for p in args.models.iterdir() if p.suffix.lower() in MESH_SUFFIXES)
     files = files[:: args.every]
+    if args.only:
+        files = [p for p in files if p.stem in set(args.only)]
+    if args.shard:
+        part, n_parts = (int(x) for x in args.shard.split("/"))
+        files = files[part::n_parts]
     rows = []
     for path in files:
         row = run_model(path, args.points, args.estimate_normals, not args.no_peer)

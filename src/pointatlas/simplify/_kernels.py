@@ -429,3 +429,60 @@ def band_field(x, dist, gauss, idx, q, normals, step, spacing):
             value = dist[i, 0] if turn >= 0.0 else -dist[i, 0]
         out[i] = value
     return out
+
+
+#: `thin_sides`: two neighbours of a node face opposite ways when their normals are
+#: more than 120 degrees apart (the two sides of a wall, or an acute edge's faces).
+OPPOSITE = -0.5
+
+
+@njit(cache=True)
+def thin_sides(x, dist, idx, q, normals, step, spacing):
+    """Nodes between two sides of a thin part that the grid resolves
+    (`_reconstruct._field`): -1 where a node ``x`` lies behind the tangent planes of
+    all its neighbours within the nearest + ``spacing`` and two of them face
+    opposite ways (inside a wall), +1 where it lies in front of all of them and two
+    face opposite ways (in a gap between two walls), else 0: a node on a plane,
+    planes that disagree, or a part thinner across (the distance between the two
+    planes through the node) than the grid's nodes along its normal reach, ``step``
+    times the normal's 1-norm (a digital plane that thin has holes)."""
+    n, k = dist.shape
+    out = np.zeros(n, dtype=np.int8)
+    signed = np.empty(k)
+    tol = 1e-9 * step
+    for i in range(n):
+        reach = dist[i, 0] + spacing
+        pos = False
+        neg = False
+        speak = 0
+        for m in range(k):
+            if dist[i, m] > reach:
+                break
+            j = idx[i, m]
+            s = (
+                normals[j, 0] * (x[i, 0] - q[j, 0])
+                + normals[j, 1] * (x[i, 1] - q[j, 1])
+                + normals[j, 2] * (x[i, 2] - q[j, 2])
+            )
+            signed[m] = s
+            pos |= s >= -tol
+            neg |= s <= tol
+            speak += 1
+        if pos == neg:
+            continue
+        for a in range(speak):
+            ja = idx[i, a]
+            need = step * (abs(normals[ja, 0]) + abs(normals[ja, 1]) + abs(normals[ja, 2]))
+            for b in range(a + 1, speak):
+                jb = idx[i, b]
+                c = (
+                    normals[ja, 0] * normals[jb, 0]
+                    + normals[ja, 1] * normals[jb, 1]
+                    + normals[ja, 2] * normals[jb, 2]
+                )
+                if c < OPPOSITE and abs(signed[a]) + abs(signed[b]) >= need:
+                    out[i] = -1 if neg else 1
+                    break
+            if out[i] != 0:
+                break
+    return out

@@ -20,7 +20,6 @@ __all__ = [
     "MAX_NODES",
     "Reconstruction",
     "reconstruct_surface",
-    "PointDistances",
     "region_planes",
     "robust_mesh",
     "transfer_labels",
@@ -143,7 +142,7 @@ def _field(q, normals, tree, step, spacing, origin, shape, closed):
     band = ndimage.binary_dilation(occupied, structure=np.ones((3, 3, 3), bool), iterations=width)
     band[[0, -1], :, :] = band[:, [0, -1], :] = band[:, :, [0, -1]] = False
     nodes = np.argwhere(band)
-    values = _band_values(q, normals, tree, origin + nodes * step, step, spacing)
+    values, thin = _band_sides(q, normals, tree, origin + nodes * step, step, spacing)
     f = np.zeros(shape, dtype=np.float64)
     f[band] = values
     # regions of nodes beyond the band: one sign each, by the band nodes next to them
@@ -160,13 +159,51 @@ def _field(q, normals, tree, step, spacing, origin, shape, closed):
     # a smoothing of one grid step removes sign noise near edges and corners (which
     # gives small tunnels); a linear field (a flat face) is left as it is
     sigma = max(SMOOTH_STEPS, SMOOTH_SPACINGS * spacing / step)
+    keep = _thin_keep(band, thin, values)
+    raw = f[keep]
     f = ndimage.gaussian_filter(f, sigma=sigma, mode="nearest")
+    # ... but a node in a thin wall or gap keeps its side: the smoothing averages a
+    # wall thinner than about two of its widths away
+    f[keep] = np.where(np.sign(f[keep]) == np.sign(raw), f[keep], raw)
     if closed:
         f = _winding_sides(f, q, normals, occupied, step, spacing, origin)
     # the grid's outer layer is outside: the surface is closed inside the grid
     f[[0, -1], :, :] = f[:, [0, -1], :] = f[:, :, [0, -1]] = (width + 1) * step
     f[f == 0.0] = 1e-12 * step  # no node exactly on the level: no degenerate triangles
     return f
+
+
+def _thin_keep(band, thin, values):
+    """The nodes whose side the smoothing must not change: band nodes between two
+    sides of a thin wall or gap (``thin``, `_kernels.thin_sides`), and the band
+    nodes on the same side next to one (the wall's other nodes: one node of a wall
+    in a few kept alone leaves a sieve)."""
+    keep = np.zeros(band.shape, dtype=np.int8)
+    keep[band] = thin
+    side = np.zeros(band.shape, dtype=np.int8)
+    side[band] = np.where(values < 0.0, -1, 1)
+    cube = np.ones((3, 3, 3), dtype=bool)
+    out = keep != 0
+    for s in (-1, 1):
+        out |= ndimage.binary_dilation(keep == s, structure=cube) & (side == s)
+    return out
+
+
+def _band_sides(q, normals, tree, x, step, spacing):
+    """The field at band nodes ``x`` (`_band_values`: `_kernels.band_field`) and
+    which of them lie between two sides of a thin part that the grid resolves
+    (`_kernels.thin_sides`: -1 inside a thin wall, +1 in a thin gap, else 0)."""
+    from ._kernels import band_field, thin_sides
+
+    k = min(FIELD_K, q.shape[0])
+    d, j = tree.query(x, k=k, workers=-1)
+    d, j = d.reshape(x.shape[0], k), j.reshape(x.shape[0], k).astype(np.int64, copy=False)
+    gauss = np.exp(-((d / step) ** 2))
+    # writable C copies: one compiled signature whatever the caller's arrays
+    q = np.array(q, dtype=np.float64, order="C")
+    normals = np.array(normals, dtype=np.float64, order="C")
+    values = band_field(x, d, gauss, j, q, normals, float(step), float(spacing))
+    return values, thin_sides(x, d, j, q, normals, float(step), float(spacing))
 
 
 def _band_values(q, normals, tree, x, step, spacing):
@@ -177,16 +214,7 @@ def _band_values(q, normals, tree, x, step, spacing):
     extended past its face is wrong), the distance to the nearest point with the
     weighted vote's sign (`band_field`; plain-numpy reference in
     tests/simplify/reference.py)."""
-    from ._kernels import band_field
-
-    k = min(FIELD_K, q.shape[0])
-    d, j = tree.query(x, k=k, workers=-1)
-    d, j = d.reshape(x.shape[0], k), j.reshape(x.shape[0], k).astype(np.int64, copy=False)
-    gauss = np.exp(-((d / step) ** 2))
-    # writable C copies: one compiled signature whatever the caller's arrays
-    q = np.array(q, dtype=np.float64, order="C")
-    normals = np.array(normals, dtype=np.float64, order="C")
-    return band_field(x, d, gauss, j, q, normals, float(step), float(spacing))
+    return _band_sides(q, normals, tree, x, step, spacing)[0]
 
 
 def _winding_sides(f, q, normals, occupied, step, spacing, origin):
@@ -435,52 +463,14 @@ def region_planes(q, labels, proxy_normals, source):
     return pn[source], off[source], dev[source], width[source]
 
 
-class PointDistances:
-    """Whether an output is within a bound of the points both ways: every point to
-    the output's triangles, the output's vertices and samples (`back_distances`) to
-    the points' surface (`PointSurface`); and no vertex outside the points' box
-    grown by 1 % of its diagonal (a spike)."""
-
-    def __init__(self, q, surface):
-        self.q, self.surface = q, surface
-        lo, hi = q.min(axis=0), q.max(axis=0)
-        grow = 0.01 * float(np.linalg.norm(hi - lo))
-        self.lo, self.hi = lo - grow, hi + grow
-        # vertices are clipped a little inside, so that mapping back to the input's
-        # coordinates cannot round them out
-        self.box = (lo - 0.99 * grow, hi + 0.99 * grow)
-
-    def within(self, out_v, out_t, bound: float) -> bool:
-        from ._distance import back_distances
-        from ._mesh import point_mesh_distance
-
-        if (out_v < self.lo).any() or (out_v > self.hi).any():
-            return False
-        if point_mesh_distance(self.q, out_v, out_t, within=bound).max() > bound:
-            return False
-        return bool(back_distances(out_v, out_t, self.surface).max() <= bound)
-
-    def error(self, out_v, out_t) -> float:
-        """The largest distance both ways."""
-        there, back = self.report(out_v, out_t)
-        return float(max(there.max(), back.max()))
-
-    def report(self, out_v, out_t):
-        """Every point to the output, and the output's samples to the points' surface."""
-        from ._distance import back_distances
-        from ._mesh import point_mesh_distance
-
-        there = point_mesh_distance(self.q, out_v, out_t)
-        return there, back_distances(out_v, out_t, self.surface)
-
-
 def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max_triangles=None):
     """The robust path: the points' surface (`reconstruct_surface`), its triangles
     labelled by the points' regions (`transfer_labels`), then the structure-aware
     decimation of the mesh path (`Decimation`), its flat regions' planes from their
     points, to the fewest triangles within ``max_error`` (input units; default
-    `MAX_ERROR` of the diagonal, at least what the surface itself reaches) of the
-    points both ways, or to ``max_triangles``.
+    `MAX_ERROR` of the diagonal; where the surface itself is farther, what it
+    reaches there and some more, `PointDistances.floor_at`) of the points both
+    ways, or to ``max_triangles``.
 
     Returns ``(result, reconstruction, point_labels)``: the `SurfaceSimplification`
     in input coordinates (``distances`` are those of the points), the surface and
@@ -490,6 +480,7 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max
 
     from ._decimate_mesh import MAX_ERROR
     from ._distance import PointSurface
+    from ._point_distances import PointDistances
     from ._polygons import PLANAR_RTOL
     from ._snap import FIT_STEPS, PointsDecimation, fit_to_points
     from ._triangles import _face_graph, _surface
@@ -528,8 +519,8 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max
         FIT_STEPS * rec.step,
     )
     if max_error is None:
-        # the default bound, or what the points' surface itself reaches, if more
-        bound = max(bound, 1.1 * level.error(0))
+        # the default bound, or what the points' surface itself reaches there, if more
+        measure.floor_at(*level.placed(0)[:2], bound)
     steps = level.steps_for(max_triangles, bound)
     if max_triangles is not None and not level.within(steps, SPIKE_FACTOR * bound):
         # a budget is met only while the output stays near the points (the last

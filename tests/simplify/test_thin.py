@@ -1,0 +1,131 @@
+"""The robust path's thin parts: nodes between two sides of a wall or a gap keep their
+side through the field's smoothing (`_kernels.thin_sides`, `_reconstruct._thin_keep`),
+and a level's bound rises only where the points' surface itself is far
+(`PointDistances.floor_at`)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from pointatlas.simplify._distance import PointSurface
+from pointatlas.simplify._kernels import OPPOSITE, thin_sides
+from pointatlas.simplify._point_distances import PointDistances
+from pointatlas.simplify._reconstruct import FIELD_K, _thin_keep
+from pointatlas.synth import sample_mesh
+
+from .cad_shapes import box, extrude, subdivide
+
+
+def _reference(x, d, j, q, normals, step, spacing):
+    """`thin_sides` in plain numpy: every pair of speaking neighbours."""
+    speak = d <= d[:, :1] + spacing
+    s = np.einsum("nkd,nkd->nk", normals[j], x[:, None, :] - q[j])
+    tol = 1e-9 * step
+    pos = ((s >= -tol) & speak).any(axis=1)
+    neg = ((s <= tol) & speak).any(axis=1)
+    out = np.zeros(x.shape[0], dtype=np.int8)
+    for i in np.flatnonzero(pos != neg):
+        for a in range(d.shape[1]):
+            need = step * np.abs(normals[j[i, a]]).sum()
+            for b in range(a + 1, d.shape[1]):
+                pair = speak[i, a] and speak[i, b]
+                if (
+                    pair
+                    and normals[j[i, a]] @ normals[j[i, b]] < OPPOSITE
+                    and abs(s[i, a]) + abs(s[i, b]) >= need
+                ):
+                    out[i] = -1 if neg[i] else 1
+    return out
+
+
+def _flags(q, normals, x, step, spacing):
+    d, j = cKDTree(q).query(x, k=FIELD_K)
+    return thin_sides(x, d, j.astype(np.int64), q, normals, step, spacing), (d, j)
+
+
+def _plates(gap=0.3, thick=0.3, n=6000):
+    """Two square plates ``thick`` thick, ``gap`` apart (sampled, face normals)."""
+    v, t = extrude([[0, 0], [3, 0], [3, 3], [0, 3]], height=thick)
+    v2 = v + [0.0, 0.0, thick + gap]
+    s = sample_mesh(np.vstack([v, v2]), np.vstack([t, t + v.shape[0]]), n, rng=0)
+    return np.asarray(s.points), np.asarray(s.normals)
+
+
+def test_thin_sides_in_a_wall_and_in_a_gap():
+    q, n = _plates()
+    spacing = float(np.median(cKDTree(q).query(q, k=2)[0][:, 1]))
+    g = np.linspace(1.0, 2.0, 6)
+    gx, gy = np.meshgrid(g, g, indexing="ij")
+    mid = lambda z: np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, z)])  # noqa: E731
+    wall, gap = mid(0.15), mid(0.45)
+    flags, _ = _flags(q, n, np.vstack([wall, gap]), 0.1, spacing)
+    assert (flags[: len(wall)] == -1).all()  # inside the lower plate
+    assert (flags[len(wall) :] == 1).all()  # between the plates
+    # a grid coarser than the wall cannot hold it without holes: nothing kept
+    coarse, _ = _flags(q, n, np.vstack([wall, gap]), 0.35, spacing)
+    assert (coarse == 0).all()
+
+
+def test_thin_sides_leaves_right_angles_and_open_sides_alone():
+    v, t = box()
+    s = sample_mesh(v, t, 6000, rng=0)
+    q, n = np.asarray(s.points), np.asarray(s.normals)
+    spacing = float(np.median(cKDTree(q).query(q, k=2)[0][:, 1]))
+    rng = np.random.default_rng(1)
+    x = q[rng.integers(0, q.shape[0], 3000)] + rng.normal(0.0, 2 * spacing, (3000, 3))
+    flags, _ = _flags(q, n, x, 1.5 * spacing, spacing)
+    assert (flags == 0).all()  # no two faces of a box face opposite ways within reach
+
+
+def test_thin_sides_matches_plain_reference():
+    q, n = _plates(gap=0.2, thick=0.2, n=4000)
+    spacing = float(np.median(cKDTree(q).query(q, k=2)[0][:, 1]))
+    rng = np.random.default_rng(2)
+    x = q[rng.integers(0, q.shape[0], 4000)] + rng.uniform(-0.2, 0.2, (4000, 3))
+    step = 1.5 * spacing
+    flags, (d, j) = _flags(q, n, x, step, spacing)
+    ref = _reference(x, d, j, q, n, step, spacing)
+    np.testing.assert_array_equal(flags, ref)
+    assert (ref == -1).sum() > 50 and (ref == 1).sum() > 50  # both branches seen
+
+
+def test_thin_keep_grows_along_its_side_only():
+    band = np.ones((5, 5, 5), dtype=bool)
+    values = np.ones(band.sum())
+    values.reshape(5, 5, 5)[:, :, 2] = -1.0  # a one-node wall at z = 2
+    thin = np.zeros(band.sum(), dtype=np.int8)
+    thin.reshape(5, 5, 5)[2, 2, 2] = -1  # one node of it seen between two sides
+    keep = _thin_keep(band, thin, values)
+    want = np.zeros((5, 5, 5), dtype=bool)
+    want[1:4, 1:4, 2] = True  # its wall neighbours, not the outside beside it
+    np.testing.assert_array_equal(keep, want)
+
+
+def _dented(v, at, depth):
+    """``v`` with vertex ``at`` (on a face z = 0 or z = 1) moved ``depth`` into the cube."""
+    w = v.copy()
+    w[at, 2] += depth if w[at, 2] < 0.5 else -depth
+    return w
+
+
+def test_floor_raises_the_bound_only_where_the_surface_is_far():
+    v, t = subdivide(*box())
+    v = (v - v.min(axis=0)) / np.ptp(v, axis=0)  # the unit cube
+    s = sample_mesh(v, t, 6000, rng=0)
+    q, n = np.asarray(s.points), np.asarray(s.normals)
+    measure = PointDistances(q, PointSurface(q, n))
+    top = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 1.0], axis=1)))
+    bottom = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 0.0], axis=1)))
+    bound = 0.01
+    far = _dented(v, top, 0.05)  # the points' surface 5 % off at one face's middle
+    most = measure.floor_at(far, t, bound, slack=1.0, factor=1.1)
+    np.testing.assert_allclose(most, 0.05, rtol=0.02)
+    assert measure.within(far, t, bound)  # the surface itself passes
+    # a second face nearly as far passes a bound raised everywhere, not here
+    worse = _dented(far, bottom, 0.045)
+    assert measure.error(worse, t) <= 1.1 * most
+    assert not measure.within(worse, t, bound)
+    # at the first: what the surface reaches there + the bound, at most 1.1 x the most
+    assert measure.within(_dented(v, top, 0.054), t, bound)
+    assert not measure.within(_dented(v, top, 0.057), t, bound)
