@@ -153,7 +153,11 @@ def as_points(points, *, name: str = "points", min_points: int = 1) -> np.ndarra
     Returns
     -------
     points : ndarray of shape (N, 3), float64
-        C-contiguous; a view of the input when no conversion was needed.
+        C-contiguous and read-only; a view of the input when no conversion was
+        needed. Read-only always: the input is never written through it, and numba
+        kernels see one array type whether the caller's array was writeable (a
+        numpy array) or not (a `PointSet`'s): a kernel compiled by the warm-up for
+        the command line serves the Python API too, and is not compiled again.
 
     Raises
     ------
@@ -172,7 +176,9 @@ def as_points(points, *, name: str = "points", min_points: int = 1) -> np.ndarra
     if arr.shape[0] < min_points:
         raise ValueError(f"{name} must hold at least {min_points} point(s); got {arr.shape[0]}")
     check_finite(arr, name)
-    return np.ascontiguousarray(arr)
+    view = np.ascontiguousarray(arr).view()
+    view.flags.writeable = False
+    return view
 
 
 def as_normals(
