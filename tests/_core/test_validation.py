@@ -11,6 +11,7 @@ from pointatlas._core import (
     as_points,
     as_vectors,
     check_finite,
+    readonly_view,
 )
 
 
@@ -134,3 +135,24 @@ def test_as_k_counts_the_point_itself(k, minimum, message):
     assert as_k(np.int64(minimum), 5, minimum=minimum) == minimum
     with pytest.raises(PointAtlasError, match=message):
         as_k(k, 5, minimum=minimum)
+
+
+def test_as_points_is_a_read_only_view_and_leaves_the_input_writeable():
+    # no copy of a float64 C-contiguous input, but nothing can be written through
+    # it, and the caller's array keeps its flag (kernels see one array type)
+    arr = np.random.default_rng(0).random((5, 3))
+    pts = as_points(arr)
+    assert np.shares_memory(pts, arr) and not pts.flags.writeable
+    assert arr.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        pts[0, 0] = 1.0
+    arr[0, 0] = 2.0  # the input itself stays the caller's to change
+    assert pts[0, 0] == 2.0
+    assert not as_points([[0, 0, 0]]).flags.writeable  # a converted copy too
+
+
+def test_readonly_view_shares_memory_and_keeps_the_original_flag():
+    arr = np.arange(6.0).reshape(2, 3)
+    view = readonly_view(arr)
+    assert np.shares_memory(view, arr) and not view.flags.writeable
+    assert arr.flags.writeable and np.array_equal(view, arr)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pointatlas._core import NonFiniteError
+from pointatlas._core import NonFiniteError, readonly_view
 from pointatlas.features import symmetric_eigenvalues, weighted_covariances
 from pointatlas.features._kernels import covariance_kernel
 
@@ -89,7 +89,8 @@ def test_covariance_collinear_coplanar_duplicate_nan():
         weighted_covariances(nan, idx)
     # the kernel itself (fed by tiles and searches) flags a non-finite neighbour: code 1
     out, reason = np.empty((8, 3, 3)), np.empty(8, dtype=np.uint8)
-    covariance_kernel(nan, idx, np.empty((0, 0)), False, out, reason)
+    # read-only points, as `weighted_covariances` passes them (one compiled signature)
+    covariance_kernel(readonly_view(nan), idx, np.empty((0, 0)), False, out, reason)
     assert (reason == 1).all() and np.isnan(out).all()
     assert all(ref.reason(nan[row], np.ones(8)) == 1 for row in idx)
     zero_w = np.zeros(idx.shape)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy import sparse
 
+from pointatlas._core import readonly_view
 from pointatlas.neighbors import query_knn
 from pointatlas.normals import estimate_normals, orient_normals
 from pointatlas.normals._kernels import component_tops_kernel, pca_normals_kernel, sym3_eigen
@@ -98,7 +99,9 @@ def _run_pca_kernel(points, indices, k):
     normals = np.empty((n, 3))
     eig = np.empty((n, 3))
     deg = np.empty(n, dtype=bool)
-    pca_normals_kernel(points, indices, k, reference.DEGENERATE_RATIO, normals, eig, deg)
+    # read-only inputs, as `pca_normals` passes them (one compiled signature)
+    pts, idx = readonly_view(points), readonly_view(indices)
+    pca_normals_kernel(pts, idx, k, reference.DEGENERATE_RATIO, normals, eig, deg)
     return normals, eig, deg
 
 

@@ -9,7 +9,7 @@ from ._interrupt import (
     interrupts_deferred,
     request_interrupt,
 )
-from ._pointset import PointSet, readonly
+from ._pointset import PointSet, readonly, readonly_view
 from ._scalars import as_float, as_float_array, as_int, as_iterations, as_k
 from ._validation import (
     as_labels,
@@ -47,6 +47,7 @@ __all__ = [
     "interrupt_signal",
     "interrupts_deferred",
     "readonly",
+    "readonly_view",
     "request_interrupt",
     "warn_renamed",
 ]

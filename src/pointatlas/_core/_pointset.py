@@ -10,7 +10,7 @@ import numpy as np
 
 from ._validation import as_normals, as_points
 
-__all__ = ["PointSet", "readonly"]
+__all__ = ["PointSet", "readonly", "readonly_view"]
 
 
 def readonly(arr: np.ndarray | None) -> np.ndarray | None:
@@ -31,6 +31,29 @@ def readonly(arr: np.ndarray | None) -> np.ndarray | None:
     arr = np.asarray(arr)
     arr.flags.writeable = False
     return arr
+
+
+def readonly_view(arr: np.ndarray) -> np.ndarray:
+    """A read-only view of ``arr`` (no copy; ``arr``'s own flag is left as it is).
+
+    Kernel inputs pass through it where callers hand both writeable and read-only
+    arrays (a numpy array from the Python API, a `PointSet`'s or a tile's from the
+    command line): numba compiles a kernel once per array type, and the read-only
+    one is what the warm-up caches (docs/decisions/cli.md, "First run").
+
+    Parameters
+    ----------
+    arr : ndarray
+        Any array.
+
+    Returns
+    -------
+    ndarray
+        A view of ``arr``, read-only.
+    """
+    view = arr.view()
+    view.flags.writeable = False
+    return view
 
 
 def _as_meta(meta) -> MappingProxyType:

@@ -12,6 +12,7 @@ from .._core import (
     as_normals,
     as_points,
     check_neighbors,
+    readonly_view,
 )
 from .._core.tolerances import (
     DENOISE_K_MAX,
@@ -231,9 +232,10 @@ def _filter_steps(pts, nrm, idx, k_def, *, rho, tau, n_iter, adaptive, progress)
         best_k = np.empty(n, dtype=np.int64)
         best_e = np.empty(n)
         masks = np.full(n, -1, dtype=np.int64)
+        ro_pts = readonly_view(pts)  # one kernel signature for API, CLI and tile inputs
     for _ in range(n_iter):
         if adaptive:
-            adaptive_k_kernel(pts, cur, idx, k_lo, k_hi, rho, best_k, best_e, masks)
+            adaptive_k_kernel(ro_pts, cur, idx, k_lo, k_hi, rho, best_k, best_e, masks)
             fallback = best_k < 0
             k_of = np.where(fallback, k_def, best_k)
             use_cut = ~fallback

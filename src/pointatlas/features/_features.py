@@ -7,7 +7,15 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from .._core import PointAtlasError, as_int, as_k, as_points, check_neighbors, readonly
+from .._core import (
+    PointAtlasError,
+    as_int,
+    as_k,
+    as_points,
+    check_neighbors,
+    readonly,
+    readonly_view,
+)
 from .._core._sort import morton_bits, morton_order
 from ..neighbors import query_knn
 from ._kernels import (
@@ -214,7 +222,9 @@ def _choice_features(points, idx, k_of, angles, a_of, b_of, flatness, order=None
     m1, m2 = flatness
     if order is None:
         order = _spatial_order(points)
-    fused_kernel(points, idx, order, k_of, ang, use_normals, a_of, b_of, m1, m2, out, reason)
+    # read-only points (as `as_points` gives them) also from tiles and tests: one signature
+    pts = readonly_view(points)
+    fused_kernel(pts, idx, order, k_of, ang, use_normals, a_of, b_of, m1, m2, out, reason)
     if (reason == REASON_BAD_INDEX).any():
         check_neighbors(idx, n)  # raises with the index range
     return packed_result(

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._core import as_k, as_points, check_neighbors, readonly
+from .._core import as_k, as_points, check_neighbors, readonly, readonly_view
 from .._core.tolerances import NORMAL_DEGENERATE_RATIO
 from ..neighbors import query_knn
 from ._kernels import pca_normals_kernel
@@ -108,7 +108,10 @@ def pca_normals(points, k: int = 20, *, neighbors=None) -> PCANormalsResult:
     normals = np.empty((n, 3))
     eigenvalues = np.empty((n, 3))
     degenerate = np.empty(n, dtype=np.bool_)
-    pca_normals_kernel(pts, idx, k, NORMAL_DEGENERATE_RATIO, normals, eigenvalues, degenerate)
+    # the table read-only whether it came from query_knn or the caller: one signature
+    pca_normals_kernel(
+        pts, readonly_view(idx), k, NORMAL_DEGENERATE_RATIO, normals, eigenvalues, degenerate
+    )
     return PCANormalsResult(normals=normals, eigenvalues=eigenvalues, is_degenerate=degenerate)
 
 
