@@ -11,7 +11,6 @@ from .._core import (
     as_iterations,
     as_normals,
     as_points,
-    check_neighbors,
     readonly_view,
 )
 from .._core.tolerances import (
@@ -47,6 +46,7 @@ from ._kernels import (
 )
 from ._result import DenoiseResult, NormalFilterResult
 from ._sharpen import quadric_update_kernel
+from ._tables import check_table
 from ._threads import threads_for
 
 __all__ = [
@@ -178,22 +178,6 @@ def _neighbourhoods(pts, radius_factor, extra, neighbors=None, spacing=None):
     inside = (dist <= radius_factor * ell).sum(axis=1)
     k = np.clip(inside, min(K_MIN, n), kcap).astype(np.int64)
     return table, np.ascontiguousarray(table[:, : min(int(k.max()) + extra, ncol)]), k, ell
-
-
-def _check_table(neighbors, n, adaptive):
-    """The ``neighbors=`` table of `normal_voting_denoise`: at least min(48 (+10
-    adaptive), N) columns, each row starting with its point."""
-    need = min(K_MAX + (K_WIDTH if adaptive else 0), n)
-    with threads_for(n):  # a parallel check: one thread on a busy machine, as the run
-        table = check_neighbors(neighbors, n)
-    if table.shape[1] < need:
-        raise ValueError(
-            f"neighbors must have at least {need} columns (min(48, N), +10 for the "
-            f"adaptive k); got {table.shape[1]}"
-        )
-    if not (table[:, 0] == np.arange(n)).all():
-        raise ValueError("neighbors must list every point first in its own row")
-    return table
 
 
 def _estimated_normals(pts, table, k, like=None):
@@ -687,7 +671,7 @@ def _voting_options(
         "normal_k": min(as_int(normal_k, "normal_k", lo=3), n),
         "refit": refit,
         "radius_factor": radius_factor,
-        "neighbors": None if neighbors is None else _check_table(neighbors, n, adaptive),
+        "neighbors": None if neighbors is None else check_table(neighbors, n, adaptive),
         "spacing": spacing,
     }
     return pts, nrm, opt
