@@ -171,7 +171,8 @@ class MeshDistances:
     def __init__(self, on, verts, tri, on_ids=None):
         self.on, self.verts, self.tri, self.on_ids = on, verts, tri, on_ids
         self.index = MeshDistanceIndex(verts, tri)
-        self._last = None  # (out_v, out_t, its index, {count: samples, triangles, order})
+        # (out_v, out_t, its index, {count: (samples, triangles, order), "back": distances})
+        self._last = None
         self._orders = {}  # the order to measure ``on`` and ``verts`` in, made once
 
     def within(
@@ -198,13 +199,21 @@ class MeshDistances:
     def report(self, out_v, out_t, lineage=None):
         """The distances `surface_result` reports: every vertex to the output, and the
         output's samples back to the input."""
-        hint, back = self._hints(out_v, out_t, lineage, every=True)
+        hint, _ = self._hints(out_v, out_t, lineage, every=True)
         index = self._output_index(out_v, out_t)
         there = index.distance(self.verts, hint=hint, order=self._order("verts", hint))
+        return there, self.back(out_v, out_t, lineage)
+
+    def back(self, out_v, out_t, lineage=None) -> np.ndarray:
+        """The output's vertices and samples back to the input, exactly (`report`'s
+        second part; kept with the output's index)."""
+        kept = None if lineage is None else lineage[0]
         samples, on, order = self._samples(out_v, out_t)
-        return there, self.index.distance(
-            samples, hint=None if back is None else back[on], order=order
-        )
+        made = self._last[3]
+        if "back" not in made:
+            hint = None if kept is None else kept[on]
+            made["back"] = self.index.distance(samples, hint=hint, order=order)
+        return made["back"]
 
     def _order(self, name: str, hint):
         """The order to measure ``on`` or ``verts`` in (`MeshDistanceIndex.point_order`,
@@ -344,9 +353,21 @@ class Decimation:
         if not isinstance(self.measure, MeshDistances):
             return self._search(n, bound, None)
         m = self._search(n, bound, SEARCH_SAMPLES)
-        if m == 0 or self.within(m, bound):
+        if m == 0 or self._meets(m, bound):
             return m
         return self._search(n, bound, None)
+
+    def _meets(self, m: int, bound: float) -> bool:
+        """Whether a level found within ``bound`` on a subset of the samples is within
+        it on all of them: their exact distances, as reported (kept for `result`)."""
+        placed = self._placed(m)
+        out_v, out_t, _, _, lineage = placed
+        back = self.measure.back(out_v, out_t, lineage)
+        if back.size and back.max() > bound:
+            self._over.add((m, bound))
+            return False
+        self._kept_level = (m, placed)
+        return True
 
     def _search(self, n: int, bound: float, first) -> int:
         """`steps_within` from ``n`` collapses down, ``first`` as in `within`."""
