@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from pointatlas._core import readonly_view
 from pointatlas.denoise._flatness import flatness_step
 from pointatlas.denoise._kernels import (
     adaptive_k_kernel,
@@ -59,6 +60,7 @@ def _table(seed, n=30, k=12, duplicates=False):
 @pytest.mark.parametrize("seed,duplicates", [(0, False), (1, True), (2, False)])
 def test_adaptive_k_matches_reference(seed, duplicates):
     pts, nrm, idx = _table(seed, duplicates=duplicates)
+    pts = readonly_view(pts)  # as the filter passes them: the kernel's one signature
     n = len(pts)
     k_lo = np.full(n, 3, dtype=np.int64)
     k_hi = np.full(n, 12, dtype=np.int64)
@@ -82,6 +84,7 @@ def test_adaptive_k_matches_reference(seed, duplicates):
 def test_adaptive_k_cache_gives_the_fresh_result(seed):
     """Kept choices (unchanged weight pattern) equal a fresh search, bit for bit."""
     pts, nrm, idx = _table(seed, n=40)
+    pts = readonly_view(pts)  # as the filter passes them: the kernel's one signature
     n = len(pts)
     k_lo = np.full(n, 3, dtype=np.int64)
     k_hi = np.full(n, 12, dtype=np.int64)
