@@ -15,6 +15,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..neighbors import MeshDistanceIndex, point_mesh_distance
+from ..synth._sample import face_points, sample_draws
 
 __all__ = [
     "BACK_SAMPLES",
@@ -98,10 +99,10 @@ def _samples_in_order(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0,
     a subset measured first).
 
     The area samples are `sample_mesh`'s (``rng=seed``) bit for bit: the same draws
-    (made once per ``n`` and ``seed``, `_draws`), each triangle drawn by the inverse
-    CDF of the cumulative areas and the point by the same barycentric weights, the
-    triangles found by one pass over the sorted draws instead of a binary search
-    each (a test compares the two)."""
+    (`sample_draws`, made once per ``n`` and ``seed``, `_draws`) and points
+    (`face_points`); each sample's triangle, `sample_mesh`'s inverse CDF of the
+    cumulative areas, found by one pass over the sorted draws instead of a binary
+    search each (a test compares the two)."""
     v = np.asarray(vertices, dtype=np.float64)
     t = np.asarray(triangles, dtype=np.int64)
     is_used = np.zeros(v.shape[0], dtype=bool)
@@ -128,9 +129,7 @@ def _samples_in_order(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0,
         face[by_draw] = np.cumsum(np.bincount(start, minlength=n + 1)[:n])
     # a draw rounded up to the total goes to the last positive-area triangle
     face = np.minimum(face, np.flatnonzero(double_area > 0)[-1])
-    wa, wb, wc = weights
-    corner = v[t[face]]
-    pts = wa[:, None] * corner[:, 0] + wb[:, None] * corner[:, 1] + wc[:, None] * corner[:, 2]
+    pts = face_points(v, t, face, weights)
     order = np.concatenate([np.arange(used.size), used.size + by_draw])
     return np.vstack([corners, pts]), np.concatenate([on, face]), order
 
@@ -140,11 +139,7 @@ def _draws(n: int, seed: int):
     """`sample_mesh`'s random numbers for ``n`` samples and ``rng=seed``, which do not
     depend on the mesh: the triangle draws in [0, 1), sorted, their order, and the
     barycentric weights (3, n) (read-only)."""
-    gen = np.random.default_rng(seed)
-    u = gen.random(n)
-    r1, r2 = gen.random((2, n))
-    s1 = np.sqrt(r1)
-    weights = np.stack([1.0 - s1, s1 * (1.0 - r2), s1 * r2])
+    u, weights = sample_draws(n, np.random.default_rng(seed))
     by_draw = np.argsort(u, kind="stable")
     out = (u, u[by_draw], by_draw, weights)
     for x in out:

@@ -90,15 +90,31 @@ def sample_mesh(vertices, faces, n_points: int, *, rng=None) -> MeshSample:
     cum = np.cumsum(double_area)
     if tri.shape[0] == 0 or not cum[-1] > 0:
         raise ValueError("faces must span a positive area; got a mesh of total area 0")
-    draw = gen.random(n_points) * cum[-1]
-    face = np.searchsorted(cum, draw, side="right")
+    u, weights = sample_draws(n_points, gen)
+    face = np.searchsorted(cum, u * cum[-1], side="right")
     # cum[i-1] <= draw < cum[i] only for positive-area faces; a draw rounded up to
     # the total goes to the last positive-area face
     face = np.minimum(face, np.flatnonzero(double_area > 0)[-1])
-    r1, r2 = gen.random((2, n_points))
-    s1 = np.sqrt(r1)
-    wa, wb, wc = 1.0 - s1, s1 * (1.0 - r2), s1 * r2
-    a, b, c = (verts[tri[face, i]] for i in range(3))
-    pts = wa[:, None] * a + wb[:, None] * b + wc[:, None] * c
+    pts = face_points(verts, tri, face, weights)
     nrm = cross[face] / double_area[face, None]
     return MeshSample(pts, nrm, face.astype(np.int64))
+
+
+def sample_draws(n: int, gen: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """`sample_mesh`'s random numbers for ``n`` points, which do not depend on the mesh:
+    ``(u, weights)``, the triangle draws in [0, 1) (scaled by the total area, then
+    found in the cumulative areas) and the barycentric weights (3, n) of Osada et al.
+    (``1 - sqrt r1``, ``sqrt r1 (1 - r2)``, ``sqrt r1 r2``), drawn from ``gen`` in that
+    order. Shared with the simplification's back samples, which draw once for many
+    meshes (`pointatlas.simplify._distance`)."""
+    u = gen.random(n)
+    r1, r2 = gen.random((2, n))
+    s1 = np.sqrt(r1)
+    return u, np.stack([1.0 - s1, s1 * (1.0 - r2), s1 * r2])
+
+
+def face_points(verts, tri, face, weights) -> np.ndarray:
+    """The points of barycentric ``weights`` (3, n) in triangles ``face`` (n,)."""
+    wa, wb, wc = weights
+    a, b, c = (verts[tri[face, i]] for i in range(3))
+    return wa[:, None] * a + wb[:, None] * b + wc[:, None] * c
