@@ -276,6 +276,7 @@ class _MeshRun:
         self.s = _surface(verts, tri)
         self.graph = _face_graph(self.s)
         self._built = {}  # (labels, normals, chord tolerance) -> its level
+        self._regions = {}  # (angle, eta) -> its segmentation (a search counts, then builds)
 
     def __call__(self, angle, eta_=None, tol_=None) -> SurfaceSimplification:
         """VSA on the faces with ``max_angle=angle`` (or ``eta=eta_``), the flat
@@ -309,12 +310,17 @@ class _MeshRun:
 
     def regions(self, angle, eta_=None) -> tuple[np.ndarray, np.ndarray]:
         """VSA's face labels and region normals at ``angle`` (or ``eta_``), flat regions
-        merged: the faces of the level before any region is cut in two."""
+        merged: the faces of the level before any region is cut in two (made once per
+        ``angle`` and ``eta_``)."""
+        key = (angle, eta_)
+        if key in self._regions:
+            return self._regions[key]
         s, graph = self.s, self.graph
         labels, normals = _segment_faces(s, graph, max_angle=angle, eta=eta_, rng=self.rng)
         if angle is not None:
             labels = _merge_flat(s, graph, labels, min(angle, FLAT_MERGE_ANGLE))
             normals = _region_normals(s, labels, int(labels.max()) + 1)
+        self._regions[key] = (labels, normals)
         return labels, normals
 
     def _surface(self, labels, normals, tol_) -> SurfaceSimplification:
