@@ -119,8 +119,12 @@ def test_a_budget_keeps_the_nearer_of_the_structured_and_the_plain_decimation():
         chosen = real(structured, plain, budget)
         for level in (structured, plain):
             m = level.steps_for(budget, None)
+            near = level.near(m, D.CHOICE_SAMPLES)
             there, back = level.distances(m)
-            seen.append((level is chosen[0], there.mean() + back.mean()))
+            # the choice's samples are the report's first ones (its vertices, then draws)
+            first = level.placed(m)[0].shape[0] + D.CHOICE_SAMPLES
+            assert near == there.mean() + back[:first].mean()
+            seen.append((level is chosen[0], near, there.mean() + back.mean()))
         return chosen
 
     D._nearer_within = spy
@@ -128,9 +132,11 @@ def test_a_budget_keeps_the_nearer_of_the_structured_and_the_plain_decimation():
         res = decimate_mesh(v, t, 40)
     finally:
         D._nearer_within = real
-    (kept_s, near_s), (kept_p, near_p) = seen
+    (kept_s, near_s, full_s), (kept_p, near_p, full_p) = seen
     assert kept_p == (near_p < near_s) and kept_s != kept_p
-    assert res.distance_mean + res.back_distance_mean == min(near_s, near_p)
+    # the one kept is reported on all samples (here also the nearer on all of them)
+    assert res.distance_mean + res.back_distance_mean == (full_p if kept_p else full_s)
+    assert (full_p < full_s) == kept_p
 
 
 @pytest.mark.parametrize("seed", range(20))
@@ -187,6 +193,11 @@ def test_a_prefix_of_the_collapses_is_the_decimation_to_its_triangle_count():
         assert seq.n_triangles(steps) <= target < seq.n_triangles(steps - 1)
         for g, w in zip(seq.mesh(steps), decimate(v, t, target), strict=True):
             np.testing.assert_array_equal(g, w)
+        # stopped at the target: the same collapses, up to the first level within it
+        short = collapse_all(v, t, target=target)
+        assert short.kept.size == steps and short.steps_for(target) == steps
+        for name in ("kept", "gone", "position", "removed", "cost"):
+            np.testing.assert_array_equal(getattr(short, name), getattr(seq, name)[:steps])
     assert seq.mesh(0)[1].shape == t.shape and seq.steps_for(len(t)) == 0
 
 

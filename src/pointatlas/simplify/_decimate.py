@@ -75,14 +75,17 @@ def decimate(vertices, triangles, target: int, *, labels=None, planes=None, stru
     >>> len(t), bool(np.allclose(np.abs(v), 0.5))  # the eight corners
     (12, True)
     """
-    seq = collapse_all(vertices, triangles, labels=labels, planes=planes, structure=structure)
+    seq = collapse_all(
+        vertices, triangles, labels=labels, planes=planes, structure=structure, target=target
+    )
     return seq.mesh(seq.steps_for(target))
 
 
 @dataclass(frozen=True, slots=True)
 class Collapses:
-    """Every collapse of a mesh's decimation, cheapest first (`collapse_all`); the
-    mesh after any number of them is `mesh` (a level of detail is a prefix).
+    """Every collapse of a mesh's decimation, cheapest first (`collapse_all`), or
+    those down to a triangle count (its ``target``: a prefix of all of them); the mesh
+    after any number of them is `mesh` (a level of detail is a prefix).
 
     Attributes
     ----------
@@ -142,9 +145,13 @@ class Collapses:
         return v[used], remap[tri], kept, used, remap[rep]
 
 
-def collapse_all(vertices, triangles, *, labels=None, planes=None, structure=1.0) -> Collapses:
-    """The decimation's collapses down to the last valid one (`Collapses`); options as
-    in `decimate`."""
+def collapse_all(
+    vertices, triangles, *, labels=None, planes=None, structure=1.0, target=None
+) -> Collapses:
+    """The decimation's collapses down to the last valid one (`Collapses`), or down to
+    the first that leaves at most ``target`` triangles (the same collapses: the
+    sequence stops there, and ``steps_for(target)`` is the same); options as in
+    `decimate`."""
     v = np.array(vertices, dtype=np.float64)
     tri = np.array(triangles, dtype=np.int64)
     n_v = v.shape[0]
@@ -157,7 +164,7 @@ def collapse_all(vertices, triangles, *, labels=None, planes=None, structure=1.0
         empty = np.zeros(0, dtype=np.int64)
         return Collapses(v, tri, empty, empty, np.zeros((0, 3)), empty, np.zeros(0))
     kept, gone, position, removed, cost = collapse_edges(
-        v.copy(), tri, q, on_boundary, edge.astype(np.int64), _TIE
+        v.copy(), tri, q, on_boundary, edge.astype(np.int64), _TIE, int(target or 0)
     )
     return Collapses(v, tri, kept, gone, position, removed, cost)
 

@@ -45,6 +45,10 @@ _PLACE_STEP = 1e-3
 #: Area samples of the output measured back in the level search (of the report's
 #: `BACK_SAMPLES`, the same points; the level found is measured on all of them).
 SEARCH_SAMPLES = 500
+#: Area samples of each output measured back when a budget chooses between the
+#: structured and the plain decimation (the first of the report's; the one kept is
+#: then measured on all of them).
+CHOICE_SAMPLES = 2_000
 
 
 def decimate_mesh(
@@ -123,9 +127,9 @@ def decimate_mesh(
     on = verts if run_used is None else verts[run_used]  # the vertices on a triangle
     measure = MeshDistances(on, verts, tri, run_used)
     args = (verts, tri, labels, planes, _PLACE_STEP * diag, 1e-9 * diag, measure)
-    level = Decimation(*args)
+    level = Decimation(*args, target=max_triangles)
     if max_triangles is not None and planes[2].any():
-        plain = Decimation(*args, structure=0.0)
+        plain = Decimation(*args, structure=0.0, target=max_triangles)
         level, m, distances = _nearer_within(level, plain, max_triangles)
     else:
         m, distances = level.steps_for(max_triangles, max_error), None
@@ -140,7 +144,9 @@ def _nearer_within(structured: Decimation, plain: Decimation, budget: int):
     plain one (no plane quadrics), each at its first level within the triangle
     ``budget``, the one that meets the budget; both or neither (the surface's
     topology stops the collapses first): the one with the smaller two-sided mean
-    distance of the report, ties to the structured one. At small budgets the flat
+    distance, ties to the structured one: every input vertex to the output and the
+    output's vertices and first `CHOICE_SAMPLES` area samples back (of the report's;
+    the one kept is measured on all of them by `result`). At small budgets the flat
     regions can no longer all be kept, and their planes' quadrics then steer the last
     collapses away from the shape (docs/decisions/simplify.md, "Decimation")."""
     levels = (structured, plain)
@@ -149,12 +155,9 @@ def _nearer_within(structured: Decimation, plain: Decimation, budget: int):
     if over[0] != over[1]:  # one meets the budget: its distances are measured by `result`
         k = over.index(False)
         return levels[k], steps[k], None
-    options = []
-    for level, m, o in zip(levels, steps, over, strict=True):
-        there, back = level.distances(m)
-        near = (there.mean() if there.size else 0.0) + (back.mean() if back.size else 0.0)
-        options.append((o, near, level, m, (there, back)))
-    return min(options, key=lambda o: o[:2])[2:]
+    near = [level.near(m, CHOICE_SAMPLES) for level, m in zip(levels, steps, strict=True)]
+    k = 1 if near[1] < near[0] else 0
+    return levels[k], steps[k], None
 
 
 class MeshDistances:
@@ -203,6 +206,18 @@ class MeshDistances:
         index = self._output_index(out_v, out_t)
         there = index.distance(self.verts, hint=hint, order=self._order("verts", hint))
         return there, self.back(out_v, out_t, lineage)
+
+    def near(self, out_v, out_t, lineage=None, first=None) -> tuple[np.ndarray, float]:
+        """``(there, back_mean)``: `report`'s first part, and the mean distance back of
+        the output's vertices and its first ``first`` area samples (None: all, as
+        `back`)."""
+        hint, kept = self._hints(out_v, out_t, lineage, every=True)
+        index = self._output_index(out_v, out_t)
+        there = index.distance(self.verts, hint=hint, order=self._order("verts", hint))
+        samples, on, order = self._samples(out_v, out_t, first)
+        hint = None if kept is None else kept[on]
+        back = self.index.distance(samples, hint=hint, order=order)
+        return there, float(back.mean()) if back.size else 0.0
 
     def back(self, out_v, out_t, lineage=None) -> np.ndarray:
         """The output's vertices and samples back to the input, exactly (`report`'s
@@ -264,20 +279,34 @@ class Decimation:
     (vertices move at most ``step``; those within ``still`` of their planes stay);
     ``measure.within(out_v, out_t, bound)`` decides the error bound
     (`MeshDistances`, or the points' on the points path); ``box`` (lo, hi): vertices
-    are clipped into it.
+    are clipped into it; ``target``: the collapses stop at the first level with at
+    most this many triangles (`collapse_all`; for a budget: `steps_within` then sees
+    only those).
     """
 
     def __init__(
-        self, verts, tri, labels, planes, step, still, measure, box=None, *, structure=1.0
+        self,
+        verts,
+        tri,
+        labels,
+        planes,
+        step,
+        still,
+        measure,
+        box=None,
+        *,
+        structure=1.0,
+        target=None,
     ):
         self.verts, self.tri, self.labels, self.planes = verts, tri, labels, planes
         self.step, self.still, self.measure, self.box = step, still, measure, box
         self.n_regions = int(labels.max()) + 1
         self.seq: Collapses = collapse_all(
-            verts, tri, labels=labels, planes=planes, structure=structure
+            verts, tri, labels=labels, planes=planes, structure=structure, target=target
         )
         self._kept_level = None
         self._report = None  # (m, the distances of `distances`)
+        self._there = None  # (m, the input's vertices to that level, of `near`)
         self._over = set()  # (m, bound): levels found over a bound
         self._near = {}  # (m, bound): levels within it on a subset of the samples
 
@@ -387,6 +416,17 @@ class Decimation:
                 hi = mid
         return lo
 
+    def near(self, m: int, first: int) -> float:
+        """The two-sided mean distance after ``m`` collapses: every input vertex to the
+        output (as reported; kept for `distances`) and the output's vertices and
+        first ``first`` area samples back (`MeshDistances.near`)."""
+        placed = self._placed(m)
+        out_v, out_t, _, _, lineage = placed
+        self._kept_level = (m, placed)
+        there, back_mean = self.measure.near(out_v, out_t, lineage, first)
+        self._there = (m, there)
+        return (float(there.mean()) if there.size else 0.0) + back_mean
+
     def distances(self, m: int):
         """``(there, back)``: the distances the report gives after ``m`` collapses
         (``measure.report``); the level and its distances are kept for `result`."""
@@ -395,7 +435,9 @@ class Decimation:
         placed = self._placed(m)
         out_v, out_t, _, _, lineage = placed
         self._kept_level = (m, placed)
-        if isinstance(self.measure, MeshDistances):
+        if isinstance(self.measure, MeshDistances) and self._there and self._there[0] == m:
+            found = (self._there[1], self.measure.back(out_v, out_t, lineage))
+        elif isinstance(self.measure, MeshDistances):
             found = self.measure.report(out_v, out_t, lineage)
         else:
             found = self.measure.report(out_v, out_t)

@@ -221,9 +221,10 @@ def _collapsible(v, tri, head, nxt, alive, a, b, x, mark, stamp, shared) -> int:
 
 
 @njit(cache=True)
-def collapse_edges(v, tri, q, on_boundary, edges, tie):
+def collapse_edges(v, tri, q, on_boundary, edges, tie, target):
     """Quadric edge collapse of a manifold triangle mesh, cheapest edge first, until
-    no edge can be collapsed (the decimation loop of `_decimate.decimate`).
+    no edge can be collapsed or at most ``target`` triangles are left (0: until none
+    can; the decimation loop of `_decimate.decimate`).
 
     ``v`` (V, 3) and ``q`` (V, 4, 4) are changed in place; ``tri`` is read only.
     Returns the collapses in order: ``kept`` (n,) the vertex kept, ``gone`` (n,) the
@@ -255,8 +256,9 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie):
     removed = np.empty(n_v, dtype=np.int64)
     costs = np.empty(n_v)
     n = 0
+    n_alive = n_t
     x = np.empty(3)
-    while heap:
+    while heap and n_alive > target:
         cost, a, b, va, vb, x0, x1, x2 = heapq.heappop(heap)
         if version[a] != va or version[b] != vb or head[a] == -1 or head[b] == -1:
             continue
@@ -279,6 +281,7 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie):
         version[a] += 1
         version[b] += 1
         kept[n], gone[n], removed[n], costs[n] = a, b, ns, cost
+        n_alive -= ns
         position[n] = x
         n += 1
         stamp[0] += 1
