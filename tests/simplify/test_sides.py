@@ -9,7 +9,7 @@ import numpy as np
 from pointatlas.neighbors import query_knn
 from pointatlas.normals import estimate_normals, orient_normals
 from pointatlas.simplify import mesh_checks, simplify_points
-from pointatlas.simplify._sides import outside_votes, turn_outward
+from pointatlas.simplify._sides import SMOOTH_ROUNDS, _smoothed, outside_votes, turn_outward
 from pointatlas.synth import sample_mesh
 
 from .cad_shapes import extrude
@@ -91,3 +91,35 @@ def test_true_normals_and_open_sheets_are_left_as_given():
     n[: sheet.shape[0] // 2] *= -1.0
     same, count = turn_outward(sheet, n)
     assert same is n and count == 0
+
+
+def _smoothed_reference(q, normals, votes, indices):
+    """`_sides._smoothed` in plain numpy."""
+    n, k = indices.shape
+    i = np.repeat(np.arange(n), k)
+    j = indices.reshape(-1)
+    e = q[j] - q[i]
+    length = np.linalg.norm(e, axis=1)
+    along = np.abs(np.einsum("ij,ij->i", normals[i], e)) < 0.5 * length
+    c = np.einsum("ij,ij->i", normals[i], normals[j])
+    w = np.where((length == 0) | (along & (np.abs(c) > 0.5)), np.sign(c), 0.0)
+    v = votes
+    for _ in range(SMOOTH_ROUNDS):
+        s = np.bincount(i, weights=w * v[j], minlength=n)
+        v = np.where(s != 0, np.sign(s), v)
+    return v
+
+
+def test_smoothed_votes_agree_with_the_plain_numpy_ones():
+    """The smoothing kernel gives the reference's votes exactly on the channel's PCA
+    normals (flipped across the walls) with mixed votes, repeated points included;
+    and it changes some votes (the test can tell)."""
+    p, _ = _u_channel()
+    p = np.vstack([p, p[:40]])  # repeated points: a zero-length edge
+    n = orient_normals(p, estimate_normals(p, k=20))
+    idx, _ = query_knn(p, 10)
+    votes = np.sign(np.random.default_rng(3).normal(size=p.shape[0]))
+    votes[::7] = 0.0
+    want = _smoothed_reference(p, n, votes, idx)
+    np.testing.assert_array_equal(_smoothed(p, n, votes, idx), want)
+    assert (want != votes).mean() > 0.1

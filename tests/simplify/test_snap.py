@@ -106,3 +106,27 @@ def test_sampled_cad_corners_come_back_on_the_true_corners(shape):
     gap = np.linalg.norm(v[:, None, :] - m.vertices[None, :, :], axis=2).min(axis=1)
     assert gap.max() <= 2e-3 * diag
     assert point_mesh_distance(m.vertices, v, t).max() <= 2e-3 * diag
+
+
+@pytest.mark.parametrize("shape", [l_bracket])
+def test_level_search_on_a_subset_of_the_points_meets_the_bound_on_all(shape, monkeypatch):
+    """The points path's level search first on a few of the points (`PointsDecimation.
+    steps_within`): a subset of 60 points (its levels fail on all, the search runs
+    again on all) and of 1,500 give the plain search's mesh, within the bound."""
+    import warnings
+
+    from pointatlas.simplify import SimplifyWarning, simplify_points
+    from pointatlas.simplify._snap import PointsDecimation
+
+    v, t = shape()
+    s = sample_mesh(v, t, 6000, rng=0)
+    p, n = np.asarray(s.points), np.asarray(s.normals)
+    meshes = []
+    for few in (10**9, 60, 1500):
+        monkeypatch.setattr(PointsDecimation, "search_points", few)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SimplifyWarning)
+            meshes.append(simplify_points(p, n, path="robust").mesh)
+    for m in meshes[1:]:
+        np.testing.assert_array_equal(m.triangles, meshes[0].triangles)
+        np.testing.assert_array_equal(m.vertices, meshes[0].vertices)

@@ -6,6 +6,7 @@ and a level's bound rises only where the points' surface itself is far
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial import cKDTree
 
 from pointatlas.simplify._distance import PointSurface
@@ -154,3 +155,56 @@ def test_a_plate_two_spacings_thick_keeps_its_volume():
     truth = np.vstack([v, sample_mesh(v, t, 5000, rng=1).points])
     far = max(point_mesh_distance(out, v, t).max(), point_mesh_distance(truth, mv, mt).max())
     assert far <= 0.025 * np.linalg.norm(np.ptp(p, axis=0))
+
+
+def test_a_subset_of_the_points_never_passes_what_all_of_them_fail():
+    """`PointDistances.subset`: every s-th point with its floor; whatever it finds over
+    the bound is over it on all the points (the level search's first pass), while a
+    point it leaves out can fail alone (hence the search's check on all)."""
+    v, t = subdivide(*box())
+    v = (v - v.min(axis=0)) / np.ptp(v, axis=0)  # the unit cube
+    s = sample_mesh(v, t, 6000, rng=0)
+    q, n = np.asarray(s.points), np.asarray(s.normals)
+    bound = 0.01
+    measure = PointDistances(q, PointSurface(q, n))
+    assert measure.subset(q.shape[0]) is None
+    measure.floor_at(v, t, bound)
+    few = measure.subset(1000)
+    np.testing.assert_array_equal(few.q, q[::6])
+    np.testing.assert_array_equal(few.there_floor, measure.there_floor[::6])
+    top = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 1.0], axis=1)))
+    seen = set()
+    for depth in np.linspace(0.0, 0.05, 11):
+        dented = _dented(v, top, depth)
+        on_few, on_all = few.within(dented, t, bound), measure.within(dented, t, bound)
+        assert on_few or not on_all
+        seen.add((on_few, on_all))
+    assert {(True, True), (False, False)} <= seen
+    # a point the subset leaves out, 4 % off the cube: all fail, the subset passes
+    # (the cube's samples are up to 1.05 % from the points' discs: a bound of 2 %)
+    off = q.copy()
+    off[1] += 0.04 * n[1]
+    alone = PointDistances(off, PointSurface(off, n))
+    assert alone.subset(1000).within(v, t, 0.02) and not alone.within(v, t, 0.02)
+
+
+def test_a_surface_with_its_radii_from_the_knn_table_is_the_searched_one():
+    """`tabled_surface` (disc radii from a `query_knn` table, `disc_radii`) holds what
+    `PointSurface` finds itself (the same attributes; radii up to rounding) and
+    measures the same distances; a table too narrow is refused."""
+    from pointatlas.neighbors import query_knn
+    from pointatlas.simplify._point_distances import disc_radii, tabled_surface
+
+    v, t = subdivide(*box())
+    s = sample_mesh(v, t, 3000, rng=0)
+    q, n = np.asarray(s.points), np.asarray(s.normals)
+    tree = cKDTree(q)
+    searched = PointSurface(q, n, tree)
+    _, dist = query_knn(q, 10)
+    tabled = tabled_surface(q, n, tree, disc_radii(dist))
+    assert vars(tabled).keys() == vars(searched).keys()
+    np.testing.assert_allclose(tabled.radius, searched.radius, rtol=1e-13, atol=0)
+    x = np.random.default_rng(0).uniform(-0.2, 1.2, size=(500, 3)) * np.ptp(v, axis=0)
+    np.testing.assert_allclose(tabled.distance(x), searched.distance(x), rtol=1e-12, atol=0)
+    with pytest.raises(ValueError, match="needs 9 neighbours"):
+        disc_radii(dist[:, :8])

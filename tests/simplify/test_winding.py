@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial import cKDTree
 
-from pointatlas.simplify._winding import point_areas, winding_numbers
+from pointatlas.neighbors import query_knn
+from pointatlas.simplify._winding import point_areas, table_areas, winding_numbers
 from pointatlas.synth import sample_mesh
 
 from .cad_shapes import cube_with_square_hole
@@ -87,3 +89,17 @@ def test_voxel_surface_of_a_sampled_solid_has_no_sheet_away_from_the_points(monk
     # rounded edges and corners are off by a few steps; a leaked sheet by the band's
     # width (at least 4.5 spacings)
     assert back.max() < 3.5 * rec.step < 0.02 * diag
+
+
+def test_areas_from_the_knn_table_are_the_searched_ones():
+    """`table_areas` of a `query_knn` table (the point first) is `point_areas` up to
+    the last bit of the distances (computed apart), repeated points and a set of
+    fewer than k + 1 points included; a table too narrow is refused."""
+    p, _ = _sphere(2000)
+    p = np.vstack([p, p[:50]])  # repeated points: the k-th distance counts them
+    _, dist = query_knn(p, 10)
+    np.testing.assert_allclose(table_areas(dist), point_areas(p), rtol=1e-13, atol=0)
+    _, few = query_knn(p[:4], 4)
+    np.testing.assert_allclose(table_areas(few), point_areas(p[:4]), rtol=1e-13, atol=0)
+    with pytest.raises(ValueError, match="needs 9 neighbours"):
+        table_areas(dist[:, :5])

@@ -16,7 +16,7 @@ from ._mesh import SimplifiedMesh
 from ._proxies import region_proxies
 from ._reconstruct import robust_mesh
 from ._segmentation import simplify_segmentation
-from ._sides import turn_outward
+from ._sides import SMOOTH_K, turn_outward
 from ._surface import SurfaceSimplification
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -279,6 +279,8 @@ class _Input:
     q: np.ndarray  # the points in the working frame
     indices: np.ndarray  # their k-NN table (working frame)
     n_turned: int  # normals turned to the outside (`_sides.turn_outward`)
+    areas: np.ndarray  # the points' disc areas (`_winding.point_areas`)
+    radius: np.ndarray  # ... and the radii of `PointSurface`'s discs (`disc_radii`)
 
     @property
     def point_index(self) -> np.ndarray:
@@ -320,9 +322,19 @@ def _prepare(points, normals, vsa, vsa_settings) -> _Input:
     check_memory(pts.shape[0], k)
     frame = frame_of(pts)
     q = frame.to_local(pts)
-    nrm, n_turned = turn_outward(q, nrm)
-    idx, _ = query_knn(q, k)
-    return _Input(pts, nrm, keep, n_input, k, opts, frame, q, idx, n_turned)
+    from ._distance import DISC_NEIGHBOR
+    from ._point_distances import disc_radii
+    from ._winding import AREA_NEIGHBOR, table_areas
+
+    # one k-NN table for VSA, the discs (areas, radii) and `turn_outward` (its first k
+    # columns are `query_knn(q, k)`'s: ties go to the smaller index)
+    wide, dist = query_knn(
+        q, min(max(k, SMOOTH_K, AREA_NEIGHBOR + 1, DISC_NEIGHBOR + 1), q.shape[0])
+    )
+    areas, radius = table_areas(dist), disc_radii(dist)
+    nrm, n_turned = turn_outward(q, nrm, (wide, dist), areas)
+    idx = wide if wide.shape[1] == k else np.ascontiguousarray(wide[:, :k])
+    return _Input(pts, nrm, keep, n_input, k, opts, frame, q, idx, n_turned, areas, radius)
 
 
 def _segment(inp: _Input, labels, centers, rng):
@@ -333,7 +345,10 @@ def _segment(inp: _Input, labels, centers, rng):
         raise ValueError(f"centers must be 'centroid' or 'seed'; got {centers!r}")
 
     if labels is None:
-        seg = vsa_segment(inp.points, inp.normals, options=inp.options, rng=rng)
+        # the k-NN table of `_prepare` (the working frame's: the same as VSA's own)
+        seg = vsa_segment(
+            inp.points, inp.normals, options=inp.options, rng=rng, neighbors=inp.indices
+        )
         seg_labels, seg_normals = np.asarray(seg.labels), np.asarray(seg.proxy_normals)
         if centers == "seed":
             ctr = seg.seed_points
@@ -386,7 +401,15 @@ def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, leve
     open too and the thesis mesh is as near to the points."""
     try:
         res, rec, point_labels = robust_mesh(
-            inp.q, inp.normals, seg_labels, seg_normals, inp.frame, **level
+            inp.q,
+            inp.normals,
+            seg_labels,
+            seg_normals,
+            inp.frame,
+            areas=inp.areas,
+            neighbors=inp.indices,
+            radius=inp.radius,
+            **level,
         )
     except PointAtlasError as exc:
         if mesh is None or "degenerate" in reason or not mesh.is_closed:

@@ -6,10 +6,20 @@ Decisions in docs/decisions/simplify.md ("The points path's robust path").
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["FLOOR_FACTOR", "FLOOR_NEIGHBORS", "FLOOR_SLACK", "PointDistances"]
+__all__ = [
+    "FLOOR_FACTOR",
+    "FLOOR_NEIGHBORS",
+    "FLOOR_SLACK",
+    "SEARCH_POINTS",
+    "PointDistances",
+    "disc_radii",
+    "tabled_surface",
+]
 
 #: Without ``max_error``, where the points' surface itself is farther from the points
 #: than the default bound, an output may reach there what the surface reaches plus
@@ -22,6 +32,36 @@ FLOOR_SLACK = 2.0
 FLOOR_NEIGHBORS = 8
 #: ... and never more than this many times the most it reaches anywhere.
 FLOOR_FACTOR = 1.1
+#: The level search first measures at most about this many of the points (evenly
+#: strided, `PointDistances.subset`): a level over the bound on them is over it on all.
+SEARCH_POINTS = 4000
+
+
+def disc_radii(distances: np.ndarray) -> np.ndarray:
+    """The points' disc radii of `PointSurface` (the distance to the
+    `DISC_NEIGHBOR`-th nearest other point) from their k-NN table's ``distances``
+    (`query_knn`: the point itself first, at least `DISC_NEIGHBOR` + 1 columns or all
+    the points)."""
+    from ._distance import DISC_NEIGHBOR
+
+    k = min(DISC_NEIGHBOR + 1, distances.shape[0])
+    if distances.shape[1] < k:
+        raise ValueError(f"disc_radii needs {k} neighbours; got {distances.shape[1]}")
+    return distances[:, k - 1] if k > 1 else np.zeros(distances.shape[0])
+
+
+def tabled_surface(points, normals, tree, radius):
+    """`PointSurface` of ``points`` with their ``normals``, `cKDTree` ``tree`` and disc
+    ``radius`` (`disc_radii`) given: the same surface without its own neighbour search
+    (10^6 points: about 3 s)."""
+    from ._distance import PointSurface
+
+    surface = PointSurface.__new__(PointSurface)
+    surface.points = np.asarray(points, dtype=np.float64)
+    surface.tree = tree
+    surface.normals = None if normals is None else np.asarray(normals, dtype=np.float64)
+    surface.radius = np.asarray(radius, dtype=np.float64)
+    return surface
 
 
 class PointDistances:
@@ -40,7 +80,9 @@ class PointDistances:
         self.box = (lo - 0.99 * grow, hi + 0.99 * grow)
         self.there_floor = self.back_floor = self.back_at = None
 
-    def floor_at(self, out_v, out_t, bound: float, *, slack=FLOOR_SLACK, factor=FLOOR_FACTOR):
+    def floor_at(
+        self, out_v, out_t, bound: float, *, slack=FLOOR_SLACK, factor=FLOOR_FACTOR, neighbors=None
+    ):
         """From now on (`within`), at each point and near each sample of the surface
         ``out_v``, ``out_t`` a level may reach what that surface reaches there (the
         most at the `FLOOR_NEIGHBORS` nearest) plus ``slack`` times ``bound``, but
@@ -48,7 +90,9 @@ class PointDistances:
         the bound given to `within`: where the points' surface lost a thin wall or
         bridged a gap, the bound rises there only, not everywhere (raised
         everywhere, it let a level of 168 triangles 3.6 % of the diagonal off the
-        truth pass). Returns the largest distance both ways."""
+        truth pass). ``neighbors``: the points' k-NN table (`query_knn`: the point
+        itself first, at least `FLOOR_NEIGHBORS` columns), searched when None.
+        Returns the largest distance both ways."""
         from ._distance import output_samples
         from ._mesh import point_mesh_distance
 
@@ -57,13 +101,29 @@ class PointDistances:
         back = self.surface.distance(samples)
         most = float(max(there.max(), back.max()))
         k = min(FLOOR_NEIGHBORS, self.q.shape[0])
-        there = there[self.surface.tree.query(self.q, k=k, workers=-1)[1]].max(axis=1)
+        if neighbors is None or neighbors.shape[1] < k:
+            neighbors = self.surface.tree.query(self.q, k=k, workers=-1)[1]
+        there = there[neighbors[:, :k]].max(axis=1)
         self.back_at = cKDTree(samples)
         k = min(FLOOR_NEIGHBORS, samples.shape[0])
         back = back[self.back_at.query(samples, k=k, workers=-1)[1]].max(axis=1)
         self.there_floor = np.minimum(there + slack * bound, factor * most)
         self.back_floor = np.minimum(back + slack * bound, factor * most)
         return most
+
+    def subset(self, n: int = SEARCH_POINTS):
+        """This measure on every s-th point only, s the smallest stride that leaves at
+        most ``n`` of them (their floors kept, the box and the back samples as they
+        are): whatever it finds over a bound is over it on all the points. None when
+        that is every point."""
+        stride = -(-self.q.shape[0] // max(int(n), 1))
+        if stride <= 1:
+            return None
+        few = copy.copy(self)
+        few.q = self.q[::stride]
+        if self.there_floor is not None:
+            few.there_floor = self.there_floor[::stride]
+        return few
 
     def within(self, out_v, out_t, bound: float) -> bool:
         from ._distance import output_samples

@@ -122,13 +122,14 @@ def _band_steps(step: float, spacing: float) -> int:
     return max(BAND, int(np.ceil(BAND_SPACINGS * spacing / step)))
 
 
-def is_closed_sample(q, normals) -> bool:
+def is_closed_sample(q, normals, areas=None) -> bool:
     """Whether oriented points sample a closed surface: their normals times their
-    disc areas sum to less than `CLOSED_DIPOLE` of the area (zero for a closed
-    surface, by the divergence theorem; the area itself for a flat sheet)."""
+    disc areas (``areas``: `_winding.point_areas` of ``q``, found when None) sum to
+    less than `CLOSED_DIPOLE` of the area (zero for a closed surface, by the
+    divergence theorem; the area itself for a flat sheet)."""
     from ._winding import point_areas
 
-    area = point_areas(q)
+    area = point_areas(q) if areas is None else areas
     return bool(np.linalg.norm(area @ normals) <= CLOSED_DIPOLE * area.sum())
 
 
@@ -328,15 +329,19 @@ def _bubbles(tri, far, nearest):
     return (near[piece] == 0) | (owned[piece] < STRAY_POINTS)
 
 
-def reconstruct_surface(q: np.ndarray, normals: np.ndarray) -> Reconstruction:
+def reconstruct_surface(
+    q: np.ndarray, normals: np.ndarray, areas=None, tree=None
+) -> Reconstruction:
     """Triangle surface of points ``q`` (working frame) with oriented ``normals``.
 
     Closed where the sampled surface is closed and sampled within about two grid
-    steps everywhere; cut open beyond the input's open boundaries.
+    steps everywhere; cut open beyond the input's open boundaries. ``areas``: the
+    points' disc areas (`is_closed_sample`), ``tree``: their `cKDTree`; found when
+    None.
     """
     from skimage.measure import marching_cubes
 
-    tree = cKDTree(q)
+    tree = cKDTree(q) if tree is None else tree
     spacing = _spacing(q, tree)
     lo, hi = q.min(axis=0), q.max(axis=0)
     extent = float((hi - lo).max())
@@ -345,7 +350,7 @@ def reconstruct_surface(q: np.ndarray, normals: np.ndarray) -> Reconstruction:
     across = float(np.sort(hi - lo)[-2])
     step, shape = _grid(hi - lo, max(SPACING_STEPS * spacing, across / MAX_CELLS), spacing)
     origin = lo - (_band_steps(step, spacing) + 2) * step
-    closed = is_closed_sample(q, normals)
+    closed = is_closed_sample(q, normals, areas)
     f = _field(q, normals, tree, step, spacing, origin, shape, closed)
     if not f.min() < 0.0 < f.max():  # no inside (a few sparse points): no surface
         raise PointAtlasError(
@@ -463,14 +468,29 @@ def region_planes(q, labels, proxy_normals, source):
     return pn[source], off[source], dev[source], width[source]
 
 
-def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max_triangles=None):
+def robust_mesh(
+    q,
+    normals,
+    labels,
+    proxy_normals,
+    frame,
+    *,
+    max_error=None,
+    max_triangles=None,
+    areas=None,
+    neighbors=None,
+    radius=None,
+):
     """The robust path: the points' surface (`reconstruct_surface`), its triangles
     labelled by the points' regions (`transfer_labels`), then the structure-aware
     decimation of the mesh path (`Decimation`), its flat regions' planes from their
     points, to the fewest triangles within ``max_error`` (input units; default
     `MAX_ERROR` of the diagonal; where the surface itself is farther, what it
     reaches there and some more, `PointDistances.floor_at`) of the points both
-    ways, or to ``max_triangles``.
+    ways, or to ``max_triangles``. ``areas``: the points' disc areas
+    (`is_closed_sample`), ``neighbors``: their k-NN table (`query_knn`, for
+    `PointDistances.floor_at`), ``radius``: their discs' radii (`PointSurface`,
+    `disc_radii`); found when None.
 
     Returns ``(result, reconstruction, point_labels)``: the `SurfaceSimplification`
     in input coordinates (``distances`` are those of the points), the surface and
@@ -480,14 +500,14 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max
 
     from ._decimate_mesh import MAX_ERROR
     from ._distance import PointSurface
-    from ._point_distances import PointDistances
+    from ._point_distances import PointDistances, tabled_surface
     from ._polygons import PLANAR_RTOL
     from ._snap import FIT_STEPS, PointsDecimation, fit_to_points
     from ._triangles import _face_graph, _surface
 
-    rec = reconstruct_surface(q, normals)
-    s = _surface(rec.vertices, rec.triangles)
     tree = cKDTree(q)
+    rec = reconstruct_surface(q, normals, areas, tree)
+    s = _surface(rec.vertices, rec.triangles)
     _, nearest = tree.query(s.centroids, workers=-1)
     lab = transfer_labels(s, _face_graph(s), labels, nearest)
     source = np.zeros(int(lab.max()) + 1, dtype=np.int64)
@@ -500,7 +520,10 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max
     # steps: the voxel surface's rounded edges and corners come back). A narrow band
     # (estimated normals turning over an edge) carries no plane.
     planes = (pn, offsets, (deviation <= 0.25 * bound) & (width >= rec.step))
-    surface = PointSurface(q, normals, tree)
+    if radius is None:
+        surface = PointSurface(q, normals, tree)
+    else:
+        surface = tabled_surface(q, normals, tree, radius)
     measure = PointDistances(q, surface)
     verts = fit_to_points(rec.vertices, rec.triangles, q, normals, tree, FIT_STEPS * rec.step)
     box = measure.box  # never a vertex outside
@@ -520,7 +543,7 @@ def robust_mesh(q, normals, labels, proxy_normals, frame, *, max_error=None, max
     )
     if max_error is None:
         # the default bound, or what the points' surface itself reaches there, if more
-        measure.floor_at(*level.placed(0)[:2], bound)
+        measure.floor_at(*level.placed(0)[:2], bound, neighbors=neighbors)
     steps = level.steps_for(max_triangles, bound)
     if max_triangles is not None and not level.within(steps, SPIKE_FACTOR * bound):
         # a budget is met only while the output stays near the points (the last

@@ -19,6 +19,7 @@ docs/decisions/simplify.md, "Normals turned to the outside".
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from scipy import ndimage
 
 from ..neighbors import query_knn
@@ -86,29 +87,60 @@ def outside_votes(q: np.ndarray, normals: np.ndarray, spacing: float) -> np.ndar
 def _smoothed(q, normals, votes, indices) -> np.ndarray:
     """Votes taken over the neighbours on the same side of a wall (normals within
     60 degrees of parallel, the edge within 30 degrees of the tangent plane; a
-    neighbour's vote counts with the sign of n_i . n_j)."""
+    neighbour's vote counts with the sign of n_i . n_j), `SMOOTH_ROUNDS` times
+    (`_smoothed_kernel`; plain numpy: `_smoothed_reference` in
+    tests/simplify/test_sides.py)."""
+    # writable C copies: one compiled signature whatever the caller's arrays
+    q = np.array(q, dtype=np.float64, order="C")
+    normals = np.array(normals, dtype=np.float64, order="C")
+    votes = np.array(votes, dtype=np.float64, order="C")
+    indices = np.array(indices, dtype=np.int64, order="C")
+    return _smoothed_kernel(q, normals, votes, indices, SMOOTH_ROUNDS)
+
+
+@njit(cache=True)
+def _smoothed_kernel(q, normals, votes, indices, rounds):
     n, k = indices.shape
-    i = np.repeat(np.arange(n), k)
-    j = indices.reshape(-1)
-    e = q[j] - q[i]
-    length = np.linalg.norm(e, axis=1)
-    along = np.abs(np.einsum("ij,ij->i", normals[i], e)) < 0.5 * length
-    c = np.einsum("ij,ij->i", normals[i], normals[j])
-    w = np.where((length == 0) | (along & (np.abs(c) > 0.5)), np.sign(c), 0.0)
-    v = votes
-    for _ in range(SMOOTH_ROUNDS):
-        s = np.bincount(i, weights=w * v[j], minlength=n)
-        v = np.where(s != 0, np.sign(s), v)
+    w = np.zeros((n, k))
+    for i in range(n):
+        for a in range(k):
+            j = indices[i, a]
+            e0, e1, e2 = q[j, 0] - q[i, 0], q[j, 1] - q[i, 1], q[j, 2] - q[i, 2]
+            length = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+            h = normals[i, 0] * e0 + normals[i, 1] * e1 + normals[i, 2] * e2
+            c = normals[i, 0] * normals[j, 0] + normals[i, 1] * normals[j, 1]
+            c += normals[i, 2] * normals[j, 2]
+            if length == 0.0 or (abs(h) < 0.5 * length and abs(c) > 0.5):
+                w[i, a] = np.sign(c)
+    v = votes.copy()
+    for _ in range(rounds):
+        out = v.copy()
+        for i in range(n):
+            s = 0.0
+            for a in range(k):
+                s += w[i, a] * v[indices[i, a]]
+            if s != 0.0:
+                out[i] = np.sign(s)
+        v = out
     return v
 
 
-def turn_outward(q: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, int]:
+def turn_outward(
+    q: np.ndarray, normals: np.ndarray, neighbors=None, areas=None
+) -> tuple[np.ndarray, int]:
     """``normals`` with the inward-turned ones flipped, and how many were; unchanged
     (0) when the dipole test already finds the sample closed or the flipped normals
-    would not make it closed (an open sheet, a shape open to the grid's border)."""
-    if q.shape[0] < SMOOTH_K or is_closed_sample(q, normals):
+    would not make it closed (an open sheet, a shape open to the grid's border).
+
+    ``neighbors``: ``(indices, distances)``, a `query_knn` table of ``q`` with at
+    least `SMOOTH_K` columns (its first `SMOOTH_K` are used; searched when None);
+    ``areas``: the points' disc areas (`is_closed_sample`; found when None)."""
+    if q.shape[0] < SMOOTH_K or is_closed_sample(q, normals, areas):
         return normals, 0
-    idx, dist = query_knn(q, SMOOTH_K)
+    if neighbors is None:
+        idx, dist = query_knn(q, SMOOTH_K)
+    else:
+        idx, dist = neighbors[0][:, :SMOOTH_K], neighbors[1][:, :SMOOTH_K]
     near = np.asarray(dist)[:, 1:]
     positive = near[near > 0]
     if positive.size == 0:
@@ -120,6 +152,6 @@ def turn_outward(q: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, int]:
     if not flip.any():
         return normals, 0
     turned = np.where(flip[:, None], -normals, normals)
-    if not is_closed_sample(q, turned):
+    if not is_closed_sample(q, turned, areas):
         return normals, 0
     return turned, int(flip.sum())

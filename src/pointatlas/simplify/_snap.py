@@ -25,6 +25,7 @@ import numpy as np
 
 from ._decimate_mesh import Decimation
 from ._place import _unflip, place_on_planes
+from ._point_distances import SEARCH_POINTS
 
 __all__ = [
     "FIT_NEIGHBORS",
@@ -111,11 +112,35 @@ class PointsDecimation(Decimation):
     stays within ``tol`` of the points' surface (`placed_near_points`), and whose
     vertices farther than ``tol`` from it are fitted to the points again, at most
     ``fit_bound`` (`refit_far`); ``measure`` is the points' (`PointDistances`, its
-    ``surface`` the points' discs)."""
+    ``surface`` the points' discs); ``search_points``: the level search's subset of
+    the points (`steps_within`)."""
+
+    search_points: int = SEARCH_POINTS
 
     def __init__(self, verts, tri, labels, planes, step, still, measure, box, tol, fit_bound):
         super().__init__(verts, tri, labels, planes, step, still, measure, box)
         self.tol, self.fit_bound = float(tol), float(fit_bound)
+
+    def steps_within(self, bound: float) -> int:
+        """`Decimation.steps_within`, its levels first measured on a subset of the
+        points (`PointDistances.subset`: a level over the bound on it is over it on
+        all), then the level found measured on all of them; where that fails, the
+        search again on all (levels found over the bound are not measured again).
+        The answer meets the bound on all the points; it is the plain search's
+        unless a level passed on the subset fails on all while the one the search
+        ends on does not."""
+        full = self.measure
+        few = full.subset(self.search_points) if hasattr(full, "subset") else None
+        if few is None:
+            return super().steps_within(bound)
+        self.measure = few
+        try:
+            m = super().steps_within(bound)
+        finally:
+            self.measure = full
+        if m == 0 or self.within(m, bound):
+            return m
+        return super().steps_within(bound)
 
     def _placed(self, m: int):
         if self._kept_level is not None and self._kept_level[0] == m:

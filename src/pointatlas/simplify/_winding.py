@@ -17,7 +17,14 @@ import numpy as np
 from numba import njit, prange
 from scipy.spatial import cKDTree
 
-__all__ = ["AREA_NEIGHBOR", "FAR_RADII", "MAX_POINTS", "point_areas", "winding_numbers"]
+__all__ = [
+    "AREA_NEIGHBOR",
+    "FAR_RADII",
+    "MAX_POINTS",
+    "point_areas",
+    "table_areas",
+    "winding_numbers",
+]
 
 #: A point's disc area is pi r^2 / k, r the distance to its k-th nearest neighbour.
 AREA_NEIGHBOR = 8
@@ -35,6 +42,19 @@ def point_areas(points: np.ndarray, k: int = AREA_NEIGHBOR) -> np.ndarray:
         return np.zeros(points.shape[0])
     d, _ = cKDTree(points).query(points, k=k + 1, workers=-1)
     return np.pi * d[:, -1] ** 2 / k
+
+
+def table_areas(distances: np.ndarray, k: int = AREA_NEIGHBOR) -> np.ndarray:
+    """`point_areas` from a k-NN table's ``distances`` (the point itself first, at
+    least ``min(k, N - 1) + 1`` columns): the same values (up to the distances'
+    rounding), without a search."""
+    n = distances.shape[0]
+    k = min(k, n - 1)
+    if k < 1:
+        return np.zeros(n)
+    if distances.shape[1] < k + 1:
+        raise ValueError(f"table_areas needs {k + 1} neighbours; got {distances.shape[1]}")
+    return np.pi * distances[:, k] ** 2 / k
 
 
 @njit(cache=True, parallel=True)
