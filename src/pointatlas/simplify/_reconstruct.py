@@ -140,7 +140,9 @@ def _field(q, normals, tree, step, spacing, origin, shape, closed):
     cells = np.floor((q - origin) / step).astype(np.int64)
     occupied = np.zeros(shape, dtype=bool)
     occupied[cells[:, 0], cells[:, 1], cells[:, 2]] = True
-    band = ndimage.binary_dilation(occupied, structure=np.ones((3, 3, 3), bool), iterations=width)
+    # the nodes within ``width`` steps (Chebyshev) of a point's cell: a cube dilation
+    # ``width`` times, as one separable maximum filter
+    band = ndimage.maximum_filter(occupied, size=2 * width + 1, mode="constant", cval=0)
     band[[0, -1], :, :] = band[:, [0, -1], :] = band[:, :, [0, -1]] = False
     nodes = np.argwhere(band)
     values, thin = _band_sides(q, normals, tree, origin + nodes * step, step, spacing)
@@ -183,10 +185,10 @@ def _thin_keep(band, thin, values):
     keep[band] = thin
     side = np.zeros(band.shape, dtype=np.int8)
     side[band] = np.where(values < 0.0, -1, 1)
-    cube = np.ones((3, 3, 3), dtype=bool)
     out = keep != 0
-    for s in (-1, 1):
-        out |= ndimage.binary_dilation(keep == s, structure=cube) & (side == s)
+    for s in (-1, 1):  # a dilation by the 3 x 3 x 3 cube
+        near = ndimage.maximum_filter(keep == s, size=3, mode="constant", cval=0)
+        out |= near & (side == s)
     return out
 
 
@@ -225,6 +227,7 @@ def _winding_sides(f, q, normals, occupied, step, spacing, origin):
     where the band leaks through a sampling gap or a pocket. Only for a closed
     sampled surface (its dipoles sum to less than `CLOSED_DIPOLE` of its area: an
     open sheet has no inside)."""
+    from ._edt import distance_to
     from ._winding import winding_numbers
 
     shape = np.array(f.shape)
@@ -238,7 +241,7 @@ def _winding_sides(f, q, normals, occupied, step, spacing, origin):
             "normals point in (the points' winding number is -1 inside them)"
         )
     w = w.reshape([a.size for a in axes])
-    far_from = ndimage.distance_transform_edt(~occupied) * step
+    far_from = distance_to(occupied) * step
     # a node whose lattice corners are all more than a spacing from every point (near
     # the points the winding number is steep: interpolated it made tunnels)
     far = far_from > spacing + stride * step

@@ -23,6 +23,7 @@ from numba import njit
 from scipy import ndimage
 
 from ..neighbors import query_knn
+from ._edt import distance_to
 from ._reconstruct import is_closed_sample
 
 __all__ = ["GAP_SPACINGS", "MAX_CELLS", "outside_votes", "turn_outward"]
@@ -66,12 +67,12 @@ def outside_votes(q: np.ndarray, normals: np.ndarray, spacing: float) -> np.ndar
     cells = np.floor((q - origin) / step).astype(np.int64)
     occupied = np.ones(tuple(shape), dtype=bool)
     occupied[tuple(cells.T)] = False
-    empty = ndimage.distance_transform_edt(occupied) * step > reach
+    empty = distance_to(~occupied) * step > reach
     del occupied
     lab, _ = ndimage.label(empty)
     outside = lab == lab[0, 0, 0]  # the padded corner is always empty
     del lab, empty
-    depth = ndimage.distance_transform_edt(~outside)
+    depth = distance_to(outside)
     top = shape - 1
 
     def at(x):
