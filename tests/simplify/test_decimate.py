@@ -309,3 +309,33 @@ def test_the_level_search_on_a_subset_of_the_samples_finds_the_full_search_level
     assert sub.back_distance_max == full.back_distance_max
     bound = dm.MAX_ERROR * np.linalg.norm(np.ptp(m.vertices, axis=0))
     assert max(sub.distance_max, sub.back_distance_max) <= bound
+
+
+def test_small_inputs_on_a_busy_machine_run_in_one_thread_with_the_same_output(monkeypatch):
+    import numba
+
+    from pointatlas.simplify import _decimate_mesh as D
+
+    threads = numba.get_num_threads()
+    seen = []
+    real = D._decimate_mesh
+
+    def spy(*args):
+        seen.append(numba.get_num_threads())
+        return real(*args)
+
+    monkeypatch.setattr(D, "_decimate_mesh", spy)
+    v, t = C.subdivide(*C.cube_with_square_hole())
+    out = {}
+    for busy in (True, False):
+        monkeypatch.setattr(D, "machine_busy", lambda busy=busy: busy)
+        out[busy] = (decimate_mesh(v, t), decimate_mesh(v, t, 40))
+        assert numba.get_num_threads() == threads  # restored
+    assert seen == [1, 1, threads, threads]
+    for one, par in zip(out[True], out[False], strict=True):
+        for name in ("vertices", "triangles", "triangle_face", "distances"):
+            np.testing.assert_array_equal(getattr(one, name), getattr(par, name))
+        assert [list(p) for p in one.polygons] == [list(p) for p in par.polygons]
+    monkeypatch.setattr(D, "machine_busy", lambda: True)
+    with D._threads_for(D.PARALLEL_MIN_TRIANGLES):  # large inputs: untouched
+        assert numba.get_num_threads() == threads
