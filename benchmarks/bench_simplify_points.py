@@ -21,8 +21,8 @@ between the output and the mesh the points were sampled from (its vertices and
 lies outside the points' box grown by 1 % of its diagonal (a spike), seconds. The
 summary prints the shares closed + manifold + oriented, with the input's Euler
 characteristic, within 1 % of the truth both ways, with a spike, and the times. An
-untimed run on 2,000 points of the first model comes first (`warm_up`: numba's
-compile or cache load is no model's time).
+untimed run of the first model comes first (`warm_up`: numba's compile or cache
+load is no model's time).
 """
 
 from __future__ import annotations
@@ -157,18 +157,12 @@ def run_model(path: Path, n_points: int, estimate: bool = False, peer: bool = Tr
     return row
 
 
-def warm_up(path: Path, n_points: int = 2000) -> None:
-    """One untimed `simplify_points` run on ``n_points`` of the first model, so that no
-    model's time holds numba's compile or cache load (the peer's is timed in a warm
-    child process, without Open3D's import)."""
-    mesh = read_mesh(path)
-    s = sample_mesh(mesh.vertices, np.asarray(mesh.triangles, dtype=np.int64), n_points, rng=0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", SimplifyWarning)
-        try:
-            simplify_points(np.asarray(s.points), np.asarray(s.normals))
-        except Exception:  # noqa: BLE001, S110 - a crash is the timed run's result
-            pass
+def warm_up(path: Path, n_points: int, estimate: bool = False) -> None:
+    """The first model once untimed (`run_model` without the peer), so that no model's
+    time holds numba's compile or cache load (the peer's is timed in a child process
+    after Open3D's import): the same kernels, signatures and code paths as the timed
+    runs (a smaller sample can take other branches)."""
+    run_model(path, n_points, estimate, peer=False)
 
 
 def peer_summary(rows: list[dict]) -> list[str]:
@@ -219,7 +213,7 @@ def main(argv=None) -> int:
         part, n_parts = (int(x) for x in args.shard.split("/"))
         files = files[part::n_parts]
     if files:
-        warm_up(files[0])
+        warm_up(files[0], args.points, args.estimate_normals)
     rows = []
     for path in files:
         row = run_model(path, args.points, args.estimate_normals, not args.no_peer)
