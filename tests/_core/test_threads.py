@@ -61,3 +61,23 @@ def test_an_error_in_a_piece_is_raised_in_the_caller():
 
     with pytest.raises(ValueError, match="failed"):
         run_chunks(fail_on_the_last_piece, 100, (100,))
+
+
+def test_one_thread_if_sets_one_thread_inside_and_restores_it():
+    import numba
+
+    from pointatlas._core._threads import machine_busy, one_thread_if
+
+    threads = numba.get_num_threads()
+    with one_thread_if(True):
+        assert numba.get_num_threads() == 1
+    assert numba.get_num_threads() == threads
+    with one_thread_if(False):
+        assert numba.get_num_threads() == threads
+    try:  # restored when the body raises
+        with one_thread_if(True):
+            raise KeyError("x")
+    except KeyError:
+        pass
+    assert numba.get_num_threads() == threads
+    assert isinstance(machine_busy(), bool)

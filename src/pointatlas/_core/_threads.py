@@ -1,15 +1,48 @@
-"""A loop of independent chunks run on Python threads, each chunk one call of a serial
-``nogil`` numba kernel: the parallel loop of a kernel without numba's ``parallel=True``,
-whose first compile costs several CPU-seconds per kernel (docs/decisions/cli.md,
-"First run")."""
+"""Threads: a loop of independent chunks run on Python threads, each chunk one call of
+a serial ``nogil`` numba kernel (the parallel loop of a kernel without numba's
+``parallel=True``, whose first compile costs several CPU-seconds per kernel:
+docs/decisions/cli.md, "First run"); and one numba thread for small inputs on a busy
+machine (speed only; the same output)."""
 
 from __future__ import annotations
 
+import os
 import threading
+from contextlib import contextmanager
 
 import numba
 
-__all__ = ["run_chunks"]
+__all__ = ["machine_busy", "one_thread_if", "run_chunks"]
+
+
+def machine_busy() -> bool:
+    """True when the 1-minute load average reaches the number of CPUs (Unix; else False)."""
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):
+        return False
+    return load >= (os.cpu_count() or 1)
+
+
+@contextmanager
+def one_thread_if(condition: bool):
+    """Run the enclosed numba parallel regions in one thread when ``condition`` holds.
+
+    Sets numba's thread count to 1 for the calling thread (numba's setting is
+    thread-local) and restores it on exit; otherwise changes nothing. Callers pass
+    "small input and `machine_busy`": a parallel region loses more than its second
+    thread gains when that thread waits for a busy core. Results must not depend on it.
+    """
+    if not condition:
+        yield
+        return
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
+
 
 #: pieces handed out per thread: a thread that finishes early (its points were
 #: cheap, or its core busy) takes the next piece; each piece is one kernel call

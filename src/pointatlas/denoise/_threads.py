@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-import os
-from contextlib import contextmanager
-
-import numba
+from .._core._threads import machine_busy, one_thread_if
 
 __all__ = ["PARALLEL_MIN_POINTS", "machine_busy", "threads_for"]
 
@@ -19,16 +16,6 @@ __all__ = ["PARALLEL_MIN_POINTS", "machine_busy", "threads_for"]
 PARALLEL_MIN_POINTS = 50_000
 
 
-def machine_busy() -> bool:
-    """True when the 1-minute load average reaches the number of CPUs (Unix; else False)."""
-    try:
-        load = os.getloadavg()[0]
-    except (AttributeError, OSError):
-        return False
-    return load >= (os.cpu_count() or 1)
-
-
-@contextmanager
 def threads_for(n_points: int):
     """Run the enclosed numba parallel regions in one thread for small inputs on a busy machine.
 
@@ -36,12 +23,4 @@ def threads_for(n_points: int):
     count to 1 for the calling thread (numba's setting is thread-local) and
     restores it on exit; otherwise changes nothing. Results do not depend on it.
     """
-    if n_points >= PARALLEL_MIN_POINTS or not machine_busy():
-        yield
-        return
-    before = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(before)
+    return one_thread_if(n_points < PARALLEL_MIN_POINTS and machine_busy())

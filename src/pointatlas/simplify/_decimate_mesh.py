@@ -11,13 +11,11 @@ docs/decisions/simplify.md, section "Decimation".
 from __future__ import annotations
 
 import dataclasses
-from contextlib import contextmanager
 
-import numba
 import numpy as np
 
 from .._core import as_float, as_int, as_points
-from ..denoise._threads import machine_busy
+from .._core._threads import machine_busy, one_thread_if
 from ..neighbors import MeshDistanceIndex
 from ._decimate import Collapses, collapse_all
 from ._distance import _samples_in_order, back_distances
@@ -123,19 +121,10 @@ def decimate_mesh(
         return _decimate_mesh(verts, tri, max_triangles, max_error, max_angle, rng)
 
 
-@contextmanager
 def _threads_for(n_triangles: int):
     """One numba thread (numba's setting of the calling thread, restored on exit)
     below `PARALLEL_MIN_TRIANGLES` input triangles on a busy machine; else nothing."""
-    if n_triangles >= PARALLEL_MIN_TRIANGLES or not machine_busy():
-        yield
-        return
-    before = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(before)
+    return one_thread_if(n_triangles < PARALLEL_MIN_TRIANGLES and machine_busy())
 
 
 def _decimate_mesh(verts, tri, max_triangles, max_error, max_angle, rng):
