@@ -58,6 +58,19 @@ def test_memory_beyond_what_is_available_is_refused_up_front(monkeypatch):
     assert simplify_segmentation(m.vertices, m.normals, m.labels).n_faces == 6
 
 
+def test_the_memory_check_counts_the_neighbour_table_s_width(monkeypatch):
+    """The points path's one k-NN table is wider than VSA's k (the discs' neighbours):
+    the estimate counts its columns, the message still names the k given."""
+    import pointatlas.simplify._checks as checks
+
+    wide = checks.memory_estimate(10**6, 10)
+    monkeypatch.setattr(checks, "available_memory", lambda: wide - 1)
+    checks.check_memory(10**6, 8)  # k = 8 alone fits
+    with pytest.raises(PointAtlasError, match=r"k = 8 on 1000000 points needs about"):
+        checks.check_memory(10**6, 8, columns=10)
+    checks.check_memory(10**6, 8, columns=6)  # never below k
+
+
 def test_available_memory_is_read_from_the_system():
     from pointatlas.simplify._checks import available_memory
 

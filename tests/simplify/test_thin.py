@@ -189,11 +189,11 @@ def test_a_subset_of_the_points_never_passes_what_all_of_them_fail():
 
 
 def test_a_surface_with_its_radii_from_the_knn_table_is_the_searched_one():
-    """`tabled_surface` (disc radii from a `query_knn` table, `disc_radii`) holds what
-    `PointSurface` finds itself (the same attributes; radii up to rounding) and
+    """`PointSurface` given its disc radii from a `query_knn` table (`disc_radii`)
+    holds what it finds itself (the same attributes; radii up to rounding) and
     measures the same distances; a table too narrow is refused."""
     from pointatlas.neighbors import query_knn
-    from pointatlas.simplify._point_distances import disc_radii, tabled_surface
+    from pointatlas.simplify._point_distances import disc_radii
 
     v, t = subdivide(*box())
     s = sample_mesh(v, t, 3000, rng=0)
@@ -201,7 +201,7 @@ def test_a_surface_with_its_radii_from_the_knn_table_is_the_searched_one():
     tree = cKDTree(q)
     searched = PointSurface(q, n, tree)
     _, dist = query_knn(q, 10)
-    tabled = tabled_surface(q, n, tree, disc_radii(dist))
+    tabled = PointSurface(q, n, tree, disc_radii(dist))
     assert vars(tabled).keys() == vars(searched).keys()
     np.testing.assert_allclose(tabled.radius, searched.radius, rtol=1e-13, atol=0)
     x = np.random.default_rng(0).uniform(-0.2, 1.2, size=(500, 3)) * np.ptp(v, axis=0)

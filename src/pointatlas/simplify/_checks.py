@@ -77,10 +77,12 @@ def memory_estimate(n_points: int, k: int, n_regions: int = 0) -> int:
     return BYTES_PER_NEIGHBOUR * n_points * k + BYTES_PER_REGION_PAIR * n_regions**2
 
 
-def check_memory(n_points: int, k: int, n_regions: int = 0) -> None:
+def check_memory(n_points: int, k: int, n_regions: int = 0, columns: int | None = None) -> None:
     """Raise a `PointAtlasError` before the work starts when its estimated memory
-    exceeds the available memory (a clear message instead of running out of it)."""
-    need = memory_estimate(n_points, k, n_regions)
+    exceeds the available memory (a clear message instead of running out of it).
+    ``columns``: the neighbour table's width when it is wider than ``k`` (the points
+    path's one table serves VSA's k and the discs' neighbours)."""
+    need = memory_estimate(n_points, k if columns is None else max(k, columns), n_regions)
     have = available_memory()
     if have is not None and need > have:
         regions = f" and {n_regions} regions" if n_regions else ""

@@ -42,13 +42,18 @@ class PointSurface:
     height of x over a point's tangent plane and t the distance along it. Sampling
     gaps (nearest points a spacing away on a flat face) then cost nothing, while a
     spike or a sheet where there are no points costs its full distance; without
-    normals, the distance to the nearest point.
+    normals, the distance to the nearest point. ``tree`` (a `cKDTree` of the points)
+    and ``radius`` (the discs' radii, e.g. from a k-NN table the caller has:
+    `_point_distances.disc_radii`) are searched when not given.
     """
 
-    def __init__(self, points, normals=None, tree=None):
+    def __init__(self, points, normals=None, tree=None, radius=None):
         self.points = np.asarray(points, dtype=np.float64)
         self.tree = cKDTree(self.points) if tree is None else tree
         self.normals = None if normals is None else np.asarray(normals, dtype=np.float64)
+        if radius is not None:
+            self.radius = np.asarray(radius, dtype=np.float64)
+            return
         k = min(DISC_NEIGHBOR + 1, self.points.shape[0])
         far = self.tree.query(self.points, k=k, workers=-1)[0]
         self.radius = far[:, -1] if far.ndim == 2 else np.zeros(self.points.shape[0])

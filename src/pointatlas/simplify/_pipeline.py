@@ -319,18 +319,17 @@ def _prepare(points, normals, vsa, vsa_settings) -> _Input:
             if weights.shape != (n_input,):
                 raise ValueError(f"weights must have shape ({n_input},); got {weights.shape}")
             opts = opts.replace(weights=weights[keep])
-    check_memory(pts.shape[0], k)
-    frame = frame_of(pts)
-    q = frame.to_local(pts)
     from ._distance import DISC_NEIGHBOR
     from ._point_distances import disc_radii
     from ._winding import AREA_NEIGHBOR, table_areas
 
     # one k-NN table for VSA, the discs (areas, radii) and `turn_outward` (its first k
     # columns are `query_knn(q, k)`'s: ties go to the smaller index)
-    wide, dist = query_knn(
-        q, min(max(k, SMOOTH_K, AREA_NEIGHBOR + 1, DISC_NEIGHBOR + 1), q.shape[0])
-    )
+    columns = min(max(k, SMOOTH_K, AREA_NEIGHBOR + 1, DISC_NEIGHBOR + 1), pts.shape[0])
+    check_memory(pts.shape[0], k, columns=columns)
+    frame = frame_of(pts)
+    q = frame.to_local(pts)
+    wide, dist = query_knn(q, columns)
     areas, radius = table_areas(dist), disc_radii(dist)
     nrm, n_turned = turn_outward(q, nrm, (wide, dist), areas)
     idx = wide if wide.shape[1] == k else np.ascontiguousarray(wide[:, :k])

@@ -18,7 +18,6 @@ __all__ = [
     "SEARCH_POINTS",
     "PointDistances",
     "disc_radii",
-    "tabled_surface",
 ]
 
 #: Without ``max_error``, where the points' surface itself is farther from the points
@@ -48,20 +47,6 @@ def disc_radii(distances: np.ndarray) -> np.ndarray:
     if distances.shape[1] < k:
         raise ValueError(f"disc_radii needs {k} neighbours; got {distances.shape[1]}")
     return distances[:, k - 1] if k > 1 else np.zeros(distances.shape[0])
-
-
-def tabled_surface(points, normals, tree, radius):
-    """`PointSurface` of ``points`` with their ``normals``, `cKDTree` ``tree`` and disc
-    ``radius`` (`disc_radii`) given: the same surface without its own neighbour search
-    (10^6 points: about 3 s)."""
-    from ._distance import PointSurface
-
-    surface = PointSurface.__new__(PointSurface)
-    surface.points = np.asarray(points, dtype=np.float64)
-    surface.tree = tree
-    surface.normals = None if normals is None else np.asarray(normals, dtype=np.float64)
-    surface.radius = np.asarray(radius, dtype=np.float64)
-    return surface
 
 
 class PointDistances:

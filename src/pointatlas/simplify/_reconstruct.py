@@ -503,7 +503,7 @@ def robust_mesh(
 
     from ._decimate_mesh import MAX_ERROR
     from ._distance import PointSurface
-    from ._point_distances import PointDistances, tabled_surface
+    from ._point_distances import PointDistances
     from ._polygons import PLANAR_RTOL
     from ._snap import FIT_STEPS, PointsDecimation, fit_to_points
     from ._triangles import _face_graph, _surface
@@ -523,11 +523,7 @@ def robust_mesh(
     # steps: the voxel surface's rounded edges and corners come back). A narrow band
     # (estimated normals turning over an edge) carries no plane.
     planes = (pn, offsets, (deviation <= 0.25 * bound) & (width >= rec.step))
-    if radius is None:
-        surface = PointSurface(q, normals, tree)
-    else:
-        surface = tabled_surface(q, normals, tree, radius)
-    measure = PointDistances(q, surface)
+    measure = PointDistances(q, PointSurface(q, normals, tree, radius))
     verts = fit_to_points(rec.vertices, rec.triangles, q, normals, tree, FIT_STEPS * rec.step)
     box = measure.box  # never a vertex outside
     # a vertex placed on its planes stays there only within a quarter of the bound of
