@@ -193,7 +193,7 @@ def test_a_surface_with_its_radii_from_the_knn_table_is_the_searched_one():
     holds what it finds itself (the same attributes; radii up to rounding) and
     measures the same distances; a table too narrow is refused."""
     from pointatlas.neighbors import query_knn
-    from pointatlas.simplify._point_distances import disc_radii
+    from pointatlas.simplify._distance import disc_radii
 
     v, t = subdivide(*box())
     s = sample_mesh(v, t, 3000, rng=0)

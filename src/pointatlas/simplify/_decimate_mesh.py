@@ -222,33 +222,38 @@ class MeshDistances:
     def report(self, out_v, out_t, lineage=None):
         """The distances `surface_result` reports: every vertex to the output, and the
         output's samples back to the input."""
-        hint, _ = self._hints(out_v, out_t, lineage, every=True)
-        index = self._output_index(out_v, out_t)
-        there = index.distance(self.verts, hint=hint, order=self._order("verts", hint))
-        return there, self.back(out_v, out_t, lineage)
+        return self.there(out_v, out_t, lineage), self.back(out_v, out_t, lineage)
 
     def near(self, out_v, out_t, lineage=None, first=None) -> tuple[np.ndarray, float]:
         """``(there, back_mean)``: `report`'s first part, and the mean distance back of
         the output's vertices and its first ``first`` area samples (None: all, as
         `back`)."""
-        hint, kept = self._hints(out_v, out_t, lineage, every=True)
-        index = self._output_index(out_v, out_t)
-        there = index.distance(self.verts, hint=hint, order=self._order("verts", hint))
-        samples, on, order = self._samples(out_v, out_t, first)
-        hint = None if kept is None else kept[on]
-        back = self.index.distance(samples, hint=hint, order=order)
+        there = self.there(out_v, out_t, lineage)
+        back = self._back(out_v, out_t, lineage, first)
         return there, float(back.mean()) if back.size else 0.0
+
+    def there(self, out_v, out_t, lineage=None) -> np.ndarray:
+        """Every input vertex to the output, exactly (`report`'s first part)."""
+        hint, _ = self._hints(out_v, out_t, lineage, every=True)
+        index = self._output_index(out_v, out_t)
+        return index.distance(self.verts, hint=hint, order=self._order("verts", hint))
 
     def back(self, out_v, out_t, lineage=None) -> np.ndarray:
         """The output's vertices and samples back to the input, exactly (`report`'s
         second part; kept with the output's index)."""
-        kept = None if lineage is None else lineage[0]
-        samples, on, order = self._samples(out_v, out_t)
+        self._output_index(out_v, out_t)
         made = self._last[3]
         if "back" not in made:
-            hint = None if kept is None else kept[on]
-            made["back"] = self.index.distance(samples, hint=hint, order=order)
+            made["back"] = self._back(out_v, out_t, lineage)
         return made["back"]
+
+    def _back(self, out_v, out_t, lineage, first=None) -> np.ndarray:
+        """The output's vertices and its first ``first`` area samples (None: all) back
+        to the input, exactly."""
+        kept = None if lineage is None else lineage[0]
+        samples, on, order = self._samples(out_v, out_t, first)
+        hint = None if kept is None else kept[on]
+        return self.index.distance(samples, hint=hint, order=order)
 
     def _order(self, name: str, hint):
         """The order to measure ``on`` or ``verts`` in (`MeshDistanceIndex.point_order`,

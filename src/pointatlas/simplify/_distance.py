@@ -22,6 +22,7 @@ __all__ = [
     "DISC_NEIGHBOR",
     "PointSurface",
     "back_distances",
+    "disc_radii",
     "output_samples",
     "output_samples_on",
 ]
@@ -33,6 +34,17 @@ DISC_NEIGHBOR = 8
 #: The distance to the points' surface is the nearest of this many points' discs (a
 #: sample on one face near an edge may have its nearest point across the edge).
 DISC_CANDIDATES = 6
+
+
+def disc_radii(distances: np.ndarray) -> np.ndarray:
+    """The points' disc radii of `PointSurface` (the distance to the
+    `DISC_NEIGHBOR`-th nearest other point) from their k-NN table's ``distances``
+    (`query_knn`: the point itself first, at least `DISC_NEIGHBOR` + 1 columns or all
+    the points)."""
+    k = min(DISC_NEIGHBOR + 1, distances.shape[0])
+    if distances.shape[1] < k:
+        raise ValueError(f"disc_radii needs {k} neighbours; got {distances.shape[1]}")
+    return distances[:, k - 1] if k > 1 else np.zeros(distances.shape[0])
 
 
 class PointSurface:
@@ -51,12 +63,11 @@ class PointSurface:
         self.points = np.asarray(points, dtype=np.float64)
         self.tree = cKDTree(self.points) if tree is None else tree
         self.normals = None if normals is None else np.asarray(normals, dtype=np.float64)
-        if radius is not None:
-            self.radius = np.asarray(radius, dtype=np.float64)
-            return
-        k = min(DISC_NEIGHBOR + 1, self.points.shape[0])
-        far = self.tree.query(self.points, k=k, workers=-1)[0]
-        self.radius = far[:, -1] if far.ndim == 2 else np.zeros(self.points.shape[0])
+        if radius is None:
+            k = min(DISC_NEIGHBOR + 1, self.points.shape[0])
+            far = self.tree.query(self.points, k=k, workers=-1)[0]
+            radius = disc_radii(far.reshape(self.points.shape[0], k))
+        self.radius = np.asarray(radius, dtype=np.float64)
 
     def distance(self, x) -> np.ndarray:
         """Distance of every row of ``x`` to the points' surface: the nearest of its

@@ -319,8 +319,7 @@ def _prepare(points, normals, vsa, vsa_settings) -> _Input:
             if weights.shape != (n_input,):
                 raise ValueError(f"weights must have shape ({n_input},); got {weights.shape}")
             opts = opts.replace(weights=weights[keep])
-    from ._distance import DISC_NEIGHBOR
-    from ._point_distances import disc_radii
+    from ._distance import DISC_NEIGHBOR, disc_radii
     from ._winding import AREA_NEIGHBOR, table_areas
 
     # one k-NN table for VSA, the discs (areas, radii) and `turn_outward` (its first k

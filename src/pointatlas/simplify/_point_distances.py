@@ -17,7 +17,6 @@ __all__ = [
     "FLOOR_SLACK",
     "SEARCH_POINTS",
     "PointDistances",
-    "disc_radii",
 ]
 
 #: Without ``max_error``, where the points' surface itself is farther from the points
@@ -34,19 +33,6 @@ FLOOR_FACTOR = 1.1
 #: The level search first measures at most about this many of the points (evenly
 #: strided, `PointDistances.subset`): a level over the bound on them is over it on all.
 SEARCH_POINTS = 4000
-
-
-def disc_radii(distances: np.ndarray) -> np.ndarray:
-    """The points' disc radii of `PointSurface` (the distance to the
-    `DISC_NEIGHBOR`-th nearest other point) from their k-NN table's ``distances``
-    (`query_knn`: the point itself first, at least `DISC_NEIGHBOR` + 1 columns or all
-    the points)."""
-    from ._distance import DISC_NEIGHBOR
-
-    k = min(DISC_NEIGHBOR + 1, distances.shape[0])
-    if distances.shape[1] < k:
-        raise ValueError(f"disc_radii needs {k} neighbours; got {distances.shape[1]}")
-    return distances[:, k - 1] if k > 1 else np.zeros(distances.shape[0])
 
 
 class PointDistances:

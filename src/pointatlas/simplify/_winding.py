@@ -41,7 +41,7 @@ def point_areas(points: np.ndarray, k: int = AREA_NEIGHBOR) -> np.ndarray:
     if k < 1:
         return np.zeros(points.shape[0])
     d, _ = cKDTree(points).query(points, k=k + 1, workers=-1)
-    return np.pi * d[:, -1] ** 2 / k
+    return table_areas(d, k)
 
 
 def table_areas(distances: np.ndarray, k: int = AREA_NEIGHBOR) -> np.ndarray:
