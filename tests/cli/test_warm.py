@@ -21,6 +21,7 @@ def _env(cache):
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(1900)  # its two commands' own limits: 1,200 s and 600 s
 def test_warmup_leaves_every_kernel_it_names_in_the_cache(tmp_path):
     cache = tmp_path / "numba-cache"
     listing = tmp_path / "kernels.json"

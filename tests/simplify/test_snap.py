@@ -66,6 +66,28 @@ def test_a_vertex_left_off_the_points_is_fitted_back_within_the_bound():
     assert (refit_far(v, t, surface, tol=0.01, bound=1.0) == v).all()
 
 
+def test_a_placement_that_collapses_a_triangle_goes_back():
+    """Two ring vertices placed on one spot: the triangle between them has zero area
+    and a normal of rounding noise that may still point the former way (100 sparse
+    sphere points gave such an output triangle); its vertices go back. The first fit
+    of the surface may collapse triangles: its decimation removes them."""
+    from pointatlas.simplify._place import _unflip
+
+    v0, t = _fan(np.array([0.5, 0.5, 0.0]))
+    placed = v0.copy()
+    placed[2] = placed[1] + [0.0, 1e-12, 0.0]  # onto vertex 1 but for rounding
+    twice_area = np.cross(placed[1] - placed[0], placed[2] - placed[0])[2]
+    assert 0.0 < twice_area < 1e-12  # still the former way (+z), area ~1e-13
+    out = _unflip(v0, placed.copy(), t)
+    assert (out == v0).all()
+    kept = _unflip(v0, placed.copy(), t, collapsed=True)
+    assert (kept == placed).all()
+    # a placement that shrinks a triangle without collapsing it stays
+    shrunk = v0.copy()
+    shrunk[2] = [0.55, 0.55, 0.0]
+    assert (_unflip(v0, shrunk.copy(), t) == shrunk).all()
+
+
 def test_fit_to_points_moves_onto_the_corner_of_three_planes():
     """Points on three faces of a cube corner: a vertex near the corner goes to it
     (the three tangent planes meet there), at most the bound."""

@@ -28,6 +28,11 @@ FLAT_RTOL = 1e-4
 #: Singular values of a vertex's plane normals below this fraction of the largest are
 #: dropped: planes within asin(0.0437) = 2.5 degrees of each other act as one.
 _PARALLEL_RTOL = 0.0437
+#: A triangle whose area along its former normal falls to this fraction of the mean
+#: triangle's area, or below (turned over, or collapsed to a point or a segment), puts
+#: its vertices back: two vertices fitted to the same spot made a zero-area triangle
+#: whose normal, noise, could still point the former way.
+_COLLAPSED = 1e-10
 
 
 def flat_planes(vertices, triangles, labels, n_regions: int, tol: float):
@@ -125,12 +130,18 @@ def place_on_planes(
     return _unflip(v0, x, tri)
 
 
-def _unflip(v0, x, tri, rounds: int = 4):
-    """Vertices of triangles whose normal turned against its former one go back."""
-    before = triangle_normals(v0, tri)
+def _unflip(v0, x, tri, rounds: int = 4, collapsed: bool = False):
+    """Vertices of triangles that turned over or collapsed (`_COLLAPSED`) go back;
+    ``collapsed``: a collapsed triangle whose normal still points the former way
+    stays (the surface's first fit, whose vertices meet at corners: the decimation
+    removes the zero-length edges)."""
+    c0 = _cross(v0, tri)
+    area0 = np.linalg.norm(c0, axis=1)
+    before = c0 / np.maximum(area0, 1e-300)[:, None]
+    tiny = 0.0 if collapsed or area0.size == 0 else _COLLAPSED * float(area0.mean())
     for _ in range(rounds):
-        bad = np.einsum("ij,ij->i", before, triangle_normals(x, tri)) <= 0.0
-        bad &= np.linalg.norm(before, axis=1) > 0.0
+        bad = np.einsum("ij,ij->i", before, _cross(x, tri)) <= tiny
+        bad &= area0 > 0.0
         if not bad.any():
             break
         back = unique_ints(tri[bad])
@@ -140,5 +151,10 @@ def _unflip(v0, x, tri, rounds: int = 4):
 
 def triangle_normals(v, tri):
     """Unit normals of the triangles (zero for degenerate ones)."""
-    c = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
+    c = _cross(v, tri)
     return c / np.maximum(np.linalg.norm(c, axis=1), 1e-300)[:, None]
+
+
+def _cross(v, tri):
+    """The triangles' edge cross products (twice their area along their normal)."""
+    return np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])

@@ -71,7 +71,8 @@ def fit_to_points(verts, tri, q, normals, tree, bound: float, k: int = FIT_NEIGH
     two faces meet, to the corner of three), about where it is, with directions
     below `FIT_RCOND` of the strongest dropped (no move along a plane or an edge),
     at most ``bound``; triangles that would turn over keep their vertices."""
-    return _unflip(verts, verts + _fit_moves(verts, q, normals, tree, bound, k), tri)
+    moved = verts + _fit_moves(verts, q, normals, tree, bound, k)
+    return _unflip(verts, moved, tri, collapsed=True)
 
 
 def refit_far(x, tri, surface, tol: float, bound: float) -> np.ndarray:
