@@ -7,10 +7,12 @@ DOCS_STAMP := $(VENV)/.docs-installed
 
 .PHONY: install demo test bench lint docs clean
 
-$(STAMP): pyproject.toml
+# constraints.txt: the exact versions the suite passed with (a new release of a
+# dependency changes nothing unseen)
+$(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e ".[dev]"
 	@# compile every command's numba kernels into the cache now (a few minutes, once),
 	@# so that a first command, and the tests, start at once (docs/decisions/cli.md)
 	$(BIN)/pointatlas warmup
@@ -41,16 +43,16 @@ test: lint
 	$(BIN)/python -m pytest -q
 
 bench: install
-	$(BIN)/python -m pip install --quiet -e ".[dev,bench]"
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e ".[dev,bench]"
 	for b in neighbors io normals features vsa simplify viz synth batch; do \
 		$(BIN)/python benchmarks/bench_$$b.py || exit 1; \
 	done
 
 # the API reference into build/docs, warnings as errors (docs/decisions/docs.md); needs
 # only the docs extra, not the numba cache that `install` fills
-$(DOCS_STAMP): pyproject.toml
+$(DOCS_STAMP): pyproject.toml constraints.txt
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet -e ".[docs]"
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e ".[docs]"
 	touch $(DOCS_STAMP)
 
 docs: $(DOCS_STAMP)

@@ -13,10 +13,11 @@ face normals (`pointatlas.synth.sample_mesh`, seed 0) and the points alone go th
 `pointatlas.simplify.simplify_points` with default options (``path="auto"``: the
 thesis path, and the robust path when that gives no closed, manifold, oriented mesh
 with valid faces). One CSV row per model: path taken and why, faces, closed /
-manifold / oriented, Euler characteristic of the output and of the input mesh, mean
-and max distance of the points to the output, the report's two-sided Hausdorff
-distance, and measured here against the truth: the two-sided Hausdorff distance
-between the output and the mesh the points were sampled from (its vertices and
+manifold / oriented, Euler characteristic of the output and of the input mesh, its
+triangles of zero area (at most 1e-12 of the diagonal squared), mean and max
+distance of the points to the output, the report's two-sided Hausdorff distance,
+and measured here against the truth: the two-sided Hausdorff distance between the
+output and the mesh the points were sampled from (its vertices and
 20,000 samples each way; % of the points' bounding-box diagonal), whether a vertex
 lies outside the points' box grown by 1 % of its diagonal (a spike), seconds. The
 summary prints the shares closed + manifold + oriented, with the input's Euler
@@ -55,6 +56,16 @@ KINDS = kinds()
 def _euler(n_vertices: int, tri: np.ndarray) -> int:
     und = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
     return int(n_vertices - np.unique(und, axis=0).shape[0] + tri.shape[0])
+
+
+def _degenerate(v: np.ndarray, tri: np.ndarray, diag: float) -> int:
+    """Triangles of (near) zero area: at most 1e-12 of the diagonal squared."""
+    if tri.shape[0] == 0:
+        return 0
+    area = 0.5 * np.linalg.norm(
+        np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]]), axis=1
+    )
+    return int((area <= 1e-12 * diag**2).sum())
 
 
 def _both_ways(v, t, v2, t2) -> float:
@@ -144,6 +155,7 @@ def run_model(path: Path, n_points: int, estimate: bool = False, peer: bool = Tr
         manifold=manifold,
         oriented=oriented,
         euler=_euler(m.n_vertices, mt),
+        degenerate=_degenerate(mv, mt, diag),
         mean_distance_pct=100.0 * m.distance_mean / diag,
         max_distance_pct=100.0 * m.distance_max / diag,
         hausdorff_pct=100.0 * max(m.distance_max, m.back_distance_max) / diag,
@@ -242,6 +254,7 @@ def main(argv=None) -> int:
         "oriented",
         "euler",
         "euler_input",
+        "degenerate",
         "mean_distance_pct",
         "max_distance_pct",
         "hausdorff_pct",
@@ -285,7 +298,8 @@ def main(argv=None) -> int:
             f"truth Hausdorff median {np.median(truth):.2f} %, max {truth.max():.2f} %; "
             f"reported Hausdorff median {np.median(ours):.2f} %; spikes "
             f"{sum(r['spike'] for r in done)}; triangles median {np.median(tris):.0f}, "
-            f"max {tris.max()}; faces median {np.median([r['faces'] for r in done]):.0f}"
+            f"max {tris.max()}; faces median {np.median([r['faces'] for r in done]):.0f}; "
+            f"with a zero-area triangle: {sum(r['degenerate'] > 0 for r in done)}"
         )
         for line in peer_summary(done):
             print(line)
