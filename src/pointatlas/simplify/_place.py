@@ -127,14 +127,15 @@ def place_on_planes(
         move = np.einsum("ndc,nc->nd", np.linalg.pinv(a, rcond=_PARALLEL_RTOL), residual)
         go = (np.abs(residual).max(axis=1) > on_plane) & (np.linalg.norm(move, axis=1) <= bound)
         x[j[go]] = v0[j[go]] + move[go]
-    return _unflip(v0, x, tri)
+    return _unflip(v0, x, tri, collapsed=True)
 
 
 def _unflip(v0, x, tri, rounds: int = 4, collapsed: bool = False):
     """Vertices of triangles that turned over or collapsed (`_COLLAPSED`) go back;
     ``collapsed``: a collapsed triangle whose normal still points the former way
-    stays (the surface's first fit, whose vertices meet at corners: the decimation
-    removes the zero-length edges)."""
+    stays (the placement onto planes and the surface's first fit, whose vertices
+    meet on the line of two planes or at a corner: putting them back keeps them off
+    their planes, and the level search then stops at far more triangles)."""
     c0 = _cross(v0, tri)
     area0 = np.linalg.norm(c0, axis=1)
     before = c0 / np.maximum(area0, 1e-300)[:, None]
