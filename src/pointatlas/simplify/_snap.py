@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._caps import flip_caps, weld_needles
 from ._decimate_mesh import Decimation
 from ._place import _unflip, place_on_planes
 from ._point_distances import SEARCH_POINTS
@@ -153,4 +154,8 @@ class PointsDecimation(Decimation):
         x = refit_far(x, out_t, self.measure.surface, self.tol, self.fit_bound)
         if self.box is not None:  # no vertex beyond the box (lo, hi)
             x = np.clip(x, *self.box)
+        # vertices placed on one corner, or in a row on the line of two planes: no
+        # zero-area triangle (`_caps`)
+        x, out_t, face, source, kept, went = weld_needles(x, out_t, face, source, kept, went)
+        out_t = flip_caps(x, out_t, face)
         return x, out_t, face, source, (kept, went)

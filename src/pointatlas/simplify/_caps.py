@@ -1,0 +1,212 @@
+"""Zero-area triangles ended by merging vertices and by edge flips (private).
+
+Placing vertices on their planes sends every vertex near a corner of three planes
+to that corner: two of them on one spot leave a *needle*, a triangle with an edge of
+no length. `weld_needles` merges the two ends of every such edge (an edge collapse
+that moves nothing) where the mesh stays manifold (the link condition: the two ends
+share exactly the neighbours of the triangles the edge bounds).
+
+Placing vertices on the line where two planes meet can leave three of them in a row:
+the triangle they make has no area (a *cap*: its middle vertex lies on its longest
+edge). The polygon faces do not mind (the triangle lies inside one), but the
+triangles file, and any reader that checks its triangles, does. `flip_caps` flips a
+cap's longest edge: the cap and its neighbour across that edge, quad ``a, d, b, c``
+with ``c`` on ``a b``, become ``a d c`` and ``d b c``, which cover the same area with
+the same orientation; the vertices and the faces' outlines stay as they are. A flip
+is made only inside one region (a region's outline is its polygon), where the new
+edge is not already an edge (the mesh stays manifold) and both new triangles keep
+area along the neighbour's normal (no fold). A flip can leave a new cap where a row
+holds more than three vertices: the passes repeat while they flip something.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["CAP_RTOL", "NEEDLE_RTOL", "flip_caps", "weld_needles"]
+
+#: A triangle is a cap when its area is at most this fraction of the mean triangle's.
+CAP_RTOL = 1e-6
+#: Passes over the caps at most (each one flips what it can).
+_PASSES = 8
+#: An edge is of no length when it is at most this fraction of the mean edge.
+NEEDLE_RTOL = 1e-7
+
+
+def weld_needles(vertices, triangles, face, source, kept, went):
+    """Merge the two ends of every edge of no length where the mesh stays manifold.
+
+    Parameters
+    ----------
+    vertices : ndarray of shape (V, 3)
+        Vertex coordinates.
+    triangles : ndarray of shape (T, 3), int64
+        Consistently oriented triangles of a manifold mesh.
+    face, kept : ndarrays of shape (T,), int64
+        Per triangle: its face, and the input triangle it came from.
+    source : ndarray of shape (V,), int64
+        Per vertex: the input vertex it came from.
+    went : ndarray of shape (N,), int64
+        Per input vertex: the vertex it became (-1: none).
+
+    Returns
+    -------
+    tuple
+        ``(vertices, triangles, face, source, kept, went)`` without the merged
+        vertices and the triangles that lost their area (the inputs when no edge
+        is of no length).
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    out = (v, tri, face, source, kept, went)
+    if tri.shape[0] == 0:
+        return out
+    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    length = np.linalg.norm(v[edges[:, 1]] - v[edges[:, 0]], axis=1)
+    short = np.flatnonzero(length <= NEEDLE_RTOL * float(length.mean()))
+    if short.size == 0:
+        return out
+    into = np.arange(v.shape[0])  # each vertex, or the one it merged into
+    alive = np.ones(tri.shape[0], dtype=bool)
+    rows = tri.copy()
+    around = [set() for _ in range(v.shape[0])]  # triangles of each vertex
+    for t, row in enumerate(rows):
+        for x in row:
+            around[x].add(t)
+    for p, q in edges[short[np.argsort(length[short], kind="stable")]]:
+        p, q = _find(into, int(p)), _find(into, int(q))
+        if p != q and _link_ok(rows, around, p, q):
+            _merge(rows, around, alive, into, p, q)
+    if alive.all():
+        return out
+    rows = rows[alive]
+    used = np.unique(rows)
+    remap = np.full(v.shape[0], -1, dtype=np.int64)
+    remap[used] = np.arange(used.size)
+    final = remap[_root(into)]
+    went = np.asarray(went, dtype=np.int64)
+    went = np.where(went >= 0, final[np.maximum(went, 0)], -1)
+    return v[used], remap[rows], face[alive], source[used], kept[alive], went
+
+
+def _find(into: np.ndarray, x: int) -> int:
+    """The vertex ``x`` was last merged into (itself when none)."""
+    while into[x] != x:
+        x = int(into[x])
+    return x
+
+
+def _root(into: np.ndarray) -> np.ndarray:
+    """Each vertex's last merge target (merges chain: p into q, then q into r)."""
+    out = into.copy()
+    while True:
+        nxt = out[out]
+        if (nxt == out).all():
+            return out
+        out = nxt
+
+
+def _link_ok(rows, around, p: int, q: int) -> bool:
+    """Edge p q is inside the mesh with two triangles, and p and q share no other
+    neighbour: merging them keeps the mesh manifold."""
+    both = around[p] & around[q]
+    if len(both) != 2:
+        return False
+    opposite = {int(x) for t in both for x in rows[t] if x != p and x != q}
+    if len(opposite) != 2:
+        return False
+    near_p = {int(x) for t in around[p] for x in rows[t]} - {p}
+    near_q = {int(x) for t in around[q] for x in rows[t]} - {q}
+    return (near_p & near_q) == opposite
+
+
+def _merge(rows, around, alive, into, p: int, q: int) -> None:
+    """Vertex q merged into p: the two triangles of edge p q go."""
+    for t in around[p] & around[q]:
+        alive[t] = False
+        for x in rows[t]:
+            around[x].discard(t)
+    for t in around[q]:
+        rows[t][rows[t] == q] = p
+        around[p].add(t)
+    around[q] = set()
+    into[q] = p
+
+
+def flip_caps(vertices, triangles, face) -> np.ndarray:
+    """``triangles`` with the longest edge of every cap flipped where it can be.
+
+    Parameters
+    ----------
+    vertices : ndarray of shape (V, 3)
+        Vertex coordinates.
+    triangles : ndarray of shape (T, 3), int64
+        Consistently oriented triangles of a manifold mesh.
+    face : ndarray of shape (T,), int64
+        The face (region) of each triangle; a flip stays inside one face, each
+        triangle keeps its row and so its face.
+
+    Returns
+    -------
+    ndarray of shape (T, 3), int64
+        The triangles (a copy; the input when nothing is a cap).
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    if tri.shape[0] == 0:
+        return tri
+    area = _areas(v, tri)
+    tiny = CAP_RTOL * float(area.mean())
+    if not (area <= tiny).any():
+        return tri
+    tri = tri.copy()
+    edge_of = {(int(a), int(b)): t for t, row in enumerate(tri) for a, b in _edges(row)}
+    for _ in range(_PASSES):
+        caps = np.flatnonzero(_areas(v, tri) <= tiny)
+        flipped = sum(_flip(v, tri, face, edge_of, int(t), tiny) for t in caps)
+        if flipped == 0:
+            break
+    return tri
+
+
+def _flip(v, tri, face, edge_of, t: int, tiny: float) -> bool:
+    """Flip the longest edge of triangle ``t`` if it is still a cap and it can be."""
+    row = tri[t]
+    if _area(v, row) > tiny:  # an earlier flip of this pass ended it
+        return False
+    lengths = [np.linalg.norm(v[row[(k + 1) % 3]] - v[row[k]]) for k in range(3)]
+    k = int(np.argmax(lengths))
+    a, b, c = int(row[k]), int(row[(k + 1) % 3]), int(row[(k + 2) % 3])
+    u = edge_of.get((b, a))
+    if u is None or face[u] != face[t]:
+        return False
+    d = next(int(x) for x in tri[u] if x != a and x != b)
+    if (c, d) in edge_of or (d, c) in edge_of or c == d:
+        return False
+    first, second = np.array([a, d, c]), np.array([d, b, c])
+    normal = np.cross(v[a] - v[b], v[d] - v[b])  # the neighbour's (b, a, d)
+    for new in (first, second):
+        twice = np.cross(v[new[1]] - v[new[0]], v[new[2]] - v[new[0]])
+        if 0.5 * float(np.dot(twice, normal)) / max(np.linalg.norm(normal), 1e-300) <= tiny:
+            return False
+    for x, y in (*_edges(tri[t]), *_edges(tri[u])):
+        del edge_of[(int(x), int(y))]
+    tri[t], tri[u] = first, second
+    for x, y in _edges(first):
+        edge_of[(int(x), int(y))] = t
+    for x, y in _edges(second):
+        edge_of[(int(x), int(y))] = u
+    return True
+
+
+def _edges(row):
+    return ((row[0], row[1]), (row[1], row[2]), (row[2], row[0]))
+
+
+def _area(v, row) -> float:
+    return 0.5 * float(np.linalg.norm(np.cross(v[row[1]] - v[row[0]], v[row[2]] - v[row[0]])))
+
+
+def _areas(v, tri) -> np.ndarray:
+    c = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
+    return 0.5 * np.linalg.norm(c, axis=1)

@@ -1,0 +1,121 @@
+"""Zero-area triangles ended (`simplify/_caps.py`): two vertices on one spot merge
+where the mesh stays manifold, with every per-vertex and per-triangle array along; a
+cap flips into two triangles of the same area and orientation, a row of vertices on
+one line is cleared in passes, and nothing flips across a face's outline, onto an
+existing edge or into a fold."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pointatlas.simplify._caps import flip_caps, weld_needles
+from pointatlas.simplify._mesh import mesh_checks
+
+
+def _areas(v, t):
+    return 0.5 * np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])[:, 2]
+
+
+def _row_on_a_line(n_mid: int):
+    """A flat patch in z = 0: ``n_mid`` vertices in a row on the segment from a =
+    (0, 0) to b = (n_mid + 1, 0), a fan above the row to e, the row's caps (a fan
+    from b over the zero-area polygon a, b, row) and below a b one triangle to d."""
+    xs = np.arange(n_mid + 2, dtype=float)
+    row = np.column_stack([xs, np.zeros(n_mid + 2), np.zeros(n_mid + 2)])
+    top = np.array([[(n_mid + 1) / 2, 2.0, 0.0]])
+    bottom = np.array([[(n_mid + 1) / 2, -2.0, 0.0]])
+    v = np.vstack([row, top, bottom])
+    a, b, e, d = 0, n_mid + 1, n_mid + 2, n_mid + 3
+    tri = [[i, i + 1, e] for i in range(1, n_mid)]  # the fan above the middle ones
+    tri += [[a, 1, e], [n_mid, b, e]]
+    tri += [[a, b, 1]] + [[b, i + 1, i] for i in range(1, n_mid)]  # the caps
+    tri += [[b, a, d]]
+    return v, np.array(tri, dtype=np.int64)
+
+
+@pytest.mark.parametrize("n_mid", [1, 2, 4])
+def test_caps_flip_into_triangles_of_the_same_area_and_orientation(n_mid):
+    v, t = _row_on_a_line(n_mid)
+    area = _areas(v, t)
+    assert (np.abs(area) <= 1e-12).sum() >= 1  # the input has caps
+    assert (area >= -1e-12).all()  # and no triangle facing down
+    out = flip_caps(v, t, np.zeros(len(t), dtype=np.int64))
+    after = _areas(v, out)
+    assert (after > 1e-9).all()  # no cap left, every triangle facing up
+    assert after.sum() == pytest.approx(area.sum())
+    # the same outline: the edges used once are the same
+    assert _outline(out) == _outline(t)
+    assert sorted(map(tuple, np.sort(out, axis=1))) != sorted(map(tuple, np.sort(t, axis=1)))
+
+
+def _outline(t):
+    edges = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+    key = {tuple(e) for e in edges}
+    return sorted(e for e in key if (e[1], e[0]) not in key)
+
+
+def test_no_flip_across_a_face_outline_and_none_without_a_cap():
+    v, t = _row_on_a_line(1)
+    face = np.zeros(len(t), dtype=np.int64)
+    face[-1] = 1  # the triangle below a b is another face
+    assert (flip_caps(v, t, face) == t).all()
+    # nothing to flip: the input itself comes back
+    good = t[np.abs(_areas(v, t)) > 1e-12]
+    assert flip_caps(v, good, np.zeros(len(good), dtype=np.int64)) is good
+
+
+def test_a_flip_that_would_fold_or_reuse_an_edge_is_not_made():
+    # a needle (two vertices on one spot): both flipped triangles would have no area
+    v = np.array([[0, 0, 0], [2, 0, 0], [2, 0, 0], [1, -1, 0.0]])
+    t = np.array([[0, 1, 2], [1, 0, 3]])
+    assert (flip_caps(v, t, np.zeros(2, dtype=np.int64)) == t).all()
+    # closed: a tetrahedron with one vertex moved onto an edge's midpoint keeps its
+    # triangles where the new edge exists already
+    tet = np.array([[0, 0, 0], [1, 0, 0], [0.5, 0, 0], [0.2, 0.3, 1.0]])
+    faces = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]])
+    out = flip_caps(tet, faces, np.zeros(4, dtype=np.int64))
+    assert all(mesh_checks(4, out))
+
+
+def _octahedron():
+    v = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1.0]])
+    t = np.array(
+        [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]]
+    )
+    return v, t
+
+
+def test_two_vertices_on_one_spot_merge_and_every_array_follows():
+    """An octahedron with the top vertex split in two on one spot (a needle pair on
+    edge 4-6): the merge gives the octahedron back, closed and oriented."""
+    v, t = _octahedron()
+    v = np.vstack([v, v[4] + [1e-12, 0.0, 0.0]])  # vertex 6 on vertex 4's spot
+    # split the top: triangles 2 and 3 use 6; two needles 4-6 join the halves
+    t = np.vstack([[[0, 2, 4], [2, 1, 4], [1, 3, 6], [3, 0, 6]], t[4:], [[1, 6, 4], [0, 4, 6]]])
+    assert all(mesh_checks(7, t))
+    face = np.arange(len(t))
+    source, kept = np.arange(7) * 10, np.arange(len(t)) + 100
+    went = np.array([0, 1, 2, 3, 4, 5, 6, -1])  # an eighth input vertex on nothing
+    ov, ot, of, osrc, okept, owent = weld_needles(v, t, face, source, kept, went)
+    assert ov.shape[0] == 6 and ot.shape[0] == 8 and all(mesh_checks(6, ot))
+    area = np.linalg.norm(
+        np.cross(ov[ot[:, 1]] - ov[ot[:, 0]], ov[ot[:, 2]] - ov[ot[:, 0]]), axis=1
+    )
+    assert (area > 0.1).all()
+    assert of.tolist() == [f for f in face if f < 8] and okept.tolist() == (of + 100).tolist()
+    # one of the pair stays (either end), with its input vertex
+    assert sorted(osrc.tolist()) in ([0, 10, 20, 30, 40, 50], [0, 10, 20, 30, 50, 60])
+    assert owent[6] == owent[4] and owent[7] == -1
+    assert np.abs(ov[owent[:7]] - v[:7]).max() <= 1e-12  # every input vertex's place
+    assert (osrc[owent[[0, 1, 2, 3, 5]]] == [0, 10, 20, 30, 50]).all()
+
+
+def test_a_merge_that_would_pinch_the_mesh_is_not_made():
+    # two vertices on one spot joined by an edge that two triangles do not bound
+    # (an open fan's rim): left alone, inputs returned
+    v = np.array([[0, 0, 0], [1e-12, 0, 0], [1, 1, 0], [-1, 1, 0.0]])
+    t = np.array([[0, 1, 2], [0, 2, 3]])
+    args = (v, t, np.zeros(2), np.arange(4), np.arange(2), np.arange(4))
+    out = weld_needles(*args)
+    assert all(a is b for a, b in zip(out, args, strict=True))
