@@ -21,6 +21,8 @@ holds more than three vertices: the passes repeat while they flip something.
 
 from __future__ import annotations
 
+import collections
+
 import numpy as np
 
 __all__ = ["CAP_RTOL", "NEEDLE_RTOL", "flip_caps", "weld_needles"]
@@ -69,8 +71,12 @@ def weld_needles(vertices, triangles, face, source, kept, went):
     into = np.arange(v.shape[0])  # each vertex, or the one it merged into
     alive = np.ones(tri.shape[0], dtype=bool)
     rows = tri.copy()
-    around = [set() for _ in range(v.shape[0])]  # triangles of each vertex
-    for t, row in enumerate(rows):
+    # the triangles of each vertex, for those of the triangles around an edge's ends
+    # (the link test reads only the ends' sets, a merge only their triangles)
+    ends = np.unique(edges[short])
+    near = np.flatnonzero(np.isin(rows, ends).any(axis=1))
+    around = collections.defaultdict(set)
+    for t, row in zip(near.tolist(), rows[near].tolist(), strict=True):
         for x in row:
             around[x].add(t)
     for p, q in edges[short[np.argsort(length[short], kind="stable")]]:
@@ -160,7 +166,7 @@ def flip_caps(vertices, triangles, face) -> np.ndarray:
     if not (area <= tiny).any():
         return tri
     tri = tri.copy()
-    edge_of = {(int(a), int(b)): t for t, row in enumerate(tri) for a, b in _edges(row)}
+    edge_of = _edge_map(tri)
     for _ in range(_PASSES):
         caps = np.flatnonzero(_areas(v, tri) <= tiny)
         flipped = sum(_flip(v, tri, face, edge_of, int(t), tiny) for t in caps)
@@ -197,6 +203,15 @@ def _flip(v, tri, face, edge_of, t: int, tiny: float) -> bool:
     for x, y in _edges(second):
         edge_of[(int(x), int(y))] = u
     return True
+
+
+def _edge_map(tri: np.ndarray) -> dict:
+    """Each directed edge ``(a, b)`` -> its triangle (built from arrays: a mesh of
+    30,000 triangles, 0.18 s in a Python loop)."""
+    starts = tri.reshape(-1).tolist()
+    ends = tri[:, [1, 2, 0]].reshape(-1).tolist()
+    owner = np.repeat(np.arange(tri.shape[0]), 3).tolist()
+    return dict(zip(zip(starts, ends, strict=True), owner, strict=True))
 
 
 def _edges(row):
