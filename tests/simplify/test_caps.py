@@ -119,3 +119,19 @@ def test_a_merge_that_would_pinch_the_mesh_is_not_made():
     args = (v, t, np.zeros(2), np.arange(4), np.arange(2), np.arange(4))
     out = weld_needles(*args)
     assert all(a is b for a, b in zip(out, args, strict=True))
+
+
+def test_a_merge_that_would_turn_a_triangle_over_is_not_made():
+    """q merges into p only where none of q's other triangles turns over: a sliver
+    q, x, y whose apex would cross the line x y is one."""
+    from pointatlas.simplify._caps import _no_fold
+
+    x, y, q = [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 1e-12, 0.0]
+    rows = np.array([[2, 0, 1]])  # q, x, y
+    around = {2: {0}, 3: set()}
+    across = np.array([x, y, q, [0.5, -1e-12, 0.0]])  # p on the other side of x y
+    assert not _no_fold(across, rows, around, 3, 2)
+    beside = np.array([x, y, q, [0.5, 2e-12, 0.0]])  # p on q's side
+    assert _no_fold(beside, rows, around, 3, 2)
+    onto = np.array([x, y, q, [0.5, 0.0, 0.0]])  # p on the line: no area, no turn
+    assert _no_fold(onto, rows, around, 3, 2)

@@ -81,7 +81,7 @@ def weld_needles(vertices, triangles, face, source, kept, went):
             around[x].add(t)
     for p, q in edges[short[np.argsort(length[short], kind="stable")]]:
         p, q = _find(into, int(p)), _find(into, int(q))
-        if p != q and _link_ok(rows, around, p, q):
+        if p != q and _link_ok(rows, around, p, q) and _no_fold(v, rows, around, p, q):
             _merge(rows, around, alive, into, p, q)
     if alive.all():
         return out
@@ -110,6 +110,18 @@ def _root(into: np.ndarray) -> np.ndarray:
         if (nxt == out).all():
             return out
         out = nxt
+
+
+def _no_fold(v, rows, around, p: int, q: int) -> bool:
+    """Moving q's other triangles from q to p turns none of them with an area over."""
+    for t in around[q] - around[p]:
+        row = rows[t]
+        moved = np.where(row == q, p, row)
+        before = np.cross(v[row[1]] - v[row[0]], v[row[2]] - v[row[0]])
+        after = np.cross(v[moved[1]] - v[moved[0]], v[moved[2]] - v[moved[0]])
+        if float(np.dot(before, after)) < 0.0:
+            return False
+    return True
 
 
 def _link_ok(rows, around, p: int, q: int) -> bool:
