@@ -12,7 +12,8 @@ face per region). One CSV row per model: faces, polygons, triangles (and the sha
 the input's kept), vertices, closed / manifold / oriented, Euler characteristic, faces
 that kept their input triangles, mean and max distance of the input vertices to the
 output and the two-sided Hausdorff distance (% of the bounding-box diagonal), largest
-polygon planarity error, seconds, path taken. With ``--cgal K`` every K-th model is
+polygon planarity error, triangles of zero area (at most 1e-12 of the diagonal
+squared), seconds, path taken. With ``--cgal K`` every K-th model is
 also given to CGAL's ``Surface_mesh_approximation`` (benchmarks/cgal_vsa.cpp,
 compiled with Debian's libcgal-dev, see bench_simplify.py) with as many proxies as
 our output has faces, and its output is measured the same way (one metric for all:
@@ -56,6 +57,16 @@ def as_soup(vertices, triangles):
     return v, np.arange(v.shape[0], dtype=np.int64).reshape(-1, 3)
 
 
+def _degenerate(v: np.ndarray, tri: np.ndarray, diag: float) -> int:
+    """Triangles of (near) zero area: at most 1e-12 of the diagonal squared."""
+    if tri.shape[0] == 0:
+        return 0
+    area = 0.5 * np.linalg.norm(
+        np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]]), axis=1
+    )
+    return int((area <= 1e-12 * diag**2).sum())
+
+
 def run_ours(mesh, soup: bool = False, regions: bool = False) -> dict:
     v, tri = mesh.vertices, mesh.triangles
     if soup:
@@ -82,6 +93,7 @@ def run_ours(mesh, soup: bool = False, regions: bool = False) -> dict:
         "hausdorff_pct": 100.0 * max(res.distance_max, res.back_distance_max) / diag,
         "max_polygon_planarity_pct": 100.0 * float(res.polygon_planarity.max(initial=0.0)) / diag,
         "max_planarity_pct": 100.0 * float(res.planarity_error.max(initial=0.0)) / diag,
+        "degenerate": _degenerate(np.asarray(res.vertices), np.asarray(res.triangles), diag),
         "seconds": seconds,
         "path": "regions" if regions else "decimate",
     }
@@ -197,6 +209,10 @@ def main(argv=None) -> int:
         f"Hausdorff (both ways) median {np.median([r['hausdorff_pct'] for r in rows]):.3f} %,"
         f" max {max(r['hausdorff_pct'] for r in rows):.3f} % of the diagonal; largest "
         f"polygon planarity error {max(r['max_polygon_planarity_pct'] for r in rows):.2g} %"
+    )
+    print(
+        f"outputs with a zero-area triangle (<= 1e-12 of the diagonal squared): "
+        f"{sum(r['degenerate'] > 0 for r in rows)}, {sum(r['degenerate'] for r in rows)} in all"
     )
     print(
         f"time: median {np.median(seconds):.2f} s, max {seconds.max():.2f} s, "
