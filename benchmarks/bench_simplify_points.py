@@ -39,7 +39,7 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 import numpy as np
-from bench_simplify_rd import both_ways, kinds, open3d_quadric
+from bench_simplify_rd import both_ways, kinds, open3d_quadric, zero_area_triangles
 
 from pointatlas.io import read_mesh
 from pointatlas.neighbors import point_mesh_distance
@@ -56,16 +56,6 @@ KINDS = kinds()
 def _euler(n_vertices: int, tri: np.ndarray) -> int:
     und = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
     return int(n_vertices - np.unique(und, axis=0).shape[0] + tri.shape[0])
-
-
-def _degenerate(v: np.ndarray, tri: np.ndarray, diag: float) -> int:
-    """Triangles of (near) zero area: at most 1e-12 of the diagonal squared."""
-    if tri.shape[0] == 0:
-        return 0
-    area = 0.5 * np.linalg.norm(
-        np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]]), axis=1
-    )
-    return int((area <= 1e-12 * diag**2).sum())
 
 
 def _both_ways(v, t, v2, t2) -> float:
@@ -155,7 +145,7 @@ def run_model(path: Path, n_points: int, estimate: bool = False, peer: bool = Tr
         manifold=manifold,
         oriented=oriented,
         euler=_euler(m.n_vertices, mt),
-        degenerate=_degenerate(mv, mt, diag),
+        degenerate=zero_area_triangles(mv, mt, diag),
         mean_distance_pct=100.0 * m.distance_mean / diag,
         max_distance_pct=100.0 * m.distance_max / diag,
         hausdorff_pct=100.0 * max(m.distance_max, m.back_distance_max) / diag,

@@ -44,11 +44,16 @@ import numpy as np
 from pointatlas.io import read_mesh
 from pointatlas.neighbors import point_mesh_distance
 from pointatlas.simplify import decimate_mesh, mesh_checks, simplify_mesh
-from pointatlas.synth import sample_mesh
+from pointatlas.synth import face_areas, sample_mesh
 
 DATA = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
 MESH_SUFFIXES = (".obj", ".off", ".ply", ".stl")
 SAMPLES = 20_000
+
+
+def zero_area_triangles(v, tri, diag: float) -> int:
+    """Triangles of (near) zero area: at most 1e-12 of the diagonal squared."""
+    return int((face_areas(v, tri) <= 1e-12 * diag**2).sum()) if len(tri) else 0
 
 
 def both_ways(v_in, t_in, v_out, t_out) -> dict:

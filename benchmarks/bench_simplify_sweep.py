@@ -35,6 +35,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from bench_simplify_rd import zero_area_triangles
 
 from pointatlas.io import read_mesh
 from pointatlas.simplify import SimplifyWarning, decimate_mesh, mesh_checks, simplify_mesh
@@ -55,16 +56,6 @@ def as_soup(vertices, triangles):
     PLY / OBJ gives them (``--soup``)."""
     v = np.asarray(vertices)[np.asarray(triangles).reshape(-1)]
     return v, np.arange(v.shape[0], dtype=np.int64).reshape(-1, 3)
-
-
-def _degenerate(v: np.ndarray, tri: np.ndarray, diag: float) -> int:
-    """Triangles of (near) zero area: at most 1e-12 of the diagonal squared."""
-    if tri.shape[0] == 0:
-        return 0
-    area = 0.5 * np.linalg.norm(
-        np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]]), axis=1
-    )
-    return int((area <= 1e-12 * diag**2).sum())
 
 
 def run_ours(mesh, soup: bool = False, regions: bool = False) -> dict:
@@ -93,7 +84,7 @@ def run_ours(mesh, soup: bool = False, regions: bool = False) -> dict:
         "hausdorff_pct": 100.0 * max(res.distance_max, res.back_distance_max) / diag,
         "max_polygon_planarity_pct": 100.0 * float(res.polygon_planarity.max(initial=0.0)) / diag,
         "max_planarity_pct": 100.0 * float(res.planarity_error.max(initial=0.0)) / diag,
-        "degenerate": _degenerate(np.asarray(res.vertices), np.asarray(res.triangles), diag),
+        "degenerate": zero_area_triangles(res.vertices, res.triangles, diag),
         "seconds": seconds,
         "path": "regions" if regions else "decimate",
     }

@@ -25,6 +25,8 @@ import collections
 
 import numpy as np
 
+from ._place import _cross
+
 __all__ = ["CAP_RTOL", "NEEDLE_RTOL", "flip_caps", "weld_needles"]
 
 #: A triangle is a cap when its area is at most this fraction of the mean triangle's.
@@ -231,9 +233,8 @@ def _edges(row):
 
 
 def _area(v, row) -> float:
-    return 0.5 * float(np.linalg.norm(np.cross(v[row[1]] - v[row[0]], v[row[2]] - v[row[0]])))
+    return float(_areas(v, row[None])[0])
 
 
 def _areas(v, tri) -> np.ndarray:
-    c = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
-    return 0.5 * np.linalg.norm(c, axis=1)
+    return 0.5 * np.linalg.norm(_cross(v, tri), axis=1)
