@@ -52,6 +52,57 @@ def test_a_placement_off_the_points_goes_back_and_one_on_them_stays():
     assert placed_near_points(lifted, moved, t, surface, tol=0.01)[0, 2] == 0.05
 
 
+def _step(n=41):
+    """A step: the floor z = 0 for x <= 0.5 and a wall x = 0.5 from z = -0.5 up to it
+    (normals +z and -x), as points on a grid of spacing 1 / (n - 1)."""
+    g = np.linspace(0.0, 1.0, n)
+    top = np.array([[x, y, 0.0] for x in g if x <= 0.5 for y in g])
+    wall = np.array([[0.5, y, -z] for z in g[1:] if z <= 0.5 for y in g])
+    q = np.vstack([top, wall])
+    normals = np.vstack(
+        [np.tile([0.0, 0.0, 1.0], (len(top), 1)), np.tile([1.0, 0, 0], (len(wall), 1))]
+    )
+    return q, normals, PointSurface(q, normals)
+
+
+def test_outline_distance_is_the_disc_distance_inside_and_the_distance_past_the_edge():
+    q, normals, surface = _step()
+    rng = np.random.default_rng(0)
+    inside = np.column_stack(
+        [rng.uniform(0.05, 0.45, 50), rng.uniform(0.05, 0.95, 50), rng.uniform(-0.01, 0.01, 50)]
+    )
+    assert (surface.outline_distance(inside) == surface.distance(inside)).all()
+    # the wall's top edge (a convex edge of the sample) is on the surface
+    edge = np.column_stack([np.full(9, 0.5), np.linspace(0.1, 0.9, 9), np.zeros(9)])
+    assert surface.outline_distance(edge).max() == pytest.approx(0.0, abs=1e-12)
+    # the floor extended past the wall by 0.02 (0.8 spacings): within a disc's reach
+    # (the 8th neighbour: 0.035), but past the outline by 0.02, measured along the
+    # middle of the neighbours' gap (tilted by their uneven ring: up to 0.02)
+    lip = np.array([[0.52, 0.5, 0.0], [0.52, 0.5, 0.002]])
+    assert surface.distance(lip[:1])[0] == 0.0
+    far = surface.outline_distance(lip)
+    assert (far >= 0.75 * np.hypot([0.0, 0.002], 0.02)).all()
+    assert (far <= np.hypot([0.0, 0.002], 0.02) + 1e-12).all()
+    # an open sheet's corner and a position across a gap in the middle of it
+    _, _, floor = _floor()
+    x = np.array([[1.03, 1.04, 0.0], [0.525, 0.5, 0.0]])
+    far = floor.outline_distance(x)
+    assert 0.75 * 0.05 <= far[0] <= 0.05 + 1e-12 and far[1] == 0.0
+
+
+def test_a_face_extended_past_a_wall_goes_back():
+    """A vertex of the floor placed onto the floor's plane past the wall of a step is
+    within a disc's radius of the floor's points (`distance`: near) but past the
+    sample's outline: the placement goes back."""
+    _, _, surface = _step()
+    v0, t = _fan(np.array([0.45, 0.5, 0.0]))
+    placed = v0.copy()
+    placed[0] = [0.52, 0.5, 0.0]
+    assert surface.distance(placed[:1])[0] == 0.0
+    out = placed_near_points(v0, placed, t, surface, tol=0.01)
+    assert out[0].tolist() == [0.45, 0.5, 0.0]
+
+
 def test_a_vertex_left_off_the_points_is_fitted_back_within_the_bound():
     _, _, surface = _floor()
     v, t = _fan(np.array([0.5, 0.5, 0.0]))

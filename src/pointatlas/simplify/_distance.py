@@ -20,6 +20,8 @@ from ..synth._sample import face_points, sample_draws
 __all__ = [
     "BACK_SAMPLES",
     "DISC_NEIGHBOR",
+    "OUTLINE_MARGIN",
+    "OUTLINE_NEIGHBORS",
     "PointSurface",
     "back_distances",
     "disc_radii",
@@ -34,6 +36,12 @@ DISC_NEIGHBOR = 8
 #: The distance to the points' surface is the nearest of this many points' discs (a
 #: sample on one face near an edge may have its nearest point across the edge).
 DISC_CANDIDATES = 6
+#: `PointSurface.outline_distance`: a position is past the points' outline when its
+#: this many nearest points, seen along the nearest disc's normal, all lie within a
+#: half-turn less ...
+OUTLINE_NEIGHBORS = 10
+#: ... this angle (radians; 20 degrees) of one another around it.
+OUTLINE_MARGIN = np.pi / 9
 
 
 def disc_radii(distances: np.ndarray) -> np.ndarray:
@@ -78,9 +86,62 @@ class PointSurface:
         k = min(DISC_CANDIDATES, self.points.shape[0])
         d, j = self.tree.query(x, k=k, workers=-1)
         d, j = d.reshape(x.shape[0], k), j.reshape(x.shape[0], k)
+        return self._discs(x, d, j)[0].min(axis=1)
+
+    def _discs(self, x, d, j):
+        """The distance of every row of ``x`` to the discs of its nearest points ``j``
+        (at distances ``d``), and its height over their tangent planes."""
         h = np.abs(np.einsum("ikd,ikd->ik", x[:, None, :] - self.points[j], self.normals[j]))
         t = np.sqrt(np.maximum(d * d - h * h, 0.0))
-        return np.hypot(h, np.maximum(t - self.radius[j], 0.0)).min(axis=1)
+        return np.hypot(h, np.maximum(t - self.radius[j], 0.0)), h
+
+    def outline_distance(self, x) -> np.ndarray:
+        """`distance`, with the discs cut at the points' outline: where the
+        `OUTLINE_NEIGHBORS` nearest points of ``x``, projected onto the tangent plane
+        of its nearest disc, leave a gap wider than a half-turn plus `OUTLINE_MARGIN`
+        around it (``x`` lies past the edge of the sampled surface, e.g. a face
+        extended over a step), it is at least as far as its height over that plane
+        and its distance past those points along the middle of the gap. Inside the outline, and
+        without normals, `distance`. A placement checked with `distance` alone may
+        extend a face three spacings past a wall (a disc's radius).
+
+        Examples
+        --------
+        >>> g = np.stack(np.meshgrid(np.arange(5.0), np.arange(5.0)), -1).reshape(-1, 2)
+        >>> s = PointSurface(np.c_[g, np.zeros(25)], np.tile([0, 0, 1.0], (25, 1)))
+        >>> x = np.array([[2.0, 2.5, 0.0], [6.0, 2.0, 0.0]])
+        >>> s.distance(x).tolist(), s.outline_distance(x).round(9).tolist()
+        ([0.0, 0.0], [0.0, 2.0])
+        """
+        x = np.asarray(x, dtype=np.float64)
+        if self.normals is None or x.shape[0] == 0:
+            return self.distance(x)
+        k = min(max(OUTLINE_NEIGHBORS, DISC_CANDIDATES), self.points.shape[0])
+        d, j = self.tree.query(x, k=k, workers=-1)
+        d, j = d.reshape(x.shape[0], k), j.reshape(x.shape[0], k)
+        c = min(DISC_CANDIDATES, k)
+        disc, h = self._discs(x, d[:, :c], j[:, :c])
+        rows = np.arange(x.shape[0])
+        best = disc.argmin(axis=1)
+        n = self.normals[j[rows, best]]
+        off = self.points[j] - x[:, None, :]
+        off -= np.einsum("ikd,id->ik", off, n)[:, :, None] * n[:, None, :]
+        e1 = np.cross(n, np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]]))
+        e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+        e2 = np.cross(n, e1)
+        turn = np.sort(
+            np.arctan2(np.einsum("ikd,id->ik", off, e2), np.einsum("ikd,id->ik", off, e1)),
+            axis=1,
+        )
+        gaps = np.column_stack([np.diff(turn, axis=1), turn[:, 0] + 2.0 * np.pi - turn[:, -1]])
+        g = gaps.argmax(axis=1)
+        gap = gaps[rows, g]
+        across = turn[rows, g] + 0.5 * gap  # the gap's middle direction
+        u = np.cos(across)[:, None] * e1 + np.sin(across)[:, None] * e2
+        past = np.maximum(-np.einsum("ikd,id->ik", off, u).max(axis=1), 0.0)
+        near = disc[rows, best]
+        out = gap > np.pi + OUTLINE_MARGIN
+        return np.where(out, np.maximum(near, np.hypot(h[rows, best], past)), near)
 
 
 def output_samples(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0) -> np.ndarray:

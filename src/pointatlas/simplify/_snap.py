@@ -78,13 +78,14 @@ def fit_to_points(verts, tri, q, normals, tree, bound: float, k: int = FIT_NEIGH
 
 def refit_far(x, tri, surface, tol: float, bound: float) -> np.ndarray:
     """``x`` with every vertex farther than ``tol`` from the points' ``surface``
-    (`PointSurface`, with normals) fitted to the points' tangent planes (at most
-    ``bound``), where that brings it nearer; no triangle turned over."""
-    far = np.flatnonzero(surface.distance(x) > tol)
+    (`PointSurface`, with normals; `PointSurface.outline_distance`) fitted to the
+    points' tangent planes (at most ``bound``), where that brings it nearer; no
+    triangle turned over."""
+    far = np.flatnonzero(surface.outline_distance(x) > tol)
     if far.size == 0:
         return x
     at = x[far] + _fit_moves(x[far], surface.points, surface.normals, surface.tree, bound)
-    better = surface.distance(at) < surface.distance(x[far])
+    better = surface.outline_distance(at) < surface.outline_distance(x[far])
     if not better.any():
         return x
     y = x.copy()
@@ -94,13 +95,14 @@ def refit_far(x, tri, surface, tol: float, bound: float) -> np.ndarray:
 
 def placed_near_points(v0, placed, triangles, surface, tol: float) -> np.ndarray:
     """``placed`` with every vertex that moved more than ``tol`` and ended farther than
-    ``tol`` from the points' ``surface`` (`PointSurface`), and farther than ``v0`` was,
-    put back at ``v0``; then no triangle turned over (`_unflip`)."""
+    ``tol`` from the points' ``surface`` (`PointSurface.outline_distance`: a plane's
+    corner placed past a wall is far), and farther than ``v0`` was, put back at
+    ``v0``; then no triangle turned over (`_unflip`)."""
     moved = np.flatnonzero(np.linalg.norm(placed - v0, axis=1) > tol)
     if moved.size == 0:
         return placed
-    after = surface.distance(placed[moved])
-    before = surface.distance(v0[moved])
+    after = surface.outline_distance(placed[moved])
+    before = surface.outline_distance(v0[moved])
     back = moved[(after > tol) & (after > before)]
     if back.size == 0:
         return placed
