@@ -2,14 +2,15 @@
 where the mesh stays manifold, with every per-vertex and per-triangle array along; a
 cap flips into two triangles of the same area and orientation, a row of vertices on
 one line is cleared in passes, and nothing flips across a face's outline, onto an
-existing edge or into a fold."""
+existing edge or into a fold; twins that cannot merge spread inside a flat face,
+which stays the same polygon."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pointatlas.simplify._caps import flip_caps, weld_needles
+from pointatlas.simplify._caps import flip_caps, spread_tiny, weld_needles
 from pointatlas.simplify._mesh import mesh_checks
 
 
@@ -135,3 +136,49 @@ def test_a_merge_that_would_turn_a_triangle_over_is_not_made():
     assert _no_fold(beside, rows, around, 3, 2)
     onto = np.array([x, y, q, [0.5, 0.0, 0.0]])  # p on the line: no area, no turn
     assert _no_fold(onto, rows, around, 3, 2)
+
+
+def _hexagon_with_twins(z_twin=0.0):
+    """A flat hexagon in z = 0 fanned around two vertices on one spot (the centre,
+    rows 6 and 7): three triangles to each, and two needles (twin, twin, ring) that
+    no merge can end (each twin keeps three neighbours of its own besides the
+    needles'); ``z_twin`` lifts the second twin off the plane."""
+    ring = np.array([[np.cos(a), np.sin(a), 0.0] for a in np.arange(6) * np.pi / 3])
+    v = np.vstack([ring, [[0.0, 0.0, 0.0], [0.0, 0.0, z_twin]]])
+    c, d = 6, 7
+    t = [[c, 0, 1], [c, 1, 2], [c, 2, 3], [c, 3, d], [d, 3, 4], [d, 4, 5], [d, 5, 0], [d, 0, c]]
+    return v, np.array(t, dtype=np.int64)
+
+
+def _planes(flat=True):
+    return np.array([[0.0, 0.0, 1.0]]), np.zeros(1), np.array([flat])
+
+
+def test_twins_in_a_flat_face_spread_and_the_face_stays_the_same_polygon():
+    v, t = _hexagon_with_twins()
+    face = np.zeros(len(t), dtype=np.int64)
+    assert (np.abs(_areas(v, t)) <= 1e-15).sum() == 2  # the two needles
+    out = spread_tiny(v, t, face, _planes())
+    after = _areas(out, t)
+    assert (after > 1e-3).all()  # every triangle has an area, facing up
+    assert after.sum() == pytest.approx(_areas(v, t).sum())  # the same polygon
+    assert (out[:6] == v[:6]).all() and (out[:, 2] == 0.0).all()  # outline, plane
+    assert mesh_checks(len(out), t) == mesh_checks(len(v), t)
+
+
+def test_off_the_plane_or_across_an_outline_a_vertex_moves_a_thousandth_or_not():
+    v, t = _hexagon_with_twins(z_twin=1e-8)  # the second twin off the plane
+    face = np.zeros(len(t), dtype=np.int64)
+    out = spread_tiny(v, t, face, _planes())
+    moved = np.linalg.norm(out - v, axis=1)
+    assert moved[:6].max() == 0.0
+    assert 0.0 < moved[6:].max() <= 1e-3 * 1.0 + 1e-12  # the ring's mean is 0.5 away at most
+    assert (_areas(out, t) > 0.0).all()
+    # every vertex of a needle on a face's outline: nothing moves
+    two = face.copy()
+    two[[0, 1, 2, 3]] = 1
+    planes = (np.array([[0.0, 0, 1], [0, 0, 1.0]]), np.zeros(2), np.array([True, True]))
+    assert (spread_tiny(*_hexagon_with_twins(), two, planes) == v * [1, 1, 0]).all()
+    # no triangle without area: the input itself
+    flat = np.array([[0, 1, 2]])
+    assert spread_tiny(v, flat, np.zeros(1, dtype=np.int64), _planes()) is v

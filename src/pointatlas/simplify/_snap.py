@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._caps import flip_caps, weld_needles
+from ._caps import flip_caps, spread_tiny, weld_needles
 from ._decimate_mesh import Decimation
 from ._place import _unflip, place_on_planes
 from ._point_distances import SEARCH_POINTS
@@ -160,4 +160,5 @@ class PointsDecimation(Decimation):
         # zero-area triangle (`_caps`)
         x, out_t, face, source, kept, went = weld_needles(x, out_t, face, source, kept, went)
         out_t = flip_caps(x, out_t, face)
+        x = spread_tiny(x, out_t, face, self.planes)
         return x, out_t, face, source, (kept, went)
