@@ -292,20 +292,23 @@ def spread_tiny(vertices, triangles, face, planes) -> np.ndarray:
     tri = np.asarray(triangles, dtype=np.int64)
     if tri.shape[0] == 0:
         return v
-    tiny = CAP_RTOL * float(_areas(v, tri).mean())
-    if not (_areas(v, tri) <= tiny).any():
+    area = _areas(v, tri)
+    tiny = CAP_RTOL * float(area.mean())
+    if not (area <= tiny).any():
         return v
     v = v.copy()
     order = np.argsort(tri.reshape(-1), kind="stable")
     start = np.searchsorted(tri.reshape(-1)[order], np.arange(v.shape[0] + 1))
-    around = [order[start[i] : start[i + 1]] // 3 for i in range(v.shape[0])]
-    edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-    edges, count = np.unique(edges, axis=0, return_counts=True)
-    on_outline = np.unique(edges[count != 2])  # an open or non-manifold edge's ends
+    ends_of = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    key, count = np.unique(ends_of[:, 0] * v.shape[0] + ends_of[:, 1], return_counts=True)
+    odd = key[count != 2]  # an open or non-manifold edge: its ends
+    on_outline = np.unique(np.concatenate([odd // v.shape[0], odd % v.shape[0]]))
     for _ in range(_PASSES):
         ends = np.setdiff1d(tri[_areas(v, tri) <= tiny], on_outline)
+        rings = (order[start[i] : start[i + 1]] // 3 for i in ends)  # triangles around
         if ends.size == 0 or not sum(
-            _spread(v, tri, face, planes, around[i], i, tiny) for i in ends
+            _spread(v, tri, face, planes, ring, i, tiny)
+            for i, ring in zip(ends, rings, strict=True)
         ):
             break
     return v
