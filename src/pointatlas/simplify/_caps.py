@@ -33,7 +33,7 @@ from ._place import _cross
 
 __all__ = [
     "CAP_RTOL",
-    "CURVED_SHARES",
+    "CURVED_REACH",
     "FLAT_SHARES",
     "NEEDLE_RTOL",
     "ON_PLANE_RTOL",
@@ -51,8 +51,10 @@ NEEDLE_RTOL = 1e-7
 #: `spread_tiny` moves a vertex these shares of the way to its neighbours' mean in a
 #: flat face (the surface stays) ...
 FLAT_SHARES = (1.0, 0.5, 0.25)
-#: ... and in a curved one (the surface moves by as much) ...
-CURVED_SHARES = (1e-3, 1e-4)
+#: ... and in a curved one (the surface moves by as much) at most this fraction of
+#: the mean edge (all the way where its neighbours' mean is nearer: a cluster of
+#: vertices a millionth of an edge apart), else a tenth of that ...
+CURVED_REACH = 1e-3
 #: ... a face being flat around a vertex when the ring lies this close to its plane,
 #: relative to the ring's extent.
 ON_PLANE_RTOL = 1e-9
@@ -252,9 +254,9 @@ def spread_tiny(vertices, triangles, face, planes) -> np.ndarray:
     face's plane (within `ON_PLANE_RTOL` of the ring's size), in that plane, all the
     way, else half, else a quarter (`FLAT_SHARES`), where its triangles then cover the
     same polygon (its neighbours stay), so the surface and the face's outline do not
-    change; elsewhere (a curved face, or vertices a flat face's plane did not take) a
-    thousandth of the way, else a ten-thousandth (`CURVED_SHARES`): a move the size of
-    the ring, or onto a plane the vertex was not on, changed the surface there
+    change; elsewhere (a curved face, or vertices a flat face's plane did not take) at
+    most a thousandth of the mean edge, else a tenth of that (`CURVED_REACH`): a move
+    the size of the ring, or onto a plane the vertex was not on, changed the surface there
     (`cad_a_a32`'s voxel surface, whose error sets the default bound's floor: 0.95 ->
     8.84 % of the diagonal from the truth). The moves stay in the hull of the ring's
     vertices (no vertex leaves the points' box).
@@ -303,18 +305,19 @@ def spread_tiny(vertices, triangles, face, planes) -> np.ndarray:
     key, count = np.unique(ends_of[:, 0] * v.shape[0] + ends_of[:, 1], return_counts=True)
     odd = key[count != 2]  # an open or non-manifold edge: its ends
     on_outline = np.unique(np.concatenate([odd // v.shape[0], odd % v.shape[0]]))
+    reach = CURVED_REACH * float(np.linalg.norm(v[tri[:, [1, 2, 0]]] - v[tri], axis=2).mean())
     for _ in range(_PASSES):
         ends = np.setdiff1d(tri[_areas(v, tri) <= tiny], on_outline)
         rings = (order[start[i] : start[i + 1]] // 3 for i in ends)  # triangles around
         if ends.size == 0 or not sum(
-            _spread(v, tri, face, planes, ring, i, tiny)
+            _spread(v, tri, face, planes, ring, i, tiny, reach)
             for i, ring in zip(ends, rings, strict=True)
         ):
             break
     return v
 
 
-def _spread(v, tri, face, planes, ring, i: int, tiny: float) -> bool:
+def _spread(v, tri, face, planes, ring, i: int, tiny: float, reach: float) -> bool:
     """Move vertex ``i`` (triangles ``ring``) as `spread_tiny` says, if it can be."""
     normals, offsets, flat = planes
     f = int(face[ring[0]])
@@ -328,7 +331,9 @@ def _spread(v, tri, face, planes, ring, i: int, tiny: float) -> bool:
         n, shares = normals[f], FLAT_SHARES
         mean -= (float(np.dot(n, mean)) - offsets[f]) * n
     else:  # a curved face: its side is the triangles' around the vertex
-        n, shares = total / max(float(np.linalg.norm(total)), 1e-300), CURVED_SHARES
+        n = total / max(float(np.linalg.norm(total)), 1e-300)
+        first = min(1.0, reach / max(float(np.linalg.norm(mean - v[i])), 1e-300))
+        shares = (first, 0.1 * first)
     side = np.sign(float(np.dot(total, n)))
     if side == 0.0:
         return False
