@@ -29,6 +29,7 @@ import collections
 
 import numpy as np
 
+from ._mesh import unique_pairs
 from ._place import _cross
 
 __all__ = [
@@ -196,11 +197,8 @@ def flip_caps(vertices, triangles, face) -> np.ndarray:
     """
     v = np.asarray(vertices, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.int64)
-    if tri.shape[0] == 0:
-        return tri
-    area = _areas(v, tri)
-    tiny = CAP_RTOL * float(area.mean())
-    if not (area <= tiny).any():
+    tiny = _tiny(v, tri)
+    if tiny is None:
         return tri
     tri = tri.copy()
     edge_of = _edge_map(tri)
@@ -292,19 +290,15 @@ def spread_tiny(vertices, triangles, face, planes) -> np.ndarray:
     """
     v = np.asarray(vertices, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.int64)
-    if tri.shape[0] == 0:
-        return v
-    area = _areas(v, tri)
-    tiny = CAP_RTOL * float(area.mean())
-    if not (area <= tiny).any():
+    tiny = _tiny(v, tri)
+    if tiny is None:
         return v
     v = v.copy()
     order = np.argsort(tri.reshape(-1), kind="stable")
     start = np.searchsorted(tri.reshape(-1)[order], np.arange(v.shape[0] + 1))
     ends_of = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-    key, count = np.unique(ends_of[:, 0] * v.shape[0] + ends_of[:, 1], return_counts=True)
-    odd = key[count != 2]  # an open or non-manifold edge: its ends
-    on_outline = np.unique(np.concatenate([odd // v.shape[0], odd % v.shape[0]]))
+    edge, count = unique_pairs(ends_of, return_counts=True)
+    on_outline = np.unique(edge[count != 2])  # an open or non-manifold edge's ends
     reach = CURVED_REACH * float(np.linalg.norm(v[tri[:, [1, 2, 0]]] - v[tri], axis=2).mean())
     for _ in range(_PASSES):
         ends = np.setdiff1d(tri[_areas(v, tri) <= tiny], on_outline)
@@ -357,6 +351,16 @@ def _edge_map(tri: np.ndarray) -> dict:
 
 def _edges(row):
     return ((row[0], row[1]), (row[1], row[2]), (row[2], row[0]))
+
+
+def _tiny(v, tri):
+    """The area below which a triangle has none (`CAP_RTOL` of the mean triangle's),
+    or None when no triangle is below it."""
+    if tri.shape[0] == 0:
+        return None
+    area = _areas(v, tri)
+    tiny = CAP_RTOL * float(area.mean())
+    return tiny if (area <= tiny).any() else None
 
 
 def _area(v, row) -> float:

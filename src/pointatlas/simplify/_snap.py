@@ -81,11 +81,12 @@ def refit_far(x, tri, surface, tol: float, bound: float) -> np.ndarray:
     (`PointSurface`, with normals; `PointSurface.outline_distance`) fitted to the
     points' tangent planes (at most ``bound``), where that brings it nearer; no
     triangle turned over."""
-    far = np.flatnonzero(surface.outline_distance(x) > tol)
+    off = surface.outline_distance(x)
+    far = np.flatnonzero(off > tol)
     if far.size == 0:
         return x
     at = x[far] + _fit_moves(x[far], surface.points, surface.normals, surface.tree, bound)
-    better = surface.outline_distance(at) < surface.outline_distance(x[far])
+    better = surface.outline_distance(at) < off[far]
     if not better.any():
         return x
     y = x.copy()
