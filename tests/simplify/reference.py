@@ -273,3 +273,26 @@ def band_field_reference(x, points, normals, dist, idx, step, spacing):
     vote = np.where(turn != 0.0, turn, vote)
     values[split] = np.where(vote >= 0.0, 1.0, -1.0) * dist[split, 0]
     return values
+
+
+def upsample_reference(w, stride, shape):
+    """Values on every node of a grid of ``shape`` from ``w`` on the lattice of every
+    ``stride``-th node, linear along axis 0, then 1, then 2 (past the last lattice
+    node: its value)."""
+    for axis, n in enumerate(shape):
+        pos = np.arange(n) / stride
+        lo = np.minimum(np.floor(pos).astype(np.int64), w.shape[axis] - 1)
+        hi = np.minimum(lo + 1, w.shape[axis] - 1)
+        t = np.clip(pos - lo, 0.0, 1.0).reshape([n if a == axis else 1 for a in range(w.ndim)])
+        w = np.take(w, lo, axis=axis) * (1.0 - t) + np.take(w, hi, axis=axis) * t
+    return w
+
+
+def far_sides_reference(f, w, far_from, near, stride, clear):
+    """`_winding.far_sides`: nodes farther than ``near`` take the interpolated winding
+    number's side where it is clear."""
+    wf = upsample_reference(w, stride, f.shape)
+    far = far_from > near
+    size = np.maximum(np.abs(f), far_from)
+    f = np.where(far & (wf > 1.0 - clear), -size, f)
+    return np.where(far & (wf < clear), size, f)

@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from pointatlas.neighbors import query_knn
-from pointatlas.simplify._winding import point_areas, table_areas, winding_numbers
+from pointatlas.simplify._winding import far_sides, point_areas, table_areas, winding_numbers
 from pointatlas.synth import sample_mesh
 
 from .cad_shapes import cube_with_square_hole
-from .reference import winding_reference
+from .reference import far_sides_reference, upsample_reference, winding_reference
 
 
 def _sphere(n, seed=0):
@@ -103,3 +104,37 @@ def test_areas_from_the_knn_table_are_the_searched_ones():
     np.testing.assert_allclose(table_areas(few), point_areas(p[:4]), rtol=1e-13, atol=0)
     with pytest.raises(ValueError, match="needs 9 neighbours"):
         table_areas(dist[:, :5])
+
+
+@pytest.mark.parametrize("stride", [2, 3, 5])
+def test_upsampled_lattice_agrees_with_map_coordinates(stride):
+    # grids whose sides are not multiples of the stride: past the last lattice
+    # node the value is the nearest one's
+    shape = (17, 11, 23)
+    rng = np.random.default_rng(stride)
+    w = rng.normal(size=[len(range(0, n, stride)) for n in shape])
+    nodes = np.argwhere(np.ones(shape, dtype=bool))
+    ref = ndimage.map_coordinates(w, (nodes / stride).T, order=1, mode="nearest")
+    got = upsample_reference(w, stride, shape)
+    assert got.shape == shape
+    np.testing.assert_allclose(got.reshape(-1), ref, rtol=0, atol=1e-12)
+    # the lattice nodes keep their values exactly
+    lattice = got[::stride, ::stride, ::stride]
+    np.testing.assert_array_equal(lattice, w)
+
+
+@pytest.mark.parametrize("stride", [2, 3])
+def test_far_sides_kernel_agrees_with_the_reference_bit_for_bit(stride):
+    shape = (13, 9, 16)
+    rng = np.random.default_rng(10 + stride)
+    w = rng.uniform(-0.2, 1.2, size=[len(range(0, n, stride)) for n in shape])
+    f = rng.normal(size=shape)
+    far_from = rng.uniform(0.0, 2.0, size=shape)
+    got = far_sides(f, w, far_from, 0.7, stride, 0.1)
+    ref = far_sides_reference(f, w, far_from, 0.7, stride, 0.1)
+    np.testing.assert_array_equal(got, ref)
+    # near nodes keep the field; every clear far node took its size, with a sign
+    near = far_from <= 0.7
+    np.testing.assert_array_equal(got[near], f[near])
+    assert (np.abs(got[~near]) >= np.minimum(np.abs(f[~near]), far_from[~near])).all()
+    assert (got != f).any() and (got[~near] < 0).any() and (got[~near] > 0).any()

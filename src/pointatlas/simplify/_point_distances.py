@@ -15,6 +15,7 @@ __all__ = [
     "FLOOR_FACTOR",
     "FLOOR_NEIGHBORS",
     "FLOOR_SLACK",
+    "FIRST_SAMPLES",
     "SEARCH_POINTS",
     "PointDistances",
 ]
@@ -33,6 +34,9 @@ FLOOR_FACTOR = 1.1
 #: The level search first measures at most about this many of the points (evenly
 #: strided, `PointDistances.subset`): a level over the bound on them is over it on all.
 SEARCH_POINTS = 4000
+#: `PointDistances.within` measures this many of a level's samples back first (its
+#: vertices, then area samples), the rest only when none of them is over the bound.
+FIRST_SAMPLES = 4000
 
 
 class PointDistances:
@@ -103,16 +107,24 @@ class PointDistances:
         if (out_v < self.lo).any() or (out_v > self.hi).any():
             return False
         there = point_mesh_distance(self.q, out_v, out_t, within=bound)
-        if self.there_floor is None:
-            samples = output_samples(out_v, out_t)
-            return bool(there.max() <= bound and self.surface.distance(samples).max() <= bound)
-        if (there > np.maximum(bound, self.there_floor)).any():
+        floor = bound if self.there_floor is None else np.maximum(bound, self.there_floor)
+        if (there > floor).any():
             return False
         samples = output_samples(out_v, out_t)
+        # the vertices and the first area samples first: a level over the bound is
+        # mostly found there (the answer is the same, and so is every distance)
+        cut = min(samples.shape[0], FIRST_SAMPLES)
+        return self._back_within(samples[:cut], bound) and self._back_within(samples[cut:], bound)
+
+    def _back_within(self, samples, bound: float) -> bool:
+        """Whether ``samples`` of an output are within ``bound`` of the points' surface
+        (or of the floor `floor_at` set near them)."""
         back = self.surface.distance(samples)
         over = back > bound
         if not over.any():
             return True
+        if self.back_floor is None:
+            return False
         _, near = self.back_at.query(samples[over], workers=-1)
         return bool((back[over] <= self.back_floor[near]).all())
 

@@ -228,7 +228,7 @@ def _winding_sides(f, q, normals, occupied, step, spacing, origin):
     sampled surface (its dipoles sum to less than `CLOSED_DIPOLE` of its area: an
     open sheet has no inside)."""
     from ._edt import distance_to
-    from ._winding import winding_numbers
+    from ._winding import far_sides, winding_numbers
 
     shape = np.array(f.shape)
     stride = max(2, int(np.ceil((shape.prod() / WINDING_NODES) ** (1.0 / 3.0))))
@@ -244,14 +244,7 @@ def _winding_sides(f, q, normals, occupied, step, spacing, origin):
     far_from = distance_to(occupied) * step
     # a node whose lattice corners are all more than a spacing from every point (near
     # the points the winding number is steep: interpolated it made tunnels)
-    far = far_from > spacing + stride * step
-    nodes = np.argwhere(far)
-    w = ndimage.map_coordinates(w, (nodes / stride).T, order=1, mode="nearest")
-    value = f[far]
-    size = np.maximum(np.abs(value), far_from[far])
-    value = np.where(w > 1.0 - WINDING_CLEAR, -size, value)
-    f[far] = np.where(w < WINDING_CLEAR, size, value)
-    return f
+    return far_sides(f, w, far_from, spacing + stride * step, stride, WINDING_CLEAR)
 
 
 def _trim(tri, far):

@@ -21,6 +21,7 @@ __all__ = [
     "AREA_NEIGHBOR",
     "FAR_RADII",
     "MAX_POINTS",
+    "far_sides",
     "point_areas",
     "table_areas",
     "winding_numbers",
@@ -109,3 +110,51 @@ def winding_numbers(x, points, normals, cell: float) -> np.ndarray:
     reach2 = (FAR_RADII * radius) ** 2
     x = np.ascontiguousarray(x, dtype=np.float64)
     return _winding_kernel(x, p, dipoles, order, starts, centres, cell_dipoles, reach2)
+
+
+@njit(cache=True, parallel=True)
+def far_sides(f, w, far_from, near, stride, clear):
+    """The field ``f`` with the side of every node farther than ``near`` from the
+    points (``far_from``) taken from the winding number: ``w`` on the lattice of
+    every ``stride``-th node, interpolated trilinearly (axis 0, then 1, then 2;
+    beyond the last lattice node the nearest one's value); below ``clear`` the node
+    is outside (+max(|f|, far_from)), above 1 - ``clear`` inside (-max(|f|,
+    far_from)), else it keeps ``f``. Plain-numpy reference in
+    tests/simplify/reference.py (`far_sides_reference`)."""
+    n0, n1, n2 = f.shape
+    m0, m1, m2 = w.shape
+    out = f.copy()
+    for i in prange(n0):
+        i0, i1, ti = _lattice_at(i, stride, m0)
+        for j in range(n1):
+            j0, j1, tj = _lattice_at(j, stride, m1)
+            for k in range(n2):
+                if far_from[i, j, k] <= near:
+                    continue
+                k0, k1, tk = _lattice_at(k, stride, m2)
+                b0 = _along(w, i0, i1, ti, j0, k0) * (1.0 - tj)
+                b0 += _along(w, i0, i1, ti, j1, k0) * tj
+                b1 = _along(w, i0, i1, ti, j0, k1) * (1.0 - tj)
+                b1 += _along(w, i0, i1, ti, j1, k1) * tj
+                value = b0 * (1.0 - tk) + b1 * tk
+                size = max(abs(f[i, j, k]), far_from[i, j, k])
+                if value > 1.0 - clear:
+                    out[i, j, k] = -size
+                if value < clear:
+                    out[i, j, k] = size
+    return out
+
+
+@njit(cache=True, inline="always")
+def _lattice_at(i, stride, m):
+    """The lattice nodes either side of node ``i`` and its weight on the second."""
+    pos = i / stride
+    lo = min(int(np.floor(pos)), m - 1)
+    hi = min(lo + 1, m - 1)
+    return lo, hi, min(max(pos - lo, 0.0), 1.0)
+
+
+@njit(cache=True, inline="always")
+def _along(w, i0, i1, ti, j, k):
+    """``w`` interpolated along axis 0 at lattice row ``j``, column ``k``."""
+    return w[i0, j, k] * (1.0 - ti) + w[i1, j, k] * ti
