@@ -475,11 +475,13 @@ def _merge_flat(s: _Surface, graph, labels: np.ndarray, max_angle: float) -> np.
     coo = graph.tocoo()
     a, b = labels[coo.row], labels[coo.col]
     pairs = unique_pairs(np.sort(np.stack([a[a != b], b[a != b]], 1), axis=1))
-    neighbours: list[set] = [set() for _ in range(n_regions)]
-    for x, y in pairs.tolist():
-        neighbours[x].add(y)
-        neighbours[y].add(x)
     min_cos = float(np.cos(max_angle))
+    # the pairs' scores as `score` gives them, bit for bit; a pair below the threshold
+    # would only end the loop (the heap's top below it: so is all the rest)
+    first = _pair_scores(wsum, ssum, pairs) >= min_cos - 1e-15
+    if not first.any():  # nothing merges
+        return _first_seen_order(labels, np.arange(n_regions))
+    neighbours = _Neighbours(pairs, n_regions)
     parent = list(range(n_regions))
     wsum, ssum = wsum.tolist(), ssum.tolist()
 
@@ -490,7 +492,7 @@ def _merge_flat(s: _Surface, graph, labels: np.ndarray, max_angle: float) -> np.
         length = math.sqrt((sx[0] + sy[0]) ** 2 + (sx[1] + sy[1]) ** 2 + (sx[2] + sy[2]) ** 2)
         return length / wt if wt > 0 else 1.0
 
-    heap = [(-score(x, y), x, y) for x, y in pairs.tolist()]
+    heap = [(-score(x, y), x, y) for x, y in pairs[first].tolist()]
     heapq.heapify(heap)
     alive = [True] * n_regions
     while heap:
@@ -520,9 +522,43 @@ def _merge_flat(s: _Surface, graph, labels: np.ndarray, max_angle: float) -> np.
         while parent[q] != q:
             q = parent[q]
         root[r] = q
+    return _first_seen_order(labels, root)
+
+
+class _Neighbours(dict):
+    """The regions next to each region, as sets made on first use from the pairs
+    (thousands of regions, a few merges: most are never asked for)."""
+
+    def __init__(self, pairs: np.ndarray, n_regions: int):
+        super().__init__()
+        both = np.concatenate([pairs, pairs[:, ::-1]])
+        both = both[np.argsort(both[:, 0], kind="stable")]
+        self.start = np.searchsorted(both[:, 0], np.arange(n_regions + 1))
+        self.other = both[:, 1]
+
+    def __missing__(self, x: int) -> set:
+        made = set(self.other[self.start[x] : self.start[x + 1]].tolist())
+        self[x] = made
+        return made
+
+
+def _pair_scores(wsum, ssum, pairs) -> np.ndarray:
+    """`_merge_flat`'s score of every pair of regions (rows of ``pairs``): |S| / W of
+    their union (1 where W = 0), in the same operations and order as its ``score``."""
+    x, y = pairs[:, 0], pairs[:, 1]
+    wt = wsum[x] + wsum[y]
+    sx, sy = ssum[x], ssum[y]
+    t0, t1, t2 = (sx[:, d] + sy[:, d] for d in range(3))
+    length = np.sqrt(t0**2 + t1**2 + t2**2)
+    return np.where(wt > 0, length / np.where(wt > 0, wt, 1.0), 1.0)
+
+
+def _first_seen_order(labels: np.ndarray, root: np.ndarray) -> np.ndarray:
+    """Every triangle's merged region ``root[labels]``, numbered 0.. in the order of
+    the regions' first triangles."""
     merged = root[labels]
     _, first = np.unique(merged, return_index=True)
     order = np.argsort(first, kind="stable")
-    rank = np.empty(n_regions, dtype=np.int64)
+    rank = np.empty(root.size, dtype=np.int64)
     rank[unique_ints(merged)[order]] = np.arange(order.size)
     return rank[merged]
