@@ -296,3 +296,43 @@ def far_sides_reference(f, w, far_from, near, stride, clear):
     size = np.maximum(np.abs(f), far_from)
     f = np.where(far & (wf > 1.0 - clear), -size, f)
     return np.where(far & (wf < clear), size, f)
+
+
+def _discs_reference(surface, x, d, j):
+    """Distance of every row of ``x`` to the discs of its nearest points ``j`` (at
+    distances ``d``) of a `PointSurface`, and its height over their planes."""
+    h = np.abs(np.einsum("ikd,ikd->ik", x[:, None, :] - surface.points[j], surface.normals[j]))
+    t = np.sqrt(np.maximum(d * d - h * h, 0.0))
+    return np.hypot(h, np.maximum(t - surface.radius[j], 0.0)), h
+
+
+def disc_distance_reference(surface, x, candidates):
+    """`PointSurface.distance` with normals: the nearest of ``candidates`` discs."""
+    d, j = surface.tree.query(x, k=candidates)
+    return _discs_reference(surface, x, d, j)[0].min(axis=1)
+
+
+def outline_distance_reference(surface, x, neighbors, candidates, margin):
+    """`PointSurface.outline_distance` with normals, in numpy."""
+    d, j = surface.tree.query(x, k=neighbors)
+    disc, h = _discs_reference(surface, x, d[:, :candidates], j[:, :candidates])
+    rows = np.arange(x.shape[0])
+    best = disc.argmin(axis=1)
+    n = surface.normals[j[rows, best]]
+    off = surface.points[j] - x[:, None, :]
+    off -= np.einsum("ikd,id->ik", off, n)[:, :, None] * n[:, None, :]
+    e1 = np.cross(n, np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]]))
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(n, e1)
+    turn = np.sort(
+        np.arctan2(np.einsum("ikd,id->ik", off, e2), np.einsum("ikd,id->ik", off, e1)), axis=1
+    )
+    gaps = np.column_stack([np.diff(turn, axis=1), turn[:, 0] + 2.0 * np.pi - turn[:, -1]])
+    g = gaps.argmax(axis=1)
+    gap = gaps[rows, g]
+    across = turn[rows, g] + 0.5 * gap  # the gap's middle direction
+    u = np.cos(across)[:, None] * e1 + np.sin(across)[:, None] * e2
+    past = np.maximum(-np.einsum("ikd,id->ik", off, u).max(axis=1), 0.0)
+    near = disc[rows, best]
+    out = gap > np.pi + margin
+    return np.where(out, np.maximum(near, np.hypot(h[rows, best], past)), near)

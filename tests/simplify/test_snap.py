@@ -8,11 +8,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pointatlas.simplify._distance import PointSurface
+from pointatlas.simplify._distance import (
+    DISC_CANDIDATES,
+    OUTLINE_MARGIN,
+    OUTLINE_NEIGHBORS,
+    PointSurface,
+)
 from pointatlas.simplify._snap import fit_to_points, placed_near_points, refit_far
 from pointatlas.synth import sample_mesh
 
 from .cad_shapes import box, l_bracket
+from .reference import disc_distance_reference, outline_distance_reference
 
 
 def _floor(n=21):
@@ -203,3 +209,33 @@ def test_level_search_on_a_subset_of_the_points_meets_the_bound_on_all(shape, mo
     for m in meshes[1:]:
         np.testing.assert_array_equal(m.triangles, meshes[0].triangles)
         np.testing.assert_array_equal(m.vertices, meshes[0].vertices)
+
+
+def test_disc_kernels_agree_with_the_numpy_reference():
+    """Both distances on positions on, near and past a sampled L-bracket (its open
+    top: the points of a box without one face, so that positions lie past an
+    outline), and far from it."""
+    v, t = l_bracket()
+    s = sample_mesh(v, t, 3000, rng=3)
+    q, n = np.asarray(s.points), np.asarray(s.normals)
+    keep = q[:, 2] < q[:, 2].max() - 1e-9  # no top face: an outline along its edges
+    q, n = q[keep], n[keep]
+    surface = PointSurface(q, n)
+    rng = np.random.default_rng(4)
+    lo, hi = q.min(axis=0), q.max(axis=0)
+    x = np.vstack(
+        [
+            q[::7] + rng.normal(scale=0.02, size=q[::7].shape),
+            rng.uniform(lo - 0.3, hi + 0.3, size=(500, 3)),
+            q[::11] * [1.0, 1.0, 0.0] + [0.0, 0.0, hi[2] + 0.05],  # over the open top
+        ]
+    )
+    k = max(OUTLINE_NEIGHBORS, DISC_CANDIDATES)
+    np.testing.assert_allclose(
+        surface.distance(x), disc_distance_reference(surface, x, DISC_CANDIDATES), atol=1e-12
+    )
+    got = surface.outline_distance(x)
+    ref = outline_distance_reference(surface, x, k, DISC_CANDIDATES, OUTLINE_MARGIN)
+    np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-12)
+    # the outline cut makes some positions farther than their discs, never nearer
+    assert (got >= surface.distance(x)).all() and (got > surface.distance(x) + 1e-3).any()

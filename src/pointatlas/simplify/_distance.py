@@ -14,8 +14,10 @@ import functools
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .._core._threads import run_chunks
 from ..neighbors import MeshDistanceIndex, point_mesh_distance
 from ..synth._sample import face_points, sample_draws
+from ._disc_kernels import disc_rows, outline_rows
 
 __all__ = [
     "BACK_SAMPLES",
@@ -68,14 +70,14 @@ class PointSurface:
     """
 
     def __init__(self, points, normals=None, tree=None, radius=None):
-        self.points = np.asarray(points, dtype=np.float64)
+        self.points = np.ascontiguousarray(points, dtype=np.float64)
         self.tree = cKDTree(self.points) if tree is None else tree
-        self.normals = None if normals is None else np.asarray(normals, dtype=np.float64)
+        self.normals = None if normals is None else np.ascontiguousarray(normals, dtype=np.float64)
         if radius is None:
             k = min(DISC_NEIGHBOR + 1, self.points.shape[0])
             far = self.tree.query(self.points, k=k, workers=-1)[0]
             radius = disc_radii(far.reshape(self.points.shape[0], k))
-        self.radius = np.asarray(radius, dtype=np.float64)
+        self.radius = np.ascontiguousarray(radius, dtype=np.float64)
 
     def distance(self, x) -> np.ndarray:
         """Distance of every row of ``x`` to the points' surface: the nearest of its
@@ -84,16 +86,7 @@ class PointSurface:
         if self.normals is None:
             return self.tree.query(x, workers=-1)[0]
         k = min(DISC_CANDIDATES, self.points.shape[0])
-        d, j = self.tree.query(x, k=k, workers=-1)
-        d, j = d.reshape(x.shape[0], k), j.reshape(x.shape[0], k)
-        return self._discs(x, d, j)[0].min(axis=1)
-
-    def _discs(self, x, d, j):
-        """The distance of every row of ``x`` to the discs of its nearest points ``j``
-        (at distances ``d``), and its height over their tangent planes."""
-        h = np.abs(np.einsum("ikd,ikd->ik", x[:, None, :] - self.points[j], self.normals[j]))
-        t = np.sqrt(np.maximum(d * d - h * h, 0.0))
-        return np.hypot(h, np.maximum(t - self.radius[j], 0.0)), h
+        return self._rows(disc_rows, x, k, ())
 
     def outline_distance(self, x) -> np.ndarray:
         """`distance`, with the discs cut at the points' outline: where the
@@ -101,9 +94,9 @@ class PointSurface:
         of its nearest disc, leave a gap wider than a half-turn plus `OUTLINE_MARGIN`
         around it (``x`` lies past the edge of the sampled surface, e.g. a face
         extended over a step), it is at least as far as its height over that plane
-        and its distance past those points along the middle of the gap. Inside the outline, and
-        without normals, `distance`. A placement checked with `distance` alone may
-        extend a face three spacings past a wall (a disc's radius).
+        and its distance past those points along the middle of the gap. Inside the
+        outline, and without normals, `distance`. A placement checked with `distance`
+        alone may extend a face three spacings past a wall (a disc's radius).
 
         Examples
         --------
@@ -117,31 +110,20 @@ class PointSurface:
         if self.normals is None or x.shape[0] == 0:
             return self.distance(x)
         k = min(max(OUTLINE_NEIGHBORS, DISC_CANDIDATES), self.points.shape[0])
+        return self._rows(outline_rows, x, k, (float(OUTLINE_MARGIN),))
+
+    def _rows(self, kernel, x, k: int, extra: tuple) -> np.ndarray:
+        """``kernel`` (`_disc_kernels`) on every row of ``x`` with its ``k`` nearest
+        points, on threads."""
         d, j = self.tree.query(x, k=k, workers=-1)
-        d, j = d.reshape(x.shape[0], k), j.reshape(x.shape[0], k)
+        d = np.ascontiguousarray(d, dtype=np.float64).reshape(x.shape[0], k)
+        j = np.ascontiguousarray(j, dtype=np.int64).reshape(x.shape[0], k)
+        x = np.ascontiguousarray(x)
+        out = np.empty(x.shape[0])
         c = min(DISC_CANDIDATES, k)
-        disc, h = self._discs(x, d[:, :c], j[:, :c])
-        rows = np.arange(x.shape[0])
-        best = disc.argmin(axis=1)
-        n = self.normals[j[rows, best]]
-        off = self.points[j] - x[:, None, :]
-        off -= np.einsum("ikd,id->ik", off, n)[:, :, None] * n[:, None, :]
-        e1 = np.cross(n, np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]]))
-        e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-        e2 = np.cross(n, e1)
-        turn = np.sort(
-            np.arctan2(np.einsum("ikd,id->ik", off, e2), np.einsum("ikd,id->ik", off, e1)),
-            axis=1,
-        )
-        gaps = np.column_stack([np.diff(turn, axis=1), turn[:, 0] + 2.0 * np.pi - turn[:, -1]])
-        g = gaps.argmax(axis=1)
-        gap = gaps[rows, g]
-        across = turn[rows, g] + 0.5 * gap  # the gap's middle direction
-        u = np.cos(across)[:, None] * e1 + np.sin(across)[:, None] * e2
-        past = np.maximum(-np.einsum("ikd,id->ik", off, u).max(axis=1), 0.0)
-        near = disc[rows, best]
-        out = gap > np.pi + OUTLINE_MARGIN
-        return np.where(out, np.maximum(near, np.hypot(h[rows, best], past)), near)
+        args = (x, d, j, self.points, self.normals, self.radius, c, *extra, out)
+        run_chunks(kernel, x.shape[0], args)
+        return out
 
 
 def output_samples(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0) -> np.ndarray:
