@@ -29,7 +29,7 @@ import collections
 
 import numpy as np
 
-from ._mesh import unique_pairs
+from ._mesh import cross, unique_pairs
 from ._place import _cross
 
 __all__ = [
@@ -143,8 +143,8 @@ def _no_fold(v, rows, around, p: int, q: int) -> bool:
     for t in around[q] - around[p]:
         row = rows[t]
         moved = np.where(row == q, p, row)
-        before = np.cross(v[row[1]] - v[row[0]], v[row[2]] - v[row[0]])
-        after = np.cross(v[moved[1]] - v[moved[0]], v[moved[2]] - v[moved[0]])
+        before = cross(v[row[1]] - v[row[0]], v[row[2]] - v[row[0]])
+        after = cross(v[moved[1]] - v[moved[0]], v[moved[2]] - v[moved[0]])
         if float(np.dot(before, after)) < 0.0:
             return False
     return True
@@ -225,9 +225,9 @@ def _flip(v, tri, face, edge_of, t: int, tiny: float) -> bool:
     if (c, d) in edge_of or (d, c) in edge_of or c == d:
         return False
     first, second = np.array([a, d, c]), np.array([d, b, c])
-    normal = np.cross(v[a] - v[b], v[d] - v[b])  # the neighbour's (b, a, d)
+    normal = cross(v[a] - v[b], v[d] - v[b])  # the neighbour's (b, a, d)
     for new in (first, second):
-        twice = np.cross(v[new[1]] - v[new[0]], v[new[2]] - v[new[0]])
+        twice = cross(v[new[1]] - v[new[0]], v[new[2]] - v[new[0]])
         if 0.5 * float(np.dot(twice, normal)) / max(np.linalg.norm(normal), 1e-300) <= tiny:
             return False
     for x, y in (*_edges(tri[t]), *_edges(tri[u])):

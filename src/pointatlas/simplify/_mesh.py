@@ -20,11 +20,34 @@ from ..neighbors import point_mesh_distance
 
 __all__ = [
     "SimplifiedMesh",
+    "cross",
     "mesh_checks",
     "point_mesh_distance",
     "unique_ints",
     "unique_pairs",
 ]
+
+
+def cross(a, b) -> np.ndarray:
+    """``np.cross`` of 3-vectors along the last axis (rows broadcast): the same
+    products and differences, so the same bits, without its axis handling, which
+    costs more than the arithmetic on the few rows of a polygon or a vertex's ring
+    (85,000 calls took 2.5 s of a 9 s run).
+
+    Examples
+    --------
+    >>> cross(np.array([1.0, 0, 0]), np.array([[0, 1.0, 0], [0, 0, 1.0]])).tolist()
+    [[0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]
+    """
+    a, b = np.asarray(a), np.asarray(b)
+    return np.stack(
+        (
+            a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+            a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+            a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0],
+        ),
+        axis=-1,
+    )
 
 
 def unique_ints(values) -> np.ndarray:

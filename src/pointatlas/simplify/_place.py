@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._mesh import unique_ints, unique_pairs
+from ._mesh import cross, unique_ints, unique_pairs
 
 __all__ = ["FLAT_RTOL", "flat_planes", "place_on_planes", "triangle_normals"]
 
@@ -158,4 +158,4 @@ def triangle_normals(v, tri):
 
 def _cross(v, tri):
     """The triangles' edge cross products (twice their area along their normal)."""
-    return np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
+    return cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])

@@ -19,7 +19,7 @@ from collections import deque
 import numpy as np
 
 from ._faces import plane_deviation
-from ._mesh import unique_ints
+from ._mesh import cross, unique_ints
 from ._readers import ear_clip_triangles, fan_triangles
 
 __all__ = ["PLANAR_RTOL", "face_polygons", "planar_pieces"]
@@ -151,7 +151,7 @@ def _fan_ready(v, pieces, tol):
         if len(cycle) == 3 or fan_start(v[cycle]) is not None:
             yield cycle, tris
             continue
-        normal = np.cross(v[cycle], v[np.roll(cycle, -1)]).sum(axis=0)
+        normal = cross(v[cycle], v[np.roll(cycle, -1)]).sum(axis=0)
         yield from _pieces(v, tris, tol, convex=normal)
 
 
@@ -293,7 +293,7 @@ def _grow(seed, rows, by_edge, used, pts, tol, convex=None) -> np.ndarray:
 def _turns_left(chain: np.ndarray, normal: np.ndarray) -> bool:
     """No interior vertex of the polyline ``chain`` turns right about ``normal``."""
     d = np.diff(chain, axis=0)
-    turn = np.cross(d[:-1], d[1:]) @ normal
+    turn = cross(d[:-1], d[1:]) @ normal
     return bool((turn >= -1e-12 * np.abs(turn).max(initial=0.0)).all())
 
 
@@ -364,8 +364,8 @@ def fan_starts(points: np.ndarray, ids=None, edges=None):
         yield 0
         return
     after = np.concatenate((p[1:], p[:1]))  # np.roll(p, -1, axis=0)
-    normal = _cross(p, after).sum(axis=0)  # Newell
-    turn = _cross(p - np.concatenate((p[-1:], p[:-1])), after - p) @ normal
+    normal = cross(p, after).sum(axis=0)  # Newell
+    turn = cross(p - np.concatenate((p[-1:], p[:-1])), after - p) @ normal
     scale = np.abs(turn).max(initial=0.0)
     order = np.argsort(turn >= 0.0, kind="stable")  # reflex vertices first
     flat = []
@@ -373,25 +373,12 @@ def fan_starts(points: np.ndarray, ids=None, edges=None):
         if edges is not None and _diagonal_in(ids, s, edges):
             continue
         d = np.concatenate((p[s + 1 :], p[:s])) - p[s]
-        area = _cross(d[:-1], d[1:]) @ normal
+        area = cross(d[:-1], d[1:]) @ normal
         if (area > 1e-12 * scale).all():
             yield s
         elif (area >= -1e-12 * scale).all():
             flat.append(s)
     yield from flat
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross`` of (n, 3) rows: the same products and differences, without its
-    axis handling (which costs more than the arithmetic on a polygon's few rows)."""
-    return np.stack(
-        (
-            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
-            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
-        ),
-        axis=1,
-    )
 
 
 def _diagonal_in(ids, s: int, edges) -> bool:
