@@ -161,12 +161,20 @@ def collapse_all(
     on_boundary = np.zeros(n_v, dtype=bool)
     on_boundary[edge[count == 1].reshape(-1)] = True
     if edge.shape[0] == 0:
-        empty = np.zeros(0, dtype=np.int64)
-        return Collapses(v, tri, empty, empty, np.zeros((0, 3)), empty, np.zeros(0))
+        return no_collapses(v, tri)
     kept, gone, position, removed, cost = collapse_edges(
         v.copy(), tri, q, on_boundary, edge.astype(np.int64), _TIE, int(target or 0)
     )
     return Collapses(v, tri, kept, gone, position, removed, cost)
+
+
+def no_collapses(vertices, triangles) -> Collapses:
+    """The empty sequence of a mesh: its level 0 (`Collapses.mesh_and_map` (0) as
+    `collapse_all`'s gives it, without the collapses)."""
+    v = np.array(vertices, dtype=np.float64)
+    tri = np.array(triangles, dtype=np.int64)
+    empty = np.zeros(0, dtype=np.int64)
+    return Collapses(v, tri, empty, empty, np.zeros((0, 3)), empty, np.zeros(0))
 
 
 def _vertex_quadrics(v, tri, labels, planes, structure) -> np.ndarray:

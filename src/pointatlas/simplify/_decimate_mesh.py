@@ -11,13 +11,14 @@ docs/decisions/simplify.md, section "Decimation".
 from __future__ import annotations
 
 import dataclasses
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 from .._core import as_float, as_int, as_points
 from .._core._threads import machine_busy, one_thread_if
 from ..neighbors import MeshDistanceIndex
-from ._decimate import Collapses, collapse_all
+from ._decimate import Collapses, collapse_all, no_collapses
 from ._distance import _samples_in_order, back_distances
 from ._mesh import point_mesh_distance
 from ._mesh_path import (
@@ -322,18 +323,39 @@ class Decimation:
         *,
         structure=1.0,
         target=None,
+        background=False,
     ):
         self.verts, self.tri, self.labels, self.planes = verts, tri, labels, planes
         self.step, self.still, self.measure, self.box = step, still, measure, box
         self.n_regions = int(labels.max()) + 1
-        self.seq: Collapses = collapse_all(
-            verts, tri, labels=labels, planes=planes, structure=structure, target=target
-        )
+        args = {"labels": labels, "planes": planes, "structure": structure, "target": target}
+        self._seq, self._pending = None, None
+        if background:  # the collapses on a thread while level 0 is placed and measured
+            pool = ThreadPoolExecutor(max_workers=1)
+            self._pending = pool.submit(collapse_all, verts, tri, **args)
+            pool.shutdown(wait=False)
+        else:
+            self._seq = collapse_all(verts, tri, **args)
         self._kept_level = None
         self._report = None  # (m, the distances of `distances`)
         self._there = None  # (m, the input's vertices to that level, of `near`)
         self._over = set()  # (m, bound): levels found over a bound
         self._near = {}  # (m, bound): levels within it on a subset of the samples
+
+    @property
+    def seq(self) -> Collapses:
+        """The collapse sequence (`collapse_all`; waited for when made on a thread)."""
+        if self._seq is None:
+            self._seq = self._pending.result()
+            self._pending = None
+        return self._seq
+
+    def mesh_and_map(self, m: int):
+        """`Collapses.mesh_and_map` after ``m`` collapses; level 0 without waiting for
+        the sequence (the same arrays: no collapse applied)."""
+        if m == 0 and self._seq is None:
+            return no_collapses(self.verts, self.tri).mesh_and_map(0)
+        return self.seq.mesh_and_map(m)
 
     def placed(self, m: int):
         """The mesh after ``m`` collapses with its vertices on their flat planes."""
@@ -344,7 +366,7 @@ class Decimation:
         found within the bound is kept (`result` asks for it again)."""
         if self._kept_level is not None and self._kept_level[0] == m:
             return self._kept_level[1]
-        out_v, out_t, kept, source, went = self.seq.mesh_and_map(m)
+        out_v, out_t, kept, source, went = self.mesh_and_map(m)
         face = self.labels[kept]
         out_v = place_on_planes(out_v, out_t, face, *self.planes, self.step, self.still)
         if self.box is not None:  # no vertex beyond the box (lo, hi)

@@ -220,7 +220,7 @@ def _collapsible(v, tri, head, nxt, alive, a, b, x, mark, stamp, shared) -> int:
     return ns if n_left > 0 else 0  # else the last triangles of a piece would go
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def collapse_edges(v, tri, q, on_boundary, edges, tie, target):
     """Quadric edge collapse of a manifold triangle mesh, cheapest edge first, until
     no edge can be collapsed or at most ``target`` triangles are left (0: until none

@@ -121,9 +121,14 @@ class PointsDecimation(Decimation):
     the points (`steps_within`)."""
 
     search_points: int = SEARCH_POINTS
+    #: the collapses on a thread while level 0 is placed and measured
+    #: (`PointDistances.floor_at`); the same sequence either way
+    background: bool = True
 
     def __init__(self, verts, tri, labels, planes, step, still, measure, box, tol, fit_bound):
-        super().__init__(verts, tri, labels, planes, step, still, measure, box)
+        super().__init__(
+            verts, tri, labels, planes, step, still, measure, box, background=self.background
+        )
         self.tol, self.fit_bound = float(tol), float(fit_bound)
 
     def steps_within(self, bound: float) -> int:
@@ -150,7 +155,7 @@ class PointsDecimation(Decimation):
     def _placed(self, m: int):
         if self._kept_level is not None and self._kept_level[0] == m:
             return self._kept_level[1]
-        out_v, out_t, kept, source, went = self.seq.mesh_and_map(m)
+        out_v, out_t, kept, source, went = self.mesh_and_map(m)
         face = self.labels[kept]
         x = place_on_planes(out_v, out_t, face, *self.planes, self.step, self.still)
         x = placed_near_points(out_v, x, out_t, self.measure.surface, self.tol)
