@@ -493,6 +493,7 @@ def robust_mesh(
     the face of every point (its nearest triangle's region).
     """
     import dataclasses
+    from concurrent.futures import ThreadPoolExecutor
 
     from ._decimate_mesh import MAX_ERROR
     from ._distance import PointSurface
@@ -503,6 +504,12 @@ def robust_mesh(
 
     tree = cKDTree(q)
     rec = reconstruct_surface(q, normals, areas, tree)
+    # the vertices' fit on a thread while the triangles take the points' regions
+    pool = ThreadPoolExecutor(max_workers=1)
+    fitted = pool.submit(
+        fit_to_points, rec.vertices, rec.triangles, q, normals, tree, FIT_STEPS * rec.step
+    )
+    pool.shutdown(wait=False)
     s = _surface(rec.vertices, rec.triangles)
     _, nearest = tree.query(s.centroids, workers=-1)
     lab = transfer_labels(s, _face_graph(s), labels, nearest)
@@ -517,7 +524,7 @@ def robust_mesh(
     # (estimated normals turning over an edge) carries no plane.
     planes = (pn, offsets, (deviation <= 0.25 * bound) & (width >= rec.step))
     measure = PointDistances(q, PointSurface(q, normals, tree, radius))
-    verts = fit_to_points(rec.vertices, rec.triangles, q, normals, tree, FIT_STEPS * rec.step)
+    verts = fitted.result()
     box = measure.box  # never a vertex outside
     # a vertex placed on its planes stays there only within a quarter of the bound of
     # the points' surface (or no farther than it was): a wrong plane is not followed
