@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import os
 import threading
+from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 
 import numba
 
-__all__ = ["machine_busy", "one_thread_if", "run_chunks"]
+__all__ = ["machine_busy", "on_thread", "one_thread_if", "run_chunks"]
 
 
 def machine_busy() -> bool:
@@ -22,6 +23,17 @@ def machine_busy() -> bool:
     except (AttributeError, OSError):
         return False
     return load >= (os.cpu_count() or 1)
+
+
+def on_thread(fn, *args, **kwargs) -> Future:
+    """``fn(*args, **kwargs)`` started on a thread of its own, to overlap work that
+    releases the GIL (a ``nogil`` kernel, numpy, a k-d tree query) with the caller's;
+    ``.result()`` waits for its value (or raises its exception)."""
+    pool = ThreadPoolExecutor(max_workers=1)
+    try:
+        return pool.submit(fn, *args, **kwargs)
+    finally:
+        pool.shutdown(wait=False)
 
 
 @contextmanager

@@ -11,12 +11,11 @@ docs/decisions/simplify.md, section "Decimation".
 from __future__ import annotations
 
 import dataclasses
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 from .._core import as_float, as_int, as_points
-from .._core._threads import machine_busy, one_thread_if
+from .._core._threads import machine_busy, on_thread, one_thread_if
 from ..neighbors import MeshDistanceIndex
 from ._decimate import Collapses, collapse_all, no_collapses
 from ._distance import _samples_in_order, back_distances
@@ -331,9 +330,7 @@ class Decimation:
         args = {"labels": labels, "planes": planes, "structure": structure, "target": target}
         self._seq, self._pending = None, None
         if background:  # the collapses on a thread while level 0 is placed and measured
-            pool = ThreadPoolExecutor(max_workers=1)
-            self._pending = pool.submit(collapse_all, verts, tri, **args)
-            pool.shutdown(wait=False)
+            self._pending = on_thread(collapse_all, verts, tri, **args)
         else:
             self._seq = collapse_all(verts, tri, **args)
         self._kept_level = None

@@ -478,7 +478,8 @@ def _merge_flat(s: _Surface, graph, labels: np.ndarray, max_angle: float) -> np.
     min_cos = float(np.cos(max_angle))
     # the pairs' scores as `score` gives them, bit for bit; a pair below the threshold
     # would only end the loop (the heap's top below it: so is all the rest)
-    first = _pair_scores(wsum, ssum, pairs) >= min_cos - 1e-15
+    scores = _pair_scores(wsum, ssum, pairs)
+    first = scores >= min_cos - 1e-15
     if not first.any():  # nothing merges
         return _first_seen_order(labels, np.arange(n_regions))
     neighbours = _Neighbours(pairs, n_regions)
@@ -492,7 +493,8 @@ def _merge_flat(s: _Surface, graph, labels: np.ndarray, max_angle: float) -> np.
         length = math.sqrt((sx[0] + sy[0]) ** 2 + (sx[1] + sy[1]) ** 2 + (sx[2] + sy[2]) ** 2)
         return length / wt if wt > 0 else 1.0
 
-    heap = [(-score(x, y), x, y) for x, y in pairs[first].tolist()]
+    candidates = zip(scores[first].tolist(), pairs[first].tolist(), strict=True)
+    heap = [(-s, x, y) for s, (x, y) in candidates]
     heapq.heapify(heap)
     alive = [True] * n_regions
     while heap:

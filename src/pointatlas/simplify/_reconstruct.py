@@ -493,8 +493,8 @@ def robust_mesh(
     the face of every point (its nearest triangle's region).
     """
     import dataclasses
-    from concurrent.futures import ThreadPoolExecutor
 
+    from .._core._threads import on_thread
     from ._decimate_mesh import MAX_ERROR
     from ._distance import PointSurface
     from ._point_distances import PointDistances
@@ -505,11 +505,9 @@ def robust_mesh(
     tree = cKDTree(q)
     rec = reconstruct_surface(q, normals, areas, tree)
     # the vertices' fit on a thread while the triangles take the points' regions
-    pool = ThreadPoolExecutor(max_workers=1)
-    fitted = pool.submit(
+    fitted = on_thread(
         fit_to_points, rec.vertices, rec.triangles, q, normals, tree, FIT_STEPS * rec.step
     )
-    pool.shutdown(wait=False)
     s = _surface(rec.vertices, rec.triangles)
     _, nearest = tree.query(s.centroids, workers=-1)
     lab = transfer_labels(s, _face_graph(s), labels, nearest)
