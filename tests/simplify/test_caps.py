@@ -112,6 +112,35 @@ def test_two_vertices_on_one_spot_merge_and_every_array_follows():
     assert (osrc[owent[[0, 1, 2, 3, 5]]] == [0, 10, 20, 30, 50]).all()
 
 
+@pytest.mark.parametrize(("apart", "merged"), [(3e-7, True), (1e-4, False)])
+def test_two_vertices_a_hair_apart_merge_only_where_their_triangles_have_no_area(apart, merged):
+    """The split octahedron's twins ``apart`` (its edges about 1.4 long): 3e-7 is
+    longer than a needle (`NEEDLE_RTOL` of the mean edge) but the two triangles on
+    it have no area (`CAP_RTOL` of the mean's), so they merge (`CLUSTER_RTOL`); at
+    1e-4 the triangles keep an area and nothing merges."""
+    from pointatlas.simplify._caps import CAP_RTOL, CLUSTER_RTOL, NEEDLE_RTOL
+
+    v, t = _octahedron()
+    v = np.vstack([v, v[4] + [apart, 0.0, 0.0]])
+    t = np.vstack([[[0, 2, 4], [2, 1, 4], [1, 3, 6], [3, 0, 6]], t[4:], [[1, 6, 4], [0, 4, 6]]])
+    area = np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
+    assert NEEDLE_RTOL * 1.4 < apart <= CLUSTER_RTOL * 1.4
+    assert ((area[-2:] <= CAP_RTOL * area.mean()) == merged).all()
+    args = (v, t, np.zeros(len(t), dtype=np.int64), np.arange(7), np.arange(len(t)), np.arange(7))
+    ov, ot = weld_needles(*args)[:2]
+    assert ov.shape[0] == (6 if merged else 7) and all(mesh_checks(ov.shape[0], ot))
+    if merged:  # the octahedron back, every triangle with an area
+        assert ot.shape[0] == 8
+        assert (
+            np.linalg.norm(
+                np.cross(ov[ot[:, 1]] - ov[ot[:, 0]], ov[ot[:, 2]] - ov[ot[:, 0]]), axis=1
+            )
+            > 0.1
+        ).all()
+    else:
+        assert ot is t
+
+
 def test_a_merge_that_would_pinch_the_mesh_is_not_made():
     # two vertices on one spot joined by an edge that two triangles do not bound
     # (an open fan's rim): left alone, inputs returned

@@ -3,8 +3,10 @@
 Placing vertices on their planes sends every vertex near a corner of three planes
 to that corner: two of them on one spot leave a *needle*, a triangle with an edge of
 no length. `weld_needles` merges the two ends of every such edge (an edge collapse
-that moves nothing) where the mesh stays manifold (the link condition: the two ends
-share exactly the neighbours of the triangles the edge bounds).
+that moves nothing), and of every edge a thousandth of the mean edge long whose
+triangle has no area (a cluster of vertices placed a hair apart), where the mesh
+stays manifold (the link condition: the two ends share exactly the neighbours of the
+triangles the edge bounds).
 
 Placing vertices on the line where two planes meet can leave three of them in a row:
 the triangle they make has no area (a *cap*: its middle vertex lies on its longest
@@ -34,6 +36,7 @@ from ._place import _cross
 
 __all__ = [
     "CAP_RTOL",
+    "CLUSTER_RTOL",
     "CURVED_REACH",
     "FLAT_SHARES",
     "NEEDLE_RTOL",
@@ -47,8 +50,12 @@ __all__ = [
 CAP_RTOL = 1e-6
 #: Passes over the caps at most (each one flips what it can).
 _PASSES = 8
-#: An edge is of no length when it is at most this fraction of the mean edge.
+#: An edge is of no length when it is at most this fraction of the mean edge ...
 NEEDLE_RTOL = 1e-7
+#: ... or, as an edge of a triangle without area (`CAP_RTOL`), at most this fraction:
+#: vertices placed a millionth of the diagonal apart make a cluster whose triangles
+#: no move of one vertex gives an area (`spread_tiny`), only merging them.
+CLUSTER_RTOL = 1e-3
 #: `spread_tiny` moves a vertex these shares of the way to its neighbours' mean in a
 #: flat face (the surface stays) ...
 FLAT_SHARES = (1.0, 0.5, 0.25)
@@ -62,7 +69,8 @@ ON_PLANE_RTOL = 1e-9
 
 
 def weld_needles(vertices, triangles, face, source, kept, went):
-    """Merge the two ends of every edge of no length where the mesh stays manifold.
+    """Merge the two ends of every edge of no length (`NEEDLE_RTOL`), or short and of a
+    triangle without area (`CLUSTER_RTOL`), where the mesh stays manifold.
 
     Parameters
     ----------
@@ -91,7 +99,12 @@ def weld_needles(vertices, triangles, face, source, kept, went):
         return out
     edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
     length = np.linalg.norm(v[edges[:, 1]] - v[edges[:, 0]], axis=1)
-    short = np.flatnonzero(length <= NEEDLE_RTOL * float(length.mean()))
+    area = np.tile(_areas(v, tri), 3)  # the area of each edge's triangle
+    mean = float(length.mean())
+    short = np.flatnonzero(
+        (length <= NEEDLE_RTOL * mean)
+        | ((area <= CAP_RTOL * float(area.mean())) & (length <= CLUSTER_RTOL * mean))
+    )
     if short.size == 0:
         return out
     into = np.arange(v.shape[0])  # each vertex, or the one it merged into
