@@ -4,6 +4,8 @@ quadric decimator users already have (Open3D), measured both ways."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -339,3 +341,25 @@ def test_small_inputs_on_a_busy_machine_run_in_one_thread_with_the_same_output(m
     monkeypatch.setattr(D, "machine_busy", lambda: True)
     with D._threads_for(D.PARALLEL_MIN_TRIANGLES):  # large inputs: untouched
         assert numba.get_num_threads() == threads
+
+
+EINSY = (
+    Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "collection"
+) / "prusai3_einsy-doors.stl"
+
+
+@pytest.mark.skipif(not EINSY.exists(), reason="prusai3_einsy-doors.stl not under ../shared")
+def test_vertices_placed_in_a_row_leave_no_zero_area_triangle():
+    """A CAD part whose default level places four vertices in a row on the line of
+    two planes (two triangles of no area side by side, before caps were flipped on
+    the mesh path): every output triangle keeps an area, the mesh stays closed."""
+    from pointatlas.io import read_mesh
+
+    m = read_mesh(EINSY)
+    res = decimate_mesh(m.vertices, m.triangles)
+    v, t = np.asarray(res.vertices), np.asarray(res.triangles)
+    diag = float(np.linalg.norm(np.ptp(np.asarray(m.vertices), axis=0)))
+    area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
+    assert area.min() > 1e-12 * diag**2
+    assert (res.is_closed, res.is_manifold, res.is_oriented) == (True, True, True)
+    assert max(res.distance_max, res.back_distance_max) <= 0.005 * diag * (1 + 1e-9)

@@ -17,6 +17,7 @@ import numpy as np
 from .._core import as_float, as_int, as_points
 from .._core._threads import machine_busy, on_thread, one_thread_if
 from ..neighbors import MeshDistanceIndex
+from ._caps import flip_caps
 from ._decimate import Collapses, collapse_all, no_collapses
 from ._distance import _samples_in_order, back_distances
 from ._mesh import point_mesh_distance
@@ -368,6 +369,8 @@ class Decimation:
         out_v = place_on_planes(out_v, out_t, face, *self.planes, self.step, self.still)
         if self.box is not None:  # no vertex beyond the box (lo, hi)
             out_v = np.clip(out_v, *self.box)
+        # vertices placed in a row on the line of two planes: no zero-area triangle
+        out_t = flip_caps(out_v, out_t, face)
         return out_v, out_t, face, source, (kept, went)
 
     def within(self, m: int, bound: float, first=None) -> bool:
