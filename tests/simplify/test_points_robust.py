@@ -213,3 +213,39 @@ def test_sparse_sphere_points_are_not_called_closed_when_degenerate_or_far():
     diag = float(np.linalg.norm(np.ptp(dense.points, axis=0)))
     assert r.path == "thesis" and r.mesh.is_closed
     assert r.mesh.summary()["hausdorff"] <= 0.05 * diag
+
+
+def test_a_flooded_triangle_does_not_give_its_region_another_plane():
+    """A strip of eight triangles whose nearest points' regions are A A A B B B B A: the
+    last one, apart from A's largest piece, is flooded from B, and B's plane stays B's
+    (the last triangle's nearest point's region gave a fan mount's side wall its top
+    face's plane)."""
+    from pointatlas.simplify._surface_regions import transfer_labels
+    from pointatlas.simplify._triangles import _face_graph, _surface
+
+    v = np.array([[x, y, 0.0] for x in range(5) for y in (0, 1)])  # vertex 2 x + y
+    tri = []
+    for k in range(4):  # quad k: its upper triangle, then its lower one (a chain)
+        a, b, c, d = 2 * k, 2 * k + 2, 2 * k + 3, 2 * k + 1
+        tri += [[a, c, d], [a, b, c]]
+    s = _surface(v, np.array(tri))
+    nearest = np.array([0, 0, 0, 1, 1, 1, 1, 0])  # point 0 in region A, point 1 in B
+    lab, source = transfer_labels(s, _face_graph(s), np.array([7, 9]), nearest)
+    assert lab.tolist() == [0, 0, 0, 1, 1, 1, 1, 1]
+    assert source.tolist() == [7, 9]
+
+
+def test_the_points_level_search_steps_down_finer_than_the_meshes():
+    """The points path's level search steps down from the last collapse by about 1.4x
+    (1, 2, 3, 4, 6, 8, 12, ...), through every step of the mesh path's (1, 2, 4, 8)."""
+    from pointatlas.simplify._decimate_mesh import Decimation
+    from pointatlas.simplify._snap import PointsDecimation
+
+    gaps, coarse = [1], [1]
+    while gaps[-1] < 10**6:
+        gaps.append(PointsDecimation._next_gap(gaps[-1]))
+        coarse.append(Decimation._next_gap(coarse[-1]))
+    assert gaps[:8] == [1, 2, 3, 4, 6, 8, 12, 16]
+    ratio = np.array(gaps[1:]) / np.array(gaps[:-1])
+    assert (ratio > 1.0).all() and ratio[3:].max() <= 1.5
+    assert set(c for c in coarse if c <= gaps[-1]) <= set(gaps)

@@ -407,7 +407,7 @@ class Decimation:
 
     def steps_within(self, bound: float) -> int:
         """The most collapses whose output is within ``bound`` both ways: from the
-        last collapse down, n - 1, n - 3, n - 7, ... until a level meets the bound,
+        last collapse down, n - 1, n - 2, n - 4, ... (`_next_gap`) until a level meets the bound,
         then bisection up to the next that did not. The error does not grow strictly
         with the collapses (a collapse can undo an earlier one's deviation), so a
         plain bisection from the middle stops early (measured: half the collapses on
@@ -454,7 +454,7 @@ class Decimation:
             lo = max(n - gap, 0)
             if lo == 0 or self.within(lo, bound, first):
                 break
-            hi, gap = lo, 2 * gap
+            hi, gap = lo, self._next_gap(gap)
         while hi - lo > 1:  # lo meets the bound (or is 0), hi does not
             mid = (lo + hi) // 2
             if self.within(mid, bound, first):
@@ -462,6 +462,11 @@ class Decimation:
             else:
                 hi = mid
         return lo
+
+    @staticmethod
+    def _next_gap(gap: int) -> int:
+        """The level search's next step down from the last collapse: 1, 2, 4, 8, ..."""
+        return 2 * gap
 
     def near(self, m: int, first: int) -> float:
         """The two-sided mean distance after ``m`` collapses: every input vertex to the

@@ -20,9 +20,7 @@ __all__ = [
     "MAX_NODES",
     "Reconstruction",
     "reconstruct_surface",
-    "region_planes",
     "robust_mesh",
-    "transfer_labels",
 ]
 
 #: Largest number of grid cells across the bounding box's second-longest side (a long
@@ -66,8 +64,6 @@ SMOOTH_SPACINGS = 1.5
 #: A triangle budget on the points path is kept only while the output stays within
 #: this many times the default bound of the points (never a spike).
 SPIKE_FACTOR = 4.0
-#: A region is flat when this share of its points lie near its plane.
-FLAT_SHARE = 0.95
 #: Points whose tangent planes are averaged into the field at a node.
 FIELD_K = 8
 #: A triangle farther than this from every point (grid steps), or farther than one
@@ -383,87 +379,6 @@ def reconstruct_surface(
     )
 
 
-def transfer_labels(s, graph, point_labels, nearest) -> np.ndarray:
-    """Regions of the triangles from the points' regions: each triangle takes its
-    nearest point's region; only the largest connected piece of every region keeps
-    it, the other triangles take a neighbour's region (flooded, most neighbours
-    first), so every region is connected in the edge graph. Numbered 0..R-1."""
-    from scipy.sparse import csgraph
-
-    lab = np.asarray(point_labels, dtype=np.int64)[nearest]
-    coo = graph.tocoo()
-    same = lab[coo.row] == lab[coo.col]
-    n = lab.size
-    g = _adjacency(coo.row[same], coo.col[same], n)
-    _, piece = csgraph.connected_components(g, directed=False)
-    area = np.bincount(piece, weights=s.areas + 1e-300)
-    first = _first_of(piece)  # a triangle of every piece
-    best = np.full(int(lab.max()) + 1, -1)
-    order = np.argsort(area, kind="stable")  # largest last: it wins
-    best[lab[first[order]]] = order
-    keep = best[lab] == piece
-    out = np.where(keep, lab, -1)
-    rows, cols = coo.row, coo.col
-    while (out < 0).any():
-        open_ = out[rows] < 0
-        src = open_ & (out[cols] >= 0)
-        if not src.any():  # a piece with no labelled neighbour: its own region
-            rest = out < 0
-            out[rest] = int(lab.max()) + 1 + piece[rest]
-            break
-        r, c = rows[src], out[cols[src]]
-        key = r * (int(lab.max()) + 1) + c
-        uk, cnt = np.unique(key, return_counts=True)
-        o = np.lexsort((-cnt, uk // (int(lab.max()) + 1)))
-        uk = uk[o]
-        tri_id = uk // (int(lab.max()) + 1)
-        first = np.r_[True, tri_id[1:] != tri_id[:-1]]
-        out[tri_id[first]] = uk[first] % (int(lab.max()) + 1)
-    _, renum = np.unique(out, return_inverse=True)
-    return renum.reshape(-1)
-
-
-def _first_of(piece):
-    """A (the first) triangle of every piece."""
-    _, first = np.unique(piece, return_index=True)
-    return first
-
-
-def _adjacency(a, b, n):
-    """The (n, n) graph with edges (a, b)."""
-    from scipy.sparse import coo_array
-
-    return coo_array((np.ones(a.size, np.int8), (a, b)), shape=(n, n))
-
-
-def region_planes(q, labels, proxy_normals, source):
-    """The planes of the surface's regions from their points: the proxy's normal, at
-    the median offset of the region's points; and the distance to it within which
-    `FLAT_SHARE` of them lie (a few points labelled across an edge do not make a
-    flat face curved, nor tilt or shift its plane).
-
-    ``labels``: the points' regions; surface region ``r`` is the points' region
-    ``source[r]``. Returns ``(normals, offsets, deviation, width)`` per surface
-    region, ``width`` the standard deviation of its points across their longest
-    direction (a band along an edge is narrow).
-    """
-    labels = np.asarray(labels, dtype=np.int64)
-    n_in = int(labels.max()) + 1
-    pn = np.asarray(proxy_normals, dtype=np.float64)
-    height = np.einsum("ij,ij->i", q, pn[labels])
-    order = np.lexsort((height, labels))
-    bounds = np.searchsorted(labels[order], np.arange(n_in + 1))
-    off, dev, width = np.zeros(n_in), np.zeros(n_in), np.zeros(n_in)
-    for r in np.flatnonzero(np.diff(bounds)):
-        pick = order[bounds[r] : bounds[r + 1]]
-        h = height[pick]  # sorted
-        off[r] = h[h.size // 2]
-        dev[r] = np.quantile(np.abs(h - off[r]), FLAT_SHARE)
-        if pick.size >= 3:  # the spread of the points across their longest direction
-            width[r] = np.sqrt(max(np.linalg.eigvalsh(np.cov(q[pick].T))[1], 0.0))
-    return pn[source], off[source], dev[source], width[source]
-
-
 def robust_mesh(
     q,
     normals,
@@ -500,6 +415,7 @@ def robust_mesh(
     from ._point_distances import PointDistances
     from ._polygons import PLANAR_RTOL
     from ._snap import FIT_STEPS, PointsDecimation, fit_to_points
+    from ._surface_regions import region_planes, transfer_labels
     from ._triangles import _face_graph, _surface
 
     tree = cKDTree(q)
@@ -510,9 +426,7 @@ def robust_mesh(
     )
     s = _surface(rec.vertices, rec.triangles)
     _, nearest = tree.query(s.centroids, workers=-1)
-    lab = transfer_labels(s, _face_graph(s), labels, nearest)
-    source = np.zeros(int(lab.max()) + 1, dtype=np.int64)
-    source[lab] = np.asarray(labels)[nearest]
+    lab, source = transfer_labels(s, _face_graph(s), labels, nearest)
     pn, offsets, deviation, width = region_planes(q, labels, proxy_normals, source)
     diag = float(np.linalg.norm(q.max(axis=0) - q.min(axis=0)))
     bound = MAX_ERROR * diag if max_error is None else max_error / frame.scale

@@ -152,6 +152,15 @@ class PointsDecimation(Decimation):
             return m
         return super().steps_within(bound)
 
+    @staticmethod
+    def _next_gap(gap: int) -> int:
+        """The level search's next step down from the last collapse: 1, 2, 3, 4, 6, 8,
+        12, 16, ... (about a factor of 1.4 each, not 2: a level a few points over the
+        bound beside coarser ones within it is passed by more often, on the points'
+        voxel surface: the step of 2 ended a sampled CAD part's search at 5,518
+        triangles, this one at 2,470; on meshes the step of 2 gives the same levels)."""
+        return gap + 1 if gap < 4 else gap + (gap // 3 if gap % 3 == 0 else gap // 2)
+
     def _placed(self, m: int):
         if self._kept_level is not None and self._kept_level[0] == m:
             return self._kept_level[1]

@@ -1,0 +1,105 @@
+"""The regions of the points path's voxel surface and their planes (private).
+
+The triangles of the surface (`_reconstruct.reconstruct_surface`) take the regions of
+their nearest points (`transfer_labels`), and every region's plane comes from its
+points (`region_planes`). Decisions in docs/decisions/simplify.md ("The points path's
+robust path").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["FLAT_SHARE", "region_planes", "transfer_labels"]
+
+#: A region is flat when this share of its points lie near its plane.
+FLAT_SHARE = 0.95
+
+
+def transfer_labels(s, graph, point_labels, nearest):
+    """Regions of the triangles from the points' regions: each triangle takes its
+    nearest point's region; only the largest connected piece of every region keeps
+    it, the other triangles take a neighbour's region (flooded, most neighbours
+    first), so every region is connected in the edge graph. Returns the triangles'
+    regions, numbered 0..R-1, and the points' region of each (R,): the one it was
+    flooded from, not the nearest point's of any one triangle (a flooded triangle's
+    nearest point lies in another region: taking the last triangle's gave a side
+    wall of a sampled fan mount its top face's plane)."""
+    from scipy.sparse import csgraph
+
+    lab = np.asarray(point_labels, dtype=np.int64)[nearest]
+    coo = graph.tocoo()
+    same = lab[coo.row] == lab[coo.col]
+    n = lab.size
+    g = _adjacency(coo.row[same], coo.col[same], n)
+    _, piece = csgraph.connected_components(g, directed=False)
+    area = np.bincount(piece, weights=s.areas + 1e-300)
+    first = _first_of(piece)  # a triangle of every piece
+    best = np.full(int(lab.max()) + 1, -1)
+    order = np.argsort(area, kind="stable")  # largest last: it wins
+    best[lab[first[order]]] = order
+    keep = best[lab] == piece
+    out = np.where(keep, lab, -1)
+    rows, cols = coo.row, coo.col
+    while (out < 0).any():
+        open_ = out[rows] < 0
+        src = open_ & (out[cols] >= 0)
+        if not src.any():  # a piece with no labelled neighbour: its own region
+            rest = out < 0
+            out[rest] = int(lab.max()) + 1 + piece[rest]
+            break
+        r, c = rows[src], out[cols[src]]
+        key = r * (int(lab.max()) + 1) + c
+        uk, cnt = np.unique(key, return_counts=True)
+        o = np.lexsort((-cnt, uk // (int(lab.max()) + 1)))
+        uk = uk[o]
+        tri_id = uk // (int(lab.max()) + 1)
+        first = np.r_[True, tri_id[1:] != tri_id[:-1]]
+        out[tri_id[first]] = uk[first] % (int(lab.max()) + 1)
+    uniq, renum = np.unique(out, return_inverse=True)
+    renum = renum.reshape(-1)
+    source = uniq.copy()
+    alone = np.flatnonzero(uniq[renum] > lab.max())  # triangles of unflooded pieces
+    source[renum[alone]] = lab[alone]  # a piece is of one region
+    return renum, source
+
+
+def _first_of(piece):
+    """A (the first) triangle of every piece."""
+    _, first = np.unique(piece, return_index=True)
+    return first
+
+
+def _adjacency(a, b, n):
+    """The (n, n) graph with edges (a, b)."""
+    from scipy.sparse import coo_array
+
+    return coo_array((np.ones(a.size, np.int8), (a, b)), shape=(n, n))
+
+
+def region_planes(q, labels, proxy_normals, source):
+    """The planes of the surface's regions from their points: the proxy's normal, at
+    the median offset of the region's points; and the distance to it within which
+    `FLAT_SHARE` of them lie (a few points labelled across an edge do not make a
+    flat face curved, nor shift its plane).
+
+    ``labels``: the points' regions; surface region ``r`` is the points' region
+    ``source[r]``. Returns ``(normals, offsets, deviation, width)`` per surface
+    region, ``width`` the standard deviation of its points across their longest
+    direction (a band along an edge is narrow).
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    n_in = int(labels.max()) + 1
+    pn = np.asarray(proxy_normals, dtype=np.float64)
+    height = np.einsum("ij,ij->i", q, pn[labels])
+    order = np.lexsort((height, labels))
+    bounds = np.searchsorted(labels[order], np.arange(n_in + 1))
+    off, dev, width = np.zeros(n_in), np.zeros(n_in), np.zeros(n_in)
+    for r in np.flatnonzero(np.diff(bounds)):
+        pick = order[bounds[r] : bounds[r + 1]]
+        h = height[pick]  # sorted
+        off[r] = h[h.size // 2]
+        dev[r] = np.quantile(np.abs(h - off[r]), FLAT_SHARE)
+        if pick.size >= 3:  # the spread of the points across their longest direction
+            width[r] = np.sqrt(max(np.linalg.eigvalsh(np.cov(q[pick].T))[1], 0.0))
+    return pn[source], off[source], dev[source], width[source]
