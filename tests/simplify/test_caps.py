@@ -212,3 +212,27 @@ def test_off_the_plane_or_across_an_outline_a_vertex_moves_a_thousandth_or_not()
     # no triangle without area: the input itself
     flat = np.array([[0, 1, 2]])
     assert spread_tiny(v, flat, np.zeros(1, dtype=np.int64), _planes()) is v
+
+
+def test_twins_a_thousandth_cannot_part_move_up_to_four_thousandths(monkeypatch):
+    """The hexagon's twins (one a hair off the plane: a curved face) beside a far
+    triangle 1,500 long, which makes the mean triangle large against the mean edge: a
+    thousandth of the mean edge leaves the needles less than the area a triangle
+    needs (`CAP_RTOL` of the mean's), four thousandths give it (`CURVED_LAST`)."""
+    import pointatlas.simplify._caps as caps
+
+    v, t = _hexagon_with_twins(z_twin=1e-8)
+    far = np.array([[1e4, 0.0, 0.0], [1e4 + 1500.0, 0.0, 0.0], [1e4, 1500.0, 0.0]])
+    v = np.vstack([v, far])
+    t = np.vstack([t, [[8, 9, 10]]])
+    face = np.zeros(len(t), dtype=np.int64)
+    tiny = caps.CAP_RTOL * float(caps._areas(v, t).mean())
+    mean_edge = np.linalg.norm(v[t[:, [1, 2, 0]]] - v[t], axis=2).mean()
+    out = spread_tiny(v, t, face, _planes())
+    moved = np.linalg.norm(out - v, axis=1)
+    assert moved[:6].max() == 0.0 and moved[8:].max() == 0.0
+    assert caps.CURVED_REACH * mean_edge < moved[6:8].max()
+    assert moved[6:8].max() <= caps.CURVED_LAST * caps.CURVED_REACH * mean_edge * (1 + 1e-9)
+    assert (caps._areas(out, t) > tiny).all()
+    monkeypatch.setattr(caps, "CURVED_LAST", 0.1)  # a thousandth at most: the needles stay
+    assert (caps._areas(spread_tiny(v, t, face, _planes()), t) <= tiny).any()

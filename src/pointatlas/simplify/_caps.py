@@ -37,6 +37,7 @@ from ._place import _cross
 __all__ = [
     "CAP_RTOL",
     "CLUSTER_RTOL",
+    "CURVED_LAST",
     "CURVED_REACH",
     "FLAT_SHARES",
     "NEEDLE_RTOL",
@@ -61,8 +62,11 @@ CLUSTER_RTOL = 1e-3
 FLAT_SHARES = (1.0, 0.5, 0.25)
 #: ... and in a curved one (the surface moves by as much) at most this fraction of
 #: the mean edge (all the way where its neighbours' mean is nearer: a cluster of
-#: vertices a millionth of an edge apart), else a tenth of that ...
+#: vertices a millionth of an edge apart), else a tenth of that, else this many times
+#: it (two vertices on one spot, one of whose triangles a thousandth of an edge left
+#: with 0.74 of the area a triangle needs) ...
 CURVED_REACH = 1e-3
+CURVED_LAST = 4.0
 #: ... a face being flat around a vertex when the ring lies this close to its plane,
 #: relative to the ring's extent.
 ON_PLANE_RTOL = 1e-9
@@ -340,7 +344,7 @@ def _spread(v, tri, face, planes, ring, i: int, tiny: float, reach: float) -> bo
     else:  # a curved face: its side is the triangles' around the vertex
         n = total / max(float(np.linalg.norm(total)), 1e-300)
         first = min(1.0, reach / max(float(np.linalg.norm(mean - v[i])), 1e-300))
-        shares = (first, 0.1 * first)
+        shares = (first, 0.1 * first, min(1.0, CURVED_LAST * first))
     side = np.sign(float(np.dot(total, n)))
     if side == 0.0:
         return False
