@@ -103,11 +103,11 @@ def weld_needles(vertices, triangles, face, source, kept, went):
         return out
     edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
     length = np.linalg.norm(v[edges[:, 1]] - v[edges[:, 0]], axis=1)
-    area = np.tile(_areas(v, tri), 3)  # the area of each edge's triangle
+    area = _areas(v, tri)
+    no_area = np.tile(area <= CAP_RTOL * float(area.mean()), 3)  # each edge's triangle
     mean = float(length.mean())
     short = np.flatnonzero(
-        (length <= NEEDLE_RTOL * mean)
-        | ((area <= CAP_RTOL * float(area.mean())) & (length <= CLUSTER_RTOL * mean))
+        (length <= NEEDLE_RTOL * mean) | (no_area & (length <= CLUSTER_RTOL * mean))
     )
     if short.size == 0:
         return out
