@@ -43,6 +43,7 @@ __all__ = [
     "NEEDLE_RTOL",
     "ON_PLANE_RTOL",
     "flip_caps",
+    "compact",
     "spread_tiny",
     "weld_needles",
 ]
@@ -128,14 +129,21 @@ def weld_needles(vertices, triangles, face, source, kept, went):
             _merge(rows, around, alive, into, p, q)
     if alive.all():
         return out
+    return compact(rows, alive, into, (v,), face, source, kept, went)
+
+
+def compact(rows, alive, into, coords, face, source, kept, went):
+    """The mesh after merges (`_merge`): the live ``rows``, the used vertices of each
+    array of ``coords`` renumbered, and the lineage ``face, kept`` (per triangle),
+    ``source`` (per vertex), ``went`` (per input vertex) to match."""
     rows = rows[alive]
     used = np.unique(rows)
-    remap = np.full(v.shape[0], -1, dtype=np.int64)
+    remap = np.full(coords[0].shape[0], -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
     final = remap[_root(into)]
     went = np.asarray(went, dtype=np.int64)
     went = np.where(went >= 0, final[np.maximum(went, 0)], -1)
-    return v[used], remap[rows], face[alive], source[used], kept[alive], went
+    return (*[c[used] for c in coords], remap[rows], face[alive], source[used], kept[alive], went)
 
 
 def _find(into: np.ndarray, x: int) -> int:

@@ -75,7 +75,15 @@ def flat_planes(vertices, triangles, labels, n_regions: int, tol: float):
 
 
 def place_on_planes(
-    v0, triangles, triangle_face, normals, offsets, flat, bound: float, on_plane: float = 0.0
+    v0,
+    triangles,
+    triangle_face,
+    normals,
+    offsets,
+    flat,
+    bound: float,
+    on_plane: float = 0.0,
+    unflip: bool = True,
 ):
     """Output vertices moved onto the planes of their flat faces (see the module).
 
@@ -92,6 +100,9 @@ def place_on_planes(
     on_plane : float
         A vertex within this distance of all its planes stays where it is (an
         exactly flat input keeps its vertices bit for bit).
+    unflip : bool
+        Put back the vertices of triangles that turned over (False: every vertex
+        placed, for `_untangle.untangle` to mend).
 
     Returns
     -------
@@ -127,7 +138,7 @@ def place_on_planes(
         move = np.einsum("ndc,nc->nd", np.linalg.pinv(a, rcond=_PARALLEL_RTOL), residual)
         go = (np.abs(residual).max(axis=1) > on_plane) & (np.linalg.norm(move, axis=1) <= bound)
         x[j[go]] = v0[j[go]] + move[go]
-    return _unflip(v0, x, tri, collapsed=True)
+    return _unflip(v0, x, tri, collapsed=True) if unflip else x
 
 
 def _unflip(v0, x, tri, rounds: int = 4, collapsed: bool = False):

@@ -415,9 +415,14 @@ def robust_mesh(
     from ._point_distances import PointDistances
     from ._polygons import PLANAR_RTOL
     from ._snap import FIT_STEPS, PointsDecimation, fit_to_points
-    from ._surface_regions import region_planes, transfer_labels
+    from ._surface_regions import region_layers, region_planes, transfer_labels
     from ._triangles import _face_graph, _surface
 
+    diag = float(np.linalg.norm(q.max(axis=0) - q.min(axis=0)))
+    bound = MAX_ERROR * diag if max_error is None else max_error / frame.scale
+    # the regions' planes refitted, and split into their parallel layers (a gap of a
+    # quarter of the bound: their vertices go onto the planes within it, below)
+    labels, proxy_normals = region_layers(q, normals, labels, proxy_normals, 0.25 * bound)
     tree = cKDTree(q)
     rec = reconstruct_surface(q, normals, areas, tree)
     # the vertices' fit on a thread while the triangles take the points' regions
@@ -428,8 +433,6 @@ def robust_mesh(
     _, nearest = tree.query(s.centroids, workers=-1)
     lab, source = transfer_labels(s, _face_graph(s), labels, nearest)
     pn, offsets, deviation, width = region_planes(q, labels, proxy_normals, source)
-    diag = float(np.linalg.norm(q.max(axis=0) - q.min(axis=0)))
-    bound = MAX_ERROR * diag if max_error is None else max_error / frame.scale
     # a region whose points lie within a quarter of the bound of its plane, and wider
     # than a grid step, is flat: its vertices go onto the plane (at most two grid
     # steps: the voxel surface's rounded edges and corners come back). A narrow band

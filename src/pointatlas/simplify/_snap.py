@@ -27,6 +27,7 @@ from ._caps import flip_caps, spread_tiny, weld_needles
 from ._decimate_mesh import Decimation
 from ._place import _unflip, place_on_planes
 from ._point_distances import SEARCH_POINTS
+from ._untangle import untangle
 
 __all__ = [
     "FIT_NEIGHBORS",
@@ -166,7 +167,13 @@ class PointsDecimation(Decimation):
             return self._kept_level[1]
         out_v, out_t, kept, source, went = self.mesh_and_map(m)
         face = self.labels[kept]
-        x = place_on_planes(out_v, out_t, face, *self.planes, self.step, self.still)
+        x = place_on_planes(out_v, out_t, face, *self.planes, self.step, self.still, unflip=False)
+        # a row of vertices placed on the line of two planes past its neighbours:
+        # merged, not put back (`_untangle`); what cannot be merged goes back
+        out_v, x, out_t, face, source, kept, went = untangle(
+            out_v, x, out_t, face, self.planes[2], source, kept, went
+        )
+        x = _unflip(out_v, x, out_t, collapsed=True)
         x = placed_near_points(out_v, x, out_t, self.measure.surface, self.tol)
         x = refit_far(x, out_t, self.measure.surface, self.tol, self.fit_bound)
         if self.box is not None:  # no vertex beyond the box (lo, hi)
