@@ -141,15 +141,20 @@ def place_on_planes(
     return _unflip(v0, x, tri, collapsed=True) if unflip else x
 
 
-def _unflip(v0, x, tri, rounds: int = 4, collapsed: bool = False):
+def _unflip(v0, x, tri, rounds: int = 4, collapsed: bool = False, before=None):
     """Vertices of triangles that turned over or collapsed (`_COLLAPSED`) go back;
     ``collapsed``: a collapsed triangle whose normal still points the former way
     stays (the placement onto planes and the surface's first fit, whose vertices
     meet on the line of two planes or at a corner: putting them back keeps them off
-    their planes, and the level search then stops at far more triangles)."""
-    c0 = _cross(v0, tri)
-    area0 = np.linalg.norm(c0, axis=1)
-    before = c0 / np.maximum(area0, 1e-300)[:, None]
+    their planes, and the level search then stops at far more triangles).
+    ``before``: the triangles' former unit normals (zero: none), when ``v0`` does not
+    give them (`_untangle.untangle`'s merged triangles, which never were at ``v0``)."""
+    if before is None:
+        c0 = _cross(v0, tri)
+        area0 = np.linalg.norm(c0, axis=1)
+        before = c0 / np.maximum(area0, 1e-300)[:, None]
+    else:
+        area0 = np.linalg.norm(before, axis=1)
     tiny = 0.0 if collapsed or area0.size == 0 else _COLLAPSED * float(area0.mean())
     for _ in range(rounds):
         bad = np.einsum("ij,ij->i", before, _cross(x, tri)) <= tiny

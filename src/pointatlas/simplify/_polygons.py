@@ -85,7 +85,7 @@ def face_polygons(vertices, triangles, triangle_face, face_loops, tol: float):
         for piece in _fan_ready(v, mine_pieces, tol):
             pieces.append(piece)
             piece_face.append(f)
-    polygons, polygon_face = _no_shared_diagonals(v, pieces, piece_face)
+    polygons, polygon_face = _no_shared_diagonals(v, pieces, piece_face, tol)
     planarity = [plane_deviation(v[p]) if len(p) > 3 else 0.0 for p in polygons]
     return (
         tuple(polygons),
@@ -94,25 +94,40 @@ def face_polygons(vertices, triangles, triangle_face, face_loops, tol: float):
     )
 
 
-def _no_shared_diagonals(v, pieces, piece_face):
+def _no_shared_diagonals(v, pieces, piece_face, tol: float):
     """Each piece started where both common readers (`_readers`: trimesh's fan,
     Open3D's ear clipping) triangulate it without a diagonal on an edge of another
     polygon (that edge would be in four triangles); a piece with no such start is
-    written as its triangles."""
+    regrown from its triangles into convex pieces, each written the same way, and a
+    convex piece with no such start as its triangles (written as its triangles, a
+    sampled L-bracket's 23 planar pieces became 130 polygons)."""
     edges = set()
     for cycle, _ in pieces:
         ids = cycle.tolist()
         edges.update((min(a, b), max(a, b)) for a, b in zip(ids, ids[1:] + ids[:1], strict=True))
     polygons, polygon_face = [], []
     for (cycle, tris), f in zip(pieces, piece_face, strict=True):
-        start = _reader_start(v, cycle, edges)
-        if start == 0:
-            parts = [cycle]
-        else:
-            parts = list(tris) if start is None else [np.roll(cycle, -start)]
+        parts = _reader_parts(v, cycle, tris, edges, tol)
         polygons.extend(np.asarray(p, dtype=np.int64) for p in parts)
         polygon_face.extend([f] * len(parts))
     return polygons, polygon_face
+
+
+def _reader_parts(v, cycle, tris, edges, tol: float, convex: bool = False) -> list:
+    """A piece as the polygons `_no_shared_diagonals` writes for it."""
+    start = _reader_start(v, cycle, edges)
+    if start is not None:
+        return [np.roll(cycle, -start)] if start else [cycle]
+    if convex or len(tris) <= 2:
+        return list(tris)
+    normal = cross(v[cycle], v[np.roll(cycle, -1)]).sum(axis=0)
+    sub = _pieces(v, tris, tol, convex=normal)
+    if len(sub) == 1:  # convex already: no start joins it
+        return list(tris)
+    for c, _ in sub:  # the new pieces' own edges are edges too
+        ids = c.tolist()
+        edges.update(_edge(a, b) for a, b in zip(ids, ids[1:] + ids[:1], strict=True))
+    return [p for c, t in sub for p in _reader_parts(v, c, t, edges, tol, convex=True)]
 
 
 def _reader_start(v, cycle, edges) -> int | None:

@@ -95,22 +95,22 @@ def refit_far(x, tri, surface, tol: float, bound: float) -> np.ndarray:
     return _unflip(x, y, tri)
 
 
-def placed_near_points(v0, placed, triangles, surface, tol: float) -> np.ndarray:
+def placed_near_points(v0, placed, triangles, surface, tol: float, before=None) -> np.ndarray:
     """``placed`` with every vertex that moved more than ``tol`` and ended farther than
     ``tol`` from the points' ``surface`` (`PointSurface.outline_distance`: a plane's
     corner placed past a wall is far), and farther than ``v0`` was, put back at
-    ``v0``; then no triangle turned over (`_unflip`)."""
+    ``v0``; then no triangle turned over (`_unflip`, ``before`` its former normals)."""
     moved = np.flatnonzero(np.linalg.norm(placed - v0, axis=1) > tol)
     if moved.size == 0:
         return placed
     after = surface.outline_distance(placed[moved])
-    before = surface.outline_distance(v0[moved])
-    back = moved[(after > tol) & (after > before)]
+    was = surface.outline_distance(v0[moved])
+    back = moved[(after > tol) & (after > was)]
     if back.size == 0:
         return placed
     x = placed.copy()
     x[back] = v0[back]
-    return _unflip(v0, x, triangles)
+    return _unflip(v0, x, triangles, before=before)
 
 
 class PointsDecimation(Decimation):
@@ -170,11 +170,11 @@ class PointsDecimation(Decimation):
         x = place_on_planes(out_v, out_t, face, *self.planes, self.step, self.still, unflip=False)
         # a row of vertices placed on the line of two planes past its neighbours:
         # merged, not put back (`_untangle`); what cannot be merged goes back
-        out_v, x, out_t, face, source, kept, went = untangle(
+        out_v, x, out_t, face, source, kept, went, before = untangle(
             out_v, x, out_t, face, self.planes[2], source, kept, went
         )
-        x = _unflip(out_v, x, out_t, collapsed=True)
-        x = placed_near_points(out_v, x, out_t, self.measure.surface, self.tol)
+        x = _unflip(out_v, x, out_t, collapsed=True, before=before)
+        x = placed_near_points(out_v, x, out_t, self.measure.surface, self.tol, before)
         x = refit_far(x, out_t, self.measure.surface, self.tol, self.fit_bound)
         if self.box is not None:  # no vertex beyond the box (lo, hi)
             x = np.clip(x, *self.box)

@@ -139,7 +139,23 @@ def region_layers(q, normals, labels, proxy_normals, gap: float):
         for k in np.flatnonzero(big):
             out[face[layer == k]] = n_in + len(layers)
             layers.append(pn[r])
+        for group, normal in _slopes(pick[normals[pick] @ pn[r] <= cos_face], normals, cos_face):
+            out[group] = n_in + len(layers)
+            layers.append(normal)
     return out, np.vstack([pn, *layers]) if layers else pn
+
+
+def _slopes(rest, normals, cos_face: float):
+    """The groups of at least `MIN_LAYER` of a region's points ``rest`` (those whose
+    normals lie beyond `FACE_ANGLE` of its plane's) whose normals lie within
+    `FACE_ANGLE` of their first one's, with their mean normal: a chamfer VSA joined
+    to the face beside it (placed onto the face's plane, its points were cut off)."""
+    while rest.size >= MIN_LAYER:
+        same = normals[rest] @ normals[rest[0]] > cos_face
+        if np.count_nonzero(same) >= MIN_LAYER:
+            n = normals[rest[same]].sum(axis=0)
+            yield rest[same], n / np.linalg.norm(n)
+        rest = rest[~same]
 
 
 def _layers(h, gap: float) -> np.ndarray:

@@ -47,10 +47,12 @@ def untangle(v0, placed, triangles, face, flat, source, kept, went):
     Returns
     -------
     tuple
-        ``(v0, placed, triangles, face, source, kept, went)`` without the merged
-        vertices and the triangles the merges removed (the inputs when every
+        ``(v0, placed, triangles, face, source, kept, went, normals)`` without the
+        merged vertices and the triangles the merges removed (the inputs when every
         triangle keeps more than `CAP_RTOL` of the mean triangle's area along its
-        former normal, or nothing can be merged).
+        former normal, or nothing can be merged); ``normals``: each triangle's unit
+        normal before the placement (zero where it had no area), for `_place._unflip`
+        (a merged triangle never was at ``v0``: its shape there says nothing).
 
     Examples
     --------
@@ -62,18 +64,19 @@ def untangle(v0, placed, triangles, face, flat, source, kept, went):
     >>> x = v.copy(); x[3, 0] = x[4, 0] = 0.0
     >>> out = untangle(v, x, t, np.array([0, 0, 0, 1, 1]), np.ones(2, bool),
     ...                np.arange(5), np.arange(5), np.arange(5))
-    >>> out[1].tolist(), out[2].tolist()
-    ([[0.0, 0.0, 0.0], [0.0, 2.0, 0.0], [2.0, 1.0, 0.0]], [[0, 2, 1]])
+    >>> out[1].tolist(), out[2].tolist(), (out[7] == [0, 0, 1]).all()
+    ([[0.0, 0.0, 0.0], [0.0, 2.0, 0.0], [2.0, 1.0, 0.0]], [[0, 2, 1]], np.True_)
     """
     v0 = np.asarray(v0, dtype=np.float64)
     x = np.asarray(placed, dtype=np.float64)
     rows = np.array(triangles, dtype=np.int64)
-    out = (v0, x, rows, face, source, kept, went)
-    if rows.shape[0] == 0:
-        return out
+    face = np.array(face, dtype=np.int64)  # a flipped cap takes its neighbour's face
     c0 = _cross(v0, rows)
     twice = np.linalg.norm(c0, axis=1)
     side = c0 / np.maximum(twice, 1e-300)[:, None]
+    out = (v0, x, rows, face, source, kept, went, side)
+    if rows.shape[0] == 0:
+        return out
     tiny = 2.0 * CAP_RTOL * float(0.5 * twice.mean())  # twice the area, as `_cross`
     rank = _flat_faces(rows, face, flat, x.shape[0]).astype(np.float64)
     rank[_outline(rows)] = np.inf  # an open boundary's vertex is never merged away
@@ -89,13 +92,48 @@ def untangle(v0, placed, triangles, face, flat, source, kept, went):
         done = 0
         for t in bad[np.argsort(area[bad], kind="stable")].tolist():
             if alive[t]:
-                done += _merge_one(x, rows, side, around, alive, into, rank, t, tiny)
+                done += _merge_one(x, rows, side, around, alive, into, rank, t, tiny) or (
+                    _flip_one(x, rows, side, face, around, t, tiny)
+                )
         if done == 0:
             break
         merged = True
     if not merged:
         return out
-    return compact(rows, alive, into, (v0, x), face, source, kept, went)
+    return (*compact(rows, alive, into, (v0, x), face, source, kept, went), side[alive])
+
+
+def _flip_one(x, rows, side, face, around, t: int, tiny: float) -> int:
+    """Flip the longest edge of triangle ``t`` where it is a cap (three vertices in a
+    row, placed on the line of two planes, the middle one ``c`` on edge ``a b``): it
+    and its neighbour ``b a d`` become ``a d c`` and ``d b c``, both of the
+    neighbour's face and side (they cover the neighbour's area: the cap had none),
+    where both keep an area along that side and ``c d`` is not an edge yet (a cap
+    across two faces, which `_caps.flip_caps` leaves, and whose merge the link
+    condition refuses along a row). 1 if flipped, else 0."""
+    row = rows[t].tolist()
+    if float(np.linalg.norm(_cross(x, np.asarray(row)[None])[0])) > tiny:
+        return 0  # turned over with an area, not a cap
+    k = max(range(3), key=lambda i: float(np.linalg.norm(x[row[(i + 1) % 3]] - x[row[i]])))
+    a, b, c = row[k], row[(k + 1) % 3], row[(k + 2) % 3]
+    others = (around[a] & around[b]) - {t}
+    if len(others) != 1:
+        return 0
+    u = others.pop()
+    d = next(int(v) for v in rows[u].tolist() if v != a and v != b)
+    if d == c or around[c] & around[d]:
+        return 0
+    first, second = np.array([a, d, c]), np.array([d, b, c])
+    n = side[u]
+    if min(float(n @ _cross(x, r[None])[0]) for r in (first, second)) <= tiny:
+        return 0
+    rows[t], rows[u] = first, second
+    face[t], side[t] = face[u], n
+    around[a].discard(u)
+    around[b].discard(t)
+    around[c].add(u)
+    around[d].add(t)
+    return 1
 
 
 def _flat_faces(rows, face, flat, n_v: int) -> np.ndarray:
