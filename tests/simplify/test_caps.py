@@ -236,3 +236,25 @@ def test_twins_a_thousandth_cannot_part_move_up_to_four_thousandths(monkeypatch)
     assert (caps._areas(out, t) > tiny).all()
     monkeypatch.setattr(caps, "CURVED_LAST", 0.1)  # a thousandth at most: the needles stay
     assert (caps._areas(spread_tiny(v, t, face, _planes()), t) <= tiny).any()
+
+
+def test_twins_on_the_line_of_two_flat_faces_part_along_the_line():
+    """Two vertices on one spot on the crease of two flat faces (z = 0 and x = 0), each
+    with triangles in both faces: they part by a hair along the crease (on both
+    planes still), and every triangle then has an area along its face's normal."""
+    from pointatlas.simplify._place import triangle_normals
+
+    v = np.array([[0, -1, 0], [0, 1, 0], [1, 0, 0], [0, 0, 1], [0, 0, 0], [0, 0, 0.0]])
+    t = np.array([[0, 2, 4], [4, 2, 5], [5, 2, 1], [0, 4, 3], [4, 5, 3], [5, 1, 3]])
+    face = np.array([0, 0, 0, 1, 1, 1])
+    planes = (np.array([[0, 0, 1.0], [1.0, 0, 0]]), np.zeros(2), np.array([True, True]))
+    out = spread_tiny(v, t, face, planes)
+    moved = np.flatnonzero((out != v).any(axis=1))
+    assert moved.size >= 1 and set(moved.tolist()) <= {4, 5}
+    assert (out[moved][:, [0, 2]] == 0.0).all()  # on both planes
+    assert (np.abs(out[moved, 1]) <= 0.01).all() and out[4, 1] != out[5, 1]
+    area = 0.5 * np.linalg.norm(
+        np.cross(out[t[:, 1]] - out[t[:, 0]], out[t[:, 2]] - out[t[:, 0]]), axis=1
+    )
+    assert (area > 0.0).all()
+    assert (np.einsum("ij,ij->i", triangle_normals(out, t), planes[0][face]) > 0.999).all()

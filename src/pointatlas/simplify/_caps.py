@@ -341,18 +341,21 @@ def _spread(v, tri, face, planes, ring, i: int, tiny: float, reach: float) -> bo
     normals, offsets, flat = planes
     f = int(face[ring[0]])
     if (face[ring] != f).any():
-        return False
+        return _spread_across(v, tri, face, planes, ring, i, tiny, reach)
     total = _cross(v, tri[ring]).sum(axis=0)
     mean = v[np.setdiff1d(tri[ring], [i])].mean(axis=0)
     corners = v[tri[ring]].reshape(-1, 3)
     off = np.abs(corners @ normals[f] - offsets[f]).max() if flat[f] else np.inf
+    first = min(1.0, reach / max(float(np.linalg.norm(mean - v[i])), 1e-300))
+    short = (first, 0.1 * first, min(1.0, CURVED_LAST * first))
     if off <= ON_PLANE_RTOL * float(np.ptp(corners, axis=0).max()):
-        n, shares = normals[f], FLAT_SHARES
+        # in the plane: the shares of the way, then the short moves of a curved face
+        # (twins in a flat face whose ring no share of the way left folded-free)
+        n, shares = normals[f], FLAT_SHARES + short
         mean -= (float(np.dot(n, mean)) - offsets[f]) * n
     else:  # a curved face: its side is the triangles' around the vertex
         n = total / max(float(np.linalg.norm(total)), 1e-300)
-        first = min(1.0, reach / max(float(np.linalg.norm(mean - v[i])), 1e-300))
-        shares = (first, 0.1 * first, min(1.0, CURVED_LAST * first))
+        shares = short
     side = np.sign(float(np.dot(total, n)))
     if side == 0.0:
         return False
@@ -360,6 +363,48 @@ def _spread(v, tri, face, planes, ring, i: int, tiny: float, reach: float) -> bo
     for share in shares:
         v[i] = here + share * (mean - here)
         if (0.5 * side * (_cross(v, tri[ring]) @ n) > tiny).all():
+            return True
+    v[i] = here
+    return False
+
+
+def _spread_across(v, tri, face, planes, ring, i: int, tiny: float, reach: float) -> bool:
+    """Move vertex ``i``, whose triangles ``ring`` lie in two faces or more, as a
+    curved face's vertex (`CURVED_REACH`), but only along the flat faces' planes it
+    lies on (along their line where two meet; not at a corner of three): marching
+    cubes' twin vertices on the line of two faces, whose merge the link condition
+    refuses. Each triangle keeps an area along its face's side (the plane's normal, or
+    the sum of the face's triangles around the vertex)."""
+    normals, offsets, flat = planes
+    faces = np.unique(face[ring])
+    size = float(np.ptp(v[tri[ring]].reshape(-1, 3), axis=0).max())
+    on = [
+        g for g in faces if flat[g] and abs(v[i] @ normals[g] - offsets[g]) <= ON_PLANE_RTOL * size
+    ]
+    if len(on) > 2:
+        return False
+    mean = v[np.setdiff1d(tri[ring], [i])].mean(axis=0)
+    move = mean - v[i]
+    if len(on) == 2:
+        d = cross(normals[on[0]], normals[on[1]])
+        d /= max(float(np.linalg.norm(d)), 1e-300)
+        move = float(d @ move) * d
+    elif on:
+        move -= float(normals[on[0]] @ move) * normals[on[0]]
+    length = float(np.linalg.norm(move))
+    if length == 0.0:
+        return False
+    crosses = _cross(v, tri[ring])
+    sides = np.empty((ring.size, 3))
+    for g in faces:
+        mine = face[ring] == g
+        n = normals[g] if g in on else crosses[mine].sum(axis=0)
+        sides[mine] = n / max(float(np.linalg.norm(n)), 1e-300)
+    first = min(1.0, reach / length)
+    here = v[i].copy()
+    for share in (first, 0.1 * first, min(1.0, CURVED_LAST * first)):
+        v[i] = here + share * move
+        if (0.5 * np.einsum("ij,ij->i", _cross(v, tri[ring]), sides) > tiny).all():
             return True
     v[i] = here
     return False

@@ -77,11 +77,13 @@ def fit_to_points(verts, tri, q, normals, tree, bound: float, k: int = FIT_NEIGH
     return _unflip(verts, moved, tri, collapsed=True)
 
 
-def refit_far(x, tri, surface, tol: float, bound: float) -> np.ndarray:
+def refit_far(x, tri, surface, tol: float, bound: float, before=None) -> np.ndarray:
     """``x`` with every vertex farther than ``tol`` from the points' ``surface``
     (`PointSurface`, with normals; `PointSurface.outline_distance`) fitted to the
     points' tangent planes (at most ``bound``), where that brings it nearer; no
-    triangle turned over."""
+    triangle turned over (against ``before``, the triangles' unit normals before the
+    placement, when given: one the placement left without area has no side of its
+    own)."""
     off = surface.outline_distance(x)
     far = np.flatnonzero(off > tol)
     if far.size == 0:
@@ -92,7 +94,7 @@ def refit_far(x, tri, surface, tol: float, bound: float) -> np.ndarray:
         return x
     y = x.copy()
     y[far[better]] = at[better]
-    return _unflip(x, y, tri)
+    return _unflip(x, y, tri, before=before)
 
 
 def placed_near_points(v0, placed, triangles, surface, tol: float, before=None) -> np.ndarray:
@@ -175,7 +177,7 @@ class PointsDecimation(Decimation):
         )
         x = _unflip(out_v, x, out_t, collapsed=True, before=before)
         x = placed_near_points(out_v, x, out_t, self.measure.surface, self.tol, before)
-        x = refit_far(x, out_t, self.measure.surface, self.tol, self.fit_bound)
+        x = refit_far(x, out_t, self.measure.surface, self.tol, self.fit_bound, before)
         if self.box is not None:  # no vertex beyond the box (lo, hi)
             x = np.clip(x, *self.box)
         # vertices placed on one corner, or in a row on the line of two planes: no
