@@ -146,3 +146,20 @@ def test_a_sampled_box_comes_out_as_its_six_planar_quads():
     assert float(np.max(m.polygon_planarity)) <= 1e-12 * diag
     gap = np.linalg.norm(v[:, None, :] - m.vertices[None, :, :], axis=2).min(axis=1)
     assert gap.max() <= 1e-12 * diag
+
+
+def test_a_narrow_region_is_a_plane_when_its_normals_agree():
+    """`region_planes`' ``steady``: a narrow chamfer whose points' normals all agree is
+    a plane; a band of the same shape whose normals turn through 90 degrees (PCA
+    normals over an edge) is not, nor is any region without the points' normals."""
+    from pointatlas.simplify._surface_regions import region_planes
+
+    s = np.sqrt(0.5)
+    q = np.array([[t, y, -t] for t in (0.0, 0.1, 0.2) for y in range(20)])
+    agree = np.tile([s, 0.0, s], (60, 1))
+    angle = np.repeat(np.linspace(0.0, np.pi / 2, 3), 20)
+    turn = np.column_stack([np.sin(angle), np.zeros(60), np.cos(angle)])
+    labels, source, proxy = np.zeros(60, np.int64), np.array([0]), np.array([[s, 0.0, s]])
+    assert region_planes(q, labels, proxy, source, agree)[4].tolist() == [True]
+    assert region_planes(q, labels, proxy, source, turn)[4].tolist() == [False]
+    assert region_planes(q, labels, proxy, source)[4].tolist() == [False]

@@ -432,12 +432,12 @@ def robust_mesh(
     s = _surface(rec.vertices, rec.triangles)
     _, nearest = tree.query(s.centroids, workers=-1)
     lab, source = transfer_labels(s, _face_graph(s), labels, nearest)
-    pn, offsets, deviation, width = region_planes(q, labels, proxy_normals, source)
+    pn, offsets, deviation, width, steady = region_planes(q, labels, proxy_normals, source, normals)
     # a region whose points lie within a quarter of the bound of its plane, and wider
     # than a grid step, is flat: its vertices go onto the plane (at most two grid
     # steps: the voxel surface's rounded edges and corners come back). A narrow band
     # (estimated normals turning over an edge) carries no plane.
-    planes = (pn, offsets, (deviation <= 0.25 * bound) & (width >= rec.step))
+    planes = (pn, offsets, (deviation <= 0.25 * bound) & ((width >= rec.step) | steady))
     measure = PointDistances(q, PointSurface(q, normals, tree, radius))
     verts = fitted.result()
     box = measure.box  # never a vertex outside

@@ -23,6 +23,9 @@ FACE_ANGLE = 10.0
 #: region of its own when it holds this many points and this share of the region's.
 MIN_LAYER = 20
 MIN_LAYER_SHARE = 0.02
+#: A narrow region is still a plane when `FLAT_SHARE` of its points' normals lie
+#: within this angle of its normal (degrees).
+STEADY_ANGLE = 5.0
 #: Rounds of the refit (each on the largest layer found along the last normal).
 REFITS = 2
 
@@ -166,16 +169,19 @@ def _layers(h, gap: float) -> np.ndarray:
     return layer
 
 
-def region_planes(q, labels, proxy_normals, source):
+def region_planes(q, labels, proxy_normals, source, normals=None):
     """The planes of the surface's regions from their points: the proxy's normal, at
     the median offset of the region's points; and the distance to it within which
     `FLAT_SHARE` of them lie (a few points labelled across an edge do not make a
     flat face curved, nor shift its plane).
 
     ``labels``: the points' regions; surface region ``r`` is the points' region
-    ``source[r]``. Returns ``(normals, offsets, deviation, width)`` per surface
-    region, ``width`` the standard deviation of its points across their longest
-    direction (a band along an edge is narrow).
+    ``source[r]``. Returns ``(normals, offsets, deviation, width, steady)`` per
+    surface region, ``width`` the standard deviation of its points across their
+    longest direction (a band along an edge is narrow), ``steady`` whether
+    `FLAT_SHARE` of its points' ``normals`` lie within `STEADY_ANGLE` of its normal
+    (a narrow chamfer, not a band where estimated normals turn over an edge; all
+    False without ``normals``).
     """
     labels = np.asarray(labels, dtype=np.int64)
     n_in = int(labels.max()) + 1
@@ -184,6 +190,8 @@ def region_planes(q, labels, proxy_normals, source):
     order = np.lexsort((height, labels))
     bounds = np.searchsorted(labels[order], np.arange(n_in + 1))
     off, dev, width = np.zeros(n_in), np.zeros(n_in), np.zeros(n_in)
+    steady = np.zeros(n_in, dtype=bool)
+    cos_steady = np.cos(np.radians(STEADY_ANGLE))
     for r in np.flatnonzero(np.diff(bounds)):
         pick = order[bounds[r] : bounds[r + 1]]
         h = height[pick]  # sorted
@@ -191,4 +199,6 @@ def region_planes(q, labels, proxy_normals, source):
         dev[r] = np.quantile(np.abs(h - off[r]), FLAT_SHARE)
         if pick.size >= 3:  # the spread of the points across their longest direction
             width[r] = np.sqrt(max(np.linalg.eigvalsh(np.cov(q[pick].T))[1], 0.0))
-    return pn[source], off[source], dev[source], width[source]
+        if normals is not None and pick.size >= MIN_LAYER:
+            steady[r] = np.mean(normals[pick] @ pn[r] >= cos_steady) >= FLAT_SHARE
+    return pn[source], off[source], dev[source], width[source], steady[source]
