@@ -6,13 +6,14 @@ so that a sampled CAD part's faces come out as its exact planar polygons."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from pointatlas.simplify import mesh_checks, simplify_points
 from pointatlas.simplify._surface_regions import region_layers
 from pointatlas.simplify._untangle import untangle
 from pointatlas.synth import sample_mesh
 
-from .cad_shapes import l_bracket
+from .cad_shapes import box, l_bracket
 
 
 def test_a_recess_floor_becomes_its_own_layer_and_a_tilted_normal_is_refitted():
@@ -74,24 +75,6 @@ def test_untangle_keeps_the_outline_and_the_orientation():
     assert same[2] is t or np.array_equal(same[2], t)
 
 
-def test_a_sampled_l_bracket_comes_out_as_its_eight_planar_polygons():
-    """20,000 points with normals on an L-bracket: exactly its 8 faces as 8 planar
-    polygons (planarity under 1e-12 of the diagonal), every true corner on an output
-    vertex (measured: exact to 1e-16), closed, manifold, oriented. Before the
-    untangling, the placement put back a row of vertices along an edge, up to 0.3 %
-    of the diagonal off its planes, and the faces split into 130 polygons."""
-    v, t = l_bracket()
-    s = sample_mesh(v, t, 20000, rng=0)
-    p = np.asarray(s.points)
-    m = simplify_points(p, s.normals).mesh
-    diag = float(np.linalg.norm(np.ptp(p, axis=0)))
-    assert mesh_checks(m.n_vertices, m.triangles) == (True, True, True)
-    assert m.n_faces == 8 and len(m.polygons) == 8
-    assert float(np.max(m.polygon_planarity)) <= 1e-12 * diag
-    gap = np.linalg.norm(v[:, None, :] - m.vertices[None, :, :], axis=2).min(axis=1)
-    assert gap.max() <= 1e-12 * diag
-
-
 def test_a_chamfer_joined_to_a_face_becomes_its_own_region():
     """A face (z = 0, 400 points) whose region also holds a chamfer's 30 points (normal
     45 degrees off) and 5 stray points (normal across): the chamfer becomes a region
@@ -129,20 +112,22 @@ def test_a_level_may_leave_a_few_points_a_hair_over_the_default_bound():
     assert _over(d, floor, SPARE) == np.inf  # one too far
 
 
-def test_a_sampled_box_comes_out_as_its_six_planar_quads():
-    """20,000 points with normals on a box: its 6 faces as 6 planar polygons, every
-    corner exact (the caps that the corner placement leaves along an edge, across two
-    faces, are flipped into the face beside them; put back, they had left 42
-    polygons and a corner 0.13 % of the diagonal off)."""
-    from .cad_shapes import box
-
-    v, t = box()
+@pytest.mark.parametrize(("shape", "n_faces"), [(box, 6), (l_bracket, 8)], ids=["box", "l-bracket"])
+def test_a_sampled_cad_part_comes_out_as_its_exact_planar_faces(shape, n_faces):
+    """20,000 points with normals on a box / an L-bracket: exactly its 6 / 8 faces as
+    as many planar polygons (planarity under 1e-12 of the diagonal), every true corner
+    on an output vertex (measured: exact to 1e-16), closed, manifold, oriented.
+    Before the untangling the placement put back a row of vertices along an edge, up
+    to 0.3 % of the diagonal off its planes (the L-bracket's faces split into 130
+    polygons), and left the caps along an edge across two faces, which are now
+    flipped into the face beside them (the box: 42 polygons, a corner 0.13 % off)."""
+    v, t = shape()
     s = sample_mesh(v, t, 20000, rng=0)
     p = np.asarray(s.points)
     m = simplify_points(p, s.normals).mesh
     diag = float(np.linalg.norm(np.ptp(p, axis=0)))
     assert mesh_checks(m.n_vertices, m.triangles) == (True, True, True)
-    assert m.n_faces == 6 and len(m.polygons) == 6
+    assert m.n_faces == n_faces and len(m.polygons) == n_faces
     assert float(np.max(m.polygon_planarity)) <= 1e-12 * diag
     gap = np.linalg.norm(v[:, None, :] - m.vertices[None, :, :], axis=2).min(axis=1)
     assert gap.max() <= 1e-12 * diag

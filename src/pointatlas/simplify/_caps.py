@@ -43,6 +43,7 @@ __all__ = [
     "NEEDLE_RTOL",
     "ON_PLANE_RTOL",
     "flip_caps",
+    "outline_vertices",
     "compact",
     "spread_tiny",
     "weld_needles",
@@ -321,9 +322,7 @@ def spread_tiny(vertices, triangles, face, planes) -> np.ndarray:
     v = v.copy()
     order = np.argsort(tri.reshape(-1), kind="stable")
     start = np.searchsorted(tri.reshape(-1)[order], np.arange(v.shape[0] + 1))
-    ends_of = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-    edge, count = unique_pairs(ends_of, return_counts=True)
-    on_outline = np.unique(edge[count != 2])  # an open or non-manifold edge's ends
+    on_outline = outline_vertices(tri)
     reach = CURVED_REACH * float(np.linalg.norm(v[tri[:, [1, 2, 0]]] - v[tri], axis=2).mean())
     for _ in range(_PASSES):
         ends = np.setdiff1d(tri[_areas(v, tri) <= tiny], on_outline)
@@ -334,6 +333,13 @@ def spread_tiny(vertices, triangles, face, planes) -> np.ndarray:
         ):
             break
     return v
+
+
+def outline_vertices(tri) -> np.ndarray:
+    """The ends of the open (or non-manifold) edges of triangles ``tri``."""
+    ends = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    edge, count = unique_pairs(ends, return_counts=True)
+    return np.unique(edge[count != 2])
 
 
 def _spread(v, tri, face, planes, ring, i: int, tiny: float, reach: float) -> bool:

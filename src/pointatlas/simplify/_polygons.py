@@ -120,8 +120,7 @@ def _reader_parts(v, cycle, tris, edges, tol: float, convex: bool = False) -> li
         return [np.roll(cycle, -start)] if start else [cycle]
     if convex or len(tris) <= 2:
         return list(tris)
-    normal = cross(v[cycle], v[np.roll(cycle, -1)]).sum(axis=0)
-    sub = _pieces(v, tris, tol, convex=normal)
+    sub = _convex_pieces(v, cycle, tris, tol)
     if len(sub) == 1:  # convex already: no start joins it
         return list(tris)
     for c, _ in sub:  # the new pieces' own edges are edges too
@@ -166,8 +165,13 @@ def _fan_ready(v, pieces, tol):
         if len(cycle) == 3 or fan_start(v[cycle]) is not None:
             yield cycle, tris
             continue
-        normal = cross(v[cycle], v[np.roll(cycle, -1)]).sum(axis=0)
-        yield from _pieces(v, tris, tol, convex=normal)
+        yield from _convex_pieces(v, cycle, tris, tol)
+
+
+def _convex_pieces(v, cycle, tris, tol):
+    """A piece's triangles regrown into pieces convex about the piece's normal."""
+    normal = cross(v[cycle], v[np.roll(cycle, -1)]).sum(axis=0)
+    return _pieces(v, tris, tol, convex=normal)
 
 
 def planar_pieces(vertices: np.ndarray, triangles: np.ndarray, tol: float) -> list[np.ndarray]:

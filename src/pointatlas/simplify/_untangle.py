@@ -20,7 +20,7 @@ import collections
 
 import numpy as np
 
-from ._caps import CAP_RTOL, _find, _link_ok, _merge, compact
+from ._caps import CAP_RTOL, _find, _link_ok, _merge, compact, outline_vertices
 from ._mesh import unique_pairs
 from ._place import _cross
 
@@ -79,7 +79,7 @@ def untangle(v0, placed, triangles, face, flat, source, kept, went):
         return out
     tiny = 2.0 * CAP_RTOL * float(0.5 * twice.mean())  # twice the area, as `_cross`
     rank = _flat_faces(rows, face, flat, x.shape[0]).astype(np.float64)
-    rank[_outline(rows)] = np.inf  # an open boundary's vertex is never merged away
+    rank[outline_vertices(rows)] = np.inf  # an open boundary's vertex is never merged away
     into = np.arange(x.shape[0])
     alive = np.ones(rows.shape[0], dtype=bool)
     merged = False
@@ -141,13 +141,6 @@ def _flat_faces(rows, face, flat, n_v: int) -> np.ndarray:
     pairs = unique_pairs(np.column_stack([rows.reshape(-1), np.repeat(face, 3)]))
     pairs = pairs[flat[pairs[:, 1]]]
     return np.bincount(pairs[:, 0], minlength=n_v)
-
-
-def _outline(rows) -> np.ndarray:
-    """The vertices of the open (or non-manifold) edges."""
-    ends = np.sort(np.concatenate([rows[:, [0, 1]], rows[:, [1, 2]], rows[:, [2, 0]]]), axis=1)
-    edge, count = unique_pairs(ends, return_counts=True)
-    return np.unique(edge[count != 2])
 
 
 def _around(rows, alive, ends):
