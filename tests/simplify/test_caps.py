@@ -151,6 +151,18 @@ def test_a_merge_that_would_pinch_the_mesh_is_not_made():
     assert all(a is b for a, b in zip(out, args, strict=True))
 
 
+def test_a_merge_across_an_open_sheet_that_would_pinch_its_outline_is_not_made():
+    """Two vertices on one spot, both on the open outline, joined by an inner edge
+    (two triangles without area): merged, the outline would touch itself at one
+    vertex (not manifold). Left alone; the sheet stays manifold."""
+    v = np.array([[0, 0, 0], [1e-9, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [-1, 0.5, 0], [2, -0.5, 0.0]])
+    t = np.array([[0, 1, 2], [1, 0, 3], [4, 0, 2], [5, 1, 3]])
+    assert mesh_checks(6, t) == (False, True, True)
+    args = (v, t, np.zeros(4), np.arange(6), np.arange(4), np.arange(6))
+    out = weld_needles(*args)
+    assert all(a is b for a, b in zip(out, args, strict=True))
+
+
 def test_a_merge_that_would_turn_a_triangle_over_is_not_made():
     """q merges into p only where none of q's other triangles turns over: a sliver
     q, x, y whose apex would cross the line x y is one."""

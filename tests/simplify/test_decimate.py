@@ -13,6 +13,7 @@ from pointatlas import data
 from pointatlas.neighbors import point_mesh_distance
 from pointatlas.simplify import decimate_mesh, mesh_checks
 from pointatlas.simplify._decimate import decimate
+from pointatlas.simplify._distance import PointSurface
 from pointatlas.synth import cube, plane_patch, sample_mesh
 
 from . import cad_shapes as C
@@ -181,6 +182,48 @@ def test_open_sheet_loop_agrees_with_the_python_reference():
     got, want = decimate(v, t, len(t) // 5), decimate_reference(v, t, len(t) // 5)
     for g, w in zip(got, want, strict=True):
         np.testing.assert_array_equal(g, w)
+
+
+def _noisy_torus_points(n: int, noise: float):
+    m = data.load_mesh("torus")
+    v, t = np.asarray(m.vertices, dtype=float), np.asarray(m.triangles, dtype=np.int64)
+    s = sample_mesh(v, t, n, rng=4)
+    rng = np.random.default_rng(5)
+    q = np.asarray(s.points) + rng.normal(scale=noise, size=(n, 1)) * np.asarray(s.normals)
+    return v, t, PointSurface(q, np.asarray(s.normals))
+
+
+def test_collapses_bounded_by_points_keep_every_point_within_its_tolerance():
+    """Every level of a sequence bounded by points (`collapse_all` with their
+    ``surface``) keeps every point within its tolerance of the surface (or as near
+    as it was at first), measured exactly; the unbounded sequence takes them past
+    it."""
+    from pointatlas.simplify._decimate import collapse_all
+
+    v, t, surface = _noisy_torus_points(3000, 0.002)
+    q = surface.points
+    diag = float(np.linalg.norm(np.ptp(v, axis=0)))
+    tol = np.where(np.arange(q.shape[0]) % 3 == 0, 0.004, 0.008) * diag
+    start = point_mesh_distance(q, v, t)
+    seq = collapse_all(v, t, surface=surface, tolerance=tol)
+    free = collapse_all(v, t)
+    assert 0 < seq.kept.size < free.kept.size
+    n = seq.kept.size
+    for m in sorted({1, n // 4, n // 2, 3 * n // 4, n - 1, n}):
+        mv, mt = seq.mesh(m)[:2]
+        assert np.all(point_mesh_distance(q, mv, mt) <= np.maximum(tol, start) * (1 + 1e-9))
+    mv, mt = free.mesh(free.kept.size)[:2]
+    assert np.any(point_mesh_distance(q, mv, mt) > np.maximum(tol, start))
+
+
+def test_collapses_bounded_far_away_are_the_unbounded_ones():
+    """With a tolerance no collapse reaches, the points change nothing, bit for bit."""
+    from pointatlas.simplify._decimate import collapse_all
+
+    v, t, surface = _noisy_torus_points(500, 0.0)
+    seq, free = collapse_all(v, t, surface=surface, tolerance=1e9), collapse_all(v, t)
+    for name in ("kept", "gone", "position", "removed", "cost"):
+        np.testing.assert_array_equal(getattr(seq, name), getattr(free, name))
 
 
 def test_a_prefix_of_the_collapses_is_the_decimation_to_its_triangle_count():

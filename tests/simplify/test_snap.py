@@ -211,27 +211,12 @@ def test_level_search_on_a_subset_of_the_points_meets_the_bound_on_all(shape, mo
         np.testing.assert_array_equal(m.vertices, meshes[0].vertices)
 
 
-def test_collapses_on_a_thread_give_the_same_mesh(monkeypatch):
-    """`PointsDecimation` makes its collapse sequence on a thread while level 0 is
-    placed and measured: the same output as made in line, bit for bit; and level 0
-    without the sequence is the sequence's level 0."""
-    import warnings
-
-    from pointatlas.simplify import SimplifyWarning, simplify_points
+def test_level_0_without_the_sequence_is_the_sequence_s_level_0():
+    """`PointsDecimation` places and measures level 0 before its collapses begin
+    (their tolerances come from it): `no_collapses`' level 0 is `collapse_all`'s."""
     from pointatlas.simplify._decimate import collapse_all, no_collapses
-    from pointatlas.simplify._snap import PointsDecimation
 
     v, t = l_bracket()
-    s = sample_mesh(v, t, 6000, rng=2)
-    p, n = np.asarray(s.points), np.asarray(s.normals)
-    meshes = []
-    for background in (True, False):
-        monkeypatch.setattr(PointsDecimation, "background", background)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", SimplifyWarning)
-            meshes.append(simplify_points(p, n, path="robust").mesh)
-    np.testing.assert_array_equal(meshes[0].triangles, meshes[1].triangles)
-    np.testing.assert_array_equal(meshes[0].vertices, meshes[1].vertices)
     for a, b in zip(
         no_collapses(v, t).mesh_and_map(0), collapse_all(v, t).mesh_and_map(0), strict=True
     ):

@@ -187,7 +187,15 @@ def _link_ok(rows, around, p: int, q: int) -> bool:
         return False
     near_p = {int(x) for t in around[p] for x in rows[t]} - {p}
     near_q = {int(x) for t in around[q] for x in rows[t]} - {q}
-    return (near_p & near_q) == opposite
+    if (near_p & near_q) != opposite:
+        return False
+    # an inner edge between two vertices of an open outline would pinch it
+    return not (_on_outline(rows, around, p, near_p) and _on_outline(rows, around, q, near_q))
+
+
+def _on_outline(rows, around, p: int, near) -> bool:
+    """Whether an edge of p (to one of its neighbours ``near``) is in one triangle."""
+    return any(sum(1 for t in around[p] if x in rows[t]) == 1 for x in near)
 
 
 def _merge(rows, around, alive, into, p: int, q: int) -> None:

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._bound_kernels import nearest_of
 from ._kernels import collapse_edges, replay
 from ._mesh import unique_pairs
 
@@ -29,6 +30,12 @@ __all__ = ["Collapses", "collapse_all", "decimate"]
 _BOUNDARY_WEIGHT = 100.0
 #: Weight of the squared squared edge length added to a collapse's cost (ties).
 _TIE = 1e-6
+#: A carried point's first owner is the nearest of this many triangles (the nearest
+#: centroids).
+_OWNER_CANDIDATES = 8
+_BACK_NEIGHBORS = 8
+#: The carried points' grid has at most this many cells a side.
+_MAX_CELLS = 256
 
 
 def _plane_quadrics(normals, offsets, weights) -> np.ndarray:
@@ -146,12 +153,26 @@ class Collapses:
 
 
 def collapse_all(
-    vertices, triangles, *, labels=None, planes=None, structure=1.0, target=None
+    vertices,
+    triangles,
+    *,
+    labels=None,
+    planes=None,
+    structure=1.0,
+    target=None,
+    surface=None,
+    tolerance=None,
+    back=None,
 ) -> Collapses:
     """The decimation's collapses down to the last valid one (`Collapses`), or down to
     the first that leaves at most ``target`` triangles (the same collapses: the
     sequence stops there, and ``steps_for(target)`` is the same); options as in
-    `decimate`."""
+    `decimate`. With the points' ``surface`` (`PointSurface`) and ``tolerance`` (a
+    number or one per point), a collapse that would take a point farther than its
+    tolerance from the triangles, or leave a triangle farther than ``back``
+    (default: ``tolerance``) from the points, is refused, so that every level keeps
+    every point within it (`_bound_kernels`; a point already farther at first may
+    stay as far, and the surface as far as it was near a point)."""
     v = np.array(vertices, dtype=np.float64)
     tri = np.array(triangles, dtype=np.int64)
     n_v = v.shape[0]
@@ -162,10 +183,75 @@ def collapse_all(
     on_boundary[edge[count == 1].reshape(-1)] = True
     if edge.shape[0] == 0:
         return no_collapses(v, tri)
+    carried = _carried(surface, tolerance, back, v, tri)
     kept, gone, position, removed, cost = collapse_edges(
-        v.copy(), tri, q, on_boundary, edge.astype(np.int64), _TIE, int(target or 0)
+        v.copy(), tri, q, on_boundary, edge.astype(np.int64), _TIE, int(target or 0), carried
     )
     return Collapses(v, tri, kept, gone, position, removed, cost)
+
+
+def _carried(surface, tolerance, back, v, tri):
+    """`collapse_edges`' ``carried`` (`_bound_kernels.points_stay`): the points of
+    ``surface`` (`PointSurface`), their squared tolerances, squared distances to
+    their owners (the nearest of the triangles whose centroids are their
+    `_OWNER_CANDIDATES` nearest), owners, normals, disc radii, squared tolerances
+    back (``back``, or how far the surface is near them at first if more:
+    `_back_at_first`) and the points in grid cells (`_point_cells`); no rows
+    without a surface."""
+    if surface is None:
+        empty, none = np.zeros(0), np.zeros((0, 3))
+        return (none, empty, empty, np.zeros(0, dtype=np.int64), none, empty, empty, *_no_cells())
+    from scipy.spatial import cKDTree
+
+    pts = np.ascontiguousarray(surface.points, dtype=np.float64)
+    n_p = pts.shape[0]
+    centroids = v[tri].mean(axis=1)
+    k = min(_OWNER_CANDIDATES, tri.shape[0])
+    _, cand = cKDTree(centroids).query(pts, k=k, workers=-1)
+    owner, d2 = nearest_of(pts, v, tri, cand.reshape(n_p, k).astype(np.int64))
+    tol = np.broadcast_to(np.asarray(tolerance, dtype=np.float64), (n_p,))
+    back = tol if back is None else np.broadcast_to(np.asarray(back, dtype=np.float64), (n_p,))
+    back = np.maximum(back, _back_at_first(surface, v, tri))
+    normals = np.zeros((n_p, 3)) if surface.normals is None else surface.normals
+    radius = np.ascontiguousarray(surface.radius, dtype=np.float64)
+    cells = _point_cells(pts, float(np.quantile(radius, 0.9) + 2.0 * np.quantile(back, 0.9)))
+    return (pts, tol * tol, d2, owner, normals, radius, back * back, *cells)
+
+
+def _back_at_first(surface, v, tri) -> np.ndarray:
+    """How far the surface ``v``, ``tri`` is from the points' discs near each point: the
+    most of its vertices' and area samples' distances (`output_samples`) among those
+    nearest to the point or to one of its `_BACK_NEIGHBORS` nearest."""
+    from ._distance import output_samples
+
+    samples = output_samples(v, tri)
+    d = surface.distance(samples)
+    _, near = surface.tree.query(samples, workers=-1)
+    most = np.zeros(surface.points.shape[0])
+    np.maximum.at(most, near, d)
+    k = min(_BACK_NEIGHBORS, surface.points.shape[0])
+    _, nb = surface.tree.query(surface.points, k=k, workers=-1)
+    return most[nb.reshape(-1, k)].max(axis=1)
+
+
+def _point_cells(pts, cell: float):
+    """``(origin, cell size, cells (3,), each cell's first row, the points by cell)``:
+    the points in a grid of cubes of at least ``cell`` (at most `_MAX_CELLS` a side),
+    cell by cell (x slowest)."""
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    cell = max(cell, float((hi - lo).max()) / _MAX_CELLS, 1e-300)
+    dims = np.floor((hi - lo) / cell).astype(np.int64) + 1
+    at = np.minimum(np.floor((pts - lo) / cell).astype(np.int64), dims - 1)
+    key = (at[:, 0] * dims[1] + at[:, 1]) * dims[2] + at[:, 2]
+    order = np.argsort(key, kind="stable")
+    start = np.searchsorted(key[order], np.arange(int(np.prod(dims)) + 1))
+    return lo, cell, dims, start.astype(np.int64), order.astype(np.int64)
+
+
+def _no_cells():
+    """`_point_cells` of no points."""
+    one = np.ones(3, dtype=np.int64)
+    return np.zeros(3), 1.0, one, np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64)
 
 
 def no_collapses(vertices, triangles) -> Collapses:

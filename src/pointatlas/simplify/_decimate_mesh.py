@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 
 from .._core import as_float, as_int, as_points
-from .._core._threads import machine_busy, on_thread, one_thread_if
+from .._core._threads import machine_busy, one_thread_if
 from ..neighbors import MeshDistanceIndex
 from ._caps import flip_caps
 from ._decimate import Collapses, collapse_all, no_collapses
@@ -307,7 +307,7 @@ class Decimation:
     (`MeshDistances`, or the points' on the points path); ``box`` (lo, hi): vertices
     are clipped into it; ``target``: the collapses stop at the first level with at
     most this many triangles (`collapse_all`; for a budget: `steps_within` then sees
-    only those).
+    only those); ``start``: False to begin the collapses later (`start`).
     """
 
     def __init__(
@@ -323,29 +323,31 @@ class Decimation:
         *,
         structure=1.0,
         target=None,
-        background=False,
+        start=True,
     ):
         self.verts, self.tri, self.labels, self.planes = verts, tri, labels, planes
         self.step, self.still, self.measure, self.box = step, still, measure, box
         self.n_regions = int(labels.max()) + 1
-        args = {"labels": labels, "planes": planes, "structure": structure, "target": target}
-        self._seq, self._pending = None, None
-        if background:  # the collapses on a thread while level 0 is placed and measured
-            self._pending = on_thread(collapse_all, verts, tri, **args)
-        else:
-            self._seq = collapse_all(verts, tri, **args)
+        self._args = {"labels": labels, "planes": planes, "structure": structure, "target": target}
+        self._seq = None
+        if start:
+            self.start()
         self._kept_level = None
         self._report = None  # (m, the distances of `distances`)
         self._there = None  # (m, the input's vertices to that level, of `near`)
         self._over = set()  # (m, bound): levels found over a bound
         self._near = {}  # (m, bound): levels within it on a subset of the samples
 
+    def start(self, **carried) -> None:
+        """Makes the collapse sequence (`collapse_all`; ``carried``: its ``points`` and
+        ``tolerance``)."""
+        self._seq = collapse_all(self.verts, self.tri, **self._args, **carried)
+
     @property
     def seq(self) -> Collapses:
-        """The collapse sequence (`collapse_all`; waited for when made on a thread)."""
+        """The collapse sequence (`collapse_all`; made now when not begun)."""
         if self._seq is None:
-            self._seq = self._pending.result()
-            self._pending = None
+            self.start()
         return self._seq
 
     def mesh_and_map(self, m: int):

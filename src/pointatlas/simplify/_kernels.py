@@ -8,6 +8,8 @@ import heapq
 import numpy as np
 from numba import njit
 
+from ._bound_kernels import link_points, move_points, points_stay
+
 __all__ = ["band_field", "collapse_edges", "collapse_position", "replay", "turns_over"]
 
 
@@ -221,10 +223,13 @@ def _collapsible(v, tri, head, nxt, alive, a, b, x, mark, stamp, shared) -> int:
 
 
 @njit(cache=True, nogil=True)
-def collapse_edges(v, tri, q, on_boundary, edges, tie, target):
+def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried):
     """Quadric edge collapse of a manifold triangle mesh, cheapest edge first, until
     no edge can be collapsed or at most ``target`` triangles are left (0: until none
-    can; the decimation loop of `_decimate.decimate`).
+    can; the decimation loop of `_decimate.decimate`). With points (``carried``: see
+    `_bound_kernels.points_stay`; none: no rows), a collapse that would leave one
+    farther than its tolerance from the triangles, or a triangle away from them, is
+    refused.
 
     ``v`` (V, 3) and ``q`` (V, 4, 4) are changed in place; ``tri`` is read only.
     Returns the collapses in order: ``kept`` (n,) the vertex kept, ``gone`` (n,) the
@@ -250,24 +255,39 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target):
     for e in range(1, edges.shape[0]):
         heap.append(_edge_entry(v, q, edges[e, 0], edges[e, 1], version, tie, qab))
     heapq.heapify(heap)
-    kept = np.empty(n_v, dtype=np.int64)
-    gone = np.empty(n_v, dtype=np.int64)
-    position = np.empty((n_v, 3))
-    removed = np.empty(n_v, dtype=np.int64)
-    costs = np.empty(n_v)
-    n = 0
-    n_alive = n_t
+    n_p = carried[0].shape[0]
+    phead, pnext = link_points(carried[3], n_t)
+    work = (
+        np.zeros(n_t, dtype=np.int64),
+        np.zeros(1, dtype=np.int64),
+        np.empty(n_t, dtype=np.int64),
+        np.empty(n_p, dtype=np.int64),
+        np.empty(n_p, dtype=np.int64),
+    )
+    out = (
+        np.empty(n_v, dtype=np.int64),
+        np.empty(n_v, dtype=np.int64),
+        np.empty((n_v, 3)),
+        np.empty(n_v, dtype=np.int64),
+        np.empty(n_v),
+    )
+    n, n_alive = 0, n_t
     x = np.empty(3)
     while heap and n_alive > target:
         cost, a, b, va, vb, x0, x1, x2 = heapq.heappop(heap)
         if version[a] != va or version[b] != vb or head[a] == -1 or head[b] == -1:
             continue
-        x[0] = x0
-        x[1] = x1
-        x[2] = x2
+        x[0], x[1], x[2] = x0, x1, x2
         ns = _collapsible(v, tri, head, nxt, alive, a, b, x, mark, stamp, shared)
         if ns == 0 or (ns == 2 and on_boundary[a] and on_boundary[b]):
             continue  # an inner edge between two boundary vertices would pinch
+        n_ring = n_points = 0
+        if n_p > 0:
+            ok, n_ring, n_points = points_stay(
+                v, tri, head, nxt, alive, a, b, x, ns, shared, carried, phead, pnext, work
+            )
+            if not ok:
+                continue
         for k in range(ns):
             alive[shared[k]] = False
         c = head[b]
@@ -275,26 +295,34 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target):
             tri[c // 3, c % 3] = a
             c = nxt[c]
         _relink(head, nxt, alive, a, b)
+        if n_p > 0:
+            move_points(n_ring, n_points, phead, pnext, work)
         v[a] = x
         q[a] += q[b]
         on_boundary[a] = on_boundary[a] or on_boundary[b]
         version[a] += 1
         version[b] += 1
-        kept[n], gone[n], removed[n], costs[n] = a, b, ns, cost
+        out[0][n], out[1][n], out[3][n], out[4][n] = a, b, ns, cost
+        out[2][n] = x
         n_alive -= ns
-        position[n] = x
         n += 1
-        stamp[0] += 1
-        c = head[a]
-        while c != -1:
-            f = c // 3
-            for i in range(3):
-                u = tri[f, i]
-                if u != a and mark[u, 0] != stamp[0]:
-                    mark[u, 0] = stamp[0]
-                    heapq.heappush(heap, _edge_entry(v, q, a, u, version, tie, qab))
-            c = nxt[c]
-    return kept[:n], gone[:n], position[:n], removed[:n], costs[:n]
+        _push_around(heap, v, q, tri, head, nxt, a, version, tie, qab, mark, stamp)
+    return out[0][:n], out[1][:n], out[2][:n], out[3][:n], out[4][:n]
+
+
+@njit(cache=True)
+def _push_around(heap, v, q, tri, head, nxt, a, version, tie, qab, mark, stamp) -> None:
+    """Every edge of ``a`` onto the heap, each once."""
+    stamp[0] += 1
+    c = head[a]
+    while c != -1:
+        f = c // 3
+        for i in range(3):
+            u = tri[f, i]
+            if u != a and mark[u, 0] != stamp[0]:
+                mark[u, 0] = stamp[0]
+                heapq.heappush(heap, _edge_entry(v, q, a, u, version, tie, qab))
+        c = nxt[c]
 
 
 @njit(cache=True)

@@ -97,6 +97,13 @@ class PointDistances:
         self.spare = SPARE
         return most
 
+    def tolerances(self, bound: float) -> np.ndarray:
+        """How far each point may be from a level (`within`): ``bound``, or the floor
+        there (`floor_at`) where that is more."""
+        if self.there_floor is None:
+            return np.full(self.q.shape[0], float(bound))
+        return np.maximum(float(bound), self.there_floor)
+
     def subset(self, n: int = SEARCH_POINTS):
         """This measure on every s-th point only, s the smallest stride that leaves at
         most ``n`` of them (their floors kept, the box and the back samples as they

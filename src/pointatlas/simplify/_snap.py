@@ -124,14 +124,9 @@ class PointsDecimation(Decimation):
     the points (`steps_within`)."""
 
     search_points: int = SEARCH_POINTS
-    #: the collapses on a thread while level 0 is placed and measured
-    #: (`PointDistances.floor_at`); the same sequence either way
-    background: bool = True
 
     def __init__(self, verts, tri, labels, planes, step, still, measure, box, tol, fit_bound):
-        super().__init__(
-            verts, tri, labels, planes, step, still, measure, box, background=self.background
-        )
+        super().__init__(verts, tri, labels, planes, step, still, measure, box, start=False)
         self.tol, self.fit_bound = float(tol), float(fit_bound)
 
     def steps_within(self, bound: float) -> int:
