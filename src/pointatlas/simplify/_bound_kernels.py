@@ -22,6 +22,10 @@ from numba import njit
 
 from ..neighbors._kernels.mesh_distance import closest_sq
 
+#: A point stays with its owner while within this share of its squared tolerance of
+#: it (else it goes to the nearest triangle around the collapse).
+SETTLED = 0.25
+
 __all__ = ["link_points", "move_points", "near_points", "nearest_of", "points_stay"]
 
 
@@ -96,23 +100,39 @@ def _ring(tri, head, nxt, alive, a, b, tmark, stamp, ring) -> int:
 @njit(cache=True)
 def near_points(y0, y1, y2, carried) -> bool:
     """Whether position y is within the tolerance of a point of the grid cells around
-    it: the point's height over its tangent plane, and its distance past its disc."""
-    pts, _, _, _, normals, radius, back2, origin, cell, dims, start, order = carried
-    c = np.empty(3, dtype=np.int64)
-    for e, y in enumerate((y0, y1, y2)):
-        c[e] = int(np.floor((y - origin[e]) / cell))
-    for i in range(max(c[0] - 1, 0), min(c[0] + 2, dims[0])):
-        for j in range(max(c[1] - 1, 0), min(c[1] + 2, dims[1])):
-            for k in range(max(c[2] - 1, 0), min(c[2] + 2, dims[2])):
-                key = (i * dims[1] + j) * dims[2] + k
-                for s in range(start[key], start[key + 1]):
-                    p = order[s]
-                    o0, o1, o2 = y0 - pts[p, 0], y1 - pts[p, 1], y2 - pts[p, 2]
-                    h = o0 * normals[p, 0] + o1 * normals[p, 1] + o2 * normals[p, 2]
-                    t = np.sqrt(max(o0 * o0 + o1 * o1 + o2 * o2 - h * h, 0.0))
-                    past = max(t - radius[p], 0.0)
-                    if h * h + past * past <= back2[p]:
-                        return True
+    it (its own cell first): the point's height over its tangent plane, and its
+    distance past its disc."""
+    dims = carried[9]
+    origin, cell = carried[7], carried[8]
+    c0 = int(np.floor((y0 - origin[0]) / cell))
+    c1 = int(np.floor((y1 - origin[1]) / cell))
+    c2 = int(np.floor((y2 - origin[2]) / cell))
+    if _cell_near(y0, y1, y2, c0, c1, c2, carried):
+        return True
+    for i in range(max(c0 - 1, 0), min(c0 + 2, dims[0])):
+        for j in range(max(c1 - 1, 0), min(c1 + 2, dims[1])):
+            for k in range(max(c2 - 1, 0), min(c2 + 2, dims[2])):
+                if (i != c0 or j != c1 or k != c2) and _cell_near(y0, y1, y2, i, j, k, carried):
+                    return True
+    return False
+
+
+@njit(cache=True)
+def _cell_near(y0, y1, y2, i, j, k, carried) -> bool:
+    """Whether a point of cell (i, j, k) is near y (`near_points`)."""
+    pts, normals, radius, back2 = carried[0], carried[4], carried[5], carried[6]
+    dims, start, order = carried[9], carried[10], carried[11]
+    if i < 0 or j < 0 or k < 0 or i >= dims[0] or j >= dims[1] or k >= dims[2]:
+        return False
+    key = (i * dims[1] + j) * dims[2] + k
+    for s in range(start[key], start[key + 1]):
+        p = order[s]
+        o0, o1, o2 = y0 - pts[p, 0], y1 - pts[p, 1], y2 - pts[p, 2]
+        h = o0 * normals[p, 0] + o1 * normals[p, 1] + o2 * normals[p, 2]
+        t = np.sqrt(max(o0 * o0 + o1 * o1 + o2 * o2 - h * h, 0.0))
+        past = max(t - radius[p], 0.0)
+        if h * h + past * past <= back2[p]:
+            return True
     return False
 
 
@@ -166,26 +186,39 @@ def points_stay(v, tri, head, nxt, alive, a, b, x, ns, shared, carried, phead, p
         p = phead[ring[k]]
         while p != -1:
             pbuf[n_points] = p
+            pbest[n_points] = ring[k]  # its owner until found otherwise
             n_points += 1
             p = pnext[p]
     for i in range(n_points):
         p = pbuf[i]
+        limit = max(tol2[p], start2[p])
+        f = pbest[i]
+        if f != shared[0] and (ns == 1 or f != shared[1]):
+            if _distance2(v, tri, f, a, b, x, pts, p) <= SETTLED * limit:
+                continue  # its owner stays: near enough
         best, best_f = np.inf, -1
         for k in range(n_ring):
             f = ring[k]
             if f == shared[0] or (ns == 2 and f == shared[1]):
                 continue
-            ax, ay, az = _corner_at(v, tri[f, 0], a, b, x)
-            bx, by, bz = _corner_at(v, tri[f, 1], a, b, x)
-            cx, cy, cz = _corner_at(v, tri[f, 2], a, b, x)
-            d = closest_sq(pts[p, 0], pts[p, 1], pts[p, 2], ax, ay, az, bx, by, bz, cx, cy, cz)
+            d = _distance2(v, tri, f, a, b, x, pts, p)
             if d < best:
                 best, best_f = d, f
-        if best_f == -1 or best > max(tol2[p], start2[p]):
+        if best_f == -1 or best > limit:
             return False, n_ring, n_points
         pbest[i] = best_f
     ok = _triangles_near(v, tri, ring, n_ring, a, b, x, ns, shared, carried)
     return ok, n_ring, n_points
+
+
+@njit(cache=True)
+def _distance2(v, tri, f, a, b, x, pts, p) -> float:
+    """Squared distance of point ``p`` to triangle ``f`` after ``b`` merges into ``a``
+    at ``x``."""
+    ax, ay, az = _corner_at(v, tri[f, 0], a, b, x)
+    bx, by, bz = _corner_at(v, tri[f, 1], a, b, x)
+    cx, cy, cz = _corner_at(v, tri[f, 2], a, b, x)
+    return closest_sq(pts[p, 0], pts[p, 1], pts[p, 2], ax, ay, az, bx, by, bz, cx, cy, cz)
 
 
 @njit(cache=True)

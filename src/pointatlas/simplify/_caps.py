@@ -190,12 +190,13 @@ def _link_ok(rows, around, p: int, q: int) -> bool:
     if (near_p & near_q) != opposite:
         return False
     # an inner edge between two vertices of an open outline would pinch it
-    return not (_on_outline(rows, around, p, near_p) and _on_outline(rows, around, q, near_q))
+    return not (_on_outline(rows, around, p) and _on_outline(rows, around, q))
 
 
-def _on_outline(rows, around, p: int, near) -> bool:
-    """Whether an edge of p (to one of its neighbours ``near``) is in one triangle."""
-    return any(sum(1 for t in around[p] if x in rows[t]) == 1 for x in near)
+def _on_outline(rows, around, p: int) -> bool:
+    """Whether an edge of p is in one triangle (its other end in one of p's)."""
+    count = collections.Counter(int(x) for t in around[p] for x in rows[t] if x != p)
+    return 1 in count.values()
 
 
 def _merge(rows, around, alive, into, p: int, q: int) -> None:

@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 
 from .._core import as_float, as_int, as_points
-from .._core._threads import machine_busy, one_thread_if
+from .._core._threads import machine_busy, on_thread, one_thread_if
 from ..neighbors import MeshDistanceIndex
 from ._caps import flip_caps
 from ._decimate import Collapses, collapse_all, no_collapses
@@ -329,7 +329,7 @@ class Decimation:
         self.step, self.still, self.measure, self.box = step, still, measure, box
         self.n_regions = int(labels.max()) + 1
         self._args = {"labels": labels, "planes": planes, "structure": structure, "target": target}
-        self._seq = None
+        self._seq, self._pending = None, None
         if start:
             self.start()
         self._kept_level = None
@@ -338,16 +338,22 @@ class Decimation:
         self._over = set()  # (m, bound): levels found over a bound
         self._near = {}  # (m, bound): levels within it on a subset of the samples
 
-    def start(self, **carried) -> None:
-        """Makes the collapse sequence (`collapse_all`; ``carried``: its ``points`` and
-        ``tolerance``)."""
-        self._seq = collapse_all(self.verts, self.tri, **self._args, **carried)
+    def start(self, background: bool = False, **carried) -> None:
+        """Makes the collapse sequence (`collapse_all`; ``carried``: its ``surface``,
+        ``tolerance`` and ``back``), on a thread with ``background`` (`seq` waits)."""
+        if background:
+            self._pending = on_thread(collapse_all, self.verts, self.tri, **self._args, **carried)
+        else:
+            self._seq = collapse_all(self.verts, self.tri, **self._args, **carried)
 
     @property
     def seq(self) -> Collapses:
-        """The collapse sequence (`collapse_all`; made now when not begun)."""
-        if self._seq is None:
+        """The collapse sequence (`collapse_all`; waited for when made on a thread,
+        made now when not begun)."""
+        if self._seq is None and self._pending is None:
             self.start()
+        if self._seq is None:
+            self._seq, self._pending = self._pending.result(), None
         return self._seq
 
     def mesh_and_map(self, m: int):

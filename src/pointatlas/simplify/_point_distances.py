@@ -79,16 +79,11 @@ class PointDistances:
         itself first, at least `FLOOR_NEIGHBORS` columns), searched when None.
         Returns the largest distance both ways."""
         from ._distance import output_samples
-        from ._mesh import point_mesh_distance
 
-        there = point_mesh_distance(self.q, out_v, out_t)
+        there, most = self._there_at(out_v, out_t, neighbors)
         samples = output_samples(out_v, out_t)
         back = self.surface.distance(samples)
-        most = float(max(there.max(), back.max()))
-        k = min(FLOOR_NEIGHBORS, self.q.shape[0])
-        if neighbors is None or neighbors.shape[1] < k:
-            neighbors = self.surface.tree.query(self.q, k=k, workers=-1)[1]
-        there = there[neighbors[:, :k]].max(axis=1)
+        most = float(max(most, back.max()))
         self.back_at = cKDTree(samples)
         k = min(FLOOR_NEIGHBORS, samples.shape[0])
         back = back[self.back_at.query(samples, k=k, workers=-1)[1]].max(axis=1)
@@ -97,12 +92,22 @@ class PointDistances:
         self.spare = SPARE
         return most
 
-    def tolerances(self, bound: float) -> np.ndarray:
-        """How far each point may be from a level (`within`): ``bound``, or the floor
-        there (`floor_at`) where that is more."""
-        if self.there_floor is None:
-            return np.full(self.q.shape[0], float(bound))
-        return np.maximum(float(bound), self.there_floor)
+    def there_floor_of(self, out_v, out_t, bound: float, neighbors=None) -> np.ndarray:
+        """How far each point may be from a level by `floor_at` (``out_v``, ``out_t``)
+        counted from the points' side alone: at least ``bound``."""
+        there, most = self._there_at(out_v, out_t, neighbors)
+        return np.maximum(bound, np.minimum(there + FLOOR_SLACK * bound, FLOOR_FACTOR * most))
+
+    def _there_at(self, out_v, out_t, neighbors):
+        """Each point's distance to the surface ``out_v``, ``out_t``, the most at its
+        `FLOOR_NEIGHBORS` nearest (``neighbors``: `floor_at`'s), and the largest."""
+        from ._mesh import point_mesh_distance
+
+        there = point_mesh_distance(self.q, out_v, out_t)
+        k = min(FLOOR_NEIGHBORS, self.q.shape[0])
+        if neighbors is None or neighbors.shape[1] < k:
+            neighbors = self.surface.tree.query(self.q, k=k, workers=-1)[1]
+        return there[neighbors[:, :k]].max(axis=1), float(there.max())
 
     def subset(self, n: int = SEARCH_POINTS):
         """This measure on every s-th point only, s the smallest stride that leaves at

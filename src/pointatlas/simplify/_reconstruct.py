@@ -467,14 +467,17 @@ def robust_mesh(
         0.25 * bound,
         FIT_STEPS * rec.step,
     )
+    if max_triangles is None and outline_vertices(rec.triangles).size == 0:
+        # on a closed surface no collapse takes a point past half the bound, nor a
+        # triangle past the bound (or as far as each was at first); on a thread while
+        # level 0 is placed and measured
+        tol = bound
+        if max_error is None:  # the floor of `floor_at`, from the points' side
+            tol = measure.there_floor_of(verts, rec.triangles, bound, neighbors)
+        level.start(True, surface=measure.surface, tolerance=COLLAPSE_SHARE * tol, back=tol)
     if max_error is None:
         # the default bound, or what the points' surface itself reaches there, if more
         measure.floor_at(*level.placed(0)[:2], bound, neighbors=neighbors)
-    if max_triangles is None and outline_vertices(rec.triangles).size == 0:
-        # no collapse takes a point past half the bound (or its floor) on a closed
-        # surface, nor a triangle past the bound
-        tol = measure.tolerances(bound)
-        level.start(surface=measure.surface, tolerance=COLLAPSE_SHARE * tol, back=tol)
     steps = level.steps_for(max_triangles, bound)
     if max_triangles is not None and not level.within(steps, SPIKE_FACTOR * bound):
         # a budget is met only while the output stays near the points (the last
