@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from pointatlas.batch import BatchReport, list_models, run_batch
+from pointatlas.batch._runner import NO_PROFILER
 
 from . import funcs
 
@@ -26,7 +27,7 @@ def address():
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        with dask.config.set({"distributed.scheduler.allowed-failures": 0, **NO_PROFILER}):
             cluster = distributed.LocalCluster(
                 n_workers=2,
                 threads_per_worker=1,

@@ -23,6 +23,13 @@ from ..io import to_json_safe, write_json
 
 __all__ = ["BatchReport", "list_models", "run_batch"]
 
+#: The workers of the clusters we start keep no statistical profile: dask's profiler
+#: calls ``sys._current_frames()`` every 10 ms from a thread of its own, and on
+#: Python 3.11 that can deadlock a thread that takes the GIL back at the same moment
+#: (CPython issue 106883: a tiled segment's worker thread stopped in ``hashlib``
+#: while the profiler held the runtime's lock; seen twice in the test suite).
+NO_PROFILER = {"distributed.worker.profile.enabled": False}
+
 #: default model patterns of `list_models`
 MODEL_PATTERNS = ("*.obj", "*.off", "*.ply", "*.stl")
 
@@ -150,6 +157,7 @@ def _client(scheduler, n_workers: int):
             if scheduler is None:
                 # a dead worker is retried once on another, then reported KilledWorker
                 stack.enter_context(dask.config.set({"distributed.scheduler.allowed-failures": 1}))
+                stack.enter_context(dask.config.set(NO_PROFILER))
                 cluster = stack.enter_context(
                     distributed.LocalCluster(
                         n_workers=n_workers,

@@ -353,7 +353,10 @@ def tile_client(options: TileOptions):
     Yields ``(client, label, threads)``: ``threads`` is the numba threads per
     tile (cores / workers on a local cluster, None elsewhere).
     """
+    import dask
     import distributed
+
+    from ._runner import NO_PROFILER
 
     sched = options.scheduler
     if sched is not None and hasattr(sched, "submit"):
@@ -370,6 +373,7 @@ def tile_client(options: TileOptions):
                 kwargs = {}
                 if options.max_memory is not None:
                     kwargs["memory_limit"] = parse_memory(options.max_memory)
+                stack.enter_context(dask.config.set(NO_PROFILER))
                 cluster = stack.enter_context(
                     distributed.LocalCluster(
                         n_workers=int(options.workers),
