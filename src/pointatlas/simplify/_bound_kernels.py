@@ -9,8 +9,8 @@ all of them; else each goes to the nearest. A point's distance to its owner boun
 its distance to the whole surface, so every level of the sequence keeps every point
 within its tolerance (the owner need not be the nearest triangle: the bound is
 conservative). And each triangle left around the merged vertex must lie near the
-points: the vertex, the triangle's centroid and the midpoints of its two edges at the
-vertex each within the tolerance of a point of the grid cells around it (as the
+points: the vertex and the triangle's centroid each within the tolerance of a point
+of the grid cells around it (as the
 distance to the points' discs, `_distance.PointSurface`: height over the point's
 tangent plane and distance past its disc), else the collapse is refused too.
 """
@@ -138,32 +138,22 @@ def _cell_near(y0, y1, y2, i, j, k, carried) -> bool:
 
 @njit(cache=True)
 def _triangles_near(v, tri, ring, n_ring, a, b, x, ns, shared, carried) -> bool:
-    """Whether the merged vertex ``x`` and, on every triangle left around it, the
-    centroid and the midpoints of its two edges at it are near the points."""
+    """Whether the merged vertex ``x`` and the centroid of every triangle left around
+    it are near the points."""
     if not near_points(x[0], x[1], x[2], carried):
         return False
     for k in range(n_ring):
         f = ring[k]
         if f == shared[0] or (ns == 2 and f == shared[1]):
             continue
-        c = np.zeros(3)
-        o = np.empty((2, 3))
-        n_o = 0
+        c0 = c1 = c2 = 0.0
         for i in range(3):
-            u = tri[f, i]
-            p0, p1, p2 = _corner_at(v, u, a, b, x)
-            c[0] += p0 / 3.0
-            c[1] += p1 / 3.0
-            c[2] += p2 / 3.0
-            if u != a and u != b and n_o < 2:
-                o[n_o, 0], o[n_o, 1], o[n_o, 2] = p0, p1, p2
-                n_o += 1
-        if not near_points(c[0], c[1], c[2], carried):
+            p0, p1, p2 = _corner_at(v, tri[f, i], a, b, x)
+            c0 += p0 / 3.0
+            c1 += p1 / 3.0
+            c2 += p2 / 3.0
+        if not near_points(c0, c1, c2, carried):
             return False
-        for m in range(n_o):
-            y0, y1, y2 = 0.5 * (o[m, 0] + x[0]), 0.5 * (o[m, 1] + x[1]), 0.5 * (o[m, 2] + x[2])
-            if not near_points(y0, y1, y2, carried):
-                return False
     return True
 
 

@@ -477,7 +477,7 @@ def robust_mesh(
         level.start(True, surface=measure.surface, tolerance=COLLAPSE_SHARE * tol, back=tol)
     if max_error is None:
         # the default bound, or what the points' surface itself reaches there, if more
-        measure.floor_at(*level.placed(0)[:2], bound, neighbors=neighbors)
+        measure.floor_at(verts, rec.triangles, bound, neighbors=neighbors)
     steps = level.steps_for(max_triangles, bound)
     if max_triangles is not None and not level.within(steps, SPIKE_FACTOR * bound):
         # a budget is met only while the output stays near the points (the last
