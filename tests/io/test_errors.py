@@ -287,6 +287,18 @@ def test_fuzz_flipped_bytes(tmp_path, valid_files, data):
     _check_reads(f)
 
 
+def test_a_huge_normal_from_a_flipped_byte_reads_without_a_numpy_warning(tmp_path, valid_files):
+    """A flipped byte that makes a normal huge (the case hypothesis drew in a CI run:
+    byte 487 of the binary PLY set to 96): refused or read with the file's name,
+    never a RuntimeWarning from its squares' overflow (the length is inf: a bad
+    normal)."""
+    blob = bytearray(valid_files[".plyb"])
+    blob[487] = 96
+    f = tmp_path / "f.ply"
+    f.write_bytes(bytes(blob))
+    _check_reads(f)
+
+
 @FUZZ
 @given(
     ext=st.sampled_from([".ply", ".obj", ".off", ".stl", ".xyz", ".las", ".laz"]),

@@ -222,10 +222,12 @@ def _finish(
 
 
 def _row_lengths(vectors: np.ndarray) -> np.ndarray:
-    """Euclidean length of each row of an (N, 3) array (NaN rows give NaN)."""
-    sq = vectors[:, 0] * vectors[:, 0]
-    sq += vectors[:, 1] * vectors[:, 1]
-    sq += vectors[:, 2] * vectors[:, 2]
+    """Euclidean length of each row of an (N, 3) array (NaN rows give NaN; a row whose
+    squares overflow gives inf, without a warning: the caller treats it as bad)."""
+    with np.errstate(over="ignore"):
+        sq = vectors[:, 0] * vectors[:, 0]
+        sq += vectors[:, 1] * vectors[:, 1]
+        sq += vectors[:, 2] * vectors[:, 2]
     return np.sqrt(sq, out=sq)
 
 
