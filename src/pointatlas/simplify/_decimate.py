@@ -33,7 +33,6 @@ _TIE = 1e-6
 #: A carried point's first owner is the nearest of this many triangles (the nearest
 #: centroids).
 _OWNER_CANDIDATES = 8
-_BACK_NEIGHBORS = 8
 #: The carried points' grid has at most this many cells a side.
 _MAX_CELLS = 256
 
@@ -172,7 +171,7 @@ def collapse_all(
     tolerance from the triangles, or leave a triangle farther than ``back``
     (default: ``tolerance``) from the points, is refused, so that every level keeps
     every point within it (`_bound_kernels`; a point already farther at first may
-    stay as far, and the surface as far as it was near a point)."""
+    stay as far)."""
     v = np.array(vertices, dtype=np.float64)
     tri = np.array(triangles, dtype=np.int64)
     n_v = v.shape[0]
@@ -195,9 +194,8 @@ def _carried(surface, tolerance, back, v, tri):
     ``surface`` (`PointSurface`), their squared tolerances, squared distances to
     their owners (the nearest of the triangles whose centroids are their
     `_OWNER_CANDIDATES` nearest), owners, normals, disc radii, squared tolerances
-    back (``back``, or how far the surface is near them at first if more:
-    `_back_at_first`) and the points in grid cells (`_point_cells`); no rows
-    without a surface."""
+    back (``back``, default ``tolerance``) and the points in grid cells
+    (`_point_cells`); no rows without a surface."""
     if surface is None:
         empty, none = np.zeros(0), np.zeros((0, 3))
         return (none, empty, empty, np.zeros(0, dtype=np.int64), none, empty, empty, *_no_cells())
@@ -211,27 +209,10 @@ def _carried(surface, tolerance, back, v, tri):
     owner, d2 = nearest_of(pts, v, tri, cand.reshape(n_p, k).astype(np.int64))
     tol = np.broadcast_to(np.asarray(tolerance, dtype=np.float64), (n_p,))
     back = tol if back is None else np.broadcast_to(np.asarray(back, dtype=np.float64), (n_p,))
-    back = np.maximum(back, _back_at_first(surface, v, tri))
     normals = np.zeros((n_p, 3)) if surface.normals is None else surface.normals
     radius = np.ascontiguousarray(surface.radius, dtype=np.float64)
     cells = _point_cells(pts, float(np.quantile(radius, 0.9) + 2.0 * np.quantile(back, 0.9)))
     return (pts, tol * tol, d2, owner, normals, radius, back * back, *cells)
-
-
-def _back_at_first(surface, v, tri) -> np.ndarray:
-    """How far the surface ``v``, ``tri`` is from the points' discs near each point: the
-    most of its vertices' and area samples' distances (`output_samples`) among those
-    nearest to the point or to one of its `_BACK_NEIGHBORS` nearest."""
-    from ._distance import output_samples
-
-    samples = output_samples(v, tri)
-    d = surface.distance(samples)
-    _, near = surface.tree.query(samples, workers=-1)
-    most = np.zeros(surface.points.shape[0])
-    np.maximum.at(most, near, d)
-    k = min(_BACK_NEIGHBORS, surface.points.shape[0])
-    _, nb = surface.tree.query(surface.points, k=k, workers=-1)
-    return most[nb.reshape(-1, k)].max(axis=1)
 
 
 def _point_cells(pts, cell: float):

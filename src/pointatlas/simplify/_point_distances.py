@@ -63,6 +63,7 @@ class PointDistances:
         # coordinates cannot round them out
         self.box = (lo - 0.99 * grow, hi + 0.99 * grow)
         self.there_floor = self.back_floor = self.back_at = None
+        self._first = None  # (out_v, out_t, `_first_measure`'s): level 0's, measured once
         self.spare = 0  # points and samples a level may leave over (`floor_at`)
 
     def floor_at(
@@ -78,11 +79,7 @@ class PointDistances:
         truth pass). ``neighbors``: the points' k-NN table (`query_knn`: the point
         itself first, at least `FLOOR_NEIGHBORS` columns), searched when None.
         Returns the largest distance both ways."""
-        from ._distance import output_samples
-
-        there, most = self._there_at(out_v, out_t, neighbors)
-        samples = output_samples(out_v, out_t)
-        back = self.surface.distance(samples)
+        there, most, samples, back, _ = self._first_measure(out_v, out_t, neighbors)
         most = float(max(most, back.max()))
         self.back_at = cKDTree(samples)
         k = min(FLOOR_NEIGHBORS, samples.shape[0])
@@ -95,19 +92,40 @@ class PointDistances:
     def there_floor_of(self, out_v, out_t, bound: float, neighbors=None) -> np.ndarray:
         """How far each point may be from a level by `floor_at` (``out_v``, ``out_t``)
         counted from the points' side alone: at least ``bound``."""
-        there, most = self._there_at(out_v, out_t, neighbors)
+        there, most = self._first_measure(out_v, out_t, neighbors)[:2]
         return np.maximum(bound, np.minimum(there + FLOOR_SLACK * bound, FLOOR_FACTOR * most))
 
-    def _there_at(self, out_v, out_t, neighbors):
-        """Each point's distance to the surface ``out_v``, ``out_t``, the most at its
-        `FLOOR_NEIGHBORS` nearest (``neighbors``: `floor_at`'s), and the largest."""
+    def back_near_points(self, out_v, out_t, neighbors=None) -> np.ndarray:
+        """How far the surface ``out_v``, ``out_t`` is from the points' discs near each
+        point: the most of its vertices' and area samples' distances (`floor_at`'s)
+        among those nearest to the point or to one of its `FLOOR_NEIGHBORS` nearest."""
+        _, _, samples, back, nearest = self._first_measure(out_v, out_t, neighbors)
+        most = np.zeros(self.q.shape[0])
+        np.maximum.at(most, self.surface.tree.query(samples, workers=-1)[1], back)
+        return most[nearest].max(axis=1)
+
+    def _first_measure(self, out_v, out_t, neighbors):
+        """``(there, most, samples, back, nearest)`` of the surface ``out_v``, ``out_t``
+        (measured once, kept for the same arrays): each point's distance to it, the most
+        at its `FLOOR_NEIGHBORS` nearest (``nearest``: their rows; ``neighbors``:
+        `floor_at`'s), the largest, and its vertices and area samples
+        (`output_samples`) with their distances to the points' discs."""
+        from ._distance import output_samples
         from ._mesh import point_mesh_distance
 
+        kept = self._first
+        if kept is not None and kept[0] is out_v and kept[1] is out_t:
+            return kept[2]
         there = point_mesh_distance(self.q, out_v, out_t)
         k = min(FLOOR_NEIGHBORS, self.q.shape[0])
         if neighbors is None or neighbors.shape[1] < k:
             neighbors = self.surface.tree.query(self.q, k=k, workers=-1)[1]
-        return there[neighbors[:, :k]].max(axis=1), float(there.max())
+        nearest = neighbors[:, :k]
+        samples = output_samples(out_v, out_t)
+        found = (there[nearest].max(axis=1), float(there.max()), samples)
+        found += (self.surface.distance(samples), nearest)
+        self._first = (out_v, out_t, found)
+        return found
 
     def subset(self, n: int = SEARCH_POINTS):
         """This measure on every s-th point only, s the smallest stride that leaves at

@@ -474,7 +474,9 @@ def robust_mesh(
         tol = bound
         if max_error is None:  # the floor of `floor_at`, from the points' side
             tol = measure.there_floor_of(verts, rec.triangles, bound, neighbors)
-        level.start(True, surface=measure.surface, tolerance=COLLAPSE_SHARE * tol, back=tol)
+        # back: the tolerance, or as far as level 0 is near the point if more
+        back = np.maximum(tol, measure.back_near_points(verts, rec.triangles, neighbors))
+        level.start(True, surface=measure.surface, tolerance=COLLAPSE_SHARE * tol, back=back)
     if max_error is None:
         # the default bound, or what the points' surface itself reaches there, if more
         measure.floor_at(verts, rec.triangles, bound, neighbors=neighbors)
