@@ -263,6 +263,10 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried):
         np.empty(n_t, dtype=np.int64),
         np.empty(n_p, dtype=np.int64),
         np.empty(n_p, dtype=np.int64),
+        np.sqrt(carried[2]),
+        np.empty(n_p),
+        np.empty((n_t if n_p > 0 else 0, 11)),
+        np.empty((n_t + 1 if n_p > 0 else 0, 3)),
     )
     out = (
         np.empty(n_v, dtype=np.int64),
