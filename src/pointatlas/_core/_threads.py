@@ -62,8 +62,10 @@ def one_thread_if(condition: bool):
 _PIECES_PER_THREAD = 8
 
 
-def run_chunks(kernel, n_items: int, args: tuple) -> None:
-    """Call ``kernel(*args, i0, i1)`` for pieces ``[i0, i1)`` covering ``range(n_items)``.
+def run_chunks(kernel, n_items: int, args: tuple, min_piece: int = 1) -> None:
+    """Call ``kernel(*args, i0, i1)`` for pieces ``[i0, i1)`` covering ``range(n_items)``,
+    of at least ``min_piece`` items (where items are cheap, fewer calls: each costs
+    about 10 microseconds of dispatch).
 
     ``kernel`` is a serial numba kernel compiled with ``nogil=True`` whose calls for
     different pieces write disjoint parts of its outputs, so the result does not
@@ -73,11 +75,11 @@ def run_chunks(kernel, n_items: int, args: tuple) -> None:
     takes the next piece when it is done with one. An exception of a piece is raised
     in the caller once every thread has stopped.
     """
-    n_threads = min(numba.get_num_threads(), n_items)
+    n_pieces = min(n_items // max(min_piece, 1), _PIECES_PER_THREAD * numba.get_num_threads())
+    n_threads = min(numba.get_num_threads(), n_pieces)
     if n_threads <= 1:
         kernel(*args, 0, n_items)
         return
-    n_pieces = min(n_items, _PIECES_PER_THREAD * n_threads)
     lock = threading.Lock()
     state = {"next": 0, "error": None}
 
@@ -96,11 +98,25 @@ def run_chunks(kernel, n_items: int, args: tuple) -> None:
                         state["error"] = exc
                 return
 
-    threads = [threading.Thread(target=work, daemon=True) for _ in range(n_threads - 1)]
-    for thread in threads:
-        thread.start()
+    helpers = [_helpers().submit(work) for _ in range(n_threads - 1)]
     work()
-    for thread in threads:
-        thread.join()
+    for helper in helpers:
+        helper.result()
     if state["error"] is not None:
         raise state["error"]
+
+
+#: (process id, pool) of `_helpers`
+_POOL: list = [None, None]
+
+
+def _helpers() -> ThreadPoolExecutor:
+    """The threads that help `run_chunks`' callers, started once per process: a thread
+    started per call cost about 0.1 ms, which a segmentation making hundreds of
+    small passes paid hundreds of times (VSA on a 21,568-triangle mesh: 0.084 s on
+    two threads, 0.055 s on one). A helper never waits for another helper (each
+    caller runs pieces itself until none is left), so a busy pool only delays one.
+    A forked child starts its own (the parent's threads are not in it)."""
+    if _POOL[0] != os.getpid():
+        _POOL[:] = [os.getpid(), ThreadPoolExecutor(os.cpu_count() or 1, "run_chunks")]
+    return _POOL[1]

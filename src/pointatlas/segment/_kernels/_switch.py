@@ -9,6 +9,12 @@ from numba import njit, prange
 
 from ..._core._threads import run_chunks
 
+#: `batch_switch_bounded`'s points per piece at least (`run_chunks`): most points are
+#: skipped on their memo in a few nanoseconds, so a piece's dispatch would cost more
+#: than its points (VSA of `decimate_mesh` on a 21,568-triangle mesh, 199 switch
+#: steps, two threads: 0.067 s in 16 pieces a step, 0.058 s in 2; one thread 0.055 s).
+SWITCH_PIECE = 8192
+
 
 def _compact_moves(target):
     """Positions with target >= 0 (increasing) and their targets."""
@@ -249,7 +255,7 @@ def batch_switch_bounded(
     n = labels.shape[0]
     target = np.full(n, -1, dtype=np.int64)
     args = (indptr, indices, normals, weights, labels, proxy_normals, foreign, min_gain)
-    run_chunks(_switch_points, n, (*args, drift, memo, target))
+    run_chunks(_switch_points, n, (*args, drift, memo, target), SWITCH_PIECE)
     return _compact_moves(target)
 
 
