@@ -29,6 +29,12 @@ decimator for the mean and the Hausdorff distance, the worst model, and the time
 ratio; then the same against the peers whose output keeps our topology (closedness
 and Euler characteristic: ours keeps the input's), since MeshLab's collapses may
 close a hole or open the surface at the smallest budgets.
+
+``--subdivide-to N`` splits every input triangle into four at its edges' midpoints
+until the mesh has at least N triangles (the same surface, tessellated as a finer
+export of it would be), to measure large inputs: the time of the decimators grows
+with the input, ours has a fixed part (the segmentation's passes, the level
+search's measures, the polygons, the report's 20,000 samples both ways).
 """
 
 from __future__ import annotations
@@ -138,9 +144,18 @@ def ours_at(v, t, level: str):
     return "pointatlas", decimate_mesh(v, t, max(4, round(float(level) * len(t))))
 
 
-def run_model(path: Path, kind: str, levels) -> list[dict]:
+def split_until(v, t, n: int):
+    """Every triangle split into four at its edges' midpoints until at least ``n``."""
+    import trimesh
+
+    while len(t) < n:
+        v, t = trimesh.remesh.subdivide(v, t)
+    return np.asarray(v, dtype=np.float64), np.asarray(t, dtype=np.int64)
+
+
+def run_model(path: Path, kind: str, levels, subdivide_to: int = 0) -> list[dict]:
     mesh = read_mesh(path)
-    v, t = np.asarray(mesh.vertices), np.asarray(mesh.triangles)
+    v, t = split_until(np.asarray(mesh.vertices), np.asarray(mesh.triangles), subdivide_to)
     rows = []
     for level in levels:
         start = time.perf_counter()
@@ -274,16 +289,19 @@ def main() -> None:
     )
     parser.add_argument("--out", type=Path, default=Path("bench-output/simplify_rd"))
     parser.add_argument("--plot", type=Path, default=None)
+    parser.add_argument("--subdivide-to", type=int, default=0, metavar="N")
+    parser.add_argument("--no-models", action="store_true", help="the collection only")
     args = parser.parse_args()
     kind_of = kinds()
     files = sorted(p for p in (DATA / "collection").iterdir() if p.suffix in MESH_SUFFIXES)
     files = files[:: args.every]
-    files += sorted(p for p in (DATA / "models").iterdir() if p.suffix in MESH_SUFFIXES)
+    if not args.no_models:
+        files += sorted(p for p in (DATA / "models").iterdir() if p.suffix in MESH_SUFFIXES)
     rows = []
     for path in files:
         try:
             kind = kind_of.get(path.stem, "organic")
-            mine = run_model(path, kind, args.levels)
+            mine = run_model(path, kind, args.levels, args.subdivide_to)
         except Exception as exc:  # a peer that refuses a model is reported, not fatal
             print(f"{path.name}: skipped ({type(exc).__name__}: {exc})", flush=True)
             continue
