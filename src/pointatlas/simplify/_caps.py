@@ -20,6 +20,12 @@ edge is not already an edge (the mesh stays manifold) and both new triangles kee
 area along the neighbour's normal (no fold). A flip can leave a new cap where a row
 holds more than three vertices: the passes repeat while they flip something.
 
+Where the link test fails only on a fold (merged, two triangles around the twins
+would be one triangle turned both ways: the voxel surface folded over between them
+and a neighbour of both), the twins merge and the fold goes with them, when every
+vertex around is one closed fan after (`_merge_folded`; a vertex of the fold left
+without a triangle goes into the merged one).
+
 What neither ends (twins whose merge would break the link condition, clusters of
 vertices a millionth of an edge apart) `spread_tiny` ends by moving a vertex inside
 its face: in a flat face's plane, where the face stays the same polygon.
@@ -117,8 +123,10 @@ def weld_needles(vertices, triangles, face, source, kept, went):
     alive = np.ones(tri.shape[0], dtype=bool)
     rows = tri.copy()
     # the triangles of each vertex, for those of the triangles around an edge's ends
-    # (the link test reads only the ends' sets, a merge only their triangles)
+    # and of their neighbours (the link test reads only the ends' sets, a merge only
+    # their triangles, a merge across a fold the neighbours' fans)
     ends = np.unique(edges[short])
+    ends = np.unique(rows[np.isin(rows, ends).any(axis=1)])
     near = np.flatnonzero(np.isin(rows, ends).any(axis=1))
     around = collections.defaultdict(set)
     for t, row in zip(near.tolist(), rows[near].tolist(), strict=True):
@@ -126,8 +134,12 @@ def weld_needles(vertices, triangles, face, source, kept, went):
             around[x].add(t)
     for p, q in edges[short[np.argsort(length[short], kind="stable")]]:
         p, q = _find(into, int(p)), _find(into, int(q))
-        if p != q and _link_ok(rows, around, p, q) and _no_fold(v, rows, around, p, q):
+        if p == q or not _no_fold(v, rows, around, p, q):
+            continue
+        if _link_ok(rows, around, p, q):
             _merge(rows, around, alive, into, p, q)
+        else:
+            _merge_folded(rows, around, alive, into, p, q)
     if alive.all():
         return out
     return compact(rows, alive, into, (v,), face, source, kept, went)
@@ -210,6 +222,73 @@ def _merge(rows, around, alive, into, p: int, q: int) -> None:
         around[p].add(t)
     around[q] = set()
     into[q] = p
+
+
+def _merge_folded(rows, around, alive, into, p: int, q: int) -> bool:
+    """Vertex q merged into p where the link condition fails only on a fold: after
+    the merge two triangles around p would be one triangle twice, turned opposite
+    ways (a triangle the surface folded over, between the twins and a vertex both
+    neighbour), and with both gone every vertex around is manifold again (its
+    triangles one closed fan). The fold's other vertices left without a triangle go
+    into p. Returns whether the merge was made (nothing changes otherwise)."""
+    both = around[p] & around[q]
+    if len(both) != 2:
+        return False
+    after = {t: rows[t].copy() for t in (around[p] | around[q]) - both}
+    for row in after.values():
+        row[row == q] = p
+    by_set = collections.defaultdict(list)
+    for t, row in after.items():
+        by_set[frozenset(row.tolist())].append(t)
+    folds = [ts for ts in by_set.values() if len(ts) > 1]
+    if not folds or any(len(ts) != 2 or not _opposite(after[ts[0]], after[ts[1]]) for ts in folds):
+        return False
+    gone = both | {t for ts in folds for t in ts}
+    touched = {int(x) for t in gone for x in after.get(t, rows[t])} - {q}
+    fans = {}
+    for x in touched:
+        near = (around[x] | around[q]) if x == p else around[x]
+        fans[x] = [after.get(t, rows[t]) for t in near - gone]
+    orphans = [x for x in touched if x != p and not fans[x]]
+    if not all(_closed_fan(fans[x], x) for x in touched if x not in orphans):
+        return False
+    for t in gone:
+        alive[t] = False
+        for x in rows[t]:
+            around[int(x)].discard(t)
+    for t in around[q]:
+        rows[t][rows[t] == q] = p
+        around[p].add(t)
+    around[q] = set()
+    into[q] = p
+    for x in orphans:
+        into[x] = p
+    return True
+
+
+def _opposite(a, b) -> bool:
+    """Whether triangles a and b (the same three vertices) are turned opposite ways."""
+    i = int(np.flatnonzero(b == a[0])[0])
+    return bool(b[(i + 1) % 3] == a[2] and b[(i + 2) % 3] == a[1])
+
+
+def _closed_fan(rows, c: int) -> bool:
+    """Whether the triangles ``rows`` around vertex c make one closed fan, turned one
+    way (each edge from c in two of them, once each way)."""
+    step = {}
+    for row in rows:
+        i = int(np.flatnonzero(row == c)[0])
+        a, b = int(row[(i + 1) % 3]), int(row[(i + 2) % 3])
+        if a in step:
+            return False
+        step[a] = b
+    if not step or set(step) != set(step.values()):
+        return False
+    x, n = next(iter(step)), 0
+    while True:
+        x, n = step[x], n + 1
+        if x == next(iter(step)):
+            return n == len(step)
 
 
 def flip_caps(vertices, triangles, face) -> np.ndarray:
