@@ -88,9 +88,11 @@ def _flips(v, tri, f, w, x) -> bool:
     n0 = b01 * b12 - b02 * b11
     n1 = b02 * b10 - b00 * b12
     n2 = b00 * b11 - b01 * b10
-    p00, p01, p02 = _corner(v, i0, w, x)
-    p10, p11, p12 = _corner(v, i1, w, x)
-    p20, p21, p22 = _corner(v, i2, w, x)
+    # the corners after w moves to x (no function handed the arrays: numba would
+    # count references to them on every call)
+    p00, p01, p02 = (x[0], x[1], x[2]) if i0 == w else (v[i0, 0], v[i0, 1], v[i0, 2])
+    p10, p11, p12 = (x[0], x[1], x[2]) if i1 == w else (v[i1, 0], v[i1, 1], v[i1, 2])
+    p20, p21, p22 = (x[0], x[1], x[2]) if i2 == w else (v[i2, 0], v[i2, 1], v[i2, 2])
     a00, a01, a02 = p10 - p00, p11 - p01, p12 - p02
     a10, a11, a12 = p20 - p00, p21 - p01, p22 - p02
     m0 = a01 * a12 - a02 * a11
@@ -100,14 +102,6 @@ def _flips(v, tri, f, w, x) -> bool:
     ab = m0 * n0 + m1 * n1 + m2 * n2
     aa = m0 * m0 + m1 * m1 + m2 * m2
     return ab <= 0.0 or aa <= 1e-12 * bb
-
-
-@njit(cache=True)
-def _corner(v, i, w, x):
-    """Vertex ``i``'s position, ``x`` when it is the moving vertex ``w``."""
-    if i == w:
-        return x[0], x[1], x[2]
-    return v[i, 0], v[i, 1], v[i, 2]
 
 
 @njit(cache=True)
