@@ -110,3 +110,22 @@ def test_samples_on_mesh_for_any_seed(seed, frequency, n):
     )
     heights = np.einsum("ij,ij->i", pts, normal_of_label[labels])
     np.testing.assert_allclose(heights, heights.max(initial=0.0) if n else heights, rtol=1e-12)
+
+
+@pytest.mark.parametrize("n", [0, 1, 5_000])
+def test_face_points_is_numpys_weighted_sum_bit_for_bit(n):
+    # the kernel (`_kernels.weighted_corners`) against numpy's expression, on corners
+    # of mixed magnitude (any reordering of the products' sum would show)
+    from pointatlas.synth._sample import face_points
+
+    rng = np.random.default_rng(3)
+    v = rng.normal(size=(300, 3)) * 10.0 ** rng.integers(-3, 4, size=(300, 1))
+    t = rng.integers(0, 300, size=(700, 3)).astype(np.int32)
+    face = rng.integers(0, 700, size=n)
+    w = rng.random((3, n))
+    wa, wb, wc = w
+    a, b, c = (v[t[face, i]] for i in range(3))
+    expected = wa[:, None] * a + wb[:, None] * b + wc[:, None] * c
+    got = face_points(v, t, face, w)
+    assert got.shape == (n, 3) and got.dtype == np.float64
+    np.testing.assert_array_equal(got, expected)

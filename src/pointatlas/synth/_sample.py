@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._core import as_points, as_rng, readonly
+from ._kernels import weighted_corners
 from ._mesh import _as_faces, _face_cross
 
 __all__ = ["MeshSample", "sample_mesh"]
@@ -114,7 +115,13 @@ def sample_draws(n: int, gen: np.random.Generator) -> tuple[np.ndarray, np.ndarr
 
 
 def face_points(verts, tri, face, weights) -> np.ndarray:
-    """The points of barycentric ``weights`` (3, n) in triangles ``face`` (n,)."""
-    wa, wb, wc = weights
-    a, b, c = (verts[tri[face, i]] for i in range(3))
-    return wa[:, None] * a + wb[:, None] * b + wc[:, None] * c
+    """The points of barycentric ``weights`` (3, n) in triangles ``face`` (n,): ``wa a
+    + wb b + wc c`` (one pass, `_kernels.weighted_corners`: the simplification draws
+    20,000 of them for every level it measures, where numpy's three gathers and
+    temporaries cost ten times as much)."""
+    return weighted_corners(
+        np.ascontiguousarray(verts, dtype=np.float64),
+        np.ascontiguousarray(tri, dtype=np.int64),
+        np.ascontiguousarray(face, dtype=np.int64),
+        np.ascontiguousarray(weights, dtype=np.float64),
+    )
