@@ -126,8 +126,8 @@ def _ring_corners(v, tri, ring, n_ring, a, b, x, ns, shared, corners) -> None:
         corners[k, 10] = 1.0 if gone else 0.0
 
 
-@njit(cache=True)
-def _to(px, py, pz, c, k) -> float:
+@njit(cache=True, inline="always")
+def _closest(px, py, pz, c, k) -> float:
     """Squared distance of p to the triangle of row ``k`` of ``c`` (`_ring_corners`)."""
     return closest_sq(
         px, py, pz, c[k, 0], c[k, 1], c[k, 2], c[k, 3], c[k, 4], c[k, 5], c[k, 6], c[k, 7], c[k, 8]
@@ -150,14 +150,14 @@ def _points_kept(pts, tol2, start2, reach, pbuf, pslot, pnew, n_points, corners,
             if far * far <= SETTLED * limit:
                 pnew[i] = far
                 continue  # its owner stays: near enough
-            d = _to(px, py, pz, corners, k)
+            d = _closest(px, py, pz, corners, k)
             if d <= SETTLED * limit:
                 pnew[i] = np.sqrt(d)
                 continue
         best, best_k = np.inf, -1
         for j in range(n_ring):
             if corners[j, 10] == 0.0:
-                d = _to(px, py, pz, corners, j)
+                d = _closest(px, py, pz, corners, j)
                 if d < best:
                     best, best_k = d, j
         if best_k == -1 or best > limit:
@@ -177,23 +177,23 @@ def _all_near(y, n_y, pts, normals, radius, back2, origin, cell, dims, start, or
         c0 = int(np.floor((y0 - origin[0]) / cell))
         c1 = int(np.floor((y1 - origin[1]) / cell))
         c2 = int(np.floor((y2 - origin[2]) / cell))
+        i0, j0, k0 = max(c0 - 1, 0), max(c1 - 1, 0), max(c2 - 1, 0)
+        ni = min(c0 + 2, dims[0]) - i0
+        nj = min(c1 + 2, dims[1]) - j0
+        nk = min(c2 + 2, dims[2]) - k0
         found = False
-        for i in range(max(c0 - 1, 0), min(c0 + 2, dims[0])):
-            for j in range(max(c1 - 1, 0), min(c1 + 2, dims[1])):
-                for k in range(max(c2 - 1, 0), min(c2 + 2, dims[2])):
-                    key = (i * dims[1] + j) * dims[2] + k
-                    for s in range(start[key], start[key + 1]):
-                        p = order[s]
-                        o0, o1, o2 = y0 - pts[p, 0], y1 - pts[p, 1], y2 - pts[p, 2]
-                        h = o0 * normals[p, 0] + o1 * normals[p, 1] + o2 * normals[p, 2]
-                        t = np.sqrt(max(o0 * o0 + o1 * o1 + o2 * o2 - h * h, 0.0))
-                        past = max(t - radius[p], 0.0)
-                        if h * h + past * past <= back2[p]:
-                            found = True
-                            break
-                    if found:
-                        break
-                if found:
+        # the (up to) 3 x 3 x 3 cells around y, one after the other
+        for c in range(max(ni, 0) * max(nj, 0) * max(nk, 0)):
+            i, j, k = i0 + c // (nj * nk), j0 + (c // nk) % nj, k0 + c % nk
+            key = (i * dims[1] + j) * dims[2] + k
+            for s in range(start[key], start[key + 1]):
+                p = order[s]
+                o0, o1, o2 = y0 - pts[p, 0], y1 - pts[p, 1], y2 - pts[p, 2]
+                h = o0 * normals[p, 0] + o1 * normals[p, 1] + o2 * normals[p, 2]
+                t = np.sqrt(max(o0 * o0 + o1 * o1 + o2 * o2 - h * h, 0.0))
+                past = max(t - radius[p], 0.0)
+                if h * h + past * past <= back2[p]:
+                    found = True
                     break
             if found:
                 break

@@ -252,15 +252,11 @@ def _merge_folded(rows, around, alive, into, p: int, q: int) -> bool:
     orphans = [x for x in touched if x != p and not fans[x]]
     if not all(_closed_fan(fans[x], x) for x in touched if x not in orphans):
         return False
-    for t in gone:
+    for t in gone - both:  # the fold; `_merge` drops the edge's two triangles
         alive[t] = False
         for x in rows[t]:
             around[int(x)].discard(t)
-    for t in around[q]:
-        rows[t][rows[t] == q] = p
-        around[p].add(t)
-    around[q] = set()
-    into[q] = p
+    _merge(rows, around, alive, into, p, q)
     for x in orphans:
         into[x] = p
     return True

@@ -470,7 +470,7 @@ def robust_mesh(
     if max_triangles is None and outline_vertices(rec.triangles).size == 0:
         # on a closed surface no collapse takes a point past half the bound, nor a
         # triangle past the bound (or as far as each was at first); on a thread while
-        # level 0 is placed and measured
+        # the floors of the level search are set from level 0's measure
         tol = bound
         if max_error is None:  # the floor of `floor_at`, from the points' side
             tol = measure.there_floor_of(verts, rec.triangles, bound, neighbors)
