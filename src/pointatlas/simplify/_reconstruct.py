@@ -14,6 +14,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from .._core import PointAtlasError
+from ._handles import cut_handles
 
 __all__ = [
     "MAX_CELLS",
@@ -90,14 +91,16 @@ TRIM_MIN_SHARE = 0.01
 @dataclass(frozen=True, slots=True)
 class Reconstruction:
     """Triangle surface of a point set (private): ``vertices`` (working frame),
-    ``triangles`` (outward), ``step`` (grid step), ``shape`` (grid nodes) and
-    ``n_trimmed`` (triangles cut away beyond open boundaries: 0 for a closed one)."""
+    ``triangles`` (outward), ``step`` (grid step), ``shape`` (grid nodes),
+    ``n_trimmed`` (triangles cut away beyond open boundaries: 0 for a closed one)
+    and ``n_handles`` (small handles cut, `_handles.cut_handles`)."""
 
     vertices: np.ndarray
     triangles: np.ndarray
     step: float
     shape: tuple
     n_trimmed: int
+    n_handles: int = 0
 
 
 def _spacing(q: np.ndarray, tree: cKDTree) -> float:
@@ -385,8 +388,16 @@ def reconstruct_surface(
         raise PointAtlasError("simplify could not build a surface from these points")
     if cut.any():  # cutting can leave pieces touching at a vertex: give each its own
         verts, tri = _split_pinches(verts, tri)
+    n_handles = 0
+    if closed:  # bridges across gaps thinner than a step: small handles, cut
+        verts, tri, n_handles = cut_handles(verts, tri, step)
     return Reconstruction(
-        vertices=verts, triangles=tri, step=step, shape=shape, n_trimmed=int(cut.sum())
+        vertices=verts,
+        triangles=tri,
+        step=step,
+        shape=shape,
+        n_trimmed=int(cut.sum()),
+        n_handles=n_handles,
     )
 
 
