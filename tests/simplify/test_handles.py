@@ -30,7 +30,8 @@ def _surface(field):
     over [-1.2, 1.2]^3: a closed, oriented surface (Lewiner's tables)."""
     ax = np.arange(-1.2, 1.2 + STEP / 2, STEP)
     x, y, z = np.meshgrid(ax, ax, ax, indexing="ij")
-    # marching cubes' normals point to increasing values: outward for -field
+    # one consistent orientation (inwards here: marching cubes turns its triangles
+    # towards the larger values); the cut needs no more
     verts, tri, _, _ = marching_cubes(-field(x, y, z), level=0.0, spacing=(STEP,) * 3)
     return verts.astype(np.float64) - 1.2, tri.astype(np.int64)
 

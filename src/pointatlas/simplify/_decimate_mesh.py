@@ -367,6 +367,12 @@ class Decimation:
         """The mesh after ``m`` collapses with its vertices on their flat planes."""
         return self._placed(m)[:4]
 
+    def forget_levels(self) -> None:
+        """Forgets which levels were found over or within a bound (``measure`` was
+        changed: the next search measures again)."""
+        self._over.clear()
+        self._near.clear()
+
     def _placed(self, m: int):
         """`placed` and the lineage ``(kept, went)`` (`MeshDistances`); the level last
         found within the bound is kept (`result` asks for it again)."""

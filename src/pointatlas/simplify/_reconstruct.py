@@ -43,6 +43,10 @@ BAND_SPACINGS = 4.5
 #: A piece of the surface that fewer points than this have their nearest triangle on
 #: is a spurious bubble (a sign flip of the field beside the surface), not a part.
 STRAY_POINTS = 8
+#: ... or whose triangles agree with their nearest points' normals less than this
+#: (the area-weighted cosine; the surface itself about 0.97, spurious voids under a
+#: sampled knob's faces 0.01-0.19, `_bubbles`).
+BUBBLE_FACING = 0.5
 #: A point set is closed when its points' discs (normal times area) sum to less
 #: than this share of their area (closed: below 0.015 on every collection model
 #: sampled with 20,000 points; an open sheet: about 1) ...
@@ -317,11 +321,17 @@ def _split_pinches(verts, tri):
     return out_verts, out_tri
 
 
-def _bubbles(tri, far, nearest):
+def _bubbles(tri, far, nearest, dots, areas, closed=True):
     """Triangles of pieces (vertex-connected) that lie wholly far from the points, or
     that fewer than `STRAY_POINTS` points have their nearest triangle on (``nearest``:
-    every point's nearest triangle): small spurious surfaces where the field's sign
-    flips, away from the points or tucked under the surface beside them."""
+    every point's nearest triangle), or whose triangles do not face as their nearest
+    points do (``dots``: each triangle's normal, its length ``areas``, dotted with its
+    nearest point's normal; over the piece, less than `BUBBLE_FACING` of the
+    areas): small spurious surfaces where the field's sign flips, away from the
+    points or tucked under the surface beside them (a void under a face faces into
+    itself, away from the face's points as much as towards them; a true cavity faces
+    as its points do). The facing test only for a ``closed`` sample (an open sheet's
+    surface wraps both of its sides before the cut)."""
     from scipy.sparse import coo_array, csgraph
 
     n = int(tri.max()) + 1
@@ -332,7 +342,10 @@ def _bubbles(tri, far, nearest):
     piece = comp[tri[:, 0]]
     near = np.bincount(piece, weights=~far, minlength=comp.max() + 1)
     owned = np.bincount(piece[nearest], minlength=comp.max() + 1)
-    return (near[piece] == 0) | (owned[piece] < STRAY_POINTS)
+    agree = np.bincount(piece, weights=dots, minlength=comp.max() + 1)
+    turned = agree < BUBBLE_FACING * np.bincount(piece, weights=areas, minlength=comp.max() + 1)
+    turned &= closed
+    return (near[piece] == 0) | (owned[piece] < STRAY_POINTS) | turned[piece]
 
 
 def reconstruct_surface(
@@ -370,14 +383,15 @@ def reconstruct_surface(
     tri = tri.astype(np.int64)
     d, j = tree.query(verts[tri].mean(axis=1), workers=-1)
     tn = np.cross(verts[tri[:, 1]] - verts[tri[:, 0]], verts[tri[:, 2]] - verts[tri[:, 0]])
-    facing = np.einsum("ij,ij->i", tn, normals[j]) / (np.linalg.norm(tn, axis=1) + 1e-300)
+    dots, areas = np.einsum("ij,ij->i", tn, normals[j]), np.linalg.norm(tn, axis=1)
+    facing = dots / (areas + 1e-300)
     # beyond an open boundary the surface folds back: far, or facing away from the points
     # (a closed sample has no open boundary: nothing to cut but bubbles; at a thin
     # wall the far side's points face away from a triangle a step off its own side)
     beyond = (d > TRIM_STEPS * step) | ((d > step) & (facing < -0.5))
     cut = np.zeros(tri.shape[0], dtype=bool) if closed else _trim(tri, beyond)
     _, nearest = cKDTree(verts[tri].mean(axis=1)).query(q, workers=-1)
-    cut |= _bubbles(tri, d > 2.0 * step, nearest)
+    cut |= _bubbles(tri, d > 2.0 * step, nearest, dots, areas, closed)
     if cut.any():
         tri = tri[~cut]
         used = np.zeros(verts.shape[0], dtype=bool)
@@ -492,6 +506,13 @@ def robust_mesh(
         # the default bound, or what the points' surface itself reaches there, if more
         measure.floor_at(verts, rec.triangles, bound, neighbors=neighbors)
     steps = level.steps_for(max_triangles, bound)
+    if steps == 0 and max_error is None and max_triangles is None:
+        # no level within the floors set from the surface before its placement: the
+        # placement itself took it past a point whose floor is the cap (the farthest
+        # point, a part the surface lost); the floors from the placed level 0
+        measure.floor_at(*level.placed(0)[:2], bound, neighbors=neighbors)
+        level.forget_levels()
+        steps = level.steps_for(None, bound)
     if max_triangles is not None and not level.within(steps, SPIKE_FACTOR * bound):
         # a budget is met only while the output stays near the points (the last
         # collapses of a sequence can fold the surface): else the closest level
