@@ -430,6 +430,11 @@ def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, leve
         reason = "thesis path: the mesh has boundary edges where the points' surface is closed"
     elif reason.startswith("open"):
         reason = "thesis path: the open mesh is farther from the points than the robust one"
+    if rec.n_handles:
+        reason += (
+            f"; {rec.n_handles} small handle{'s' * (rec.n_handles > 1)} of the points' "
+            "surface cut (a gap thinner than its grid step bridged)"
+        )
     return inp.result(seg, res, path="robust", reason=reason, labels=point_labels)
 
 
