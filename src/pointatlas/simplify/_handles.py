@@ -22,6 +22,8 @@ from __future__ import annotations
 import numpy as np
 from numba import get_num_threads, njit, prange
 
+from ._mesh import unique_pairs, vertex_pieces
+
 __all__ = ["HANDLE_MARGIN", "HANDLE_STEPS", "HANDLE_STRIDE", "cut_handles"]
 
 #: A handle is cut when a region grown from one of its vertices stops being a disc
@@ -41,19 +43,19 @@ def _graph(verts, tri):
     by vertex (CSR ``vt_ptr``, ``vt_idx``), each triangle's three edge ids and the
     number of edges."""
     n = verts.shape[0]
-    lo = np.minimum(tri, np.roll(tri, -1, axis=1))
-    hi = np.maximum(tri, np.roll(tri, -1, axis=1))
-    keys, inv = np.unique(lo * n + hi, return_inverse=True)
+    sides = np.sort(np.stack([tri, np.roll(tri, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    edges, inv = unique_pairs(sides, return_inverse=True)
     tri_e = np.ascontiguousarray(inv.reshape(tri.shape), dtype=np.int64)
-    both = np.sort(np.concatenate([keys, (keys % n) * n + keys // n]))
-    a, b = both // n, both % n
+    both = np.concatenate([edges, edges[:, ::-1]])
+    both = both[np.lexsort((both[:, 1], both[:, 0]))]
+    a, b = both[:, 0], np.ascontiguousarray(both[:, 1])
     vv_ptr = np.concatenate([[0], np.cumsum(np.bincount(a, minlength=n))]).astype(np.int64)
     vv_len = np.linalg.norm(verts[a] - verts[b], axis=1)
     corner_of = tri.reshape(-1)
     by_vertex = np.argsort(corner_of, kind="stable")
     vt_ptr = np.concatenate([[0], np.cumsum(np.bincount(corner_of, minlength=n))]).astype(np.int64)
     vt_idx = (by_vertex // 3).astype(np.int64)
-    return (vv_ptr, b, vv_len, vt_ptr, vt_idx, tri_e, keys.shape[0])
+    return (vv_ptr, b, vv_len, vt_ptr, vt_idx, tri_e, edges.shape[0])
 
 
 @njit(cache=True)
@@ -61,7 +63,8 @@ def _grow(seeds, radius, margin, vv_ptr, vv_idx, vv_len, vt_ptr, vt_idx, tri, tr
     """For each seed, the distance along the edges at which the region grown from it
     stops being a disc (its triangles' Euler characteristic V - E + F below 1), when
     it is still not one ``margin`` further (at most ``radius``); -1 otherwise. The
-    last seed's region (its vertices, -1 after them) is left in ``region``."""
+    last seed's region (its vertices, -1 after them: ``region`` holds one more than
+    the vertices) is left in ``region``."""
     n = vv_ptr.shape[0] - 1
     dist = np.full(n, np.inf)
     inside = np.zeros(n, dtype=np.bool_)
@@ -139,8 +142,7 @@ def _grow(seeds, radius, margin, vv_ptr, vv_idx, vv_len, vt_ptr, vt_idx, tri, tr
                     heap_d[i], heap_v[i] = nd, u
         if detect >= 0.0 and chi < 1:
             found[s] = detect
-        if n_in < n:
-            region[n_in] = -1
+        region[n_in] = -1
         for b in range(n_touched):
             u = touched[b]
             dist[u] = np.inf
@@ -160,7 +162,7 @@ def _grow_all(
     found = np.empty(seeds.shape[0])
     for c in prange(n_chunks):
         mine = seeds[c::n_chunks]
-        region = np.empty(vv_ptr.shape[0] - 1, dtype=np.int64)
+        region = np.empty(vv_ptr.shape[0], dtype=np.int64)
         got = _grow(
             mine, radius, margin, vv_ptr, vv_idx, vv_len, vt_ptr, vt_idx, tri, tri_e, n_e, region
         )
@@ -198,11 +200,7 @@ def _loops(tri, gone, n):
 def _one_piece(tri, loops, n):
     """Whether the triangles ``tri`` join every loop to the first (cutting along the
     loops separates nothing: they go around a handle)."""
-    from scipy.sparse import coo_array, csgraph
-
-    a = np.concatenate([tri[:, 0], tri[:, 1]])
-    b = np.concatenate([tri[:, 1], tri[:, 2]])
-    _, comp = csgraph.connected_components(coo_array((np.ones(a.size), (a, b)), shape=(n, n)))
+    comp = vertex_pieces(tri, n)
     return bool(np.all(comp[[loop[0] for loop in loops]] == comp[loops[0][0]]))
 
 
@@ -223,13 +221,13 @@ def cut_handles(verts, tri, step: float):
     done = np.zeros(n, dtype=bool)
     gone = np.zeros(tri.shape[0], dtype=bool)
     caps, centres, n_cut = [], [], 0
-    region = np.empty(n, dtype=np.int64)
+    region = np.empty(n + 1, dtype=np.int64)
     for seed in seeds[order]:
         if done[seed]:
             continue
         _grow(np.array([seed]), radius, margin, *graph[:5], tri, *graph[5:], region)
         mine = np.zeros(n, dtype=bool)
-        mine[region[: np.argmax(region < 0) if (region < 0).any() else n]] = True
+        mine[region[: np.argmax(region < 0)]] = True
         if done[mine].any():
             continue
         done[mine] = True

@@ -25,6 +25,7 @@ __all__ = [
     "point_mesh_distance",
     "unique_ints",
     "unique_pairs",
+    "vertex_pieces",
 ]
 
 
@@ -88,6 +89,22 @@ def unique_pairs(pairs, *, return_inverse=False, return_counts=False):
     keys = out[0] if isinstance(out, tuple) else out
     rows = np.column_stack([keys // width + low[0], keys % width + low[1]])
     return (rows, *out[1:]) if isinstance(out, tuple) else rows
+
+
+def vertex_pieces(tri, n: int) -> np.ndarray:
+    """The connected piece of each of ``n`` vertices, joined by the edges of the
+    triangles ``tri`` (a vertex no triangle uses is a piece of its own).
+
+    Examples
+    --------
+    >>> vertex_pieces(np.array([[0, 1, 2], [3, 4, 5], [2, 1, 6]]), 8).tolist()
+    [0, 0, 0, 1, 1, 1, 0, 2]
+    """
+    tri = np.asarray(tri, dtype=np.int64)
+    a = np.concatenate([tri[:, 0], tri[:, 1]])
+    b = np.concatenate([tri[:, 1], tri[:, 2]])
+    graph = coo_matrix((np.ones(a.size), (a, b)), (n, n))
+    return connected_components(graph, directed=False)[1]
 
 
 @dataclass(frozen=True, slots=True)

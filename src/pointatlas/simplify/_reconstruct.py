@@ -332,13 +332,9 @@ def _bubbles(tri, far, nearest, dots, areas, closed=True):
     itself, away from the face's points as much as towards them; a true cavity faces
     as its points do). The facing test only for a ``closed`` sample (an open sheet's
     surface wraps both of its sides before the cut)."""
-    from scipy.sparse import coo_array, csgraph
+    from ._mesh import vertex_pieces
 
-    n = int(tri.max()) + 1
-    a = np.concatenate([tri[:, 0], tri[:, 1]])
-    b = np.concatenate([tri[:, 1], tri[:, 2]])
-    g = coo_array((np.ones(a.size), (a, b)), shape=(n, n))
-    _, comp = csgraph.connected_components(g, directed=False)
+    comp = vertex_pieces(tri, int(tri.max()) + 1)
     piece = comp[tri[:, 0]]
     near = np.bincount(piece, weights=~far, minlength=comp.max() + 1)
     owned = np.bincount(piece[nearest], minlength=comp.max() + 1)
@@ -512,7 +508,7 @@ def robust_mesh(
         # point, a part the surface lost); the floors from the placed level 0
         measure.floor_at(*level.placed(0)[:2], bound, neighbors=neighbors)
         level.forget_levels()
-        steps = level.steps_for(None, bound)
+        steps = level.steps_within(bound)
     if max_triangles is not None and not level.within(steps, SPIKE_FACTOR * bound):
         # a budget is met only while the output stays near the points (the last
         # collapses of a sequence can fold the surface): else the closest level
