@@ -278,3 +278,30 @@ def test_bridges_across_thin_gaps_are_cut_and_the_topology_is_the_inputs():
     sides = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
     assert r.mesh.n_vertices - np.unique(sides, axis=0).shape[0] + t.shape[0] == 2
     assert "small handles of the points' surface cut" in r.reason
+
+
+def test_a_search_that_ends_fine_runs_again_at_the_looser_floors(monkeypatch):
+    """`_reconstruct.robust_mesh`: where the level found keeps more than `LOOSE_SHARE`
+    of level 0's triangles (the search failed at the coarse end: here made so by
+    floors with no slack over level 0), the search runs again at `LOOSE_SLACK` and
+    the coarser level is kept, closed and near the points."""
+    import warnings
+
+    from pointatlas.simplify import SimplifyWarning, _point_distances
+
+    v, t = cube_with_square_hole()
+    s = sample_mesh(v, t, 6000, rng=0)
+    p, n = np.asarray(s.points), np.asarray(s.normals)
+    monkeypatch.setattr(_point_distances, "FLOOR_SLACK", 0.0)
+    out = {}
+    for share in (1.0, _point_distances.LOOSE_SHARE):  # never, as by default
+        monkeypatch.setattr(_point_distances, "LOOSE_SHARE", share)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SimplifyWarning)
+            out[share] = simplify_points(p, n, path="robust").mesh
+    once, again = out[1.0], out[_point_distances.LOOSE_SHARE]
+    tri_once, tri_again = np.asarray(once.triangles), np.asarray(again.triangles)
+    assert tri_once.shape[0] > 1000 and tri_again.shape[0] < 100
+    assert all(mesh_checks(again.n_vertices, tri_again))
+    diag = float(np.linalg.norm(np.ptp(p, axis=0)))
+    assert max(again.distance_max, again.back_distance_max) <= 0.02 * diag

@@ -251,3 +251,32 @@ def test_disc_kernels_agree_with_the_numpy_reference():
     np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-12)
     # the outline cut makes some positions farther than their discs, never nearer
     assert (got >= surface.distance(x)).all() and (got > surface.distance(x) + 1e-3).any()
+
+
+def test_a_placement_that_takes_points_past_their_floor_is_put_back():
+    """`_snap.placed_keeps_points`: a vertex placed 0.2 off a sampled box's face takes
+    the points of its triangles past their floor: it goes back; one placed a hair
+    off stays, and so does every vertex of a triangle no point went far from."""
+    from pointatlas.neighbors import point_mesh_distance
+    from pointatlas.simplify._snap import placed_keeps_points
+
+    from .cad_shapes import subdivide
+
+    v, t = subdivide(*subdivide(*box()))
+    s = sample_mesh(v, t, 4000, rng=0)
+    q = np.asarray(s.points)
+    top = np.flatnonzero(np.isclose(v[:, 2], v[:, 2].max()))
+    inner = top[np.argsort(np.linalg.norm(v[top, :2] - v[top, :2].mean(axis=0), axis=1))]
+    far = inner[0]
+    ring = np.unique(t[(t == far).any(axis=1)])  # far and the vertices around it
+    near = next(i for i in inner[::-1] if i not in ring)
+    placed = v.copy()
+    placed[far, 2] += 0.2
+    placed[near, 2] += 1e-4
+    floor = np.full(q.shape[0], 0.01)
+    got = placed_keeps_points(v, placed, t, q, floor, 0.0025)
+    np.testing.assert_array_equal(got[far], v[far])
+    np.testing.assert_array_equal(got[near], placed[near])
+    others = np.setdiff1d(np.arange(v.shape[0]), ring)
+    np.testing.assert_array_equal(got[others], placed[others])
+    assert point_mesh_distance(q, got, t).max() <= 1e-4 + 1e-12

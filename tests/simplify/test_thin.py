@@ -132,6 +132,37 @@ def test_floor_raises_the_bound_only_where_the_surface_is_far():
     assert not measure.within(_dented(v, top, 0.057), t, bound)
 
 
+def test_a_second_surfaces_floors_only_raise_the_first_ones():
+    """`PointDistances.floor_at` with ``raise_only``: the floors of two surfaces (the
+    points' surface, and it placed on its planes) let pass what either lets pass:
+    each surface's own dent, not a third one."""
+    v, t = subdivide(*box())
+    v = (v - v.min(axis=0)) / np.ptp(v, axis=0)  # the unit cube
+    s = sample_mesh(v, t, 6000, rng=0)
+    q, n = np.asarray(s.points), np.asarray(s.normals)
+    top = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 1.0], axis=1)))
+    bottom = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 0.0], axis=1)))
+    bound = 0.01
+    first, second = _dented(v, top, 0.05), _dented(v, bottom, 0.05)
+    both = _dented(first, bottom, 0.05)
+    alone = PointDistances(q, PointSurface(q, n))
+    alone.floor_at(second, t, bound, slack=1.0, factor=1.1)  # the second replaces
+    alone.floor_at(first, t, bound, slack=1.0, factor=1.1)
+    assert alone.within(first, t, bound) and not alone.within(second, t, bound)
+    raised = PointDistances(q, PointSurface(q, n))
+    raised.floor_at(first, t, bound, slack=1.0, factor=1.1)
+    raised.floor_at(second, t, bound, slack=1.0, factor=1.1, raise_only=True)
+    assert raised.within(first, t, bound) and raised.within(second, t, bound)
+    assert raised.within(both, t, bound)  # each dent within its own floor
+    assert raised.there_floor.shape == (q.shape[0],)
+    assert raised.back_floor.shape[0] == raised.back_at.n
+    # a dent where neither surface was is over the bound
+    side = int(np.argmin(np.linalg.norm(v - [0.5, 0.0, 0.5], axis=1)))
+    far = v.copy()
+    far[side, 1] += 0.05
+    assert not raised.within(far, t, bound)
+
+
 def test_a_plate_two_spacings_thick_keeps_its_volume():
     """A square plate 0.08 thick (about 2 point spacings at 3,000 points): before the
     thin parts kept their side, the smoothing averaged it away and the output was 40

@@ -15,6 +15,8 @@ __all__ = [
     "FLOOR_FACTOR",
     "FLOOR_NEIGHBORS",
     "FLOOR_SLACK",
+    "LOOSE_SHARE",
+    "LOOSE_SLACK",
     "FIRST_SAMPLES",
     "SEARCH_POINTS",
     "SPARE",
@@ -24,9 +26,16 @@ __all__ = [
 
 #: Without ``max_error``, where the points' surface itself is farther from the points
 #: than the default bound, an output may reach there what the surface reaches plus
-#: this many times the bound (one bound: every level of a sampled extruder part
-#: failed by a single sample a hair over, and it kept 87,124 of its triangles) ...
-FLOOR_SLACK = 2.0
+#: this many times the bound (at 2, a surface 0.9 % of the diagonal off anywhere
+#: gave the floor of 1 %, twice the default bound, at every point; with the floors
+#: of level 0 before and after its placement and the placement kept from taking a
+#: point past its floor, 1 leaves the search failing at the coarse end on few
+#: models: `LOOSE_SLACK` there) ...
+FLOOR_SLACK = 1.0
+#: ... and where the level found at 1 keeps more than `LOOSE_SHARE` of level 0's
+#: triangles, the search runs again at this slack (`_reconstruct.robust_mesh`) ...
+LOOSE_SLACK = 2.0
+LOOSE_SHARE = 0.05
 #: ... what it reaches at a point or a sample being the most at its this many
 #: nearest (a level's sample between two of the surface's meets the surface's own
 #: sampling noise) ...
@@ -63,11 +72,21 @@ class PointDistances:
         # coordinates cannot round them out
         self.box = (lo - 0.99 * grow, hi + 0.99 * grow)
         self.there_floor = self.back_floor = self.back_at = None
-        self._first = None  # (out_v, out_t, `_first_measure`'s): level 0's, measured once
+        # (out_v, out_t, `_first_measure`'s) of the last two surfaces measured: level
+        # 0's before and after its placement, measured once
+        self._first = []
         self.spare = 0  # points and samples a level may leave over (`floor_at`)
 
     def floor_at(
-        self, out_v, out_t, bound: float, *, slack=FLOOR_SLACK, factor=FLOOR_FACTOR, neighbors=None
+        self,
+        out_v,
+        out_t,
+        bound: float,
+        *,
+        slack=None,
+        factor=FLOOR_FACTOR,
+        neighbors=None,
+        raise_only=False,
     ):
         """From now on (`within`), at each point and near each sample of the surface
         ``out_v``, ``out_t`` a level may reach what that surface reaches there (the
@@ -77,15 +96,26 @@ class PointDistances:
         bridged a gap, the bound rises there only, not everywhere (raised
         everywhere, it let a level of 168 triangles 3.6 % of the diagonal off the
         truth pass). ``neighbors``: the points' k-NN table (`query_knn`: the point
-        itself first, at least `FLOOR_NEIGHBORS` columns), searched when None.
-        Returns the largest distance both ways."""
+        itself first, at least `FLOOR_NEIGHBORS` columns), searched when None;
+        ``slack``: `FLOOR_SLACK` when None. With ``raise_only``, the floors already
+        set are only raised (a second surface's: each point's the higher of the two,
+        near each sample the nearest sample's of either). Returns the largest
+        distance both ways."""
+        slack = FLOOR_SLACK if slack is None else slack
         there, most, samples, back, _ = self._first_measure(out_v, out_t, neighbors)
         most = float(max(most, back.max()))
-        self.back_at = cKDTree(samples)
         k = min(FLOOR_NEIGHBORS, samples.shape[0])
-        back = back[self.back_at.query(samples, k=k, workers=-1)[1]].max(axis=1)
-        self.there_floor = np.minimum(there + slack * bound, factor * most)
-        self.back_floor = np.minimum(back + slack * bound, factor * most)
+        back = back[cKDTree(samples).query(samples, k=k, workers=-1)[1]].max(axis=1)
+        there_floor = np.minimum(there + slack * bound, factor * most)
+        back_floor = np.minimum(back + slack * bound, factor * most)
+        if raise_only and self.there_floor is not None:
+            # the floors of both surfaces: each point the higher, near each sample
+            # the nearest sample's of either
+            there_floor = np.maximum(there_floor, self.there_floor)
+            samples = np.concatenate([self.back_at.data, samples])
+            back_floor = np.concatenate([self.back_floor, back_floor])
+        self.back_at = cKDTree(samples)
+        self.there_floor, self.back_floor = there_floor, back_floor
         self.spare = SPARE
         return most
 
@@ -113,9 +143,9 @@ class PointDistances:
         from ._distance import output_samples
         from ._mesh import point_mesh_distance
 
-        kept = self._first
-        if kept is not None and kept[0] is out_v and kept[1] is out_t:
-            return kept[2]
+        for v, t, found in self._first:
+            if v is out_v and t is out_t:
+                return found
         there = point_mesh_distance(self.q, out_v, out_t)
         k = min(FLOOR_NEIGHBORS, self.q.shape[0])
         if neighbors is None or neighbors.shape[1] < k:
@@ -124,7 +154,7 @@ class PointDistances:
         samples = output_samples(out_v, out_t)
         found = (there[nearest].max(axis=1), float(there.max()), samples)
         found += (self.surface.distance(samples), nearest)
-        self._first = (out_v, out_t, found)
+        self._first = self._first[-1:] + [(out_v, out_t, found)]
         return found
 
     def subset(self, n: int = SEARCH_POINTS):

@@ -411,6 +411,14 @@ def reconstruct_surface(
     )
 
 
+def _floors(measure, surfaces, bound, slack, neighbors):
+    """`PointDistances.floor_at` of both ``surfaces`` (level 0 before and after its
+    placement) at ``slack`` times the bound: each point the higher floor."""
+    first, second = surfaces
+    measure.floor_at(*first, bound, slack=slack, neighbors=neighbors)
+    measure.floor_at(*second, bound, slack=slack, neighbors=neighbors, raise_only=True)
+
+
 def robust_mesh(
     q,
     normals,
@@ -445,7 +453,7 @@ def robust_mesh(
     from ._caps import outline_vertices
     from ._decimate_mesh import MAX_ERROR
     from ._distance import PointSurface
-    from ._point_distances import PointDistances
+    from ._point_distances import LOOSE_SHARE, LOOSE_SLACK, PointDistances
     from ._polygons import PLANAR_RTOL
     from ._snap import FIT_STEPS, PointsDecimation, fit_to_points
     from ._surface_regions import region_layers, region_planes, transfer_labels
@@ -487,6 +495,7 @@ def robust_mesh(
         box,
         0.25 * bound,
         FIT_STEPS * rec.step,
+        bound,
     )
     if max_triangles is None and outline_vertices(rec.triangles).size == 0:
         # on a closed surface no collapse takes a point past half the bound, nor a
@@ -499,16 +508,18 @@ def robust_mesh(
         back = np.maximum(tol, measure.back_near_points(verts, rec.triangles, neighbors))
         level.start(True, surface=measure.surface, tolerance=COLLAPSE_SHARE * tol, back=back)
     if max_error is None:
-        # the default bound, or what the points' surface itself reaches there, if more
+        # the default bound, or what the points' surface reaches there (before or
+        # after its placement on the planes, the more), if more
         measure.floor_at(verts, rec.triangles, bound, neighbors=neighbors)
+        placed = level.placed(0)[:2]  # placed within those floors
+        measure.floor_at(*placed, bound, neighbors=neighbors, raise_only=True)
     steps = level.steps_for(max_triangles, bound)
-    if steps == 0 and max_error is None and max_triangles is None:
-        # no level within the floors set from the surface before its placement: the
-        # placement itself took it past a point whose floor is the cap (the farthest
-        # point, a part the surface lost); the floors from the placed level 0
-        measure.floor_at(*level.placed(0)[:2], bound, neighbors=neighbors)
-        level.forget_levels()
-        steps = level.steps_within(bound)
+    if max_error is None and max_triangles is None:
+        if level.placed(steps)[1].shape[0] > LOOSE_SHARE * rec.triangles.shape[0]:
+            # the search failed at the coarse end: again at the looser floors
+            _floors(measure, ((verts, rec.triangles), placed), bound, LOOSE_SLACK, neighbors)
+            level.forget_levels()
+            steps = max(steps, level.steps_within(bound))
     if max_triangles is not None and not level.within(steps, SPIKE_FACTOR * bound):
         # a budget is met only while the output stays near the points (the last
         # collapses of a sequence can fold the surface): else the closest level

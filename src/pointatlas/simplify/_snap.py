@@ -22,7 +22,10 @@ Decisions in docs/decisions/simplify.md ("The points path's robust path").
 from __future__ import annotations
 
 import numpy as np
+from numba import njit, prange
+from scipy.spatial import cKDTree
 
+from ..neighbors._kernels.mesh_distance import closest_sq
 from ._caps import flip_caps, spread_tiny, weld_needles
 from ._decimate_mesh import Decimation
 from ._place import _unflip, place_on_planes
@@ -115,19 +118,73 @@ def placed_near_points(v0, placed, triangles, surface, tol: float, before=None) 
     return _unflip(v0, x, triangles, before=before)
 
 
+@njit(cache=True, parallel=True)
+def _owner_distances(q, x, tri, own):
+    """Each point's distance to its triangle ``own`` of ``x``, ``tri``."""
+    out = np.empty(q.shape[0])
+    for i in prange(q.shape[0]):
+        a, b, c = tri[own[i], 0], tri[own[i], 1], tri[own[i], 2]
+        d = closest_sq(
+            q[i, 0],
+            q[i, 1],
+            q[i, 2],
+            x[a, 0],
+            x[a, 1],
+            x[a, 2],
+            x[b, 0],
+            x[b, 1],
+            x[b, 2],
+            x[c, 0],
+            x[c, 1],
+            x[c, 2],
+        )
+        out[i] = np.sqrt(d)
+    return out
+
+
+def placed_keeps_points(v0, placed, triangles, q, floor, tol, before=None, rounds=2):
+    """``placed`` with the vertices of every triangle that a point of ``q`` is nearest
+    to before the placement (by its centroid) put back at ``v0`` where the point ends
+    farther than its ``floor`` from it after the placement, and more than ``tol``
+    farther than before (a point within ``tol`` of it before: the nearest centroid's
+    triangle is not always the nearest); then no triangle turned over (`_unflip`)."""
+    _, own = cKDTree(v0[triangles].mean(axis=1)).query(q, workers=-1)
+    own = own.astype(np.int64)
+    tri = np.ascontiguousarray(triangles, dtype=np.int64)
+    d0 = _owner_distances(q, np.ascontiguousarray(v0), tri, own)
+    x = placed
+    for _ in range(rounds):
+        d1 = _owner_distances(q, np.ascontiguousarray(x), tri, own)
+        bad = (d1 > np.maximum(floor, d0 + tol)) & (d0 <= tol)
+        if not bad.any():
+            break
+        back = np.unique(tri[own[bad]])
+        x = x.copy()
+        x[back] = v0[back]
+    if x is placed:
+        return placed
+    return _unflip(v0, x, triangles, before=before)
+
+
 class PointsDecimation(Decimation):
     """`Decimation` whose placement onto the flat regions' planes is kept only where it
     stays within ``tol`` of the points' surface (`placed_near_points`), and whose
     vertices farther than ``tol`` from it are fitted to the points again, at most
     ``fit_bound`` (`refit_far`); ``measure`` is the points' (`PointDistances`, its
     ``surface`` the points' discs); ``search_points``: the level search's subset of
-    the points (`steps_within`)."""
+    the points (`steps_within`). Once ``measure`` has floors (`floor_at`), no point
+    is taken past its floor (at least ``bound``) by the placement
+    (`placed_keeps_points`)."""
 
     search_points: int = SEARCH_POINTS
 
-    def __init__(self, verts, tri, labels, planes, step, still, measure, box, tol, fit_bound):
+    def __init__(
+        self, verts, tri, labels, planes, step, still, measure, box, tol, fit_bound, bound=0.0
+    ):
         super().__init__(verts, tri, labels, planes, step, still, measure, box, start=False)
         self.tol, self.fit_bound = float(tol), float(fit_bound)
+        self.full = measure  # all the points (`steps_within` measures a subset first)
+        self.bound = float(bound)
 
     def steps_within(self, bound: float) -> int:
         """`Decimation.steps_within`, its levels first measured on a subset of the
@@ -173,6 +230,9 @@ class PointsDecimation(Decimation):
         x = _unflip(out_v, x, out_t, collapsed=True, before=before)
         x = placed_near_points(out_v, x, out_t, self.measure.surface, self.tol, before)
         x = refit_far(x, out_t, self.measure.surface, self.tol, self.fit_bound, before)
+        if self.full.there_floor is not None:  # no point taken past its floor
+            floor = np.maximum(self.bound, self.full.there_floor)
+            x = placed_keeps_points(out_v, x, out_t, self.full.q, floor, self.tol, before)
         if self.box is not None:  # no vertex beyond the box (lo, hi)
             x = np.clip(x, *self.box)
         # vertices placed on one corner, or in a row on the line of two planes: no
