@@ -179,7 +179,7 @@ class PointsDecimation(Decimation):
     search_points: int = SEARCH_POINTS
 
     def __init__(
-        self, verts, tri, labels, planes, step, still, measure, box, tol, fit_bound, bound=0.0
+        self, verts, tri, labels, planes, step, still, measure, box, tol, fit_bound, bound
     ):
         super().__init__(verts, tri, labels, planes, step, still, measure, box, start=False)
         self.tol, self.fit_bound = float(tol), float(fit_bound)
