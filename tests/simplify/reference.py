@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import collections
+import math
+
 import numpy as np
 
 
@@ -336,3 +339,124 @@ def outline_distance_reference(surface, x, neighbors, candidates, margin):
     near = disc[rows, best]
     out = gap > np.pi + margin
     return np.where(out, np.maximum(near, np.hypot(h[rows, best], past)), near)
+
+
+def untangle_reference(v0, placed, triangles, face, flat, source, kept, went):
+    """`_untangle.untangle` in plain Python: each vertex's triangles a set, the merges
+    and flips of every pass one at a time (edge lengths and areas as plain sums of
+    products, as the kernels compute them)."""
+    from pointatlas.simplify._caps import CAP_RTOL, compact, outline_vertices
+    from pointatlas.simplify._place import _cross
+    from pointatlas.simplify._untangle import ROUNDS, _flat_faces
+
+    v0 = np.asarray(v0, dtype=np.float64)
+    x = np.asarray(placed, dtype=np.float64)
+    rows = np.array(triangles, dtype=np.int64)
+    face = np.array(face, dtype=np.int64)
+    c0 = _cross(v0, rows)
+    twice = np.linalg.norm(c0, axis=1)
+    side = c0 / np.maximum(twice, 1e-300)[:, None]
+    out = (v0, x, rows, face, source, kept, went, side)
+    if rows.shape[0] == 0:
+        return out
+    tiny = 2.0 * CAP_RTOL * float(0.5 * twice.mean())
+    rank = _flat_faces(rows, face, flat, x.shape[0]).astype(np.float64)
+    rank[outline_vertices(rows)] = np.inf
+    into = np.arange(x.shape[0])
+    alive = np.ones(rows.shape[0], dtype=bool)
+    merged = False
+    for _ in range(ROUNDS):
+        area = np.einsum("ij,ij->i", side, _cross(x, rows))
+        bad = np.flatnonzero(alive & (area <= tiny) & (twice > 0.0))
+        if bad.size == 0:
+            break
+        around = collections.defaultdict(set)
+        for t in np.flatnonzero(alive).tolist():
+            for v in rows[t].tolist():
+                around[v].add(t)
+        done = 0
+        for t in bad[np.argsort(area[bad], kind="stable")].tolist():
+            if alive[t]:
+                done += _merge_one_reference(x, rows, side, around, alive, into, rank, t, tiny) or (
+                    _flip_one_reference(x, rows, side, face, around, t, tiny)
+                )
+        if done == 0:
+            break
+        merged = True
+    if not merged:
+        return out
+    return (*compact(rows, alive, into, (v0, x), face, source, kept, went), side[alive])
+
+
+def _length_reference(x, a, b) -> float:
+    d = (x[a] - x[b]).tolist()
+    return math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+
+
+def _along_reference(n, a, b, c) -> float:
+    u = (b[0] - a[0], b[1] - a[1], b[2] - a[2])
+    w = (c[0] - a[0], c[1] - a[1], c[2] - a[2])
+    return (
+        n[0] * (u[1] * w[2] - u[2] * w[1])
+        + n[1] * (u[2] * w[0] - u[0] * w[2])
+        + n[2] * (u[0] * w[1] - u[1] * w[0])
+    )
+
+
+def _merge_one_reference(x, rows, side, around, alive, into, rank, t, tiny) -> int:
+    from pointatlas.simplify._caps import _find, _link_ok, _merge
+
+    row = [_find(into, int(v)) for v in rows[t]]
+    edges = [(row[k], row[(k + 1) % 3]) for k in range(3)]
+    edges.sort(key=lambda e: _length_reference(x, e[0], e[1]))
+    for a, b in edges:
+        if rank[a] == rank[b] == np.inf:
+            continue
+        ways = [(a, b), (b, a)] if rank[a] == rank[b] else [(a, b) if rank[a] > rank[b] else (b, a)]
+        for p, q in ways:
+            if _link_ok(rows, around, p, q) and _stays_reference(x, rows, side, around, p, q, tiny):
+                _merge(rows, around, alive, into, p, q)
+                return 1
+    return 0
+
+
+def _stays_reference(x, rows, side, around, p, q, tiny) -> bool:
+    for t in around[q] - around[p]:
+        a, b, c = (x[v].tolist() if v != q else x[p].tolist() for v in rows[t].tolist())
+        if _along_reference(side[t].tolist(), a, b, c) <= tiny:
+            return False
+    return True
+
+
+def _flip_one_reference(x, rows, side, face, around, t, tiny) -> int:
+    row = rows[t].tolist()
+    a, b, c = (x[v].tolist() for v in row)
+    if math.sqrt(sum(s * s for s in _cross_reference(a, b, c))) > tiny:
+        return 0
+    k = max(range(3), key=lambda i: _length_reference(x, row[(i + 1) % 3], row[i]))
+    a, b, c = row[k], row[(k + 1) % 3], row[(k + 2) % 3]
+    others = (around[a] & around[b]) - {t}
+    if len(others) != 1:
+        return 0
+    u = others.pop()
+    d = next(int(v) for v in rows[u].tolist() if v != a and v != b)
+    if d == c or around[c] & around[d]:
+        return 0
+    n = side[u].tolist()
+    first = _along_reference(n, x[a].tolist(), x[d].tolist(), x[c].tolist())
+    second = _along_reference(n, x[d].tolist(), x[b].tolist(), x[c].tolist())
+    if min(first, second) <= tiny:
+        return 0
+    rows[t], rows[u] = [a, d, c], [d, b, c]
+    face[t], side[t] = face[u], side[u]
+    around[a].discard(u)
+    around[b].discard(t)
+    around[c].add(u)
+    around[d].add(t)
+    return 1
+
+
+def _cross_reference(a, b, c):
+    u = (b[0] - a[0], b[1] - a[1], b[2] - a[2])
+    w = (c[0] - a[0], c[1] - a[1], c[2] - a[2])
+    return (u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0])

@@ -419,13 +419,15 @@ class Decimation:
             return self.seq.steps_for(max_triangles)
         return self.steps_within(max_error)
 
-    def steps_within(self, bound: float) -> int:
+    def steps_within(self, bound: float, lowest: int = 0) -> int | None:
         """The most collapses whose output is within ``bound`` both ways: from the
-        last collapse down, n - 1, n - 2, n - 4, ... (`_next_gap`) until a level meets the bound,
-        then bisection up to the next that did not. The error does not grow strictly
-        with the collapses (a collapse can undo an earlier one's deviation), so a
-        plain bisection from the middle stops early (measured: half the collapses on
-        a sampled CAD cover, where 99 % meet the bound).
+        last collapse down, n - 1, n - 2, n - 4, ... (`_next_gap`) until a level meets
+        the bound, then bisection up to the next that did not; None where no level of
+        at least ``lowest`` collapses meets it (level 0 is taken to meet it). The
+        error does not grow strictly with the collapses (a collapse can undo an
+        earlier one's deviation), so a plain bisection from the middle stops early
+        (measured: half the collapses on a sampled CAD cover, where 99 % meet the
+        bound).
 
         Against a mesh (`MeshDistances`) the search first measures the output's
         vertices and `SEARCH_SAMPLES` of its area samples back (a subset of the
@@ -441,11 +443,11 @@ class Decimation:
         """
         n = int(self.seq.kept.size)
         if not isinstance(self.measure, MeshDistances):
-            return self._search(n, bound, None)
-        m = self._search(n, bound, SEARCH_SAMPLES)
-        if m == 0 or self._meets(m, bound):
+            return self._search(n, bound, None, lowest)
+        m = self._search(n, bound, SEARCH_SAMPLES, lowest)
+        if m is None or m == 0 or self._meets(m, bound):
             return m
-        return self._search(n, bound, None)
+        return self._search(n, bound, None, lowest)
 
     def _meets(self, m: int, bound: float) -> bool:
         """Whether a level found within ``bound`` on a subset of the samples is within
@@ -459,15 +461,18 @@ class Decimation:
         self._kept_level = (m, placed)
         return True
 
-    def _search(self, n: int, bound: float, first) -> int:
-        """`steps_within` from ``n`` collapses down, ``first`` as in `within`."""
+    def _search(self, n: int, bound: float, first, lowest: int = 0) -> int | None:
+        """`steps_within` from ``n`` collapses down to ``lowest``, ``first`` as in
+        `within`."""
         if n == 0 or self.within(n, bound, first):
             return n
         hi, gap = n, 1  # hi does not meet the bound
         while True:
-            lo = max(n - gap, 0)
+            lo = max(n - gap, lowest)
             if lo == 0 or self.within(lo, bound, first):
                 break
+            if lo == lowest:
+                return None
             hi, gap = lo, self._next_gap(gap)
         while hi - lo > 1:  # lo meets the bound (or is 0), hi does not
             mid = (lo + hi) // 2

@@ -513,13 +513,17 @@ def robust_mesh(
         measure.floor_at(verts, rec.triangles, bound, neighbors=neighbors)
         placed = level.placed(0)[:2]  # placed within those floors
         measure.floor_at(*placed, bound, neighbors=neighbors, raise_only=True)
-    steps = level.steps_for(max_triangles, bound)
     if max_error is None and max_triangles is None:
-        if level.placed(steps)[1].shape[0] > LOOSE_SHARE * rec.triangles.shape[0]:
-            # the search failed at the coarse end: again at the looser floors
+        # a search that would end above a share of level 0's triangles (it failed at
+        # the coarse end) stops there, and runs again at the looser floors
+        lowest = level.seq.steps_for(int(LOOSE_SHARE * rec.triangles.shape[0]))
+        steps = level.steps_within(bound, lowest)
+        if steps is None:
             _floors(measure, ((verts, rec.triangles), placed), bound, LOOSE_SLACK, neighbors)
             level.forget_levels()
-            steps = max(steps, level.steps_within(bound))
+            steps = level.steps_within(bound)
+    else:
+        steps = level.steps_for(max_triangles, bound)
     if max_triangles is not None and not level.within(steps, SPIKE_FACTOR * bound):
         # a budget is met only while the output stays near the points (the last
         # collapses of a sequence can fold the surface): else the closest level

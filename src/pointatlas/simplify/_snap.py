@@ -186,7 +186,7 @@ class PointsDecimation(Decimation):
         self.full = measure  # all the points (`steps_within` measures a subset first)
         self.bound = float(bound)
 
-    def steps_within(self, bound: float) -> int:
+    def steps_within(self, bound: float, lowest: int = 0) -> int | None:
         """`Decimation.steps_within`, its levels first measured on a subset of the
         points (`PointDistances.subset`: a level over the bound on it is over it on
         all), then the level found measured on all of them; where that fails, the
@@ -197,15 +197,15 @@ class PointsDecimation(Decimation):
         full = self.measure
         few = full.subset(self.search_points) if hasattr(full, "subset") else None
         if few is None:
-            return super().steps_within(bound)
+            return super().steps_within(bound, lowest)
         self.measure = few
         try:
-            m = super().steps_within(bound)
+            m = super().steps_within(bound, lowest)
         finally:
             self.measure = full
-        if m == 0 or self.within(m, bound):
+        if m is None or m == 0 or self.within(m, bound):
             return m
-        return super().steps_within(bound)
+        return super().steps_within(bound, lowest)
 
     @staticmethod
     def _next_gap(gap: int) -> int:
