@@ -474,7 +474,7 @@ class Decimation:
             if lo == lowest:
                 return None
             hi, gap = lo, self._next_gap(gap)
-        while hi - lo > 1:  # lo meets the bound (or is 0), hi does not
+        while not self._settled(lo, hi):  # lo meets the bound (or is 0), hi does not
             mid = (lo + hi) // 2
             if self.within(mid, bound, first):
                 lo = mid
@@ -486,6 +486,11 @@ class Decimation:
     def _next_gap(gap: int) -> int:
         """The level search's next step down from the last collapse: 1, 2, 4, 8, ..."""
         return 2 * gap
+
+    def _settled(self, lo: int, hi: int) -> bool:
+        """Whether the bisection between ``lo`` (within the bound) and ``hi`` (over
+        it) is done: here when they are next to each other."""
+        return hi - lo <= 1
 
     def near(self, m: int, first: int) -> float:
         """The two-sided mean distance after ``m`` collapses: every input vertex to the

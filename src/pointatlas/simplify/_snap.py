@@ -37,6 +37,7 @@ __all__ = [
     "FIT_RCOND",
     "FIT_STEPS",
     "PointsDecimation",
+    "SETTLE_SHARE",
     "fit_to_points",
     "placed_near_points",
     "refit_far",
@@ -166,6 +167,10 @@ def placed_keeps_points(v0, placed, triangles, q, floor, tol, before=None, round
     return _unflip(v0, x, triangles, before=before)
 
 
+#: The level search's bisection stops within this share of its level's triangles.
+SETTLE_SHARE = 0.01
+
+
 class PointsDecimation(Decimation):
     """`Decimation` whose placement onto the flat regions' planes is kept only where it
     stays within ``tol`` of the points' surface (`placed_near_points`), and whose
@@ -215,6 +220,12 @@ class PointsDecimation(Decimation):
         voxel surface: the step of 2 ended a sampled CAD part's search at 5,518
         triangles, this one at 2,470; on meshes the step of 2 gives the same levels)."""
         return gap + 1 if gap < 4 else gap + (gap // 3 if gap % 3 == 0 else gap // 2)
+
+    def _settled(self, lo: int, hi: int) -> bool:
+        """The bisection stops once ``hi`` is within `SETTLE_SHARE` of ``lo``'s
+        triangles (a collapse takes two): its last steps placed levels a few
+        triangles apart, each as costly as any."""
+        return hi - lo <= max(1, int(SETTLE_SHARE * self.seq.n_triangles(lo)) // 2)
 
     def _placed(self, m: int):
         if self._kept_level is not None and self._kept_level[0] == m:
