@@ -411,12 +411,28 @@ def reconstruct_surface(
     )
 
 
-def _floors(measure, surfaces, bound, slack, neighbors):
-    """`PointDistances.floor_at` of both ``surfaces`` (level 0 before and after its
-    placement) at ``slack`` times the bound: each point the higher floor."""
-    first, second = surfaces
-    measure.floor_at(*first, bound, slack=slack, neighbors=neighbors)
-    measure.floor_at(*second, bound, slack=slack, neighbors=neighbors, raise_only=True)
+def _default_steps(level, measure, surface, bound, neighbors, budget):
+    """The level of the default bound: the floors of `PointDistances.floor_at` from
+    level 0 before (``surface``) and after its placement (each point the higher),
+    then the level search (or the collapses for a ``budget`` of triangles). A search
+    that would end above `LOOSE_SHARE` of level 0's triangles (it failed at the
+    coarse end) stops there, and runs again at the looser floors (`LOOSE_SLACK`)."""
+    from ._point_distances import LOOSE_SHARE, LOOSE_SLACK
+
+    measure.floor_at(*surface, bound, neighbors=neighbors)
+    placed = level.placed(0)[:2]  # placed within those floors
+    measure.floor_at(*placed, bound, neighbors=neighbors, raise_only=True)
+    if budget is not None:
+        return level.steps_for(budget, bound)
+    steps = level.steps_within(bound, level.seq.steps_for(int(LOOSE_SHARE * surface[1].shape[0])))
+    if steps is None:
+        for first, raise_only in ((surface, False), (placed, True)):
+            measure.floor_at(
+                *first, bound, slack=LOOSE_SLACK, neighbors=neighbors, raise_only=raise_only
+            )
+        level.forget_levels()
+        steps = level.steps_within(bound)
+    return steps
 
 
 def robust_mesh(
@@ -453,7 +469,7 @@ def robust_mesh(
     from ._caps import outline_vertices
     from ._decimate_mesh import MAX_ERROR
     from ._distance import PointSurface
-    from ._point_distances import LOOSE_SHARE, LOOSE_SLACK, PointDistances
+    from ._point_distances import PointDistances
     from ._polygons import PLANAR_RTOL
     from ._snap import FIT_STEPS, PointsDecimation, fit_to_points
     from ._surface_regions import region_layers, region_planes, transfer_labels
@@ -510,18 +526,9 @@ def robust_mesh(
     if max_error is None:
         # the default bound, or what the points' surface reaches there (before or
         # after its placement on the planes, the more), if more
-        measure.floor_at(verts, rec.triangles, bound, neighbors=neighbors)
-        placed = level.placed(0)[:2]  # placed within those floors
-        measure.floor_at(*placed, bound, neighbors=neighbors, raise_only=True)
-    if max_error is None and max_triangles is None:
-        # a search that would end above a share of level 0's triangles (it failed at
-        # the coarse end) stops there, and runs again at the looser floors
-        lowest = level.seq.steps_for(int(LOOSE_SHARE * rec.triangles.shape[0]))
-        steps = level.steps_within(bound, lowest)
-        if steps is None:
-            _floors(measure, ((verts, rec.triangles), placed), bound, LOOSE_SLACK, neighbors)
-            level.forget_levels()
-            steps = level.steps_within(bound)
+        steps = _default_steps(
+            level, measure, (verts, rec.triangles), bound, neighbors, max_triangles
+        )
     else:
         steps = level.steps_for(max_triangles, bound)
     if max_triangles is not None and not level.within(steps, SPIKE_FACTOR * bound):
