@@ -342,50 +342,27 @@ def outline_distance_reference(surface, x, neighbors, candidates, margin):
 
 
 def untangle_reference(v0, placed, triangles, face, flat, source, kept, went):
-    """`_untangle.untangle` in plain Python: each vertex's triangles a set, the merges
-    and flips of every pass one at a time (edge lengths and areas as plain sums of
-    products, as the kernels compute them)."""
-    from pointatlas.simplify._caps import CAP_RTOL, compact, outline_vertices
-    from pointatlas.simplify._place import _cross
-    from pointatlas.simplify._untangle import ROUNDS, _flat_faces
+    """`_untangle.untangle` with the plain Python passes (`merge_round_reference`)."""
+    from pointatlas.simplify._untangle import _untangle
 
-    v0 = np.asarray(v0, dtype=np.float64)
-    x = np.asarray(placed, dtype=np.float64)
-    rows = np.array(triangles, dtype=np.int64)
-    face = np.array(face, dtype=np.int64)
-    c0 = _cross(v0, rows)
-    twice = np.linalg.norm(c0, axis=1)
-    side = c0 / np.maximum(twice, 1e-300)[:, None]
-    out = (v0, x, rows, face, source, kept, went, side)
-    if rows.shape[0] == 0:
-        return out
-    tiny = 2.0 * CAP_RTOL * float(0.5 * twice.mean())
-    rank = _flat_faces(rows, face, flat, x.shape[0]).astype(np.float64)
-    rank[outline_vertices(rows)] = np.inf
-    into = np.arange(x.shape[0])
-    alive = np.ones(rows.shape[0], dtype=bool)
-    merged = False
-    for _ in range(ROUNDS):
-        area = np.einsum("ij,ij->i", side, _cross(x, rows))
-        bad = np.flatnonzero(alive & (area <= tiny) & (twice > 0.0))
-        if bad.size == 0:
-            break
-        around = collections.defaultdict(set)
-        for t in np.flatnonzero(alive).tolist():
-            for v in rows[t].tolist():
-                around[v].add(t)
-        done = 0
-        for t in bad[np.argsort(area[bad], kind="stable")].tolist():
-            if alive[t]:
-                done += _merge_one_reference(x, rows, side, around, alive, into, rank, t, tiny) or (
-                    _flip_one_reference(x, rows, side, face, around, t, tiny)
-                )
-        if done == 0:
-            break
-        merged = True
-    if not merged:
-        return out
-    return (*compact(rows, alive, into, (v0, x), face, source, kept, went), side[alive])
+    return _untangle(merge_round_reference, v0, placed, triangles, face, flat, source, kept, went)
+
+
+def merge_round_reference(x, rows, side, face, ring, deg, alive, into, rank, order, tiny):
+    """`_untangle_kernels.merge_round` in plain Python: each vertex's triangles a set
+    (``ring`` and ``deg`` are not read), the merges and flips one at a time (edge
+    lengths and areas as plain sums of products, as the kernels compute them)."""
+    around = collections.defaultdict(set)
+    for t in np.flatnonzero(alive).tolist():
+        for v in rows[t].tolist():
+            around[v].add(t)
+    done = 0
+    for t in order.tolist():
+        if alive[t]:
+            done += _merge_one_reference(x, rows, side, around, alive, into, rank, t, tiny) or (
+                _flip_one_reference(x, rows, side, face, around, t, tiny)
+            )
+    return done, ring
 
 
 def _length_reference(x, a, b) -> float:
@@ -394,13 +371,10 @@ def _length_reference(x, a, b) -> float:
 
 
 def _along_reference(n, a, b, c) -> float:
-    u = (b[0] - a[0], b[1] - a[1], b[2] - a[2])
-    w = (c[0] - a[0], c[1] - a[1], c[2] - a[2])
-    return (
-        n[0] * (u[1] * w[2] - u[2] * w[1])
-        + n[1] * (u[2] * w[0] - u[0] * w[2])
-        + n[2] * (u[0] * w[1] - u[1] * w[0])
-    )
+    from pointatlas.simplify._caps import _cross3
+
+    u = _cross3(a, b, c)
+    return n[0] * u[0] + n[1] * u[1] + n[2] * u[2]
 
 
 def _merge_one_reference(x, rows, side, around, alive, into, rank, t, tiny) -> int:
@@ -429,9 +403,11 @@ def _stays_reference(x, rows, side, around, p, q, tiny) -> bool:
 
 
 def _flip_one_reference(x, rows, side, face, around, t, tiny) -> int:
+    from pointatlas.simplify._caps import _cross3
+
     row = rows[t].tolist()
     a, b, c = (x[v].tolist() for v in row)
-    if math.sqrt(sum(s * s for s in _cross_reference(a, b, c))) > tiny:
+    if math.sqrt(sum(s * s for s in _cross3(a, b, c))) > tiny:
         return 0
     k = max(range(3), key=lambda i: _length_reference(x, row[(i + 1) % 3], row[i]))
     a, b, c = row[k], row[(k + 1) % 3], row[(k + 2) % 3]
@@ -454,9 +430,3 @@ def _flip_one_reference(x, rows, side, face, around, t, tiny) -> int:
     around[c].add(u)
     around[d].add(t)
     return 1
-
-
-def _cross_reference(a, b, c):
-    u = (b[0] - a[0], b[1] - a[1], b[2] - a[2])
-    w = (c[0] - a[0], c[1] - a[1], c[2] - a[2])
-    return (u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0])

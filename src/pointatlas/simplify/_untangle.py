@@ -67,6 +67,13 @@ def untangle(v0, placed, triangles, face, flat, source, kept, went):
     >>> out[1].tolist(), out[2].tolist(), (out[7] == [0, 0, 1]).all()
     ([[0.0, 0.0, 0.0], [0.0, 2.0, 0.0], [2.0, 1.0, 0.0]], [[0, 2, 1]], np.True_)
     """
+    return _untangle(merge_round, v0, placed, triangles, face, flat, source, kept, went)
+
+
+def _untangle(one_pass, v0, placed, triangles, face, flat, source, kept, went):
+    """`untangle`, each pass over the triangles left without area made by
+    ``one_pass`` (`_untangle_kernels.merge_round`, or the tests' plain Python one:
+    the same arguments and answer)."""
     v0 = np.asarray(v0, dtype=np.float64)
     x = np.asarray(placed, dtype=np.float64)
     rows = np.array(triangles, dtype=np.int64)
@@ -90,7 +97,7 @@ def untangle(v0, placed, triangles, face, flat, source, kept, went):
         if bad.size == 0:
             break
         order = bad[np.argsort(area[bad], kind="stable")]
-        done, ring = merge_round(x, rows, side, face, ring, deg, alive, into, rank, order, tiny)
+        done, ring = one_pass(x, rows, side, face, ring, deg, alive, into, rank, order, tiny)
         if done == 0:
             break
         merged = True
