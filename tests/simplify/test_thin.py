@@ -11,7 +11,7 @@ from scipy.spatial import cKDTree
 
 from pointatlas.simplify._distance import PointSurface
 from pointatlas.simplify._kernels import OPPOSITE, thin_sides
-from pointatlas.simplify._point_distances import PointDistances
+from pointatlas.simplify._point_distances import FLOOR_NEIGHBORS, PointDistances
 from pointatlas.simplify._reconstruct import FIELD_K, _thin_keep
 from pointatlas.synth import sample_mesh
 
@@ -155,7 +155,17 @@ def test_a_second_surfaces_floors_only_raise_the_first_ones():
     assert raised.within(first, t, bound) and raised.within(second, t, bound)
     assert raised.within(both, t, bound)  # each dent within its own floor
     assert raised.there_floor.shape == (q.shape[0],)
-    assert raised.back_floor.shape[0] == raised.back_at.n
+    # near each sample of either, the floor of the nearest sample of both surfaces
+    # (found lazily): the eager formula's, every sample's at once (plain numpy)
+    layers = raised.back_floor.layers
+    assert len(layers) == 2
+    eager = [
+        np.minimum(back[cKDTree(x).query(x, k=FLOOR_NEIGHBORS)[1]].max(axis=1) + add, cap)
+        for x, back, _, add, cap in layers
+    ]
+    x = np.concatenate([layer[0] for layer in layers])
+    nearest = cKDTree(x).query(x)[1]
+    assert np.array_equal(raised.back_floor.near(x), np.concatenate(eager)[nearest])
     # a dent where neither surface was is over the bound
     side = int(np.argmin(np.linalg.norm(v - [0.5, 0.0, 0.5], axis=1)))
     far = v.copy()

@@ -466,7 +466,7 @@ class Decimation:
         `within`."""
         if n == 0 or self.within(n, bound, first):
             return n
-        hi, gap = n, 1  # hi does not meet the bound
+        hi, gap = n, self._first_gap(n)  # hi does not meet the bound
         while True:
             lo = max(n - gap, lowest)
             if lo == 0 or self.within(lo, bound, first):
@@ -481,6 +481,10 @@ class Decimation:
             else:
                 hi = mid
         return lo
+
+    def _first_gap(self, n: int) -> int:
+        """The level search's first step down from the last collapse ``n``: 1."""
+        return 1
 
     @staticmethod
     def _next_gap(gap: int) -> int:

@@ -17,8 +17,9 @@ the rest.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
-from ._mesh import cross, unique_ints, unique_pairs
+from ._mesh import unique_ints, unique_pairs
 
 __all__ = ["FLAT_RTOL", "flat_planes", "place_on_planes", "triangle_normals"]
 
@@ -173,5 +174,24 @@ def triangle_normals(v, tri):
 
 
 def _cross(v, tri):
-    """The triangles' edge cross products (twice their area along their normal)."""
-    return cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
+    """The triangles' edge cross products (twice their area along their normal):
+    (b - a) x (c - a), the same products and differences as ``np.cross`` of the
+    gathered edges (the same bits), in one pass (numpy's three gathers and
+    temporaries on level 0's 100,000 triangles cost ten times as much)."""
+    v = np.ascontiguousarray(v, dtype=np.float64)
+    tri = np.ascontiguousarray(tri, dtype=np.int64).reshape(-1, 3)
+    out = np.empty((tri.shape[0], 3))
+    _cross_rows(v, tri, out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _cross_rows(v, tri, out):
+    """``out[t]``: (b - a) x (c - a) of triangle ``tri[t]`` = (a, b, c) of ``v``."""
+    for t in range(tri.shape[0]):
+        a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+        u0, u1, u2 = v[b, 0] - v[a, 0], v[b, 1] - v[a, 1], v[b, 2] - v[a, 2]
+        w0, w1, w2 = v[c, 0] - v[a, 0], v[c, 1] - v[a, 1], v[c, 2] - v[a, 2]
+        out[t, 0] = u1 * w2 - u2 * w1
+        out[t, 1] = u2 * w0 - u0 * w2
+        out[t, 2] = u0 * w1 - u1 * w0
