@@ -221,17 +221,21 @@ class PointsDecimation(Decimation):
         triangles, this one at 2,470; on meshes the step of 2 gives the same levels)."""
         return gap + 1 if gap < 4 else gap + (gap // 3 if gap % 3 == 0 else gap // 2)
 
+    def _resolution(self, m: int) -> int:
+        """How many collapses the level search tells apart at ``m`` collapses: those of
+        `SETTLE_SHARE` of its triangles (a collapse takes two), at least 1."""
+        return max(1, int(SETTLE_SHARE * self.seq.n_triangles(m)) // 2)
+
     def _first_gap(self, n: int) -> int:
-        """The level search's first step down from the last collapse ``n``: as many
-        collapses as the bisection's resolution there (`SETTLE_SHARE` of its
-        triangles), at least 1."""
-        return max(1, int(SETTLE_SHARE * self.seq.n_triangles(n)) // 2)
+        """The level search's first step down from the last collapse ``n``: its
+        resolution there (`_resolution`)."""
+        return self._resolution(n)
 
     def _settled(self, lo: int, hi: int) -> bool:
-        """The bisection stops once ``hi`` is within `SETTLE_SHARE` of ``lo``'s
-        triangles (a collapse takes two): its last steps placed levels a few
-        triangles apart, each as costly as any."""
-        return hi - lo <= max(1, int(SETTLE_SHARE * self.seq.n_triangles(lo)) // 2)
+        """The bisection stops once ``hi`` is within the resolution at ``lo``
+        (`_resolution`): its last steps placed levels a few triangles apart, each as
+        costly as any."""
+        return hi - lo <= self._resolution(lo)
 
     def _placed(self, m: int):
         if self._kept_level is not None and self._kept_level[0] == m:
