@@ -83,9 +83,11 @@ def _timed_poisson(p, n, n_triangles: int, depth: int):
     return pv, pt, time.perf_counter() - t0
 
 
-def peer_row(v_true, t_true, p, n, n_triangles: int) -> dict:
+def peer_row(v_true, t_true, p, n, n_triangles: int, diag: float) -> dict:
     """The better of Poisson depth 8 and 9 + decimation (lower mean distance both ways);
-    ``peer_depth`` "crashed" when Open3D crashed at every depth."""
+    ``peer_depth`` "crashed" when Open3D crashed at every depth. Its Euler characteristic
+    (the vertices its triangles use) and its two-sided Hausdorff distance to the truth
+    measured as ours (`_both_ways`, % of the points' diagonal ``diag``)."""
     best = {"peer_depth": "crashed"}
     for depth in PEER_DEPTHS:
         # in a child process: Open3D's Poisson can segfault (seen on a sensor cover
@@ -102,6 +104,8 @@ def peer_row(v_true, t_true, p, n, n_triangles: int) -> dict:
                 "peer_depth": depth,
                 "peer_triangles": int(pt.shape[0]),
                 "peer_closed": all(mesh_checks(len(pv), pt)) if len(pt) else False,
+                "peer_euler": _euler(np.unique(pt).size, pt) if len(pt) else "",
+                "peer_truth_hausdorff_pct": 100.0 * _both_ways(v_true, t_true, pv, pt) / diag,
                 "peer_mean_pct": d["mean"],
                 "peer_hausdorff_pct": d["hausdorff"],
                 "peer_seconds": took,
@@ -155,7 +159,7 @@ def run_model(path: Path, n_points: int, estimate: bool = False, peer: bool = Tr
         truth_mean_pct=both_ways(mesh.vertices, tri, mv, mt)["mean"],
     )
     if peer:
-        row.update(peer_row(mesh.vertices, tri, p, n, int(mt.shape[0])))
+        row.update(peer_row(mesh.vertices, tri, p, n, int(mt.shape[0]), diag))
     return row
 
 
@@ -188,6 +192,15 @@ def peer_summary(rows: list[dict]) -> list[str]:
             f"{gm('seconds', 'peer_seconds'):.2f}x; {over} over 1.5x (mean); peer closed "
             f"{sum(bool(r['peer_closed']) for r in mine)}/{len(mine)}, crashed "
             f"{sum(r['kind'] == kind and r.get('peer_depth') == 'crashed' for r in rows)}"
+        )
+    peer = [r for r in rows if "peer_euler" in r]
+    if peer:
+        lines.append(
+            f"peer with the input's Euler characteristic "
+            f"{sum(r['peer_euler'] == r['euler_input'] for r in peer)}/{len(peer)} (ours "
+            f"{sum(r['euler'] == r['euler_input'] for r in peer)}), within 1 % of the truth "
+            f"both ways {sum(r['peer_truth_hausdorff_pct'] <= 1.0 for r in peer)}/{len(peer)} "
+            f"(ours {sum(r['truth_hausdorff_pct'] <= 1.0 for r in peer)})"
         )
     return lines
 
@@ -256,6 +269,8 @@ def main(argv=None) -> int:
         "peer_depth",
         "peer_triangles",
         "peer_closed",
+        "peer_euler",
+        "peer_truth_hausdorff_pct",
         "peer_mean_pct",
         "peer_hausdorff_pct",
         "peer_seconds",

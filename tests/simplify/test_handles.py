@@ -6,14 +6,17 @@ import numpy as np
 import pytest
 from skimage.measure import marching_cubes
 
-from pointatlas.simplify import mesh_checks
+from pointatlas.simplify import _handles, mesh_checks
 from pointatlas.simplify._handles import (
     HANDLE_MARGIN,
     HANDLE_STEPS,
     _graph,
     _grow_all,
+    _one_piece,
+    _region_triangles,
     cut_handles,
 )
+from pointatlas.simplify._mesh import vertex_pieces
 
 STEP = 0.05
 #: the grid step handed to `cut_handles`: handles up to 3 x 0.12 around
@@ -137,3 +140,56 @@ def test_grow_matches_the_plain_reference(shape):
     expected = [_grow_reference(v, t, s, radius, margin) for s in seeds]
     assert (found >= 0.0).sum() > 0
     np.testing.assert_allclose(found, expected, rtol=1e-12)
+
+
+def _one_piece_reference(loop_ptr, loop_v, tri, vt_ptr, vt_idx, removed, cap_next):
+    """Plain `_one_piece`: the pieces of the whole surface after the cut (the
+    triangles left, the earlier caps as edges along their loops, the new caps as
+    fans), every loop in the first one's."""
+    n = vt_ptr.shape[0] - 1
+    loops = [loop_v[a:b] for a, b in zip(loop_ptr[:-1], loop_ptr[1:], strict=True)]
+    ring = np.flatnonzero(cap_next >= 0)
+    earlier = np.stack([ring, cap_next[ring], cap_next[ring]], axis=1)
+    fans = [
+        np.stack([loop, np.roll(loop, -1), np.full(loop.size, n + j)], axis=1)
+        for j, loop in enumerate(loops)
+    ]
+    comp = vertex_pieces(np.vstack([tri[~removed], earlier, *fans]), n + len(loops))
+    return bool(all(comp[loop[0]] == comp[loops[0][0]] for loop in loops))
+
+
+def _two_rings_and_a_neck(x, y, z):
+    """A ball with two thin rings (handles) and a thin neck to a second ball."""
+    ball = np.linalg.norm([x, y + 0.3, z], axis=0) - 0.45
+    ring_a = np.hypot(np.hypot(x - 0.5, y + 0.3) - 0.25, z) - 0.05
+    ring_b = np.hypot(np.hypot(x + 0.5, y + 0.3) - 0.25, z) - 0.05
+    other = np.linalg.norm([x, y - 0.85, z], axis=0) - 0.3
+    neck = np.maximum(np.hypot(x, z) - 0.06, np.abs(y - 0.3) - 0.3)
+    return np.minimum(np.minimum(ball, other), np.minimum(np.minimum(ring_a, ring_b), neck))
+
+
+def test_one_piece_and_region_triangles_match_the_plain_pass_over_the_surface(monkeypatch):
+    # every candidate of a cut with both answers (two rings cut, the neck's loops
+    # kept), and after the first cut with its caps: the search and the pieces of the
+    # whole surface agree, and so do the region's triangles and the pass over all
+    v, t = _surface(_two_rings_and_a_neck)
+    answers = []
+
+    def both(loop_ptr, loop_v, tri, vt_ptr, vt_idx, removed, cap_next):
+        got = _one_piece(loop_ptr, loop_v, tri, vt_ptr, vt_idx, removed, cap_next)
+        assert got == _one_piece_reference(loop_ptr, loop_v, tri, vt_ptr, vt_idx, removed, cap_next)
+        answers.append((got, bool((cap_next >= 0).any())))
+        return got
+
+    def region(inner, mine, tri, vt_ptr, vt_idx):
+        got = _region_triangles(inner, mine, tri, vt_ptr, vt_idx)
+        assert np.array_equal(got, mine[tri].all(axis=1))
+        return got
+
+    monkeypatch.setattr(_handles, "_one_piece", both)
+    monkeypatch.setattr(_handles, "_region_triangles", region)
+    v2, t2, n_cut = cut_handles(v, t, CUT)
+    assert n_cut == 2
+    assert _euler(t2) == 2 and all(mesh_checks(v2.shape[0], t2))
+    assert (True, True) in answers  # a cut after an earlier one's caps
+    assert any(not got for got, _ in answers)  # the neck: a loop that separates

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import get_num_threads, njit, prange
 
-from ._mesh import unique_pairs, vertex_pieces
+from ._mesh import unique_pairs
 
 __all__ = ["HANDLE_MARGIN", "HANDLE_STEPS", "HANDLE_STRIDE", "cut_handles"]
 
@@ -197,11 +197,80 @@ def _loops(tri, gone, n):
     return loops
 
 
-def _one_piece(tri, loops, n):
-    """Whether the triangles ``tri`` join every loop to the first (cutting along the
-    loops separates nothing: they go around a handle)."""
-    comp = vertex_pieces(tri, n)
-    return bool(np.all(comp[[loop[0] for loop in loops]] == comp[loops[0][0]]))
+@njit(cache=True)
+def _region_triangles(inner, mine, tri, vt_ptr, vt_idx):
+    """The triangles whose three vertices are in the region (``mine``), found around
+    its vertices ``inner`` (the same as ``mine[tri].all(axis=1)``, without a pass
+    over every triangle)."""
+    out = np.zeros(tri.shape[0], dtype=np.bool_)
+    for v in inner:
+        for a in range(vt_ptr[v], vt_ptr[v + 1]):
+            t = vt_idx[a]
+            if mine[tri[t, 0]] and mine[tri[t, 1]] and mine[tri[t, 2]]:
+                out[t] = True
+    return out
+
+
+@njit(cache=True)
+def _one_piece(loop_ptr, loop_v, tri, vt_ptr, vt_idx, removed, cap_next):
+    """Whether cutting the region out and capping its loops leaves them joined: a
+    breadth-first search from the first loop over the triangles not ``removed`` (the
+    cut ones and the region's), the caps of earlier cuts (``cap_next``: each loop
+    vertex's successor on its loop, -1 elsewhere; a fan joins its loop's vertices)
+    and the new caps (loop ``i``: ``loop_v[loop_ptr[i]:loop_ptr[i + 1]]``), stopped
+    when it has reached every loop (they go around a handle) or has nothing left (a
+    loop around a neck or a finger: the cut would cut a piece off). The same answer
+    as the pieces of the whole surface after the cut (`vertex_pieces`; the plain
+    version in tests/simplify/test_handles.py), without a pass over all of it."""
+    n = vt_ptr.shape[0] - 1
+    n_loops = loop_ptr.shape[0] - 1
+    if n_loops < 2:
+        return True
+    loop_of = np.full(n, -1, dtype=np.int64)
+    for i in range(n_loops):
+        for a in range(loop_ptr[i], loop_ptr[i + 1]):
+            loop_of[loop_v[a]] = i
+    seen = np.zeros(n, dtype=np.bool_)
+    queue = np.empty(n, dtype=np.int64)
+    reached = np.zeros(n_loops, dtype=np.bool_)
+    reached[0] = True
+    n_reached, tail = 1, 0
+    for a in range(loop_ptr[0], loop_ptr[1]):
+        seen[loop_v[a]] = True
+        queue[tail] = loop_v[a]
+        tail += 1
+    head = 0
+    while head < tail:
+        v = queue[head]
+        head += 1
+        i = loop_of[v]
+        if i >= 0 and not reached[i]:
+            reached[i] = True
+            n_reached += 1
+            if n_reached == n_loops:
+                return True
+            for a in range(loop_ptr[i], loop_ptr[i + 1]):
+                u = loop_v[a]
+                if not seen[u]:
+                    seen[u] = True
+                    queue[tail] = u
+                    tail += 1
+        u = cap_next[v]
+        if u >= 0 and not seen[u]:
+            seen[u] = True
+            queue[tail] = u
+            tail += 1
+        for a in range(vt_ptr[v], vt_ptr[v + 1]):
+            t = vt_idx[a]
+            if removed[t]:
+                continue
+            for c in range(3):
+                u = tri[t, c]
+                if not seen[u]:
+                    seen[u] = True
+                    queue[tail] = u
+                    tail += 1
+    return False
 
 
 def cut_handles(verts, tri, step: float):
@@ -221,30 +290,32 @@ def cut_handles(verts, tri, step: float):
     done = np.zeros(n, dtype=bool)
     gone = np.zeros(tri.shape[0], dtype=bool)
     caps, centres, n_cut = [], [], 0
+    cap_next = np.full(n, -1, dtype=np.int64)
     region = np.empty(n + 1, dtype=np.int64)
     for seed in seeds[order]:
         if done[seed]:
             continue
         _grow(np.array([seed]), radius, margin, *graph[:5], tri, *graph[5:], region)
+        inner = region[: np.argmax(region < 0)]
         mine = np.zeros(n, dtype=bool)
-        mine[region[: np.argmax(region < 0)]] = True
+        mine[inner] = True
         if done[mine].any():
             continue
         done[mine] = True
-        here = mine[tri].all(axis=1)
+        here = _region_triangles(inner, mine, tri, *graph[3:5])
         loops = _loops(tri, here, n)
         if loops is None:
             continue
-        fans = [
-            np.stack([np.roll(loop, -1), loop, np.full(loop.size, n + len(centres) + j)], axis=1)
-            for j, loop in enumerate(loops)
-        ]
-        after = np.vstack([tri[~(gone | here)], *caps, *fans])
-        if not _one_piece(after, loops, n + len(centres) + len(loops)):
+        loop_ptr = np.cumsum([0] + [loop.size for loop in loops]).astype(np.int64)
+        loop_v = np.concatenate(loops)
+        if not _one_piece(loop_ptr, loop_v, tri, *graph[3:5], gone | here, cap_next):
             continue
         gone |= here
         n_cut += 1
-        caps += fans
+        for j, loop in enumerate(loops):
+            centre = n + len(centres) + j
+            caps.append(np.stack([np.roll(loop, -1), loop, np.full(loop.size, centre)], axis=1))
+            cap_next[loop] = np.roll(loop, -1)
         centres += [verts[loop].mean(axis=0) for loop in loops]
     if not caps:
         return verts, tri, 0

@@ -215,7 +215,12 @@ def _band_sides(q, normals, tree, x, step, spacing):
     k = min(FIELD_K, q.shape[0])
     d, j = tree.query(x, k=k, workers=-1)
     d, j = d.reshape(x.shape[0], k), j.reshape(x.shape[0], k).astype(np.int64, copy=False)
-    gauss = np.exp(-((d / step) ** 2))
+    # exp(-(d / step)^2) in one array, not four: the same bits without three
+    # temporaries of the band's size (3.3 million values on a CAD part's 416,000 nodes)
+    gauss = np.divide(d, step)
+    np.square(gauss, out=gauss)
+    np.negative(gauss, out=gauss)
+    np.exp(gauss, out=gauss)
     # writable C copies: one compiled signature whatever the caller's arrays
     q = np.array(q, dtype=np.float64, order="C")
     normals = np.array(normals, dtype=np.float64, order="C")
