@@ -211,66 +211,48 @@ def _region_triangles(inner, mine, tri, vt_ptr, vt_idx):
     return out
 
 
+@njit(cache=True, inline="always")
+def _visit(u, seen, queue, tail) -> int:
+    """``u`` onto the search's ``queue`` unless ``seen``; the queue's new length."""
+    if u < 0 or seen[u]:
+        return tail
+    seen[u] = True
+    queue[tail] = u
+    return tail + 1
+
+
 @njit(cache=True)
-def _one_piece(loop_ptr, loop_v, tri, vt_ptr, vt_idx, removed, cap_next):
+def _one_piece(starts, tri, vt_ptr, vt_idx, removed, ring):
     """Whether cutting the region out and capping its loops leaves them joined: a
-    breadth-first search from the first loop over the triangles not ``removed`` (the
-    cut ones and the region's), the caps of earlier cuts (``cap_next``: each loop
-    vertex's successor on its loop, -1 elsewhere; a fan joins its loop's vertices)
-    and the new caps (loop ``i``: ``loop_v[loop_ptr[i]:loop_ptr[i + 1]]``), stopped
-    when it has reached every loop (they go around a handle) or has nothing left (a
-    loop around a neck or a finger: the cut would cut a piece off). The same answer
-    as the pieces of the whole surface after the cut (`vertex_pieces`; the plain
-    version in tests/simplify/test_handles.py), without a pass over all of it."""
-    n = vt_ptr.shape[0] - 1
-    n_loops = loop_ptr.shape[0] - 1
-    if n_loops < 2:
-        return True
-    loop_of = np.full(n, -1, dtype=np.int64)
-    for i in range(n_loops):
-        for a in range(loop_ptr[i], loop_ptr[i + 1]):
-            loop_of[loop_v[a]] = i
+    breadth-first search from the first loop's vertex ``starts[0]`` over the
+    triangles not ``removed`` (the cut ones and the region's) and the caps, its own
+    and the earlier cuts' (``ring``: each loop vertex's successor on its loop, -1
+    elsewhere; a cap's fan joins its loop's vertices), stopped when it has reached
+    every loop (``starts``: a vertex of each; they go around a handle) or has
+    nothing left (a loop around a neck or a finger: the cut would cut a piece off).
+    The same answer as the pieces of the whole surface after the cut
+    (`vertex_pieces`; the plain version in tests/simplify/test_handles.py), without
+    a pass over all of it."""
+    n = ring.shape[0]
     seen = np.zeros(n, dtype=np.bool_)
+    goal = np.zeros(n, dtype=np.bool_)
+    goal[starts[1:]] = True
+    left = starts.shape[0] - 1
     queue = np.empty(n, dtype=np.int64)
-    reached = np.zeros(n_loops, dtype=np.bool_)
-    reached[0] = True
-    n_reached, tail = 1, 0
-    for a in range(loop_ptr[0], loop_ptr[1]):
-        seen[loop_v[a]] = True
-        queue[tail] = loop_v[a]
-        tail += 1
+    tail = _visit(starts[0], seen, queue, 0)
     head = 0
-    while head < tail:
+    while head < tail and left > 0:
         v = queue[head]
         head += 1
-        i = loop_of[v]
-        if i >= 0 and not reached[i]:
-            reached[i] = True
-            n_reached += 1
-            if n_reached == n_loops:
-                return True
-            for a in range(loop_ptr[i], loop_ptr[i + 1]):
-                u = loop_v[a]
-                if not seen[u]:
-                    seen[u] = True
-                    queue[tail] = u
-                    tail += 1
-        u = cap_next[v]
-        if u >= 0 and not seen[u]:
-            seen[u] = True
-            queue[tail] = u
-            tail += 1
+        if goal[v]:
+            left -= 1
+        tail = _visit(ring[v], seen, queue, tail)
         for a in range(vt_ptr[v], vt_ptr[v + 1]):
             t = vt_idx[a]
-            if removed[t]:
-                continue
-            for c in range(3):
-                u = tri[t, c]
-                if not seen[u]:
-                    seen[u] = True
-                    queue[tail] = u
-                    tail += 1
-    return False
+            if not removed[t]:
+                for c in range(3):
+                    tail = _visit(tri[t, c], seen, queue, tail)
+    return left == 0
 
 
 def cut_handles(verts, tri, step: float):
@@ -290,7 +272,7 @@ def cut_handles(verts, tri, step: float):
     done = np.zeros(n, dtype=bool)
     gone = np.zeros(tri.shape[0], dtype=bool)
     caps, centres, n_cut = [], [], 0
-    cap_next = np.full(n, -1, dtype=np.int64)
+    ring = np.full(n, -1, dtype=np.int64)  # the caps' loops: each vertex's successor
     region = np.empty(n + 1, dtype=np.int64)
     for seed in seeds[order]:
         if done[seed]:
@@ -306,16 +288,20 @@ def cut_handles(verts, tri, step: float):
         loops = _loops(tri, here, n)
         if loops is None:
             continue
-        loop_ptr = np.cumsum([0] + [loop.size for loop in loops]).astype(np.int64)
-        loop_v = np.concatenate(loops)
-        if not _one_piece(loop_ptr, loop_v, tri, *graph[3:5], gone | here, cap_next):
+        # the loops join as their caps would: kept when cut, taken back when not
+        # (no loop vertex lies on an earlier cut's loop: those are done)
+        for loop in loops:
+            ring[loop] = np.roll(loop, -1)
+        starts = np.array([loop[0] for loop in loops], dtype=np.int64)
+        if not _one_piece(starts, tri, *graph[3:5], gone | here, ring):
+            for loop in loops:
+                ring[loop] = -1
             continue
         gone |= here
         n_cut += 1
         for j, loop in enumerate(loops):
             centre = n + len(centres) + j
             caps.append(np.stack([np.roll(loop, -1), loop, np.full(loop.size, centre)], axis=1))
-            cap_next[loop] = np.roll(loop, -1)
         centres += [verts[loop].mean(axis=0) for loop in loops]
     if not caps:
         return verts, tri, 0
