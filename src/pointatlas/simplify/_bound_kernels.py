@@ -42,7 +42,7 @@ REACH_SLACK = 1.0 + 1e-9
 __all__ = ["link_points", "move_points", "nearest_of", "points_stay"]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def nearest_of(pts, v, tri, candidates):
     """Of each point's ``candidates`` (P, K) triangles, the nearest and its squared
     distance."""
@@ -171,35 +171,48 @@ def _points_kept(pts, tol2, start2, reach, pbuf, pslot, pnew, n_points, corners,
 def _all_near(y, n_y, pts, normals, radius, back2, origin, cell, dims, start, order) -> bool:
     """Whether every row of ``y[:n_y]`` is within the tolerance of a point of the grid
     cells around it (``back2``): the point's height over its tangent plane, and its
-    distance past its disc."""
+    distance past its disc. The cell of the row first (where such a point mostly
+    is), then the others of the (up to) 3 x 3 x 3 around it."""
     for r in range(n_y):
         y0, y1, y2 = y[r, 0], y[r, 1], y[r, 2]
         c0 = int(np.floor((y0 - origin[0]) / cell))
         c1 = int(np.floor((y1 - origin[1]) / cell))
         c2 = int(np.floor((y2 - origin[2]) / cell))
+        inside = 0 <= c0 < dims[0] and 0 <= c1 < dims[1] and 0 <= c2 < dims[2]
+        own = (c0 * dims[1] + c1) * dims[2] + c2
+        first, last = (start[own], start[own + 1]) if inside else (0, 0)
+        if _near_in(y0, y1, y2, first, last, pts, normals, radius, back2, order):
+            continue
         i0, j0, k0 = max(c0 - 1, 0), max(c1 - 1, 0), max(c2 - 1, 0)
         ni = min(c0 + 2, dims[0]) - i0
         nj = min(c1 + 2, dims[1]) - j0
         nk = min(c2 + 2, dims[2]) - k0
         found = False
-        # the (up to) 3 x 3 x 3 cells around y, one after the other
         for c in range(max(ni, 0) * max(nj, 0) * max(nk, 0)):
             i, j, k = i0 + c // (nj * nk), j0 + (c // nk) % nj, k0 + c % nk
             key = (i * dims[1] + j) * dims[2] + k
-            for s in range(start[key], start[key + 1]):
-                p = order[s]
-                o0, o1, o2 = y0 - pts[p, 0], y1 - pts[p, 1], y2 - pts[p, 2]
-                h = o0 * normals[p, 0] + o1 * normals[p, 1] + o2 * normals[p, 2]
-                t = np.sqrt(max(o0 * o0 + o1 * o1 + o2 * o2 - h * h, 0.0))
-                past = max(t - radius[p], 0.0)
-                if h * h + past * past <= back2[p]:
-                    found = True
-                    break
-            if found:
+            if inside and key == own:
+                continue
+            if _near_in(y0, y1, y2, start[key], start[key + 1], pts, normals, radius, back2, order):
+                found = True
                 break
         if not found:
             return False
     return True
+
+
+@njit(cache=True, inline="always")
+def _near_in(y0, y1, y2, first, last, pts, normals, radius, back2, order) -> bool:
+    """Whether a point of ``order[first:last]`` is within its tolerance of y."""
+    for s in range(first, last):
+        p = order[s]
+        o0, o1, o2 = y0 - pts[p, 0], y1 - pts[p, 1], y2 - pts[p, 2]
+        h = o0 * normals[p, 0] + o1 * normals[p, 1] + o2 * normals[p, 2]
+        t = np.sqrt(max(o0 * o0 + o1 * o1 + o2 * o2 - h * h, 0.0))
+        past = max(t - radius[p], 0.0)
+        if h * h + past * past <= back2[p]:
+            return True
+    return False
 
 
 @njit(cache=True)

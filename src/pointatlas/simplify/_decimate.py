@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._bound_kernels import nearest_of
-from ._kernels import collapse_edges, replay
+from ._kernels import add_rows, collapse_edges, replay
 from ._mesh import unique_pairs
 
 __all__ = ["Collapses", "collapse_all", "decimate"]
@@ -287,14 +287,11 @@ def _vertex_quadrics(v, tri, labels, planes, structure) -> np.ndarray:
 
 def _summed(at, terms, n: int) -> np.ndarray:
     """``out[at[k][i]] += terms[k][i]`` for every k and i in turn, from zeros (n,) or
-    (n, C): the sums of ``np.add.at`` term after term, bit for bit (``np.bincount``
-    adds its weights in their order, one column at a time), without its per-element
-    cost."""
-    idx = np.concatenate(at)
-    if terms[0].ndim == 1:
-        return np.bincount(idx, weights=np.concatenate(terms), minlength=n)
-    out = np.empty((n, terms[0].shape[1]))
-    for c in range(out.shape[1]):
-        w = np.concatenate([k[:, c] for k in terms])
-        out[:, c] = np.bincount(idx, weights=w, minlength=n)
-    return out
+    (n, C): the sums of ``np.add.at`` term after term, bit for bit (`_kernels.
+    add_rows` adds in the same order), without its per-element cost."""
+    flat = terms[0].ndim == 1
+    out = np.zeros((n, 1 if flat else terms[0].shape[1]))
+    for idx, w in zip(at, terms, strict=True):
+        w = np.ascontiguousarray(w.reshape(-1, 1) if flat else w, dtype=np.float64)
+        add_rows(np.ascontiguousarray(idx, dtype=np.int64), w, out)
+    return out[:, 0] if flat else out

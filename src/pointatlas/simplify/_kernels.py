@@ -3,14 +3,13 @@
 
 from __future__ import annotations
 
-import heapq
-
 import numpy as np
 from numba import njit
 
 from ._bound_kernels import link_points, move_points, points_stay
+from ._heap import heap_grown, heap_pop, heap_push, heapify
 
-__all__ = ["band_field", "collapse_edges", "collapse_position", "replay", "turns_over"]
+__all__ = ["add_rows", "band_field", "collapse_edges", "collapse_position", "replay", "turns_over"]
 
 
 @njit(cache=True)
@@ -105,23 +104,27 @@ def _flips(v, tri, f, w, x) -> bool:
 
 
 @njit(cache=True)
-def _edge_entry(v, q, a, b, version, tie, qab):
-    """The heap entry of edge (a, b): cost (plus ``tie`` x the squared squared length,
-    so that flat parts decimate evenly), ends, their versions, position. ``qab``
-    (4, 4) is scratch for the edge's quadric (no array made per entry)."""
+def _edge_cost(v, q, a, b, tie, qab, x) -> float:
+    """The heap cost of edge (a, b): its quadric's least cost, plus ``tie`` x the
+    squared squared length (so that flat parts decimate evenly); where that is, into
+    ``x`` (3,). ``qab`` (4, 4) is scratch for the edge's quadric (no array made per
+    edge). The same inputs give the same bits: the loop finds an entry's position
+    again when it pops it, its ends unchanged since."""
     for i in range(4):
         for j in range(4):
             qab[i, j] = q[a, i, j] + q[b, i, j]
-    cost, x, y, z = collapse_position(qab, v[a], v[b])
+    cost, x[0], x[1], x[2] = collapse_position(qab, v[a], v[b])
     d0, d1, d2 = v[a, 0] - v[b, 0], v[a, 1] - v[b, 1], v[a, 2] - v[b, 2]
     dd = d0 * d0 + d1 * d1 + d2 * d2
-    return (max(cost, 0.0) + tie * dd * dd, a, b, version[a], version[b], x, y, z)
+    return max(cost, 0.0) + tie * dd * dd
 
 
 @njit(cache=True)
-def _relink(head, nxt, alive, a, b) -> None:
-    """Corner list of ``a`` := the live corners of ``a`` and ``b``; ``b``'s emptied."""
+def _relink(head, nxt, alive, a, b) -> int:
+    """Corner list of ``a`` := the live corners of ``a`` and ``b``; ``b``'s emptied.
+    Returns how many corners ``a`` has."""
     new_head = -1
+    n = 0
     for start in (head[a], head[b]):
         c = start
         while c != -1:
@@ -129,9 +132,11 @@ def _relink(head, nxt, alive, a, b) -> None:
             if alive[c // 3]:
                 nxt[c] = new_head
                 new_head = c
+                n += 1
             c = nc
     head[a] = new_head
     head[b] = -1
+    return n
 
 
 @njit(cache=True)
@@ -240,15 +245,22 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried):
             nxt[c] = head[tri[f, i]]
             head[tri[f, i]] = c
     alive = np.ones(n_t, dtype=np.bool_)
-    version = np.zeros(n_v, dtype=np.int64)
+    # entries are numbered as pushed; one pushed before the last change of an end
+    # (``changed``: the number of the next entry then) is stale
+    changed = np.zeros(n_v, dtype=np.int64)
     mark = np.zeros((n_v, 2), dtype=np.int64)
     stamp = np.zeros(2, dtype=np.int64)
     shared = np.zeros(2, dtype=np.int64)
     qab = np.empty((4, 4))
-    heap = [_edge_entry(v, q, edges[0, 0], edges[0, 1], version, tie, qab)]
-    for e in range(1, edges.shape[0]):
-        heap.append(_edge_entry(v, q, edges[e, 0], edges[e, 1], version, tie, qab))
-    heapq.heapify(heap)
+    x = np.empty(3)
+    n_heap = edges.shape[0]
+    hc = np.empty(2 * n_heap)
+    hk, hd = np.empty(2 * n_heap, np.int64), np.empty(2 * n_heap, np.int64)
+    for e in range(n_heap):
+        a, b = edges[e, 0], edges[e, 1]
+        hc[e], hk[e], hd[e] = _edge_cost(v, q, a, b, tie, qab, x), a * n_v + b, e
+    heapify(hc, hk, hd, n_heap)
+    pushed = n_heap
     n_p = carried[0].shape[0]
     phead, pnext = link_points(carried[3], n_t)
     work = (
@@ -270,12 +282,13 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried):
         np.empty(n_v),
     )
     n, n_alive = 0, n_t
-    x = np.empty(3)
-    while heap and n_alive > target:
-        cost, a, b, va, vb, x0, x1, x2 = heapq.heappop(heap)
-        if version[a] != va or version[b] != vb or head[a] == -1 or head[b] == -1:
+    while n_heap > 0 and n_alive > target:
+        cost, key, number = heap_pop(hc, hk, hd, n_heap)
+        n_heap -= 1
+        a, b = key // n_v, key % n_v
+        if number < changed[a] or number < changed[b] or head[a] == -1 or head[b] == -1:
             continue
-        x[0], x[1], x[2] = x0, x1, x2
+        _edge_cost(v, q, a, b, tie, qab, x)
         ns = _collapsible(v, tri, head, nxt, alive, a, b, x, mark, stamp, shared)
         if ns == 0 or (ns == 2 and on_boundary[a] and on_boundary[b]):
             continue  # an inner edge between two boundary vertices would pinch
@@ -292,25 +305,28 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried):
         while c != -1:
             tri[c // 3, c % 3] = a
             c = nxt[c]
-        _relink(head, nxt, alive, a, b)
+        n_corners = _relink(head, nxt, alive, a, b)
         if n_p > 0:
             move_points(n_ring, n_points, phead, pnext, work)
         v[a] = x
         q[a] += q[b]
         on_boundary[a] = on_boundary[a] or on_boundary[b]
-        version[a] += 1
-        version[b] += 1
+        changed[a] = changed[b] = pushed
         out[0][n], out[1][n], out[3][n], out[4][n] = a, b, ns, cost
         out[2][n] = x
         n_alive -= ns
         n += 1
-        _push_around(heap, v, q, tri, head, nxt, a, version, tie, qab, mark, stamp)
+        hc, hk, hd = heap_grown(hc, hk, hd, n_heap, 2 * n_corners)
+        heap = (hc, hk, hd, n_heap, pushed)
+        n_heap, pushed = _push_around(heap, v, q, tri, head, nxt, a, tie, qab, x, mark, stamp)
     return out[0][:n], out[1][:n], out[2][:n], out[3][:n], out[4][:n]
 
 
 @njit(cache=True)
-def _push_around(heap, v, q, tri, head, nxt, a, version, tie, qab, mark, stamp) -> None:
-    """Every edge of ``a`` onto the heap, each once."""
+def _push_around(heap, v, q, tri, head, nxt, a, tie, qab, x, mark, stamp):
+    """Every edge of ``a`` onto the heap ``(cost, key, number arrays, entries, entries
+    pushed so far)``, each once (``x`` (3,): scratch); returns the two counts after."""
+    hc, hk, hd, n_heap, pushed = heap
     stamp[0] += 1
     c = head[a]
     while c != -1:
@@ -319,8 +335,22 @@ def _push_around(heap, v, q, tri, head, nxt, a, version, tie, qab, mark, stamp) 
             u = tri[f, i]
             if u != a and mark[u, 0] != stamp[0]:
                 mark[u, 0] = stamp[0]
-                heapq.heappush(heap, _edge_entry(v, q, a, u, version, tie, qab))
+                cost = _edge_cost(v, q, a, u, tie, qab, x)
+                heap_push(hc, hk, hd, n_heap, cost, a * v.shape[0] + u, pushed)
+                n_heap += 1
+                pushed += 1
         c = nxt[c]
+    return n_heap, pushed
+
+
+@njit(cache=True, nogil=True)
+def add_rows(idx, w, out) -> None:
+    """``out[idx[i]] += w[i]`` for every i in turn (``w`` (n, C), ``out`` (V, C)): the
+    sums of ``np.add.at`` and of ``np.bincount`` with weights, in their order."""
+    for i in range(idx.shape[0]):
+        r = idx[i]
+        for c in range(w.shape[1]):
+            out[r, c] += w[i, c]
 
 
 @njit(cache=True)
