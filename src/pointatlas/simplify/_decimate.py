@@ -16,6 +16,7 @@ input's regions, decimated.
 
 from __future__ import annotations
 
+from concurrent.futures import Future
 from dataclasses import dataclass
 
 import numpy as np
@@ -171,7 +172,9 @@ def collapse_all(
     tolerance from the triangles, or leave a triangle farther than ``back``
     (default: ``tolerance``) from the points, is refused, so that every level keeps
     every point within it (`_bound_kernels`; a point already farther at first may
-    stay as far)."""
+    stay as far). ``tolerance`` may be a `concurrent.futures.Future` of the pair
+    ``(tolerance, back)``: waited for once the quadrics and the points' first owners
+    are found (on a thread, `Decimation.start`, while the caller measures them)."""
     v = np.array(vertices, dtype=np.float64)
     tri = np.array(triangles, dtype=np.int64)
     n_v = v.shape[0]
@@ -180,33 +183,46 @@ def collapse_all(
     edge, count = unique_pairs(und, return_counts=True)
     on_boundary = np.zeros(n_v, dtype=bool)
     on_boundary[edge[count == 1].reshape(-1)] = True
+    owners = None if surface is None else _owners(surface, v, tri)
+    if isinstance(tolerance, Future):
+        tolerance, back = tolerance.result()
     if edge.shape[0] == 0:
         return no_collapses(v, tri)
-    carried = _carried(surface, tolerance, back, v, tri)
+    carried = _carried(surface, owners, tolerance, back)
     kept, gone, position, removed, cost = collapse_edges(
         v.copy(), tri, q, on_boundary, edge.astype(np.int64), _TIE, int(target or 0), carried
     )
     return Collapses(v, tri, kept, gone, position, removed, cost)
 
 
-def _carried(surface, tolerance, back, v, tri):
-    """`collapse_edges`' ``carried`` (`_bound_kernels.points_stay`): the points of
-    ``surface`` (`PointSurface`), their squared tolerances, squared distances to
-    their owners (the nearest of the triangles whose centroids are their
-    `_OWNER_CANDIDATES` nearest), owners, normals, disc radii, squared tolerances
-    back (``back``, default ``tolerance``) and the points in grid cells
-    (`_point_cells`); no rows without a surface."""
-    if surface is None:
-        empty, none = np.zeros(0), np.zeros((0, 3))
-        return (none, empty, empty, np.zeros(0, dtype=np.int64), none, empty, empty, *_no_cells())
+def _owners(surface, v, tri):
+    """The points of ``surface`` (`PointSurface`), each one's first owner (the nearest
+    of the triangles whose centroids are its `_OWNER_CANDIDATES` nearest) and its
+    squared distance to it."""
     from scipy.spatial import cKDTree
 
     pts = np.ascontiguousarray(surface.points, dtype=np.float64)
+    if tri.shape[0] == 0:
+        return pts, np.zeros(0, dtype=np.int64), np.zeros(0)
     n_p = pts.shape[0]
     centroids = v[tri].mean(axis=1)
     k = min(_OWNER_CANDIDATES, tri.shape[0])
     _, cand = cKDTree(centroids).query(pts, k=k, workers=-1)
     owner, d2 = nearest_of(pts, v, tri, cand.reshape(n_p, k).astype(np.int64))
+    return pts, owner, d2
+
+
+def _carried(surface, owners, tolerance, back):
+    """`collapse_edges`' ``carried`` (`_bound_kernels.points_stay`): the points of
+    ``surface`` (`PointSurface`), their squared tolerances, squared distances to
+    their owners and owners (``owners``: `_owners`), normals, disc radii, squared
+    tolerances back (``back``, default ``tolerance``) and the points in grid cells
+    (`_point_cells`); no rows without a surface."""
+    if surface is None:
+        empty, none = np.zeros(0), np.zeros((0, 3))
+        return (none, empty, empty, np.zeros(0, dtype=np.int64), none, empty, empty, *_no_cells())
+    pts, owner, d2 = owners
+    n_p = pts.shape[0]
     tol = np.broadcast_to(np.asarray(tolerance, dtype=np.float64), (n_p,))
     back = tol if back is None else np.broadcast_to(np.asarray(back, dtype=np.float64), (n_p,))
     normals = np.zeros((n_p, 3)) if surface.normals is None else surface.normals

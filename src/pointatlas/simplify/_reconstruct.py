@@ -440,6 +440,29 @@ def _default_steps(level, measure, surface, bound, neighbors, budget):
     return steps
 
 
+def _start_collapses(level, measure, verts, tri, bound, max_error, neighbors):
+    """The collapses of a closed surface on a thread (`Decimation.start`), while the
+    floors of the level search are set from level 0's measure: none takes a point
+    past `COLLAPSE_SHARE` of the bound (or of its floor, `there_floor_of`, by
+    default), nor a triangle past the bound (or as far as level 0 was from the
+    points). The thread finds the quadrics and the points' owners while those bounds
+    are measured here."""
+    from concurrent.futures import Future
+
+    bounds = Future()
+    level.start(True, surface=measure.surface, tolerance=bounds)
+    try:
+        tol = bound
+        if max_error is None:  # the floor of `floor_at`, from the points' side
+            tol = measure.there_floor_of(verts, tri, bound, neighbors)
+        # back: the tolerance, or as far as level 0 is near the point if more
+        back = np.maximum(tol, measure.back_near_points(verts, tri, neighbors))
+    except BaseException as exc:  # the thread waits for them: it stops too
+        bounds.set_exception(exc)
+        raise
+    bounds.set_result((COLLAPSE_SHARE * tol, back))
+
+
 def robust_mesh(
     q,
     normals,
@@ -519,15 +542,7 @@ def robust_mesh(
         bound,
     )
     if max_triangles is None and outline_vertices(rec.triangles).size == 0:
-        # on a closed surface no collapse takes a point past half the bound, nor a
-        # triangle past the bound (or as far as each was at first); on a thread while
-        # the floors of the level search are set from level 0's measure
-        tol = bound
-        if max_error is None:  # the floor of `floor_at`, from the points' side
-            tol = measure.there_floor_of(verts, rec.triangles, bound, neighbors)
-        # back: the tolerance, or as far as level 0 is near the point if more
-        back = np.maximum(tol, measure.back_near_points(verts, rec.triangles, neighbors))
-        level.start(True, surface=measure.surface, tolerance=COLLAPSE_SHARE * tol, back=back)
+        _start_collapses(level, measure, verts, rec.triangles, bound, max_error, neighbors)
     if max_error is None:
         # the default bound, or what the points' surface reaches there (before or
         # after its placement on the planes, the more), if more
