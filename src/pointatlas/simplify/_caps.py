@@ -37,7 +37,7 @@ import collections
 
 import numpy as np
 
-from ._mesh import cross, unique_pairs
+from ._mesh import cross, unique_pairs, vertex_triangles
 from ._place import _cross
 
 __all__ = [
@@ -409,13 +409,12 @@ def spread_tiny(vertices, triangles, face, planes) -> np.ndarray:
     if tiny is None:
         return v
     v = v.copy()
-    order = np.argsort(tri.reshape(-1), kind="stable")
-    start = np.searchsorted(tri.reshape(-1)[order], np.arange(v.shape[0] + 1))
+    start, around = vertex_triangles(tri, v.shape[0])
     on_outline = outline_vertices(tri)
     reach = CURVED_REACH * float(np.linalg.norm(v[tri[:, [1, 2, 0]]] - v[tri], axis=2).mean())
     for _ in range(_PASSES):
         ends = np.setdiff1d(tri[_areas(v, tri) <= tiny], on_outline)
-        rings = (order[start[i] : start[i + 1]] // 3 for i in ends)  # triangles around
+        rings = (around[start[i] : start[i + 1]] for i in ends)  # triangles around
         if ends.size == 0 or not sum(
             _spread(v, tri, face, planes, ring, i, tiny, reach)
             for i, ring in zip(ends, rings, strict=True)
@@ -508,16 +507,13 @@ def _spread_across(v, tri, face, planes, ring, i: int, tiny: float, reach: float
 class _EdgeOwners:
     """Directed edge ``(a, b)`` -> the triangle of ``tri`` that has it (`get`), looked
     for among the triangles ``a`` had at first (each vertex's listed once, from
-    arrays) and the rows flipped since (``flipped``, changed in place). A dict of
-    every edge cost level 0 of a sampled CAD part (92,842 triangles, 4 caps) 0.09 s
-    to build; this 0.01 s."""
+    arrays, `vertex_triangles`) and the rows flipped since (``flipped``, changed in
+    place). A dict of every edge cost level 0 of a sampled CAD part (92,842
+    triangles, 4 caps) 0.09 s to build; this 0.01 s."""
 
     def __init__(self, tri: np.ndarray):
         self.tri = tri
-        corners = tri.reshape(-1)
-        order = np.argsort(corners, kind="stable")
-        self.first = np.searchsorted(corners[order], np.arange(int(corners.max()) + 2))
-        self.rows = order // 3
+        self.first, self.rows = vertex_triangles(tri, int(tri.max()) + 1)
         self.flipped = set()
 
     def get(self, a: int, b: int):

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import get_num_threads, njit, prange
 
-from ._mesh import unique_pairs
+from ._mesh import unique_pairs, vertex_triangles
 
 __all__ = ["HANDLE_MARGIN", "HANDLE_STEPS", "HANDLE_STRIDE", "cut_handles"]
 
@@ -51,10 +51,7 @@ def _graph(verts, tri):
     a, b = both[:, 0], np.ascontiguousarray(both[:, 1])
     vv_ptr = np.concatenate([[0], np.cumsum(np.bincount(a, minlength=n))]).astype(np.int64)
     vv_len = np.linalg.norm(verts[a] - verts[b], axis=1)
-    corner_of = tri.reshape(-1)
-    by_vertex = np.argsort(corner_of, kind="stable")
-    vt_ptr = np.concatenate([[0], np.cumsum(np.bincount(corner_of, minlength=n))]).astype(np.int64)
-    vt_idx = (by_vertex // 3).astype(np.int64)
+    vt_ptr, vt_idx = vertex_triangles(tri, n)
     return (vv_ptr, b, vv_len, vt_ptr, vt_idx, tri_e, edges.shape[0])
 
 

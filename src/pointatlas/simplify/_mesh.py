@@ -26,6 +26,7 @@ __all__ = [
     "unique_ints",
     "unique_pairs",
     "vertex_pieces",
+    "vertex_triangles",
 ]
 
 
@@ -105,6 +106,22 @@ def vertex_pieces(tri, n: int) -> np.ndarray:
     b = np.concatenate([tri[:, 1], tri[:, 2]])
     graph = coo_matrix((np.ones(a.size), (a, b)), (n, n))
     return connected_components(graph, directed=False)[1]
+
+
+def vertex_triangles(tri, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles around each of ``n`` vertices, as CSR ``(start (n + 1,), rows)``:
+    vertex ``i``'s are ``rows[start[i] : start[i + 1]]``, by row.
+
+    Examples
+    --------
+    >>> start, rows = vertex_triangles(np.array([[0, 1, 2], [2, 1, 3]]), 4)
+    >>> rows[start[1] : start[2]].tolist(), rows[start[3] : start[4]].tolist()
+    ([0, 1], [1])
+    """
+    corners = np.asarray(tri, dtype=np.int64).reshape(-1)
+    order = np.argsort(corners, kind="stable")
+    start = np.searchsorted(corners[order], np.arange(n + 1))
+    return start.astype(np.int64), (order // 3).astype(np.int64)
 
 
 @dataclass(frozen=True, slots=True)
