@@ -14,6 +14,7 @@ from pointatlas.simplify._distance import (
     OUTLINE_NEIGHBORS,
     PointSurface,
 )
+from pointatlas.simplify._grid_knn import GridKnn
 from pointatlas.simplify._snap import fit_to_points, placed_near_points, refit_far
 from pointatlas.synth import sample_mesh
 
@@ -155,14 +156,12 @@ def test_fit_to_points_moves_onto_the_corner_of_three_planes():
         [np.column_stack([a, b, z]), np.column_stack([a, z, b]), np.column_stack([z, a, b])]
     )
     n = np.repeat(-np.eye(3)[[2, 1, 0]], a.size, axis=0)
-    from scipy.spatial import cKDTree
-
     v = np.array([[0.03, 0.02, 0.04], [0.5, 0.5, 0.03]])
-    out = fit_to_points(v, np.zeros((0, 3), np.int64), q, n, cKDTree(q), bound=1.0, k=48)
+    out = fit_to_points(v, np.zeros((0, 3), np.int64), q, n, GridKnn(q, 0.5), bound=1.0, k=48)
     assert out[0] == pytest.approx([0.0, 0.0, 0.0], abs=1e-12)
     # on one face only: straight onto its plane, not along it
     assert out[1] == pytest.approx([0.5, 0.5, 0.0], abs=1e-12)
-    capped = fit_to_points(v, np.zeros((0, 3), np.int64), q, n, cKDTree(q), bound=0.01, k=48)
+    capped = fit_to_points(v, np.zeros((0, 3), np.int64), q, n, GridKnn(q, 0.5), bound=0.01, k=48)
     assert capped[1] == pytest.approx([0.5, 0.5, 0.02], abs=1e-12)
 
 

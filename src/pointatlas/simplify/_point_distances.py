@@ -11,6 +11,8 @@ import copy
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .._core._threads import query_workers
+
 __all__ = [
     "FLOOR_FACTOR",
     "FLOOR_NEIGHBORS",
@@ -233,7 +235,7 @@ class BackFloors:
 
     def near(self, x) -> np.ndarray:
         """The floor at each row of ``x``."""
-        _, i = self.tree.query(x, workers=-1)
+        _, i = self.tree.query(x, workers=query_workers(len(x)))
         i = np.asarray(i, dtype=np.int64).reshape(-1)
         out = np.empty(i.shape[0])
         for layer, a, b in zip(self.layers, self.starts[:-1], self.starts[1:], strict=True):
@@ -242,7 +244,8 @@ class BackFloors:
             if mine.size == 0:
                 continue
             k = min(FLOOR_NEIGHBORS, samples.shape[0])
-            j = tree.query(samples[i[mine] - a], k=k, workers=-1)[1].reshape(mine.size, k)
+            at = samples[i[mine] - a]
+            j = tree.query(at, k=k, workers=query_workers(mine.size, k))[1].reshape(mine.size, k)
             out[mine] = np.minimum(back[j].max(axis=1) + add, cap)
         return out
 

@@ -14,6 +14,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from .._core import PointAtlasError
+from ._grid_knn import GridKnn
 from ._handles import cut_handles
 
 __all__ = [
@@ -147,7 +148,7 @@ def is_closed_sample(q, normals, areas=None) -> bool:
     return bool(np.linalg.norm(area @ normals) <= CLOSED_DIPOLE * area.sum())
 
 
-def _field(q, normals, tree, step, spacing, origin, shape, closed):
+def _field(q, normals, step, spacing, origin, shape, closed):
     """Signed field on the grid nodes: tangent-plane distance in the band, +-band
     beyond it (one sign per connected region of nodes, by a vote of its band border)."""
     width = _band_steps(step, spacing)
@@ -159,7 +160,10 @@ def _field(q, normals, tree, step, spacing, origin, shape, closed):
     band = ndimage.maximum_filter(occupied, size=2 * width + 1, mode="constant", cval=0)
     band[[0, -1], :, :] = band[:, [0, -1], :] = band[:, :, [0, -1]] = False
     nodes = np.argwhere(band)
-    values, thin = _band_sides(q, normals, tree, origin + nodes * step, step, spacing)
+    x = origin + nodes * step
+    # their nearest points on a grid of cells of two steps (3 spacings), not a k-d tree
+    near = GridKnn(q, 2.0 * step).query(x, min(FIELD_K, q.shape[0]))
+    values, thin = _band_sides(q, normals, x, near, step, spacing)
     f = np.zeros(shape, dtype=np.float64)
     f[band] = values
     # regions of nodes beyond the band: one sign each, by the band nodes next to them
@@ -206,15 +210,14 @@ def _thin_keep(band, thin, values):
     return out
 
 
-def _band_sides(q, normals, tree, x, step, spacing):
+def _band_sides(q, normals, x, near, step, spacing):
     """The field at band nodes ``x`` (`_band_values`: `_kernels.band_field`) and
     which of them lie between two sides of a thin part that the grid resolves
-    (`_kernels.thin_sides`: -1 inside a thin wall, +1 in a thin gap, else 0)."""
+    (`_kernels.thin_sides`: -1 inside a thin wall, +1 in a thin gap, else 0), from
+    their `FIELD_K` nearest points ``near`` (distances, indices: nearest first)."""
     from ._kernels import band_field, thin_sides
 
-    k = min(FIELD_K, q.shape[0])
-    d, j = tree.query(x, k=k, workers=-1)
-    d, j = d.reshape(x.shape[0], k), j.reshape(x.shape[0], k).astype(np.int64, copy=False)
+    d, j = near[0], near[1].astype(np.int64, copy=False)
     # exp(-(d / step)^2) in one array, not four: the same bits without three
     # temporaries of the band's size (3.3 million values on a CAD part's 416,000 nodes)
     gauss = np.divide(d, step)
@@ -229,14 +232,18 @@ def _band_sides(q, normals, tree, x, step, spacing):
 
 
 def _band_values(q, normals, tree, x, step, spacing):
-    """The field at band nodes ``x``: the Gaussian-weighted mean of the `FIELD_K`
-    nearest points' tangent-plane distances n . (x - p), only the neighbours about
-    as near as the nearest one speaking (the far side of a thin wall is left out);
-    where their planes disagree on the side (near an edge or a corner, where a plane
-    extended past its face is wrong), the distance to the nearest point with the
-    weighted vote's sign (`band_field`; plain-numpy reference in
-    tests/simplify/reference.py)."""
-    return _band_sides(q, normals, tree, x, step, spacing)[0]
+    """The field at nodes ``x`` anywhere (their nearest points from ``tree``): the
+    Gaussian-weighted mean of the `FIELD_K` nearest points' tangent-plane distances
+    n . (x - p), only the neighbours about as near as the nearest one speaking (the
+    far side of a thin wall is left out); where their planes disagree on the side
+    (near an edge or a corner, where a plane extended past its face is wrong), the
+    distance to the nearest point with the weighted vote's sign (`band_field`;
+    plain-numpy reference in tests/simplify/reference.py). `_field` finds the band
+    nodes' nearest points on a grid instead (`GridKnn`: the same answer)."""
+    k = min(FIELD_K, q.shape[0])
+    d, j = tree.query(x, k=k, workers=-1)
+    near = d.reshape(x.shape[0], k), j.reshape(x.shape[0], k)
+    return _band_sides(q, normals, x, near, step, spacing)[0]
 
 
 def _winding_sides(f, q, normals, occupied, step, spacing, origin):
@@ -371,7 +378,7 @@ def reconstruct_surface(
     step, shape = _grid(hi - lo, max(SPACING_STEPS * spacing, across / MAX_CELLS), spacing)
     origin = lo - (_band_steps(step, spacing) + 2) * step
     closed = is_closed_sample(q, normals, areas)
-    f = _field(q, normals, tree, step, spacing, origin, shape, closed)
+    f = _field(q, normals, step, spacing, origin, shape, closed)
     if not f.min() < 0.0 < f.max():  # no inside (a few sparse points): no surface
         raise PointAtlasError(
             f"simplify could not build a surface from these {q.shape[0]} points: nothing "
@@ -510,9 +517,10 @@ def robust_mesh(
     labels, proxy_normals = region_layers(q, normals, labels, proxy_normals, 0.25 * bound)
     tree = cKDTree(q)
     rec = reconstruct_surface(q, normals, areas, tree)
+    surface = PointSurface(q, normals, tree, radius)
     # the vertices' fit on a thread while the triangles take the points' regions
     fitted = on_thread(
-        fit_to_points, rec.vertices, rec.triangles, q, normals, tree, FIT_STEPS * rec.step
+        fit_to_points, rec.vertices, rec.triangles, q, normals, surface.grid, FIT_STEPS * rec.step
     )
     s = _surface(rec.vertices, rec.triangles)
     _, nearest = tree.query(s.centroids, workers=-1)
@@ -523,7 +531,7 @@ def robust_mesh(
     # steps: the voxel surface's rounded edges and corners come back). A narrow band
     # (estimated normals turning over an edge) carries no plane.
     planes = (pn, offsets, (deviation <= 0.25 * bound) & ((width >= rec.step) | steady))
-    measure = PointDistances(q, PointSurface(q, normals, tree, radius))
+    measure = PointDistances(q, surface)
     verts = fitted.result()
     box = measure.box  # never a vertex outside
     # a vertex placed on its planes stays there only within a quarter of the bound of

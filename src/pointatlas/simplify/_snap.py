@@ -23,11 +23,11 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit, prange
-from scipy.spatial import cKDTree
 
 from ..neighbors._kernels.mesh_distance import closest_sq
 from ._caps import flip_caps, spread_tiny, weld_needles
 from ._decimate_mesh import Decimation
+from ._grid_knn import GridKnn
 from ._place import _unflip, place_on_planes
 from ._point_distances import SEARCH_POINTS
 from ._untangle import untangle
@@ -52,12 +52,11 @@ FIT_RCOND = 0.05
 FIT_STEPS = 1.0
 
 
-def _fit_moves(x, q, normals, tree, bound: float, k: int = FIT_NEIGHBORS) -> np.ndarray:
-    """Each of ``x`` to the least-squares point of its ``k`` nearest points' tangent
-    planes about where it is (directions below `FIT_RCOND` of the strongest dropped),
-    at most ``bound``: the moves."""
-    _, j = tree.query(x, k=min(k, q.shape[0]), workers=-1)
-    j = j.reshape(x.shape[0], -1)
+def _fit_moves(x, q, normals, grid, bound: float, k: int = FIT_NEIGHBORS) -> np.ndarray:
+    """Each of ``x`` to the least-squares point of its ``k`` nearest points (``grid``:
+    a `GridKnn` of ``q``) tangent planes about where it is (directions below
+    `FIT_RCOND` of the strongest dropped), at most ``bound``: the moves."""
+    j = grid.query(x, min(k, q.shape[0]))[1]
     n = normals[j]
     h = np.einsum("vki,vki->vk", n, q[j] - x[:, None, :])
     a = np.einsum("vki,vkj->vij", n, n)
@@ -70,14 +69,15 @@ def _fit_moves(x, q, normals, tree, bound: float, k: int = FIT_NEIGHBORS) -> np.
     return move * np.minimum(1.0, bound / np.maximum(length, 1e-300))[:, None]
 
 
-def fit_to_points(verts, tri, q, normals, tree, bound: float, k: int = FIT_NEIGHBORS):
+def fit_to_points(verts, tri, q, normals, grid, bound: float, k: int = FIT_NEIGHBORS):
     """The surface's vertices moved onto the points' tangent planes: each to the
     least-squares point of its ``k`` nearest points' planes (a quadric error
     function as in dual contouring: onto the plane on a face, onto the line where
     two faces meet, to the corner of three), about where it is, with directions
     below `FIT_RCOND` of the strongest dropped (no move along a plane or an edge),
-    at most ``bound``; triangles that would turn over keep their vertices."""
-    moved = verts + _fit_moves(verts, q, normals, tree, bound, k)
+    at most ``bound``; triangles that would turn over keep their vertices. ``grid``:
+    a `_grid_knn.GridKnn` of ``q``."""
+    moved = verts + _fit_moves(verts, q, normals, grid, bound, k)
     return _unflip(verts, moved, tri, collapsed=True)
 
 
@@ -92,7 +92,7 @@ def refit_far(x, tri, surface, tol: float, bound: float, before=None) -> np.ndar
     far = np.flatnonzero(off > tol)
     if far.size == 0:
         return x
-    at = x[far] + _fit_moves(x[far], surface.points, surface.normals, surface.tree, bound)
+    at = x[far] + _fit_moves(x[far], surface.points, surface.normals, surface.grid, bound)
     better = surface.outline_distance(at) < off[far]
     if not better.any():
         return x
@@ -149,8 +149,10 @@ def placed_keeps_points(v0, placed, triangles, q, floor, tol, before=None, round
     farther than its ``floor`` from it after the placement, and more than ``tol``
     farther than before (a point within ``tol`` of it before: the nearest centroid's
     triangle is not always the nearest); then no triangle turned over (`_unflip`)."""
-    _, own = cKDTree(v0[triangles].mean(axis=1)).query(q, workers=-1)
-    own = own.astype(np.int64)
+    corners = v0[triangles]
+    # cells of about two triangles (a k-d tree's answer, 3x faster on 20,000 points)
+    cell = 2.0 * np.linalg.norm(corners[:, 1] - corners[:, 0], axis=1).mean()
+    own = GridKnn(corners.mean(axis=1), cell).query(q, 1)[1][:, 0]
     tri = np.ascontiguousarray(triangles, dtype=np.int64)
     d0 = _owner_distances(q, np.ascontiguousarray(v0), tri, own)
     x = placed

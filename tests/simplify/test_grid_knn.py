@@ -1,0 +1,93 @@
+"""The grid k-NN of the robust path (`_grid_knn.GridKnn`): the k-d tree's answer,
+distances bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from pointatlas.simplify._grid_knn import GridKnn
+from pointatlas.synth import sample_mesh
+from tests.jit_off import JIT_OFF, run_module_without_jit
+
+from .cad_shapes import cube_with_square_hole, l_bracket
+
+
+def _lattice_band(p, step, width=3):
+    """The grid nodes within ``width`` steps of the points' cells (as the field's band)."""
+    origin = p.min(axis=0) - (width + 2) * step
+    cells = np.unique(np.floor((p - origin) / step).astype(np.int64), axis=0)
+    offsets = np.stack(
+        np.meshgrid(*[np.arange(-width, width + 1)] * 3, indexing="ij"), -1
+    ).reshape(-1, 3)
+    nodes = np.unique((cells[:, None, :] + offsets[None, :, :]).reshape(-1, 3), axis=0)
+    return origin + nodes * step
+
+
+@pytest.mark.parametrize("shape", [cube_with_square_hole, l_bracket])
+@pytest.mark.parametrize("k", [1, 8, 16])
+def test_matches_the_kdtree_on_band_nodes_of_sampled_shapes(shape, k):
+    v, t = shape()
+    p = np.asarray(sample_mesh(v, t, 3000, rng=0).points)
+    step = 1.5 * float(np.median(cKDTree(p).query(p, k=2)[0][:, 1]))
+    x = _lattice_band(p, step)
+    d0, j0 = cKDTree(p).query(x, k=k)
+    d, j = GridKnn(p, 2.0 * step).query(x, k)
+    assert d.shape == j.shape == (x.shape[0], k) and j.dtype == np.int64
+    assert np.array_equal(d, d0.reshape(d.shape)) and np.array_equal(j, j0.reshape(j.shape))
+
+
+@pytest.mark.parametrize("cell", [1e-4, 0.05, 0.3, 5.0])
+def test_matches_the_kdtree_anywhere_and_at_any_cell_size(cell):
+    # queries inside the cells, far outside on every side, and on the points; cells
+    # from far too small (capped) to one cell for all
+    rng = np.random.default_rng(4)
+    p = rng.normal(size=(80, 3)) * [1.0, 0.5, 0.1]
+    x = np.vstack([rng.normal(size=(40, 3)) * 3.0, p[:10], [[40.0, -40.0, 3.0]]])
+    for k in (1, 6, 80):
+        d0, j0 = cKDTree(p).query(x, k=k)
+        d, j = GridKnn(p, cell).query(x, k)
+        assert np.array_equal(d, d0.reshape(d.shape))
+        assert np.array_equal(j, j0.reshape(j.shape))
+
+
+def test_few_points_match_the_kdtree():
+    # the kernel's branches on a small input (also run with the JIT off): rows inside,
+    # outside and on the points, rings to the grid's end, k up to every point
+    rng = np.random.default_rng(5)
+    p = rng.normal(size=(30, 3))
+    x = np.vstack([rng.normal(size=(12, 3)) * 2.0, p[:3], [[9.0, -9.0, 1.0]]])
+    for cell in (0.4, 5.0):
+        for k in (1, 4, 30):
+            d0, j0 = cKDTree(p).query(x, k=k)
+            d, j = GridKnn(p, cell).query(x, k)
+            assert np.array_equal(d, d0.reshape(d.shape))
+            assert np.array_equal(j, j0.reshape(j.shape))
+
+
+def test_repeated_points_come_by_index_at_the_tree_distances():
+    # exact duplicates: the k-d tree's order among them is not defined; here the
+    # smaller index first, at the same distances
+    rng = np.random.default_rng(1)
+    p = rng.random((40, 3))
+    p = np.vstack([p, p[::-1], p[::3]])
+    x = rng.random((60, 3))
+    d0, _ = cKDTree(p).query(x, k=8)
+    d, j = GridKnn(p, 0.1).query(x, 8)
+    assert np.array_equal(d, d0)
+    e = x[:, None, :] - p[j]
+    assert np.array_equal(d, np.sqrt(((0.0 + e[..., 0] ** 2) + e[..., 1] ** 2) + e[..., 2] ** 2))
+    tie = d[:, 1:] == d[:, :-1]
+    assert tie.any() and (j[:, 1:][tie] > j[:, :-1][tie]).all()
+
+
+def test_one_point_and_no_extent():
+    p = np.zeros((3, 3))
+    d, j = GridKnn(p, 0.0).query(np.array([[1.0, 0, 0], [0, 0, 0]]), 3)
+    assert j.tolist() == [[0, 1, 2], [0, 1, 2]] and d[0].tolist() == [1.0] * 3
+
+
+@pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
+def test_kernels_without_jit():
+    run_module_without_jit(__file__, select="few_points or repeated or no_extent")
