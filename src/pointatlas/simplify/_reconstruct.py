@@ -14,6 +14,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from .._core import PointAtlasError
+from .._core._threads import on_thread
 from ._grid_knn import GridKnn
 from ._handles import cut_handles
 
@@ -151,10 +152,17 @@ def is_closed_sample(q, normals, areas=None) -> bool:
 def _field(q, normals, step, spacing, origin, shape, closed):
     """Signed field on the grid nodes: tangent-plane distance in the band, +-band
     beyond it (one sign per connected region of nodes, by a vote of its band border)."""
+    from ._winding import far_sides
+
     width = _band_steps(step, spacing)
     cells = np.floor((q - origin) / step).astype(np.int64)
     occupied = np.zeros(shape, dtype=bool)
     occupied[cells[:, 0], cells[:, 1], cells[:, 2]] = True
+    # the winding number needs no field: on a thread meanwhile (the band's steps
+    # below leave a core free: most are numpy on one)
+    sides = None
+    if closed:
+        sides = on_thread(_winding_sides, q, normals, occupied, step, spacing, origin)
     # the nodes within ``width`` steps (Chebyshev) of a point's cell: a cube dilation
     # ``width`` times, as one separable maximum filter
     band = ndimage.maximum_filter(occupied, size=2 * width + 1, mode="constant", cval=0)
@@ -186,8 +194,8 @@ def _field(q, normals, step, spacing, origin, shape, closed):
     # ... but a node in a thin wall or gap keeps its side: the smoothing averages a
     # wall thinner than about two of its widths away
     f[keep] = np.where(np.sign(f[keep]) == np.sign(raw), f[keep], raw)
-    if closed:
-        f = _winding_sides(f, q, normals, occupied, step, spacing, origin)
+    if sides is not None:
+        f = far_sides(f, *sides.result(), WINDING_CLEAR)
     # the grid's outer layer is outside: the surface is closed inside the grid
     f[[0, -1], :, :] = f[:, [0, -1], :] = f[:, :, [0, -1]] = (width + 1) * step
     f[f == 0.0] = 1e-12 * step  # no node exactly on the level: no degenerate triangles
@@ -246,17 +254,20 @@ def _band_values(q, normals, tree, x, step, spacing):
     return _band_sides(q, normals, x, near, step, spacing)[0]
 
 
-def _winding_sides(f, q, normals, occupied, step, spacing, origin):
+def _winding_sides(q, normals, occupied, step, spacing, origin):
     """The field's side, away from the points, by the points' winding number where it
     is clear (`_winding`): the tangent planes of the nearest points take the wrong
     side beyond a face's edge, and the vote of a region beyond the band is wrong
     where the band leaks through a sampling gap or a pocket. Only for a closed
     sampled surface (its dipoles sum to less than `CLOSED_DIPOLE` of its area: an
-    open sheet has no inside)."""
+    open sheet has no inside). Returns ``(w, far_from, near, stride)`` for
+    `_winding.far_sides`: the winding number on every ``stride``-th node, each
+    node's distance from the points' cells, and the distance beyond which a node
+    takes its side."""
     from ._edt import distance_to
-    from ._winding import far_sides, winding_numbers
+    from ._winding import winding_numbers
 
-    shape = np.array(f.shape)
+    shape = np.array(occupied.shape)
     stride = max(2, int(np.ceil((shape.prod() / WINDING_NODES) ** (1.0 / 3.0))))
     axes = [np.arange(0, n, stride) for n in shape]
     lattice = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -270,7 +281,7 @@ def _winding_sides(f, q, normals, occupied, step, spacing, origin):
     far_from = distance_to(occupied) * step
     # a node whose lattice corners are all more than a spacing from every point (near
     # the points the winding number is steep: interpolated it made tunnels)
-    return far_sides(f, w, far_from, spacing + stride * step, stride, WINDING_CLEAR)
+    return w, far_from, spacing + stride * step, stride
 
 
 def _trim(tri, far):
@@ -500,7 +511,6 @@ def robust_mesh(
     """
     import dataclasses
 
-    from .._core._threads import on_thread
     from ._caps import outline_vertices
     from ._decimate_mesh import MAX_ERROR
     from ._distance import PointSurface
