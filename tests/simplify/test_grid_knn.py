@@ -18,9 +18,9 @@ def _lattice_band(p, step, width=3):
     """The grid nodes within ``width`` steps of the points' cells (as the field's band)."""
     origin = p.min(axis=0) - (width + 2) * step
     cells = np.unique(np.floor((p - origin) / step).astype(np.int64), axis=0)
-    offsets = np.stack(
-        np.meshgrid(*[np.arange(-width, width + 1)] * 3, indexing="ij"), -1
-    ).reshape(-1, 3)
+    offsets = np.stack(np.meshgrid(*[np.arange(-width, width + 1)] * 3, indexing="ij"), -1).reshape(
+        -1, 3
+    )
     nodes = np.unique((cells[:, None, :] + offsets[None, :, :]).reshape(-1, 3), axis=0)
     return origin + nodes * step
 
@@ -38,6 +38,15 @@ def test_matches_the_kdtree_on_band_nodes_of_sampled_shapes(shape, k):
     assert np.array_equal(d, d0.reshape(d.shape)) and np.array_equal(j, j0.reshape(j.shape))
 
 
+def _assert_as_kdtree(p, x, cells, ks):
+    for cell in cells:
+        for k in ks:
+            d0, j0 = cKDTree(p).query(x, k=k)
+            d, j = GridKnn(p, cell).query(x, k)
+            assert np.array_equal(d, d0.reshape(d.shape))
+            assert np.array_equal(j, j0.reshape(j.shape))
+
+
 @pytest.mark.parametrize("cell", [1e-4, 0.05, 0.3, 5.0])
 def test_matches_the_kdtree_anywhere_and_at_any_cell_size(cell):
     # queries inside the cells, far outside on every side, and on the points; cells
@@ -45,11 +54,7 @@ def test_matches_the_kdtree_anywhere_and_at_any_cell_size(cell):
     rng = np.random.default_rng(4)
     p = rng.normal(size=(80, 3)) * [1.0, 0.5, 0.1]
     x = np.vstack([rng.normal(size=(40, 3)) * 3.0, p[:10], [[40.0, -40.0, 3.0]]])
-    for k in (1, 6, 80):
-        d0, j0 = cKDTree(p).query(x, k=k)
-        d, j = GridKnn(p, cell).query(x, k)
-        assert np.array_equal(d, d0.reshape(d.shape))
-        assert np.array_equal(j, j0.reshape(j.shape))
+    _assert_as_kdtree(p, x, [cell], (1, 6, 80))
 
 
 def test_few_points_match_the_kdtree():
@@ -58,12 +63,7 @@ def test_few_points_match_the_kdtree():
     rng = np.random.default_rng(5)
     p = rng.normal(size=(30, 3))
     x = np.vstack([rng.normal(size=(12, 3)) * 2.0, p[:3], [[9.0, -9.0, 1.0]]])
-    for cell in (0.4, 5.0):
-        for k in (1, 4, 30):
-            d0, j0 = cKDTree(p).query(x, k=k)
-            d, j = GridKnn(p, cell).query(x, k)
-            assert np.array_equal(d, d0.reshape(d.shape))
-            assert np.array_equal(j, j0.reshape(j.shape))
+    _assert_as_kdtree(p, x, (0.4, 5.0), (1, 4, 30))
 
 
 def test_repeated_points_come_by_index_at_the_tree_distances():
