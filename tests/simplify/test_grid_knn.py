@@ -66,6 +66,25 @@ def test_few_points_match_the_kdtree():
     _assert_as_kdtree(p, x, (0.4, 5.0), (1, 4, 30))
 
 
+def test_a_far_outlier_goes_to_the_tree():
+    # 500 points in a unit box and one a million units away: cells of 0.1 would be
+    # 10^21; grown to fit they would hold every point, so the tree answers
+    rng = np.random.default_rng(7)
+    p = np.vstack([rng.random((500, 3)), [[1e6, 0.0, 0.0]]])
+    grid = GridKnn(p, 0.1)
+    assert grid.tree is not None and GridKnn(p[:500], 0.1).tree is None
+    _assert_as_kdtree(p, rng.random((30, 3)), (0.1,), (1, 8))
+
+
+def test_far_from_the_origin():
+    # map coordinates (5e6 units away, a spacing of 1e-4): the cells' bounds are
+    # rounded to the coordinates' last place, which the search's margin covers
+    rng = np.random.default_rng(6)
+    p = 5e6 + rng.random((400, 3)) * [2e-3, 2e-3, 1e-5]
+    x = np.vstack([p[:50] + rng.normal(size=(50, 3)) * 1e-4, p[50:60]])
+    _assert_as_kdtree(p, x, (1e-4, 3e-4), (1, 8))
+
+
 def test_repeated_points_come_by_index_at_the_tree_distances():
     # exact duplicates: the k-d tree's order among them is not defined; here the
     # smaller index first, at the same distances

@@ -24,8 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from scipy.spatial import cKDTree
 
-from .._core._threads import run_chunks
+from .._core._threads import query_workers, run_chunks
 
 __all__ = ["GridKnn"]
 
@@ -34,7 +35,8 @@ _CELLS_PER_POINT = 8
 
 #: A point within this share of a cell of the cells' boundary may have been binned
 #: on either side of it (floating-point rounding): the search's bound keeps that far
-#: from the boundary.
+#: from the boundary, and at least 8 units in the last place of the coordinates'
+#: magnitude (cells far from the origin: their bounds are rounded to those units).
 _MARGIN = 1e-6
 
 
@@ -43,7 +45,10 @@ class GridKnn:
     `_CELLS_PER_POINT` cells per point, 2^20 in all), for `query`. Callers take
     cells of about 3 point spacings: a query's 6 to 16 nearest points then lie
     within one or two rings of cells (the band's query with cells of 1.5 spacings
-    0.53 s, of 4.5 spacings 0.25 s, of 3 spacings 0.27 s).
+    0.53 s, of 4.5 spacings 0.25 s, of 3 spacings 0.27 s). Where the cells would
+    have to grow past twice ``cell`` (a few points far from the rest: most points
+    in a few cells, each query scanning them all), `query` asks a k-d tree instead
+    (the same answers but the order of exact duplicates).
 
     Examples
     --------
@@ -58,11 +63,14 @@ class GridKnn:
         self.n = q.shape[0]
         self.corner = q.min(axis=0) if self.n else np.zeros(3)
         extent = (q.max(axis=0) - self.corner) if self.n else np.zeros(3)
-        h = float(cell) if cell > 0.0 else max(float(extent.max()), 1.0)
+        h = asked = float(cell) if cell > 0.0 else max(float(extent.max()), 1.0)
         limit = max(_CELLS_PER_POINT * self.n, 1 << 20)
         while np.prod(np.floor(extent / h) + 1.0) > limit:
             h *= 1.25
         self.h = h
+        self.tree = cKDTree(q) if h > 2.0 * asked else None
+        size = float(np.abs(self.corner).max() + extent.max())
+        self.margin = _MARGIN * h + 8.0 * np.finfo(np.float64).eps * size
         at = np.floor((q - self.corner) / h).astype(np.int64)
         self.dims = (at.max(axis=0) + 1) if self.n else np.ones(3, dtype=np.int64)
         key = (at[:, 0] * self.dims[1] + at[:, 1]) * self.dims[2] + at[:, 2]
@@ -76,11 +84,15 @@ class GridKnn:
         distances (m, k) ascending and indices (m, k) int64, as
         ``cKDTree(points).query(x, k)`` gives them (ties: the smaller index first)."""
         x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 3)
+        if self.tree is not None:
+            d, j = self.tree.query(x, k=k, workers=query_workers(x.shape[0], k))
+            return d.reshape(x.shape[0], k), j.reshape(x.shape[0], k).astype(np.int64)
         home = np.floor((x - self.corner) / self.h)
         home = np.clip(home, 0, self.dims - 1).astype(np.int64)  # outside: the nearest
         d = np.empty((x.shape[0], k))
         j = np.empty((x.shape[0], k), dtype=np.int64)
         args = (x, home, self.sorted, self.ids, self.start, self.dims, self.corner, self.h)
+        args = (*args, self.margin)
         run_chunks(_knn_rows, x.shape[0], (*args, d, j), min_piece=512)
         return d, j
 
@@ -128,7 +140,7 @@ def _clearance(x, c, r, n, corner, h) -> float:
 
 
 @njit(cache=True, nogil=True)
-def _knn_rows(x, home, q, ids, start, dims, corner, h, out_d, out_j, i0, i1) -> None:
+def _knn_rows(x, home, q, ids, start, dims, corner, h, margin, out_d, out_j, i0, i1) -> None:
     """`GridKnn.query` for the rows ``i0`` to ``i1``: around each row's own cell, the
     cells at Chebyshev distance r = 0, 1, 2, ... (a column of cells along the last
     axis is one run of the sorted points: the whole column on the shell's sides, its
@@ -141,7 +153,6 @@ def _knn_rows(x, home, q, ids, start, dims, corner, h, out_d, out_j, i0, i1) -> 
     last = k - 1
     bd = np.empty(k)
     bi = np.empty(k, dtype=np.int64)
-    margin = _MARGIN * h
     n0, n1, n2 = dims[0], dims[1], dims[2]
     for i in range(i0, i1):
         bd[:] = np.inf
