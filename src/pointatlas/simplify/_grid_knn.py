@@ -55,7 +55,7 @@ class GridKnn:
     >>> p = np.array([[0.2, 0.1, 0.0], [1.7, 0.3, 0.2], [0.9, 0.9, 0.9]])
     >>> d, j = GridKnn(p, 1.0).query(np.array([[0.0, 0, 0], [2.0, 0, 0]]), 2)
     >>> j.tolist(), d[:, 0].round(3).tolist()
-    ([[0, 2], [1, 2]], [0.224, 0.412])
+    ([[0, 2], [1, 2]], [0.224, 0.469])
     """
 
     def __init__(self, points, cell: float):
