@@ -69,6 +69,8 @@ class GridKnn:
             h *= 1.25
         self.h = h
         self.tree = cKDTree(q) if h > 2.0 * asked else None
+        if self.tree is not None:  # `query` asks the tree: no cells
+            return
         size = float(np.abs(self.corner).max() + extent.max())
         self.margin = _MARGIN * h + 8.0 * np.finfo(np.float64).eps * size
         at = np.floor((q - self.corner) / h).astype(np.int64)
@@ -91,9 +93,8 @@ class GridKnn:
         home = np.clip(home, 0, self.dims - 1).astype(np.int64)  # outside: the nearest
         d = np.empty((x.shape[0], k))
         j = np.empty((x.shape[0], k), dtype=np.int64)
-        args = (x, home, self.sorted, self.ids, self.start, self.dims, self.corner, self.h)
-        args = (*args, self.margin)
-        run_chunks(_knn_rows, x.shape[0], (*args, d, j), min_piece=512)
+        grid = (self.sorted, self.ids, self.start, self.dims, self.corner, self.h, self.margin)
+        run_chunks(_knn_rows, x.shape[0], (x, home, *grid, d, j), min_piece=512)
         return d, j
 
 
@@ -148,7 +149,8 @@ def _knn_rows(x, home, q, ids, start, dims, corner, h, margin, out_d, out_j, i0,
     cells scanned (a row outside the cells has the nearest cell as its own: the
     clearance counts only the sides with cells beyond). One kernel, without calls
     per cell (a call with its arrays' reference counts per column took twice as
-    long)."""
+    long), and one place that scans a run of cells: the column and its two ends
+    written as three inlined scans took 3-4x as long (the band of `cad_a_a38`)."""
     k = out_d.shape[1]
     last = k - 1
     bd = np.empty(k)
