@@ -39,8 +39,9 @@ test: lint
 		libusb-1.0-0) || echo "libusb not installed: Open3D reader tests will skip")
 	@# one process: with pytest-xdist workers CI once hung for its whole 90 minutes
 	@# (docs/decisions/cli.md); a test still running after `timeout` (pyproject.toml)
-	@# fails the run with every thread's stack
-	$(BIN)/python -m pytest -q
+	@# fails the run with every thread's stack; the 20 slowest tests close the log (the
+	@# suite's 10-minute target: what to look at first)
+	$(BIN)/python -m pytest -q --durations=20
 
 bench: install
 	$(BIN)/python -m pip install --quiet -c constraints.txt -e ".[dev,bench]"

@@ -7,6 +7,8 @@ Run from the repository root::
         --out bench-output/simplify_points.csv
     # raw points: normals estimated (PCA k = 20) and oriented, as the CLI does
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --estimate-normals
+    # a scanner's noise: Gaussian, sigma 0.1 % of the diagonal (seeded)
+    .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --noise 0.1
 
 Every ``--every``-th model (sorted by name) is sampled uniformly by area with its
 face normals (`pointatlas.synth.sample_mesh`, seed 0) and the points alone go through
@@ -113,13 +115,19 @@ def peer_row(v_true, t_true, p, n, n_triangles: int, diag: float) -> dict:
     return best
 
 
-def run_model(path: Path, n_points: int, estimate: bool = False, peer: bool = True) -> dict:
+def run_model(
+    path: Path, n_points: int, estimate: bool = False, peer: bool = True, noise: float = 0.0
+) -> dict:
     mesh = read_mesh(path)
     tri = np.asarray(mesh.triangles, dtype=np.int64)
     used = np.unique(tri)
     euler_in = _euler(used.size, tri)
     sample = sample_mesh(mesh.vertices, tri, n_points, rng=0)
     p, n = np.asarray(sample.points), np.asarray(sample.normals)
+    if noise > 0:
+        # a scanner's noise: Gaussian along every axis, sigma noise % of the diagonal
+        sigma = noise / 100.0 * float(np.linalg.norm(np.ptp(p, axis=0)))
+        p = p + np.random.default_rng(2).normal(0.0, sigma, p.shape)
     if estimate:
         n = orient_normals(p, estimate_normals(p, k=20))
     diag = float(np.linalg.norm(np.ptp(p, axis=0)))
@@ -163,12 +171,12 @@ def run_model(path: Path, n_points: int, estimate: bool = False, peer: bool = Tr
     return row
 
 
-def warm_up(path: Path, n_points: int, estimate: bool = False) -> None:
+def warm_up(path: Path, n_points: int, estimate: bool = False, noise: float = 0.0) -> None:
     """The first model once untimed (`run_model` without the peer), so that no model's
     time holds numba's compile or cache load (the peer's is timed in a child process
     after Open3D's import): the same kernels, signatures and code paths as the timed
     runs (a smaller sample can take other branches)."""
-    run_model(path, n_points, estimate, peer=False)
+    run_model(path, n_points, estimate, peer=False, noise=noise)
 
 
 def peer_summary(rows: list[dict]) -> list[str]:
@@ -212,6 +220,9 @@ def main(argv=None) -> int:
     ap.add_argument("--points", type=int, default=20000)
     ap.add_argument("--estimate-normals", action="store_true")
     ap.add_argument("--no-peer", action="store_true", help="skip Poisson + decimation")
+    ap.add_argument(
+        "--noise", type=float, default=0.0, help="Gaussian noise, sigma in % of the diagonal"
+    )
     ap.add_argument("--out", type=Path, default=Path("bench-output/simplify_points.csv"))
     ap.add_argument(
         "--only", nargs="+", default=None, help="of the selected models, only these (file stems)"
@@ -228,10 +239,10 @@ def main(argv=None) -> int:
         part, n_parts = (int(x) for x in args.shard.split("/"))
         files = files[part::n_parts]
     if files:
-        warm_up(files[0], args.points, args.estimate_normals)
+        warm_up(files[0], args.points, args.estimate_normals, args.noise)
     rows = []
     for path in files:
-        row = run_model(path, args.points, args.estimate_normals, not args.no_peer)
+        row = run_model(path, args.points, args.estimate_normals, not args.no_peer, args.noise)
         rows.append(row)
         print(
             f"{row['model']:40s} {row['path']:7s} faces={row.get('faces', '-')!s:>5} "
