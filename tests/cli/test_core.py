@@ -73,6 +73,27 @@ def test_info_mesh_counts_faces(cube_obj):
     assert info["normals"] is True
 
 
+@pytest.mark.filterwarnings("default::UserWarning")  # as a user's Python shows them
+@pytest.mark.parametrize("command", ["info", "simplify"])
+def test_an_element_not_read_is_one_warning_line(tmp_path, command):
+    # `info` reads the file as a mesh and as points: the warning comes once, without
+    # Python's source line
+    ply = tmp_path / "odd.ply"
+    ply.write_text(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 4\nproperty list uchar int vertex_indices\n"
+        "element camera 1\nproperty float fov\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+        "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n45\n"
+    )
+    args = [tmp_path / "out.obj"] if command == "simplify" else []
+    result = run(command, ply, *args)
+    assert result.exit_code == 0, result.output
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1, result.stderr
+    assert lines[0].startswith("warning: ") and "element 'camera' (1 records)" in lines[0]
+    assert str(ply) in lines[0]
+
+
 def test_info_truncated_ply_is_one_line_error(sphere_ply, tmp_path):
     data = sphere_ply.read_bytes()
     bad = tmp_path / "truncated.ply"

@@ -6,7 +6,9 @@ and registers its commands; ``cli/__init__.py`` imports the command modules.
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
@@ -104,8 +106,29 @@ def _stopped():
     _fail(*stopped_line())
 
 
+@contextlib.contextmanager
+def warnings_as_lines():
+    """While a command runs, every warning is one yellow line on stderr, once per
+    message: Python's own format adds the source line of the call, and a file read
+    twice (``info`` reads it as a mesh and as points) warned twice."""
+    seen: set[str] = set()
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = str(message)
+        if text not in seen:
+            seen.add(text)
+            err_console.print(
+                f"[bold yellow]warning:[/] {escape(text)}", highlight=False, soft_wrap=True
+            )
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
+
+
 def guarded(func):
-    """Turn user errors into one red line on stderr and exit status 1.
+    """Turn user errors into one red line on stderr and exit status 1, warnings into
+    one yellow line each (`warnings_as_lines`).
 
     ``PointAtlasError``, ``ValueError``, ``TypeError`` and ``OSError`` (missing file,
     permission) are user errors: no traceback. ``MemoryError`` also exits 1 with one
@@ -120,7 +143,7 @@ def guarded(func):
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
-        with stop_signals_handled():
+        with stop_signals_handled(), warnings_as_lines():
             try:
                 result = func(*args, **kwargs)
                 if interrupt_requested():
