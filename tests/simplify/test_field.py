@@ -8,7 +8,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 from pointatlas.simplify._kernels import band_field
-from pointatlas.simplify._reconstruct import _band_values, _spacing
+from pointatlas.simplify._reconstruct import _band_values
+from pointatlas.simplify._voxel_grid import point_spacing
 from pointatlas.synth import sample_mesh
 from tests.jit_off import JIT_OFF, run_module_without_jit
 
@@ -57,7 +58,7 @@ def test_band_field_matches_reference_on_sampled_shapes(shape):
     v, t = shape()
     s = sample_mesh(v, t, 4000, rng=0)
     p, n = np.asarray(s.points), np.asarray(s.normals)
-    spacing = _spacing(p, cKDTree(p))
+    spacing = point_spacing(p, cKDTree(p))
     step = 1.5 * spacing
     x = _nodes_near(p, step, 20000)
     fast, slow = _both(p, n, x, step, spacing)

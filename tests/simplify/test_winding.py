@@ -75,11 +75,11 @@ def _inside(v, t, x):
 def test_voxel_surface_of_a_sampled_solid_has_no_sheet_away_from_the_points(monkeypatch):
     # at one point spacing per grid step, a sampled solid's inside used to leak out
     # through the sampling's gaps (a surface a band's width inside, cut away after)
-    from pointatlas.simplify import _reconstruct
+    from pointatlas.simplify import _voxel_grid
     from pointatlas.simplify._distance import PointSurface
     from pointatlas.simplify._reconstruct import reconstruct_surface
 
-    monkeypatch.setattr(_reconstruct, "SPACING_STEPS", 1.0)
+    monkeypatch.setattr(_voxel_grid, "SPACING_STEPS", 1.0)
     v, t = cube_with_square_hole()
     s = sample_mesh(v, t, 20000, rng=0)
     p, n = np.asarray(s.points), np.asarray(s.normals)

@@ -17,31 +17,14 @@ from .._core import PointAtlasError
 from .._core._threads import on_thread
 from ._grid_knn import GridKnn
 from ._handles import cut_handles
+from ._voxel_grid import SPACING_STEPS, band_steps, grid_step
 
 __all__ = [
-    "MAX_CELLS",
-    "MAX_NODES",
     "Reconstruction",
     "reconstruct_surface",
     "robust_mesh",
 ]
 
-#: Largest number of grid cells across the bounding box's second-longest side (a long
-#: thin part gets as many along its length as its points need: across its longest
-#: side, 192 cells lost most of a part 88 units long and 6 thick) ...
-MAX_CELLS = 192
-#: ... and of grid nodes (a cube of 192 cells a side: the field and its work arrays
-#: about 0.5 GB; 2^24 nodes made a 10^6-point scene take 270 s instead of 31 s).
-MAX_NODES = 192**3
-#: Grid step in point spacings (median nearest-neighbour distance).
-SPACING_STEPS = 1.5
-#: Band around the points where the field is the tangent-plane distance (grid steps,
-#: Chebyshev); beyond it every connected region of nodes takes one sign by a vote ...
-BAND = 3
-#: ... and at least this many point spacings wide (where the band leaks through the
-#: sampling's gaps, the inside of a closed surface takes its side from the winding
-#: number, `_winding_sides`).
-BAND_SPACINGS = 4.5
 #: A piece of the surface that fewer points than this have their nearest triangle on
 #: is a spurious bubble (a sign flip of the field beside the surface), not a part.
 STRAY_POINTS = 8
@@ -109,35 +92,6 @@ class Reconstruction:
     n_handles: int = 0
 
 
-def _spacing(q: np.ndarray, tree: cKDTree) -> float:
-    """Median distance to the nearest other position (repeated points count once) of
-    at most 20,000 evenly strided points."""
-    stride = max(1, q.shape[0] // 20000)
-    d, _ = tree.query(q[::stride], k=min(4, q.shape[0]))
-    d = d.reshape(d.shape[0], -1)
-    apart = np.where(d > 0.0, d, np.inf).min(axis=1)  # the nearest at another position
-    apart = apart[np.isfinite(apart)]
-    return float(np.median(apart)) if apart.size else 0.0
-
-
-def _grid(size, step: float, spacing: float):
-    """The grid step (at least ``step``) and node counts for a box of ``size``, padded
-    by the band and two steps, with at most about `MAX_NODES` nodes."""
-    for _ in range(8):
-        pad = _band_steps(step, spacing) + 2
-        shape = np.ceil(size / step).astype(np.int64) + 2 * pad + 1
-        grow = (float(np.prod(shape.astype(np.float64))) / MAX_NODES) ** (1.0 / 3.0)
-        if grow <= 1.0:
-            break
-        step *= grow * 1.01
-    return step, tuple(int(x) for x in shape)
-
-
-def _band_steps(step: float, spacing: float) -> int:
-    """The band's width in grid steps: `BAND`, and at least `BAND_SPACINGS` spacings."""
-    return max(BAND, int(np.ceil(BAND_SPACINGS * spacing / step)))
-
-
 def is_closed_sample(q, normals, areas=None) -> bool:
     """Whether oriented points sample a closed surface: their normals times their
     disc areas (``areas``: `_winding.point_areas` of ``q``, found when None) sum to
@@ -154,7 +108,7 @@ def _field(q, normals, step, spacing, origin, shape, closed):
     beyond it (one sign per connected region of nodes, by a vote of its band border)."""
     from ._winding import far_sides
 
-    width = _band_steps(step, spacing)
+    width = band_steps(step, spacing)
     cells = np.floor((q - origin) / step).astype(np.int64)
     occupied = np.zeros(shape, dtype=bool)
     occupied[cells[:, 0], cells[:, 1], cells[:, 2]] = True
@@ -380,14 +334,12 @@ def reconstruct_surface(
     from skimage.measure import marching_cubes
 
     tree = cKDTree(q) if tree is None else tree
-    spacing = _spacing(q, tree)
     lo, hi = q.min(axis=0), q.max(axis=0)
     extent = float((hi - lo).max())
     if not extent > 0.0:
         raise PointAtlasError("simplify needs points that span a volume or a surface")
-    across = float(np.sort(hi - lo)[-2])
-    step, shape = _grid(hi - lo, max(SPACING_STEPS * spacing, across / MAX_CELLS), spacing)
-    origin = lo - (_band_steps(step, spacing) + 2) * step
+    spacing, step, shape = grid_step(q, normals, tree)
+    origin = lo - (band_steps(step, spacing) + 2) * step
     closed = is_closed_sample(q, normals, areas)
     f = _field(q, normals, step, spacing, origin, shape, closed)
     if not f.min() < 0.0 < f.max():  # no inside (a few sparse points): no surface
