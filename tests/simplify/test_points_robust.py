@@ -203,6 +203,21 @@ def test_a_sparse_thin_sheet_gets_a_finer_grid_and_a_surface():
     assert point_mesh_distance(truth, m.vertices, m.triangles).max() <= 0.02 * diag
 
 
+def test_a_pipe_too_thin_for_its_points_says_why():
+    """A pipe whose wall (0.05 thick) is about one point spacing at 2,000 points:
+    every piece of the voxel surface faces away from its nearest points (those of
+    the wall's other side): one line that says so and what to do, not a bare "could
+    not build a surface"."""
+    v, t = extrude(circle((0, 0), 1.0, 48), holes=[circle((0, 0), 0.95, 48)], height=6.0)
+    s = sample_mesh(v, t, 2000, rng=0)
+    with pytest.raises(PointAtlasError) as caught:
+        simplify_points(np.asarray(s.points), np.asarray(s.normals))
+    text = str(caught.value)
+    assert "from these 2000 points: every piece of their voxel surface" in text
+    assert "faces away from its nearest points' normals" in text
+    assert "sample the thin parts more densely" in text and "\n" not in text
+
+
 def test_max_error_and_max_triangles_on_points():
     v, t = l_bracket()
     s = sample_mesh(v, t, 20000, rng=0)

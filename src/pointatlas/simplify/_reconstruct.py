@@ -362,13 +362,23 @@ def reconstruct_surface(
     beyond = (d > TRIM_STEPS * step) | ((d > step) & (facing < -0.5))
     cut = np.zeros(tri.shape[0], dtype=bool) if closed else _trim(tri, beyond)
     _, nearest = cKDTree(verts[tri].mean(axis=1)).query(q, workers=-1)
-    cut |= _bubbles(tri, d > 2.0 * step, nearest, dots, areas, closed)
+    bubbles = _bubbles(tri, d > 2.0 * step, nearest, dots, areas, closed)
+    cut |= bubbles
     if cut.any():
         tri = tri[~cut]
         used = np.zeros(verts.shape[0], dtype=bool)
         used[tri] = True
         remap = np.cumsum(used) - 1
         verts, tri = verts[used], remap[tri]
+    # at a wall thinner than the grid, the other side's points are the nearest of
+    # most triangles: every piece reads as a bubble
+    if tri.shape[0] == 0 and bubbles.all():
+        raise PointAtlasError(
+            f"simplify could not build a surface from these {q.shape[0]} points: every "
+            f"piece of their voxel surface (grid step {step / spacing:.2g} x the point "
+            "spacing) faces away from its nearest points' normals, as at walls thinner "
+            "than about two steps (sample the thin parts more densely)"
+        )
     if tri.shape[0] == 0:
         raise PointAtlasError("simplify could not build a surface from these points")
     if cut.any():  # cutting can leave pieces touching at a vertex: give each its own
