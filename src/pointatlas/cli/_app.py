@@ -30,6 +30,7 @@ from .jobs import (
     run_tiled,
     say,
     tile_options,
+    warn,
 )
 
 __all__ = [
@@ -117,9 +118,7 @@ def warnings_as_lines():
         text = str(message)
         if text not in seen:
             seen.add(text)
-            err_console.print(
-                f"[bold yellow]warning:[/] {escape(text)}", highlight=False, soft_wrap=True
-            )
+            warn(text)
 
     with warnings.catch_warnings():
         warnings.showwarning = show

@@ -85,8 +85,8 @@ def thin_sample(q, normals, tree, within: float) -> bool:
     """Whether most of at most 5,000 evenly strided points have a point facing the
     other way (`THIN_NEIGHBORS` nearest) nearer than ``within``: a thin sheet."""
     stride = max(1, q.shape[0] // 5000)
-    k = min(THIN_NEIGHBORS, q.shape[0])
-    d, j = tree.query(q[::stride], k=k, workers=query_workers(q.shape[0] // stride, k))
+    rows, k = q[::stride], min(THIN_NEIGHBORS, q.shape[0])
+    d, j = tree.query(rows, k=k, workers=query_workers(rows.shape[0], k))
     d, j = d.reshape(-1, k), j.reshape(-1, k)
     facing = np.einsum("ij,ikj->ik", normals[::stride], normals[j])
     across = np.where(facing < -0.7, d, np.inf).min(axis=1)

@@ -8,7 +8,7 @@ commands or the application (docs/decisions/cli.md, "Layout").
 
 from ._cloud_files import load_cloudsurface
 from ._cloudsurface import CloudSurfaceOptions, CloudSurfaceResult, run_cloudsurface, scale_grid
-from ._console import PIPE_WIDTH, console, err_console, progress_bar, say
+from ._console import PIPE_WIDTH, console, err_console, progress_bar, say, warn
 from ._deform import DeformOptions, DeformResult, run_deform
 from ._demo import (
     DEMO_ETA,
@@ -105,5 +105,6 @@ __all__ = [
     "simplify_quietly",
     "surface_table",
     "tile_options",
+    "warn",
     "write_demo_report",
 ]

@@ -6,6 +6,7 @@ import contextlib
 import sys
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
@@ -15,7 +16,7 @@ from rich.progress import (
     TimeElapsedColumn,
 )
 
-__all__ = ["PIPE_WIDTH", "console", "err_console", "progress_bar", "say"]
+__all__ = ["PIPE_WIDTH", "console", "err_console", "progress_bar", "say", "warn"]
 
 # soft_wrap: a printed line is never broken at the terminal width (paths stay whole
 # when the output is piped or the terminal is narrow); tables still fit the width.
@@ -41,6 +42,12 @@ def say(*parts, out: Console | None = None) -> None:
     are and long paths are not broken.
     """
     (out or console).print(*parts, markup=False, highlight=False, soft_wrap=True, emoji=False)
+
+
+def warn(text: str) -> None:
+    """One yellow line ``warning: <text>`` on stderr (the text escaped: brackets in
+    paths and ranges stay as they are)."""
+    err_console.print(f"[bold yellow]warning:[/] {escape(text)}", highlight=False, soft_wrap=True)
 
 
 @contextlib.contextmanager

@@ -22,7 +22,7 @@ from ...simplify import SimplifyWarning, simplify_points
 from .._flag_checks import angle_deg_option, vsa_counts, vsa_options
 from .._outputs import check_outputs, write_summary_json
 from .._reports import REPORT_EXTENSIONS
-from ._console import err_console, say
+from ._console import say, warn
 from ._inputs import read_with_normals
 from ._mesh_io import read_mesh_input, write_simplified, write_triangles
 from ._simplify_report import render_simplification, render_surface, write_html_report
@@ -144,7 +144,7 @@ def simplify_quietly(*args, function=simplify_points, **kw):
         result = function(*args, **kw)
     for w in caught:
         if issubclass(w.category, SimplifyWarning):
-            err_console.print(f"[bold yellow]warning:[/] {w.message}", highlight=False)
+            warn(str(w.message))
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return result
@@ -231,7 +231,7 @@ def _say_missed_target(res, *, n_faces, max_triangles, max_error) -> None:
         if reached > max_error:
             missed.append(f"--max-error {max_error:.4g}: the finest level is {reached:.4g} away")
     for line in missed:
-        err_console.print(f"[bold yellow]warning:[/] not reachable: {line}", highlight=False)
+        warn(f"not reachable: {line}")
 
 
 def _simplify_mesh_input(infile, mesh_in, out, o: SimplifyOptions, max_angle) -> SimplifyResult:
