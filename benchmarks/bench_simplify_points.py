@@ -221,7 +221,7 @@ def main(argv=None) -> int:
     ap.add_argument("--estimate-normals", action="store_true")
     ap.add_argument("--no-peer", action="store_true", help="skip Poisson + decimation")
     ap.add_argument(
-        "--noise", type=float, default=0.0, help="Gaussian noise, sigma in % of the diagonal"
+        "--noise", type=float, default=0.0, help="Gaussian noise, sigma in %% of the diagonal"
     )
     ap.add_argument("--out", type=Path, default=Path("bench-output/simplify_points.csv"))
     ap.add_argument(

@@ -10,6 +10,7 @@ of ``noise`` (absolute units) is added along the exact normal.
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 import numpy as np
@@ -193,11 +194,19 @@ def _ground_free(q, boxes, house, tank, ball, hole):
     return keep
 
 
-if __name__ == "__main__":
-    out = sys.argv[1]
-    n = int(sys.argv[2]) if len(sys.argv) > 2 else 1_000_000
-    pts, _, _ = cad_scene(n)
+def main(argv=None) -> int:
+    """Write the scene's points to OUT (``python benchmarks/scene.py OUT.ply [N]``)."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("out", help="the point file to write (.ply, .xyz, .las, ...)")
+    ap.add_argument("n", nargs="?", type=int, default=1_000_000, help="points (default 10^6)")
+    args = ap.parse_args(argv)
+    pts, _, _ = cad_scene(args.n)
     from pointatlas.io import write_point_set
 
-    write_point_set(out, pts)
-    print(f"wrote {pts.shape[0]} points to {out}")
+    write_point_set(args.out, pts)
+    print(f"wrote {pts.shape[0]} points to {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
