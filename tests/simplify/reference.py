@@ -169,9 +169,10 @@ def place_on_planes_reference(v0, triangles, triangle_face, normals, offsets, fl
     """`place_on_planes` one vertex at a time (before the flip guard)."""
     v0 = np.asarray(v0, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.int64)
+    triangle_face = np.asarray(triangle_face)
     x = v0.copy()
     for j in range(v0.shape[0]):
-        regions = sorted({int(f) for f, t in zip(triangle_face, tri, strict=True) if j in t})
+        regions = sorted({int(f) for f in triangle_face[(tri == j).any(axis=1)]})
         regions = [r for r in regions if flat[r]]
         if not regions:
             continue
