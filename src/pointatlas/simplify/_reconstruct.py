@@ -17,7 +17,16 @@ from .._core import PointAtlasError
 from .._core._threads import on_thread
 from ._grid_knn import GridKnn
 from ._handles import cut_handles
-from ._voxel_grid import SPACING_STEPS, band_steps, grid_step
+from ._voxel_grid import (
+    LOST_POINTS,
+    LOST_SHARE,
+    LOST_STEPS,
+    band_steps,
+    euler_characteristic,
+    finer_step,
+    grid_step,
+    lost_points,
+)
 
 __all__ = [
     "Reconstruction",
@@ -327,25 +336,52 @@ def reconstruct_surface(
     """Triangle surface of points ``q`` (working frame) with oriented ``normals``.
 
     Closed where the sampled surface is closed and sampled within about two grid
-    steps everywhere; cut open beyond the input's open boundaries. ``areas``: the
-    points' disc areas (`is_closed_sample`), ``tree``: their `cKDTree`; found when
-    None.
+    steps everywhere; cut open beyond the input's open boundaries. Where it leaves
+    `LOST_POINTS` points more than `LOST_STEPS` steps off (a part thinner than the
+    grid), built again on the finer grid (`finer_step`), kept when that brings most of
+    them near without adding handles (or `LOST_SHARE` of the points were lost).
+    ``areas``: the points' disc areas (`is_closed_sample`), ``tree``: their
+    `cKDTree`; found when None.
     """
-    from skimage.measure import marching_cubes
-
     tree = cKDTree(q) if tree is None else tree
     lo, hi = q.min(axis=0), q.max(axis=0)
     extent = float((hi - lo).max())
     if not extent > 0.0:
         raise PointAtlasError("simplify needs points that span a volume or a surface")
     spacing, step, shape = grid_step(q, normals, tree)
-    origin = lo - (band_steps(step, spacing) + 2) * step
     closed = is_closed_sample(q, normals, areas)
+    rec = _surface_at(q, normals, tree, (spacing, step, shape), closed)
+    fine_step, fine_shape = finer_step(q, spacing)
+    if not fine_step < step / 1.2:
+        return rec
+    # a part thinner than the grid lost or cut through: the finer grid, where it
+    # brings those points near without adding handles
+    lost = lost_points(q, rec.vertices, rec.triangles, LOST_STEPS * step)
+    if lost < LOST_POINTS:
+        return rec
+    try:
+        fine = _surface_at(q, normals, tree, (spacing, fine_step, fine_shape), closed)
+    except PointAtlasError:
+        return rec
+    still = lost_points(q, fine.vertices, fine.triangles, LOST_STEPS * step)
+    no_handle = euler_characteristic(fine.triangles) >= euler_characteristic(rec.triangles)
+    # a part lost whole is worth a handle through it (a fin 0.8 steps thin)
+    whole = lost >= LOST_SHARE * q.shape[0]
+    return fine if 2 * still <= lost and (no_handle or whole) else rec
+
+
+def _surface_at(q, normals, tree, grid, closed) -> Reconstruction:
+    """`reconstruct_surface` on the grid ``(spacing, step, shape)``."""
+    from skimage.measure import marching_cubes
+
+    spacing, step, shape = grid
+    lo = q.min(axis=0)
+    origin = lo - (band_steps(step, spacing) + 2) * step
     f = _field(q, normals, step, spacing, origin, shape, closed)
     if not f.min() < 0.0 < f.max():  # no inside (a few sparse points): no surface
         raise PointAtlasError(
             f"simplify could not build a surface from these {q.shape[0]} points: nothing "
-            f"lies inside them on a grid of {SPACING_STEPS:g} point spacings (too few points, "
+            f"lies inside them on a grid of {step / spacing:.2g} point spacings (too few points, "
             "or normals "
             "that do not point out)"
         )
