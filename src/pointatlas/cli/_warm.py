@@ -51,6 +51,11 @@ WARM_STEPS: dict[str, list[list[str]]] = {
         ["simplify", "{tmp}/points.ply", "{tmp}/simplify_points.obj"],
     ],
     "denoise": [["denoise", WARM_MODEL, "{tmp}/denoise.ply"]],
+    # the pictures of every command's --render: the points' z-buffer kernels
+    "render": [
+        ["data", "export", WARM_MODEL, "{tmp}/render_points.ply", "--points"],
+        ["render", "{tmp}/render_points.ply", "{tmp}/render.png"],
+    ],
     "cloudsurface": [["cloudsurface", WARM_MODEL, "{tmp}/cloudsurface", "--scale", "1"]],
     "deform": [
         ["cloudsurface", WARM_MODEL, "{tmp}/deform_cs", "--scale", "1"],

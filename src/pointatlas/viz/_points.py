@@ -9,6 +9,7 @@ import numpy as np
 from .._core import as_labels, as_normals, as_points
 from ._camera import Camera, resolve_camera
 from ._colors import BACKGROUND, NEUTRAL, ScalarLegend, label_colors, scalar_colors
+from ._zbuffer import fill_pinholes, zbuffer
 
 __all__ = ["render_points_array", "check_size", "render_points_rgb"]
 
@@ -119,47 +120,15 @@ def _zbuffer(ix, iy, depth, width, height, radii, slopes=None):
     """Nearest point per pixel. Returns (owner (H*W,) int64 with -1, zbuf (H*W,)).
 
     Without ``slopes`` every point is a disc of ``radii[i]`` pixels facing the
-    viewer at its depth. With ``slopes = (ax, ay)`` (depth change per pixel step
-    right/down along the point's tangent plane) it is a disc *in the tangent
+    viewer at its depth. With ``slopes = (ax, ay, scale)`` (depth change per pixel
+    step right/down along the point's tangent plane) it is a disc *in the tangent
     plane*: an ellipse on screen whose samples carry their own depth, so
     silhouettes stay thin and slanted surfaces z-buffer correctly (surface
-    splatting). Per pixel the largest depth wins, ties go to the smaller index.
-    The splat samples are generated twice (max depth, then owner) instead of
-    being stored, so memory stays O(N + pixels).
+    splatting). Per pixel the largest depth wins, ties go to the smaller index
+    (`_zbuffer.zbuffer_kernel`: one pass over the points, memory O(N + pixels)).
     """
-    n = depth.shape[0]
-    npix = width * height
-    zbuf = np.full(npix, -np.inf)
-    ids = np.arange(n, dtype=np.int64)
-    reach2 = radii * radii + 0.5
-    uniform = slopes is None and bool(np.all(radii == radii[0]))
-    offsets = list(zip(*_disc_offsets(float(radii.max())), strict=True))
-
-    def samples(dx, dy):
-        px = ix + dx
-        py = iy + dy
-        ok = (px >= 0) & (px < width) & (py >= 0) & (py < height)
-        if slopes is None:
-            if not uniform:
-                ok &= reach2 >= dx * dx + dy * dy
-            d = depth[ok]
-        else:
-            dz = slopes[0] * dx + slopes[1] * dy  # depth offset, input units
-            lift = dz * slopes[2]  # the same offset in pixels
-            ok &= reach2 >= dx * dx + dy * dy + lift * lift
-            d = depth[ok] + dz[ok]
-        return py[ok] * width + px[ok], d, ok
-
-    for dx, dy in offsets:
-        pix, d, _ = samples(dx, dy)
-        np.maximum.at(zbuf, pix, d)
-    owner = np.full(npix, n, dtype=np.int64)
-    for dx, dy in offsets:
-        pix, d, ok = samples(dx, dy)
-        win = d == zbuf[pix]
-        np.minimum.at(owner, pix[win], ids[ok][win])
-    owner[owner == n] = -1
-    return owner, zbuf
+    offsets = _disc_offsets(float(radii.max()))
+    return zbuffer(ix, iy, depth, width, height, radii, offsets, slopes)
 
 
 def _tangent_slopes(normals: np.ndarray, camera: Camera, scale: float):
@@ -178,24 +147,10 @@ def _fill_pinholes(owner, zbuf, width: int, height: int, jump: float) -> None:
 
     A pixel is a hole when at least 3 of its 4 neighbours are nearer by more than
     ``jump`` (background counts as infinitely far); it takes the nearest
-    neighbour's point. Random samples leave such holes where the splats just miss.
+    neighbour's point (`_zbuffer.pinholes_kernel`). Random samples leave such holes
+    where the splats just miss.
     """
-    own = owner.reshape(height, width)
-    z = zbuf.reshape(height, width)
-    pad_o = np.pad(own, 1, constant_values=-1)
-    pad_z = np.pad(z, 1, constant_values=-np.inf)
-    shifts = ((0, 1), (2, 1), (1, 0), (1, 2))
-    nb_o = np.stack([pad_o[sy : sy + height, sx : sx + width] for sy, sx in shifts])
-    nb_z = np.stack([pad_z[sy : sy + height, sx : sx + width] for sy, sx in shifts])
-    with np.errstate(invalid="ignore"):  # -inf - -inf between background pixels
-        nearer = (nb_z - z[None]) > jump
-    hole = nearer.sum(axis=0) >= 3
-    if not hole.any():
-        return
-    best = np.argmax(nb_z, axis=0)
-    rows, cols = np.nonzero(hole)
-    own[rows, cols] = nb_o[best[rows, cols], rows, cols]
-    z[rows, cols] = nb_z[best[rows, cols], rows, cols]
+    fill_pinholes(owner, zbuf, width, height, jump)
 
 
 def _outline(zbuf: np.ndarray, width: int, height: int, jump: float) -> np.ndarray:
