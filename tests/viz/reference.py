@@ -4,6 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from pointatlas.viz._raster import _spans
+
+#: Pixels generated per batch of triangle bounding boxes (bounds memory).
+RASTER_BATCH = 4_000_000
+
 
 def zbuffer_reference(ix, iy, depth, width, height, radii, offsets, slopes=None):
     """`pointatlas.viz._zbuffer.zbuffer` in numpy, over the disc ``offsets`` (the
@@ -78,3 +83,55 @@ def fill_pinholes_reference(owner, zbuf, width: int, height: int, jump: float) -
     rows, cols = np.nonzero(hole)
     own[rows, cols] = nb_o[best[rows, cols], rows, cols]
     z[rows, cols] = nb_z[best[rows, cols], rows, cols]
+
+
+def rasterize_triangles_reference(x, y, z, tris, owner_of_tri, width, height):
+    """`pointatlas.viz._raster.rasterize_triangles` in numpy (the renderer's code before
+    its kernel). Z-buffer triangles; returns (owner (H*W,) int64 with -1, zbuf (H*W,)).
+
+    ``x, y`` are pixel coordinates (pixel (i, j) has its centre at (i + 0.5,
+    j + 0.5)), ``z`` depth (larger = nearer). A pixel centre inside a triangle
+    (edges included) takes its interpolated depth; per pixel the largest depth
+    wins, ties to the smaller owner id. Scanline spans, so the work is
+    proportional to the covered pixels (no bounding-box waste); fragments are
+    generated twice (depth pass, owner pass) in batches to bound memory.
+    Inputs are validated (private).
+    """
+    npix = width * height
+    zbuf = np.full(npix, -np.inf)
+    row, col0, count, z_row, step, t = _spans(x, y, z, tris, width, height)
+    ids = owner_of_tri[t]
+
+    def fragments(lo, hi):
+        c = count[lo:hi]
+        # column = position within the batch minus the span's start, plus col0
+        col = np.arange(int(c.sum()), dtype=np.int64) + np.repeat(
+            col0[lo:hi] - (np.cumsum(c) - c), c
+        )
+        pix = np.repeat(row[lo:hi] * width, c) + col
+        depth = np.repeat(z_row[lo:hi], c) + np.repeat(step[lo:hi], c) * col
+        return pix, depth, c
+
+    for lo, hi in _batches(count):
+        pix, depth, _ = fragments(lo, hi)
+        np.maximum.at(zbuf, pix, depth)
+    sentinel = np.iinfo(np.int64).max
+    owner = np.full(npix, sentinel, dtype=np.int64)
+    for lo, hi in _batches(count):
+        pix, depth, c = fragments(lo, hi)
+        win = depth == zbuf[pix]
+        np.minimum.at(owner, pix[win], np.repeat(ids[lo:hi], c)[win])
+    owner[owner == sentinel] = -1
+    return owner, zbuf
+
+
+def _batches(counts: np.ndarray):
+    """Split consecutive items so each batch holds about RASTER_BATCH fragments."""
+    ends = np.cumsum(counts)
+    start = 0
+    while start < counts.shape[0]:
+        base = ends[start - 1] if start else 0
+        stop = int(np.searchsorted(ends, base + RASTER_BATCH, side="right"))
+        stop = max(stop, start + 1)
+        yield start, stop
+        start = stop

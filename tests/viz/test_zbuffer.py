@@ -7,9 +7,14 @@ import numpy as np
 import pytest
 
 from pointatlas.viz._points import _disc_offsets
+from pointatlas.viz._raster import rasterize_triangles
 from pointatlas.viz._zbuffer import fill_pinholes, zbuffer
 from tests.jit_off import JIT_OFF, run_module_without_jit
-from tests.viz.reference import fill_pinholes_reference, zbuffer_reference
+from tests.viz.reference import (
+    fill_pinholes_reference,
+    rasterize_triangles_reference,
+    zbuffer_reference,
+)
 
 
 def _splats(seed: int, n: int = 300, width: int = 40, height: int = 30):
@@ -63,6 +68,26 @@ def test_pinholes_match_reference(seed):
         np.testing.assert_array_equal(zbuf, want_z)
         holes += int((before != want_o).sum())
     assert holes > 10  # the passes filled pixels (background ones among them)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_triangles_match_reference(seed):
+    """Overlapping triangles (pairs sharing an edge, some off the image, repeated
+    depths: ties to the smaller owner id) on a 48 x 36 image."""
+    rng = np.random.default_rng(seed)
+    centre = np.repeat(rng.uniform(-6, 54, (40, 2)), 4, axis=0)
+    v = centre + rng.normal(scale=5.0, size=centre.shape)
+    z = np.round(rng.normal(size=v.shape[0]), 1)
+    quads = np.arange(v.shape[0]).reshape(-1, 4)
+    tris = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    tris[::7] = tris[::7][:, [0, 0, 1]]  # no area: never drawn
+    owner_of_tri = rng.integers(0, 30, tris.shape[0])
+    args = (v[:, 0], v[:, 1], z, tris, owner_of_tri, 48, 36)
+    want = rasterize_triangles_reference(*args)
+    got = rasterize_triangles(*args)
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])
+    assert (got[0] >= 0).sum() > 300 and (got[0] < 0).sum() > 300
 
 
 @pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")

@@ -55,6 +55,8 @@ WARM_STEPS: dict[str, list[list[str]]] = {
     "render": [
         ["data", "export", WARM_MODEL, "{tmp}/render_points.ply", "--points"],
         ["render", "{tmp}/render_points.ply", "{tmp}/render.png"],
+        ["data", "export", WARM_MODEL, "{tmp}/render_mesh.obj"],
+        ["render", "{tmp}/render_mesh.obj", "{tmp}/render_mesh.png"],
     ],
     "cloudsurface": [["cloudsurface", WARM_MODEL, "{tmp}/cloudsurface", "--scale", "1"]],
     "deform": [

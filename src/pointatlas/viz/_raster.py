@@ -1,15 +1,16 @@
-"""Numpy z-buffer rasteriser for triangles (the mesh renderer's back end)."""
+"""Z-buffer rasteriser for triangles (the mesh renderer's back end): numpy scanline
+spans, their pixels z-buffered by a numba kernel (`_zbuffer.spans_kernel`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from ._zbuffer import spans_kernel
+
 __all__ = ["triangulate_faces", "rasterize_triangles"]
 
 #: Slack (pixels) added to both ends of a scanline span (see `_spans`).
 SPAN_SLACK = 1e-7
-#: Pixels generated per batch of triangle bounding boxes (bounds memory).
-RASTER_BATCH = 4_000_000
 
 
 def _polygon_frame(verts: np.ndarray, normal: np.ndarray) -> tuple[int, int]:
@@ -65,18 +66,6 @@ def triangulate_faces(vertices, indptr, flat, normals) -> tuple[np.ndarray, np.n
                     tris.append(c[idx.reshape(-1, 3)])
                     owners.append(np.full(idx.size // 3, f, dtype=np.int64))
     return np.concatenate(tris).astype(np.int64), np.concatenate(owners).astype(np.int64)
-
-
-def _batches(counts: np.ndarray):
-    """Split consecutive items so each batch holds about RASTER_BATCH fragments."""
-    ends = np.cumsum(counts)
-    start = 0
-    while start < counts.shape[0]:
-        base = ends[start - 1] if start else 0
-        stop = int(np.searchsorted(ends, base + RASTER_BATCH, side="right"))
-        stop = max(stop, start + 1)
-        yield start, stop
-        start = stop
 
 
 def _spans(x, y, z, tris, width, height):
@@ -138,33 +127,13 @@ def rasterize_triangles(x, y, z, tris, owner_of_tri, width, height):
     j + 0.5)), ``z`` depth (larger = nearer). A pixel centre inside a triangle
     (edges included) takes its interpolated depth; per pixel the largest depth
     wins, ties to the smaller owner id. Scanline spans, so the work is
-    proportional to the covered pixels (no bounding-box waste); fragments are
-    generated twice (depth pass, owner pass) in batches to bound memory.
-    Inputs are validated (private).
+    proportional to the covered pixels (no bounding-box waste); their pixels are
+    z-buffered in one pass (`_zbuffer.spans_kernel`). Inputs are validated (private).
     """
     npix = width * height
     zbuf = np.full(npix, -np.inf)
+    owner = np.full(npix, -1, dtype=np.int64)
     row, col0, count, z_row, step, t = _spans(x, y, z, tris, width, height)
-    ids = owner_of_tri[t]
-
-    def fragments(lo, hi):
-        c = count[lo:hi]
-        # column = position within the batch minus the span's start, plus col0
-        col = np.arange(int(c.sum()), dtype=np.int64) + np.repeat(
-            col0[lo:hi] - (np.cumsum(c) - c), c
-        )
-        pix = np.repeat(row[lo:hi] * width, c) + col
-        depth = np.repeat(z_row[lo:hi], c) + np.repeat(step[lo:hi], c) * col
-        return pix, depth, c
-
-    for lo, hi in _batches(count):
-        pix, depth, _ = fragments(lo, hi)
-        np.maximum.at(zbuf, pix, depth)
-    sentinel = np.iinfo(np.int64).max
-    owner = np.full(npix, sentinel, dtype=np.int64)
-    for lo, hi in _batches(count):
-        pix, depth, c = fragments(lo, hi)
-        win = depth == zbuf[pix]
-        np.minimum.at(owner, pix[win], np.repeat(ids[lo:hi], c)[win])
-    owner[owner == sentinel] = -1
+    ids = np.ascontiguousarray(owner_of_tri[t], dtype=np.int64)
+    spans_kernel(row, col0, count, z_row, step, ids, int(width), owner, zbuf)
     return owner, zbuf

@@ -1,8 +1,9 @@
-"""The points' z-buffer (private; `_points.render_points_rgb`): every point a splat of
-disc offsets, the nearest per pixel, then one-pixel holes closed. Serial numba kernels
+"""The z-buffers (private): the points' (`_points.render_points_rgb`: every point a
+splat of disc offsets, the nearest per pixel, then one-pixel holes closed) and the
+triangles' (`_raster.rasterize_triangles`: their scanline spans' pixels). Serial numba kernels
 (over the points in order; over the pixels); their plain-numpy references are in
 tests/viz/reference.py (`zbuffer_reference`: max depth, then the smallest index at it;
-`fill_pinholes_reference`), equal bit for bit.
+`fill_pinholes_reference`; `rasterize_triangles_reference`), equal bit for bit.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["fill_pinholes", "pinholes_kernel", "zbuffer", "zbuffer_kernel"]
+__all__ = ["fill_pinholes", "pinholes_kernel", "spans_kernel", "zbuffer", "zbuffer_kernel"]
 
 
 @njit(cache=True)
@@ -103,3 +104,18 @@ def fill_pinholes(owner, zbuf, width: int, height: int, jump: float) -> None:
     more than ``jump`` (background infinitely far) takes its nearest neighbour's
     point (`pinholes_kernel`, on a copy: the pixels change together)."""
     pinholes_kernel(owner.copy(), zbuf.copy(), int(width), int(height), float(jump), owner, zbuf)
+
+
+@njit(cache=True)
+def spans_kernel(row, col0, count, z_row, step, ids, width, owner, zbuf):
+    """Span ``s`` covers the ``count[s]`` pixels from column ``col0[s]`` of ``row[s]``
+    at depth ``z_row[s] + step[s] * column``; per pixel the largest depth wins, ties
+    to the smaller ``ids`` (``owner`` -1 and ``zbuf`` -inf where none, in place)."""
+    for s in range(row.shape[0]):
+        for col in range(col0[s], col0[s] + count[s]):
+            pix = row[s] * width + col
+            d = z_row[s] + step[s] * col
+            if d > zbuf[pix] or (d == zbuf[pix] and ids[s] < owner[pix]):
+                zbuf[pix] = d
+                owner[pix] = ids[s]
+    return owner, zbuf
