@@ -50,7 +50,11 @@ WARM_STEPS: dict[str, list[list[str]]] = {
         ["data", "export", WARM_MODEL, "{tmp}/points.ply", "--points"],
         ["simplify", "{tmp}/points.ply", "{tmp}/simplify_points.obj"],
     ],
-    "denoise": [["denoise", WARM_MODEL, "{tmp}/denoise.ply"]],
+    # the adaptive method too (the README's tour runs it; its kernels are its own)
+    "denoise": [
+        ["denoise", WARM_MODEL, "{tmp}/denoise.ply"],
+        ["denoise", WARM_MODEL, "{tmp}/denoise_adaptive.ply", "--method", "normal-voting-adaptive"],
+    ],
     # the pictures of every command's --render: the points' z-buffer kernels
     "render": [
         ["data", "export", WARM_MODEL, "{tmp}/render_points.ply", "--points"],
