@@ -80,9 +80,7 @@ def grid_step(q: np.ndarray, normals: np.ndarray, tree: cKDTree):
     thin sheet, `thin_sample`), at least 1 / `MAX_CELLS` of the box's second-longest
     side, and the node counts (`grid_shape`)."""
     spacing = point_spacing(q, tree)
-    lo, hi = q.min(axis=0), q.max(axis=0)
-    across = float(np.sort(hi - lo)[-2])
-    step, shape = grid_shape(hi - lo, max(SPACING_STEPS * spacing, across / MAX_CELLS), spacing)
+    step, shape = _grid_at(q, spacing, SPACING_STEPS)
     if thin_sample(q, normals, tree, THIN_STEPS * step):
         step, shape = finer_step(q, spacing)
     return spacing, step, shape
@@ -91,9 +89,15 @@ def grid_step(q: np.ndarray, normals: np.ndarray, tree: cKDTree):
 def finer_step(q: np.ndarray, spacing: float):
     """``(step, shape)`` of the finer grid of points ``q`` (`grid_step`'s, at
     `THIN_SPACING_STEPS` point ``spacing``)."""
+    return _grid_at(q, spacing, THIN_SPACING_STEPS)
+
+
+def _grid_at(q: np.ndarray, spacing: float, spacings: float):
+    """``(step, shape)``: ``spacings`` point spacings a step, at least 1 / `MAX_CELLS`
+    of the box's second-longest side (`grid_shape`)."""
     lo, hi = q.min(axis=0), q.max(axis=0)
     across = float(np.sort(hi - lo)[-2])
-    return grid_shape(hi - lo, max(THIN_SPACING_STEPS * spacing, across / MAX_CELLS), spacing)
+    return grid_shape(hi - lo, max(spacings * spacing, across / MAX_CELLS), spacing)
 
 
 def point_spacing(q: np.ndarray, tree: cKDTree) -> float:
@@ -152,7 +156,8 @@ def euler_characteristic(triangles) -> int:
     >>> euler_characteristic(np.array([[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]]))
     2
     """
+    from ._mesh import unique_pairs
+
     t = np.asarray(triangles, dtype=np.int64)
     edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
-    keys = edges[:, 0] * (int(t.max()) + 1) + edges[:, 1]
-    return int(np.unique(t).size - np.unique(keys).size + t.shape[0])
+    return int(np.unique(t).size - unique_pairs(edges).shape[0] + t.shape[0])

@@ -142,17 +142,6 @@ def _tangent_slopes(normals: np.ndarray, camera: Camera, scale: float):
     return -nx / (nz * scale), ny / (nz * scale), scale
 
 
-def _fill_pinholes(owner, zbuf, width: int, height: int, jump: float) -> None:
-    """In place: close one-pixel holes of the front surface.
-
-    A pixel is a hole when at least 3 of its 4 neighbours are nearer by more than
-    ``jump`` (background counts as infinitely far); it takes the nearest
-    neighbour's point (`_zbuffer.pinholes_kernel`). Random samples leave such holes
-    where the splats just miss.
-    """
-    fill_pinholes(owner, zbuf, width, height, jump)
-
-
 def _outline(zbuf: np.ndarray, width: int, height: int, jump: float) -> np.ndarray:
     """Pixels whose 4-neighbour is background or farther by more than ``jump``."""
     z = zbuf.reshape(height, width)
@@ -191,7 +180,7 @@ def render_points_rgb(
     typical = max(float(np.median(radii)), 1.0)
     jump = max(OUTLINE_JUMP * typical / scale, OUTLINE_RELATIVE * camera.radius)
     for _ in range(PINHOLE_PASSES):
-        _fill_pinholes(owner, zbuf, width, height, jump)
+        fill_pinholes(owner, zbuf, width, height, jump)
     covered = owner >= 0
     who = owner[covered]
     if lighting:

@@ -102,7 +102,8 @@ def pinholes_kernel(own, z, width, height, jump, owner, zbuf):
 def fill_pinholes(owner, zbuf, width: int, height: int, jump: float) -> None:
     """In place, one pass: every pixel with at least 3 of its 4 neighbours nearer by
     more than ``jump`` (background infinitely far) takes its nearest neighbour's
-    point (`pinholes_kernel`, on a copy: the pixels change together)."""
+    point (`pinholes_kernel`, on a copy: the pixels change together): the one-pixel
+    holes random samples leave where their splats just miss."""
     pinholes_kernel(owner.copy(), zbuf.copy(), int(width), int(height), float(jump), owner, zbuf)
 
 
