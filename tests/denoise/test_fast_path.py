@@ -109,9 +109,9 @@ def test_feature_classes_match_the_quadric_kernel():
     k_of = np.full(m.n_vertices, 12, np.int64)
     klass = np.empty(m.n_vertices, np.int64)
     want = np.empty(m.n_vertices, np.int64)
-    feature_class_kernel(m.normals, idx, k_of, 0.3, klass)
     # writeable copies, as the denoising loop passes its working arrays (one signature)
     pts, nrm = m.points.copy(), m.normals.copy()
+    feature_class_kernel(nrm, idx, k_of, 0.3, klass)
     quadric_update_kernel(pts, nrm, idx, k_of, 0.9, 0.3, 0.1, False, np.empty_like(pts), want)
     assert np.array_equal(klass, want) and set(klass.tolist()) == {1, 2, 3}
 

@@ -4,6 +4,7 @@ NUMBA_DISABLE_JIT=1 (coverage of the kernel bodies, `tests.jit_off`)."""
 import numpy as np
 import pytest
 
+from pointatlas._core import readonly_view
 from pointatlas.denoise._flatness import flatness_move_kernel
 from pointatlas.denoise._kernels import (
     adaptive_k_kernel,
@@ -46,7 +47,8 @@ def test_adaptive_k_tiny_reference():
     hi = np.full(14, 8, np.int64)
     bk = np.empty(14, np.int64)
     be = np.empty(14)
-    adaptive_k_kernel(pts, nrm, idx, lo, hi, 0.8, bk, be, np.full(14, -1, np.int64))
+    # read-only points, as `_voting._filter_steps` passes them (one kernel signature)
+    adaptive_k_kernel(readonly_view(pts), nrm, idx, lo, hi, 0.8, bk, be, np.full(14, -1, np.int64))
     wk, we = ref.adaptive_k(pts, nrm, idx, lo, hi, 0.8)
     fin = np.isfinite(we)
     np.testing.assert_allclose(be[fin], we[fin], atol=1e-7)
@@ -84,7 +86,8 @@ def test_lonely_normals_tiny_reference():
     k_of = np.full(14, 8, np.int64)
     counts = ref.plane_lists(nrm, idx, k_of, 0.8)[1]
     out = np.empty_like(nrm)
-    lonely_normals_kernel(pts, nrm, idx, k_of, counts, 0.8, 4, 1.0 / 0.7**2, out)
+    # read-only points, as `_voting._planes` gets them (one kernel signature)
+    lonely_normals_kernel(readonly_view(pts), nrm, idx, k_of, counts, 0.8, 4, 1.0 / 0.7**2, out)
     want = ref.lonely_normals(pts, nrm, idx, k_of, 0.8, 4, 0.7)
     np.testing.assert_allclose(out, want, atol=1e-12)
     lonely = counts < 4

@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from pointatlas._core import readonly_view
 from pointatlas.denoise import _planes as planes
 from pointatlas.denoise import add_noise, denoise, normal_voting_denoise
 from pointatlas.denoise._api import snap_planar_pieces
@@ -177,7 +178,8 @@ def test_tiny_flatness_ratio_matches_numpy():
     pts = rng.normal(size=(60, 3)) * [1.0, 0.5, 0.05]
     table = query_knn(pts, 10)[0]
     got = np.empty(len(pts))
-    planes.flatness_ratio_kernel(pts, table, got)
+    # read-only points, as `snap_to_pieces` passes them (one kernel signature)
+    planes.flatness_ratio_kernel(readonly_view(pts), table, got)
     q = pts[table] - pts[table].mean(axis=1, keepdims=True)
     lam = np.linalg.eigvalsh(np.einsum("nki,nkj->nij", q, q))
     assert np.allclose(got, lam[:, 0] / lam.sum(axis=1), rtol=1e-7, atol=1e-12)

@@ -263,7 +263,7 @@ def test_a_placement_that_takes_points_past_their_floor_is_put_back():
 
     v, t = subdivide(*subdivide(*box()))
     s = sample_mesh(v, t, 4000, rng=0)
-    q = np.asarray(s.points)
+    q = np.array(s.points)  # writeable, as the points path's (one kernel signature)
     top = np.flatnonzero(np.isclose(v[:, 2], v[:, 2].max()))
     inner = top[np.argsort(np.linalg.norm(v[top, :2] - v[top, :2].mean(axis=0), axis=1))]
     far = inner[0]

@@ -249,3 +249,22 @@ def test_a_surface_with_its_radii_from_the_knn_table_is_the_searched_one():
     np.testing.assert_allclose(tabled.distance(x), searched.distance(x), rtol=1e-12, atol=0)
     with pytest.raises(ValueError, match="needs 9 neighbours"):
         disc_radii(dist[:, :8])
+
+
+def test_a_surface_holds_writeable_arrays_whatever_the_callers():
+    """`PointSurface` keeps writeable C arrays, as the points path makes them (one
+    compiled signature of the disc kernels and the collapses whatever the caller
+    hands): a read-only input is copied, never written; a writeable one is used as
+    it is (no copy)."""
+    v, t = subdivide(*box())
+    s = sample_mesh(v, t, 500, rng=0)
+    q, n = np.asarray(s.points), np.asarray(s.normals)
+    assert not q.flags.writeable and not n.flags.writeable  # the sampler's arrays
+    held = PointSurface(q, n)
+    assert held.points.flags.writeable and held.normals.flags.writeable
+    assert held.points.flags.c_contiguous and not np.shares_memory(held.points, q)
+    np.testing.assert_array_equal(held.points, q)
+    mine = np.array(q)
+    assert np.shares_memory(PointSurface(mine, np.array(n)).points, mine)
+    x = np.random.default_rng(1).uniform(-0.2, 1.2, size=(200, 3)) * np.ptp(v, axis=0)
+    np.testing.assert_array_equal(held.distance(x), PointSurface(mine, np.array(n)).distance(x))

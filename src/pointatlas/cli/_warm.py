@@ -51,9 +51,11 @@ WARM_STEPS: dict[str, list[list[str]]] = {
         ["simplify", "{tmp}/points.ply", "{tmp}/simplify_points.obj"],
     ],
     # the adaptive method too (the README's tour runs it; its kernels are its own)
+    # and a model with planar pieces (the torus has none: their kernels stay cold)
     "denoise": [
         ["denoise", WARM_MODEL, "{tmp}/denoise.ply"],
         ["denoise", WARM_MODEL, "{tmp}/denoise_adaptive.ply", "--method", "normal-voting-adaptive"],
+        ["denoise", "fandisk", "{tmp}/denoise_planes.ply"],
     ],
     # the pictures of every command's --render: the points' z-buffer kernels
     "render": [

@@ -20,6 +20,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .._core import readonly_view
 from ..neighbors import query_knn
 from ..normals._kernels.eig3 import eig3_fast, sym3_eigen_scalars
 
@@ -347,6 +348,8 @@ def snap_to_pieces(points, normals, is_face, spacing, *, high_noise=False, table
     piece : ndarray of shape (N,), int64
         The piece a point took, or -1.
     """
+    # one kernel signature for API, CLI and tile inputs (docs/decisions/cli.md)
+    points, normals = readonly_view(points), readonly_view(normals)
     n = points.shape[0]
     out = normals.copy()
     out_points = points.copy()

@@ -170,7 +170,7 @@ def _neighbourhoods(pts, radius_factor, extra, neighbors=None, spacing=None):
     ncol = min(kcap + extra, n)
     table = query_knn(pts, ncol)[0] if neighbors is None else neighbors
     dist = np.empty((n, kcap))
-    table_distances_kernel(pts, np.ascontiguousarray(table[:, :kcap]), dist)
+    table_distances_kernel(readonly_view(pts), np.ascontiguousarray(table[:, :kcap]), dist)
     if spacing is not None:
         ell = spacing
     else:
@@ -426,7 +426,7 @@ def _rounds(
             adaptive=adaptive,
             progress=progress,
         )
-        nrm = _planes(cur, nrm, idx, k_def, lists, counts, rho, ell)  # this round's planes
+        nrm = _planes(readonly_view(cur), nrm, idx, k_def, lists, counts, rho, ell)  # one type
         sigma = (UPDATE_SIGMA if ran == 1 else UPDATE_SIGMA_LATER) * ell
         start = cur
         cur = _updates(

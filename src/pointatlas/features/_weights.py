@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .._core import as_float, as_vectors, check_neighbors
+from .._core import as_float, as_vectors, check_neighbors, readonly_view
 from .._core.tolerances import ANGLE_ZERO
 from ._kernels import angles_kernel, unit_normals_kernel
 
@@ -75,7 +75,7 @@ def _unit_normals_or_nan(normals, n_points: int | None = None) -> np.ndarray:
     """Unit normals; rows that are non-finite or of zero length become NaN (flagged later)."""
     arr = as_vectors(normals, n_points, name="normals")
     out = np.empty(arr.shape)
-    unit_normals_kernel(np.ascontiguousarray(arr), out)
+    unit_normals_kernel(readonly_view(np.ascontiguousarray(arr)), out)
     return out
 
 

@@ -71,9 +71,11 @@ class PointSurface:
     """
 
     def __init__(self, points, normals=None, tree=None, radius=None):
-        self.points = np.ascontiguousarray(points, dtype=np.float64)
+        # writeable arrays (a copy only of a read-only one): the kernels they reach
+        # have one signature, the mesh path's (docs/decisions/cli.md, "First run")
+        self.points = np.require(points, np.float64, ["C", "W"])
         self.tree = cKDTree(self.points) if tree is None else tree
-        self.normals = None if normals is None else np.ascontiguousarray(normals, dtype=np.float64)
+        self.normals = None if normals is None else np.require(normals, np.float64, ["C", "W"])
         if radius is None:
             k = min(DISC_NEIGHBOR + 1, self.points.shape[0])
             far = self.tree.query(self.points, k=k, workers=-1)[0]

@@ -196,6 +196,7 @@ def _band_sides(q, normals, x, near, step, spacing):
     np.negative(gauss, out=gauss)
     np.exp(gauss, out=gauss)
     # writable C copies: one compiled signature whatever the caller's arrays
+    x = np.ascontiguousarray(x, dtype=np.float64)
     q = np.array(q, dtype=np.float64, order="C")
     normals = np.array(normals, dtype=np.float64, order="C")
     values = band_field(x, d, gauss, j, q, normals, float(step), float(spacing))

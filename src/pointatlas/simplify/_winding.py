@@ -17,6 +17,8 @@ import numpy as np
 from numba import njit, prange
 from scipy.spatial import cKDTree
 
+from .._core import readonly_view
+
 __all__ = [
     "AREA_NEIGHBOR",
     "FAR_RADII",
@@ -92,7 +94,8 @@ def winding_numbers(x, points, normals, cell: float) -> np.ndarray:
     one dipole each). At most `MAX_POINTS` points, evenly strided, are used.
     """
     stride = max(1, -(-points.shape[0] // MAX_POINTS))
-    p = np.ascontiguousarray(points[::stride], dtype=np.float64)
+    # read-only: one kernel signature whatever the caller's array (docs/decisions/cli.md)
+    p = readonly_view(np.ascontiguousarray(points[::stride], dtype=np.float64))
     n = np.asarray(normals[::stride], dtype=np.float64)
     dipoles = np.ascontiguousarray(n * point_areas(p)[:, None])
     key = np.floor((p - p.min(axis=0)) / cell).astype(np.int64)
