@@ -426,7 +426,7 @@ def _rounds(
             adaptive=adaptive,
             progress=progress,
         )
-        nrm = _planes(readonly_view(cur), nrm, idx, k_def, lists, counts, rho, ell)  # one type
+        nrm = _planes(readonly_view(cur), nrm, idx, k_def, lists, counts, rho, ell)  # 1 kernel type
         sigma = (UPDATE_SIGMA if ran == 1 else UPDATE_SIGMA_LATER) * ell
         start = cur
         cur = _updates(

@@ -195,7 +195,7 @@ def _band_sides(q, normals, x, near, step, spacing):
     np.square(gauss, out=gauss)
     np.negative(gauss, out=gauss)
     np.exp(gauss, out=gauss)
-    # writable C copies: one compiled signature whatever the caller's arrays
+    # C arrays (the points writable copies): one compiled signature whatever the caller's
     x = np.ascontiguousarray(x, dtype=np.float64)
     q = np.array(q, dtype=np.float64, order="C")
     normals = np.array(normals, dtype=np.float64, order="C")
