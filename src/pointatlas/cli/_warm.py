@@ -40,15 +40,30 @@ _RINGS = ["info", "hand"]
 
 #: Per command, the argument lists run in order ({tmp}: the temporary folder).
 #: ``simplify`` runs twice: a mesh takes the mesh path, a point set the points path.
+#: Besides the defaults, the options whose kernels are their own and that the README,
+#: the demo or the thesis' experiments run: ``info --report`` (the k-NN graph's
+#: components), ``features --weighting equal``, ``segment --eta`` (the merge step's
+#: candidates: the torus merges nothing) and the points path on a CAD model (its
+#: non-convex faces are split for other readers by ear clipping: `make demo` runs it).
 WARM_STEPS: dict[str, list[list[str]]] = {
-    "info": [["info", WARM_MODEL], _RINGS],
+    "info": [["info", WARM_MODEL], _RINGS, ["info", WARM_MODEL, "--report", "{tmp}/info.html"]],
     "normals": [["normals", WARM_MODEL, "{tmp}/normals.ply"], _RINGS],
-    "features": [["features", WARM_MODEL, "{tmp}/features.ply"], _RINGS],
-    "segment": [["segment", WARM_MODEL, "{tmp}/segment.ply"], _RINGS],
+    "features": [
+        ["features", WARM_MODEL, "{tmp}/features.ply"],
+        _RINGS,
+        ["features", WARM_MODEL, "{tmp}/features_equal.ply", "--weighting", "equal"],
+    ],
+    "segment": [
+        ["segment", WARM_MODEL, "{tmp}/segment.ply"],
+        _RINGS,
+        ["segment", "fandisk", "{tmp}/segment_eta.ply", "--eta", "25"],
+    ],
     "simplify": [
         ["simplify", WARM_MODEL, "{tmp}/simplify_mesh.obj"],
         ["data", "export", WARM_MODEL, "{tmp}/points.ply", "--points"],
         ["simplify", "{tmp}/points.ply", "{tmp}/simplify_points.obj"],
+        ["data", "export", "fandisk", "{tmp}/cad_points.ply", "--points"],
+        ["simplify", "{tmp}/cad_points.ply", "{tmp}/simplify_cad.obj"],
     ],
     # the adaptive method too (the README's tour runs it; its kernels are its own)
     # and a model with planar pieces (the torus has none: their kernels stay cold)
