@@ -4,7 +4,7 @@ automatic stops, and the one-thread rule (docs/decisions/denoise.md)."""
 import numpy as np
 import pytest
 
-from pointatlas.denoise import _threads, _voting, add_noise, normal_voting_denoise
+from pointatlas.denoise import _filter, _threads, _voting, add_noise, normal_voting_denoise
 from pointatlas.denoise._kernels import (
     feature_class_kernel,
     plane_lists_kernel,
@@ -36,7 +36,7 @@ def test_neighbourhoods_match_brute_force(extra):
     rng = np.random.default_rng(3)
     for n in (60, 700):
         pts = _blob(rng, n)
-        table, idx, k, ell = _voting._neighbourhoods(pts, 2.0, extra)
+        table, idx, k, ell = _filter._neighbourhoods(pts, 2.0, extra)
         want_k, want_ell = ref.neighbourhoods(pts, 2.0)
         assert np.array_equal(k, want_k) and ell == pytest.approx(want_ell, rel=1e-12)
         assert np.array_equal(table, query_knn(pts, min(48 + extra, n))[0])
@@ -148,13 +148,13 @@ def test_one_thread_and_parallel_give_the_same_bits(monkeypatch):
     pts = _blob(rng, 900)
     threads = numba.get_num_threads()
     seen = []
-    orig = _voting.voting_filter_kernel
+    orig = _filter.voting_filter_kernel
 
     def spy(*args):
         seen.append(numba.get_num_threads())
         return orig(*args)
 
-    monkeypatch.setattr(_voting, "voting_filter_kernel", spy)
+    monkeypatch.setattr(_filter, "voting_filter_kernel", spy)
     out = {}
     for busy in (True, False):
         monkeypatch.setattr(_threads, "machine_busy", lambda busy=busy: busy)
@@ -201,13 +201,13 @@ def test_default_filter_steps_follow_the_returned_normals(monkeypatch):
     assert (default_filter_iter(True), default_filter_iter(False)) == (1, 5)
     pts = _blob(np.random.default_rng(3), 500)
     calls = []
-    orig = _voting.voting_filter_kernel
+    orig = _filter.voting_filter_kernel
 
     def spy(*args):
         calls.append(1)
         return orig(*args)
 
-    monkeypatch.setattr(_voting, "voting_filter_kernel", spy)
+    monkeypatch.setattr(_filter, "voting_filter_kernel", spy)
     est = normal_voting_denoise(pts, None, n_iter=2, n_update=1, adaptive=False)
     assert len(calls) == 2
     calls.clear()

@@ -47,7 +47,7 @@ def test_adaptive_k_tiny_reference():
     hi = np.full(14, 8, np.int64)
     bk = np.empty(14, np.int64)
     be = np.empty(14)
-    # read-only points, as `_voting._filter_steps` passes them (one kernel signature)
+    # read-only points, as `_filter._filter_steps` passes them (one kernel signature)
     adaptive_k_kernel(readonly_view(pts), nrm, idx, lo, hi, 0.8, bk, be, np.full(14, -1, np.int64))
     wk, we = ref.adaptive_k(pts, nrm, idx, lo, hi, 0.8)
     fin = np.isfinite(we)

@@ -19,6 +19,7 @@ from ._api import (
     voting_with_pieces,
 )
 from ._defaults import default_filter_iter
+from ._filter import THESIS_FILTER_PARAMETERS, default_neighborhoods, filter_normals
 from ._flatness import FLATNESS_SCHEDULES, flatness_denoise, flatness_schedule
 from ._halo import DenoiseHalo, denoise_halo
 from ._measures import (
@@ -30,12 +31,7 @@ from ._measures import (
 )
 from ._noise import NOISE_KINDS, add_impulsive_noise, add_noise
 from ._result import DenoiseResult, NormalFilterResult
-from ._voting import (
-    THESIS_FILTER_PARAMETERS,
-    default_neighborhoods,
-    filter_normals,
-    normal_voting_denoise,
-)
+from ._voting import normal_voting_denoise
 
 __all__ = [
     "DENOISE_METHODS",
