@@ -42,11 +42,12 @@ _RINGS = ["info", "hand"]
 #: ``simplify`` runs twice: a mesh takes the mesh path, a point set the points path.
 #: Besides the defaults, the options whose kernels are their own and that the README,
 #: the demo or the thesis' experiments run: ``info --report`` (the k-NN graph's
-#: components), ``features --weighting equal``, ``segment --eta`` (the merge step's
-#: candidates: the torus merges nothing) and the points path on a CAD model (its
-#: non-convex faces are split for other readers by ear clipping: `make demo` runs it).
+#: components; a step of its own, ``report``), ``features --weighting equal``,
+#: ``segment --eta`` (the merge step's candidates: the torus merges nothing) and the
+#: points path on a CAD model (its non-convex faces are split for other readers by
+#: ear clipping: `make demo` runs it).
 WARM_STEPS: dict[str, list[list[str]]] = {
-    "info": [["info", WARM_MODEL], _RINGS, ["info", WARM_MODEL, "--report", "{tmp}/info.html"]],
+    "info": [["info", WARM_MODEL], _RINGS],
     "normals": [["normals", WARM_MODEL, "{tmp}/normals.ply"], _RINGS],
     "features": [
         ["features", WARM_MODEL, "{tmp}/features.ply"],
@@ -80,6 +81,8 @@ WARM_STEPS: dict[str, list[list[str]]] = {
         ["render", "{tmp}/render_mesh.obj", "{tmp}/render_mesh.png"],
     ],
     "cloudsurface": [["cloudsurface", WARM_MODEL, "{tmp}/cloudsurface", "--scale", "1"]],
+    # apart from info's default path, which tests/cli/test_warm.py warms from nothing
+    "report": [["info", WARM_MODEL, "--report", "{tmp}/info.html"]],
     "deform": [
         ["cloudsurface", WARM_MODEL, "{tmp}/deform_cs", "--scale", "1"],
         ["deform", "{tmp}/deform_cs", "{tmp}/deform_cs/complex.ply", "{tmp}/deform.ply"],
