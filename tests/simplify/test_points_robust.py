@@ -105,13 +105,13 @@ def test_thesis_path_kept_where_it_closes_and_path_choices():
 
 
 def test_pinched_vertices_are_split_into_one_vertex_per_fan():
-    from pointatlas.simplify._reconstruct import _split_pinches
+    from pointatlas.simplify._mesh import split_pinches
 
     # two triangles touching at vertex 0 only (a bow tie) and one sharing an edge
     v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [-1, 0, 0], [-1, -1, 0], [2, 1, 0.0]])
     t = np.array([[0, 1, 2], [0, 3, 4], [1, 5, 2]])
     assert mesh_checks(len(v), t) == (False, False, True)
-    v2, t2 = _split_pinches(v, t)
+    v2, t2 = split_pinches(v, t)
     assert len(v2) == 7 and mesh_checks(len(v2), t2) == (False, True, True)
     np.testing.assert_array_equal(v2[t2], v[t])  # same triangles in space
     assert t2[0, 1] == t2[2, 0] and t2[0, 2] == t2[2, 2]  # the shared edge stays shared

@@ -23,6 +23,7 @@ __all__ = [
     "cross",
     "mesh_checks",
     "point_mesh_distance",
+    "split_pinches",
     "unique_ints",
     "unique_pairs",
     "vertex_pieces",
@@ -106,6 +107,41 @@ def vertex_pieces(tri, n: int) -> np.ndarray:
     b = np.concatenate([tri[:, 1], tri[:, 2]])
     graph = coo_matrix((np.ones(a.size), (a, b)), (n, n))
     return connected_components(graph, directed=False)[1]
+
+
+def split_pinches(verts, tri):
+    """Every vertex whose triangles form several fans (joined through edges at the
+    vertex) becomes one vertex per fan, so the surface is manifold at its vertices."""
+    from scipy.sparse import coo_array, csgraph
+
+    n_t = tri.shape[0]
+    corner = np.arange(3 * n_t).reshape(n_t, 3)  # corner (t, k) holds vertex tri[t, k]
+    a_rows, b_rows = [], []
+    for k in range(3):
+        u, v = tri[:, k], tri[:, (k + 1) % 3]
+        key = np.minimum(u, v) * (int(tri.max()) + 1) + np.maximum(u, v)
+        order = np.argsort(key, kind="stable")
+        ks = key[order]
+        a_rows.append(np.stack([order, np.full(n_t, k), u[order], v[order], ks], axis=1))
+    e = np.concatenate(a_rows)
+    e = e[np.argsort(e[:, 4], kind="stable")]
+    pair = np.flatnonzero(e[1:, 4] == e[:-1, 4])
+    first, second = e[pair], e[pair + 1]
+    for end in (2, 3):  # the edge's two vertices: join their corners in both triangles
+        ca = corner[first[:, 0], np.argmax(tri[first[:, 0]] == first[:, end][:, None], axis=1)]
+        cb = corner[second[:, 0], np.argmax(tri[second[:, 0]] == first[:, end][:, None], axis=1)]
+        b_rows.append(np.stack([ca, cb], axis=1))
+    joins = np.concatenate(b_rows)
+    g = coo_array(
+        (np.ones(joins.shape[0], np.int8), (joins[:, 0], joins[:, 1])), shape=(3 * n_t, 3 * n_t)
+    )
+    _, fan = csgraph.connected_components(g, directed=False)
+    new_id, first_corner = np.unique(fan, return_index=True)[0:2]
+    remap = np.empty(fan.max() + 1, dtype=np.int64)
+    remap[new_id] = np.arange(new_id.size)
+    out_tri = remap[fan].reshape(n_t, 3)
+    out_verts = verts[tri.reshape(-1)[first_corner]]
+    return out_verts, out_tri
 
 
 def vertex_triangles(tri, n: int) -> tuple[np.ndarray, np.ndarray]:

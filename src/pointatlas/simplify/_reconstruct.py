@@ -17,6 +17,8 @@ from .._core import PointAtlasError
 from .._core._threads import on_thread
 from ._grid_knn import GridKnn
 from ._handles import cut_handles
+from ._mesh import split_pinches
+from ._solid import SOLID_RADIUS, half_balls, solid_retry
 from ._voxel_grid import (
     LOST_POINTS,
     LOST_SHARE,
@@ -273,41 +275,6 @@ def _trim(tri, far):
     return cut
 
 
-def _split_pinches(verts, tri):
-    """Every vertex whose triangles form several fans (joined through edges at the
-    vertex) becomes one vertex per fan, so the surface is manifold at its vertices."""
-    from scipy.sparse import coo_array, csgraph
-
-    n_t = tri.shape[0]
-    corner = np.arange(3 * n_t).reshape(n_t, 3)  # corner (t, k) holds vertex tri[t, k]
-    a_rows, b_rows = [], []
-    for k in range(3):
-        u, v = tri[:, k], tri[:, (k + 1) % 3]
-        key = np.minimum(u, v) * (int(tri.max()) + 1) + np.maximum(u, v)
-        order = np.argsort(key, kind="stable")
-        ks = key[order]
-        a_rows.append(np.stack([order, np.full(n_t, k), u[order], v[order], ks], axis=1))
-    e = np.concatenate(a_rows)
-    e = e[np.argsort(e[:, 4], kind="stable")]
-    pair = np.flatnonzero(e[1:, 4] == e[:-1, 4])
-    first, second = e[pair], e[pair + 1]
-    for end in (2, 3):  # the edge's two vertices: join their corners in both triangles
-        ca = corner[first[:, 0], np.argmax(tri[first[:, 0]] == first[:, end][:, None], axis=1)]
-        cb = corner[second[:, 0], np.argmax(tri[second[:, 0]] == first[:, end][:, None], axis=1)]
-        b_rows.append(np.stack([ca, cb], axis=1))
-    joins = np.concatenate(b_rows)
-    g = coo_array(
-        (np.ones(joins.shape[0], np.int8), (joins[:, 0], joins[:, 1])), shape=(3 * n_t, 3 * n_t)
-    )
-    _, fan = csgraph.connected_components(g, directed=False)
-    new_id, first_corner = np.unique(fan, return_index=True)[0:2]
-    remap = np.empty(fan.max() + 1, dtype=np.int64)
-    remap[new_id] = np.arange(new_id.size)
-    out_tri = remap[fan].reshape(n_t, 3)
-    out_verts = verts[tri.reshape(-1)[first_corner]]
-    return out_verts, out_tri
-
-
 def _bubbles(tri, far, nearest, dots, areas, closed=True):
     """Triangles of pieces (vertex-connected) that lie wholly far from the points, or
     that fewer than `STRAY_POINTS` points have their nearest triangle on (``nearest``:
@@ -340,7 +307,8 @@ def reconstruct_surface(
     steps everywhere; cut open beyond the input's open boundaries. Where it leaves
     `LOST_POINTS` points more than `LOST_STEPS` steps off (a part thinner than the
     grid), built again on the finer grid (`finer_step`), kept when that brings most of
-    them near without adding handles (or `LOST_SHARE` of the points were lost).
+    them near without adding handles (or `LOST_SHARE` of the points were lost); where
+    points are still lost, again with their parts made solid (`_solid.solid_retry`).
     ``areas``: the points' disc areas (`is_closed_sample`), ``tree``: their
     `cKDTree`; found when None.
     """
@@ -352,33 +320,46 @@ def reconstruct_surface(
     spacing, step, shape = grid_step(q, normals, tree)
     closed = is_closed_sample(q, normals, areas)
     rec = _surface_at(q, normals, tree, (spacing, step, shape), closed)
-    fine_step, fine_shape = finer_step(q, spacing)
-    if not fine_step < step / 1.2:
-        return rec
-    # a part thinner than the grid lost or cut through: the finer grid, where it
-    # brings those points near without adding handles
-    lost = lost_points(q, rec.vertices, rec.triangles, LOST_STEPS * step)
+    fine = (spacing, *finer_step(q, spacing))
+    if fine[1] < step / 1.2:
+        rec = _finer(q, normals, tree, rec, fine, closed)
+
+    def build(points, point_normals):
+        return _surface_at(q, normals, tree, fine, closed, solid=(points, point_normals))
+
+    return solid_retry(q, normals, rec, build, step, spacing)
+
+
+def _finer(q, normals, tree, rec, fine, closed) -> Reconstruction:
+    """``rec``, or the surface on the ``fine`` grid where ``rec`` lost a part thinner
+    than its grid and the finer one brings most of those points near without adding
+    handles."""
+    far = LOST_STEPS * rec.step
+    lost = lost_points(q, rec.vertices, rec.triangles, far)
     if lost < LOST_POINTS:
         return rec
     try:
-        fine = _surface_at(q, normals, tree, (spacing, fine_step, fine_shape), closed)
+        surface = _surface_at(q, normals, tree, fine, closed)
     except PointAtlasError:
         return rec
-    still = lost_points(q, fine.vertices, fine.triangles, LOST_STEPS * step)
-    no_handle = euler_characteristic(fine.triangles) >= euler_characteristic(rec.triangles)
+    still = lost_points(q, surface.vertices, surface.triangles, far)
+    no_handle = euler_characteristic(surface.triangles) >= euler_characteristic(rec.triangles)
     # a part lost whole is worth a handle through it (a fin 0.8 steps thin)
     whole = lost >= LOST_SHARE * q.shape[0]
-    return fine if 2 * still <= lost and (no_handle or whole) else rec
+    return surface if 2 * still <= lost and (no_handle or whole) else rec
 
 
-def _surface_at(q, normals, tree, grid, closed) -> Reconstruction:
-    """`reconstruct_surface` on the grid ``(spacing, step, shape)``."""
+def _surface_at(q, normals, tree, grid, closed, solid=None) -> Reconstruction:
+    """`reconstruct_surface` on the grid ``(spacing, step, shape)``; ``solid``:
+    (points, normals) whose half balls the field takes (`_solid.half_balls`)."""
     from skimage.measure import marching_cubes
 
     spacing, step, shape = grid
     lo = q.min(axis=0)
     origin = lo - (band_steps(step, spacing) + 2) * step
     f = _field(q, normals, step, spacing, origin, shape, closed)
+    if solid is not None:
+        f = half_balls(f, origin, step, *solid, SOLID_RADIUS * step)
     if not f.min() < 0.0 < f.max():  # no inside (a few sparse points): no surface
         raise PointAtlasError(
             f"simplify could not build a surface from these {q.shape[0]} points: nothing "
@@ -419,7 +400,7 @@ def _surface_at(q, normals, tree, grid, closed) -> Reconstruction:
     if tri.shape[0] == 0:
         raise PointAtlasError("simplify could not build a surface from these points")
     if cut.any():  # cutting can leave pieces touching at a vertex: give each its own
-        verts, tri = _split_pinches(verts, tri)
+        verts, tri = split_pinches(verts, tri)
     n_handles = 0
     if closed:  # bridges across gaps thinner than a step: small handles, cut
         verts, tri, n_handles = cut_handles(verts, tri, step)
