@@ -308,7 +308,8 @@ def reconstruct_surface(
     `LOST_POINTS` points more than `LOST_STEPS` steps off (a part thinner than the
     grid), built again on the finer grid (`finer_step`), kept when that brings most of
     them near without adding handles (or `LOST_SHARE` of the points were lost); where
-    points are still lost, again with their parts made solid (`_solid.solid_retry`).
+    points are still lost on a closed sample, again with their parts made solid
+    (`_solid.solid_retry`).
     ``areas``: the points' disc areas (`is_closed_sample`), ``tree``: their
     `cKDTree`; found when None.
     """
@@ -323,6 +324,9 @@ def reconstruct_surface(
     fine = (spacing, *finer_step(q, spacing))
     if fine[1] < step / 1.2:
         rec = _finer(q, normals, tree, rec, fine, closed)
+
+    if not closed:  # an open sample's far points lie beyond its cut outline: no inside
+        return rec
 
     def build(points, point_normals):
         return _surface_at(q, normals, tree, fine, closed, solid=(points, point_normals))
