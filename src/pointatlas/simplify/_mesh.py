@@ -112,8 +112,6 @@ def vertex_pieces(tri, n: int) -> np.ndarray:
 def split_pinches(verts, tri):
     """Every vertex whose triangles form several fans (joined through edges at the
     vertex) becomes one vertex per fan, so the surface is manifold at its vertices."""
-    from scipy.sparse import coo_array, csgraph
-
     n_t = tri.shape[0]
     corner = np.arange(3 * n_t).reshape(n_t, 3)  # corner (t, k) holds vertex tri[t, k]
     a_rows, b_rows = [], []
@@ -132,10 +130,10 @@ def split_pinches(verts, tri):
         cb = corner[second[:, 0], np.argmax(tri[second[:, 0]] == first[:, end][:, None], axis=1)]
         b_rows.append(np.stack([ca, cb], axis=1))
     joins = np.concatenate(b_rows)
-    g = coo_array(
+    g = coo_matrix(
         (np.ones(joins.shape[0], np.int8), (joins[:, 0], joins[:, 1])), shape=(3 * n_t, 3 * n_t)
     )
-    _, fan = csgraph.connected_components(g, directed=False)
+    _, fan = connected_components(g, directed=False)
     new_id, first_corner = np.unique(fan, return_index=True)[0:2]
     remap = np.empty(fan.max() + 1, dtype=np.int64)
     remap[new_id] = np.arange(new_id.size)
