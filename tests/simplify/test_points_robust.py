@@ -416,3 +416,30 @@ def test_a_search_that_ends_fine_runs_again_at_the_looser_floors(monkeypatch):
     assert all(mesh_checks(again.n_vertices, tri_again))
     diag = float(np.linalg.norm(np.ptp(p, axis=0)))
     assert max(again.distance_max, again.back_distance_max) <= 0.02 * diag
+
+
+def test_the_placements_floor_check_reads_every_sth_point_of_a_large_input(monkeypatch):
+    """Above `_snap.KEEP_POINTS` points the placement's check of the floors
+    (`placed_keeps_points`) reads every s-th point only (a C array), while the level
+    found is still measured on all of them: the output stays closed, with the
+    bracket's genus, and every point within the bound as the report measures it."""
+    from pointatlas.simplify import _snap
+
+    v, t = l_bracket()
+    s = sample_mesh(v, t, 6000, rng=0)
+    p = np.asarray(s.points)
+    diag = float(np.linalg.norm(np.ptp(p, axis=0)))
+    read = []
+    check = _snap.placed_keeps_points
+
+    def spy(v0, placed, triangles, q, floor, tol, before=None):
+        read.append((q.shape[0], floor.shape[0], q.flags.c_contiguous))
+        return check(v0, placed, triangles, q, floor, tol, before)
+
+    monkeypatch.setattr(_snap, "KEEP_POINTS", 1000)
+    monkeypatch.setattr(_snap, "placed_keeps_points", spy)
+    m = simplify_points(p, s.normals).mesh
+    assert read and set(read) == {(1000, 1000, True)}
+    assert mesh_checks(m.n_vertices, m.triangles) == (True, True, True)
+    assert _euler(m.n_vertices, m.triangles) == 2
+    assert max(m.distance_max, m.back_distance_max) <= 0.0105 * diag
