@@ -5,7 +5,8 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_simplify_points.py \
         --models ../shared/data/collection --every 3 --points 20000 \
         --out bench-output/simplify_points.csv
-    # raw points: normals estimated (PCA k = 20) and oriented, as the CLI does
+    # raw points: normals estimated (`surface_normals`: PCA k = 20, the least-entropy
+    # size in 10..30 where not flat) and oriented, as the CLI does
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --estimate-normals
     # a scanner's noise: Gaussian, sigma 0.1 % of the diagonal (seeded)
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --noise 0.1
@@ -45,8 +46,8 @@ from bench_simplify_rd import both_ways, kinds, open3d_quadric, zero_area_triang
 
 from pointatlas.io import read_mesh
 from pointatlas.neighbors import point_mesh_distance
-from pointatlas.normals import estimate_normals, orient_normals
-from pointatlas.simplify import SimplifyWarning, mesh_checks, simplify_points
+from pointatlas.normals import orient_normals
+from pointatlas.simplify import SimplifyWarning, mesh_checks, simplify_points, surface_normals
 from pointatlas.synth import sample_mesh
 
 MESH_SUFFIXES = (".obj", ".off", ".ply", ".stl")
@@ -129,7 +130,7 @@ def run_model(
         sigma = noise / 100.0 * float(np.linalg.norm(np.ptp(p, axis=0)))
         p = p + np.random.default_rng(2).normal(0.0, sigma, p.shape)
     if estimate:
-        n = orient_normals(p, estimate_normals(p, k=20))
+        n = orient_normals(p, surface_normals(p, k=20))
     diag = float(np.linalg.norm(np.ptp(p, axis=0)))
     kind = KINDS.get(path.stem, "organic")
     row = {"model": path.name, "kind": kind, "points": n_points, "euler_input": euler_in}

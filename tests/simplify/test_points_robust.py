@@ -289,6 +289,7 @@ def test_points_without_normals_through_the_command_line(tmp_path):
     res = CliRunner().invoke(app, args)
     assert res.exit_code == 0, res.output
     assert "estimating normals" in res.output
+    assert "least eigenentropy" in res.output  # `surface_normals`, not PCA at k alone
     info = json.loads(rep.read_text())
     diag = float(np.linalg.norm(np.ptp(p, axis=0)))
     assert info["is_closed"] and info["hausdorff"] <= 0.015 * diag

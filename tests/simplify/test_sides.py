@@ -123,3 +123,32 @@ def test_smoothed_votes_agree_with_the_plain_numpy_ones():
     want = _smoothed_reference(p, n, votes, idx)
     np.testing.assert_array_equal(_smoothed(p, n, votes, idx), want)
     assert (want != votes).mean() > 0.1
+
+
+def test_a_patch_turned_in_under_the_closed_tests_bound_is_turned_back():
+    """Normals whose dipole sum lies between `TURN_DIPOLE` and the closed test's bound
+    (a sampled box with 40 of its top face's normals turned in: 0.041) are voted on
+    and turned back; a smaller patch (20: 0.025, as low as true normals read) is left
+    as given."""
+    from pointatlas.simplify._reconstruct import CLOSED_DIPOLE
+    from pointatlas.simplify._sides import TURN_DIPOLE
+    from pointatlas.simplify._winding import point_areas
+
+    from .cad_shapes import box
+
+    v, t = box()
+    s = sample_mesh(v, t, 3000, rng=1)
+    p, truth = np.asarray(s.points), np.asarray(s.normals)
+    area = point_areas(p)
+    top = np.flatnonzero(np.isclose(p[:, 2], p[:, 2].max()))
+    middle = top[np.argsort(np.linalg.norm(p[top, :2] - p[top, :2].mean(axis=0), axis=1))]
+    for size, turned_back in ((40, True), (20, False)):
+        n = truth.copy()
+        n[middle[:size]] *= -1.0
+        dipole = np.linalg.norm(area @ n) / area.sum()
+        assert bool(TURN_DIPOLE < dipole <= CLOSED_DIPOLE) is turned_back
+        got, count = turn_outward(p - p.mean(axis=0), n)
+        if turned_back:
+            assert count == size and (np.einsum("ij,ij->i", got, truth) > 0).all()
+        else:
+            assert got is n and count == 0

@@ -39,7 +39,8 @@ WARM_MODEL = "torus_coarse"
 _RINGS = ["info", "hand"]
 
 #: Per command, the argument lists run in order ({tmp}: the temporary folder).
-#: ``simplify`` runs twice: a mesh takes the mesh path, a point set the points path.
+#: ``simplify`` runs twice: a mesh takes the mesh path, a point set the points path
+#: (and once more with its normals estimated: `pointatlas.simplify.surface_normals`).
 #: Besides the defaults, the options whose kernels are their own and that the README,
 #: the demo or the thesis' experiments run: ``info --report`` (the k-NN graph's
 #: components; a step of its own, ``report``), ``features --weighting equal``,
@@ -63,6 +64,7 @@ WARM_STEPS: dict[str, list[list[str]]] = {
         ["simplify", WARM_MODEL, "{tmp}/simplify_mesh.obj"],
         ["data", "export", WARM_MODEL, "{tmp}/points.ply", "--points"],
         ["simplify", "{tmp}/points.ply", "{tmp}/simplify_points.obj"],
+        ["simplify", "{tmp}/points.ply", "{tmp}/simplify_raw.obj", "--estimate-normals"],
         ["data", "export", "fandisk", "{tmp}/cad_points.ply", "--points"],
         ["simplify", "{tmp}/cad_points.ply", "{tmp}/simplify_cad.obj"],
     ],

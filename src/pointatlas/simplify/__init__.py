@@ -3,6 +3,7 @@
 from ._decimate_mesh import decimate_mesh
 from ._mesh import SimplifiedMesh, mesh_checks, point_mesh_distance
 from ._mesh_path import simplify_mesh, surface_diagonal
+from ._normals import NORMAL_K_RANGE, surface_normals
 from ._pipeline import PointSimplification, simplify_points
 from ._proxies import RegionProxies, region_proxies
 from ._segmentation import simplify_segmentation
@@ -10,6 +11,7 @@ from ._surface import SurfaceSimplification
 from ._vertices import MeshVertices, SimplifyWarning
 
 __all__ = [
+    "NORMAL_K_RANGE",
     "MeshVertices",
     "PointSimplification",
     "RegionProxies",
@@ -24,4 +26,5 @@ __all__ = [
     "simplify_points",
     "simplify_segmentation",
     "surface_diagonal",
+    "surface_normals",
 ]

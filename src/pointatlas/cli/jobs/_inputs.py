@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._core import PointAtlasError
+from ...simplify import NORMAL_K_RANGE
 from .._flag_checks import normal_k_check
 from ._console import err_console, progress_bar, say
 from ._normals import compute_normals
@@ -104,6 +105,7 @@ def read_with_normals(
     min_points: int = 1,
     what: str = "",
     check=None,
+    surface: bool = False,
 ):
     """Read IN and make sure it has normals; returns the PointSet.
 
@@ -117,7 +119,9 @@ def read_with_normals(
     number. An input with fewer than ``min_points``
     points is refused before anything is estimated (``what`` names the job), and so
     is one that ``check`` (called with the number of points) refuses: the options
-    bounded by N (`pointatlas.cli._flag_checks`).
+    bounded by N (`pointatlas.cli._flag_checks`). ``surface``: the estimated normals
+    are the points path's (`pointatlas.simplify.surface_normals`: where a
+    neighbourhood is not flat, the eigenentropy-optimal one's).
     """
     from ..._core import as_int
 
@@ -146,14 +150,22 @@ def read_with_normals(
             )
     _check_min_points(path, ps, min_points, what, check)
     normal_k_check(normal_k, ps.n_points)
+    lo, hi = NORMAL_K_RANGE
+    how = f" (k in {lo}..{hi} where not flat, least eigenentropy)" if surface else ""
     say(
-        f"estimating normals: PCA with k = {normal_k}, MST orientation"
+        f"estimating normals: PCA with k = {normal_k}{how}, MST orientation"
         + ("" if estimate else " (the input has none)"),
         out=err_console,
     )
     with progress_bar("normals", total=2) as advance:
         normals = compute_normals(
-            ps.points, k=normal_k, orient="mst", orient_k=10, viewpoint=None, advance=advance
+            ps.points,
+            k=normal_k,
+            orient="mst",
+            orient_k=10,
+            viewpoint=None,
+            advance=advance,
+            surface=surface,
         )
     return ps.replace(normals=normals)
 

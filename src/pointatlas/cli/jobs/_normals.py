@@ -7,6 +7,7 @@ from __future__ import annotations
 from ..._core import PointAtlasError
 from ...neighbors import query_knn
 from ...normals import estimate_normals, orient_normals
+from ...simplify import NORMAL_K_RANGE, surface_normals
 
 __all__ = ["ORIENT_METHODS", "compute_normals", "normals_and_table"]
 
@@ -15,19 +16,38 @@ __all__ = ["ORIENT_METHODS", "compute_normals", "normals_and_table"]
 ORIENT_METHODS = ("mst", "outward", "viewpoint", "up", "none")
 
 
-def compute_normals(points, *, k: int, orient: str, orient_k: int, viewpoint, advance):
-    """Normals of ``points`` as the ``normals`` command computes them."""
+def compute_normals(
+    points, *, k: int, orient: str, orient_k: int, viewpoint, advance, surface: bool = False
+):
+    """Normals of ``points`` as the ``normals`` command computes them; ``surface``: as
+    ``simplify`` does (`pointatlas.simplify.surface_normals`)."""
     return normals_and_table(
-        points, k=k, orient=orient, orient_k=orient_k, viewpoint=viewpoint, advance=advance
+        points,
+        k=k,
+        orient=orient,
+        orient_k=orient_k,
+        viewpoint=viewpoint,
+        advance=advance,
+        surface=surface,
     )[0]
 
 
 def normals_and_table(
-    points, *, k: int, orient: str, orient_k: int, viewpoint, advance, min_cols: int = 0
+    points,
+    *,
+    k: int,
+    orient: str,
+    orient_k: int,
+    viewpoint,
+    advance,
+    min_cols: int = 0,
+    surface: bool = False,
 ):
     """PCA normals at ``k``, oriented by ``orient``, and the k-NN query they came from
     (``(indices, distances)``, at least ``min_cols`` columns: ``features --normals``
-    computes its features from the same table)."""
+    computes its features from the same table). ``surface``: where the
+    k-neighbourhood is not flat, the eigenentropy-optimal one's normal
+    (`pointatlas.simplify.surface_normals`, the points path's)."""
     if orient not in ORIENT_METHODS:
         raise PointAtlasError(
             f"--orient must be one of {', '.join(ORIENT_METHODS)}; got {orient!r}"
@@ -43,8 +63,13 @@ def normals_and_table(
         raise PointAtlasError(f"--orient-k must be at least 2; got {orient_k}")
     orient_k = min(orient_k, n)  # tiny inputs: the whole set is the neighbourhood
     graph = orient in ("mst", "outward")
+    if surface:  # the sizes searched beside edges and thin walls
+        min_cols = max(min_cols, min(NORMAL_K_RANGE[1], n))
     neighbors = query_knn(points, max(max(k, orient_k) if graph else k, min_cols))
-    unoriented = estimate_normals(points, k, neighbors=neighbors)
+    if surface:
+        unoriented = surface_normals(points, k, neighbors=neighbors)
+    else:
+        unoriented = estimate_normals(points, k, neighbors=neighbors)
     advance()
     if orient == "none":
         oriented = unoriented

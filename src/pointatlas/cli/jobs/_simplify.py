@@ -300,6 +300,7 @@ def _simplify_point_input(infile, out, o: SimplifyOptions) -> SimplifyResult:
         min_points=max(4, o.k),
         what=f"simplify with k = {o.k} (--k)",
         check=vsa_counts(settings["vsa"]),
+        surface=True,
     )
     normals = ps.normals
     given = ps.attributes.get("label") if o.use_labels else None

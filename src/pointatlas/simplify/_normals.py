@@ -1,0 +1,92 @@
+"""Unoriented normals for the points path, where the input has none (private; public
+as `surface_normals`).
+
+PCA over a fixed k = 20 blends the two sides of a wall a few point spacings thick and
+the faces beside an edge: those normals bridge thin walls with handles on the
+voxel surface (docs/decisions/simplify.md, "Normals turned to the outside"). Where a
+point's k-neighbourhood is not flat, its normal here is instead that of the
+neighbourhood size that minimises the eigenentropy (Weinmann et al., the thesis'
+optimal neighbourhoods, `pointatlas.features.optimal_k_features`): near a thin wall
+or an edge a smaller neighbourhood of the point's own face is the more ordered one.
+Flat neighbourhoods keep the k-NN normal (with noise a smaller k only adds it).
+Decisions: docs/decisions/simplify.md, "Normals for raw points".
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._core import as_points
+from ..features import optimal_k_features
+from ..neighbors import query_knn
+from ..normals import pca_normals
+
+__all__ = ["FLAT_VARIATION", "NORMAL_K_RANGE", "surface_normals"]
+
+#: A neighbourhood is flat where its surface variation, lambda_3 / (lambda_1 +
+#: lambda_2 + lambda_3) at k, is at most this (a plane sampled without noise: 0;
+#: beside an edge or across a thin wall: up to 1/3).
+FLAT_VARIATION = 0.02
+#: Neighbourhood sizes searched where it is not flat (the point itself counted).
+NORMAL_K_RANGE = (10, 30)
+
+
+def surface_normals(
+    points, k: int = 20, *, k_range=NORMAL_K_RANGE, flat: float = FLAT_VARIATION, neighbors=None
+) -> np.ndarray:
+    """Unoriented normals of a point set for `simplify_points`.
+
+    The PCA normal of the ``k`` nearest points where their surface variation is at
+    most ``flat``; elsewhere (edges, corners, thin walls) the normal of the
+    neighbourhood size in ``k_range`` with the least eigenentropy.
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3)
+        Coordinates, finite.
+    k : int
+        Neighbourhood size of the flat test and of the flat points' normals (the
+        point itself included; 3 <= k <= N).
+    k_range : tuple of int
+        Inclusive range of the sizes searched elsewhere (clipped to N).
+    flat : float
+        Largest surface variation, lambda_3 / (lambda_1 + lambda_2 + lambda_3), of a
+        flat neighbourhood.
+    neighbors : ndarray of shape (N, m), int, or tuple, optional
+        Neighbour table sorted by distance, itself first, or
+        `pointatlas.neighbors.query_knn`'s tuple; with fewer than max(k,
+        k_range[1]) columns (or None) one such query is made.
+
+    Returns
+    -------
+    normals : ndarray of shape (N, 3), float64
+        Unit normals with arbitrary sign (orient them with
+        `pointatlas.normals.orient_normals`).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> plane = np.c_[rng.random((200, 2)), np.zeros(200)]
+    >>> np.abs(surface_normals(plane)[:, 2]).min().round(6)
+    np.float64(1.0)
+    """
+    pts = as_points(points)
+    n = pts.shape[0]
+    lo, hi = min(int(k_range[0]), n), min(int(k_range[1]), n)
+    width = max(int(k), hi)
+    idx = None
+    if neighbors is not None:
+        idx = np.asarray(neighbors[0] if isinstance(neighbors, tuple) else neighbors)
+    if idx is None or idx.shape[1] < min(width, n):  # too few columns: searched
+        idx = query_knn(pts, min(width, n))[0]
+    res = pca_normals(pts, k, neighbors=idx)
+    lam = res.eigenvalues
+    total = lam.sum(axis=1)
+    variation = np.divide(lam[:, 2], total, out=np.zeros(n), where=total > 0.0)
+    bent = variation > flat
+    if not bent.any():
+        return np.array(res.normals)
+    opt = optimal_k_features(pts, k_range=(lo, hi), neighbors=np.ascontiguousarray(idx[:, :hi]))
+    other = np.asarray(opt.eigenvector_3)
+    use = bent & (np.asarray(opt.k) > 0) & np.isfinite(other).all(axis=1)
+    return np.where(use[:, None], other, res.normals)
