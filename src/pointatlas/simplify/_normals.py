@@ -73,12 +73,12 @@ def surface_normals(
     pts = as_points(points)
     n = pts.shape[0]
     lo, hi = min(int(k_range[0]), n), min(int(k_range[1]), n)
-    width = max(int(k), hi)
+    width = min(max(int(k), hi), n)
     idx = None
     if neighbors is not None:
         idx = np.asarray(neighbors[0] if isinstance(neighbors, tuple) else neighbors)
-    if idx is None or idx.shape[1] < min(width, n):  # too few columns: searched
-        idx = query_knn(pts, min(width, n))[0]
+    if idx is None or idx.shape[1] < width:  # too few columns: searched
+        idx = query_knn(pts, width)[0]
     res = pca_normals(pts, k, neighbors=idx)
     lam = res.eigenvalues
     total = lam.sum(axis=1)

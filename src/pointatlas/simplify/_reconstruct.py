@@ -103,15 +103,22 @@ class Reconstruction:
     n_handles: int = 0
 
 
-def is_closed_sample(q, normals, areas=None) -> bool:
-    """Whether oriented points sample a closed surface: their normals times their
-    disc areas (``areas``: `_winding.point_areas` of ``q``, found when None) sum to
-    less than `CLOSED_DIPOLE` of the area (zero for a closed surface, by the
-    divergence theorem; the area itself for a flat sheet)."""
+def dipole_share(q, normals, areas=None) -> float:
+    """The length of the points' normals times their disc areas, summed, as a share of
+    their area (``areas``: `_winding.point_areas` of ``q``, found when None): zero
+    for a closed surface, by the divergence theorem; one for a flat sheet; 0 for
+    points of no area."""
     from ._winding import point_areas
 
     area = point_areas(q) if areas is None else areas
-    return bool(np.linalg.norm(area @ normals) <= CLOSED_DIPOLE * area.sum())
+    total = float(area.sum())
+    return float(np.linalg.norm(area @ normals)) / total if total > 0.0 else 0.0
+
+
+def is_closed_sample(q, normals, areas=None) -> bool:
+    """Whether oriented points sample a closed surface: their `dipole_share` is at
+    most `CLOSED_DIPOLE` (``areas`` as there)."""
+    return dipole_share(q, normals, areas) <= CLOSED_DIPOLE
 
 
 def _field(q, normals, step, spacing, origin, shape, closed):

@@ -24,7 +24,7 @@ from scipy import ndimage
 
 from ..neighbors import query_knn
 from ._edt import distance_to
-from ._reconstruct import is_closed_sample
+from ._reconstruct import CLOSED_DIPOLE, dipole_share
 
 __all__ = ["GAP_SPACINGS", "MAX_CELLS", "TURN_DIPOLE", "outside_votes", "turn_outward"]
 
@@ -137,7 +137,7 @@ def turn_outward(
 ) -> tuple[np.ndarray, int]:
     """``normals`` with the inward-turned ones flipped, and how many were; unchanged
     (0) when the points' dipole sum is at most `TURN_DIPOLE` of their area, or the
-    flipped normals would not make the sample closed (`is_closed_sample`) with a
+    flipped normals would not make the sample closed (`CLOSED_DIPOLE`) with a
     smaller sum (an open sheet, a shape open to the grid's border).
 
     ``neighbors``: ``(indices, distances)``, a `query_knn` table of ``q`` with at
@@ -145,11 +145,10 @@ def turn_outward(
     ``areas``: the points' disc areas (`is_closed_sample`; found when None)."""
     from ._winding import point_areas
 
-    area = point_areas(q) if areas is None else areas
-    total = float(area.sum())
-    if q.shape[0] < SMOOTH_K or not total > 0.0:
+    if q.shape[0] < SMOOTH_K:
         return normals, 0
-    before = float(np.linalg.norm(area @ normals)) / total
+    area = point_areas(q) if areas is None else areas
+    before = dipole_share(q, normals, area)
     if before <= TURN_DIPOLE:
         return normals, 0
     if neighbors is None:
@@ -167,7 +166,7 @@ def turn_outward(
     if not flip.any():
         return normals, 0
     turned = np.where(flip[:, None], -normals, normals)
-    after = float(np.linalg.norm(area @ turned)) / total
-    if not is_closed_sample(q, turned, area) or after >= before:
+    after = dipole_share(q, turned, area)
+    if after > CLOSED_DIPOLE or after >= before:  # not closed, or no nearer it
         return normals, 0
     return turned, int(flip.sum())
