@@ -8,7 +8,9 @@ point's k-neighbourhood is not flat, its normal here is instead that of the
 neighbourhood size that minimises the eigenentropy (Weinmann et al., the thesis'
 optimal neighbourhoods, `pointatlas.features.optimal_k_features`): near a thin wall
 or an edge a smaller neighbourhood of the point's own face is the more ordered one.
-Flat neighbourhoods keep the k-NN normal (with noise a smaller k only adds it).
+Flat neighbourhoods keep the k-NN normal (with noise a smaller k only adds it), and
+so do those bent no more than noise bends them: under a scanner's noise nearly every
+neighbourhood reads as not flat, and the least-entropy sizes follow the noise.
 Decisions: docs/decisions/simplify.md, "Normals for raw points".
 """
 
@@ -21,7 +23,14 @@ from ..features import optimal_k_features
 from ..neighbors import query_knn
 from ..normals import pca_normals
 
-__all__ = ["FLAT_VARIATION", "NORMAL_K_RANGE", "surface_normals"]
+__all__ = [
+    "FLAT_VARIATION",
+    "NOISE_FACTOR",
+    "NOISE_SAMPLE",
+    "NORMAL_K_RANGE",
+    "noise_floor",
+    "surface_normals",
+]
 
 #: A neighbourhood is flat where its surface variation, lambda_3 / (lambda_1 +
 #: lambda_2 + lambda_3) at k, is at most this (a plane sampled without noise: 0;
@@ -29,6 +38,14 @@ __all__ = ["FLAT_VARIATION", "NORMAL_K_RANGE", "surface_normals"]
 FLAT_VARIATION = 0.02
 #: Neighbourhood sizes searched where it is not flat (the point itself counted).
 NORMAL_K_RANGE = (10, 30)
+#: ... and only where its smallest covariance eigenvalue at k passes this many times
+#: the noise's: the first quartile of that eigenvalue over neighbourhoods of the
+#: smallest size searched (noise gives a small neighbourhood the variance a larger
+#: one has; a curved surface or an edge, a smaller one: clean samples of every
+#: collection model but three whose every neighbourhood is bent keep all of theirs) ...
+NOISE_FACTOR = 8.0
+#: ... measured on every s-th point, s the smallest stride leaving at most this many.
+NOISE_SAMPLE = 20_000
 
 
 def surface_normals(
@@ -38,7 +55,9 @@ def surface_normals(
 
     The PCA normal of the ``k`` nearest points where their surface variation is at
     most ``flat``; elsewhere (edges, corners, thin walls) the normal of the
-    neighbourhood size in ``k_range`` with the least eigenentropy.
+    neighbourhood size in ``k_range`` with the least eigenentropy, unless the
+    neighbourhood is bent no more than noise bends it (its smallest covariance
+    eigenvalue at most `NOISE_FACTOR` times `noise_floor`'s).
 
     Parameters
     ----------
@@ -83,10 +102,31 @@ def surface_normals(
     lam = res.eigenvalues
     total = lam.sum(axis=1)
     variation = np.divide(lam[:, 2], total, out=np.zeros(n), where=total > 0.0)
-    bent = variation > flat
+    bent = (variation > flat) & (lam[:, 2] > NOISE_FACTOR * noise_floor(pts, idx[:, :lo]))
     if not bent.any():
         return np.array(res.normals)
     opt = optimal_k_features(pts, k_range=(lo, hi), neighbors=np.ascontiguousarray(idx[:, :hi]))
     other = np.asarray(opt.eigenvector_3)
     use = bent & (np.asarray(opt.k) > 0) & np.isfinite(other).all(axis=1)
     return np.where(use[:, None], other, res.normals)
+
+
+def noise_floor(points: np.ndarray, neighbors: np.ndarray) -> float:
+    """The first quartile of the smallest covariance eigenvalue (about the mean,
+    divided by the size, as `pca_normals`'s) over the neighbourhoods ``neighbors``
+    (rows of indices into ``points``, one per point) of every s-th point, s the
+    smallest stride leaving at most `NOISE_SAMPLE`: about sigma^2 for a sample with
+    Gaussian noise sigma, near 0 for a clean one with flat parts.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> plane = np.c_[rng.random((4000, 2)), 0.01 * rng.standard_normal(4000)]
+    >>> bool(1e-5 < noise_floor(plane, query_knn(plane, 10)[0]) < 1e-4)
+    True
+    """
+    rows = neighbors[:: max(1, -(-neighbors.shape[0] // NOISE_SAMPLE))]
+    near = points[rows]
+    near = near - near.mean(axis=1, keepdims=True)
+    cov = np.einsum("nki,nkj->nij", near, near) / rows.shape[1]
+    return float(np.quantile(np.linalg.eigvalsh(cov)[:, 0], 0.25))
