@@ -151,7 +151,7 @@ def read_with_normals(
     _check_min_points(path, ps, min_points, what, check)
     normal_k_check(normal_k, ps.n_points)
     lo, hi = NORMAL_K_RANGE
-    how = f" (k in {lo}..{hi} where not flat, least eigenentropy)" if surface else ""
+    how = f" (k in {lo}..{hi} where bent beyond the noise, least eigenentropy)" if surface else ""
     say(
         f"estimating normals: PCA with k = {normal_k}{how}, MST orientation"
         + ("" if estimate else " (the input has none)"),
