@@ -10,9 +10,12 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --estimate-normals
     # a scanner's noise: Gaussian, sigma 0.1 % of the diagonal (seeded)
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --noise 0.1
+    # a scanner's uneven density: ten times sparser at the far end of x (seeded)
+    .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --falloff 10
 
 Every ``--every``-th model (sorted by name) is sampled uniformly by area with its
-face normals (`pointatlas.synth.sample_mesh`, seed 0) and the points alone go through
+face normals (`pointatlas.synth.sample_mesh`, seed 0; with ``--falloff R`` at a
+density falling R times along x, `uneven_sample`) and the points alone go through
 `pointatlas.simplify.simplify_points` with default options (``path="auto"``: the
 thesis path, and the robust path when that gives no closed, manifold, oriented mesh
 with valid faces). One CSV row per model: path taken and why, faces, closed /
@@ -116,15 +119,35 @@ def peer_row(v_true, t_true, p, n, n_triangles: int, diag: float) -> dict:
     return best
 
 
+def uneven_sample(vertices, triangles, n_points: int, falloff: float):
+    """``n_points`` points and normals on the mesh, uniform by area where ``falloff``
+    is 1, else with a density falling ``falloff`` times from the lowest x to the
+    highest (a scanner at -x): 3 ``n_points`` uniform samples, each kept with
+    probability ``falloff`` ** -u (u: its x from 0 to 1), ``n_points`` of those."""
+    if falloff == 1.0:
+        sample = sample_mesh(vertices, triangles, n_points, rng=0)
+        return np.asarray(sample.points), np.asarray(sample.normals)
+    sample = sample_mesh(vertices, triangles, 3 * n_points, rng=0)
+    p, n = np.asarray(sample.points), np.asarray(sample.normals)
+    u = (p[:, 0] - p[:, 0].min()) / max(float(np.ptp(p[:, 0])), 1e-300)
+    keep = np.random.default_rng(1).random(p.shape[0]) < falloff ** (-u)
+    pick = np.random.default_rng(2).permutation(int(keep.sum()))[:n_points]
+    return p[keep][pick], n[keep][pick]
+
+
 def run_model(
-    path: Path, n_points: int, estimate: bool = False, peer: bool = True, noise: float = 0.0
+    path: Path,
+    n_points: int,
+    estimate: bool = False,
+    peer: bool = True,
+    noise: float = 0.0,
+    falloff: float = 1.0,
 ) -> dict:
     mesh = read_mesh(path)
     tri = np.asarray(mesh.triangles, dtype=np.int64)
     used = np.unique(tri)
     euler_in = _euler(used.size, tri)
-    sample = sample_mesh(mesh.vertices, tri, n_points, rng=0)
-    p, n = np.asarray(sample.points), np.asarray(sample.normals)
+    p, n = uneven_sample(mesh.vertices, tri, n_points, falloff)
     if noise > 0:
         # a scanner's noise: Gaussian along every axis, sigma noise % of the diagonal
         sigma = noise / 100.0 * float(np.linalg.norm(np.ptp(p, axis=0)))
@@ -172,12 +195,14 @@ def run_model(
     return row
 
 
-def warm_up(path: Path, n_points: int, estimate: bool = False, noise: float = 0.0) -> None:
+def warm_up(
+    path: Path, n_points: int, estimate: bool = False, noise: float = 0.0, falloff: float = 1.0
+) -> None:
     """The first model once untimed (`run_model` without the peer), so that no model's
     time holds numba's compile or cache load (the peer's is timed in a child process
     after Open3D's import): the same kernels, signatures and code paths as the timed
     runs (a smaller sample can take other branches)."""
-    run_model(path, n_points, estimate, peer=False, noise=noise)
+    run_model(path, n_points, estimate, peer=False, noise=noise, falloff=falloff)
 
 
 def peer_summary(rows: list[dict]) -> list[str]:
@@ -224,6 +249,12 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--noise", type=float, default=0.0, help="Gaussian noise, sigma in %% of the diagonal"
     )
+    ap.add_argument(
+        "--falloff",
+        type=float,
+        default=1.0,
+        help="density falling this many times along x (1: uniform by area)",
+    )
     ap.add_argument("--out", type=Path, default=Path("bench-output/simplify_points.csv"))
     ap.add_argument(
         "--only", nargs="+", default=None, help="of the selected models, only these (file stems)"
@@ -240,10 +271,12 @@ def main(argv=None) -> int:
         part, n_parts = (int(x) for x in args.shard.split("/"))
         files = files[part::n_parts]
     if files:
-        warm_up(files[0], args.points, args.estimate_normals, args.noise)
+        warm_up(files[0], args.points, args.estimate_normals, args.noise, args.falloff)
     rows = []
     for path in files:
-        row = run_model(path, args.points, args.estimate_normals, not args.no_peer, args.noise)
+        row = run_model(
+            path, args.points, args.estimate_normals, not args.no_peer, args.noise, args.falloff
+        )
         rows.append(row)
         print(
             f"{row['model']:40s} {row['path']:7s} faces={row.get('faces', '-')!s:>5} "
