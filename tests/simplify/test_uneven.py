@@ -47,7 +47,9 @@ def test_a_density_falling_tenfold_gives_a_closed_compact_mesh_near_the_truth(sh
     # at the median spacing the sparse end's gaps passed the field's reach: the box
     # came out 5.7 % of the diagonal off with 3,076 triangles, the holed cube 10.3 %
     p, normals, v, t = _falling(shape, n)
-    m = simplify_points(p, normals).mesh
+    res = simplify_points(p, normals)
+    assert "sampled unevenly" in res.reason  # and said so
+    m = res.mesh
     tri = np.asarray(m.triangles)
     assert mesh_checks(m.n_vertices, tri) == (True, True, True)
     assert _euler(m.n_vertices, tri) == euler

@@ -435,6 +435,11 @@ def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, leve
             f"; {rec.n_handles} small handle{'s' * (rec.n_handles > 1)} of the points' "
             "surface cut (a gap thinner than its grid step bridged)"
         )
+    if rec.uneven > 1.0:
+        reason += (
+            f"; the points are sampled unevenly: the grid's spacing {rec.uneven:.2f} x "
+            "their median one"
+        )
     return inp.result(seg, res, path="robust", reason=reason, labels=point_labels)
 
 

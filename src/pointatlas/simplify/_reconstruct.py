@@ -7,7 +7,7 @@ Decisions in docs/decisions/simplify.md ("The points path's robust path").
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import ndimage
@@ -28,6 +28,7 @@ from ._voxel_grid import (
     finer_step,
     grid_step,
     lost_points,
+    uneven_factor,
 )
 
 __all__ = [
@@ -92,8 +93,9 @@ TRIM_MIN_SHARE = 0.01
 class Reconstruction:
     """Triangle surface of a point set (private): ``vertices`` (working frame),
     ``triangles`` (outward), ``step`` (grid step), ``shape`` (grid nodes),
-    ``n_trimmed`` (triangles cut away beyond open boundaries: 0 for a closed one)
-    and ``n_handles`` (small handles cut, `_handles.cut_handles`)."""
+    ``n_trimmed`` (triangles cut away beyond open boundaries: 0 for a closed one),
+    ``n_handles`` (small handles cut, `_handles.cut_handles`) and ``uneven`` (the
+    grid's spacing over the points' median one: `_voxel_grid.uneven_factor`)."""
 
     vertices: np.ndarray
     triangles: np.ndarray
@@ -101,6 +103,7 @@ class Reconstruction:
     shape: tuple
     n_trimmed: int
     n_handles: int = 0
+    uneven: float = 1.0
 
 
 def dipole_share(q, normals, areas=None) -> float:
@@ -325,20 +328,21 @@ def reconstruct_surface(
     extent = float((hi - lo).max())
     if not extent > 0.0:
         raise PointAtlasError("simplify needs points that span a volume or a surface")
-    spacing, step, shape = grid_step(q, normals, tree)
+    factor = uneven_factor(q, tree)
+    spacing, step, shape = grid_step(q, normals, tree, factor)
     closed = is_closed_sample(q, normals, areas)
     rec = _surface_at(q, normals, tree, (spacing, step, shape), closed)
     fine = (spacing, *finer_step(q, spacing))
     if fine[1] < step / 1.2:
         rec = _finer(q, normals, tree, rec, fine, closed)
 
-    if not closed:  # an open sample's far points lie beyond its cut outline: no inside
-        return rec
+    if closed:  # an open sample's far points lie beyond its cut outline: no inside
 
-    def build(points, point_normals):
-        return _surface_at(q, normals, tree, fine, closed, solid=(points, point_normals))
+        def build(points, point_normals):
+            return _surface_at(q, normals, tree, fine, closed, solid=(points, point_normals))
 
-    return solid_retry(q, normals, rec, build, step, spacing)
+        rec = solid_retry(q, normals, rec, build, step, spacing)
+    return replace(rec, uneven=factor)
 
 
 def _finer(q, normals, tree, rec, fine, closed) -> Reconstruction:

@@ -83,13 +83,14 @@ BAND_SPACINGS = 4.5
 UNEVEN = 1.3
 
 
-def grid_step(q: np.ndarray, normals: np.ndarray, tree: cKDTree):
+def grid_step(q: np.ndarray, normals: np.ndarray, tree: cKDTree, factor=None):
     """``(spacing, step, shape)`` of the grid of points ``q`` (working frame): the
-    points' spacing (`point_spacing`, times `uneven_factor` where the sampling is
-    uneven), a step of `SPACING_STEPS` spacings (one on a thin sheet, `thin_sample`),
-    at least 1 / `MAX_CELLS` of the box's second-longest side, and the node counts
+    points' spacing (`point_spacing`, times ``factor``: `uneven_factor` when None), a
+    step of `SPACING_STEPS` spacings (one on a thin sheet, `thin_sample`), at least 1
+    / `MAX_CELLS` of the box's second-longest side, and the node counts
     (`grid_shape`)."""
-    spacing = point_spacing(q, tree) * uneven_factor(q, tree)
+    factor = uneven_factor(q, tree) if factor is None else factor
+    spacing = point_spacing(q, tree) * factor
     step, shape = _grid_at(q, spacing, SPACING_STEPS)
     if thin_sample(q, normals, tree, THIN_STEPS * step):
         step, shape = finer_step(q, spacing)
