@@ -102,7 +102,9 @@ def surface_normals(
     lam = res.eigenvalues
     total = lam.sum(axis=1)
     variation = np.divide(lam[:, 2], total, out=np.zeros(n), where=total > 0.0)
-    bent = (variation > flat) & (lam[:, 2] > NOISE_FACTOR * noise_floor(pts, idx[:, :lo]))
+    bent = variation > flat
+    if bent.any():  # a flat sample needs no noise floor
+        bent &= lam[:, 2] > NOISE_FACTOR * noise_floor(pts, idx[:, :lo])
     if not bent.any():
         return np.array(res.normals)
     opt = optimal_k_features(pts, k_range=(lo, hi), neighbors=np.ascontiguousarray(idx[:, :hi]))
