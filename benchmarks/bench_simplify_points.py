@@ -12,6 +12,8 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --noise 0.1
     # a scanner's uneven density: ten times sparser at the far end of x (seeded)
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --falloff 10
+    # a part scanned standing on a table: no points where the surface faces down
+    .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --no-bottom
 
 Every ``--every``-th model (sorted by name) is sampled uniformly by area with its
 face normals (`pointatlas.synth.sample_mesh`, seed 0; with ``--falloff R`` at a
@@ -42,6 +44,7 @@ import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +59,47 @@ from pointatlas.synth import sample_mesh
 MESH_SUFFIXES = (".obj", ".off", ".ply", ".stl")
 #: Poisson depths tried for the peer (the better one per model is kept)
 PEER_DEPTHS = (8, 9)
+#: ``--no-bottom``: a part standing on a table is not seen where its surface faces
+#: down more steeply than this (the z of the true normal below minus this)
+BOTTOM_Z = 0.2
+#: ... where the peer's Poisson surface, closed over the missing side, is trimmed of
+#: its vertices below these quantiles of the points' density (Open3D's tutorial step;
+#: the best per model is kept, as the depth is)
+PEER_TRIMS = (0.05, 0.1, 0.2)
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """How the points are made from a model: ``points`` of them, uniform by area or at
+    a density falling ``falloff`` times along x (`uneven_sample`), with Gaussian
+    ``noise`` (sigma in % of the diagonal), none where the surface faces down
+    (``no_bottom``: a part scanned on a table), their normals the true ones or
+    estimated (``estimate``: `surface_normals`, oriented as the CLI does)."""
+
+    points: int = 20000
+    estimate: bool = False
+    noise: float = 0.0
+    falloff: float = 1.0
+    no_bottom: bool = False
+
+    def sample(self, vertices, triangles):
+        """The points and their normals (true, or estimated)."""
+        # without a bottom: twice the points sampled, those seen kept, then as many
+        many = 2 * self.points if self.no_bottom else self.points
+        p, n = uneven_sample(vertices, triangles, many, self.falloff)
+        if self.no_bottom:
+            seen = np.flatnonzero(n[:, 2] > -BOTTOM_Z)
+            seen = seen[np.random.default_rng(3).permutation(seen.size)[: self.points]]
+            p, n = p[seen], n[seen]
+        if self.noise > 0:
+            # a scanner's noise: Gaussian along every axis, sigma noise % of the diagonal
+            sigma = self.noise / 100.0 * float(np.linalg.norm(np.ptp(p, axis=0)))
+            p = p + np.random.default_rng(2).normal(0.0, sigma, p.shape)
+        if self.estimate:
+            n = orient_normals(p, surface_normals(p, k=20))
+        return p, n
+
+
 KINDS = kinds()
 
 
@@ -71,47 +115,95 @@ def _both_ways(v, t, v2, t2) -> float:
     return float(max(point_mesh_distance(a, v2, t2).max(), point_mesh_distance(b, v, t).max()))
 
 
-def poisson_decimated(points, normals, n_triangles: int, depth: int):
-    """What a user does today: Open3D's screened Poisson at ``depth``, then its quadric
-    decimation to ``n_triangles`` (vertices, triangles)."""
+def _seen_both_ways(v, t, v2, t2) -> dict:
+    """`_both_ways` and `both_ways`' mean for a truth ``v``, ``t`` seen only where it
+    does not face down (``--no-bottom``): from the truth, its 20,000 samples whose
+    normal's z is above -`BOTTOM_Z`; back, every vertex and sample of ``v2``, ``t2``
+    to the whole truth. Returns ``hausdorff`` and ``mean`` (mean of the two
+    directions' means), in the truth's units."""
+    truth = sample_mesh(v, t, 20000, rng=1)
+    a = np.asarray(truth.points)[np.asarray(truth.normals)[:, 2] > -BOTTOM_Z]
+    b = np.vstack([v2, sample_mesh(v2, t2, 20000, rng=1).points])
+    there, back = point_mesh_distance(a, v2, t2), point_mesh_distance(b, v, t)
+    return {
+        "hausdorff": float(max(there.max(), back.max())),
+        "mean": 0.5 * float(there.mean() + back.mean()),
+    }
+
+
+def truth_distances(v, t, v2, t2, diag: float, sampling: Sampling) -> dict:
+    """``truth_hausdorff_pct`` and ``truth_mean_pct`` of an output ``v2``, ``t2`` against
+    the truth ``v``, ``t`` (% of ``diag``; `_both_ways` and `both_ways`' mean, or
+    `_seen_both_ways` for a sample without a bottom)."""
+    if sampling.no_bottom:
+        d = _seen_both_ways(v, t, v2, t2)
+        return {
+            "truth_hausdorff_pct": 100.0 * d["hausdorff"] / diag,
+            "truth_mean_pct": 100.0 * d["mean"] / float(np.linalg.norm(np.ptp(v, axis=0))),
+        }
+    return {
+        "truth_hausdorff_pct": 100.0 * _both_ways(v, t, v2, t2) / diag,
+        "truth_mean_pct": both_ways(v, t, v2, t2)["mean"],
+    }
+
+
+def poisson_decimated(points, normals, n_triangles: int, depth: int, trim: float = 0.0):
+    """What a user does today: Open3D's screened Poisson at ``depth``, its vertices of
+    density below the ``trim`` quantile removed (Open3D's tutorial step for a surface
+    the points do not close; 0: none), then its quadric decimation to ``n_triangles``
+    (vertices, triangles)."""
     import open3d as o3d
 
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.array(points, dtype=float)))
     cloud.normals = o3d.utility.Vector3dVector(np.array(normals, dtype=float))
-    mesh, _ = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(cloud, depth=depth)
+    mesh, density = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(cloud, depth=depth)
+    if trim > 0.0:
+        density = np.asarray(density)
+        mesh.remove_vertices_by_mask(density < np.quantile(density, trim))
     v, t = np.asarray(mesh.vertices), np.asarray(mesh.triangles, dtype=np.int64)
     return open3d_quadric(v, t, n_triangles)
 
 
-def _timed_poisson(p, n, n_triangles: int, depth: int):
+def _timed_poisson(p, n, n_triangles: int, depth: int, trim: float):
     t0 = time.perf_counter()
-    pv, pt = poisson_decimated(p, n, n_triangles, depth)
+    pv, pt = poisson_decimated(p, n, n_triangles, depth, trim)
     return pv, pt, time.perf_counter() - t0
 
 
-def peer_row(v_true, t_true, p, n, n_triangles: int, diag: float) -> dict:
-    """The better of Poisson depth 8 and 9 + decimation (lower mean distance both ways);
+def peer_row(v_true, t_true, p, n, n_triangles: int, diag: float, sampling=None) -> dict:
+    """The better of Poisson depth 8 and 9 + decimation (lower mean distance both ways;
+    without a bottom, ``sampling.no_bottom``, also over the density trims of
+    `PEER_TRIMS`, measured against the truth as the points see it: ``peer_trim``);
     ``peer_depth`` "crashed" when Open3D crashed at every depth. Its Euler characteristic
     (the vertices its triangles use) and its two-sided Hausdorff distance to the truth
-    measured as ours (`_both_ways`, % of the points' diagonal ``diag``)."""
+    measured as ours (`truth_distances`, % of the points' diagonal ``diag``)."""
+    sampling = Sampling() if sampling is None else sampling
     best = {"peer_depth": "crashed"}
-    for depth in PEER_DEPTHS:
+    trims = PEER_TRIMS if sampling.no_bottom else (0.0,)
+    for depth, trim in [(d, q) for d in PEER_DEPTHS for q in trims]:
         # in a child process: Open3D's Poisson can segfault (seen on a sensor cover
         # with estimated normals), which is the peer's result, not the end of the run
         ctx = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
             try:
-                pv, pt, took = pool.submit(_timed_poisson, p, n, n_triangles, depth).result()
+                job = pool.submit(_timed_poisson, p, n, n_triangles, depth, trim)
+                pv, pt, took = job.result()
             except BrokenProcessPool:
                 continue
-        d = both_ways(v_true, t_true, pv, pt)
+        if sampling.no_bottom:  # the truth seen as the points see it
+            truth = truth_distances(v_true, t_true, pv, pt, diag, sampling)
+            d = {"mean": truth["truth_mean_pct"], "hausdorff": truth["truth_hausdorff_pct"]}
+        else:
+            d = both_ways(v_true, t_true, pv, pt)
+            truth = {"truth_hausdorff_pct": 100.0 * _both_ways(v_true, t_true, pv, pt) / diag}
         if d["mean"] < best.get("peer_mean_pct", np.inf):
             best = {
                 "peer_depth": depth,
+                "peer_trim": trim,
                 "peer_triangles": int(pt.shape[0]),
                 "peer_closed": all(mesh_checks(len(pv), pt)) if len(pt) else False,
                 "peer_euler": _euler(np.unique(pt).size, pt) if len(pt) else "",
-                "peer_truth_hausdorff_pct": 100.0 * _both_ways(v_true, t_true, pv, pt) / diag,
+                "peer_truth_hausdorff_pct": truth["truth_hausdorff_pct"],
                 "peer_mean_pct": d["mean"],
                 "peer_hausdorff_pct": d["hausdorff"],
                 "peer_seconds": took,
@@ -135,28 +227,15 @@ def uneven_sample(vertices, triangles, n_points: int, falloff: float):
     return p[keep][pick], n[keep][pick]
 
 
-def run_model(
-    path: Path,
-    n_points: int,
-    estimate: bool = False,
-    peer: bool = True,
-    noise: float = 0.0,
-    falloff: float = 1.0,
-) -> dict:
+def run_model(path: Path, sampling: Sampling, peer: bool = True) -> dict:
     mesh = read_mesh(path)
     tri = np.asarray(mesh.triangles, dtype=np.int64)
     used = np.unique(tri)
     euler_in = _euler(used.size, tri)
-    p, n = uneven_sample(mesh.vertices, tri, n_points, falloff)
-    if noise > 0:
-        # a scanner's noise: Gaussian along every axis, sigma noise % of the diagonal
-        sigma = noise / 100.0 * float(np.linalg.norm(np.ptp(p, axis=0)))
-        p = p + np.random.default_rng(2).normal(0.0, sigma, p.shape)
-    if estimate:
-        n = orient_normals(p, surface_normals(p, k=20))
+    p, n = sampling.sample(mesh.vertices, tri)
     diag = float(np.linalg.norm(np.ptp(p, axis=0)))
     kind = KINDS.get(path.stem, "organic")
-    row = {"model": path.name, "kind": kind, "points": n_points, "euler_input": euler_in}
+    row = {"model": path.name, "kind": kind, "points": sampling.points, "euler_input": euler_in}
     t0 = time.perf_counter()
     try:
         with warnings.catch_warnings():
@@ -185,24 +264,21 @@ def run_model(
         mean_distance_pct=100.0 * m.distance_mean / diag,
         max_distance_pct=100.0 * m.distance_max / diag,
         hausdorff_pct=100.0 * max(m.distance_max, m.back_distance_max) / diag,
-        truth_hausdorff_pct=100.0 * _both_ways(mesh.vertices, tri, mv, mt) / diag,
         spike=bool(((mv < lo) | (mv > hi)).any()),
         seconds=seconds,
-        truth_mean_pct=both_ways(mesh.vertices, tri, mv, mt)["mean"],
+        **truth_distances(mesh.vertices, tri, mv, mt, diag, sampling),
     )
     if peer:
-        row.update(peer_row(mesh.vertices, tri, p, n, int(mt.shape[0]), diag))
+        row.update(peer_row(mesh.vertices, tri, p, n, int(mt.shape[0]), diag, sampling))
     return row
 
 
-def warm_up(
-    path: Path, n_points: int, estimate: bool = False, noise: float = 0.0, falloff: float = 1.0
-) -> None:
+def warm_up(path: Path, sampling: Sampling) -> None:
     """The first model once untimed (`run_model` without the peer), so that no model's
     time holds numba's compile or cache load (the peer's is timed in a child process
     after Open3D's import): the same kernels, signatures and code paths as the timed
     runs (a smaller sample can take other branches)."""
-    run_model(path, n_points, estimate, peer=False, noise=noise, falloff=falloff)
+    run_model(path, sampling, peer=False)
 
 
 def peer_summary(rows: list[dict]) -> list[str]:
@@ -255,6 +331,11 @@ def main(argv=None) -> int:
         default=1.0,
         help="density falling this many times along x (1: uniform by area)",
     )
+    ap.add_argument(
+        "--no-bottom",
+        action="store_true",
+        help="no points where the surface faces down (a part scanned on a table)",
+    )
     ap.add_argument("--out", type=Path, default=Path("bench-output/simplify_points.csv"))
     ap.add_argument(
         "--only", nargs="+", default=None, help="of the selected models, only these (file stems)"
@@ -270,13 +351,14 @@ def main(argv=None) -> int:
     if args.shard:
         part, n_parts = (int(x) for x in args.shard.split("/"))
         files = files[part::n_parts]
+    sampling = Sampling(
+        args.points, args.estimate_normals, args.noise, args.falloff, args.no_bottom
+    )
     if files:
-        warm_up(files[0], args.points, args.estimate_normals, args.noise, args.falloff)
+        warm_up(files[0], sampling)
     rows = []
     for path in files:
-        row = run_model(
-            path, args.points, args.estimate_normals, not args.no_peer, args.noise, args.falloff
-        )
+        row = run_model(path, sampling, not args.no_peer)
         rows.append(row)
         print(
             f"{row['model']:40s} {row['path']:7s} faces={row.get('faces', '-')!s:>5} "
@@ -312,6 +394,7 @@ def main(argv=None) -> int:
         "seconds",
         "kind",
         "peer_depth",
+        "peer_trim",
         "peer_triangles",
         "peer_closed",
         "peer_euler",

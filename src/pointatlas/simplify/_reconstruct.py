@@ -18,6 +18,7 @@ from .._core._threads import on_thread
 from ._grid_knn import GridKnn
 from ._handles import cut_handles
 from ._mesh import split_pinches
+from ._open import beyond_points, drop_strays, trim
 from ._solid import SOLID_RADIUS, half_balls, solid_retry
 from ._voxel_grid import (
     LOST_POINTS,
@@ -79,14 +80,6 @@ SPIKE_FACTOR = 4.0
 COLLAPSE_SHARE = 0.5
 #: Points whose tangent planes are averaged into the field at a node.
 FIELD_K = 8
-#: A triangle farther than this from every point (grid steps), or farther than one
-#: step and facing away from its nearest point's normal, lies beyond an open boundary
-#: of the input and is cut away ...
-TRIM_STEPS = 4.5
-#: ... unless its piece of far triangles is this small (a gap of the sampling).
-TRIM_MIN_PIECE = 24
-#: ... or this share of all triangles.
-TRIM_MIN_SHARE = 0.01
 
 
 @dataclass(frozen=True, slots=True)
@@ -260,31 +253,6 @@ def _winding_sides(q, normals, occupied, step, spacing, origin):
     return w, far_from, spacing + stride * step, stride
 
 
-def _trim(tri, far):
-    """Far triangles to cut: those in pieces (edge-connected) of at least TRIM_MIN_PIECE
-    triangles and TRIM_MIN_SHARE of all."""
-    if not far.any():
-        return far
-    from scipy.sparse import coo_array, csgraph
-
-    idx = np.flatnonzero(far)
-    sub = tri[idx]
-    edges = np.sort(np.stack([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]], 1), axis=2)
-    edges = edges.reshape(-1, 2)
-    owner = np.repeat(np.arange(idx.size), 3)
-    _, inv = np.unique(edges, axis=0, return_inverse=True)
-    inv = inv.reshape(-1)
-    order = np.argsort(inv, kind="stable")
-    same = inv[order[1:]] == inv[order[:-1]]
-    a, b = owner[order[1:]][same], owner[order[:-1]][same]
-    g = coo_array((np.ones(a.size), (a, b)), shape=(idx.size, idx.size))
-    _, piece = csgraph.connected_components(g, directed=False)
-    size = np.bincount(piece)
-    cut = np.zeros_like(far)
-    cut[idx[size[piece] >= max(TRIM_MIN_PIECE, TRIM_MIN_SHARE * tri.shape[0])]] = True
-    return cut
-
-
 def _bubbles(tri, far, nearest, dots, areas, closed=True):
     """Triangles of pieces (vertex-connected) that lie wholly far from the points, or
     that fewer than `STRAY_POINTS` points have their nearest triangle on (``nearest``:
@@ -385,18 +353,26 @@ def _surface_at(q, normals, tree, grid, closed, solid=None) -> Reconstruction:
     verts, tri, _, _ = marching_cubes(f, level=0.0, spacing=(step, step, step), method="lewiner")
     verts = verts.astype(np.float64) + origin
     tri = tri.astype(np.int64)
-    d, j = tree.query(verts[tri].mean(axis=1), workers=-1)
+    centroids = verts[tri].mean(axis=1)
+    d, j = tree.query(centroids, workers=-1)
     tn = np.cross(verts[tri[:, 1]] - verts[tri[:, 0]], verts[tri[:, 2]] - verts[tri[:, 0]])
     dots, areas = np.einsum("ij,ij->i", tn, normals[j]), np.linalg.norm(tn, axis=1)
     facing = dots / (areas + 1e-300)
-    # beyond an open boundary the surface folds back: far, or facing away from the points
-    # (a closed sample has no open boundary: nothing to cut but bubbles; at a thin
-    # wall the far side's points face away from a triangle a step off its own side)
-    beyond = (d > TRIM_STEPS * step) | ((d > step) & (facing < -0.5))
-    cut = np.zeros(tri.shape[0], dtype=bool) if closed else _trim(tri, beyond)
-    _, nearest = cKDTree(verts[tri].mean(axis=1)).query(q, workers=-1)
-    bubbles = _bubbles(tri, d > 2.0 * step, nearest, dots, areas, closed)
-    cut |= bubbles
+    # beyond an open boundary the surface folds back (far, or facing away from the
+    # points) and runs on past the points' outline (a closed sample has no open
+    # boundary: nothing to cut but bubbles; at a thin wall the far side's points face
+    # away from a triangle a step off its own side)
+    cut = np.zeros(tri.shape[0], dtype=bool)
+    if not closed:
+        cut = trim(tri, beyond_points(q, normals, tree, centroids, d, facing, step))
+    # bubbles among the triangles left (a cut can leave a stray triangle on its own)
+    kept = np.flatnonzero(~cut)
+    bubbles = np.zeros(0, dtype=bool)
+    if kept.size:
+        _, nearest = cKDTree(centroids[kept]).query(q, workers=-1)
+        far = d[kept] > 2.0 * step
+        bubbles = _bubbles(tri[kept], far, nearest, dots[kept], areas[kept], closed)
+        cut[kept[bubbles]] = True
     if cut.any():
         tri = tri[~cut]
         used = np.zeros(verts.shape[0], dtype=bool)
@@ -405,7 +381,7 @@ def _surface_at(q, normals, tree, grid, closed, solid=None) -> Reconstruction:
         verts, tri = verts[used], remap[tri]
     # at a wall thinner than the grid, the other side's points are the nearest of
     # most triangles: every piece reads as a bubble
-    if tri.shape[0] == 0 and bubbles.all():
+    if tri.shape[0] == 0 and bubbles.size and bubbles.all():
         raise PointAtlasError(
             f"simplify could not build a surface from these {q.shape[0]} points: every "
             f"piece of their voxel surface (grid step {step / spacing:.2g} x the point "
@@ -416,6 +392,8 @@ def _surface_at(q, normals, tree, grid, closed, solid=None) -> Reconstruction:
         raise PointAtlasError("simplify could not build a surface from these points")
     if cut.any():  # cutting can leave pieces touching at a vertex: give each its own
         verts, tri = split_pinches(verts, tri)
+        if not closed:  # and a stray triangle, on its own then
+            verts, tri = drop_strays(q, verts, tri, STRAY_POINTS)
     n_handles = 0
     if closed:  # bridges across gaps thinner than a step: small handles, cut
         verts, tri, n_handles = cut_handles(verts, tri, step)
@@ -506,7 +484,6 @@ def robust_mesh(
     """
     import dataclasses
 
-    from ._caps import outline_vertices
     from ._decimate_mesh import MAX_ERROR
     from ._distance import PointSurface
     from ._point_distances import PointDistances
@@ -554,7 +531,7 @@ def robust_mesh(
         FIT_STEPS * rec.step,
         bound,
     )
-    if max_triangles is None and outline_vertices(rec.triangles).size == 0:
+    if max_triangles is None:
         _start_collapses(level, measure, verts, rec.triangles, bound, max_error, neighbors)
     if max_error is None:
         # the default bound, or what the points' surface reaches there (before or

@@ -1,0 +1,102 @@
+"""An open sample's voxel surface cut back to the points (private; `_reconstruct`).
+
+The field of an open sample (a sheet, a scan that misses a side) has no inside: its
+marching-cubes surface wraps both sides of the points and runs on past their outline
+as far as the field's band reaches. What lies beyond the points is cut here.
+
+Decisions in docs/decisions/simplify.md ("Open samples").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._distance import PointSurface
+
+__all__ = [
+    "OUTLINE_CUT_STEPS",
+    "TRIM_MIN_PIECE",
+    "TRIM_MIN_SHARE",
+    "TRIM_STEPS",
+    "beyond_points",
+    "drop_strays",
+    "trim",
+]
+
+#: A triangle farther than this from every point (grid steps), or farther than one
+#: step and facing away from its nearest point's normal, lies beyond an open boundary
+#: of the input and is cut away ...
+TRIM_STEPS = 4.5
+#: ... and so is one whose centroid lies more than this many steps off the points'
+#: surface counted past their outline (`PointSurface.outline_distance`: beyond the
+#: last points, or over their discs where the surface wraps the sheet's other
+#: side): without it the surface ran on up to 4.5 steps past the points of a scan
+#: that misses a side, a flap 1-3 % of the diagonal off the true surface, whose
+#: staircase edge kept hundreds of outline vertices ...
+OUTLINE_CUT_STEPS = 1.0
+#: ... unless its piece of far triangles is this small (a gap of the sampling) ...
+TRIM_MIN_PIECE = 24
+#: ... or this share of all triangles.
+TRIM_MIN_SHARE = 0.01
+
+
+def beyond_points(q, normals, tree, centroids, d, facing, step: float) -> np.ndarray:
+    """Which triangles (``centroids``) of the surface of an open sample (points ``q``,
+    ``normals``, their `cKDTree` ``tree``) lie beyond its points: farther than
+    `TRIM_STEPS` steps from every point (``d``: each centroid's distance to its nearest
+    point), farther than one step and facing away from that point's normal
+    (``facing``: the cosine), or more than `OUTLINE_CUT_STEPS` steps off the points'
+    surface counted past their outline (only the centroids farther than that from
+    every point are asked)."""
+    beyond = (d > TRIM_STEPS * step) | ((d > step) & (facing < -0.5))
+    ask = np.flatnonzero(~beyond & (d > OUTLINE_CUT_STEPS * step))
+    if ask.size:
+        surface = PointSurface(q, normals, tree)
+        beyond[ask] = surface.outline_distance(centroids[ask]) > OUTLINE_CUT_STEPS * step
+    return beyond
+
+
+def trim(tri, far):
+    """Far triangles to cut: those in pieces (edge-connected) of at least
+    `TRIM_MIN_PIECE` triangles and `TRIM_MIN_SHARE` of all."""
+    if not far.any():
+        return far
+    from scipy.sparse import coo_array, csgraph
+
+    idx = np.flatnonzero(far)
+    sub = tri[idx]
+    edges = np.sort(np.stack([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]], 1), axis=2)
+    edges = edges.reshape(-1, 2)
+    owner = np.repeat(np.arange(idx.size), 3)
+    _, inv = np.unique(edges, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    order = np.argsort(inv, kind="stable")
+    same = inv[order[1:]] == inv[order[:-1]]
+    a, b = owner[order[1:]][same], owner[order[:-1]][same]
+    g = coo_array((np.ones(a.size), (a, b)), shape=(idx.size, idx.size))
+    _, piece = csgraph.connected_components(g, directed=False)
+    size = np.bincount(piece)
+    cut = np.zeros_like(far)
+    cut[idx[size[piece] >= max(TRIM_MIN_PIECE, TRIM_MIN_SHARE * tri.shape[0])]] = True
+    return cut
+
+
+def drop_strays(q, verts, tri, least: int):
+    """``(verts, tri)`` without the pieces (vertex-connected) that fewer than ``least``
+    of the points ``q`` have their nearest triangle (by centroid) on: a triangle the
+    cut left touching the rest at one vertex only, on its own once the pinch is split
+    (`_mesh.split_pinches`)."""
+    from scipy.spatial import cKDTree
+
+    from ._mesh import vertex_pieces
+
+    piece = vertex_pieces(tri, verts.shape[0])[tri[:, 0]]
+    _, nearest = cKDTree(verts[tri].mean(axis=1)).query(q, workers=-1)
+    owned = np.bincount(piece[nearest], minlength=int(piece.max()) + 1)
+    keep = owned[piece] >= least
+    if keep.all() or not keep.any():
+        return verts, tri
+    tri = tri[keep]
+    used = np.zeros(verts.shape[0], dtype=bool)
+    used[tri] = True
+    return verts[used], (np.cumsum(used) - 1)[tri]
