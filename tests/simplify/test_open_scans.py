@@ -53,7 +53,7 @@ def _tube():
 
 @pytest.mark.parametrize(
     ("shape", "faces", "euler", "most"),
-    [(box, 5, 1, 100), (l_bracket, 7, 1, 100), (_tube, None, 0, 1000)],
+    [(box, 5, 1, 150), (l_bracket, 7, 1, 150), (_tube, None, 0, 1000)],
     ids=["box", "l-bracket", "tube"],
 )
 def test_a_part_scanned_without_its_bottom_ends_where_its_points_end(shape, faces, euler, most):
