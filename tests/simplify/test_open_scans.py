@@ -52,15 +52,18 @@ def _tube():
 
 
 @pytest.mark.parametrize(
-    ("shape", "faces", "euler", "most"),
-    [(box, 5, 1, 150), (l_bracket, 7, 1, 150), (_tube, None, 0, 1000)],
+    ("shape", "faces", "euler", "most", "off"),
+    [(box, 5, 1, 150, 1.0), (l_bracket, 7, 1, 150, 1.0), (_tube, None, 0, 1000, 1.3)],
     ids=["box", "l-bracket", "tube"],
 )
-def test_a_part_scanned_without_its_bottom_ends_where_its_points_end(shape, faces, euler, most):
+def test_a_part_scanned_without_its_bottom_ends_where_its_points_end(
+    shape, faces, euler, most, off
+):
     """Before the outline cut the surface ran on up to 4.5 grid steps past the points
     and its staircase edge was kept: the box 260 triangles 1.39 % off the truth, the
-    L-bracket 126 faces in pieces (Euler characteristic 119), the tube 9,977
-    triangles (23)."""
+    L-bracket 126 faces in pieces (Euler characteristic 119) 3.6 % off, the tube
+    9,977 triangles (23) 2.8 % off (its 6,000 points leave the truth's rim a
+    spacing, about 1.2 %, from the last of them)."""
     v, t = shape()
     p, n = _without_bottom(v, t, 6000)
     m = _simplified(p, n).mesh
@@ -69,7 +72,7 @@ def test_a_part_scanned_without_its_bottom_ends_where_its_points_end(shape, face
     if faces is not None:
         assert m.n_faces == faces
     assert m.triangles.shape[0] <= most
-    assert _off_truth(m, v, t, p) <= 1.25
+    assert _off_truth(m, v, t, p) <= off
 
 
 def test_the_cut_is_past_the_outline_only():

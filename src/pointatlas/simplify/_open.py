@@ -15,11 +15,13 @@ from ._distance import PointSurface
 
 __all__ = [
     "OUTLINE_CUT_STEPS",
+    "OUTLINE_SMOOTH_ROUNDS",
     "TRIM_MIN_PIECE",
     "TRIM_MIN_SHARE",
     "TRIM_STEPS",
     "beyond_points",
     "drop_strays",
+    "smooth_outline",
     "trim",
 ]
 
@@ -36,6 +38,12 @@ TRIM_STEPS = 4.5
 #: model scanned without its bottom within 1 % of the truth, at half a step 25, at a
 #: quarter 24 with a third more triangles) ...
 OUTLINE_CUT_STEPS = 0.5
+#: The cut outline, a staircase of grid steps, is smoothed along itself this many
+#: rounds (`smooth_outline`): the boundary quadrics pinned every step's corner, and
+#: the collapses kept them (sampled without their bottom, a sphere kept 816 triangles
+#: against 543 now, a cylinder 218 against 112; five rounds round a box's outline
+#: corners, 1.41 % of the diagonal off the truth against 0.66 %).
+OUTLINE_SMOOTH_ROUNDS = 2
 #: ... unless its piece of far triangles is this small (a gap of the sampling) ...
 TRIM_MIN_PIECE = 24
 #: ... or this share of all triangles.
@@ -102,3 +110,35 @@ def drop_strays(q, verts, tri, least: int):
     used = np.zeros(verts.shape[0], dtype=bool)
     used[tri] = True
     return verts[used], (np.cumsum(used) - 1)[tri]
+
+
+def smooth_outline(verts, tri, rounds: int = OUTLINE_SMOOTH_ROUNDS) -> np.ndarray:
+    """``verts`` with the vertices of the open boundary of ``tri`` smoothed along it:
+    ``rounds`` of Taubin's two steps (lambda 0.5, mu -0.53: a staircase flattened, a
+    loop not shrunk), each such vertex moved towards the midpoint of its two
+    neighbours along the boundary; the vertices of more than one boundary run
+    (pinched) stay.
+
+    Examples
+    --------
+    >>> v = np.array([[0, 0, 0], [1, 0.2, 0], [2, 0, 0], [1, 1, 0.0]])
+    >>> t = np.array([[0, 1, 3], [1, 2, 3]])
+    >>> float(smooth_outline(v, t, 1)[1, 1]) < 0.2  # the kink flattens
+    True
+    """
+    directed = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    _, inv, count = np.unique(
+        np.sort(directed, axis=1), axis=0, return_inverse=True, return_counts=True
+    )
+    run = directed[count[inv.reshape(-1)] == 1]
+    n = verts.shape[0]
+    ends = np.bincount(run.reshape(-1), minlength=n)
+    after, before = np.full(n, -1), np.full(n, -1)
+    after[run[:, 0]], before[run[:, 1]] = run[:, 1], run[:, 0]
+    on = np.flatnonzero((ends == 2) & (after >= 0) & (before >= 0))
+    v = np.array(verts, dtype=np.float64)
+    for _ in range(rounds):
+        for share in (0.5, -0.53):
+            mid = 0.5 * (v[after[on]] + v[before[on]])
+            v[on] += share * (mid - v[on])
+    return v

@@ -18,7 +18,7 @@ from .._core._threads import on_thread
 from ._grid_knn import GridKnn
 from ._handles import cut_handles
 from ._mesh import split_pinches
-from ._open import beyond_points, drop_strays, trim
+from ._open import beyond_points, drop_strays, smooth_outline, trim
 from ._solid import SOLID_RADIUS, half_balls, solid_retry
 from ._voxel_grid import (
     LOST_POINTS,
@@ -392,8 +392,9 @@ def _surface_at(q, normals, tree, grid, closed, solid=None) -> Reconstruction:
         raise PointAtlasError("simplify could not build a surface from these points")
     if cut.any():  # cutting can leave pieces touching at a vertex: give each its own
         verts, tri = split_pinches(verts, tri)
-        if not closed:  # and a stray triangle, on its own then
+        if not closed:  # and a stray triangle, on its own then; the staircase smoothed
             verts, tri = drop_strays(q, verts, tri, STRAY_POINTS)
+            verts = smooth_outline(verts, tri)
     n_handles = 0
     if closed:  # bridges across gaps thinner than a step: small handles, cut
         verts, tri, n_handles = cut_handles(verts, tri, step)
