@@ -66,7 +66,9 @@ def test_a_part_scanned_without_its_bottom_ends_where_its_points_end(
     spacing, about 1.2 %, from the last of them)."""
     v, t = shape()
     p, n = _without_bottom(v, t, 6000)
-    m = _simplified(p, n).mesh
+    r = _simplified(p, n)
+    m = r.mesh
+    assert "the mesh is open, cut where they end" in r.reason  # and said so
     assert mesh_checks(m.n_vertices, m.triangles) == (False, True, True)
     assert m.euler_characteristic == euler  # one open piece (a disc; the tube a ring)
     if faces is not None:

@@ -440,6 +440,8 @@ def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, leve
             f"; the points are sampled unevenly: the grid's spacing {rec.uneven:.2f} x "
             "their median one"
         )
+    if rec.n_trimmed:  # an open sample (a sheet, a scan that misses a side)
+        reason += "; the points close no surface: the mesh is open, cut where they end"
     return inp.result(seg, res, path="robust", reason=reason, labels=point_labels)
 
 
