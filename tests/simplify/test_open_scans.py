@@ -14,6 +14,7 @@ from scipy.spatial import cKDTree
 
 from pointatlas.neighbors import point_mesh_distance
 from pointatlas.simplify import mesh_checks, simplify_points
+from pointatlas.simplify._distance import PointSurface
 from pointatlas.simplify._open import OUTLINE_CUT_STEPS, beyond_points
 from pointatlas.synth import sample_mesh
 
@@ -88,7 +89,7 @@ def test_the_cut_is_past_the_outline_only():
     x = np.array([[0.5, 0.5, 0.0], [1.0 + 1.5 * OUTLINE_CUT_STEPS * step, 0.5, 0.0]])
     tree = cKDTree(q)
     d = tree.query(x)[0]
-    far = beyond_points(q, normals, tree, x, d, np.ones(2), step)
+    far = beyond_points(PointSurface(q, normals, tree), x, d, np.ones(2), step)
     assert far.tolist() == [False, True]
 
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import get_num_threads, njit, prange
 
-from ._mesh import unique_pairs, vertex_triangles
+from ._mesh import unique_pairs, used_only, vertex_triangles
 
 __all__ = ["HANDLE_MARGIN", "HANDLE_STEPS", "HANDLE_STRIDE", "cut_handles"]
 
@@ -303,8 +303,4 @@ def cut_handles(verts, tri, step: float):
     if not caps:
         return verts, tri, 0
     verts = np.vstack([verts, np.array(centres)])
-    tri = np.vstack([tri[~gone], *caps])
-    used = np.zeros(verts.shape[0], dtype=bool)
-    used[tri] = True
-    remap = np.cumsum(used) - 1
-    return verts[used], remap[tri], n_cut
+    return (*used_only(verts, np.vstack([tri[~gone], *caps])), n_cut)

@@ -26,6 +26,7 @@ __all__ = [
     "split_pinches",
     "unique_ints",
     "unique_pairs",
+    "used_only",
     "vertex_pieces",
     "vertex_triangles",
 ]
@@ -107,6 +108,20 @@ def vertex_pieces(tri, n: int) -> np.ndarray:
     b = np.concatenate([tri[:, 1], tri[:, 2]])
     graph = coo_matrix((np.ones(a.size), (a, b)), (n, n))
     return connected_components(graph, directed=False)[1]
+
+
+def used_only(verts, tri):
+    """``(verts, tri)`` with only the vertices the triangles use, renumbered in order.
+
+    Examples
+    --------
+    >>> v, t = used_only(np.arange(12.0).reshape(4, 3), np.array([[3, 1, 2]]))
+    >>> v[:, 0].tolist(), t.tolist()
+    ([3.0, 6.0, 9.0], [[2, 0, 1]])
+    """
+    used = np.zeros(verts.shape[0], dtype=bool)
+    used[tri] = True
+    return verts[used], (np.cumsum(used) - 1)[tri]
 
 
 def split_pinches(verts, tri):

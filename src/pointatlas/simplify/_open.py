@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._distance import PointSurface
+from ._mesh import unique_pairs, used_only, vertex_pieces
 
 __all__ = [
     "OUTLINE_CUT_STEPS",
@@ -50,18 +50,16 @@ TRIM_MIN_PIECE = 24
 TRIM_MIN_SHARE = 0.01
 
 
-def beyond_points(q, normals, tree, centroids, d, facing, step: float) -> np.ndarray:
-    """Which triangles (``centroids``) of the surface of an open sample (points ``q``,
-    ``normals``, their `cKDTree` ``tree``) lie beyond its points: farther than
-    `TRIM_STEPS` steps from every point (``d``: each centroid's distance to its nearest
-    point), farther than one step and facing away from that point's normal
-    (``facing``: the cosine), or more than `OUTLINE_CUT_STEPS` steps off the points'
-    surface counted past their outline (only the centroids farther than that from
-    every point are asked)."""
+def beyond_points(surface, centroids, d, facing, step: float) -> np.ndarray:
+    """Which triangles (``centroids``) of the surface of an open sample lie beyond its
+    points (``surface``: their `PointSurface`): farther than `TRIM_STEPS` steps from
+    every point (``d``: each centroid's distance to its nearest point), farther than
+    one step and facing away from that point's normal (``facing``: the cosine), or
+    more than `OUTLINE_CUT_STEPS` steps off the points' surface counted past their
+    outline (only the centroids farther than that from every point are asked)."""
     beyond = (d > TRIM_STEPS * step) | ((d > step) & (facing < -0.5))
     ask = np.flatnonzero(~beyond & (d > OUTLINE_CUT_STEPS * step))
     if ask.size:
-        surface = PointSurface(q, normals, tree)
         beyond[ask] = surface.outline_distance(centroids[ask]) > OUTLINE_CUT_STEPS * step
     return beyond
 
@@ -98,18 +96,13 @@ def drop_strays(q, verts, tri, least: int):
     (`_mesh.split_pinches`)."""
     from scipy.spatial import cKDTree
 
-    from ._mesh import vertex_pieces
-
     piece = vertex_pieces(tri, verts.shape[0])[tri[:, 0]]
     _, nearest = cKDTree(verts[tri].mean(axis=1)).query(q, workers=-1)
     owned = np.bincount(piece[nearest], minlength=int(piece.max()) + 1)
     keep = owned[piece] >= least
     if keep.all() or not keep.any():
         return verts, tri
-    tri = tri[keep]
-    used = np.zeros(verts.shape[0], dtype=bool)
-    used[tri] = True
-    return verts[used], (np.cumsum(used) - 1)[tri]
+    return used_only(verts, tri[keep])
 
 
 def smooth_outline(verts, tri, rounds: int = OUTLINE_SMOOTH_ROUNDS) -> np.ndarray:
@@ -127,9 +120,7 @@ def smooth_outline(verts, tri, rounds: int = OUTLINE_SMOOTH_ROUNDS) -> np.ndarra
     True
     """
     directed = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-    _, inv, count = np.unique(
-        np.sort(directed, axis=1), axis=0, return_inverse=True, return_counts=True
-    )
+    _, inv, count = unique_pairs(np.sort(directed, axis=1), return_inverse=True, return_counts=True)
     run = directed[count[inv.reshape(-1)] == 1]
     n = verts.shape[0]
     ends = np.bincount(run.reshape(-1), minlength=n)

@@ -17,7 +17,7 @@ from .._core import PointAtlasError
 from .._core._threads import on_thread
 from ._grid_knn import GridKnn
 from ._handles import cut_handles
-from ._mesh import split_pinches
+from ._mesh import split_pinches, used_only
 from ._open import beyond_points, drop_strays, smooth_outline, trim
 from ._solid import SOLID_RADIUS, half_balls, solid_retry
 from ._voxel_grid import (
@@ -277,7 +277,7 @@ def _bubbles(tri, far, nearest, dots, areas, closed=True):
 
 
 def reconstruct_surface(
-    q: np.ndarray, normals: np.ndarray, areas=None, tree=None
+    q: np.ndarray, normals: np.ndarray, areas=None, tree=None, surface=None
 ) -> Reconstruction:
     """Triangle surface of points ``q`` (working frame) with oriented ``normals``.
 
@@ -289,8 +289,11 @@ def reconstruct_surface(
     points are still lost on a closed sample, again with their parts made solid
     (`_solid.solid_retry`).
     ``areas``: the points' disc areas (`is_closed_sample`), ``tree``: their
-    `cKDTree`; found when None.
+    `cKDTree`, ``surface``: their `_distance.PointSurface` (an open sample is cut at
+    its outline, `_open.beyond_points`); found when None.
     """
+    from ._distance import PointSurface
+
     tree = cKDTree(q) if tree is None else tree
     lo, hi = q.min(axis=0), q.max(axis=0)
     extent = float((hi - lo).max())
@@ -299,10 +302,12 @@ def reconstruct_surface(
     factor = uneven_factor(q, tree)
     spacing, step, shape = grid_step(q, normals, tree, factor)
     closed = is_closed_sample(q, normals, areas)
-    rec = _surface_at(q, normals, tree, (spacing, step, shape), closed)
+    if not closed and surface is None:
+        surface = PointSurface(q, normals, tree)
+    rec = _surface_at(q, normals, tree, (spacing, step, shape), closed, surface=surface)
     fine = (spacing, *finer_step(q, spacing))
     if fine[1] < step / 1.2:
-        rec = _finer(q, normals, tree, rec, fine, closed)
+        rec = _finer(q, normals, tree, rec, fine, closed, surface)
 
     if closed:  # an open sample's far points lie beyond its cut outline: no inside
 
@@ -313,28 +318,29 @@ def reconstruct_surface(
     return replace(rec, uneven=factor)
 
 
-def _finer(q, normals, tree, rec, fine, closed) -> Reconstruction:
+def _finer(q, normals, tree, rec, fine, closed, surface) -> Reconstruction:
     """``rec``, or the surface on the ``fine`` grid where ``rec`` lost a part thinner
     than its grid and the finer one brings most of those points near without adding
-    handles."""
+    handles (``surface``: the points' `PointSurface` of an open sample)."""
     far = LOST_STEPS * rec.step
     lost = lost_points(q, rec.vertices, rec.triangles, far)
     if lost < LOST_POINTS:
         return rec
     try:
-        surface = _surface_at(q, normals, tree, fine, closed)
+        finer = _surface_at(q, normals, tree, fine, closed, surface=surface)
     except PointAtlasError:
         return rec
-    still = lost_points(q, surface.vertices, surface.triangles, far)
-    no_handle = euler_characteristic(surface.triangles) >= euler_characteristic(rec.triangles)
+    still = lost_points(q, finer.vertices, finer.triangles, far)
+    no_handle = euler_characteristic(finer.triangles) >= euler_characteristic(rec.triangles)
     # a part lost whole is worth a handle through it (a fin 0.8 steps thin)
     whole = lost >= LOST_SHARE * q.shape[0]
-    return surface if 2 * still <= lost and (no_handle or whole) else rec
+    return finer if 2 * still <= lost and (no_handle or whole) else rec
 
 
-def _surface_at(q, normals, tree, grid, closed, solid=None) -> Reconstruction:
+def _surface_at(q, normals, tree, grid, closed, solid=None, surface=None) -> Reconstruction:
     """`reconstruct_surface` on the grid ``(spacing, step, shape)``; ``solid``:
-    (points, normals) whose half balls the field takes (`_solid.half_balls`)."""
+    (points, normals) whose half balls the field takes (`_solid.half_balls`);
+    ``surface``: the points' `PointSurface` (an open sample's cut at the outline)."""
     from skimage.measure import marching_cubes
 
     spacing, step, shape = grid
@@ -364,7 +370,7 @@ def _surface_at(q, normals, tree, grid, closed, solid=None) -> Reconstruction:
     # away from a triangle a step off its own side)
     cut = np.zeros(tri.shape[0], dtype=bool)
     if not closed:
-        cut = trim(tri, beyond_points(q, normals, tree, centroids, d, facing, step))
+        cut = trim(tri, beyond_points(surface, centroids, d, facing, step))
     # bubbles among the triangles left (a cut can leave a stray triangle on its own)
     kept = np.flatnonzero(~cut)
     bubbles = np.zeros(0, dtype=bool)
@@ -374,11 +380,7 @@ def _surface_at(q, normals, tree, grid, closed, solid=None) -> Reconstruction:
         bubbles = _bubbles(tri[kept], far, nearest, dots[kept], areas[kept], closed)
         cut[kept[bubbles]] = True
     if cut.any():
-        tri = tri[~cut]
-        used = np.zeros(verts.shape[0], dtype=bool)
-        used[tri] = True
-        remap = np.cumsum(used) - 1
-        verts, tri = verts[used], remap[tri]
+        verts, tri = used_only(verts, tri[~cut])
     # at a wall thinner than the grid, the other side's points are the nearest of
     # most triangles: every piece reads as a bubble
     if tri.shape[0] == 0 and bubbles.size and bubbles.all():
@@ -499,8 +501,8 @@ def robust_mesh(
     # quarter of the bound: their vertices go onto the planes within it, below)
     labels, proxy_normals = region_layers(q, normals, labels, proxy_normals, 0.25 * bound)
     tree = cKDTree(q)
-    rec = reconstruct_surface(q, normals, areas, tree)
     surface = PointSurface(q, normals, tree, radius)
+    rec = reconstruct_surface(q, normals, areas, tree, surface)
     # the vertices' fit on a thread while the triangles take the points' regions
     fitted = on_thread(
         fit_to_points, rec.vertices, rec.triangles, q, normals, surface.grid, FIT_STEPS * rec.step
