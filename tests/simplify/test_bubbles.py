@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import warnings
+from pathlib import Path
+
 import numpy as np
+import pytest
 from scipy.spatial import cKDTree
 from skimage.measure import marching_cubes
 
@@ -79,3 +83,28 @@ def test_sample_of_a_ball_gives_one_piece():
     tri = rec.triangles
     sides = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
     assert np.unique(tri).size - np.unique(sides, axis=0).shape[0] + tri.shape[0] == 2
+
+
+COLLECTION = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "collection"
+
+
+@pytest.mark.skipif(not COLLECTION.exists(), reason="the collection is not under ../shared")
+def test_a_closed_sample_whose_voids_are_dropped_is_not_called_open():
+    """The voids dropped from a closed sample's surface are not an open cut: the
+    result is closed and its reason does not say the points close no surface (it
+    did on 46 of the 149 collection models sampled all round)."""
+    from pointatlas.io import read_mesh
+    from pointatlas.simplify import simplify_points
+    from pointatlas.simplify._mesh import mesh_checks
+
+    mesh = read_mesh(COLLECTION / "cad_rebite.obj")
+    v, t = np.asarray(mesh.vertices), np.asarray(mesh.triangles, dtype=np.int64)
+    s = sample_mesh(v, t, 20000, rng=0)
+    p, n = np.asarray(s.points), np.asarray(s.normals)
+    rec = reconstruct_surface(p, n)
+    assert rec.n_trimmed == 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = simplify_points(p, n)
+    assert mesh_checks(r.mesh.n_vertices, r.mesh.triangles) == (True, True, True)
+    assert "close no surface" not in r.reason

@@ -119,8 +119,9 @@ def is_closed_sample(q, normals, areas=None) -> bool:
 
 def _field(q, normals, step, spacing, origin, shape, closed):
     """Signed field on the grid nodes: tangent-plane distance in the band, +-band
-    beyond it (one sign per connected region of nodes, by a vote of its band border)."""
-    from ._winding import far_sides
+    beyond it (one sign per connected region of nodes, by a vote of its band border);
+    on a closed sample the winding number's side away from the points."""
+    from ._winding import far_sides, level_sides
 
     width = band_steps(step, spacing)
     cells = np.floor((q - origin) / step).astype(np.int64)
@@ -142,6 +143,9 @@ def _field(q, normals, step, spacing, origin, shape, closed):
     values, thin = _band_sides(q, normals, x, near, step, spacing)
     f = np.zeros(shape, dtype=np.float64)
     f[band] = values
+    # each node's distance to its nearest point (beyond the band: farther than it)
+    nearest = np.full(shape, np.inf, dtype=np.float32)
+    nearest[band] = near[0][:, 0]
     # regions of nodes beyond the band: one sign each, by the band nodes next to them
     comp, n_comp = ndimage.label(~band)
     votes = np.zeros(n_comp + 1)
@@ -163,7 +167,11 @@ def _field(q, normals, step, spacing, origin, shape, closed):
     # wall thinner than about two of its widths away
     f[keep] = np.where(np.sign(f[keep]) == np.sign(raw), f[keep], raw)
     if sides is not None:
-        f = far_sides(f, *sides.result(), WINDING_CLEAR)
+        lattice, sources = sides.result()
+        f = far_sides(f, *lattice, WINDING_CLEAR)
+        # nearer the points than the lattice reaches, at the level only: a blob the
+        # planes of a face leave past a knife edge
+        f = level_sides(f, nearest, sources, origin, step, WINDING_CLEAR)
     # the grid's outer layer is outside: the surface is closed inside the grid
     f[[0, -1], :, :] = f[:, [0, -1], :] = f[:, :, [0, -1]] = (width + 1) * step
     f[f == 0.0] = 1e-12 * step  # no node exactly on the level: no degenerate triangles
@@ -232,15 +240,16 @@ def _winding_sides(q, normals, occupied, step, spacing, origin):
     open sheet has no inside). Returns ``(w, far_from, near, stride)`` for
     `_winding.far_sides`: the winding number on every ``stride``-th node, each
     node's distance from the points' cells, and the distance beyond which a node
-    takes its side."""
+    takes its side; and the points as `_winding.Dipoles` (`_winding.level_sides`)."""
     from ._edt import distance_to
-    from ._winding import winding_numbers
+    from ._winding import dipoles
 
     shape = np.array(occupied.shape)
     stride = max(2, int(np.ceil((shape.prod() / WINDING_NODES) ** (1.0 / 3.0))))
     axes = [np.arange(0, n, stride) for n in shape]
     lattice = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    w = winding_numbers(origin + lattice * step, q, normals, WINDING_CELL * step)
+    sources = dipoles(q, normals, WINDING_CELL * step)
+    w = sources.at(origin + lattice * step)
     if w.min() < WINDING_CLEAR - 1.0 and w.max() < 1.0 - WINDING_CLEAR:
         raise PointAtlasError(
             f"simplify could not build a surface from these {q.shape[0]} points: their "
@@ -250,7 +259,7 @@ def _winding_sides(q, normals, occupied, step, spacing, origin):
     far_from = distance_to(occupied) * step
     # a node whose lattice corners are all more than a spacing from every point (near
     # the points the winding number is steep: interpolated it made tunnels)
-    return w, far_from, spacing + stride * step, stride
+    return (w, far_from, spacing + stride * step, stride), sources
 
 
 def _bubbles(tri, far, nearest, dots, areas, closed=True):
@@ -371,6 +380,7 @@ def _surface_at(q, normals, tree, grid, closed, solid=None, surface=None) -> Rec
     cut = np.zeros(tri.shape[0], dtype=bool)
     if not closed:
         cut = trim(tri, beyond_points(surface, centroids, d, facing, step))
+    n_trimmed = int(cut.sum())  # the open cut (not the bubbles below)
     # bubbles among the triangles left (a cut can leave a stray triangle on its own)
     kept = np.flatnonzero(~cut)
     bubbles = np.zeros(0, dtype=bool)
@@ -405,7 +415,7 @@ def _surface_at(q, normals, tree, grid, closed, solid=None, surface=None) -> Rec
         triangles=tri,
         step=step,
         shape=shape,
-        n_trimmed=int(cut.sum()),
+        n_trimmed=n_trimmed,
         n_handles=n_handles,
     )
 

@@ -13,6 +13,8 @@ tests/simplify/reference.py (`winding_reference`).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numba import njit, prange
 from scipy.spatial import cKDTree
@@ -21,9 +23,14 @@ from .._core import readonly_view
 
 __all__ = [
     "AREA_NEIGHBOR",
+    "Dipoles",
     "FAR_RADII",
     "MAX_POINTS",
+    "LEVEL_FAR_STEPS",
+    "LEVEL_ROUNDS",
+    "dipoles",
     "far_sides",
+    "level_sides",
     "point_areas",
     "table_areas",
     "winding_numbers",
@@ -36,6 +43,13 @@ FAR_RADII = 2.0
 #: At most this many points (evenly strided) speak: the winding number is used far
 #: from the points only, where a subsample gives the same side.
 MAX_POINTS = 50_000
+#: Nodes next to the field's level farther than this many grid steps from every
+#: point take the winding number's side computed at the node (`level_sides`): the
+#: lattice's interpolation reaches only past a spacing and a lattice step, and the
+#: tangent planes of a face extended past a knife edge leave a blob there ...
+LEVEL_FAR_STEPS = 2.0
+#: ... in at most this many rounds (a node turned brings its neighbours to the level).
+LEVEL_ROUNDS = 3
 
 
 def point_areas(points: np.ndarray, k: int = AREA_NEIGHBOR) -> np.ndarray:
@@ -87,17 +101,44 @@ def _winding_kernel(x, p, dipoles, order, starts, centres, cell_dipoles, reach2)
     return out
 
 
-def winding_numbers(x, points, normals, cell: float) -> np.ndarray:
-    """The winding number of the oriented ``points`` at every row of ``x``.
+@dataclass(frozen=True, slots=True)
+class Dipoles:
+    """Oriented points grouped in cells for `winding_numbers` (private): the points
+    ``p``, their ``dipoles`` (normal x disc area), the points of cell c at
+    ``order[starts[c]:starts[c + 1]]``, each cell's ``centres``, ``cell_dipoles``
+    and squared reach (``reach2``: beyond it the cell is one dipole)."""
 
-    ``cell``: the side of the cells the points are grouped in (their far field is
-    one dipole each). At most `MAX_POINTS` points, evenly strided, are used.
-    """
+    p: np.ndarray
+    dipoles: np.ndarray
+    order: np.ndarray
+    starts: np.ndarray
+    centres: np.ndarray
+    cell_dipoles: np.ndarray
+    reach2: np.ndarray
+
+    def at(self, x: np.ndarray) -> np.ndarray:
+        """The winding number at every row of ``x``."""
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        return _winding_kernel(
+            x,
+            self.p,
+            self.dipoles,
+            self.order,
+            self.starts,
+            self.centres,
+            self.cell_dipoles,
+            self.reach2,
+        )
+
+
+def dipoles(points, normals, cell: float) -> Dipoles:
+    """The oriented ``points`` grouped in cells of side ``cell`` (`Dipoles`); at most
+    `MAX_POINTS` of them, evenly strided."""
     stride = max(1, -(-points.shape[0] // MAX_POINTS))
     # read-only: one kernel signature whatever the caller's array (docs/decisions/cli.md)
     p = readonly_view(np.ascontiguousarray(points[::stride], dtype=np.float64))
     n = np.asarray(normals[::stride], dtype=np.float64)
-    dipoles = np.ascontiguousarray(n * point_areas(p)[:, None])
+    dip = np.ascontiguousarray(n * point_areas(p)[:, None])
     key = np.floor((p - p.min(axis=0)) / cell).astype(np.int64)
     _, lab = np.unique(key, axis=0, return_inverse=True)
     lab = lab.reshape(-1)
@@ -107,12 +148,20 @@ def winding_numbers(x, points, normals, cell: float) -> np.ndarray:
     weight = np.bincount(lab, minlength=n_cells).astype(np.float64)
     centres = np.stack([np.bincount(lab, p[:, i], n_cells) for i in range(3)], axis=1)
     centres /= weight[:, None]
-    cell_dipoles = np.stack([np.bincount(lab, dipoles[:, i], n_cells) for i in range(3)], 1)
+    cell_dipoles = np.stack([np.bincount(lab, dip[:, i], n_cells) for i in range(3)], 1)
     radius = np.zeros(n_cells)
     np.maximum.at(radius, lab, np.linalg.norm(p - centres[lab], axis=1))
     reach2 = (FAR_RADII * radius) ** 2
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    return _winding_kernel(x, p, dipoles, order, starts, centres, cell_dipoles, reach2)
+    return Dipoles(p, dip, order, starts, centres, cell_dipoles, reach2)
+
+
+def winding_numbers(x, points, normals, cell: float) -> np.ndarray:
+    """The winding number of the oriented ``points`` at every row of ``x``.
+
+    ``cell``: the side of the cells the points are grouped in (their far field is
+    one dipole each). At most `MAX_POINTS` points, evenly strided, are used.
+    """
+    return dipoles(points, normals, cell).at(x)
 
 
 @njit(cache=True, parallel=True)
@@ -161,3 +210,68 @@ def _lattice_at(i, stride, m):
 def _along(w, i0, i1, ti, j, k):
     """``w`` interpolated along axis 0 at lattice row ``j``, column ``k``."""
     return w[i0, j, k] * (1.0 - ti) + w[i1, j, k] * ti
+
+
+#: The six axis neighbours of a node, and the node itself.
+_AXIS_STEPS = np.vstack([np.zeros((1, 3)), np.eye(3), -np.eye(3)]).astype(np.int64)
+
+
+def level_sides(f, nearest, sources: Dipoles, origin, step: float, clear: float):
+    """The field ``f`` (grid nodes at ``origin`` + index x ``step``; changed in place
+    and returned) with every node next to its level (a neighbour along an axis on
+    the other side) and farther than `LEVEL_FAR_STEPS` steps from the points
+    (``nearest``: each node's distance to the nearest point, inf where farther than
+    known) on the side of the points' winding number at the node (``sources``) where
+    it is clear (below ``clear``: outside, above 1 - ``clear``: inside; the value then
+    the distance to the nearest point, or its size where that is not known), in
+    `LEVEL_ROUNDS` rounds, each over the nodes that the last one brought to the
+    level."""
+    inside = f < 0.0
+    nodes = np.argwhere(_on_level(inside))
+    seen = np.zeros(f.shape, dtype=bool)
+    for _ in range(LEVEL_ROUNDS):
+        nodes = nodes[~seen[tuple(nodes.T)]]
+        seen[tuple(nodes.T)] = True
+        nodes = nodes[nearest[tuple(nodes.T)] > LEVEL_FAR_STEPS * step]
+        if nodes.shape[0] == 0:
+            break
+        w = sources.at(origin + nodes * step)
+        side = np.where(w < clear, 1.0, np.where(w > 1.0 - clear, -1.0, 0.0))
+        turn = side * np.where(inside[tuple(nodes.T)], -1.0, 1.0) < 0.0  # the other side
+        if not turn.any():
+            break
+        nodes, side = nodes[turn], side[turn]
+        at = tuple(nodes.T)
+        size = nearest[at].astype(np.float64)
+        size = np.where(np.isfinite(size), size, np.abs(f[at]))
+        f[at] = side * size
+        inside[at] = side < 0.0
+        # the turned nodes' neighbours now on the level: the next round's
+        near = (nodes[:, None, :] + _AXIS_STEPS[None, :, :]).reshape(-1, 3)
+        near = near[((near >= 0) & (near < np.array(f.shape))).all(axis=1)]
+        near = np.unique(near, axis=0)
+        nodes = near[_on_level(inside, near)]
+    return f
+
+
+def _on_level(inside: np.ndarray, nodes=None) -> np.ndarray:
+    """Whether nodes have a neighbour along an axis on the other side of the level
+    (``inside``: the field below 0): a mask of the grid, or of the rows of
+    ``nodes``."""
+    if nodes is None:
+        edge = np.zeros(inside.shape, dtype=bool)
+        for axis in range(3):
+            lo, hi = [slice(None)] * 3, [slice(None)] * 3
+            lo[axis], hi[axis] = slice(0, -1), slice(1, None)
+            differ = inside[tuple(lo)] != inside[tuple(hi)]
+            edge[tuple(lo)] |= differ
+            edge[tuple(hi)] |= differ
+        return edge
+    shape = np.array(inside.shape)
+    here = inside[tuple(nodes.T)]
+    out = np.zeros(nodes.shape[0], dtype=bool)
+    for step in _AXIS_STEPS[1:]:
+        nb = nodes + step
+        ok = ((nb >= 0) & (nb < shape)).all(axis=1)
+        out[ok] |= inside[tuple(nb[ok].T)] != here[ok]
+    return out
