@@ -14,6 +14,8 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --falloff 10
     # a part scanned standing on a table: no points where the surface faces down
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --no-bottom
+    # one scanner view: points only where the surface faces it and nothing hides them
+    .venv/bin/python benchmarks/bench_simplify_points.py --every 3 --no-peer --view
 
 Every ``--every``-th model (sorted by name) is sampled uniformly by area with its
 face normals (`pointatlas.synth.sample_mesh`, seed 0; with ``--falloff R`` at a
@@ -66,6 +68,10 @@ BOTTOM_Z = 0.2
 #: its vertices below these quantiles of the points' density (Open3D's tutorial step;
 #: the best per model is kept, as the depth is)
 PEER_TRIMS = (0.05, 0.1, 0.2)
+#: ``--view``: the direction to a scanner far away (orthographic), and the least cosine
+#: between a surface's normal and it where the scanner still sees the surface
+VIEW = np.array([0.3, -0.5, 0.81]) / np.linalg.norm([0.3, -0.5, 0.81])
+VIEW_COS = 0.1
 
 
 @dataclass(frozen=True)
@@ -73,22 +79,47 @@ class Sampling:
     """How the points are made from a model: ``points`` of them, uniform by area or at
     a density falling ``falloff`` times along x (`uneven_sample`), with Gaussian
     ``noise`` (sigma in % of the diagonal), none where the surface faces down
-    (``no_bottom``: a part scanned on a table), their normals the true ones or
-    estimated (``estimate``: `surface_normals`, oriented as the CLI does)."""
+    (``no_bottom``: a part scanned on a table) or where a scanner at `VIEW` does not
+    see it (``view``: one scan), their normals the true ones or estimated
+    (``estimate``: `surface_normals`, oriented as the CLI does)."""
 
     points: int = 20000
     estimate: bool = False
     noise: float = 0.0
     falloff: float = 1.0
     no_bottom: bool = False
+    view: bool = False
+
+    @property
+    def partial(self) -> bool:
+        """Whether the points see only part of the surface."""
+        return self.no_bottom or self.view
+
+    def seen(self, vertices, triangles, p, n) -> np.ndarray:
+        """Which of the points ``p`` (normals ``n``) on the mesh the scan sees: not
+        facing down (``no_bottom``), or facing `VIEW` with no triangle between them
+        and the scanner (``view``: a ray from each cast with Open3D), else all."""
+        if self.no_bottom:
+            return n[:, 2] > -BOTTOM_Z
+        if not self.view:
+            return np.ones(p.shape[0], dtype=bool)
+        import open3d as o3d
+
+        scene = o3d.t.geometry.RaycastingScene()
+        scene.add_triangles(np.asarray(vertices, np.float32), np.asarray(triangles, np.uint32))
+        off = 1e-4 * float(np.linalg.norm(np.ptp(p, axis=0)))  # off the point's own face
+        rays = np.hstack([p + off * VIEW, np.broadcast_to(VIEW, p.shape)]).astype(np.float32)
+        hit = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy()
+        return np.isinf(hit) & (n @ VIEW > VIEW_COS)
 
     def sample(self, vertices, triangles):
         """The points and their normals (true, or estimated)."""
-        # without a bottom: twice the points sampled, those seen kept, then as many
-        many = 2 * self.points if self.no_bottom else self.points
+        # a partial scan: more points sampled (twice, four times for one view), those
+        # seen kept, then as many
+        many = (4 if self.view else 2 if self.no_bottom else 1) * self.points
         p, n = uneven_sample(vertices, triangles, many, self.falloff)
-        if self.no_bottom:
-            seen = np.flatnonzero(n[:, 2] > -BOTTOM_Z)
+        if self.partial:
+            seen = np.flatnonzero(self.seen(vertices, triangles, p, n))
             seen = seen[np.random.default_rng(3).permutation(seen.size)[: self.points]]
             p, n = p[seen], n[seen]
         if self.noise > 0:
@@ -115,14 +146,15 @@ def _both_ways(v, t, v2, t2) -> float:
     return float(max(point_mesh_distance(a, v2, t2).max(), point_mesh_distance(b, v, t).max()))
 
 
-def _seen_both_ways(v, t, v2, t2) -> dict:
-    """`_both_ways` and `both_ways`' mean for a truth ``v``, ``t`` seen only where it
-    does not face down (``--no-bottom``): from the truth, its 20,000 samples whose
-    normal's z is above -`BOTTOM_Z`; back, every vertex and sample of ``v2``, ``t2``
-    to the whole truth. Returns ``hausdorff`` and ``mean`` (mean of the two
-    directions' means), in the truth's units."""
+def _seen_both_ways(v, t, v2, t2, sampling: Sampling) -> dict:
+    """`_both_ways` and `both_ways`' mean for a truth ``v``, ``t`` seen only in part
+    (``--no-bottom``, ``--view``): from the truth, those of its 20,000 samples the scan
+    sees (`Sampling.seen`); back, every vertex and sample of ``v2``, ``t2`` to the
+    whole truth. Returns ``hausdorff`` and ``mean`` (mean of the two directions'
+    means), in the truth's units."""
     truth = sample_mesh(v, t, 20000, rng=1)
-    a = np.asarray(truth.points)[np.asarray(truth.normals)[:, 2] > -BOTTOM_Z]
+    a, normals = np.asarray(truth.points), np.asarray(truth.normals)
+    a = a[sampling.seen(v, t, a, normals)]
     b = np.vstack([v2, sample_mesh(v2, t2, 20000, rng=1).points])
     there, back = point_mesh_distance(a, v2, t2), point_mesh_distance(b, v, t)
     return {
@@ -134,9 +166,9 @@ def _seen_both_ways(v, t, v2, t2) -> dict:
 def truth_distances(v, t, v2, t2, diag: float, sampling: Sampling) -> dict:
     """``truth_hausdorff_pct`` and ``truth_mean_pct`` of an output ``v2``, ``t2`` against
     the truth ``v``, ``t`` (% of ``diag``; `_both_ways` and `both_ways`' mean, or
-    `_seen_both_ways` for a sample without a bottom)."""
-    if sampling.no_bottom:
-        d = _seen_both_ways(v, t, v2, t2)
+    `_seen_both_ways` for a partial scan)."""
+    if sampling.partial:
+        d = _seen_both_ways(v, t, v2, t2, sampling)
         return {
             "truth_hausdorff_pct": 100.0 * d["hausdorff"] / diag,
             "truth_mean_pct": 100.0 * d["mean"] / float(np.linalg.norm(np.ptp(v, axis=0))),
@@ -172,14 +204,14 @@ def _timed_poisson(p, n, n_triangles: int, depth: int, trim: float):
 
 def peer_row(v_true, t_true, p, n, n_triangles: int, diag: float, sampling=None) -> dict:
     """The better of Poisson depth 8 and 9 + decimation (lower mean distance both ways;
-    without a bottom, ``sampling.no_bottom``, also over the density trims of
+    for a partial scan, ``sampling.partial``, also over the density trims of
     `PEER_TRIMS`, measured against the truth as the points see it: ``peer_trim``);
     ``peer_depth`` "crashed" when Open3D crashed at every depth. Its Euler characteristic
     (the vertices its triangles use) and its two-sided Hausdorff distance to the truth
     measured as ours (`truth_distances`, % of the points' diagonal ``diag``)."""
     sampling = Sampling() if sampling is None else sampling
     best = {"peer_depth": "crashed"}
-    trims = PEER_TRIMS if sampling.no_bottom else (0.0,)
+    trims = PEER_TRIMS if sampling.partial else (0.0,)
     for depth, trim in [(d, q) for d in PEER_DEPTHS for q in trims]:
         # in a child process: Open3D's Poisson can segfault (seen on a sensor cover
         # with estimated normals), which is the peer's result, not the end of the run
@@ -190,7 +222,7 @@ def peer_row(v_true, t_true, p, n, n_triangles: int, diag: float, sampling=None)
                 pv, pt, took = job.result()
             except BrokenProcessPool:
                 continue
-        if sampling.no_bottom:  # the truth seen as the points see it
+        if sampling.partial:  # the truth seen as the points see it
             truth = truth_distances(v_true, t_true, pv, pt, diag, sampling)
             d = {"mean": truth["truth_mean_pct"], "hausdorff": truth["truth_hausdorff_pct"]}
         else:
@@ -336,6 +368,11 @@ def main(argv=None) -> int:
         action="store_true",
         help="no points where the surface faces down (a part scanned on a table)",
     )
+    ap.add_argument(
+        "--view",
+        action="store_true",
+        help="points only where one scanner (far away, along VIEW) sees the surface",
+    )
     ap.add_argument("--out", type=Path, default=Path("bench-output/simplify_points.csv"))
     ap.add_argument(
         "--only", nargs="+", default=None, help="of the selected models, only these (file stems)"
@@ -352,7 +389,7 @@ def main(argv=None) -> int:
         part, n_parts = (int(x) for x in args.shard.split("/"))
         files = files[part::n_parts]
     sampling = Sampling(
-        args.points, args.estimate_normals, args.noise, args.falloff, args.no_bottom
+        args.points, args.estimate_normals, args.noise, args.falloff, args.no_bottom, args.view
     )
     if files:
         warm_up(files[0], sampling)
