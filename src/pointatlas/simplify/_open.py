@@ -11,14 +11,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._core import PointAtlasError
 from ._mesh import unique_pairs, used_only, vertex_pieces
+from ._voxel_grid import LOST_SHARE, LOST_STEPS, lost_points
 
 __all__ = [
+    "AllBubbles",
     "OUTLINE_CUT_STEPS",
     "OUTLINE_SMOOTH_ROUNDS",
     "TRIM_MIN_PIECE",
     "TRIM_MIN_SHARE",
     "TRIM_STEPS",
+    "as_open",
     "beyond_points",
     "drop_strays",
     "smooth_outline",
@@ -133,3 +137,26 @@ def smooth_outline(verts, tri, rounds: int = OUTLINE_SMOOTH_ROUNDS) -> np.ndarra
             mid = 0.5 * (v[after[on]] + v[before[on]])
             v[on] += share * (mid - v[on])
     return v
+
+
+class AllBubbles(PointAtlasError):
+    """Every piece of a voxel surface read as a bubble (`_reconstruct._surface_at`)."""
+
+
+def as_open(q, build, first: AllBubbles):
+    """The surface ``build()`` of points ``q`` taken for an open sample, where the
+    dipole test called them closed and every piece of their surface read as a bubble
+    (``first``: dipoles that cancel by symmetry, as an open tube's: its caps lie far
+    from every point); kept when it leaves fewer than `LOST_SHARE` of the points more
+    than `LOST_STEPS` grid steps off, else ``first`` is raised (walls thinner than the
+    grid: the open surface loses the points too)."""
+    try:
+        rec = build()
+    except PointAtlasError:
+        raise first from None
+    if (
+        lost_points(q, rec.vertices, rec.triangles, LOST_STEPS * rec.step)
+        >= LOST_SHARE * q.shape[0]
+    ):
+        raise first from None
+    return rec

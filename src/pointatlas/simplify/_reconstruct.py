@@ -18,7 +18,7 @@ from .._core._threads import on_thread
 from ._grid_knn import GridKnn
 from ._handles import cut_handles
 from ._mesh import split_pinches, used_only
-from ._open import beyond_points, drop_strays, smooth_outline, trim
+from ._open import AllBubbles, as_open, beyond_points, drop_strays, smooth_outline, trim
 from ._solid import SOLID_RADIUS, half_balls, solid_retry
 from ._voxel_grid import (
     LOST_POINTS,
@@ -313,7 +313,7 @@ def reconstruct_surface(
     closed = is_closed_sample(q, normals, areas)
     if not closed and surface is None:
         surface = PointSurface(q, normals, tree)
-    rec = _surface_at(q, normals, tree, (spacing, step, shape), closed, surface=surface)
+    rec, closed, surface = _first_surface(q, normals, tree, (spacing, step, shape), closed, surface)
     fine = (spacing, *finer_step(q, spacing))
     if fine[1] < step / 1.2:
         rec = _finer(q, normals, tree, rec, fine, closed, surface)
@@ -325,6 +325,22 @@ def reconstruct_surface(
 
         rec = solid_retry(q, normals, rec, build, step, spacing)
     return replace(rec, uneven=factor)
+
+
+def _first_surface(q, normals, tree, grid, closed, surface):
+    """``(rec, closed, surface)``: `_surface_at` on ``grid``, or, where a sample the
+    dipole test calls closed leaves every piece a bubble, the open sample it is
+    (`_open.as_open`)."""
+    from ._distance import PointSurface
+
+    try:
+        return _surface_at(q, normals, tree, grid, closed, surface=surface), closed, surface
+    except AllBubbles as exc:
+        if not closed:
+            raise
+        surface = PointSurface(q, normals, tree) if surface is None else surface
+        rec = as_open(q, lambda: _surface_at(q, normals, tree, grid, False, surface=surface), exc)
+        return rec, False, surface
 
 
 def _finer(q, normals, tree, rec, fine, closed, surface) -> Reconstruction:
@@ -394,7 +410,7 @@ def _surface_at(q, normals, tree, grid, closed, solid=None, surface=None) -> Rec
     # at a wall thinner than the grid, the other side's points are the nearest of
     # most triangles: every piece reads as a bubble
     if tri.shape[0] == 0 and bubbles.size and bubbles.all():
-        raise PointAtlasError(
+        raise AllBubbles(
             f"simplify could not build a surface from these {q.shape[0]} points: every "
             f"piece of their voxel surface (grid step {step / spacing:.2g} x the point "
             "spacing) faces away from its nearest points' normals, as at walls thinner "
