@@ -20,7 +20,7 @@ from ..neighbors import MeshDistanceIndex
 from ._caps import flip_caps
 from ._decimate import Collapses, collapse_all, no_collapses
 from ._distance import _samples_in_order, back_distances
-from ._mesh import point_mesh_distance
+from ._mesh import point_mesh_distance, used_vertices
 from ._mesh_path import (
     FLAT_MERGE_ANGLE,
     MAX_ANGLE,
@@ -30,7 +30,6 @@ from ._mesh_path import (
     _segment_faces,
     _unreferenced_apart,
     repaired_input,
-    used_vertices,
 )
 from ._place import FLAT_RTOL, flat_planes, place_on_planes
 from ._polygons import PLANAR_RTOL

@@ -27,6 +27,7 @@ __all__ = [
     "unique_ints",
     "unique_pairs",
     "used_only",
+    "used_vertices",
     "vertex_pieces",
     "vertex_triangles",
 ]
@@ -119,9 +120,15 @@ def used_only(verts, tri):
     >>> v[:, 0].tolist(), t.tolist()
     ([3.0, 6.0, 9.0], [[2, 0, 1]])
     """
-    used = np.zeros(verts.shape[0], dtype=bool)
-    used[tri] = True
+    used = used_vertices(verts.shape[0], tri)
     return verts[used], (np.cumsum(used) - 1)[tri]
+
+
+def used_vertices(n_vertices: int, triangles) -> np.ndarray:
+    """(V,) bool: the vertices on at least one triangle."""
+    used = np.zeros(n_vertices, dtype=bool)
+    used[np.asarray(triangles).reshape(-1)] = True
+    return used
 
 
 def split_pinches(verts, tri):

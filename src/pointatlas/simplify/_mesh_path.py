@@ -14,7 +14,7 @@ import numpy as np
 from scipy import sparse
 
 from .._core import as_float, as_points
-from ._mesh import unique_ints, unique_pairs
+from ._mesh import unique_ints, unique_pairs, used_vertices
 from ._nonmanifold import repair_mesh_input
 from ._surface import SurfaceSimplification, simplify_surface
 from ._triangles import _face_graph, _Surface, _surface
@@ -212,13 +212,6 @@ def _repaired_run(verts, tri, used, *, tol, planarize, rng):
     """The `_MeshRun` of the repaired input (`repaired_input`) and the repair."""
     verts, tri, run_used, repair = repaired_input(verts, tri, used)
     return _MeshRun(verts, tri, tol=tol, planarize=planarize, rng=rng, used=run_used), repair
-
-
-def used_vertices(n_vertices: int, triangles) -> np.ndarray:
-    """(V,) bool: the vertices on at least one triangle."""
-    used = np.zeros(n_vertices, dtype=bool)
-    used[np.asarray(triangles).reshape(-1)] = True
-    return used
 
 
 def _diagonal(v: np.ndarray) -> float:
