@@ -309,6 +309,10 @@ def test_default_is_within_half_a_percent_both_ways_and_simplifies(tmp_path):
     m = load_mesh("fandisk")
     diag = float(np.linalg.norm(np.ptp(m.vertices, axis=0)))
     assert info["hausdorff"] <= 0.005 * diag
+    # the report and the table put the distance on the scale --max-error reads
+    assert info["diagonal"] == pytest.approx(diag, rel=1e-12)
+    assert info["hausdorff_pct"] == pytest.approx(100.0 * info["hausdorff"] / diag, rel=1e-12)
+    assert f"({info['hausdorff_pct']:.2f} % of the diagonal)" in " ".join(res.output.split())
     assert info["n_triangles"] <= 0.05 * len(m.triangles)
     assert info["is_closed"] and info["is_manifold"] and info["is_oriented"]
     rep2 = tmp_path / "r2.json"
@@ -341,3 +345,25 @@ def test_a_level_below_one_names_the_flag_as_typed(tmp_path, flag, value, low):
     res = runner.invoke(app, ["simplify", "eight", str(tmp_path / "x.obj"), flag, value])
     assert res.exit_code == 1 and f"{flag} must be at least {low}; got {value}" in res.output
     assert "n_faces" not in res.output and not (tmp_path / "x.obj").exists()
+
+
+def test_points_report_the_hausdorff_distance_in_percent_of_their_diagonal(tmp_path):
+    """Raw points: the JSON report's ``diagonal`` is the points' bounding-box
+    diagonal, ``hausdorff_pct`` the report's two-sided distance over it, and the
+    table says the same share (the unit of ``--max-error 0.5%``)."""
+    from pointatlas.io import read_point_set, write_point_set
+    from pointatlas.synth import sample_mesh
+
+    m = cube(4)
+    s = sample_mesh(m.vertices, m.faces, 3000, rng=0)
+    src, out, rep = tmp_path / "pts.ply", tmp_path / "o.obj", tmp_path / "r.json"
+    write_point_set(src, s.points, normals=s.normals)
+    res = runner.invoke(app, ["simplify", str(src), str(out), "--report", str(rep)])
+    assert res.exit_code == 0, res.output
+    info = json.loads(rep.read_text())
+    points = read_point_set(src).points
+    diag = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+    assert info["diagonal"] == pytest.approx(diag, rel=1e-12)
+    assert info["hausdorff_pct"] == pytest.approx(100.0 * info["hausdorff"] / diag, rel=1e-12)
+    assert info["hausdorff_pct"] > 0.0
+    assert f"({info['hausdorff_pct']:.2f} % of the diagonal)" in " ".join(res.output.split())

@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 
 from .._core import PointSet
@@ -283,10 +284,11 @@ def simplify_command(
 def _print_simplify(result) -> None:
     """The console lines of ``simplify``: the quality table of the path taken, then
     the files written."""
+    shown = {"title": result.title, "diagonal": result.diagonal}
     if result.how is None:
-        console.print(simplification_table(result.mesh, result.segmentation, title=result.title))
+        console.print(simplification_table(result.mesh, result.segmentation, **shown))
     else:
-        console.print(surface_table(result.mesh, title=result.title, path=result.how))
+        console.print(surface_table(result.mesh, path=result.how, **shown))
     for path in result.written:
         say(f"written: {path}")
 
@@ -295,5 +297,6 @@ def _print_simplify(result) -> None:
 def demo_simplify(ps: PointSet, out_dir: Path, console) -> None:
     """Segmentation (VSA) and simplified polygon mesh, side by side."""
     result, obj, png = simplify_files(ps, out_dir)
-    console.print(simplification_table(result.mesh, result.segmentation))
+    diagonal = float(np.linalg.norm(np.ptp(ps.points, axis=0)))
+    console.print(simplification_table(result.mesh, result.segmentation, diagonal=diagonal))
     say(f"mesh: {obj}\npicture: {png}")

@@ -19,7 +19,7 @@ from ...io import write_json, write_mesh, write_point_set
 from ._console import progress_bar
 from ._normals import compute_normals
 from ._simplify import simplify_quietly
-from ._simplify_report import render_simplification
+from ._simplify_report import distance_shares, render_simplification
 
 __all__ = [
     "DEMO_ETA",
@@ -175,5 +175,7 @@ def simplify_files(ps: PointSet, out_dir: Path):
         mesh,
         title=f"{ps.name}: VSA (eta = {DEMO_ETA:g}) and the simplified mesh",
     )
-    write_json(out_dir / f"{ps.name}_simplified.json", mesh.summary(), indent=2)
+    summary = mesh.summary()
+    summary.update(distance_shares(summary, float(np.linalg.norm(np.ptp(ps.points, axis=0)))))
+    write_json(out_dir / f"{ps.name}_simplified.json", summary, indent=2)
     return result, obj, png

@@ -25,7 +25,12 @@ from .._reports import REPORT_EXTENSIONS
 from ._console import say, warn
 from ._inputs import read_with_normals
 from ._mesh_io import read_mesh_input, write_simplified, write_triangles
-from ._simplify_report import render_simplification, render_surface, write_html_report
+from ._simplify_report import (
+    distance_shares,
+    render_simplification,
+    render_surface,
+    write_html_report,
+)
 
 __all__ = ["MESH_OUT", "SimplifyOptions", "SimplifyResult", "run_simplify", "simplify_quietly"]
 
@@ -95,13 +100,15 @@ class SimplifyResult:
     and the robust path, a `SimplifiedMesh` on the thesis' path), the VSA
     ``segmentation`` of the points path (None on the mesh path), the ``title`` of
     its table (IN's name), ``how`` the table names the path taken (None: the thesis'
-    path) and the files ``written`` (the report last)."""
+    path), the files ``written`` (the report last) and the input's bounding-box
+    ``diagonal`` (the scale of ``--max-error 0.5%`` and of the table's shares)."""
 
     mesh: object
     segmentation: object | None
     title: str
     how: str | None
     written: list
+    diagonal: float | None = None
 
 
 def run_simplify(in_path, out_path, options: SimplifyOptions, tiles=None) -> SimplifyResult:
@@ -284,9 +291,10 @@ def _simplify_mesh_input(infile, mesh_in, out, o: SimplifyOptions, max_angle) ->
             **res.summary(),
             "method": "regions" if regions else "decimate",
         }
+        info.update(distance_shares(info, diagonal))
         written.append(_write_report(o.report, infile, info, written, _mesh_layers, mesh_in, res))
     how = "regions (one face per VSA region)" if regions else "decimate (structure-aware)"
-    return SimplifyResult(res, None, title, how, written)
+    return SimplifyResult(res, None, title, how, written, diagonal)
 
 
 def _simplify_point_input(infile, out, o: SimplifyOptions) -> SimplifyResult:
@@ -332,11 +340,12 @@ def _simplify_point_input(infile, out, o: SimplifyOptions) -> SimplifyResult:
         written.append(picture)
     if o.report is not None:
         info = {"input": str(infile), "seed": o.seed, **result.summary()}
+        info.update(distance_shares(info, diagonal))
         if not robust:
             info["complex"] = mesh.surface_complex.summary()
         written.append(_write_report(o.report, infile, info, written, _points_layers, used, result))
     how = f"robust ({result.reason})" if robust else None
-    return SimplifyResult(mesh, result.segmentation, ps.name, how, written)
+    return SimplifyResult(mesh, result.segmentation, ps.name, how, written, diagonal)
 
 
 def _point_settings(o: SimplifyOptions) -> dict:

@@ -8,6 +8,7 @@ from pathlib import Path
 from rich.table import Table
 
 __all__ = [
+    "distance_shares",
     "render_simplification",
     "render_surface",
     "simplification_table",
@@ -16,8 +17,12 @@ __all__ = [
 ]
 
 
-def simplification_table(mesh, seg=None, *, title: str | None = None) -> Table:
-    """A rich table of the mesh's quality report."""
+def simplification_table(
+    mesh, seg=None, *, title: str | None = None, diagonal: float | None = None
+) -> Table:
+    """A rich table of the mesh's quality report; with the input's bounding-box
+    ``diagonal``, the two-sided Hausdorff distance also as a share of it (the unit of
+    ``--max-error 0.5%``)."""
     s = mesh.summary()
     table = Table(title=title, show_header=False, title_justify="left")
     table.add_column("property", style="bold")
@@ -32,7 +37,7 @@ def simplification_table(mesh, seg=None, *, title: str | None = None) -> Table:
     table.add_row("faces not ok", str(s["faces_not_ok"]))
     table.add_row("max planarity error (faces)", f"{s['max_planarity_error']:.3g}")
     table.add_row("max planarity error (polygons)", f"{s['max_polygon_planarity_error']:.3g}")
-    _distance_rows(table, s)
+    _distance_rows(table, s, diagonal)
     return table
 
 
@@ -57,9 +62,14 @@ def render_simplification(
 
 
 def surface_table(
-    res, *, title: str | None = None, path: str = "mesh (regions of the input's triangles)"
+    res,
+    *,
+    title: str | None = None,
+    path: str = "mesh (regions of the input's triangles)",
+    diagonal: float | None = None,
 ) -> Table:
-    """A rich table of a mesh-path result's quality report."""
+    """A rich table of a mesh-path result's quality report (``diagonal``: as in
+    `simplification_table`)."""
     s = res.summary()
     table = Table(title=title, show_header=False, title_justify="left")
     table.add_column("property", style="bold")
@@ -71,7 +81,7 @@ def surface_table(
     table.add_row("closed / manifold / oriented", _checks(s))
     table.add_row("Euler characteristic", str(s["euler_characteristic"]))
     table.add_row("max planarity error (polygons)", f"{s['max_planarity_error']:.3g}")
-    _distance_rows(table, s)
+    _distance_rows(table, s, diagonal)
     return table
 
 
@@ -125,14 +135,33 @@ def _written_rows(table: Table, s: dict) -> None:
     table.add_row("faces with holes", str(s["n_faces_with_holes"]))
 
 
-def _distance_rows(table: Table, s: dict) -> None:
-    """Both ways: input to output, output to input, and the larger maximum."""
+def distance_shares(summary: dict, diagonal: float) -> dict:
+    """The report's keys that put its distances on the scale of the input: the
+    bounding-box ``diagonal`` (of the points, or of the mesh's used vertices: the one
+    ``--max-error 0.5%`` reads) and ``hausdorff_pct``, the two-sided Hausdorff
+    distance in % of it.
+
+    Examples
+    --------
+    >>> distance_shares({"hausdorff": 0.05}, 10.0)
+    {'diagonal': 10.0, 'hausdorff_pct': 0.5}
+    """
+    share = 100.0 * summary["hausdorff"] / diagonal if diagonal > 0 else 0.0
+    return {"diagonal": float(diagonal), "hausdorff_pct": float(share)}
+
+
+def _distance_rows(table: Table, s: dict, diagonal: float | None = None) -> None:
+    """Both ways: input to output, output to input, and the larger maximum (with
+    ``diagonal``, also in % of it)."""
     table.add_row("mean / max distance", f"{s['distance_mean']:.4g} / {s['distance_max']:.4g}")
     table.add_row(
         "mean / max distance back (output to input)",
         f"{s['back_distance_mean']:.4g} / {s['back_distance_max']:.4g}",
     )
-    table.add_row("two-sided Hausdorff", f"{s['hausdorff']:.4g}")
+    hausdorff = f"{s['hausdorff']:.4g}"
+    if diagonal is not None:
+        hausdorff += f" ({distance_shares(s, diagonal)['hausdorff_pct']:.2f} % of the diagonal)"
+    table.add_row("two-sided Hausdorff", hausdorff)
 
 
 def _checks(s: dict) -> str:
