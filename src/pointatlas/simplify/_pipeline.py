@@ -10,7 +10,7 @@ import numpy as np
 
 from .._core import PointAtlasError, as_float, as_int, as_labels, as_points, readonly
 from ..neighbors import query_knn
-from ._checks import check_memory, check_size, usable_normals
+from ._checks import check_memory, check_size, off_surface, usable_normals
 from ._frame import Frame, frame_of
 from ._mesh import SimplifiedMesh
 from ._proxies import region_proxies
@@ -39,7 +39,8 @@ class PointSimplification:
         input points too.
     point_index : ndarray of shape (M,), int64
         Input index of every point used: points whose normal is zero-length or
-        has a NaN/Inf entry are left out.
+        has a NaN/Inf entry are left out, and so are points far off the surface the
+        others sample (``n_off_surface``).
     n_dropped : int
         Number of input points left out.
     path : str
@@ -57,6 +58,10 @@ class PointSimplification:
         dipole sum says open but their outward sides, asked of a voxel grid, make
         the sample closed (estimated normals whose orientation crossed a thin wall;
         docs/decisions/simplify.md, "Normals turned to the outside").
+    n_off_surface : int
+        Points left out because they lie far off the surface the others sample
+        (outliers: the median of their heights over their 8 nearest points' tangent
+        planes over `_checks.OFF_SURFACE` point spacings); counted in ``n_dropped``.
     """
 
     segmentation: VSAResult | None
@@ -67,6 +72,7 @@ class PointSimplification:
     reason: str = ""
     labels: np.ndarray | None = None
     n_turned: int = 0
+    n_off_surface: int = 0
 
     def __post_init__(self):
         readonly(self.point_index)
@@ -81,6 +87,7 @@ class PointSimplification:
             "path": self.path,
             "path_reason": self.reason,
             "normals_turned": self.n_turned,
+            "points_off_surface": self.n_off_surface,
         }
 
 
@@ -281,6 +288,7 @@ class _Input:
     n_turned: int  # normals turned to the outside (`_sides.turn_outward`)
     areas: np.ndarray  # the points' disc areas (`_winding.point_areas`)
     radius: np.ndarray  # ... and the radii of `PointSurface`'s discs (`disc_radii`)
+    n_off_surface: int  # points left out far off the surface (`_checks.off_surface`)
 
     @property
     def point_index(self) -> np.ndarray:
@@ -295,44 +303,51 @@ class _Input:
             point_index=point_index,
             n_dropped=self.n_input - point_index.size,
             n_turned=self.n_turned,
+            n_off_surface=self.n_off_surface,
             **robust,
         )
 
 
 def _prepare(points, normals, vsa, vsa_settings) -> _Input:
-    """Check the input, leave out points without a usable normal, turn inward normals
-    out (`turn_outward`), find the working frame and the k-NN table (memory checked
+    """Check the input, leave out points without a usable normal and points far off the
+    surface the others sample (`off_surface`), turn inward normals out
+    (`turn_outward`), find the working frame and the k-NN table (memory checked
     first); ``vsa`` and ``vsa_settings`` give the VSA options."""
     # imported here so the meshing half of the room works on its own
     from ..segment import VSAOptions
-
-    opts = (VSAOptions() if vsa is None else vsa).replace(**vsa_settings)
-    weights = opts.weights
-    pts = as_points(points)
-    n_input = pts.shape[0]
-    k = check_size(n_input, opts.k)
-    nrm, keep = usable_normals(normals, n_input)
-    if not keep.all():
-        pts = pts[keep]
-        k = check_size(pts.shape[0], k)
-        if not isinstance(weights, str):  # given per-point weights follow the points
-            if weights.shape != (n_input,):
-                raise ValueError(f"weights must have shape ({n_input},); got {weights.shape}")
-            opts = opts.replace(weights=weights[keep])
     from ._distance import DISC_NEIGHBOR, disc_radii
     from ._winding import AREA_NEIGHBOR, table_areas
 
-    # one k-NN table for VSA, the discs (areas, radii) and `turn_outward` (its first k
-    # columns are `query_knn(q, k)`'s: ties go to the smaller index)
-    columns = min(max(k, SMOOTH_K, AREA_NEIGHBOR + 1, DISC_NEIGHBOR + 1), pts.shape[0])
-    check_memory(pts.shape[0], k, columns=columns)
-    frame = frame_of(pts)
-    q = frame.to_local(pts)
-    wide, dist = query_knn(q, columns)
+    opts = (VSAOptions() if vsa is None else vsa).replace(**vsa_settings)
+    given = as_points(points)
+    n_input = given.shape[0]
+    k = check_size(n_input, opts.k)
+    nrm, keep = usable_normals(normals, n_input)
+    n_off = 0
+    for first in (True, False):
+        pts = given[keep] if not keep.all() else given
+        k = check_size(pts.shape[0], k)
+        # one k-NN table for VSA, the discs (areas, radii) and `turn_outward` (its first
+        # k columns are `query_knn(q, k)`'s: ties go to the smaller index)
+        columns = min(max(k, SMOOTH_K, AREA_NEIGHBOR + 1, DISC_NEIGHBOR + 1), pts.shape[0])
+        check_memory(pts.shape[0], k, columns=columns)
+        frame = frame_of(pts)
+        q = frame.to_local(pts)
+        wide, dist = query_knn(q, columns)
+        off = off_surface(q, nrm, wide, dist) if first else None
+        if off is None or not off.any() or off.all():
+            break
+        keep[np.flatnonzero(keep)[off]] = False  # left out: the table again without them
+        nrm, n_off = nrm[~off], int(off.sum())
+    if not isinstance(opts.weights, str) and not keep.all():
+        # given per-point weights follow the points
+        if opts.weights.shape != (n_input,):
+            raise ValueError(f"weights must have shape ({n_input},); got {opts.weights.shape}")
+        opts = opts.replace(weights=opts.weights[keep])
     areas, radius = table_areas(dist), disc_radii(dist)
     nrm, n_turned = turn_outward(q, nrm, (wide, dist), areas)
     idx = wide if wide.shape[1] == k else np.ascontiguousarray(wide[:, :k])
-    return _Input(pts, nrm, keep, n_input, k, opts, frame, q, idx, n_turned, areas, radius)
+    return _Input(pts, nrm, keep, n_input, k, opts, frame, q, idx, n_turned, areas, radius, n_off)
 
 
 def _segment(inp: _Input, labels, centers, rng):

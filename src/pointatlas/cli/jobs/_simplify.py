@@ -327,6 +327,11 @@ def _simplify_point_input(infile, out, o: SimplifyOptions) -> SimplifyResult:
     )
     mesh = result.mesh
     robust = result.path == "robust"
+    if result.n_off_surface:
+        warn(
+            f"{result.n_off_surface:,} points lie far off the surface the others sample "
+            "(outliers): left out; the distances are those of the points used"
+        )
     if robust:
         _say_missed_target(mesh, n_faces=None, max_triangles=None, max_error=bound)
     written = [write_simplified(out, mesh)]

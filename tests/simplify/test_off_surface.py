@@ -1,0 +1,102 @@
+"""Points far off the surface the others sample (a scanner's stray returns) are left
+out of `simplify_points` and counted (`_checks.off_surface`): the output is the clean
+sample's, bit for bit; no point of a clean sample is left out."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+from typer.testing import CliRunner
+
+from pointatlas.cli import app
+from pointatlas.io import write_point_set
+from pointatlas.simplify import simplify_points
+from pointatlas.simplify._checks import (
+    OFF_NEIGHBORS,
+    OFF_SPACING_NEIGHBOR,
+    OFF_SURFACE,
+    off_surface,
+)
+from pointatlas.synth import sample_mesh
+
+from .cad_shapes import box, cylinder, l_bracket
+
+
+def _sampled(shape, n=4000, seed=0):
+    v, t = shape()
+    s = sample_mesh(v, t, n, rng=seed)
+    return np.asarray(s.points), np.asarray(s.normals)
+
+
+def _with_strays(p, n, count=8, seed=1):
+    """``count`` (at most 8) points a diagonal off the sample's centre along each
+    axis, towards the corners of a cube around it, with random unit normals,
+    appended after the sample's own."""
+    rng = np.random.default_rng(seed)
+    diag = float(np.linalg.norm(np.ptp(p, axis=0)))
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1.0)])
+    far = p.mean(axis=0) + diag * corners[:count]
+    normals = rng.normal(size=(count, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.vstack([p, far]), np.vstack([n, normals])
+
+
+def _reference(q, normals):
+    """Plain loops: each point's median height over its 8 nearest others' tangent
+    planes, against `OFF_SURFACE` times the median 4th-neighbour distance."""
+    d, j = cKDTree(q).query(q, OFF_NEIGHBORS + 2)
+    spacing = np.median(d[:, OFF_SPACING_NEIGHBOR])
+    out = []
+    for i in range(q.shape[0]):
+        h = [abs(normals[m] @ (q[i] - q[m])) for m in j[i, 1 : OFF_NEIGHBORS + 1]]
+        out.append(np.median(h) > OFF_SURFACE * spacing)
+    return np.array(out)
+
+
+def test_off_surface_agrees_with_a_plain_reference():
+    p, n = _with_strays(*_sampled(l_bracket, 1500))
+    d, j = cKDTree(p).query(p, 10)
+    found = off_surface(p, n, j, d)
+    assert np.array_equal(found, _reference(p, n))
+    assert found[1500:].all() and not found[:1500].any()
+
+
+@pytest.mark.parametrize("shape", [box, l_bracket, cylinder], ids=["box", "l-bracket", "cyl"])
+def test_strays_are_left_out_and_the_output_is_the_clean_samples(shape):
+    p, n = _sampled(shape)
+    clean = simplify_points(p, n)
+    assert clean.n_off_surface == 0 and clean.n_dropped == 0
+    p2, n2 = _with_strays(p, n)
+    r = simplify_points(p2, n2)
+    assert r.n_off_surface == 8 and r.n_dropped == 8
+    assert np.array_equal(r.point_index, np.arange(p.shape[0]))
+    assert r.summary()["points_off_surface"] == 8
+    assert np.array_equal(r.mesh.vertices, clean.mesh.vertices)
+    assert np.array_equal(r.mesh.triangles, clean.mesh.triangles)
+
+
+def test_a_part_seen_from_one_side_loses_no_point():
+    """Half of an L-bracket's samples (those facing +x+y+z: one scanner's side) and a
+    sparse sample (600 points): nothing is left out."""
+    p, n = _sampled(l_bracket, 8000)
+    seen = n @ np.array([1.0, 1.0, 1.0]) > 0.1
+    d, j = cKDTree(p[seen]).query(p[seen], 10)
+    assert not off_surface(p[seen], n[seen], j, d).any()
+    p, n = _sampled(l_bracket, 600)
+    d, j = cKDTree(p).query(p, 10)
+    assert not off_surface(p, n, j, d).any()
+
+
+def test_the_cli_says_how_many_points_it_left_out(tmp_path):
+    src, out, rep = tmp_path / "scan.ply", tmp_path / "o.obj", tmp_path / "r.json"
+    points, normals = _with_strays(*_sampled(box, 3000), count=7)
+    write_point_set(src, points, normals=normals)
+    res = CliRunner().invoke(app, ["simplify", str(src), str(out), "--report", str(rep)])
+    assert res.exit_code == 0, res.output
+    assert "7 points lie far off the surface the others sample (outliers): left out" in (
+        " ".join(res.stderr.split())
+    )
+    assert json.loads(rep.read_text())["points_off_surface"] == 7
