@@ -16,6 +16,8 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --no-bottom
     # one scanner view: points only where the surface faces it and nothing hides them
     .venv/bin/python benchmarks/bench_simplify_points.py --every 3 --no-peer --view
+    # a scanner's stray returns: 1 % of the points moved off (seeded)
+    .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --outliers 1
 
 Every ``--every``-th model (sorted by name) is sampled uniformly by area with its
 face normals (`pointatlas.synth.sample_mesh`, seed 0; with ``--falloff R`` at a
@@ -72,6 +74,9 @@ PEER_TRIMS = (0.05, 0.1, 0.2)
 #: between a surface's normal and it where the scanner still sees the surface
 VIEW = np.array([0.3, -0.5, 0.81]) / np.linalg.norm([0.3, -0.5, 0.81])
 VIEW_COS = 0.1
+#: ``--outliers``: the moved points go off along every axis by a Gaussian of this
+#: sigma, in % of the diagonal (their normals kept, or estimated with the others)
+OUTLIER_SIGMA = 10.0
 
 
 @dataclass(frozen=True)
@@ -80,8 +85,9 @@ class Sampling:
     a density falling ``falloff`` times along x (`uneven_sample`), with Gaussian
     ``noise`` (sigma in % of the diagonal), none where the surface faces down
     (``no_bottom``: a part scanned on a table) or where a scanner at `VIEW` does not
-    see it (``view``: one scan), their normals the true ones or estimated
-    (``estimate``: `surface_normals`, oriented as the CLI does)."""
+    see it (``view``: one scan), ``outliers`` % of them moved off by a Gaussian of
+    `OUTLIER_SIGMA` % of the diagonal (stray returns), their normals the true ones or
+    estimated (``estimate``: `surface_normals`, oriented as the CLI does)."""
 
     points: int = 20000
     estimate: bool = False
@@ -89,6 +95,7 @@ class Sampling:
     falloff: float = 1.0
     no_bottom: bool = False
     view: bool = False
+    outliers: float = 0.0
 
     @property
     def partial(self) -> bool:
@@ -126,6 +133,13 @@ class Sampling:
             # a scanner's noise: Gaussian along every axis, sigma noise % of the diagonal
             sigma = self.noise / 100.0 * float(np.linalg.norm(np.ptp(p, axis=0)))
             p = p + np.random.default_rng(2).normal(0.0, sigma, p.shape)
+        if self.outliers > 0:
+            # stray returns: every point moved with this chance, far off (seeded)
+            rng = np.random.default_rng(4)
+            moved = rng.random(p.shape[0]) < self.outliers / 100.0
+            sigma = OUTLIER_SIGMA / 100.0 * float(np.linalg.norm(np.ptp(p, axis=0)))
+            p = p.copy()
+            p[moved] += rng.normal(0.0, sigma, (int(moved.sum()), 3))
         if self.estimate:
             n = orient_normals(p, surface_normals(p, k=20))
         return p, n
@@ -265,7 +279,9 @@ def run_model(path: Path, sampling: Sampling, peer: bool = True) -> dict:
     used = np.unique(tri)
     euler_in = _euler(used.size, tri)
     p, n = sampling.sample(mesh.vertices, tri)
-    diag = float(np.linalg.norm(np.ptp(p, axis=0)))
+    # the scale of every % below: the points' box (the truth's where outliers stretch it)
+    box = mesh.vertices[used] if sampling.outliers > 0 else p
+    diag = float(np.linalg.norm(np.ptp(box, axis=0)))
     kind = KINDS.get(path.stem, "organic")
     row = {"model": path.name, "kind": kind, "points": sampling.points, "euler_input": euler_in}
     t0 = time.perf_counter()
@@ -373,6 +389,12 @@ def main(argv=None) -> int:
         action="store_true",
         help="points only where one scanner (far away, along VIEW) sees the surface",
     )
+    ap.add_argument(
+        "--outliers",
+        type=float,
+        default=0.0,
+        help="%% of the points moved off by a Gaussian of OUTLIER_SIGMA %% of the diagonal",
+    )
     ap.add_argument("--out", type=Path, default=Path("bench-output/simplify_points.csv"))
     ap.add_argument(
         "--only", nargs="+", default=None, help="of the selected models, only these (file stems)"
@@ -389,7 +411,13 @@ def main(argv=None) -> int:
         part, n_parts = (int(x) for x in args.shard.split("/"))
         files = files[part::n_parts]
     sampling = Sampling(
-        args.points, args.estimate_normals, args.noise, args.falloff, args.no_bottom, args.view
+        args.points,
+        args.estimate_normals,
+        args.noise,
+        args.falloff,
+        args.no_bottom,
+        args.view,
+        args.outliers,
     )
     if files:
         warm_up(files[0], sampling)
