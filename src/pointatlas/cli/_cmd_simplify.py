@@ -9,7 +9,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from .._core import PointSet
@@ -296,7 +295,6 @@ def _print_simplify(result) -> None:
 @demo_step
 def demo_simplify(ps: PointSet, out_dir: Path, console) -> None:
     """Segmentation (VSA) and simplified polygon mesh, side by side."""
-    result, obj, png = simplify_files(ps, out_dir)
-    diagonal = float(np.linalg.norm(np.ptp(ps.points, axis=0)))
+    result, obj, png, diagonal = simplify_files(ps, out_dir)
     console.print(simplification_table(result.mesh, result.segmentation, diagonal=diagonal))
     say(f"mesh: {obj}\npicture: {png}")

@@ -315,30 +315,24 @@ def _prepare(points, normals, vsa, vsa_settings) -> _Input:
     first); ``vsa`` and ``vsa_settings`` give the VSA options."""
     # imported here so the meshing half of the room works on its own
     from ..segment import VSAOptions
-    from ._distance import DISC_NEIGHBOR, disc_radii
-    from ._winding import AREA_NEIGHBOR, table_areas
+    from ._distance import disc_radii
+    from ._winding import table_areas
 
     opts = (VSAOptions() if vsa is None else vsa).replace(**vsa_settings)
     given = as_points(points)
     n_input = given.shape[0]
     k = check_size(n_input, opts.k)
     nrm, keep = usable_normals(normals, n_input)
-    n_off = 0
-    for first in (True, False):
-        pts = given[keep] if not keep.all() else given
+    pts = given if keep.all() else given[keep]
+    k = check_size(pts.shape[0], k)
+    frame, q, wide, dist = _knn_table(pts, k)
+    off = off_surface(q, nrm, wide, dist)
+    n_off = 0 if off.all() else int(off.sum())
+    if n_off:  # left out: the frame and the table again without them
+        keep[np.flatnonzero(keep)[off]] = False
+        pts, nrm = given[keep], nrm[~off]
         k = check_size(pts.shape[0], k)
-        # one k-NN table for VSA, the discs (areas, radii) and `turn_outward` (its first
-        # k columns are `query_knn(q, k)`'s: ties go to the smaller index)
-        columns = min(max(k, SMOOTH_K, AREA_NEIGHBOR + 1, DISC_NEIGHBOR + 1), pts.shape[0])
-        check_memory(pts.shape[0], k, columns=columns)
-        frame = frame_of(pts)
-        q = frame.to_local(pts)
-        wide, dist = query_knn(q, columns)
-        off = off_surface(q, nrm, wide, dist) if first else None
-        if off is None or not off.any() or off.all():
-            break
-        keep[np.flatnonzero(keep)[off]] = False  # left out: the table again without them
-        nrm, n_off = nrm[~off], int(off.sum())
+        frame, q, wide, dist = _knn_table(pts, k)
     if not isinstance(opts.weights, str) and not keep.all():
         # given per-point weights follow the points
         if opts.weights.shape != (n_input,):
@@ -348,6 +342,21 @@ def _prepare(points, normals, vsa, vsa_settings) -> _Input:
     nrm, n_turned = turn_outward(q, nrm, (wide, dist), areas)
     idx = wide if wide.shape[1] == k else np.ascontiguousarray(wide[:, :k])
     return _Input(pts, nrm, keep, n_input, k, opts, frame, q, idx, n_turned, areas, radius, n_off)
+
+
+def _knn_table(pts, k: int):
+    """``(frame, q, indices, distances)``: the working frame of ``pts``, the points in
+    it, and one k-NN table for VSA, the discs (areas, radii), `off_surface` and
+    `turn_outward` (its first ``k`` columns are `query_knn(q, k)`'s: ties go to the
+    smaller index); memory checked first."""
+    from ._distance import DISC_NEIGHBOR
+    from ._winding import AREA_NEIGHBOR
+
+    columns = min(max(k, SMOOTH_K, AREA_NEIGHBOR + 1, DISC_NEIGHBOR + 1), pts.shape[0])
+    check_memory(pts.shape[0], k, columns=columns)
+    frame = frame_of(pts)
+    q = frame.to_local(pts)
+    return (frame, q, *query_knn(q, columns))
 
 
 def _segment(inp: _Input, labels, centers, rng):

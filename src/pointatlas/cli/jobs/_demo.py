@@ -160,7 +160,8 @@ def segment_files(ps: PointSet, out_dir: Path):
 def simplify_files(ps: PointSet, out_dir: Path):
     """The points path on the model (VSA with eta = `DEMO_ETA`): ``<name>_simplified``
     .obj (the polygons), .png (segmentation beside the mesh) and .json (the mesh's
-    summary). Returns (the `simplify_points` result, the OBJ's and the PNG's paths)."""
+    summary, its distances also in % of the points' diagonal). Returns (the
+    `simplify_points` result, the OBJ's and the PNG's paths, the diagonal)."""
     if not ps.has_normals:
         raise PointAtlasError("the demo model has no normals")
     result = simplify_quietly(ps.points, ps.normals, eta=DEMO_ETA)
@@ -176,6 +177,7 @@ def simplify_files(ps: PointSet, out_dir: Path):
         title=f"{ps.name}: VSA (eta = {DEMO_ETA:g}) and the simplified mesh",
     )
     summary = mesh.summary()
-    summary.update(distance_shares(summary, float(np.linalg.norm(np.ptp(ps.points, axis=0)))))
+    diagonal = float(np.linalg.norm(np.ptp(ps.points, axis=0)))
+    summary.update(distance_shares(summary, diagonal))
     write_json(out_dir / f"{ps.name}_simplified.json", summary, indent=2)
-    return result, obj, png
+    return result, obj, png, diagonal
