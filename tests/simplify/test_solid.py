@@ -6,6 +6,7 @@ import numpy as np
 
 from pointatlas.simplify._reconstruct import Reconstruction
 from pointatlas.simplify._solid import SOLID_LOST, half_balls, solid_retry
+from pointatlas.simplify._voxel_grid import LOST_LINK
 from pointatlas.synth import cube
 
 
@@ -82,4 +83,13 @@ def test_the_solid_surface_is_kept_only_where_it_brings_the_points_near_with_its
     assert solid_retry(q, normals, first, lambda *a: _surface(v * 1.01, t), step, 0.05) is first
     # nothing lost: nothing built
     assert solid_retry(side, normals[:200], first, build, step, 0.05) is first
+    # points lost each alone (no other within `LOST_LINK` spacings) and off their
+    # neighbours' planes (``off``): stray returns, nothing built; on them (a part the
+    # grid lost), built
+    lone = np.column_stack([np.linspace(0.1, 0.9, 6), np.full(6, 0.5), np.full(6, 1.4)])
+    assert np.diff(lone[:, 0]).min() > LOST_LINK * 0.05
+    alone, off = np.vstack([side, lone]), np.arange(206) >= 200
+    assert solid_retry(alone, normals[:206], first, build, step, 0.05, off) is first
     assert calls == [40]
+    solid_retry(alone, normals[:206], first, build, step, 0.05, np.zeros(206, dtype=bool))
+    assert calls == [40, 6]

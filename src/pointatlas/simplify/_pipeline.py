@@ -10,7 +10,14 @@ import numpy as np
 
 from .._core import PointAtlasError, as_float, as_int, as_labels, as_points, readonly
 from ..neighbors import query_knn
-from ._checks import check_memory, check_size, off_surface, usable_normals
+from ._checks import (
+    OFF_SURFACE,
+    STRAY_RATIO,
+    check_memory,
+    check_size,
+    off_surface_ratio,
+    usable_normals,
+)
 from ._frame import Frame, frame_of
 from ._mesh import SimplifiedMesh
 from ._proxies import region_proxies
@@ -289,6 +296,7 @@ class _Input:
     areas: np.ndarray  # the points' disc areas (`_winding.point_areas`)
     radius: np.ndarray  # ... and the radii of `PointSurface`'s discs (`disc_radii`)
     n_off_surface: int  # points left out far off the surface (`_checks.off_surface`)
+    off_planes: np.ndarray  # points kept off their neighbours' planes (`STRAY_RATIO`)
 
     @property
     def point_index(self) -> np.ndarray:
@@ -326,13 +334,15 @@ def _prepare(points, normals, vsa, vsa_settings) -> _Input:
     pts = given if keep.all() else given[keep]
     k = check_size(pts.shape[0], k)
     frame, q, wide, dist = _knn_table(pts, k)
-    off = off_surface(q, nrm, wide, dist)
+    ratio = off_surface_ratio(q, nrm, wide, dist)
+    off = ratio > OFF_SURFACE
     n_off = 0 if off.all() else int(off.sum())
     if n_off:  # left out: the frame and the table again without them
         keep[np.flatnonzero(keep)[off]] = False
         pts, nrm = given[keep], nrm[~off]
         k = check_size(pts.shape[0], k)
         frame, q, wide, dist = _knn_table(pts, k)
+        ratio = off_surface_ratio(q, nrm, wide, dist)
     if not isinstance(opts.weights, str) and not keep.all():
         # given per-point weights follow the points
         if opts.weights.shape != (n_input,):
@@ -341,7 +351,10 @@ def _prepare(points, normals, vsa, vsa_settings) -> _Input:
     areas, radius = table_areas(dist), disc_radii(dist)
     nrm, n_turned = turn_outward(q, nrm, (wide, dist), areas)
     idx = wide if wide.shape[1] == k else np.ascontiguousarray(wide[:, :k])
-    return _Input(pts, nrm, keep, n_input, k, opts, frame, q, idx, n_turned, areas, radius, n_off)
+    off_planes = ratio > STRAY_RATIO
+    return _Input(
+        pts, nrm, keep, n_input, k, opts, frame, q, idx, n_turned, areas, radius, n_off, off_planes
+    )
 
 
 def _knn_table(pts, k: int):
@@ -431,6 +444,7 @@ def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, leve
             areas=inp.areas,
             neighbors=inp.indices,
             radius=inp.radius,
+            off=inp.off_planes,
             **level,
         )
     except PointAtlasError as exc:

@@ -21,6 +21,7 @@ from ._mesh import split_pinches, used_only
 from ._open import AllBubbles, as_open, beyond_points, drop_strays, smooth_outline, trim
 from ._solid import SOLID_RADIUS, half_balls, solid_retry
 from ._voxel_grid import (
+    LOST_LINK,
     LOST_POINTS,
     LOST_SHARE,
     LOST_STEPS,
@@ -286,7 +287,7 @@ def _bubbles(tri, far, nearest, dots, areas, closed=True):
 
 
 def reconstruct_surface(
-    q: np.ndarray, normals: np.ndarray, areas=None, tree=None, surface=None
+    q: np.ndarray, normals: np.ndarray, areas=None, tree=None, surface=None, off=None
 ) -> Reconstruction:
     """Triangle surface of points ``q`` (working frame) with oriented ``normals``.
 
@@ -299,7 +300,9 @@ def reconstruct_surface(
     (`_solid.solid_retry`).
     ``areas``: the points' disc areas (`is_closed_sample`), ``tree``: their
     `cKDTree`, ``surface``: their `_distance.PointSurface` (an open sample is cut at
-    its outline, `_open.beyond_points`); found when None.
+    its outline, `_open.beyond_points`); found when None. ``off``: the points off
+    their neighbours' tangent planes (`_checks.STRAY_RATIO`; None: none), not counted
+    as lost where alone (`_voxel_grid.not_strays`).
     """
     from ._distance import PointSurface
 
@@ -316,14 +319,14 @@ def reconstruct_surface(
     rec, closed, surface = _first_surface(q, normals, tree, (spacing, step, shape), closed, surface)
     fine = (spacing, *finer_step(q, spacing))
     if fine[1] < step / 1.2:
-        rec = _finer(q, normals, tree, rec, fine, closed, surface)
+        rec = _finer(q, normals, tree, rec, fine, closed, surface, off)
 
     if closed:  # an open sample's far points lie beyond its cut outline: no inside
 
         def build(points, point_normals):
             return _surface_at(q, normals, tree, fine, closed, solid=(points, point_normals))
 
-        rec = solid_retry(q, normals, rec, build, step, spacing)
+        rec = solid_retry(q, normals, rec, build, step, spacing, off)
     return replace(rec, uneven=factor)
 
 
@@ -343,19 +346,20 @@ def _first_surface(q, normals, tree, grid, closed, surface):
         return rec, False, surface
 
 
-def _finer(q, normals, tree, rec, fine, closed, surface) -> Reconstruction:
+def _finer(q, normals, tree, rec, fine, closed, surface, off=None) -> Reconstruction:
     """``rec``, or the surface on the ``fine`` grid where ``rec`` lost a part thinner
     than its grid and the finer one brings most of those points near without adding
-    handles (``surface``: the points' `PointSurface` of an open sample)."""
-    far = LOST_STEPS * rec.step
-    lost = lost_points(q, rec.vertices, rec.triangles, far)
+    handles (``surface``: the points' `PointSurface` of an open sample; strays
+    among the lost points left out: `_voxel_grid.not_strays`, ``off``)."""
+    far, link = LOST_STEPS * rec.step, LOST_LINK * fine[0]
+    lost = lost_points(q, rec.vertices, rec.triangles, far, off, link)
     if lost < LOST_POINTS:
         return rec
     try:
         finer = _surface_at(q, normals, tree, fine, closed, surface=surface)
     except PointAtlasError:
         return rec
-    still = lost_points(q, finer.vertices, finer.triangles, far)
+    still = lost_points(q, finer.vertices, finer.triangles, far, off, link)
     no_handle = euler_characteristic(finer.triangles) >= euler_characteristic(rec.triangles)
     # a part lost whole is worth a handle through it (a fin 0.8 steps thin)
     whole = lost >= LOST_SHARE * q.shape[0]
@@ -495,6 +499,7 @@ def robust_mesh(
     areas=None,
     neighbors=None,
     radius=None,
+    off=None,
 ):
     """The robust path: the points' surface (`reconstruct_surface`), its triangles
     labelled by the points' regions (`transfer_labels`), then the structure-aware
@@ -505,7 +510,7 @@ def robust_mesh(
     ways, or to ``max_triangles``. ``areas``: the points' disc areas
     (`is_closed_sample`), ``neighbors``: their k-NN table (`query_knn`, for
     `PointDistances.floor_at`), ``radius``: their discs' radii (`PointSurface`,
-    `disc_radii`); found when None.
+    `disc_radii`); found when None; ``off``: as `reconstruct_surface`'s.
 
     Returns ``(result, reconstruction, point_labels)``: the `SurfaceSimplification`
     in input coordinates (``distances`` are those of the points), the surface and
@@ -528,7 +533,7 @@ def robust_mesh(
     labels, proxy_normals = region_layers(q, normals, labels, proxy_normals, 0.25 * bound)
     tree = cKDTree(q)
     surface = PointSurface(q, normals, tree, radius)
-    rec = reconstruct_surface(q, normals, areas, tree, surface)
+    rec = reconstruct_surface(q, normals, areas, tree, surface, off)
     # the vertices' fit on a thread while the triangles take the points' regions
     fitted = on_thread(
         fit_to_points, rec.vertices, rec.triangles, q, normals, surface.grid, FIT_STEPS * rec.step

@@ -20,7 +20,7 @@ from scipy.sparse import coo_array, csgraph
 from scipy.spatial import cKDTree
 
 from .._core import PointAtlasError
-from ._voxel_grid import LOST_POINTS, euler_characteristic, lost_points
+from ._voxel_grid import LOST_LINK, LOST_POINTS, euler_characteristic, lost_points, not_strays
 
 __all__ = ["SOLID_FROM", "SOLID_LOST", "SOLID_RADIUS", "half_balls", "solid_retry"]
 
@@ -90,16 +90,18 @@ def _solid_points(q, off, lost, spacing: float) -> np.ndarray:
     return idx[holds[piece]]
 
 
-def solid_retry(q, normals, rec, build, step: float, spacing: float):
+def solid_retry(q, normals, rec, build, step: float, spacing: float, off=None):
     """The surface ``rec`` (a `Reconstruction` of points ``q``), or the one ``build``
     gives with the points' parts lost on it made solid, where that brings at least
     half of the points more than `SOLID_LOST` ``step`` off near and keeps ``rec``'s
     Euler characteristic. ``build(points, normals)`` builds the surface on the finer
-    grid with those points' `half_balls`."""
+    grid with those points' `half_balls`. Strays among the lost points are left out
+    (`_voxel_grid.not_strays`: ``off``, `LOST_LINK` spacings; None: none)."""
     from ..neighbors import point_mesh_distance
 
     d = point_mesh_distance(q, rec.vertices, rec.triangles, within=SOLID_FROM * rec.step)
-    lost = d > SOLID_LOST * step
+    link = LOST_LINK * spacing
+    lost = not_strays(q, d > SOLID_LOST * step, off, link)
     if lost.sum() < LOST_POINTS:
         return rec
     idx = _solid_points(q, d > SOLID_FROM * rec.step, lost, spacing)
@@ -107,6 +109,6 @@ def solid_retry(q, normals, rec, build, step: float, spacing: float):
         solid = build(q[idx], normals[idx])
     except PointAtlasError:
         return rec
-    still = lost_points(q, solid.vertices, solid.triangles, SOLID_LOST * step)
+    still = lost_points(q, solid.vertices, solid.triangles, SOLID_LOST * step, off, link)
     same = euler_characteristic(solid.triangles) == euler_characteristic(rec.triangles)
     return solid if 2 * still <= lost.sum() and same else rec
