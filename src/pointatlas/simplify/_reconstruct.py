@@ -68,17 +68,6 @@ SMOOTH_SPACINGS = 1.5
 #: A triangle budget on the points path is kept only while the output stays within
 #: this many times the default bound of the points (never a spike).
 SPIKE_FACTOR = 4.0
-#: Without a triangle budget, no collapse takes a point farther from the surface than
-#: this share of what a level may reach there (the bound, or its floor: every level
-#: of the sequence keeps every point within it, `_bound_kernels`); the placement onto
-#: the planes and the distance back take the rest. Every 3rd collection model: 0.5
-#: within 1 % of the truth 42 / 50, triangles median 660; 0.35: 41, 840; 0.65: 39,
-#: 678; 1.0: the last levels' placement and distance back fail, 6,592 triangles on
-#: the xyz cube (3,746 unbounded). No triangle goes farther from the points than the
-#: bound (or as far as the surface was there at first). Only on a closed surface: an
-#: open outline cut from the grid is a staircase whose collapses these bounds refuse
-#: (a sampled 2 x 1 sheet: 79 triangles in 42 polygons, unbounded 23 in one).
-COLLAPSE_SHARE = 0.5
 #: Points whose tangent planes are averaged into the field at a node.
 FIELD_K = 8
 
@@ -440,53 +429,6 @@ def _surface_at(q, normals, tree, grid, closed, solid=None, surface=None) -> Rec
     )
 
 
-def _default_steps(level, measure, surface, bound, neighbors, budget):
-    """The level of the default bound: the floors of `PointDistances.floor_at` from
-    level 0 before (``surface``) and after its placement (each point the higher),
-    then the level search (or the collapses for a ``budget`` of triangles). A search
-    that would end above `LOOSE_SHARE` of level 0's triangles (it failed at the
-    coarse end) stops there, and runs again at the looser floors (`LOOSE_SLACK`)."""
-    from ._point_distances import LOOSE_SHARE, LOOSE_SLACK
-
-    measure.floor_at(*surface, bound, neighbors=neighbors)
-    placed = level.placed(0)[:2]  # placed within those floors
-    measure.floor_at(*placed, bound, neighbors=neighbors, raise_only=True)
-    if budget is not None:
-        return level.steps_for(budget, bound)
-    steps = level.steps_within(bound, level.seq.steps_for(int(LOOSE_SHARE * surface[1].shape[0])))
-    if steps is None:
-        for first, raise_only in ((surface, False), (placed, True)):
-            measure.floor_at(
-                *first, bound, slack=LOOSE_SLACK, neighbors=neighbors, raise_only=raise_only
-            )
-        level.forget_levels()
-        steps = level.steps_within(bound)
-    return steps
-
-
-def _start_collapses(level, measure, verts, tri, bound, max_error, neighbors):
-    """The collapses of a closed surface on a thread (`Decimation.start`), while the
-    floors of the level search are set from level 0's measure: none takes a point
-    past `COLLAPSE_SHARE` of the bound (or of its floor, `there_floor_of`, by
-    default), nor a triangle past the bound (or as far as level 0 was from the
-    points). The thread finds the quadrics and the points' owners while those bounds
-    are measured here."""
-    from concurrent.futures import Future
-
-    bounds = Future()
-    level.start(True, surface=measure.surface, tolerance=bounds)
-    try:
-        tol = bound
-        if max_error is None:  # the floor of `floor_at`, from the points' side
-            tol = measure.there_floor_of(verts, tri, bound, neighbors)
-        # back: the tolerance, or as far as level 0 is near the point if more
-        back = np.maximum(tol, measure.back_near_points(verts, tri, neighbors))
-    except BaseException as exc:  # the thread waits for them: it stops too
-        bounds.set_exception(exc)
-        raise
-    bounds.set_result((COLLAPSE_SHARE * tol, back))
-
-
 def robust_mesh(
     q,
     normals,
@@ -522,7 +464,7 @@ def robust_mesh(
     from ._distance import PointSurface
     from ._point_distances import PointDistances
     from ._polygons import PLANAR_RTOL
-    from ._snap import FIT_STEPS, PointsDecimation, fit_to_points
+    from ._snap import FIT_STEPS, PointsDecimation, default_steps, fit_to_points, start_collapses
     from ._surface_regions import region_layers, region_planes, transfer_labels
     from ._triangles import _face_graph, _surface
 
@@ -566,11 +508,11 @@ def robust_mesh(
         bound,
     )
     if max_triangles is None:
-        _start_collapses(level, measure, verts, rec.triangles, bound, max_error, neighbors)
+        start_collapses(level, measure, verts, rec.triangles, bound, max_error, neighbors)
     if max_error is None:
         # the default bound, or what the points' surface reaches there (before or
         # after its placement on the planes, the more), if more
-        steps = _default_steps(
+        steps = default_steps(
             level, measure, (verts, rec.triangles), bound, neighbors, max_triangles
         )
     else:
