@@ -12,6 +12,8 @@ from .._core import PointAtlasError, as_float, as_int, as_labels, as_points, rea
 from ..neighbors import query_knn
 from ._checks import (
     OFF_SURFACE,
+    STRAY_DROP,
+    STRAY_NOISE,
     STRAY_RATIO,
     check_memory,
     check_size,
@@ -68,7 +70,9 @@ class PointSimplification:
     n_off_surface : int
         Points left out because they lie far off the surface the others sample
         (outliers: the median of their heights over their 8 nearest points' tangent
-        planes over `_checks.OFF_SURFACE` point spacings); counted in ``n_dropped``.
+        planes over `_checks.OFF_SURFACE` point spacings; on the robust path also
+        stray returns its voxel surface does not reach, `_checks.STRAY_DROP`); counted
+        in ``n_dropped``.
     """
 
     segmentation: VSAResult | None
@@ -201,6 +205,9 @@ def simplify_points(
     level = _level(max_error, max_triangles)
     path, reason = _path_of(path, level)
     inp = _prepare(points, normals, vsa, vsa_settings)
+    first = None  # the voxel surface, found first on the robust path
+    if path == "robust" or (path == "auto" and inp.points.shape[0] > AUTO_THESIS_POINTS):
+        inp, first = _surface_first(inp, points, normals, vsa, vsa_settings)
     seg, seg_labels, seg_normals, ctr = _segment(inp, labels, centers, rng)
     path, reason = _auto_choice(path, reason, inp.points.shape[0], seg_labels)
     settings = {
@@ -217,7 +224,7 @@ def simplify_points(
     mesh, reason = _thesis_mesh(inp, seg_labels, seg_normals, path, reason, settings)
     if mesh is not None and not reason:
         return inp.result(seg, mesh)
-    return _robust_result(inp, seg, seg_labels, seg_normals, mesh, reason, level)
+    return _robust_result(inp, seg, seg_labels, seg_normals, mesh, reason, level, first)
 
 
 #: ``path="auto"`` tries the thesis path first up to this many points (with normals);
@@ -296,7 +303,12 @@ class _Input:
     areas: np.ndarray  # the points' disc areas (`_winding.point_areas`)
     radius: np.ndarray  # ... and the radii of `PointSurface`'s discs (`disc_radii`)
     n_off_surface: int  # points left out far off the surface (`_checks.off_surface`)
-    off_planes: np.ndarray  # points kept off their neighbours' planes (`STRAY_RATIO`)
+    ratio: np.ndarray  # the points' heights off their neighbours' planes (`off_surface_ratio`)
+
+    @property
+    def off_planes(self) -> np.ndarray:
+        """The points off their neighbours' planes (`STRAY_RATIO`)."""
+        return self.ratio > STRAY_RATIO
 
     @property
     def point_index(self) -> np.ndarray:
@@ -316,11 +328,12 @@ class _Input:
         )
 
 
-def _prepare(points, normals, vsa, vsa_settings) -> _Input:
-    """Check the input, leave out points without a usable normal and points far off the
-    surface the others sample (`off_surface`), turn inward normals out
-    (`turn_outward`), find the working frame and the k-NN table (memory checked
-    first); ``vsa`` and ``vsa_settings`` give the VSA options."""
+def _prepare(points, normals, vsa, vsa_settings, strays=None) -> _Input:
+    """Check the input, leave out points without a usable normal, the ``strays`` (mask
+    of the input points, or None) and points far off the surface the others sample
+    (`off_surface`), turn inward normals out (`turn_outward`), find the working frame
+    and the k-NN table (memory checked first); ``vsa`` and ``vsa_settings`` give the
+    VSA options."""
     # imported here so the meshing half of the room works on its own
     from ..segment import VSAOptions
     from ._distance import disc_radii
@@ -331,12 +344,17 @@ def _prepare(points, normals, vsa, vsa_settings) -> _Input:
     n_input = given.shape[0]
     k = check_size(n_input, opts.k)
     nrm, keep = usable_normals(normals, n_input)
+    n_strays = 0
+    if strays is not None:
+        nrm, n_strays = nrm[~strays[keep]], int((strays & keep).sum())
+        keep &= ~strays
     pts = given if keep.all() else given[keep]
     k = check_size(pts.shape[0], k)
     frame, q, wide, dist = _knn_table(pts, k)
     ratio = off_surface_ratio(q, nrm, wide, dist)
     off = ratio > OFF_SURFACE
     n_off = 0 if off.all() else int(off.sum())
+    n_off += n_strays
     if n_off:  # left out: the frame and the table again without them
         keep[np.flatnonzero(keep)[off]] = False
         pts, nrm = given[keep], nrm[~off]
@@ -351,10 +369,43 @@ def _prepare(points, normals, vsa, vsa_settings) -> _Input:
     areas, radius = table_areas(dist), disc_radii(dist)
     nrm, n_turned = turn_outward(q, nrm, (wide, dist), areas)
     idx = wide if wide.shape[1] == k else np.ascontiguousarray(wide[:, :k])
-    off_planes = ratio > STRAY_RATIO
     return _Input(
-        pts, nrm, keep, n_input, k, opts, frame, q, idx, n_turned, areas, radius, n_off, off_planes
+        pts, nrm, keep, n_input, k, opts, frame, q, idx, n_turned, areas, radius, n_off, ratio
     )
+
+
+def _surface_first(inp: _Input, points, normals, vsa, vsa_settings):
+    """``(inp, first)``: the robust path's voxel surface (`reconstruct_surface`) built
+    before the points are segmented, with its `PointSurface` and tree; where it leaves
+    stray returns (`lost_strays`), the input prepared again without them and ``first``
+    None (the surface is built again then)."""
+    from scipy.spatial import cKDTree
+
+    from ._distance import PointSurface
+    from ._reconstruct import reconstruct_surface
+    from ._voxel_grid import LOST_LINK, lost_strays, point_spacing
+
+    q, nrm = inp.q, inp.normals
+    tree = cKDTree(q)
+    surface = PointSurface(q, nrm, tree, inp.radius)
+    rec = reconstruct_surface(q, nrm, inp.areas, tree, surface, inp.off_planes)
+    off = inp.ratio > max(STRAY_DROP, STRAY_NOISE * float(np.median(inp.ratio)))
+    link = LOST_LINK * point_spacing(q, tree)
+    strays = lost_strays(q, rec.vertices, rec.triangles, rec.step, off, link)
+    if not strays.any():
+        return inp, (tree, surface, rec)
+    mask = np.zeros(inp.n_input, dtype=bool)
+    mask[inp.point_index[strays]] = True
+    out = _prepare(points, normals, vsa, vsa_settings, strays=mask)
+    # the surface does not reach the strays: it stands, in the new working frame
+    old, new = inp.frame, out.frame
+    rec = dataclasses.replace(
+        rec,
+        vertices=new.to_local(old.to_input(rec.vertices)),
+        step=rec.step * old.scale / new.scale,
+    )
+    tree = cKDTree(out.q)
+    return out, (tree, PointSurface(out.q, out.normals, tree, out.radius), rec)
 
 
 def _knn_table(pts, k: int):
@@ -431,9 +482,10 @@ def _thesis_mesh(inp: _Input, seg_labels, seg_normals, path, reason, settings):
     return mesh, (_thesis_flaw(mesh, far) if path == "auto" else "")
 
 
-def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, level):
+def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, level, first=None):
     """The robust path's result, or the open thesis mesh where the points' surface is
-    open too and the thesis mesh is as near to the points."""
+    open too and the thesis mesh is as near to the points (``first``: the voxel
+    surface found already, `_surface_first`)."""
     try:
         res, rec, point_labels = robust_mesh(
             inp.q,
@@ -445,6 +497,7 @@ def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, leve
             neighbors=inp.indices,
             radius=inp.radius,
             off=inp.off_planes,
+            first=first,
             **level,
         )
     except PointAtlasError as exc:

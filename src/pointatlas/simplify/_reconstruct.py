@@ -442,6 +442,7 @@ def robust_mesh(
     neighbors=None,
     radius=None,
     off=None,
+    first=None,
 ):
     """The robust path: the points' surface (`reconstruct_surface`), its triangles
     labelled by the points' regions (`transfer_labels`), then the structure-aware
@@ -452,7 +453,8 @@ def robust_mesh(
     ways, or to ``max_triangles``. ``areas``: the points' disc areas
     (`is_closed_sample`), ``neighbors``: their k-NN table (`query_knn`, for
     `PointDistances.floor_at`), ``radius``: their discs' radii (`PointSurface`,
-    `disc_radii`); found when None; ``off``: as `reconstruct_surface`'s.
+    `disc_radii`); found when None; ``off``: as `reconstruct_surface`'s; ``first``:
+    ``(tree, surface, reconstruction)`` of these points found already, or None.
 
     Returns ``(result, reconstruction, point_labels)``: the `SurfaceSimplification`
     in input coordinates (``distances`` are those of the points), the surface and
@@ -473,9 +475,12 @@ def robust_mesh(
     # the regions' planes refitted, and split into their parallel layers (a gap of a
     # quarter of the bound: their vertices go onto the planes within it, below)
     labels, proxy_normals = region_layers(q, normals, labels, proxy_normals, 0.25 * bound)
-    tree = cKDTree(q)
-    surface = PointSurface(q, normals, tree, radius)
-    rec = reconstruct_surface(q, normals, areas, tree, surface, off)
+    if first is None:
+        tree = cKDTree(q)
+        surface = PointSurface(q, normals, tree, radius)
+        rec = reconstruct_surface(q, normals, areas, tree, surface, off)
+    else:
+        tree, surface, rec = first
     # the vertices' fit on a thread while the triangles take the points' regions
     fitted = on_thread(
         fit_to_points, rec.vertices, rec.triangles, q, normals, surface.grid, FIT_STEPS * rec.step

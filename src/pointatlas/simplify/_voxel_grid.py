@@ -31,6 +31,7 @@ __all__ = [
     "grid_shape",
     "grid_step",
     "lost_points",
+    "lost_strays",
     "point_spacing",
     "thin_sample",
     "uneven_factor",
@@ -165,6 +166,19 @@ def lost_points(q, vertices, triangles, far: float, off=None, link: float = 0.0)
 
     lost = point_mesh_distance(q, vertices, triangles, within=far) > far
     return int(not_strays(q, lost, off, link).sum())
+
+
+def lost_strays(q, vertices, triangles, step: float, off, link: float) -> np.ndarray:
+    """Mask of the points ``q`` farther than `LOST_STEPS` grid ``step`` from the
+    triangles, ``off`` (mask: off their neighbours' tangent planes) and with no other
+    such far point within ``link``."""
+    from ._mesh import point_mesh_distance
+
+    far = LOST_STEPS * step
+    lost = point_mesh_distance(q, vertices, triangles, within=far) > far
+    if not (lost & off).any():
+        return lost & off
+    return lost & off & ~linked(q, lost, link)
 
 
 def not_strays(q, lost, off, link: float) -> np.ndarray:
