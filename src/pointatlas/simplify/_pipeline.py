@@ -171,8 +171,8 @@ def simplify_points(
     result : PointSimplification
         ``segmentation`` (VSAResult), ``mesh`` (SimplifiedMesh, or
         SurfaceSimplification on the robust path), ``path``, ``reason``, ``labels``,
-        ``point_index`` and ``n_dropped`` (points left out for want of a usable
-        normal).
+        ``point_index`` and ``n_dropped`` (points left out: without a usable normal,
+        or off the surface, ``n_off_surface``).
 
     Raises
     ------
@@ -204,10 +204,7 @@ def simplify_points(
     """
     level = _level(max_error, max_triangles)
     path, reason = _path_of(path, level)
-    inp = _prepare(points, normals, vsa, vsa_settings)
-    first = None  # the voxel surface, found first on the robust path
-    if path == "robust" or (path == "auto" and inp.points.shape[0] > AUTO_THESIS_POINTS):
-        inp, first = _surface_first(inp, points, normals, vsa, vsa_settings)
+    inp, first = _surface_first(path, points, normals, vsa, vsa_settings)
     seg, seg_labels, seg_normals, ctr = _segment(inp, labels, centers, rng)
     path, reason = _auto_choice(path, reason, inp.points.shape[0], seg_labels)
     settings = {
@@ -374,11 +371,16 @@ def _prepare(points, normals, vsa, vsa_settings, strays=None) -> _Input:
     )
 
 
-def _surface_first(inp: _Input, points, normals, vsa, vsa_settings):
-    """``(inp, first)``: the robust path's voxel surface (`reconstruct_surface`) built
-    before the points are segmented, with its `PointSurface` and tree; where it leaves
-    stray returns (`lost_strays`), the input prepared again without them and ``first``
-    None (the surface is built again then)."""
+def _surface_first(path: str, points, normals, vsa, vsa_settings):
+    """``(inp, first)``: the input prepared (`_prepare`) and, on the robust path
+    (``path`` "robust", or "auto" above `AUTO_THESIS_POINTS` points), its voxel surface
+    (`reconstruct_surface`) built before the points are segmented, with its tree and
+    `PointSurface`; where it leaves stray returns it does not reach (`lost_strays`),
+    the input prepared again without them and the surface moved into its working
+    frame. Elsewhere ``first`` is None."""
+    inp = _prepare(points, normals, vsa, vsa_settings)
+    if not (path == "robust" or (path == "auto" and inp.points.shape[0] > AUTO_THESIS_POINTS)):
+        return inp, None
     from scipy.spatial import cKDTree
 
     from ._distance import PointSurface
