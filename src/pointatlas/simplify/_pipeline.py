@@ -351,7 +351,6 @@ def _prepare(points, normals, vsa, vsa_settings, strays=None) -> _Input:
     ratio = off_surface_ratio(q, nrm, wide, dist)
     off = ratio > OFF_SURFACE
     n_off = 0 if off.all() else int(off.sum())
-    n_off += n_strays
     if n_off:  # left out: the frame and the table again without them
         keep[np.flatnonzero(keep)[off]] = False
         pts, nrm = given[keep], nrm[~off]
@@ -366,6 +365,7 @@ def _prepare(points, normals, vsa, vsa_settings, strays=None) -> _Input:
     areas, radius = table_areas(dist), disc_radii(dist)
     nrm, n_turned = turn_outward(q, nrm, (wide, dist), areas)
     idx = wide if wide.shape[1] == k else np.ascontiguousarray(wide[:, :k])
+    n_off += n_strays  # the strays given are counted with them
     return _Input(
         pts, nrm, keep, n_input, k, opts, frame, q, idx, n_turned, areas, radius, n_off, ratio
     )
