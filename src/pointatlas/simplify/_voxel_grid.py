@@ -175,16 +175,14 @@ def lost_strays(q, vertices, triangles, step: float, off, link: float) -> np.nda
     from ._mesh import point_mesh_distance
 
     far = LOST_STEPS * step
-    strays = np.zeros(q.shape[0], dtype=bool)
+    lost = np.zeros(q.shape[0], dtype=bool)
     # the points off their planes first: most samples have none that far
-    candidates = np.flatnonzero(off)
-    if candidates.size:
-        d = point_mesh_distance(q[candidates], vertices, triangles, within=far)
-        strays[candidates[d > far]] = True
-    if not strays.any():
-        return strays
-    lost = point_mesh_distance(q, vertices, triangles, within=far) > far
-    return strays & ~linked(q, lost, link)
+    for part in (np.flatnonzero(off), np.flatnonzero(~off)):
+        if part.size:
+            lost[part] = point_mesh_distance(q[part], vertices, triangles, within=far) > far
+        if not (lost & off).any():
+            return lost & off
+    return lost & off & ~linked(q, lost, link)
 
 
 def not_strays(q, lost, off, link: float) -> np.ndarray:
