@@ -30,6 +30,7 @@ __all__ = [
     "disc_radii",
     "output_samples",
     "output_samples_on",
+    "point_back_samples",
 ]
 
 #: Area-uniform samples of the output surface measured back to the input.
@@ -145,6 +146,27 @@ def output_samples(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0) ->
     return output_samples_on(vertices, triangles, n, seed)[0]
 
 
+def point_back_samples(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0):
+    """What the points path measures back to the points' surface: the midpoints of
+    the output's edges, then `output_samples` (its used vertices and ``n`` area
+    samples). A sliver triangle whose long edge crosses a concave corner of the
+    points, through the air, takes few area samples: 20,000 of them missed one 1.28 %
+    of the diagonal off on a sampled CAD part, whose edge midpoint is that far.
+
+    Examples
+    --------
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
+    >>> point_back_samples(v, np.array([[0, 1, 2]]), n=5)[:3].tolist()
+    [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.5, 0.5, 0.0]]
+    """
+    t = np.asarray(triangles, dtype=np.int64)
+    v = np.asarray(vertices, dtype=np.float64)
+    a, b = t.reshape(-1), t[:, [1, 2, 0]].reshape(-1)
+    key = np.unique(np.minimum(a, b) * v.shape[0] + np.maximum(a, b))  # each edge once
+    middle = 0.5 * (v[key // v.shape[0]] + v[key % v.shape[0]])
+    return np.vstack([middle, output_samples(v, t, n, seed)])
+
+
 def output_samples_on(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0):
     """`output_samples` and a triangle each sample lies on (one around a vertex).
 
@@ -215,8 +237,9 @@ def _draws(n: int, seed: int):
 
 def back_distances(out_v, out_t, in_v, in_t=None, *, within: float = 0.0) -> np.ndarray:
     """Distance of `output_samples` to the input: its triangles (or their
-    `MeshDistanceIndex`), or its points' surface (a `PointSurface`, or the nearest
-    point when ``in_v`` is an array); ``within``: as in `point_mesh_distance`,
+    `MeshDistanceIndex`), or its points' surface (a `PointSurface`: of
+    `point_back_samples`, the edges' midpoints too; or the nearest point when
+    ``in_v`` is an array); ``within``: as in `point_mesh_distance`,
     triangles only.
 
     Examples
@@ -226,9 +249,9 @@ def back_distances(out_v, out_t, in_v, in_t=None, *, within: float = 0.0) -> np.
     >>> float(back_distances(spike, [[0, 1, 2]], v, [[0, 1, 2]]).max())
     2.0
     """
-    samples = output_samples(out_v, out_t)
     if isinstance(in_v, PointSurface):
-        return in_v.distance(samples)
+        return in_v.distance(point_back_samples(out_v, out_t))
+    samples = output_samples(out_v, out_t)
     if isinstance(in_v, MeshDistanceIndex):
         return in_v.distance(samples, within=within)
     if in_t is None:

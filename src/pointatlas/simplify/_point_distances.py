@@ -141,7 +141,7 @@ class PointDistances:
         at its `FLOOR_NEIGHBORS` nearest (``nearest``: their rows; ``neighbors``:
         `floor_at`'s), the largest, and its vertices and area samples
         (`output_samples`) with their distances to the points' discs."""
-        from ._distance import output_samples
+        from ._distance import point_back_samples
         from ._mesh import point_mesh_distance
 
         for v, t, found in self._first:
@@ -152,7 +152,7 @@ class PointDistances:
         if neighbors is None or neighbors.shape[1] < k:
             neighbors = self.surface.tree.query(self.q, k=k, workers=-1)[1]
         nearest = neighbors[:, :k]
-        samples = output_samples(out_v, out_t)
+        samples = point_back_samples(out_v, out_t)
         found = (there[nearest].max(axis=1), float(there.max()), samples)
         found += (self.surface.distance(samples), nearest)
         self._first = self._first[-1:] + [(out_v, out_t, found)]
@@ -173,7 +173,7 @@ class PointDistances:
         return few
 
     def within(self, out_v, out_t, bound: float) -> bool:
-        from ._distance import output_samples
+        from ._distance import point_back_samples
         from ._mesh import point_mesh_distance
 
         if (out_v < self.lo).any() or (out_v > self.hi).any():
@@ -183,9 +183,10 @@ class PointDistances:
         left = self.spare - _over(there, floor, self.spare)
         if left < 0:
             return False
-        samples = output_samples(out_v, out_t)
-        # the vertices and the first area samples first: a level over the bound is
-        # mostly found there (the answer is the same, and so is every distance)
+        samples = point_back_samples(out_v, out_t)
+        # the edges' midpoints, the vertices and the first area samples first: a
+        # level over the bound is mostly found there (the answer is the same, and so
+        # is every distance)
         cut = min(samples.shape[0], FIRST_SAMPLES)
         left -= self._back_over(samples[:cut], bound)
         return left >= 0 and self._back_over(samples[cut:], bound) <= left

@@ -1,0 +1,68 @@
+"""What the points path measures back to the points: the output's edge midpoints
+besides its vertices and area samples (`_distance.point_back_samples`)."""
+
+import numpy as np
+
+from pointatlas.simplify._distance import (
+    PointSurface,
+    back_distances,
+    output_samples,
+    point_back_samples,
+)
+from pointatlas.simplify._point_distances import PointDistances
+
+
+def _valley():
+    """Points on a V-shaped valley z = |x - 0.5| over [0, 1]^2 (normals up its
+    sides), and an output of the valley's four triangles plus a sliver along y =
+    0.5 whose long edge spans the valley at z = 0.5, through the air: its corners
+    lie on the valley, its edge's midpoint 0.5 / sqrt(2) from both sides."""
+    g = np.linspace(0.0, 1.0, 81)
+    x, y = (a.ravel() for a in np.meshgrid(g, g, indexing="ij"))
+    q = np.c_[x, y, np.abs(x - 0.5)]
+    side = np.where(x < 0.5, 1.0, -1.0)
+    normals = np.c_[side, np.zeros_like(x), np.ones_like(x)] / np.sqrt(2.0)
+    normals[x == 0.5] = [0.0, 0.0, 1.0]
+    v = np.array(
+        [
+            [0, 0, 0.5],
+            [0.5, 0, 0],
+            [1, 0, 0.5],
+            [0, 1, 0.5],
+            [0.5, 1, 0],
+            [1, 1, 0.5],
+            [0, 0.5, 0.5],
+            [1, 0.5, 0.5],
+            [1, 0.5 + 1e-4, 0.5],
+        ]
+    )
+    t = np.array([[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4], [6, 7, 8]])
+    return q, normals, v, t
+
+
+def test_edge_midpoints_come_first_once_each():
+    """Every edge once (shared edges not twice), then `output_samples` as it is."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.0]])
+    t = np.array([[0, 1, 2], [2, 1, 3]])
+    got = point_back_samples(v, t, n=7)
+    assert got.shape == (5 + 4 + 7, 3)
+    middle = got[:5]
+    expected = [[0.5, 0, 0], [0, 0.5, 0], [0.5, 0.5, 0], [1, 0.5, 0], [0.5, 1, 0]]
+    np.testing.assert_array_equal(middle[np.lexsort(middle.T[::-1])], sorted(expected))
+    np.testing.assert_array_equal(got[5:], output_samples(v, t, n=7))
+
+
+def test_a_sliver_across_a_valley_is_seen_by_its_edge_midpoint():
+    """The area samples land on the valley's faces and the sliver's corners lie on
+    the points: without the edge midpoints the sliver looks as near as the faces;
+    with them the back distance reaches its edge's 0.354."""
+    q, normals, v, t = _valley()
+    surface = PointSurface(q, normals)
+    far = 0.5 / np.sqrt(2.0)
+    assert surface.distance(output_samples(v, t)).max() < 0.05
+    back = back_distances(v, t, surface)
+    np.testing.assert_allclose(back.max(), far, rtol=0.02)
+    measure = PointDistances(q, surface)
+    assert not measure.within(v, t, 0.1)
+    assert measure.within(v, t[:4], 0.1)  # the valley alone is on the points
+    np.testing.assert_allclose(measure.error(v, t), far, rtol=0.02)
