@@ -56,7 +56,8 @@ SPARE_FACTOR = 1.1
 #: strided, `PointDistances.subset`): a level over the bound on them is over it on all.
 SEARCH_POINTS = 4000
 #: `PointDistances.within` measures this many of a level's samples back first (its
-#: vertices, then area samples), the rest only when none of them is over the bound.
+#: edge midpoints, vertices, then area samples), the rest only when none of them is
+#: over the bound.
 FIRST_SAMPLES = 4000
 
 
@@ -128,8 +129,9 @@ class PointDistances:
 
     def back_near_points(self, out_v, out_t, neighbors=None) -> np.ndarray:
         """How far the surface ``out_v``, ``out_t`` is from the points' discs near each
-        point: the most of its vertices' and area samples' distances (`floor_at`'s)
-        among those nearest to the point or to one of its `FLOOR_NEIGHBORS` nearest."""
+        point: the most of its back samples' distances (`floor_at`'s: edge midpoints,
+        vertices, area samples) among those nearest to the point or to one of its
+        `FLOOR_NEIGHBORS` nearest."""
         _, _, samples, back, nearest = self._first_measure(out_v, out_t, neighbors)
         most = np.zeros(self.q.shape[0])
         np.maximum.at(most, self.surface.tree.query(samples, workers=-1)[1], back)
@@ -139,8 +141,8 @@ class PointDistances:
         """``(there, most, samples, back, nearest)`` of the surface ``out_v``, ``out_t``
         (measured once, kept for the same arrays): each point's distance to it, the most
         at its `FLOOR_NEIGHBORS` nearest (``nearest``: their rows; ``neighbors``:
-        `floor_at`'s), the largest, and its vertices and area samples
-        (`output_samples`) with their distances to the points' discs."""
+        `floor_at`'s), the largest, and its edge midpoints, vertices and area samples
+        (`point_back_samples`) with their distances to the points' discs."""
         from ._distance import point_back_samples
         from ._mesh import point_mesh_distance
 
