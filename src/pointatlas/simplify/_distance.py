@@ -19,6 +19,7 @@ from ..neighbors import MeshDistanceIndex, point_mesh_distance
 from ..synth._sample import face_points, sample_draws
 from ._disc_kernels import disc_rows, outline_rows
 from ._grid_knn import GridKnn
+from ._mesh import unique_pairs
 
 __all__ = [
     "BACK_SAMPLES",
@@ -161,9 +162,8 @@ def point_back_samples(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0
     """
     t = np.asarray(triangles, dtype=np.int64)
     v = np.asarray(vertices, dtype=np.float64)
-    a, b = t.reshape(-1), t[:, [1, 2, 0]].reshape(-1)
-    key = np.unique(np.minimum(a, b) * v.shape[0] + np.maximum(a, b))  # each edge once
-    middle = 0.5 * (v[key // v.shape[0]] + v[key % v.shape[0]])
+    edges = unique_pairs(np.sort(np.stack([t, t[:, [1, 2, 0]]], axis=2).reshape(-1, 2), axis=1))
+    middle = 0.5 * (v[edges[:, 0]] + v[edges[:, 1]])
     return np.vstack([middle, output_samples(v, t, n, seed)])
 
 

@@ -182,7 +182,7 @@ def lost_strays(q, vertices, triangles, step: float, off, link: float) -> np.nda
             lost[part] = point_mesh_distance(q[part], vertices, triangles, within=far) > far
         if not (lost & off).any():
             return lost & off
-    return lost & off & ~linked(q, lost, link)
+    return lost & ~not_strays(q, lost, off, link)
 
 
 def not_strays(q, lost, off, link: float) -> np.ndarray:
