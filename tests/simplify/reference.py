@@ -431,3 +431,13 @@ def _flip_one_reference(x, rows, side, face, around, t, tiny) -> int:
     around[c].add(u)
     around[d].add(t)
     return 1
+
+
+def fan_kind_reference(p, normal, s, tol):
+    """`_polygon_kernels.fan_kind` in numpy: the fan triangles from vertex ``s`` all
+    turning the polygon's way by more than ``tol`` (2), none against it (1), else 0."""
+    d = np.concatenate((p[s + 1 :], p[:s])) - p[s]
+    area = np.cross(d[:-1], d[1:]) @ normal
+    if (area > tol).all():
+        return 2
+    return 1 if (area >= -tol).all() else 0

@@ -17,6 +17,7 @@ from pointatlas.simplify._polygons import planar_pieces
 from pointatlas.simplify._readers import ear_clip_triangles, fan_triangles
 from pointatlas.synth import cube
 from tests.cli.helpers import run
+from tests.jit_off import JIT_OFF, run_module_without_jit
 
 from . import cad_shapes as C
 
@@ -187,3 +188,38 @@ def test_ear_clipping_kernel_agrees_with_the_numpy_reference(seed):
     points = flat @ rot.T if seed % 2 else flat
     ids = rng.permutation(1000)[:n]
     assert ear_clip_triangles(points, ids) == ear_clip_reference(points, ids)
+
+
+def _star_polygon(seed):
+    """A random polygon star-shaped about the origin (convex for seeds 1, 4, 7, ...)
+    in a tilted plane, counter-clockwise about the normal returned, with a corner
+    halfway between two others."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(3, 30))
+    angle = np.sort(rng.uniform(0, 2 * np.pi, n))
+    radius = rng.uniform(0.2, 1.0, n) if seed % 3 != 1 else np.ones(n)  # 1: convex
+    flat = np.column_stack([radius * np.cos(angle), radius * np.sin(angle), np.zeros(n)])
+    if n > 4:  # a corner halfway along an edge: flat fan triangles
+        flat[2] = 0.5 * (flat[1] + flat[3])
+    rot, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    return flat @ rot.T, rot[:, 2]
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_fan_kind_kernel_matches_reference(seed):
+    from pointatlas.simplify._polygon_kernels import fan_kind
+
+    from .reference import fan_kind_reference
+
+    p, normal = _star_polygon(seed)
+    if seed % 3 == 0:
+        p = p[::-1].copy()  # clockwise: fans from most starts turn against the normal
+    kinds = [fan_kind(p, normal, s, 1e-12) for s in range(len(p))]
+    assert kinds == [fan_kind_reference(p, normal, s, 1e-12) for s in range(len(p))]
+    if seed % 3 == 1:  # convex: every fan covers it; flat where it has corners 1, 2, 3
+        assert kinds == [1 if len(p) > 4 and s in (1, 3) else 2 for s in range(len(p))]
+
+
+@pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
+def test_kernels_without_jit():
+    run_module_without_jit(__file__, select="kernel_matches_reference or kernel_agrees")

@@ -20,6 +20,7 @@ import numpy as np
 
 from ._faces import plane_deviation
 from ._mesh import cross, unique_ints
+from ._polygon_kernels import fan_kind
 from ._readers import ear_clip_triangles, fan_triangles
 
 __all__ = ["PLANAR_RTOL", "face_polygons", "planar_pieces"]
@@ -71,27 +72,29 @@ def face_polygons(vertices, triangles, triangle_face, face_loops, tol: float):
     order = np.argsort(tf, kind="stable")
     bounds = np.searchsorted(tf[order], np.arange(len(face_loops) + 1))
     alone = _alone(v, t, tf, tol)[order] if t.size else np.zeros(0, dtype=bool)
+    t_sorted = t[order]
+    first = np.argmin(t_sorted, axis=1)[:, None]  # every triangle from its lowest id
+    rolled = np.take_along_axis(t_sorted, (first + np.arange(3)) % 3, axis=1)
     pieces, piece_face = [], []
     for f, loops in enumerate(face_loops):
-        mine = t[order[bounds[f] : bounds[f + 1]]]
+        mine = t_sorted[bounds[f] : bounds[f + 1]]
         simple = len(loops) == 1 and unique_ints(loops[0]).size == loops[0].size >= 3
         inside = unique_ints(mine).size != loops[0].size if simple else True
         if simple and not inside and plane_deviation(v[loops[0]]) <= tol:
             mine_pieces = [(np.asarray(loops[0], dtype=np.int64), mine)]
         elif alone[bounds[f] : bounds[f + 1]].all():  # each triangle its own piece
-            mine_pieces = [(_lowest_first(x), x[None]) for x in mine]
+            mine_pieces = [(rolled[k], t_sorted[k : k + 1]) for k in range(*bounds[f : f + 2])]
         else:
             mine_pieces = _pieces(v, mine, tol, alone=alone[bounds[f] : bounds[f + 1]])
         for piece in _fan_ready(v, mine_pieces, tol):
             pieces.append(piece)
             piece_face.append(f)
     polygons, polygon_face = _no_shared_diagonals(v, pieces, piece_face, tol)
-    planarity = [plane_deviation(v[p]) if len(p) > 3 else 0.0 for p in polygons]
-    return (
-        tuple(polygons),
-        np.asarray(polygon_face, dtype=np.int64),
-        np.asarray(planarity, dtype=np.float64),
-    )
+    planarity = np.zeros(len(polygons))
+    for i, p in enumerate(polygons):
+        if len(p) > 3:
+            planarity[i] = plane_deviation(v[p])
+    return tuple(polygons), np.asarray(polygon_face, dtype=np.int64), planarity
 
 
 def _no_shared_diagonals(v, pieces, piece_face, tol: float):
@@ -101,16 +104,30 @@ def _no_shared_diagonals(v, pieces, piece_face, tol: float):
     regrown from its triangles into convex pieces, each written the same way, and a
     convex piece with no such start as its triangles (written as its triangles, a
     sampled L-bracket's 23 planar pieces became 130 polygons)."""
-    edges = set()
-    for cycle, _ in pieces:
-        ids = cycle.tolist()
-        edges.update((min(a, b), max(a, b)) for a, b in zip(ids, ids[1:] + ids[:1], strict=True))
+    edges = _cycle_edges([cycle for cycle, _ in pieces])
     polygons, polygon_face = [], []
     for (cycle, tris), f in zip(pieces, piece_face, strict=True):
+        if len(cycle) == 3:  # a triangle: every reader takes it as it is
+            polygons.append(cycle)
+            polygon_face.append(f)
+            continue
         parts = _reader_parts(v, cycle, tris, edges, tol)
         polygons.extend(np.asarray(p, dtype=np.int64) for p in parts)
         polygon_face.extend([f] * len(parts))
     return polygons, polygon_face
+
+
+def _cycle_edges(cycles) -> set[tuple[int, int]]:
+    """The undirected edges ``(lo, hi)`` of every cycle (vertex ids), as a set."""
+    if not cycles:
+        return set()
+    ids = np.concatenate(cycles)
+    sizes = np.asarray([len(c) for c in cycles])
+    ends = np.cumsum(sizes)
+    after = np.arange(1, ids.size + 1)  # each id's successor on its cycle
+    after[ends - 1] = ends - sizes  # the last one's: the cycle's first
+    lo, hi = np.minimum(ids, ids[after]), np.maximum(ids, ids[after])
+    return set(zip(lo.tolist(), hi.tolist(), strict=True))
 
 
 def _reader_parts(v, cycle, tris, edges, tol: float, convex: bool = False) -> list:
@@ -389,13 +406,12 @@ def fan_starts(points: np.ndarray, ids=None, edges=None):
     order = np.argsort(turn >= 0.0, kind="stable")  # reflex vertices first
     flat = []
     for s in order.tolist():
-        if edges is not None and _diagonal_in(ids, s, edges):
+        kind = fan_kind(p, normal, s, 1e-12 * scale)
+        if kind == 0 or (edges is not None and _diagonal_in(ids, s, edges)):
             continue
-        d = np.concatenate((p[s + 1 :], p[:s])) - p[s]
-        area = cross(d[:-1], d[1:]) @ normal
-        if (area > 1e-12 * scale).all():
+        if kind == 2:
             yield s
-        elif (area >= -1e-12 * scale).all():
+        else:
             flat.append(s)
     yield from flat
 
