@@ -140,6 +140,15 @@ def _clearance(x, c, r, n, corner, h) -> float:
     return out
 
 
+@njit(cache=True, inline="always")
+def _gap(x, a, b, corner, h, margin) -> float:
+    """A lower bound of the squared distance, along one axis, from ``x`` to the
+    points binned in cells ``a`` to ``b`` (their span less ``margin`` on each side,
+    so that a point rounded into a neighbouring cell is not missed)."""
+    out = max(corner + a * h - x, x - (corner + (b + 1) * h)) - margin
+    return out * out if out > 0.0 else 0.0
+
+
 @njit(cache=True, nogil=True)
 def _knn_rows(x, home, q, ids, start, dims, corner, h, margin, out_d, out_j, i0, i1) -> None:
     """`GridKnn.query` for the rows ``i0`` to ``i1``: around each row's own cell, the
@@ -150,7 +159,10 @@ def _knn_rows(x, home, q, ids, start, dims, corner, h, margin, out_d, out_j, i0,
     clearance counts only the sides with cells beyond). One kernel, without calls
     per cell (a call with its arrays' reference counts per column took twice as
     long), and one place that scans a run of cells: the column and its two ends
-    written as three inlined scans took 3-4x as long (the band of `cad_a_a38`)."""
+    written as three inlined scans took 3-4x as long (the band of `cad_a_a38`). A
+    column or cell farther than the k-th nearest so far (`_gap`) is not scanned: the
+    queries of three sampled models' runs in 1.24 s instead of 1.42 s, the same
+    arrays."""
     k = out_d.shape[1]
     last = k - 1
     bd = np.empty(k)
@@ -165,19 +177,25 @@ def _knn_rows(x, home, q, ids, start, dims, corner, h, margin, out_d, out_j, i0,
         while True:
             z0, z1 = max(c2 - r, 0), min(c2 + r, n2 - 1)
             for a in range(max(c0 - r, 0), min(c0 + r, n0 - 1) + 1):
+                g0 = _gap(x0, a, a, corner[0], h, margin)
                 for b in range(max(c1 - r, 0), min(c1 + r, n1 - 1) + 1):
+                    g01 = g0 + _gap(x1, b, b, corner[1], h, margin)
+                    if g01 > bd[last]:  # the column is farther than the k-th so far
+                        continue
                     row = (a * n1 + b) * n2
                     side = abs(a - c0) == r or abs(b - c1) == r
                     for end in range(2):
                         if side:  # the whole column, once
                             if end == 1:
                                 break
-                            lo, hi = row + z0, row + z1 + 1
+                            za, zb = z0, z1
                         else:  # its two ends (one when r = 0)
-                            z = c2 - r if end == 0 else c2 + r
-                            if z < 0 or z >= n2 or (end == 1 and r == 0):
+                            za = zb = c2 - r if end == 0 else c2 + r
+                            if za < 0 or za >= n2 or (end == 1 and r == 0):
                                 continue
-                            lo, hi = row + z, row + z + 1
+                        if g01 + _gap(x2, za, zb, corner[2], h, margin) > bd[last]:
+                            continue
+                        lo, hi = row + za, row + zb + 1
                         _scan(q, ids, start[lo], start[hi], x0, x1, x2, bd, bi)
             g = _clearance(x0, c0, r, n0, corner[0], h)
             g = min(g, _clearance(x1, c1, r, n1, corner[1], h))
