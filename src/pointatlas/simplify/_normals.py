@@ -22,6 +22,7 @@ from .._core import as_points
 from ..features import optimal_k_features
 from ..neighbors import query_knn
 from ..normals import pca_normals
+from ._checks import distinct_positions
 
 __all__ = [
     "FLAT_VARIATION",
@@ -80,7 +81,9 @@ def surface_normals(
     -------
     normals : ndarray of shape (N, 3), float64
         Unit normals with arbitrary sign (orient them with
-        `pointatlas.normals.orient_normals`).
+        `pointatlas.normals.orient_normals`). Points at one position share the
+        normal estimated for it among the distinct positions (``neighbors`` is then
+        not used): copies would fill a neighbourhood with one position.
 
     Examples
     --------
@@ -90,6 +93,9 @@ def surface_normals(
     np.float64(1.0)
     """
     pts = as_points(points)
+    first, inverse = distinct_positions(pts)
+    if first.size < pts.shape[0]:  # each position once: the copies take its normal
+        return surface_normals(pts[first], k, k_range=k_range, flat=flat)[inverse]
     n = pts.shape[0]
     lo, hi = min(int(k_range[0]), n), min(int(k_range[1]), n)
     width = min(max(int(k), hi), n)

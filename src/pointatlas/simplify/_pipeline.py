@@ -8,24 +8,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._core import PointAtlasError, as_float, as_int, as_labels, as_points, readonly
-from ..neighbors import query_knn
-from ._checks import (
-    OFF_SURFACE,
-    STRAY_DROP,
-    STRAY_NOISE,
-    STRAY_RATIO,
-    check_memory,
-    check_size,
-    off_surface_ratio,
-    usable_normals,
-)
-from ._frame import Frame, frame_of
+from .._core import PointAtlasError, as_float, as_int, as_labels, readonly
+from ._checks import STRAY_DROP, STRAY_NOISE
 from ._mesh import SimplifiedMesh
+from ._points_input import PreparedPoints, prepare_points
 from ._proxies import region_proxies
 from ._reconstruct import robust_mesh
 from ._segmentation import simplify_segmentation
-from ._sides import SMOOTH_K, turn_outward
 from ._surface import SurfaceSimplification
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -48,8 +37,9 @@ class PointSimplification:
         input points too.
     point_index : ndarray of shape (M,), int64
         Input index of every point used: points whose normal is zero-length or
-        has a NaN/Inf entry are left out, and so are points far off the surface the
-        others sample (``n_off_surface``).
+        has a NaN/Inf entry are left out, and so are repeated positions
+        (``n_repeated``) and points far off the surface the others sample
+        (``n_off_surface``).
     n_dropped : int
         Number of input points left out.
     path : str
@@ -73,6 +63,10 @@ class PointSimplification:
         planes over `_checks.OFF_SURFACE` point spacings; on the robust path also
         stray returns its voxel surface does not reach, `_checks.STRAY_DROP`); counted
         in ``n_dropped``.
+    n_repeated : int
+        Points left out because an earlier point has the same position (a merged
+        scan's overlap, mesh vertices written once per face; the first one's normal is
+        used); counted in ``n_dropped``.
     """
 
     segmentation: VSAResult | None
@@ -84,6 +78,7 @@ class PointSimplification:
     labels: np.ndarray | None = None
     n_turned: int = 0
     n_off_surface: int = 0
+    n_repeated: int = 0
 
     def __post_init__(self):
         readonly(self.point_index)
@@ -99,6 +94,7 @@ class PointSimplification:
             "path_reason": self.reason,
             "normals_turned": self.n_turned,
             "points_off_surface": self.n_off_surface,
+            "points_repeated": self.n_repeated,
         }
 
 
@@ -130,8 +126,8 @@ def simplify_points(
     points : array_like of shape (N, 3), float64
         Coordinates.
     normals : array_like of shape (N, 3), float64
-        Oriented normals. Points whose normal is zero-length or has a NaN/Inf entry
-        are left out and counted in ``n_dropped``.
+        Oriented normals. Points whose normal is zero-length or has a NaN/Inf entry,
+        or at an earlier point's position, are left out (``n_dropped``).
     vsa : VSAOptions, optional
         The segmentation's settings (`pointatlas.segment.VSAOptions`, default
         ``VSAOptions()``); its ``k`` (thesis: 8; 12 with noise; 1 <= k <= the
@@ -172,7 +168,7 @@ def simplify_points(
         ``segmentation`` (VSAResult), ``mesh`` (SimplifiedMesh, or
         SurfaceSimplification on the robust path), ``path``, ``reason``, ``labels``,
         ``point_index`` and ``n_dropped`` (points left out: without a usable normal,
-        or off the surface, ``n_off_surface``).
+        repeated, ``n_repeated``, or off the surface, ``n_off_surface``).
 
     Raises
     ------
@@ -182,9 +178,9 @@ def simplify_points(
         Non-numeric arrays, non-integer ``k``.
     PointAtlasError
         Too few points ("simplify needs at least 4 points", or fewer than ``k``),
-        more memory than available for this ``k`` (estimated before any work), no
-        point with a usable normal, or a degenerate segmentation (see
-        `simplify_segmentation`).
+        points on one line, more memory than available for this ``k`` (estimated
+        before any work), no point with a usable normal, or a degenerate
+        segmentation (see `simplify_segmentation`).
 
     Notes
     -----
@@ -220,7 +216,7 @@ def simplify_points(
     }
     mesh, reason = _thesis_mesh(inp, seg_labels, seg_normals, path, reason, settings)
     if mesh is not None and not reason:
-        return inp.result(seg, mesh)
+        return _result(inp, seg, mesh)
     return _robust_result(inp, seg, seg_labels, seg_normals, mesh, reason, level, first)
 
 
@@ -283,102 +279,29 @@ def _level(max_error, max_triangles) -> dict:
     return {"max_error": max_error, "max_triangles": max_triangles}
 
 
-@dataclass(frozen=True, slots=True)
-class _Input:
-    """The points used by `simplify_points`, in input and working coordinates."""
-
-    points: np.ndarray  # the points with a usable normal
-    normals: np.ndarray
-    keep: np.ndarray  # (N_input,) bool: the point is used
-    n_input: int
-    k: int
-    options: VSAOptions  # weights given per point follow the points used
-    frame: Frame
-    q: np.ndarray  # the points in the working frame
-    indices: np.ndarray  # their k-NN table (working frame)
-    n_turned: int  # normals turned to the outside (`_sides.turn_outward`)
-    areas: np.ndarray  # the points' disc areas (`_winding.point_areas`)
-    radius: np.ndarray  # ... and the radii of `PointSurface`'s discs (`disc_radii`)
-    n_off_surface: int  # points left out far off the surface (`_checks.off_surface`)
-    ratio: np.ndarray  # the points' heights off their neighbours' planes (`off_surface_ratio`)
-
-    @property
-    def off_planes(self) -> np.ndarray:
-        """The points off their neighbours' planes (`STRAY_RATIO`)."""
-        return self.ratio > STRAY_RATIO
-
-    @property
-    def point_index(self) -> np.ndarray:
-        return np.flatnonzero(self.keep)
-
-    def result(self, seg, mesh, **robust) -> PointSimplification:
-        """The `PointSimplification` of ``mesh`` with the points used."""
-        point_index = self.point_index
-        return PointSimplification(
-            segmentation=seg,
-            mesh=mesh,
-            point_index=point_index,
-            n_dropped=self.n_input - point_index.size,
-            n_turned=self.n_turned,
-            n_off_surface=self.n_off_surface,
-            **robust,
-        )
-
-
-def _prepare(points, normals, vsa, vsa_settings, strays=None) -> _Input:
-    """Check the input, leave out points without a usable normal, the ``strays`` (mask
-    of the input points, or None) and points far off the surface the others sample
-    (`off_surface`), turn inward normals out (`turn_outward`), find the working frame
-    and the k-NN table (memory checked first); ``vsa`` and ``vsa_settings`` give the
-    VSA options."""
-    # imported here so the meshing half of the room works on its own
-    from ..segment import VSAOptions
-    from ._distance import disc_radii
-    from ._winding import table_areas
-
-    opts = (VSAOptions() if vsa is None else vsa).replace(**vsa_settings)
-    given = as_points(points)
-    n_input = given.shape[0]
-    k = check_size(n_input, opts.k)
-    nrm, keep = usable_normals(normals, n_input)
-    n_strays = 0
-    if strays is not None:
-        nrm, n_strays = nrm[~strays[keep]], int((strays & keep).sum())
-        keep &= ~strays
-    pts = given if keep.all() else given[keep]
-    k = check_size(pts.shape[0], k)
-    frame, q, wide, dist = _knn_table(pts, k)
-    ratio = off_surface_ratio(q, nrm, wide, dist)
-    off = ratio > OFF_SURFACE
-    n_off = 0 if off.all() else int(off.sum())
-    if n_off:  # left out: the frame and the table again without them
-        keep[np.flatnonzero(keep)[off]] = False
-        pts, nrm = given[keep], nrm[~off]
-        k = check_size(pts.shape[0], k)
-        frame, q, wide, dist = _knn_table(pts, k)
-        ratio = off_surface_ratio(q, nrm, wide, dist)
-    if not isinstance(opts.weights, str) and not keep.all():
-        # given per-point weights follow the points
-        if opts.weights.shape != (n_input,):
-            raise ValueError(f"weights must have shape ({n_input},); got {opts.weights.shape}")
-        opts = opts.replace(weights=opts.weights[keep])
-    areas, radius = table_areas(dist), disc_radii(dist)
-    nrm, n_turned = turn_outward(q, nrm, (wide, dist), areas)
-    idx = wide if wide.shape[1] == k else np.ascontiguousarray(wide[:, :k])
-    n_off += n_strays  # the strays given are counted with them
-    return _Input(
-        pts, nrm, keep, n_input, k, opts, frame, q, idx, n_turned, areas, radius, n_off, ratio
+def _result(inp: PreparedPoints, seg, mesh, **robust) -> PointSimplification:
+    """The `PointSimplification` of ``mesh`` with the points used."""
+    point_index = inp.point_index
+    return PointSimplification(
+        segmentation=seg,
+        mesh=mesh,
+        point_index=point_index,
+        n_dropped=inp.n_input - point_index.size,
+        n_turned=inp.n_turned,
+        n_off_surface=inp.n_off_surface,
+        n_repeated=inp.n_repeated,
+        **robust,
     )
 
 
 def _surface_first(path: str, points, normals, vsa, vsa_settings):
-    """``(inp, first)``: the input prepared (`_prepare`) and, on the robust path
+    """``(inp, first)``: the input prepared (`prepare_points`) and, on the robust path
     (``path`` "robust", or "auto" above `AUTO_THESIS_POINTS` points), its voxel surface
     (`reconstruct_surface`) built before the points are segmented, with its tree and
     `PointSurface`; where it leaves stray returns it does not reach (`lost_strays`),
     the input prepared again without them and the surface moved into its working
     frame. Elsewhere ``first`` is None."""
-    inp = _prepare(points, normals, vsa, vsa_settings)
+    inp = prepare_points(points, normals, vsa, vsa_settings)
     if not (path == "robust" or (path == "auto" and inp.points.shape[0] > AUTO_THESIS_POINTS)):
         return inp, None
     from scipy.spatial import cKDTree
@@ -398,7 +321,7 @@ def _surface_first(path: str, points, normals, vsa, vsa_settings):
         return inp, (tree, surface, rec)
     mask = np.zeros(inp.n_input, dtype=bool)
     mask[inp.point_index[strays]] = True
-    out = _prepare(points, normals, vsa, vsa_settings, strays=mask)
+    out = prepare_points(points, normals, vsa, vsa_settings, strays=mask)
     # the surface does not reach the strays: it stands, in the new working frame
     old, new = inp.frame, out.frame
     rec = dataclasses.replace(
@@ -410,22 +333,7 @@ def _surface_first(path: str, points, normals, vsa, vsa_settings):
     return out, (tree, PointSurface(out.q, out.normals, tree, out.radius), rec)
 
 
-def _knn_table(pts, k: int):
-    """``(frame, q, indices, distances)``: the working frame of ``pts``, the points in
-    it, and one k-NN table for VSA, the discs (areas, radii), `off_surface` and
-    `turn_outward` (its first ``k`` columns are `query_knn(q, k)`'s: ties go to the
-    smaller index); memory checked first."""
-    from ._distance import DISC_NEIGHBOR
-    from ._winding import AREA_NEIGHBOR
-
-    columns = min(max(k, SMOOTH_K, AREA_NEIGHBOR + 1, DISC_NEIGHBOR + 1), pts.shape[0])
-    check_memory(pts.shape[0], k, columns=columns)
-    frame = frame_of(pts)
-    q = frame.to_local(pts)
-    return (frame, q, *query_knn(q, columns))
-
-
-def _segment(inp: _Input, labels, centers, rng):
+def _segment(inp: PreparedPoints, labels, centers, rng):
     """VSA (or the given labels): (VSAResult or None, labels, proxy normals, centers)."""
     from ..segment import vsa_segment
 
@@ -433,7 +341,7 @@ def _segment(inp: _Input, labels, centers, rng):
         raise ValueError(f"centers must be 'centroid' or 'seed'; got {centers!r}")
 
     if labels is None:
-        # the k-NN table of `_prepare` (the working frame's: the same as VSA's own)
+        # the k-NN table of `prepare_points` (the working frame's: the same as VSA's own)
         seg = vsa_segment(
             inp.points, inp.normals, options=inp.options, rng=rng, neighbors=inp.indices
         )
@@ -455,7 +363,7 @@ def _segment(inp: _Input, labels, centers, rng):
     return None, seg_labels, np.asarray(prox.normals), ctr
 
 
-def _thesis_mesh(inp: _Input, seg_labels, seg_normals, path, reason, settings):
+def _thesis_mesh(inp: PreparedPoints, seg_labels, seg_normals, path, reason, settings):
     """The thesis path's mesh and why it is not kept: (mesh or None, reason; "" when
     it is kept); (None, ``reason``) on the robust path."""
     if path == "robust":
@@ -484,7 +392,9 @@ def _thesis_mesh(inp: _Input, seg_labels, seg_normals, path, reason, settings):
     return mesh, (_thesis_flaw(mesh, far) if path == "auto" else "")
 
 
-def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, level, first=None):
+def _robust_result(
+    inp: PreparedPoints, seg, seg_labels, seg_normals, mesh, reason, level, first=None
+):
     """The robust path's result, or the open thesis mesh where the points' surface is
     open too and the thesis mesh is as near to the points (``first``: the voxel
     surface found already, `_surface_first`)."""
@@ -510,7 +420,7 @@ def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, leve
         from ._vertices import SimplifyWarning
 
         warnings.warn(f"{reason}, kept: {exc}", SimplifyWarning, stacklevel=3)
-        return inp.result(seg, mesh)
+        return _result(inp, seg, mesh)
     if (
         mesh is not None
         and reason.startswith("open")
@@ -518,7 +428,7 @@ def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, leve
         and mesh.distance_mean <= res.distance_mean
     ):
         # the points' surface is open too, and the thesis mesh is as near: it stands
-        return inp.result(seg, mesh)
+        return _result(inp, seg, mesh)
     if reason.startswith("open") and rec.n_trimmed == 0:
         reason = "thesis path: the mesh has boundary edges where the points' surface is closed"
     elif reason.startswith("open"):
@@ -535,7 +445,7 @@ def _robust_result(inp: _Input, seg, seg_labels, seg_normals, mesh, reason, leve
         )
     if rec.n_trimmed:  # an open sample (a sheet, a scan that misses a side)
         reason += "; the points close no surface: the mesh is open, cut where they end"
-    return inp.result(seg, res, path="robust", reason=reason, labels=point_labels)
+    return _result(inp, seg, res, path="robust", reason=reason, labels=point_labels)
 
 
 def _thesis_flaw(mesh: SimplifiedMesh, far: bool = True) -> str:
