@@ -152,3 +152,24 @@ def test_a_patch_turned_in_under_the_closed_tests_bound_is_turned_back():
             assert count == size and (np.einsum("ij,ij->i", got, truth) > 0).all()
         else:
             assert got is n and count == 0
+
+
+def test_normals_given_pointing_in_are_all_turned_out():
+    """A closed sample whose every normal points in (another program's convention)
+    gives the mesh of its outward normals, bit for bit, facing out; an open sheet's
+    normals pointing down are left as given."""
+    p, truth = _u_channel()
+    inward = simplify_points(p, -truth, path="robust")
+    outward = simplify_points(p, truth, path="robust")
+    assert inward.n_turned == p.shape[0] and outward.n_turned == 0
+    assert np.array_equal(np.asarray(inward.mesh.vertices), np.asarray(outward.mesh.vertices))
+    assert np.array_equal(np.asarray(inward.mesh.triangles), np.asarray(outward.mesh.triangles))
+    v, t = np.asarray(inward.mesh.vertices), np.asarray(inward.mesh.triangles)
+    volume = np.einsum("ij,ij->i", v[t[:, 0]], np.cross(v[t[:, 1]], v[t[:, 2]])).sum() / 6.0
+    assert abs(volume - (6 * 6 - (6 - 2 * WALL) * (6 - WALL)) * 4.0) < 0.05 * volume
+    g = np.linspace(0.0, 5.0, 40)
+    x, y = np.meshgrid(g, g)
+    sheet = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    down = np.tile([0.0, 0.0, -1.0], (sheet.shape[0], 1))
+    same, count = turn_outward(sheet, down)
+    assert same is down and count == 0

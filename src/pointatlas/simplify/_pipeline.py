@@ -56,7 +56,8 @@ class PointSimplification:
         Normals turned to the outside before anything else: where the normals'
         dipole sum says open but their outward sides, asked of a voxel grid, make
         the sample closed (estimated normals whose orientation crossed a thin wall;
-        docs/decisions/simplify.md, "Normals turned to the outside").
+        docs/decisions/simplify.md, "Normals turned to the outside"), or every
+        normal where they close the sample but enclose a negative volume.
     n_off_surface : int
         Points left out because they lie far off the surface the others sample
         (outliers: the median of their heights over their 8 nearest points' tangent

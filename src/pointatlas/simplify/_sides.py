@@ -33,6 +33,7 @@ __all__ = [
     "TURN_CONFLICTS",
     "TURN_DIPOLE",
     "added_conflicts",
+    "enclosed_volume",
     "outside_votes",
     "turn_outward",
 ]
@@ -156,7 +157,9 @@ def turn_outward(
     """``normals`` with the inward-turned ones flipped, and how many were; unchanged
     (0) when the points' dipole sum is at most `TURN_DIPOLE` of their area, or the
     flipped normals would not make the sample closed (`CLOSED_DIPOLE`) with a
-    smaller sum (an open sheet, a shape open to the grid's border).
+    smaller sum (an open sheet, a shape open to the grid's border). All of them are
+    flipped where the dipole sum says closed but the volume they enclose is negative
+    (`enclosed_volume`: normals given pointing in).
 
     ``neighbors``: ``(indices, distances)``, a `query_knn` table of ``q`` with at
     least `SMOOTH_K` columns (its first `SMOOTH_K` are used; searched when None);
@@ -168,6 +171,8 @@ def turn_outward(
     area = point_areas(q) if areas is None else areas
     before = dipole_share(q, normals, area)
     if before <= TURN_DIPOLE:
+        if enclosed_volume(q, normals, area) < 0.0:  # closed, and every normal in
+            return -normals, int(normals.shape[0])
         return normals, 0
     if neighbors is None:
         idx, dist = query_knn(q, SMOOTH_K)
@@ -190,6 +195,20 @@ def turn_outward(
     if added_conflicts(q, normals, flip, np.asarray(idx)) > TURN_CONFLICTS * flip.sum():
         return normals, 0  # it cuts a rightly oriented surface: not a whole sheet
     return turned, int(flip.sum())
+
+
+def enclosed_volume(q, normals, areas) -> float:
+    """The volume a closed sample's oriented points enclose, by the divergence
+    theorem: the sum of area x (q . normal) / 3 (negative when the normals point in).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.normal(size=(4000, 3)); u /= np.linalg.norm(u, axis=1)[:, None]
+    >>> round(enclosed_volume(u, u, np.full(4000, 4 * np.pi / 4000)), 2)  # 4 pi / 3
+    4.19
+    """
+    return float(np.dot(areas, np.einsum("ij,ij->i", q, normals)) / 3.0)
 
 
 def added_conflicts(q, normals, flip, indices) -> int:

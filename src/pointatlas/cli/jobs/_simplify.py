@@ -327,6 +327,8 @@ def _simplify_point_input(infile, out, o: SimplifyOptions) -> SimplifyResult:
     )
     mesh = result.mesh
     robust = result.path == "robust"
+    if result.n_turned:
+        say(f"{result.n_turned:,} normals pointed into the shape: turned to the outside")
     if result.n_repeated:
         say(f"{result.n_repeated:,} points repeat the position of a point before them: used once")
     if result.n_off_surface:
