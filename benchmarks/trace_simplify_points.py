@@ -4,6 +4,7 @@ Run from the repository root::
 
     .venv/bin/python benchmarks/trace_simplify_points.py cad_a_a5 cad_a_a13
     .venv/bin/python benchmarks/trace_simplify_points.py hfd_edge --estimate-normals
+    .venv/bin/python benchmarks/trace_simplify_points.py cad_a_a5 --vertices
 
 Each model is sampled as `bench_simplify_points.py` samples it (20,000 points, face
 normals, or estimated with ``--estimate-normals``) and run through `simplify_points`
@@ -18,6 +19,13 @@ farthest truth sample from the output, and its distance to the nearest input poi
 (far: a part the points do not sample; near: a part the output lost). Distances in
 % of the points' diagonal. Decisions: docs/decisions/simplify.md, "The output's edge
 midpoints, measured back to the points".
+
+With ``--vertices`` it also prints, for the voxel surface and level 0, how many of
+their vertices lie over ``FAR`` % of the diagonal from the truth and how far those are
+from the nearest point in points' spacings (their median nearest-neighbour distance),
+beside the vertices within it (their 99.9th percentile and largest, and how many are
+at least as far as the nearest far one): whether the distance to the points could
+tell the far vertices from the others.
 """
 
 from __future__ import annotations
@@ -81,7 +89,29 @@ def farthest(label, mesh, truth, near, diag) -> str:
     )
 
 
-def trace(path: Path, sampling: Sampling) -> list[str]:
+#: ``--vertices``: a surface vertex this far from the truth (% of the diagonal) is far
+FAR = 0.9
+
+
+def far_vertices(label, mesh, truth, tree, diag) -> str:
+    """``--vertices``' line for one surface ``mesh`` (vertices, triangles)."""
+    v = mesh[0]
+    spacing = float(np.median(tree.query(tree.data, k=2)[0][:, 1]))
+    far = point_mesh_distance(v, *truth) > FAR * diag / 100.0
+    near = tree.query(v)[0] / spacing
+    if not far.any():
+        return f"  {label:8s} vertices: none over {FAR} % of the truth"
+    first = float(near[far].min())
+    return (
+        f"  {label:8s} vertices: {int(far.sum())} of {v.shape[0]} over {FAR} % of the "
+        f"truth, {first:.1f}-{float(np.median(near[far])):.1f} (min-median) spacings "
+        f"from the nearest point; the others up to {np.quantile(near[~far], 0.999):.1f} "
+        f"(99.9 %) and {near[~far].max():.1f}, {int((near[~far] >= first).sum())} of them "
+        f"{first:.1f} or more"
+    )
+
+
+def trace(path: Path, sampling: Sampling, vertices: bool = False) -> list[str]:
     mesh = read_mesh(path)
     tri = np.asarray(mesh.triangles, dtype=np.int64)
     truth = (np.asarray(mesh.vertices), tri)
@@ -94,6 +124,9 @@ def trace(path: Path, sampling: Sampling) -> list[str]:
         frame = frame_of(p[result.point_index])
         for label, (v, t) in caught.items():
             lines.append(farthest(label, (frame.to_input(v), t), truth, near, diag))
+            if vertices:
+                tree = cKDTree(p)
+                lines.append(far_vertices(label, (frame.to_input(v), t), truth, tree, diag))
     out = (np.asarray(result.mesh.vertices), np.asarray(result.mesh.triangles))
     lines.append(farthest("output", out, truth, near, diag))
     samples = np.vstack([truth[0], sample_mesh(*truth, 20000, rng=1).points])
@@ -114,13 +147,14 @@ def main() -> None:
     ap.add_argument("--models-dir", type=Path, default=COLLECTION)
     ap.add_argument("--points", type=int, default=20000)
     ap.add_argument("--estimate-normals", action="store_true")
+    ap.add_argument("--vertices", action="store_true", help="the far vertices' lines too")
     args = ap.parse_args()
     sampling = Sampling(points=args.points, estimate=args.estimate_normals)
     for name in args.models:
         path = args.models_dir / name
         if not path.exists():
             path = next(args.models_dir.glob(Path(name).stem + ".*"))
-        print("\n".join(trace(path, sampling)), flush=True)
+        print("\n".join(trace(path, sampling, args.vertices)), flush=True)
 
 
 if __name__ == "__main__":
