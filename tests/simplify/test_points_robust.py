@@ -255,6 +255,19 @@ def test_a_pipe_too_thin_for_its_points_says_why():
     assert "sample the thin parts more densely" in text and "\n" not in text
 
 
+def test_a_plate_a_spacing_thick_says_it_is_too_thin_not_only_inward():
+    """A plate 1 x 1 x 0.02 with true outward normals, 5,000 points (a spacing about
+    0.02): in this sampling no lattice node of the winding number falls inside it; the
+    one line names the thin part first, and the normals as the other cause."""
+    v, t = extrude([(0, 0), (1, 0), (1, 1), (0, 1)], height=0.02)
+    s = sample_mesh(v, t, 5000, rng=2)
+    with pytest.raises(PointAtlasError) as caught:
+        simplify_points(np.asarray(s.points), np.asarray(s.normals))
+    text = str(caught.value)
+    assert "winding number reads no inside on the grid" in text
+    assert "thinner than about two grid steps" in text and "\n" not in text
+
+
 def test_max_error_and_max_triangles_on_points():
     v, t = l_bracket()
     s = sample_mesh(v, t, 8000, rng=0)

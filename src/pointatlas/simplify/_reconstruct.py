@@ -243,7 +243,9 @@ def _winding_sides(q, normals, occupied, step, spacing, origin):
     if w.min() < WINDING_CLEAR - 1.0 and w.max() < 1.0 - WINDING_CLEAR:
         raise PointAtlasError(
             f"simplify could not build a surface from these {q.shape[0]} points: their "
-            "normals point in (the points' winding number is -1 inside them)"
+            "winding number reads no inside on the grid (-1 at nodes, never +1): parts "
+            "thinner than about two grid steps (sample them more densely), or normals "
+            "pointing in"
         )
     w = w.reshape([a.size for a in axes])
     far_from = distance_to(occupied) * step
