@@ -84,6 +84,11 @@ def run_ours(mesh, soup: bool = False, regions: bool = False) -> dict:
         "hausdorff_pct": 100.0 * max(res.distance_max, res.back_distance_max) / diag,
         "max_polygon_planarity_pct": 100.0 * float(res.polygon_planarity.max(initial=0.0)) / diag,
         "max_planarity_pct": 100.0 * float(res.planarity_error.max(initial=0.0)) / diag,
+        "flat_faces": int(res.face_flat.sum()),
+        "flat_faces_bent": int((res.planarity_error[res.face_flat] > 1e-6 * diag).sum()),
+        "max_flat_planarity_pct": 100.0
+        * float(res.planarity_error[res.face_flat].max(initial=0.0))
+        / diag,
         "degenerate": zero_area_triangles(res.vertices, res.triangles, diag),
         "seconds": seconds,
         "path": "regions" if regions else "decimate",
@@ -200,6 +205,14 @@ def main(argv=None) -> int:
         f"Hausdorff (both ways) median {np.median([r['hausdorff_pct'] for r in rows]):.3f} %,"
         f" max {max(r['hausdorff_pct'] for r in rows):.3f} % of the diagonal; largest "
         f"polygon planarity error {max(r['max_polygon_planarity_pct'] for r in rows):.2g} %"
+    )
+    flat = sum(r["flat_faces"] for r in rows)
+    bent = [r for r in rows if r["flat_faces_bent"]]
+    print(
+        f"faces of flat regions: {flat}, planar within 1e-6 of the diagonal: "
+        f"{flat - sum(r['flat_faces_bent'] for r in bent)}; models with a bent one: "
+        f"{len(bent)}, largest {max(r['max_flat_planarity_pct'] for r in rows):.2g} % "
+        f"({max(rows, key=lambda r: r['max_flat_planarity_pct'])['model']})"
     )
     print(
         f"outputs with a zero-area triangle (<= 1e-12 of the diagonal squared): "

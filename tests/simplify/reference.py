@@ -68,6 +68,45 @@ def collapse_position_reference(q, a, b):
     return (costs[k], *candidates[k].tolist())
 
 
+def planes_position_reference(q, a, b, normals, offsets, ids, tol):
+    """`_plane_kernels.planes_position` with numpy's linear algebra: the planes that
+    add a direction (their normal's part across the planes before it longer than
+    `PARALLEL_SINE`), their meet's point nearest the midpoint (pseudo-inverse), the
+    directions left (SVD), and the cheapest of the quadric's least point there (when
+    well conditioned and within `REACH`) and a, b and the midpoint moved onto the
+    meet: ``(cost, x, y, z, ok)``."""
+    from pointatlas.simplify._plane_kernels import PARALLEL_SINE, REACH
+
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if len(ids) == 0:
+        return (*collapse_position_reference(q, a, b), True)
+    kept = []
+    for r in ids:
+        n = normals[r]
+        if kept:
+            span = normals[kept]
+            n = n - span.T @ np.linalg.lstsq(span.T, n, rcond=None)[0]
+        if len(kept) < 3 and np.linalg.norm(n) > PARALLEL_SINE:
+            kept.append(r)
+    big_n, mid = normals[kept], 0.5 * (a + b)
+    x0 = mid + np.linalg.pinv(big_n) @ (offsets[kept] - big_n @ mid)
+    free = np.linalg.svd(big_n)[2][len(kept) :]
+    candidates = [x0 + free.T @ (free @ (p - x0)) for p in (a, b, mid)]
+    if len(free):
+        h = free @ q[:3, :3] @ free.T
+        g = q[:3, :3] @ x0 + q[:3, 3]
+        good = abs(np.linalg.det(h)) > 1e-10 * np.linalg.norm(q[:3, :3]) ** len(free)
+        if len(free) == 1:
+            good = h[0, 0] > 1e-10 * np.linalg.norm(q[:3, :3])
+        least = x0 + free.T @ np.linalg.solve(h, -free @ g) if good else None
+        if good and np.linalg.norm(least - mid) <= REACH * np.linalg.norm(a - b):
+            candidates.append(least)
+    costs = [float(np.append(p, 1.0) @ q @ np.append(p, 1.0)) for p in candidates]
+    x = candidates[int(np.argmin(costs))]
+    ok = bool(np.all(np.abs(normals[list(ids)] @ x - offsets[list(ids)]) <= tol))
+    return (min(costs), *x.tolist(), ok)
+
+
 def turns_over_reference(v, faces, w, x):
     for f in faces:
         p = v[f].copy()
@@ -81,20 +120,38 @@ def turns_over_reference(v, faces, w, x):
 
 def decimate_reference(vertices, triangles, target, *, labels=None, planes=None, structure=1.0):
     """The decimation loop in plain Python (heap of edges, sets of faces per vertex),
-    stopping at ``target`` triangles: what `collapse_edges` computes. The collapse
-    position is the kernel's (checked on its own against
-    `collapse_position_reference`): on symmetric shapes one ulp reorders ties."""
+    stopping at ``target`` triangles: what `collapse_edges` computes, with the flat
+    regions' planes held (`_plane_kernels`) when ``labels`` and ``planes`` are given.
+    The collapse position is the kernel's (checked on its own against
+    `collapse_position_reference` and `planes_position_reference`): on symmetric
+    shapes one ulp reorders ties."""
     import heapq
 
-    from pointatlas.simplify._decimate import _TIE, _vertex_quadrics
+    from pointatlas.simplify._decimate import _TIE, _held_planes, _vertex_quadrics
     from pointatlas.simplify._kernels import collapse_position
+    from pointatlas.simplify._plane_kernels import planes_position
 
-    def push(heap, v, q, a, b, version):
-        cost, x, y, z = collapse_position(q[a] + q[b], v[a], v[b])
+    held = _held_planes(np.asarray(vertices, float), np.asarray(triangles), labels, planes)
+
+    def position(v, q, a, b):
+        tflat, normals, offsets, tol = held
+        if tflat.size == 0:
+            cost, x, y, z = collapse_position(q[a] + q[b], v[a], v[b])
+        else:
+            near = (faces_of[a] | faces_of[b]) - (faces_of[a] & faces_of[b])
+            ids = np.array(sorted({int(tflat[f]) for f in near if tflat[f] >= 0}), np.int64)
+            cost, x, y, z, ok = planes_position(
+                q[a] + q[b], v[a], v[b], normals, offsets, ids, len(ids), tol, np.empty((12, 3))
+            )
+            if not ok:
+                return np.inf, (x, y, z)
         d = v[a] - v[b]
         dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-        cost = max(cost, 0.0) + _TIE * dd * dd
-        heapq.heappush(heap, (cost, a, b, int(version[a]), int(version[b]), (x, y, z)))
+        return max(cost, 0.0) + _TIE * dd * dd, (x, y, z)
+
+    def push(heap, v, q, a, b, version):
+        cost, x = position(v, q, a, b)
+        heapq.heappush(heap, (cost, a, b, int(version[a]), int(version[b]), x))
 
     def collapsible(v, tri, faces_of, a, b, shared, x):
         ring_a = {int(u) for f in faces_of[a] for u in tri[f]} - {a}
@@ -136,6 +193,9 @@ def decimate_reference(vertices, triangles, target, *, labels=None, planes=None,
     while n_alive > target and heap:
         cost, a, b, va, vb, x = heapq.heappop(heap)
         if version[a] != va or version[b] != vb or not faces_of[a] or not faces_of[b]:
+            continue
+        cost, x = position(v, q, a, b)  # the same unless a triangle around went
+        if cost == np.inf:
             continue
         shared = faces_of[a] & faces_of[b]
         if not shared or (len(shared) == 2 and on_boundary[a] and on_boundary[b]):

@@ -6,12 +6,14 @@ Lafarge and Alliez (2015): every vertex carries the quadric of its triangles' pl
 weighted by ``structure`` times the vertex's area; an open boundary edge adds the
 quadric of the plane through it perpendicular to its triangle (weighted 100x, so the
 outline stays). The cheapest edge is collapsed to the point minimising the summed
-quadric (the better of its ends and midpoint when that point is ill-defined), unless
-the collapse would break the surface: the link condition (the ends share exactly the
-two vertices opposite the edge, one on an open boundary) keeps it manifold, and no
-triangle around may turn by more than 90 degrees or lose its area. Triangles keep
-their identity (and region) through collapses, so the regions of the result are the
-input's regions, decimated.
+quadric (the better of its ends and midpoint when that point is ill-defined), on the
+planes of the flat regions left around it when they are held (`_plane_kernels`: the
+faces of flat regions stay exactly planar; refused where those planes do not meet),
+unless the collapse would break the surface: the link condition (the ends share
+exactly the two vertices opposite the edge, one on an open boundary) keeps it
+manifold, and no triangle around may turn by more than 90 degrees or lose its area.
+Triangles keep their identity (and region) through collapses, so the regions of the
+result are the input's regions, decimated.
 """
 
 from __future__ import annotations
@@ -31,6 +33,9 @@ __all__ = ["Collapses", "collapse_all", "decimate"]
 _BOUNDARY_WEIGHT = 100.0
 #: Weight of the squared squared edge length added to a collapse's cost (ties).
 _TIE = 1e-6
+#: A flat plane that adds no direction at a merged vertex (parallel to its others)
+#: must pass within this fraction of the diagonal of it, else the collapse is refused.
+_ON_PLANES = 1e-7
 #: A carried point's first owner is the nearest of this many triangles (the nearest
 #: centroids).
 _OWNER_CANDIDATES = 8
@@ -163,6 +168,7 @@ def collapse_all(
     surface=None,
     tolerance=None,
     back=None,
+    hold=True,
 ) -> Collapses:
     """The decimation's collapses down to the last valid one (`Collapses`), or down to
     the first that leaves at most ``target`` triangles (the same collapses: the
@@ -174,7 +180,10 @@ def collapse_all(
     every point within it (`_bound_kernels`; a point already farther at first may
     stay as far). ``tolerance`` may be a `concurrent.futures.Future` of the pair
     ``(tolerance, back)``: waited for once the quadrics and the points' first owners
-    are found (on a thread, `Decimation.start`, while the caller measures them)."""
+    are found (on a thread, `Decimation.start`, while the caller measures them).
+    With ``labels`` and ``planes`` and ``hold``, every merged vertex goes onto the
+    planes of its flat regions (`_plane_kernels`: the faces of flat regions stay
+    exactly planar)."""
     v = np.array(vertices, dtype=np.float64)
     tri = np.array(triangles, dtype=np.int64)
     n_v = v.shape[0]
@@ -189,10 +198,27 @@ def collapse_all(
     if edge.shape[0] == 0:
         return no_collapses(v, tri)
     carried = _carried(surface, owners, tolerance, back)
+    held = _held_planes(v, tri, labels, planes if hold else None)
     kept, gone, position, removed, cost = collapse_edges(
-        v.copy(), tri, q, on_boundary, edge.astype(np.int64), _TIE, int(target or 0), carried
+        v.copy(), tri, q, on_boundary, edge.astype(np.int64), _TIE, int(target or 0), carried, held
     )
     return Collapses(v, tri, kept, gone, position, removed, cost)
+
+
+def _held_planes(v, tri, labels, planes):
+    """`collapse_edges`' ``planes``: each triangle's flat region (-1: none), the
+    regions' normals and offsets, and how far (`_ON_PLANES` of the diagonal of the
+    triangles' vertices) a plane adding no direction may be from the merged vertex;
+    no rows without ``labels`` and ``planes``."""
+    if labels is None or planes is None or tri.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros(0), 0.0
+    normals, offsets, flat = planes
+    lab = np.asarray(labels, dtype=np.int64)
+    tflat = np.where(flat[lab], lab, -1).astype(np.int64)
+    on = v[np.unique(tri)]
+    diag = float(np.linalg.norm(on.max(axis=0) - on.min(axis=0)))
+    normals = np.ascontiguousarray(normals, dtype=np.float64)
+    return tflat, normals, np.ascontiguousarray(offsets, dtype=np.float64), _ON_PLANES * diag
 
 
 def _owners(surface, v, tri):

@@ -147,11 +147,16 @@ def _decimate_mesh(verts, tri, max_triangles, max_error, max_angle, rng):
     on = verts if run_used is None else verts[run_used]  # the vertices on a triangle
     measure = MeshDistances(on, verts, tri, run_used)
     args = (verts, tri, labels, planes, _PLACE_STEP * diag, 1e-9 * diag, measure)
-    level = Decimation(*args, target=max_triangles)
     if max_triangles is not None and planes[2].any():
-        plain = Decimation(*args, structure=0.0, target=max_triangles)
-        level, m, distances = _nearer_within(level, plain, max_triangles)
+        # three sequences (`_nearest_within`), the other two on threads meanwhile
+        soft = Decimation(*args, target=max_triangles, hold=False, start=False)
+        plain = Decimation(*args, structure=0.0, target=max_triangles, hold=False, start=False)
+        soft.start(background=True)
+        plain.start(background=True)
+        level = Decimation(*args, target=max_triangles)
+        level, m, distances = _nearest_within([level, soft, plain], max_triangles)
     else:
+        level = Decimation(*args, target=max_triangles)
         m, distances = level.steps_for(max_triangles, max_error), None
     res = level.result(m, PLANAR_RTOL * diag, distances)
     if run_used is not None:
@@ -159,24 +164,28 @@ def _decimate_mesh(verts, tri, max_triangles, max_error, max_angle, rng):
     return res if repair is None else repair.back(res)
 
 
-def _nearer_within(structured: Decimation, plain: Decimation, budget: int):
-    """``(decimation, collapses, distances)``: of the structured decimation and the
-    plain one (no plane quadrics), each at its first level within the triangle
-    ``budget``, the one that meets the budget; both or neither (the surface's
-    topology stops the collapses first): the one with the smaller two-sided mean
-    distance, ties to the structured one: every input vertex to the output and the
-    output's vertices and first `CHOICE_SAMPLES` area samples back (of the report's;
-    the one kept is measured on all of them by `result`). At small budgets the flat
-    regions can no longer all be kept, and their planes' quadrics then steer the last
-    collapses away from the shape (docs/decisions/simplify.md, "Decimation")."""
-    levels = (structured, plain)
+def _nearest_within(levels: list, budget: int):
+    """``(decimation, collapses, distances)``: of the ``levels`` (the planes held, the
+    structure term alone, plain quadrics), each at its first level within the
+    triangle ``budget``, those that meet it (none: all), the one with the least
+    product of its two-sided mean and largest distance, ties to the first: every
+    input vertex to the output and the output's vertices and first `CHOICE_SAMPLES`
+    area samples back (of the report's; the one kept is measured on all of them by
+    `result`). At small budgets the flat regions can no longer all be kept: their
+    planes held, or their quadrics, then steer the last collapses away from the
+    shape, and a spike shows only in the largest distance (docs/decisions/
+    simplify.md, "Decimation")."""
     steps = [level.steps_for(budget, None) for level in levels]
-    over = [level.seq.n_triangles(m) > budget for level, m in zip(levels, steps, strict=True)]
-    if over[0] != over[1]:  # one meets the budget: its distances are measured by `result`
-        k = over.index(False)
-        return levels[k], steps[k], None
-    near = [level.near(m, CHOICE_SAMPLES) for level, m in zip(levels, steps, strict=True)]
-    k = 1 if near[1] < near[0] else 0
+    meet = [
+        k
+        for k, (lv, m) in enumerate(zip(levels, steps, strict=True))
+        if lv.seq.n_triangles(m) <= budget
+    ]
+    pick = meet or list(range(len(levels)))
+    if len(pick) == 1:  # its distances are measured by `result`
+        return levels[pick[0]], steps[pick[0]], None
+    near = {k: levels[k].near(steps[k], CHOICE_SAMPLES) for k in pick}
+    k = min(pick, key=lambda j: (near[j][0] * near[j][1], j))
     return levels[k], steps[k], None
 
 
@@ -224,13 +233,15 @@ class MeshDistances:
         output's samples back to the input."""
         return self.there(out_v, out_t, lineage), self.back(out_v, out_t, lineage)
 
-    def near(self, out_v, out_t, lineage=None, first=None) -> tuple[np.ndarray, float]:
-        """``(there, back_mean)``: `report`'s first part, and the mean distance back of
-        the output's vertices and its first ``first`` area samples (None: all, as
-        `back`)."""
+    def near(self, out_v, out_t, lineage=None, first=None) -> tuple[np.ndarray, float, float]:
+        """``(there, back_mean, back_max)``: `report`'s first part, and the mean and
+        largest distance back of the output's vertices and its first ``first`` area
+        samples (None: all, as `back`)."""
         there = self.there(out_v, out_t, lineage)
         back = self._back(out_v, out_t, lineage, first)
-        return there, float(back.mean()) if back.size else 0.0
+        if not back.size:
+            return there, 0.0, 0.0
+        return there, float(back.mean()), float(back.max())
 
     def there(self, out_v, out_t, lineage=None) -> np.ndarray:
         """Every input vertex to the output, exactly (`report`'s first part)."""
@@ -306,7 +317,8 @@ class Decimation:
     (`MeshDistances`, or the points' on the points path); ``box`` (lo, hi): vertices
     are clipped into it; ``target``: the collapses stop at the first level with at
     most this many triangles (`collapse_all`; for a budget: `steps_within` then sees
-    only those); ``start``: False to begin the collapses later (`start`).
+    only those); ``start``: False to begin the collapses later (`start`); ``hold``:
+    the collapses put their vertices on their flat regions' planes (`collapse_all`).
     """
 
     def __init__(
@@ -323,11 +335,18 @@ class Decimation:
         structure=1.0,
         target=None,
         start=True,
+        hold=True,
     ):
         self.verts, self.tri, self.labels, self.planes = verts, tri, labels, planes
         self.step, self.still, self.measure, self.box = step, still, measure, box
         self.n_regions = int(labels.max()) + 1
-        self._args = {"labels": labels, "planes": planes, "structure": structure, "target": target}
+        self._args = {
+            "labels": labels,
+            "planes": planes,
+            "structure": structure,
+            "target": target,
+            "hold": hold,
+        }
         self._seq, self._pending = None, None
         if start:
             self.start()
@@ -495,16 +514,18 @@ class Decimation:
         it) is done: here when they are next to each other."""
         return hi - lo <= 1
 
-    def near(self, m: int, first: int) -> float:
-        """The two-sided mean distance after ``m`` collapses: every input vertex to the
-        output (as reported; kept for `distances`) and the output's vertices and
-        first ``first`` area samples back (`MeshDistances.near`)."""
+    def near(self, m: int, first: int) -> tuple[float, float]:
+        """``(mean, largest)``: the two-sided mean and largest distance after ``m``
+        collapses: every input vertex to the output (as reported; kept for
+        `distances`) and the output's vertices and first ``first`` area samples back
+        (`MeshDistances.near`)."""
         placed = self._placed(m)
         out_v, out_t, _, _, lineage = placed
         self._kept_level = (m, placed)
-        there, back_mean = self.measure.near(out_v, out_t, lineage, first)
+        there, back_mean, back_max = self.measure.near(out_v, out_t, lineage, first)
         self._there = (m, there)
-        return (float(there.mean()) if there.size else 0.0) + back_mean
+        there_mean = float(there.mean()) if there.size else 0.0
+        return there_mean + back_mean, max(float(there.max(initial=0.0)), back_max)
 
     def distances(self, m: int):
         """``(there, back)``: the distances the report gives after ``m`` collapses
@@ -541,6 +562,7 @@ class Decimation:
             [()] * present.size,
             labels=self.labels,
             kept_input=np.zeros(present.size, dtype=bool),
+            flat=self.planes[2][present],
             planar_tol=planar_tol,
             chord_tolerance=float("nan"),
             n_refined=0,

@@ -8,60 +8,12 @@ from numba import njit
 
 from ._bound_kernels import link_points, move_points, points_stay
 from ._heap import heap_grown, heap_pop, heap_push, heapify
+from ._plane_kernels import collapse_position, edge_planes, planes_position
 
 __all__ = ["add_rows", "band_field", "collapse_edges", "collapse_position", "replay", "turns_over"]
 
-
-@njit(cache=True)
-def _cost(q, x, y, z) -> float:
-    p = (x, y, z, 1.0)
-    total = 0.0
-    for i in range(4):
-        row = 0.0
-        for j in range(4):
-            row += q[i, j] * p[j]
-        total += p[i] * row
-    return total
-
-
-@njit(cache=True)
-def collapse_position(q, a, b):
-    """``(cost, x, y, z)``: where the quadric ``q`` (4, 4) of an edge (a, b) is least.
-
-    The minimiser of the quadric when its 3x3 part is well conditioned (its
-    determinant above 1e-10 of the product of its row norms), else nothing; then the
-    cheapest of the minimiser, the two ends and the midpoint.
-    """
-    best = _cost(q, a[0], a[1], a[2])
-    bx, by, bz = a[0], a[1], a[2]
-    c = _cost(q, b[0], b[1], b[2])
-    if c < best:
-        best, bx, by, bz = c, b[0], b[1], b[2]
-    mx, my, mz = 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])
-    c = _cost(q, mx, my, mz)
-    if c < best:
-        best, bx, by, bz = c, mx, my, mz
-    m00, m01, m02 = q[0, 0], q[0, 1], q[0, 2]
-    m10, m11, m12 = q[1, 0], q[1, 1], q[1, 2]
-    m20, m21, m22 = q[2, 0], q[2, 1], q[2, 2]
-    c0 = m11 * m22 - m12 * m21
-    c1 = m12 * m20 - m10 * m22
-    c2 = m10 * m21 - m11 * m20
-    det = m00 * c0 + m01 * c1 + m02 * c2
-    scale = (
-        np.sqrt(m00 * m00 + m01 * m01 + m02 * m02)
-        * np.sqrt(m10 * m10 + m11 * m11 + m12 * m12)
-        * np.sqrt(m20 * m20 + m21 * m21 + m22 * m22)
-    )
-    if scale > 0.0 and abs(det) > 1e-10 * scale:
-        r0, r1, r2 = -q[0, 3], -q[1, 3], -q[2, 3]
-        x = (r0 * c0 + r1 * (m02 * m21 - m01 * m22) + r2 * (m01 * m12 - m02 * m11)) / det
-        y = (r0 * c1 + r1 * (m00 * m22 - m02 * m20) + r2 * (m02 * m10 - m00 * m12)) / det
-        z = (r0 * c2 + r1 * (m01 * m20 - m00 * m21) + r2 * (m00 * m11 - m01 * m10)) / det
-        c = _cost(q, x, y, z)
-        if c < best:
-            best, bx, by, bz = c, x, y, z
-    return best, bx, by, bz
+#: A collapse whose merged vertex would lie on more flat regions than this is refused.
+_MAX_PLANES = 16
 
 
 @njit(cache=True)
@@ -103,17 +55,32 @@ def _flips(v, tri, f, w, x) -> bool:
     return ab <= 0.0 or aa <= 1e-12 * bb
 
 
-@njit(cache=True)
-def _edge_cost(v, q, a, b, tie, qab, x) -> float:
+@njit(cache=True, inline="always")
+def _edge_cost(v, q, a, b, tie, qab, x, mesh, hold) -> float:
     """The heap cost of edge (a, b): its quadric's least cost, plus ``tie`` x the
     squared squared length (so that flat parts decimate evenly); where that is, into
     ``x`` (3,). ``qab`` (4, 4) is scratch for the edge's quadric (no array made per
-    edge). The same inputs give the same bits: the loop finds an entry's position
-    again when it pops it, its ends unchanged since."""
+    edge). With flat planes (``hold``: `collapse_edges`' ``planes``; ``mesh``: the
+    live triangles ``(tri, head, nxt, alive)``), the least cost on the planes of the
+    flat regions left around the merged vertex (`planes_position`); infinite where
+    they do not meet there. The same inputs give the same bits: the loop finds an
+    entry's position again when it pops it, its ends unchanged since."""
     for i in range(4):
         for j in range(4):
             qab[i, j] = q[a, i, j] + q[b, i, j]
-    cost, x[0], x[1], x[2] = collapse_position(qab, v[a], v[b])
+    tflat, normals, offsets, tol, ids, work = hold
+    if tflat.size == 0:
+        cost, x[0], x[1], x[2] = collapse_position(qab, v[a], v[b])
+    else:
+        tri, head, nxt, alive = mesh
+        k = edge_planes(tri, head, nxt, alive, tflat, a, b, ids)
+        if k >= ids.shape[0]:
+            return np.inf
+        cost, x[0], x[1], x[2], ok = planes_position(
+            qab, v[a], v[b], normals, offsets, ids, k, tol, work
+        )
+        if not ok:
+            return np.inf
     d0, d1, d2 = v[a, 0] - v[b, 0], v[a, 1] - v[b, 1], v[a, 2] - v[b, 2]
     dd = d0 * d0 + d1 * d1 + d2 * d2
     return max(cost, 0.0) + tie * dd * dd
@@ -222,13 +189,15 @@ def _collapsible(v, tri, head, nxt, alive, a, b, x, mark, stamp, shared) -> int:
 
 
 @njit(cache=True, nogil=True)
-def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried):
+def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried, planes):
     """Quadric edge collapse of a manifold triangle mesh, cheapest edge first, until
     no edge can be collapsed or at most ``target`` triangles are left (0: until none
     can; the decimation loop of `_decimate.decimate`). With points (``carried``: see
     `_bound_kernels.points_stay`; none: no rows), a collapse that would leave one
     farther than its tolerance from the triangles, or a triangle away from them, is
-    refused.
+    refused. With flat planes (``planes``: ``(tflat (T,) each triangle's flat region
+    or -1, normals (R, 3), offsets (R,), tol)``; ``tflat`` empty: none), every merged
+    vertex goes onto the planes of its flat regions (`_plane_kernels`).
 
     ``v`` (V, 3) and ``q`` (V, 4, 4) are changed in place; ``tri`` is read only.
     Returns the collapses in order: ``kept`` (n,) the vertex kept, ``gone`` (n,) the
@@ -253,12 +222,14 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried):
     shared = np.zeros(2, dtype=np.int64)
     qab = np.empty((4, 4))
     x = np.empty(3)
+    hold = (*planes, np.empty(_MAX_PLANES, dtype=np.int64), np.empty((12, 3)))
+    mesh = (tri, head, nxt, alive)
     n_heap = edges.shape[0]
     hc = np.empty(2 * n_heap)
     hk, hd = np.empty(2 * n_heap, np.int64), np.empty(2 * n_heap, np.int64)
     for e in range(n_heap):
         a, b = edges[e, 0], edges[e, 1]
-        hc[e], hk[e], hd[e] = _edge_cost(v, q, a, b, tie, qab, x), a * n_v + b, e
+        hc[e], hk[e], hd[e] = _edge_cost(v, q, a, b, tie, qab, x, mesh, hold), a * n_v + b, e
     heapify(hc, hk, hd, n_heap)
     pushed = n_heap
     n_p = carried[0].shape[0]
@@ -288,7 +259,9 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried):
         a, b = key // n_v, key % n_v
         if number < changed[a] or number < changed[b] or head[a] == -1 or head[b] == -1:
             continue
-        _edge_cost(v, q, a, b, tie, qab, x)
+        cost = _edge_cost(v, q, a, b, tie, qab, x, mesh, hold)  # the same bits...
+        if cost == np.inf:
+            continue  # ...unless a triangle around went: its planes do not meet
         ns = _collapsible(v, tri, head, nxt, alive, a, b, x, mark, stamp, shared)
         if ns == 0 or (ns == 2 and on_boundary[a] and on_boundary[b]):
             continue  # an inner edge between two boundary vertices would pinch
@@ -318,15 +291,16 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried):
         n += 1
         hc, hk, hd = heap_grown(hc, hk, hd, n_heap, 2 * n_corners)
         heap = (hc, hk, hd, n_heap, pushed)
-        n_heap, pushed = _push_around(heap, v, q, tri, head, nxt, a, tie, qab, x, mark, stamp)
+        n_heap, pushed = _push_around(heap, v, q, mesh, hold, a, tie, qab, x, mark, stamp)
     return out[0][:n], out[1][:n], out[2][:n], out[3][:n], out[4][:n]
 
 
 @njit(cache=True)
-def _push_around(heap, v, q, tri, head, nxt, a, tie, qab, x, mark, stamp):
+def _push_around(heap, v, q, mesh, hold, a, tie, qab, x, mark, stamp):
     """Every edge of ``a`` onto the heap ``(cost, key, number arrays, entries, entries
     pushed so far)``, each once (``x`` (3,): scratch); returns the two counts after."""
     hc, hk, hd, n_heap, pushed = heap
+    tri, head, nxt = mesh[0], mesh[1], mesh[2]
     stamp[0] += 1
     c = head[a]
     while c != -1:
@@ -335,7 +309,7 @@ def _push_around(heap, v, q, tri, head, nxt, a, tie, qab, x, mark, stamp):
             u = tri[f, i]
             if u != a and mark[u, 0] != stamp[0]:
                 mark[u, 0] = stamp[0]
-                cost = _edge_cost(v, q, a, u, tie, qab, x)
+                cost = _edge_cost(v, q, a, u, tie, qab, x, mesh, hold)
                 heap_push(hc, hk, hd, n_heap, cost, a * v.shape[0] + u, pushed)
                 n_heap += 1
                 pushed += 1

@@ -201,7 +201,11 @@ class PointsDecimation(Decimation):
     def __init__(
         self, verts, tri, labels, planes, step, still, measure, box, tol, fit_bound, bound
     ):
-        super().__init__(verts, tri, labels, planes, step, still, measure, box, start=False)
+        # the planes are the points' fits, not held by the collapses (held: the
+        # every-3rd sweep's triangles median 758 -> 1,005, within 1 % 47 -> 44 of 50)
+        super().__init__(
+            verts, tri, labels, planes, step, still, measure, box, start=False, hold=False
+        )
         self.tol, self.fit_bound = float(tol), float(fit_bound)
         self.full = measure  # all the points (`steps_within` measures a subset first)
         self.bound = float(bound)

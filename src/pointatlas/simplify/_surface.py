@@ -69,7 +69,13 @@ class SurfaceSimplification:
         The region's projected loops did not bound a planar polygon even with full
         arcs, so it kept its input triangles.
     planarity_error : ndarray of shape (F,), float64
-        Largest ``polygon_planarity`` of each face's polygons.
+        Largest distance of each face's vertices (all of its triangles') to their
+        least-squares plane: the whole face, also where it is written in pieces (a
+        curved region's face bends; its pieces are each planar).
+    face_flat : ndarray of shape (F,), bool
+        The face's region is flat in the input (its vertices within ``FLAT_RTOL`` of
+        the diagonal of their plane, `flat_planes`; on the points path, the points'
+        region lies near its plane): its face is meant to be planar.
     triangles : ndarray of shape (T, 3), int64
         Triangulation of all faces, oriented as the input.
     triangle_face : ndarray of shape (T,), int64
@@ -104,6 +110,7 @@ class SurfaceSimplification:
     face_loops: tuple
     face_kept_input: np.ndarray
     planarity_error: np.ndarray
+    face_flat: np.ndarray
     triangles: np.ndarray
     triangle_face: np.ndarray
     is_closed: bool
@@ -128,6 +135,7 @@ class SurfaceSimplification:
             "face_region",
             "face_kept_input",
             "planarity_error",
+            "face_flat",
             "triangles",
             "triangle_face",
             "face_labels",
@@ -172,6 +180,10 @@ class SurfaceSimplification:
             "max_planarity_error": float(self.planarity_error.max(initial=0.0)),
             "max_polygon_planarity_error": float(self.polygon_planarity.max(initial=0.0)),
             "planarity_error": [float(x) for x in self.planarity_error],
+            "n_flat_faces": int(self.face_flat.sum()),
+            "max_flat_planarity_error": float(
+                self.planarity_error[self.face_flat].max(initial=0.0)
+            ),
             "distance_mean": self.distance_mean,
             "distance_max": self.distance_max,
             "back_distance_mean": self.back_distance_mean,
@@ -292,13 +304,13 @@ def simplify_surface(
     remap[used] = np.arange(used.size)
     out_t = remap[all_t]
     out_v = verts[used]
+    diag = float(np.linalg.norm(np.ptp(out_v, axis=0))) if out_v.size else 0.0
+    flat_tol = FLAT_RTOL * diag if flat_tolerance is None else flat_tolerance
+    planes = flat_planes(verts, tri, lab, run.n_regions, flat_tol)
     if planarize and tol > 0.0:
         offsets = _plane_offsets(s, lab, normals)
         out_v = _planarize(out_v, out_t, all_f, run.kept_input, normals, offsets, tol)
     elif out_t.size:
-        diag = float(np.linalg.norm(np.ptp(out_v, axis=0)))
-        flat_tol = FLAT_RTOL * diag if flat_tolerance is None else flat_tolerance
-        planes = flat_planes(verts, tri, lab, run.n_regions, flat_tol)
         bound, exact = max(tol, 1e-3 * diag), 0.01 * PLANAR_RTOL * diag
         out_v = place_on_planes(out_v, out_t, all_f, *planes, bound, exact)
     face_loops = [tuple(remap[lp] for lp in loops) for loops in loops_out]
@@ -313,6 +325,7 @@ def simplify_surface(
         face_loops,
         labels=lab,
         kept_input=run.kept_input,
+        flat=planes[2],
         planar_tol=PLANAR_RTOL * diag,
         chord_tolerance=run.tol,
         n_refined=len(run.refined),
@@ -443,6 +456,29 @@ class _RegionFaces:
             self.keep_input(bad)
 
 
+def face_planarity(vertices, triangles, triangle_face, n_faces: int) -> np.ndarray:
+    """(F,): the largest distance of each face's vertices (those of its triangles) to
+    their least-squares plane (`flat_planes`' fits; 0 for a face of three vertices).
+
+    Examples
+    --------
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0.2], [0, 1, 0.0]])
+    >>> t = np.array([[0, 1, 2], [0, 2, 3]])
+    >>> face_planarity(v, t, np.zeros(2, np.int64), 1).round(3).tolist()
+    [0.05]
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    t = np.asarray(triangles, dtype=np.int64)
+    tf = np.asarray(triangle_face, dtype=np.int64)
+    normals, offsets, _ = flat_planes(v, t, tf, n_faces, 0.0)
+    pairs = unique_pairs(np.column_stack([np.repeat(tf, 3), t.reshape(-1)]))
+    face, vertex = pairs[:, 0], pairs[:, 1]
+    height = np.abs(np.einsum("ij,ij->i", v[vertex], normals[face]) - offsets[face])
+    out = np.zeros(n_faces)
+    np.maximum.at(out, face, height)
+    return out
+
+
 def surface_result(
     verts,
     tri,
@@ -454,13 +490,15 @@ def surface_result(
     *,
     labels,
     kept_input,
+    flat,
     planar_tol,
     chord_tolerance,
     n_refined,
     distances=None,
 ):
-    """The `SurfaceSimplification` of output triangles labelled by face (``tface``):
-    the faces' simple planar polygons (``planar_tol``), the checks, and the distances
+    """The `SurfaceSimplification` of output triangles labelled by face (``tface``;
+    ``flat`` (F,): which are flat regions): the faces' simple planar polygons
+    (``planar_tol``), their planarity, the checks, and the distances
     both ways against the input (``verts``, ``tri``), or ``distances`` (there, back)
     as given (the points path measures against the points); shared by every mesh
     path."""
@@ -470,8 +508,7 @@ def surface_result(
     polygons, polygon_face, polygon_planarity = face_polygons(
         out_v, out_t, tface, face_loops, planar_tol
     )
-    planarity = np.zeros(n_regions)
-    np.maximum.at(planarity, polygon_face, polygon_planarity)
+    planarity = face_planarity(out_v, out_t, tface, n_regions)
     closed, manifold, oriented = mesh_checks(out_v.shape[0], out_t)
     und = np.sort(np.concatenate([out_t[:, [0, 1]], out_t[:, [1, 2]], out_t[:, [2, 0]]]), 1)
     n_edges = unique_pairs(und).shape[0]
@@ -491,6 +528,7 @@ def surface_result(
         face_loops=tuple(face_loops),
         face_kept_input=kept_input.copy(),
         planarity_error=planarity,
+        face_flat=np.asarray(flat, dtype=bool).copy(),
         triangles=out_t,
         triangle_face=tface,
         is_closed=closed,

@@ -80,7 +80,11 @@ def surface_table(
     table.add_row("faces kept as input triangles", str(s["n_faces_kept_as_input_triangles"]))
     table.add_row("closed / manifold / oriented", _checks(s))
     table.add_row("Euler characteristic", str(s["euler_characteristic"]))
-    table.add_row("max planarity error (polygons)", f"{s['max_planarity_error']:.3g}")
+    table.add_row(
+        "max planarity error (flat faces)",
+        f"{s['max_flat_planarity_error']:.3g} ({s['n_flat_faces']} flat faces)",
+    )
+    table.add_row("max planarity error (polygons)", f"{s['max_polygon_planarity_error']:.3g}")
     _distance_rows(table, s, diagonal)
     return table
 
