@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DOCS_STAMP := $(VENV)/.docs-installed
 
-.PHONY: install demo test bench lint docs clean
+.PHONY: install demo test bench lint docs clean clean-numba
 
 # constraints.txt: the exact versions the suite passed with (a new release of a
 # dependency changes nothing unseen)
@@ -59,5 +59,9 @@ $(DOCS_STAMP): pyproject.toml constraints.txt
 docs: $(DOCS_STAMP)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --clean
 
-clean:
+clean: clean-numba
 	rm -rf $(VENV) demo-output build *.egg-info
+
+# numba's on-disk caches (CONTRIBUTING.md: a caller's cache does not see its callees' edits)
+clean-numba:
+	find src -name '*.nbi' -delete -o -name '*.nbc' -delete
