@@ -82,7 +82,7 @@ def collapse_position(q, a, b):
     return best, bx, by, bz
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def edge_planes(tri, head, nxt, alive, tflat, a, b, ids) -> int:
     """The flat regions of the live triangles around ``a`` and ``b`` that do not hold
     both (those the collapse removes), in increasing order, into ``ids``; returns
@@ -104,7 +104,7 @@ def edge_planes(tri, head, nxt, alive, tflat, a, b, ids) -> int:
     return k
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _insert(ids, k, r) -> int:
     """``r`` into the sorted ``ids[:k]`` unless there; returns the new count."""
     i = 0
