@@ -21,7 +21,7 @@ from numba import njit
 
 from ._mesh import unique_ints, unique_pairs
 
-__all__ = ["FLAT_RTOL", "flat_planes", "place_on_planes", "triangle_normals"]
+__all__ = ["FLAT_RTOL", "flat_planes", "place_on_planes", "plane_fits", "triangle_normals"]
 
 #: Largest distance of a region's input vertices to its plane, as a fraction of the
 #: diagonal, for the region to count as flat.
@@ -51,6 +51,15 @@ def flat_planes(vertices, triangles, labels, n_regions: int, tol: float):
     >>> np.abs(n).round(6).tolist(), flat.tolist()
     ([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]], [True, True])
     """
+    normals, offsets, deviation, spanned = plane_fits(vertices, triangles, labels, n_regions)
+    return normals, offsets, spanned & (deviation <= tol)
+
+
+def plane_fits(vertices, triangles, labels, n_regions: int):
+    """``(normals, offsets, deviation, spanned)`` of every region's least-squares plane
+    (`flat_planes`): ``deviation`` (R,) the largest distance of its vertices to it,
+    ``spanned`` (R,) its vertices span a plane (at least three, not on one line);
+    zeros and False for a region of fewer than three vertices."""
     v = np.asarray(vertices, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.int64)
     lab = np.asarray(labels, dtype=np.int64)
@@ -59,7 +68,8 @@ def flat_planes(vertices, triangles, labels, n_regions: int, tol: float):
     size = np.diff(bounds)
     normals = np.zeros((n_regions, 3))
     offsets = np.zeros(n_regions)
-    flat = np.zeros(n_regions, dtype=bool)
+    deviation = np.zeros(n_regions)
+    spanned = np.zeros(n_regions, dtype=bool)
     for c in np.unique(size[size >= 3]):
         # the regions of c vertices at once: a (k, c, 3) stack, one LAPACK call each
         # and the same BLAS products as one region alone (the same planes bit for bit)
@@ -71,8 +81,9 @@ def flat_planes(vertices, triangles, labels, n_regions: int, tol: float):
         normals[regions] = normal
         offsets[regions] = np.matmul(normal[:, None, :], centre[:, :, None])[:, 0, 0]
         height = np.matmul(pts - centre[:, None, :], normal[:, :, None])[:, :, 0]
-        flat[regions] = (sv[:, 1] > 0.0) & (np.abs(height).max(axis=1) <= tol)
-    return normals, offsets, flat
+        deviation[regions] = np.abs(height).max(axis=1)
+        spanned[regions] = sv[:, 1] > 0.0
+    return normals, offsets, deviation, spanned
 
 
 def place_on_planes(

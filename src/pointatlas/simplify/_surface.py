@@ -34,7 +34,7 @@ from ._arcs import (
 )
 from ._distance import back_distances
 from ._mesh import unique_ints, unique_pairs
-from ._place import FLAT_RTOL, flat_planes, place_on_planes, triangle_normals
+from ._place import FLAT_RTOL, flat_planes, place_on_planes, plane_fits, triangle_normals
 from ._polygons import PLANAR_RTOL, face_polygons
 from ._surface_faces import bad_regions, face_of_loops, loop_vertices
 from ._triangles import _Surface, _surface
@@ -458,7 +458,7 @@ class _RegionFaces:
 
 def face_planarity(vertices, triangles, triangle_face, n_faces: int) -> np.ndarray:
     """(F,): the largest distance of each face's vertices (those of its triangles) to
-    their least-squares plane (`flat_planes`' fits; 0 for a face of three vertices).
+    their least-squares plane (`plane_fits`; 0 for a face of three vertices).
 
     Examples
     --------
@@ -467,16 +467,7 @@ def face_planarity(vertices, triangles, triangle_face, n_faces: int) -> np.ndarr
     >>> face_planarity(v, t, np.zeros(2, np.int64), 1).round(3).tolist()
     [0.05]
     """
-    v = np.asarray(vertices, dtype=np.float64)
-    t = np.asarray(triangles, dtype=np.int64)
-    tf = np.asarray(triangle_face, dtype=np.int64)
-    normals, offsets, _ = flat_planes(v, t, tf, n_faces, 0.0)
-    pairs = unique_pairs(np.column_stack([np.repeat(tf, 3), t.reshape(-1)]))
-    face, vertex = pairs[:, 0], pairs[:, 1]
-    height = np.abs(np.einsum("ij,ij->i", v[vertex], normals[face]) - offsets[face])
-    out = np.zeros(n_faces)
-    np.maximum.at(out, face, height)
-    return out
+    return plane_fits(vertices, triangles, triangle_face, n_faces)[2]
 
 
 def surface_result(
