@@ -132,14 +132,21 @@ def decimate_reference(vertices, triangles, target, *, labels=None, planes=None,
     from pointatlas.simplify._plane_kernels import planes_position
 
     held = _held_planes(np.asarray(vertices, float), np.asarray(triangles), labels, planes)
+    tflat = held[0]
+    left = np.bincount(tflat[tflat >= 0], minlength=held[2].size)  # live triangles
 
     def position(v, q, a, b):
         tflat, normals, offsets, tol = held
         if tflat.size == 0:
             cost, x, y, z = collapse_position(q[a] + q[b], v[a], v[b])
         else:
-            near = (faces_of[a] | faces_of[b]) - (faces_of[a] & faces_of[b])
-            ids = np.array(sorted({int(tflat[f]) for f in near if tflat[f] >= 0}), np.int64)
+            shared = faces_of[a] & faces_of[b]
+            near = (faces_of[a] | faces_of[b]) - shared
+            regions = {int(tflat[f]) for f in near if tflat[f] >= 0}
+            # a region left with one triangle is planar wherever its vertices go
+            removed = [int(tflat[f]) for f in shared]
+            regions = {r for r in regions if left[r] - removed.count(r) >= 2}
+            ids = np.array(sorted(regions), np.int64)
             cost, x, y, z, ok = planes_position(
                 q[a] + q[b], v[a], v[b], normals, offsets, ids, len(ids), tol, np.empty((12, 3))
             )
@@ -204,6 +211,8 @@ def decimate_reference(vertices, triangles, target, *, labels=None, planes=None,
             continue
         for f in shared:
             alive[f] = False
+            if tflat.size and tflat[f] >= 0:
+                left[tflat[f]] -= 1
             for w in tri[f].tolist():
                 faces_of[w].discard(f)
         n_alive -= len(shared)

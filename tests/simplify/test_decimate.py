@@ -448,9 +448,22 @@ def test_planes_position_agrees_with_the_numpy_reference(seed):
 def _bracket_by_plane():
     """The L-bracket tessellated finer, each triangle labelled by its plane, and the
     planes (`flat_planes`)."""
+    return _by_plane(*C.subdivide(*C.subdivide(*C.l_bracket())))
+
+
+def _prism_by_plane(sections: int = 24):
+    """A cylinder tessellated as a prism (`trimesh.creation.cylinder`: each side a
+    quad of two triangles, the caps fans), each triangle labelled by its plane, and
+    the planes: every side is a flat region of its own."""
+    import trimesh
+
+    m = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=sections)
+    return _by_plane(np.asarray(m.vertices, dtype=float), np.asarray(m.faces, dtype=np.int64))
+
+
+def _by_plane(v, t):
     from pointatlas.simplify._place import flat_planes
 
-    v, t = C.subdivide(*C.subdivide(*C.l_bracket()))
     n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
     n /= np.linalg.norm(n, axis=1)[:, None]
     key = np.column_stack([n, np.einsum("ij,ij->i", n, v[t[:, 0]])]).round(9)
@@ -458,15 +471,39 @@ def _bracket_by_plane():
     return v, t, labels, flat_planes(v, t, labels, int(labels.max()) + 1, 1e-9)
 
 
-def test_collapse_loop_on_planes_agrees_with_the_python_reference():
+@pytest.mark.parametrize("shape", ["bracket", "prism"])
+def test_collapse_loop_on_planes_agrees_with_the_python_reference(shape):
     from .reference import decimate_reference
 
-    v, t, labels, planes = _bracket_by_plane()
+    v, t, labels, planes = _bracket_by_plane() if shape == "bracket" else _prism_by_plane()
     for target in (len(t) // 3, 24):
         got = decimate(v, t, target, labels=labels, planes=planes)
         want = decimate_reference(v, t, target, labels=labels, planes=planes)
         for g, w in zip(got, want, strict=True):
             np.testing.assert_array_equal(g, w)
+
+
+def test_held_planes_let_a_tessellated_cylinder_lose_sides():
+    """A 24-sided prism, each side a flat region of two triangles: a vertex on a side
+    and its neighbours' planes and a cap's is held at a point, so with every side's
+    plane held no rim edge could collapse (92 triangles at least: the sides and two
+    fans of 22). A side left with one triangle is planar wherever its vertices go and
+    holds nothing: the prism loses sides, and every level's faces of two or more
+    triangles stay on their planes (rounding only)."""
+    from pointatlas.simplify._decimate import collapse_all
+
+    v, t, labels, planes = _prism_by_plane()
+    normals, offsets, _ = planes
+    seq = collapse_all(v, t, labels=labels, planes=planes)
+    assert seq.n_triangles(seq.kept.size) < 92 - 8
+    for m in range(seq.kept.size + 1):
+        out_v, out_t, kept, _ = seq.mesh(m)
+        lab = labels[kept]
+        held = np.bincount(lab, minlength=offsets.size)[lab] >= 2
+        at = out_v[out_t[held]]
+        lab3 = np.repeat(lab[held], 3)
+        off = np.einsum("ij,ij->i", at.reshape(-1, 3), normals[lab3]) - offsets[lab3]
+        assert np.abs(off).max(initial=0.0) <= 1e-12
 
 
 def test_every_collapse_keeps_its_vertex_on_the_planes_of_its_flat_regions():
@@ -498,6 +535,7 @@ COLLECTION = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "c
         "prusai3_spool-holder.stl",
         "prusai3_heatbed-cable-cover.stl",
         "prusamini_mini-fsenzor-cover.stl",
+        "voron0_minisb_adxl_mount_generic_15_5mm.stl",
     ],
 )
 def test_flat_faces_of_cad_parts_are_exactly_planar_at_the_default_level(name):

@@ -31,7 +31,7 @@ from ._mesh_path import (
     _unreferenced_apart,
     repaired_input,
 )
-from ._place import FLAT_RTOL, flat_planes, place_on_planes
+from ._place import FLAT_RTOL, flat_planes, place_on_planes, settle_planes
 from ._polygons import PLANAR_RTOL
 from ._surface import SurfaceSimplification, surface_result
 from ._triangles import _face_graph, _surface
@@ -43,6 +43,9 @@ __all__ = ["MAX_ERROR", "Decimation", "MeshDistances", "decimate_mesh"]
 MAX_ERROR = 0.005
 #: A placed vertex moves at most this far (relative to the diagonal).
 _PLACE_STEP = 1e-3
+#: Faces of flat regions left bent by the placement are made planar within this
+#: fraction of its step (1e-7 of the diagonal; `settle_planes`).
+_SETTLE = 1e-4
 #: Area samples of the output measured back in the level search (of the report's
 #: `BACK_SAMPLES`, the same points; the level found is measured on all of them).
 SEARCH_SAMPLES = 500
@@ -398,7 +401,14 @@ class Decimation:
             return self._kept_level[1]
         out_v, out_t, kept, source, went = self.mesh_and_map(m)
         face = self.labels[kept]
-        out_v = place_on_planes(out_v, out_t, face, *self.planes, self.step, self.still)
+        normals, offsets, flat = self.planes
+        if self._args["hold"]:  # a face of one triangle is planar where it is
+            flat = flat & (np.bincount(face, minlength=flat.size) >= 2)
+        out_v = place_on_planes(out_v, out_t, face, normals, offsets, flat, self.step, self.still)
+        if self._args["hold"]:  # faces on planes that do not quite meet
+            out_v = settle_planes(
+                out_v, out_t, face, normals, offsets, flat, _SETTLE * self.step, self.step
+            )
         if self.box is not None:  # no vertex beyond the box (lo, hi)
             out_v = np.clip(out_v, *self.box)
         # vertices placed in a row on the line of two planes: no zero-area triangle

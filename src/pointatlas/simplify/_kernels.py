@@ -68,12 +68,12 @@ def _edge_cost(v, q, a, b, tie, qab, x, mesh, hold) -> float:
     for i in range(4):
         for j in range(4):
             qab[i, j] = q[a, i, j] + q[b, i, j]
-    tflat, normals, offsets, tol, ids, work = hold
+    tflat, normals, offsets, tol, ids, work, left = hold
     if tflat.size == 0:
         cost, x[0], x[1], x[2] = collapse_position(qab, v[a], v[b])
     else:
         tri, head, nxt, alive = mesh
-        k = edge_planes(tri, head, nxt, alive, tflat, a, b, ids)
+        k = edge_planes(tri, head, nxt, alive, tflat, a, b, ids, left)
         if k >= ids.shape[0]:
             return np.inf
         cost, x[0], x[1], x[2], ok = planes_position(
@@ -222,7 +222,11 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried, planes):
     shared = np.zeros(2, dtype=np.int64)
     qab = np.empty((4, 4))
     x = np.empty(3)
-    hold = (*planes, np.empty(_MAX_PLANES, dtype=np.int64), np.empty((12, 3)))
+    left = np.zeros(planes[1].shape[0], dtype=np.int64)  # each flat region's triangles
+    for f in range(planes[0].shape[0]):
+        if planes[0][f] >= 0:
+            left[planes[0][f]] += 1
+    hold = (*planes, np.empty(_MAX_PLANES, dtype=np.int64), np.empty((12, 3)), left)
     mesh = (tri, head, nxt, alive)
     n_heap = edges.shape[0]
     hc = np.empty(2 * n_heap)
@@ -274,6 +278,8 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried, planes):
                 continue
         for k in range(ns):
             alive[shared[k]] = False
+            if left.size > 0 and planes[0][shared[k]] >= 0:
+                left[planes[0][shared[k]]] -= 1
         c = head[b]
         while c != -1:
             tri[c // 3, c % 3] = a

@@ -21,7 +21,14 @@ from numba import njit
 
 from ._mesh import unique_ints, unique_pairs
 
-__all__ = ["FLAT_RTOL", "flat_planes", "place_on_planes", "plane_fits", "triangle_normals"]
+__all__ = [
+    "FLAT_RTOL",
+    "flat_planes",
+    "place_on_planes",
+    "plane_fits",
+    "settle_planes",
+    "triangle_normals",
+]
 
 #: Largest distance of a region's input vertices to its plane, as a fraction of the
 #: diagonal, for the region to count as flat.
@@ -29,6 +36,8 @@ FLAT_RTOL = 1e-4
 #: Singular values of a vertex's plane normals below this fraction of the largest are
 #: dropped: planes within asin(0.0437) = 2.5 degrees of each other act as one.
 _PARALLEL_RTOL = 0.0437
+#: Rounds of `settle_planes` at most (a bent face's planes and vertices fitted in turn).
+_SETTLE_ROUNDS = 100
 #: A triangle whose area along its former normal falls to this fraction of the mean
 #: triangle's area, or below (turned over, or collapsed to a point or a segment), puts
 #: its vertices back: two vertices fitted to the same spot made a zero-area triangle
@@ -206,3 +215,73 @@ def _cross_rows(v, tri, out):
         out[t, 0] = u1 * w2 - u2 * w1
         out[t, 1] = u2 * w0 - u0 * w2
         out[t, 2] = u0 * w1 - u1 * w0
+
+
+def settle_planes(x, triangles, triangle_face, normals, offsets, flat, tol: float, bound: float):
+    """Faces of flat regions still bent after `place_on_planes` made planar within
+    ``tol``: a vertex on four or more planes that do not quite meet (the input's
+    faces are flat only to `FLAT_RTOL`) is left at their least-squares point, off
+    each of them. The faces with a vertex farther than ``tol`` from their region's
+    plane (``normals``, ``offsets``, ``flat``: `flat_planes`) and bent by more than
+    ``tol`` have their planes and vertices fitted to each other in turn (each such
+    face's least-squares plane through its vertices, then each of their vertices to
+    the nearest point on all its flat faces' planes; the other faces keep their
+    region's), which never raises the sum of their squared distances, for at most
+    `_SETTLE_ROUNDS` rounds; kept where every such face ends within ``tol`` and no
+    vertex moved more than ``bound`` or turned a triangle over, else ``x`` (a copy).
+    Faces of three vertices are planar wherever they are and hold nothing."""
+    x = np.asarray(x, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    tface = np.asarray(triangle_face, dtype=np.int64)
+    # faces of two or more triangles (four or more vertices) with a corner off the plane
+    held = np.asarray(flat, dtype=bool) & (np.bincount(tface, minlength=flat.size) >= 2)
+    t = np.flatnonzero(held[tface])
+    n, d = normals[tface[t]], offsets[tface[t]]
+    off = np.zeros(t.size, dtype=bool)
+    for k in range(3):
+        off |= np.abs(np.einsum("ij,ij->i", n, x[tri[t, k]]) - d) > tol
+    if not off.any():
+        return x.copy()
+    normals, offsets = normals.copy(), offsets.copy()
+    bent = np.zeros(flat.size, dtype=bool)
+    bent[tface[t[off]]] = True
+    sub = np.flatnonzero(bent[tface])
+    fit = plane_fits(x, tri[sub], tface[sub], flat.size)
+    bent &= fit[2] > tol
+    if not bent.any():
+        return x.copy()
+    sub = np.flatnonzero(bent[tface])
+    pairs = unique_pairs(np.column_stack([tri[t].reshape(-1), np.repeat(tface[t], 3)]))
+    rows = pairs[np.isin(pairs[:, 0], unique_ints(pairs[bent[pairs[:, 1]], 0]))]
+    y = x.copy()
+    for _ in range(_SETTLE_ROUNDS):
+        fit = plane_fits(y, tri[sub], tface[sub], flat.size)
+        normals[bent], offsets[bent] = fit[0][bent], fit[1][bent]
+        if fit[2][bent].max() <= tol:
+            break
+        y = _onto_planes(y, rows, normals, offsets)
+    else:
+        if plane_fits(y, tri[sub], tface[sub], flat.size)[2][bent].max() > tol:
+            return x.copy()
+    if np.linalg.norm(y - x, axis=1).max() > bound:
+        return x.copy()
+    before = _cross(x, tri)
+    flipped = np.einsum("ij,ij->i", before, _cross(y, tri)) <= 0.0
+    return x.copy() if (flipped & before.any(axis=1)).any() else y
+
+
+def _onto_planes(y, rows, normals, offsets):
+    """Each vertex of ``rows`` ((vertex, face) pairs sorted by vertex) moved to the
+    nearest point on all its faces' planes (least squares, near-parallel planes as
+    one: `place_on_planes`)."""
+    out = y.copy()
+    verts, starts = np.unique(rows[:, 0], return_index=True)
+    count = np.diff(np.append(starts, rows.shape[0]))
+    for c in np.unique(count):
+        j = np.flatnonzero(count == c)
+        faces = rows[starts[j][:, None] + np.arange(c), 1]
+        a = normals[faces]
+        residual = offsets[faces] - np.einsum("ncd,nd->nc", a, y[verts[j]])
+        move = np.einsum("ndc,nc->nd", np.linalg.pinv(a, rcond=_PARALLEL_RTOL), residual)
+        out[verts[j]] = y[verts[j]] + move
+    return out

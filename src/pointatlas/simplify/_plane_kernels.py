@@ -7,8 +7,11 @@ the set where they meet (a plane, a line or a point), not the quadric's free
 minimiser moved there afterwards. A plane within `PARALLEL_SINE` of the ones before
 it (its normal's part across them) adds no direction: the vertex must then already
 lie within ``tol`` of it, else the collapse is refused (two parallel faces of a thin
-wall, four planes that do not meet at one point). So every vertex a collapse moves
-lies on the planes of its flat regions up to rounding, and the faces of flat regions
+wall, four planes that do not meet at one point). A region the collapse leaves with
+one triangle holds nothing (a triangle is planar wherever its corners go): the sides
+of a tessellated hole or fillet, each a flat region of two triangles, can then be
+collapsed away one by one. So every vertex a collapse moves lies on the planes of its
+flat regions of two or more triangles up to rounding, and the faces of flat regions
 stay exactly planar through the whole sequence (docs/decisions/simplify.md,
 "Decimation").
 """
@@ -83,11 +86,13 @@ def collapse_position(q, a, b):
 
 
 @njit(cache=True, inline="always")
-def edge_planes(tri, head, nxt, alive, tflat, a, b, ids) -> int:
+def edge_planes(tri, head, nxt, alive, tflat, a, b, ids, left) -> int:
     """The flat regions of the live triangles around ``a`` and ``b`` that do not hold
-    both (those the collapse removes), in increasing order, into ``ids``; returns
-    how many (at most ``ids.shape[0]``: the rest are dropped, the collapse then
-    refused by the caller). ``tflat`` (T,): each triangle's flat region, -1: none."""
+    both (those the collapse removes) and keep two or more triangles after it (of
+    ``left`` (R,), each region's live triangles: a region of one triangle is planar
+    wherever its vertices go), in increasing order, into ``ids``; returns how many
+    (at most ``ids.shape[0]``: the rest are dropped, the collapse then refused by
+    the caller). ``tflat`` (T,): each triangle's flat region, -1: none."""
     k = 0
     for w in (a, b):
         c = head[w]
@@ -101,7 +106,21 @@ def edge_planes(tri, head, nxt, alive, tflat, a, b, ids) -> int:
                     if k > ids.shape[0] - 1:
                         return k
             c = nxt[c]
-    return k
+    kept = 0
+    for i in range(k):
+        r = ids[i]
+        n = left[r]
+        c = head[a]
+        while c != -1:
+            f = c // 3
+            if alive[f] and tflat[f] == r:
+                if tri[f, 0] == b or tri[f, 1] == b or tri[f, 2] == b:
+                    n -= 1
+            c = nxt[c]
+        if n >= 2:
+            ids[kept] = r
+            kept += 1
+    return kept
 
 
 @njit(cache=True, inline="always")
