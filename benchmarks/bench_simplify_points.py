@@ -31,7 +31,9 @@ distance of the points to the output, the report's two-sided Hausdorff distance,
 and measured here against the truth: the two-sided Hausdorff distance between the
 output and the mesh the points were sampled from (its vertices and
 20,000 samples each way; % of the points' bounding-box diagonal), whether a vertex
-lies outside the points' box grown by 1 % of its diagonal (a spike), seconds. The
+lies outside the points' box grown by 1 % of its diagonal (a spike), seconds; on the
+robust path also its faces of flat regions, how many bend by more than 1e-6 of the
+diagonal (all of a face's vertices to their plane) and the largest bend. The
 summary prints the shares closed + manifold + oriented, with the input's Euler
 characteristic, within 1 % of the truth both ways, with a spike, and the times. An
 untimed run of the first model comes first (`warm_up`: numba's compile or cache
@@ -316,6 +318,13 @@ def run_model(path: Path, sampling: Sampling, peer: bool = True) -> dict:
         seconds=seconds,
         **truth_distances(mesh.vertices, tri, mv, mt, diag, sampling),
     )
+    if hasattr(m, "face_flat"):  # the robust path's faces of flat regions, planar?
+        bend = np.asarray(m.planarity_error)[m.face_flat]
+        row.update(
+            flat_faces=int(bend.size),
+            flat_faces_bent=int((bend > 1e-6 * diag).sum()),
+            max_flat_planarity_pct=100.0 * float(bend.max(initial=0.0)) / diag,
+        )
     if peer:
         row.update(peer_row(mesh.vertices, tri, p, n, int(mt.shape[0]), diag, sampling))
     return row
@@ -467,6 +476,9 @@ def main(argv=None) -> int:
         "peer_mean_pct",
         "peer_hausdorff_pct",
         "peer_seconds",
+        "flat_faces",
+        "flat_faces_bent",
+        "max_flat_planarity_pct",
         "reason",
     ]
     with open(args.out, "w", newline="") as fh:
@@ -499,6 +511,14 @@ def main(argv=None) -> int:
             f"max {tris.max()}; faces median {np.median([r['faces'] for r in done]):.0f}; "
             f"with a zero-area triangle: {sum(r['degenerate'] > 0 for r in done)}"
         )
+        flat = [r for r in done if "flat_faces" in r]
+        if flat:
+            print(
+                f"faces of flat regions: {sum(r['flat_faces'] for r in flat)}, bent by more "
+                f"than 1e-6 of the diagonal: {sum(r['flat_faces_bent'] for r in flat)} in "
+                f"{sum(r['flat_faces_bent'] > 0 for r in flat)} models, largest "
+                f"{max(r['max_flat_planarity_pct'] for r in flat):.3f} %"
+            )
         for line in peer_summary(done):
             print(line)
     print(f"written: {args.out}")
