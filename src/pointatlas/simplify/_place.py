@@ -148,18 +148,28 @@ def place_on_planes(
     x = v0.copy()
     if pairs.shape[0] == 0:
         return x
-    starts = np.searchsorted(pairs[:, 0], np.arange(v0.shape[0] + 1))
-    count = np.diff(starts)
-    for c in np.unique(count[count > 0]):
-        # every vertex on c flat regions at once: a (n, c, 3) stack of plane normals
-        j = np.flatnonzero(count == c)
-        regions = pairs[starts[j][:, None] + np.arange(c), 1]
-        a = normals[regions]
-        residual = offsets[regions] - np.einsum("ncd,nd->nc", a, v0[j])
-        move = np.einsum("ndc,nc->nd", np.linalg.pinv(a, rcond=_PARALLEL_RTOL), residual)
+    for j, residual, move in _moves_onto_planes(v0, pairs, normals, offsets):
         go = (np.abs(residual).max(axis=1) > on_plane) & (np.linalg.norm(move, axis=1) <= bound)
         x[j[go]] = v0[j[go]] + move[go]
     return _unflip(v0, x, tri, collapsed=True) if unflip else x
+
+
+def _moves_onto_planes(x, pairs, normals, offsets):
+    """For the vertices of ``pairs`` ((vertex, face) rows sorted by vertex), each
+    group of vertices on the same number c of planes at once (a (n, c, 3) stack of
+    plane normals): ``(vertices, residual (n, c), move (n, 3))``, the move to the
+    nearest point on all their planes (least squares; planes within
+    `_PARALLEL_RTOL` act as one)."""
+    first = np.flatnonzero(np.r_[True, pairs[1:, 0] != pairs[:-1, 0]])
+    count = np.diff(np.append(first, pairs.shape[0]))
+    for c in np.unique(count):
+        j = np.flatnonzero(count == c)
+        verts = pairs[first[j], 0]
+        regions = pairs[first[j][:, None] + np.arange(c), 1]
+        a = normals[regions]
+        residual = offsets[regions] - np.einsum("ncd,nd->nc", a, x[verts])
+        move = np.einsum("ndc,nc->nd", np.linalg.pinv(a, rcond=_PARALLEL_RTOL), residual)
+        yield verts, residual, move
 
 
 def _unflip(v0, x, tri, rounds: int = 4, collapsed: bool = False, before=None):
@@ -272,16 +282,8 @@ def settle_planes(x, triangles, triangle_face, normals, offsets, flat, tol: floa
 
 def _onto_planes(y, rows, normals, offsets):
     """Each vertex of ``rows`` ((vertex, face) pairs sorted by vertex) moved to the
-    nearest point on all its faces' planes (least squares, near-parallel planes as
-    one: `place_on_planes`)."""
+    nearest point on all its faces' planes (`_moves_onto_planes`)."""
     out = y.copy()
-    verts, starts = np.unique(rows[:, 0], return_index=True)
-    count = np.diff(np.append(starts, rows.shape[0]))
-    for c in np.unique(count):
-        j = np.flatnonzero(count == c)
-        faces = rows[starts[j][:, None] + np.arange(c), 1]
-        a = normals[faces]
-        residual = offsets[faces] - np.einsum("ncd,nd->nc", a, y[verts[j]])
-        move = np.einsum("ndc,nc->nd", np.linalg.pinv(a, rcond=_PARALLEL_RTOL), residual)
-        out[verts[j]] = y[verts[j]] + move
+    for verts, _, move in _moves_onto_planes(y, rows, normals, offsets):
+        out[verts] = y[verts] + move
     return out

@@ -94,6 +94,7 @@ def edge_planes(tri, head, nxt, alive, tflat, a, b, ids, left) -> int:
     (at most ``ids.shape[0]``: the rest are dropped, the collapse then refused by
     the caller). ``tflat`` (T,): each triangle's flat region, -1: none."""
     k = 0
+    gone0 = gone1 = -1  # the flat regions of the (two) triangles the collapse removes
     for w in (a, b):
         c = head[w]
         while c != -1:
@@ -105,19 +106,16 @@ def edge_planes(tri, head, nxt, alive, tflat, a, b, ids, left) -> int:
                     k = _insert(ids, k, r)
                     if k > ids.shape[0] - 1:
                         return k
+                elif w == a:
+                    if gone0 == -1:
+                        gone0 = r
+                    else:
+                        gone1 = r
             c = nxt[c]
     kept = 0
     for i in range(k):
         r = ids[i]
-        n = left[r]
-        c = head[a]
-        while c != -1:
-            f = c // 3
-            if alive[f] and tflat[f] == r:
-                if tri[f, 0] == b or tri[f, 1] == b or tri[f, 2] == b:
-                    n -= 1
-            c = nxt[c]
-        if n >= 2:
+        if left[r] - (r == gone0) - (r == gone1) >= 2:
             ids[kept] = r
             kept += 1
     return kept
