@@ -18,7 +18,7 @@ from pointatlas.simplify._grid_knn import GridKnn
 from pointatlas.simplify._snap import fit_to_points, placed_near_points, refit_far
 from pointatlas.synth import sample_mesh
 
-from .cad_shapes import box, l_bracket
+from .cad_shapes import box, cube_with_square_hole, l_bracket
 from .reference import disc_distance_reference, outline_distance_reference
 
 
@@ -294,3 +294,25 @@ def test_the_triangles_cross_products_are_numpys_bit_for_bit():
     assert np.array_equal(_cross(v, t), want)
     assert np.array_equal(_cross(v, t.astype(np.int32)), want)
     assert _cross(v, np.zeros((0, 3), dtype=np.int64)).shape == (0, 3)
+
+
+def test_a_level_the_planar_step_takes_past_the_bound_is_measured_without_it(monkeypatch):
+    """`PointsDecimation.within`: a level over the bound with its faces made planar
+    (`_planar.planar_faces`) is measured again as placed without that step, so the
+    step never costs a level: a step that shifts every vertex by 3 % of the box
+    gives the mesh of no step at all, bit for bit."""
+    import warnings
+
+    from pointatlas.simplify import SimplifyWarning, _snap, simplify_points
+
+    v, t = cube_with_square_hole()
+    s = sample_mesh(v, t, 6000, rng=0)
+    p, n = np.asarray(s.points), np.asarray(s.normals)
+    meshes = []
+    for step in (lambda x, *a: x, lambda x, *a: x + 0.03 * np.ptp(x, axis=0)):
+        monkeypatch.setattr(_snap, "planar_faces", step)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SimplifyWarning)
+            meshes.append(simplify_points(p, n, path="robust").mesh)
+    np.testing.assert_array_equal(meshes[1].triangles, meshes[0].triangles)
+    np.testing.assert_array_equal(meshes[1].vertices, meshes[0].vertices)

@@ -29,6 +29,7 @@ from ._caps import flip_caps, spread_tiny, weld_needles
 from ._decimate_mesh import Decimation
 from ._grid_knn import GridKnn
 from ._place import _unflip, place_on_planes
+from ._planar import planar_faces
 from ._point_distances import SEARCH_POINTS
 from ._untangle import untangle
 
@@ -38,6 +39,7 @@ __all__ = [
     "FIT_RCOND",
     "FIT_STEPS",
     "KEEP_POINTS",
+    "PLANAR_RTOL",
     "PointsDecimation",
     "SETTLE_SHARE",
     "default_steps",
@@ -182,6 +184,10 @@ def placed_keeps_points(v0, placed, triangles, q, floor, tol, before=None, round
 #: many points (the collection's 20,000) are checked whole.
 KEEP_POINTS = 100_000
 
+#: A face of a flat region is planar when its vertices lie within this share of the
+#: diagonal of its plane (`planar_faces`; the mesh path's tolerance, `_SETTLE`).
+PLANAR_RTOL = 1e-7
+
 #: The level search's bisection stops within this share of its level's triangles.
 SETTLE_SHARE = 0.01
 
@@ -209,6 +215,9 @@ class PointsDecimation(Decimation):
         self.tol, self.fit_bound = float(tol), float(fit_bound)
         self.full = measure  # all the points (`steps_within` measures a subset first)
         self.bound = float(bound)
+        self.diag = float(np.linalg.norm(np.ptp(verts, axis=0)))
+        self._plain = set()  # levels placed without `planar_faces` (`within`)
+        self._planar_moved = {}  # level -> whether `planar_faces` moved a vertex
 
     def steps_within(self, bound: float, lowest: int = 0) -> int | None:
         """`Decimation.steps_within`, its levels first measured on a subset of the
@@ -282,7 +291,25 @@ class PointsDecimation(Decimation):
         x, out_t, face, source, kept, went = weld_needles(x, out_t, face, source, kept, went)
         out_t = flip_caps(x, out_t, face)
         x = spread_tiny(x, out_t, face, self.planes)
+        if m not in self._plain:  # faces of flat regions a little bent: onto their planes
+            y = planar_faces(x, out_t, face, self.planes[2], PLANAR_RTOL * self.diag, self.bound)
+            self._planar_moved[m] = not np.array_equal(x, y)
+            x = y
         return x, out_t, face, source, (kept, went)
+
+    def within(self, m: int, bound: float, first=None) -> bool:
+        """`Decimation.within`; a level over ``bound`` whose bent faces were made
+        planar (`planar_faces`) is measured again without that step, and placed
+        without it from then on (``_plain``): making faces planar never costs a level
+        (a sampled CAD part, normals estimated: the search had ended at 3,984 triangles,
+        1.30 % from the truth, for 2,164 and 0.99 %)."""
+        if super().within(m, bound, first):
+            return True
+        if m in self._plain or not self._planar_moved.get(m, False):
+            return False
+        self._plain.add(m)
+        self._over.discard((m, bound))
+        return super().within(m, bound, first)
 
 
 #: Without a triangle budget, no collapse takes a point farther from the surface than

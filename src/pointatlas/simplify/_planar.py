@@ -1,0 +1,164 @@
+"""Faces of flat regions made planar where their vertices are a little off (private).
+
+On the points path a flat region's face can come out bent: its vertices were placed
+on the region's plane and then partly put back (a triangle the placement turned
+over, a vertex the points' surface did not accept), or the collapses left them near
+it. `planar_faces` takes each such face whose vertices lie within ``cap`` of their
+own least-squares plane and moves them onto it, for all of them at once: the faces'
+normals are their fits, and their offsets are the ones that move the vertices
+least (one sparse least-squares problem), each vertex going to the nearest point on
+the planes of all its faces (`_place._moves_onto_planes`'s pseudo-inverse, planes
+within 2.5 degrees of parallel acting as one). Faces that share a vertex with a
+planar face keep that face's plane as it is. A face is given up (left as it was)
+where its vertices would move more than ``cap``, a triangle would turn over, or a
+vertex cannot lie on all its planes (two near-parallel planes: the smaller face
+gives way); the rest is solved again without it.
+Decisions in docs/decisions/simplify.md ("The points path's planar faces").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse.linalg import spsolve
+
+from ._mesh import unique_ints, unique_pairs
+from ._place import _PARALLEL_RTOL, _cross, plane_fits
+
+__all__ = ["PLANAR_ATTEMPTS", "SHRINK", "planar_faces"]
+
+#: A triangle left with less than this share of its area (along its former normal)
+#: counts as turned over: no triangle of (near) zero area.
+SHRINK = 1e-3
+#: The offsets' system's ridge, a share of its mean diagonal (`_least_moves`).
+_RIDGE = 1e-12
+#: Solves at most (each gives up the faces that failed the one before).
+PLANAR_ATTEMPTS = 8
+
+
+def planar_faces(x, triangles, triangle_face, flat, tol: float, cap: float):
+    """``x`` with the bent faces of flat regions moved onto their planes (see the module).
+
+    Parameters
+    ----------
+    x : ndarray of shape (V, 3)
+        Vertices.
+    triangles : ndarray of shape (T, 3), int64
+        Triangles; ``triangle_face`` (T,) their face (region).
+    flat : ndarray of shape (R,), bool
+        Which regions are flat.
+    tol : float
+        A face whose vertices lie within this distance of their plane is planar.
+    cap : float
+        Faces bent by more than this, and moves longer than this, are left.
+
+    Returns
+    -------
+    ndarray of shape (V, 3)
+        The vertices (a copy).
+
+    Examples
+    --------
+    A square of two triangles with one corner lifted a little comes out flat:
+
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0.01], [0, 1, 0.0]])
+    >>> t = np.array([[0, 1, 2], [0, 2, 3]])
+    >>> y = planar_faces(v, t, np.zeros(2, int), np.ones(1, bool), 1e-9, 0.1)
+    >>> bool(abs(np.linalg.det(np.c_[y[1:] - y[0]])) < 1e-12)
+    True
+    """
+    x = np.asarray(x, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    tface = np.asarray(triangle_face, dtype=np.int64)
+    flat = np.asarray(flat, dtype=bool)
+    nf = flat.size
+    size = np.bincount(tface, minlength=nf)
+    on = np.flatnonzero((flat & (size >= 2))[tface])  # the faces that can bend
+    if on.size == 0:
+        return x.copy()
+    normals, offsets, deviation, spanned = plane_fits(x, tri[on], tface[on], nf)
+    held = flat & (size >= 2) & spanned & (deviation <= cap)
+    before = _cross(x, tri)
+    for _ in range(PLANAR_ATTEMPTS):
+        bent = held & (deviation > tol)
+        if not bent.any():
+            break
+        t = np.flatnonzero(held[tface])
+        pairs = unique_pairs(np.column_stack([tri[t].reshape(-1), np.repeat(tface[t], 3)]))
+        rows = pairs[np.isin(pairs[:, 0], unique_ints(pairs[bent[pairs[:, 1]], 0]))]
+        free = np.full(nf, -1, dtype=np.int64)
+        free[bent] = np.arange(int(bent.sum()))
+        verts, move, solved = _least_moves(x, rows, normals, offsets, free)
+        if not np.isfinite(move).all():
+            break
+        y = x.copy()
+        y[verts] += move
+        d = offsets.copy()
+        d[bent] = solved
+        failed = _failed(x, y, tri, rows, normals, d, bent, size, before, tol, cap)
+        if not failed.any():
+            return y
+        held &= ~failed
+    return x.copy()
+
+
+def _least_moves(x, rows, normals, offsets, free):
+    """The moves of ``rows``' vertices ((vertex, face) pairs sorted by vertex) onto all
+    their faces' planes, with the offsets of the faces where ``free`` >= 0 (their
+    index among the unknowns) changed from ``offsets`` so that the sum of the squared
+    moves is least: ``(vertices, moves (n, 3), offsets of the free faces)``."""
+    first = np.flatnonzero(np.r_[True, rows[1:, 0] != rows[:-1, 0]])
+    count = np.diff(np.append(first, rows.shape[0]))
+    n_free = int(free.max()) + 1
+    ids, cols, vals, verts, fixed = [], [], [], [], []
+    start = 0
+    for c in np.unique(count):
+        j = np.flatnonzero(count == c)
+        v = rows[first[j], 0]
+        faces = rows[first[j][:, None] + np.arange(c), 1]
+        a = normals[faces]
+        p = np.linalg.pinv(a, rcond=_PARALLEL_RTOL)  # (n, 3, c)
+        fixed.append(np.einsum("ndc,nc->nd", p, offsets[faces] - np.einsum("ncd,nd->nc", a, x[v])))
+        row = start + 3 * np.arange(v.size)[:, None] + np.arange(3)
+        for k in range(c):
+            col = free[faces[:, k]]
+            on = col >= 0
+            ids.append(row[on].reshape(-1))
+            cols.append(np.repeat(col[on], 3))
+            vals.append(p[on, :, k].reshape(-1))
+        verts.append(v)
+        start += 3 * v.size
+    m = sparse.csr_matrix(
+        (np.concatenate(vals), (np.concatenate(ids), np.concatenate(cols))),
+        shape=(start, n_free),
+    )
+    b = np.concatenate(fixed).reshape(-1)
+    # the offsets' changes; a ridge of `_RIDGE` of the mean diagonal keeps the system
+    # regular where two faces' offsets move no vertex apart (it draws them to their
+    # fits, by far less than the tolerance)
+    lhs = (m.T @ m).tocsc()
+    lhs = lhs + sparse.identity(n_free, format="csc") * (_RIDGE * lhs.diagonal().mean())
+    change = np.atleast_1d(spsolve(lhs, -(m.T @ b)))
+    return np.concatenate(verts), (m @ change + b).reshape(-1, 3), offsets[free >= 0] + change
+
+
+def _failed(x, y, tri, rows, normals, offsets, bent, size, before, tol, cap):
+    """Which bent faces give way: those with a vertex moved more than ``cap`` or on a
+    triangle turned over, and at each vertex left off one of its planes by more than
+    ``tol`` (near-parallel planes), its bent face of fewest triangles. A triangle
+    left with less than `SHRINK` of its area along its former normal counts as
+    turned over."""
+    bad = np.zeros(x.shape[0], dtype=bool)
+    bad[np.linalg.norm(y - x, axis=1) > cap] = True
+    # turned over, or left with less than `SHRINK` of its area along its normal
+    kept = np.einsum("ij,ij->i", before, _cross(y, tri))
+    flipped = (kept <= SHRINK * np.einsum("ij,ij->i", before, before)) & before.any(axis=1)
+    bad[unique_ints(tri[flipped])] = True
+    failed = np.zeros(bent.size, dtype=bool)
+    failed[rows[bad[rows[:, 0]] & bent[rows[:, 1]], 1]] = True
+    height = np.einsum("ij,ij->i", normals[rows[:, 1]], y[rows[:, 0]]) - offsets[rows[:, 1]]
+    off = rows[np.isin(rows[:, 0], rows[np.abs(height) > tol, 0]) & bent[rows[:, 1]]]
+    if off.size:
+        off = off[np.lexsort((off[:, 1], size[off[:, 1]], off[:, 0]))]
+        failed[off[np.r_[True, off[1:, 0] != off[:-1, 0]], 1]] = True
+    return failed

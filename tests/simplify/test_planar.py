@@ -1,0 +1,147 @@
+"""The points path's last placement step: faces of flat regions a little bent, moved
+onto their own planes (`_planar.planar_faces`)."""
+
+import numpy as np
+
+from pointatlas.simplify._place import plane_fits
+from pointatlas.simplify._planar import planar_faces
+
+
+def _grid(n, lift, rng):
+    """An n x n grid of vertices on z = 0 in (n - 1)^2 quads of two triangles, each
+    vertex lifted by up to ``lift`` (seeded)."""
+    x, y = np.meshgrid(np.arange(n, dtype=float), np.arange(n, dtype=float))
+    v = np.column_stack([x.ravel(), y.ravel(), rng.uniform(-lift, lift, n * n)])
+    tri = []
+    for j in range(n - 1):
+        for i in range(n - 1):
+            a, b, c, d = j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i
+            tri += [(a, b, c), (a, c, d)]
+    return v, np.array(tri)
+
+
+def _box_corner(n, lift, seed):
+    """Three faces of a cube meeting at the origin (x = 0, y = 0, z = 0), each an
+    n x n grid, welded along their shared edges, every vertex then moved by up to
+    ``lift`` along each axis (seeded)."""
+    rng = np.random.default_rng(seed)
+    verts, tris, faces = [], [], []
+    for k, axes in enumerate(((0, 1, 2), (1, 2, 0), (2, 0, 1))):
+        v, t = _grid(n, 0.0, rng)
+        w = np.empty_like(v)
+        w[:, axes[0]], w[:, axes[1]], w[:, axes[2]] = v[:, 0], v[:, 1], v[:, 2]
+        offset = sum(len(p) for p in verts)
+        verts.append(w)
+        tris.append(t + offset)
+        faces.append(np.full(len(t), k))
+    v, t, face = np.vstack(verts), np.vstack(tris), np.concatenate(faces)
+    _, first, inv = np.unique(v, axis=0, return_index=True, return_inverse=True)
+    v = v[first] + rng.uniform(-lift, lift, (first.size, 3))
+    return v, inv.reshape(-1)[t], face
+
+
+def _planarity(v, t, face, n_faces):
+    return plane_fits(v, t, face, n_faces)[2]
+
+
+def test_a_lone_bent_face_goes_onto_its_least_squares_plane():
+    """One face, no neighbours: its vertices are projected onto their own
+    least-squares plane (a plain-numpy reference), nothing else moves."""
+    rng = np.random.default_rng(3)
+    v, t = _grid(5, 1e-3, rng)
+    y = planar_faces(v, t, np.zeros(len(t), int), np.ones(1, bool), 1e-9, 0.01)
+    c = v.mean(axis=0)
+    n = np.linalg.svd(v - c)[2][2]
+    want = v - np.outer((v - c) @ n, n)
+    np.testing.assert_allclose(y, want, atol=1e-12)
+    assert _planarity(y, t, np.zeros(len(t), int), 1)[0] <= 1e-9
+
+
+def test_three_bent_faces_of_a_corner_come_out_planar_and_meet():
+    """Three faces of a box corner, each bent by up to 1e-4 (a hundredth of a grid
+    step): every face planar within 1e-9, each vertex moved at most a few times the
+    bend, the corner vertex on all three planes."""
+    v, t, face = _box_corner(4, 1e-4, seed=0)
+    assert _planarity(v, t, face, 3).min() > 1e-5
+    y = planar_faces(v, t, face, np.ones(3, bool), 1e-9, 0.01)
+    assert _planarity(y, t, face, 3).max() <= 1e-9
+    assert np.linalg.norm(y - v, axis=1).max() <= 5e-4
+    normals, offsets = plane_fits(y, t, face, 3)[:2]
+    corner = np.argmin(np.linalg.norm(v, axis=1))
+    assert (face[np.flatnonzero((t == corner).any(axis=1))] == np.arange(3)[:, None]).any(1).all()
+    np.testing.assert_allclose(normals @ y[corner], offsets, atol=1e-9)
+
+
+def test_faces_bent_past_the_cap_and_curved_regions_stay_bit_for_bit():
+    """A face bent by more than the cap, and a face whose region is not flat, keep
+    their vertices exactly."""
+    v, t, face = _box_corner(4, 1e-3, seed=1)
+    y = planar_faces(v, t, face, np.ones(3, bool), 1e-9, 1e-4)
+    assert np.array_equal(y, v)
+    y = planar_faces(v, t, face, np.zeros(3, bool), 1e-9, 0.01)
+    assert np.array_equal(y, v)
+
+
+def test_two_parallel_faces_sharing_an_edge_the_smaller_gives_way():
+    """A step with no wall: a face on z = 0 and a smaller one on z = 0.001 share an
+    edge (their planes parallel, so no vertex lies on both): the larger face comes
+    out planar, the smaller keeps its vertices (bent), nothing is flung."""
+    rng = np.random.default_rng(5)
+    v, t = _grid(5, 1e-4, rng)
+    face = np.zeros(len(t), int)
+    face[v[t].mean(axis=1)[:, 0] > 3.0] = 1  # the last column of quads
+    right = np.unique(t[face == 1])
+    v[right[v[right, 0] > 3.5], 2] += 1e-3
+    y = planar_faces(v, t, face, np.ones(2, bool), 1e-9, 0.01)
+    bend = _planarity(y, t, face, 2)
+    assert bend[0] <= 1e-9
+    assert np.linalg.norm(y - v, axis=1).max() <= 1e-3
+    assert bend[1] > 1e-9
+
+
+def test_no_triangle_is_left_without_area():
+    """A triangle of a curved neighbour whose apex lies almost on the line the face's
+    planar edge would take: moving the edge would leave it a thousandth of its area
+    or less, so the face gives way and keeps its vertices."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 2e-4], [0, 0, 0]], dtype=float)
+    t = np.array([[0, 1, 2], [0, 2, 3], [2, 4, 3]])
+    face = np.array([0, 0, 1])
+    flat = np.array([True, False])
+    alone = planar_faces(v[:4], t[:2], face[:2], flat[:1], 1e-12, 0.01)
+    # the apex just off the planar edge's midpoint, on the side it is on before
+    mid, was = 0.5 * (alone[2] + alone[3]), 0.5 * (v[2] + v[3])
+    v[4] = mid + 1e-5 * (mid - was)
+    y = planar_faces(v, t, face, flat, 1e-12, 0.01)
+    assert np.array_equal(y, v)
+    c = np.cross(v[t[2, 1]] - v[t[2, 0]], v[t[2, 2]] - v[t[2, 0]])
+    assert np.linalg.norm(c) > 0.0
+
+
+def _least_moves_reference(x, t, face, n_faces):
+    """Plain numpy: with every face's normal its fit, the offsets that make the sum of
+    the squared moves of the vertices onto all their faces' planes least (one dense
+    least-squares problem, a loop over the vertices)."""
+    normals, offsets = plane_fits(x, t, face, n_faces)[:2]
+    rows, rhs = [], []
+    for v in np.unique(t):
+        faces = np.unique(face[(t == v).any(axis=1)])
+        p = np.linalg.pinv(normals[faces], rcond=0.0437)
+        block = np.zeros((3, n_faces))
+        block[:, faces] = p
+        rows.append(block)
+        rhs.append(p @ (normals[faces] @ x[v]))
+    d = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
+    y = x.copy()
+    for v in np.unique(t):
+        faces = np.unique(face[(t == v).any(axis=1)])
+        p = np.linalg.pinv(normals[faces], rcond=0.0437)
+        y[v] = x[v] + p @ (d[faces] - normals[faces] @ x[v])
+    return y
+
+
+def test_the_moves_are_the_least_squares_ones_of_a_plain_reference():
+    """The box corner's three bent faces: the vertices where the plain-numpy
+    reference's least-squares offsets put them."""
+    v, t, face = _box_corner(5, 1e-4, seed=2)
+    y = planar_faces(v, t, face, np.ones(3, bool), 1e-9, 0.01)
+    np.testing.assert_allclose(y, _least_moves_reference(v, t, face, 3), atol=1e-10)
