@@ -129,6 +129,15 @@ def test_repeated_rounded_points_do_not_crash():
     assert res.mesh.is_closed and res.mesh.is_manifold
 
 
+def _sampled_and_simplified(shape):
+    """``(vertices, triangles, points, mesh, diagonal)``: 20,000 points sampled on
+    ``shape()`` with their normals (seed 0), simplified with the defaults."""
+    v, t = shape()
+    s = sample_mesh(v, t, 20000, rng=0)
+    p = np.asarray(s.points)
+    return v, t, p, simplify_points(p, s.normals).mesh, float(np.linalg.norm(np.ptp(p, axis=0)))
+
+
 @pytest.mark.parametrize("shape", [l_bracket, cube_with_square_hole])
 def test_a_sampled_cad_part_simplifies_to_its_faces_without_a_spike(shape):
     """20,000 points on a CAD part: tens of planar faces (not thousands of input
@@ -137,11 +146,7 @@ def test_a_sampled_cad_part_simplifies_to_its_faces_without_a_spike(shape):
     were sampled from, measured independently of the report)."""
     from pointatlas.neighbors import point_mesh_distance
 
-    v, t = shape()
-    s = sample_mesh(v, t, 20000, rng=0)
-    p = np.asarray(s.points)
-    m = simplify_points(p, s.normals).mesh
-    diag = float(np.linalg.norm(np.ptp(p, axis=0)))
+    v, t, p, m, diag = _sampled_and_simplified(shape)
     assert m.is_closed and m.is_manifold and m.is_oriented
     assert m.n_faces <= 20 and len(m.triangles) <= 300
     lo, hi = p.min(axis=0) - 0.01 * diag, p.max(axis=0) + 0.01 * diag
@@ -161,11 +166,7 @@ def test_the_flat_faces_of_a_sampled_cylinder_are_planar():
     """20,000 points on a 64-sided prism: every face of a flat region (the caps and
     the sides' regions) planar within 1e-6 of the diagonal (4 of 11 were bent by up
     to 0.38 % before `_planar.planar_faces`), closed, within 1 % of the points."""
-    v, t = cylinder()
-    s = sample_mesh(v, t, 20000, rng=0)
-    p = np.asarray(s.points)
-    m = simplify_points(p, s.normals).mesh
-    diag = float(np.linalg.norm(np.ptp(p, axis=0)))
+    m, diag = _sampled_and_simplified(cylinder)[3:]
     assert m.is_closed and m.is_manifold and m.is_oriented
     assert m.face_flat.sum() >= 3
     assert (m.planarity_error[m.face_flat] <= 1e-6 * diag).all()
