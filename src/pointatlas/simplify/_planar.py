@@ -7,12 +7,14 @@ it. `planar_faces` takes each such face whose vertices lie within ``cap`` of the
 own least-squares plane and moves them onto it, for all of them at once: the faces'
 normals are their fits, and their offsets are the ones that move the vertices
 least (one sparse least-squares problem), each vertex going to the nearest point on
-the planes of all its faces (`_place._moves_onto_planes`'s pseudo-inverse, planes
-within 2.5 degrees of parallel acting as one). Faces that share a vertex with a
-planar face keep that face's plane as it is. A face is given up (left as it was)
-where its vertices would move more than ``cap``, a triangle would turn over, or a
-vertex cannot lie on all its planes (two near-parallel planes: the smaller face
-gives way); the rest is solved again without it.
+the planes of all its flat faces of two or more triangles (the pseudo-inverse of
+`_place._moves_onto_planes`, planes within 2.5 degrees of parallel acting as one). A
+planar face that shares a vertex with a bent one keeps its plane: the vertex slides
+along it. A bent face is given up (left as it was) where its vertices would move
+more than ``cap``, a triangle would turn over or keep less than `SHRINK` of its area,
+or a vertex cannot lie on all its planes (two near-parallel planes: the smaller face
+gives way); the rest is solved again without it. `_snap.PointsDecimation` runs it
+on every placed level, and measures a level it takes over the bound again without it.
 Decisions in docs/decisions/simplify.md ("The points path's planar faces").
 """
 
