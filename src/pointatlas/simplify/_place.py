@@ -154,22 +154,28 @@ def place_on_planes(
     return _unflip(v0, x, tri, collapsed=True) if unflip else x
 
 
-def _moves_onto_planes(x, pairs, normals, offsets):
+def _plane_groups(pairs, normals):
     """For the vertices of ``pairs`` ((vertex, face) rows sorted by vertex), each
-    group of vertices on the same number c of planes at once (a (n, c, 3) stack of
-    plane normals): ``(vertices, residual (n, c), move (n, 3))``, the move to the
-    nearest point on all their planes (least squares; planes within
-    `_PARALLEL_RTOL` act as one)."""
+    group of vertices on the same number c of planes at once: ``(vertices, faces (n,
+    c), normals (n, c, 3), their pseudo-inverses (n, 3, c))``, planes within
+    `_PARALLEL_RTOL` acting as one."""
     first = np.flatnonzero(np.r_[True, pairs[1:, 0] != pairs[:-1, 0]])
     count = np.diff(np.append(first, pairs.shape[0]))
     for c in np.unique(count):
         j = np.flatnonzero(count == c)
-        verts = pairs[first[j], 0]
         regions = pairs[first[j][:, None] + np.arange(c), 1]
         a = normals[regions]
+        yield pairs[first[j], 0], regions, a, np.linalg.pinv(a, rcond=_PARALLEL_RTOL)
+
+
+def _moves_onto_planes(x, pairs, normals, offsets):
+    """For the vertices of ``pairs`` ((vertex, face) rows sorted by vertex), each
+    group of vertices on the same number c of planes at once (`_plane_groups`):
+    ``(vertices, residual (n, c), move (n, 3))``, the move to the nearest point on
+    all their planes (least squares; planes within `_PARALLEL_RTOL` act as one)."""
+    for verts, regions, a, p in _plane_groups(pairs, normals):
         residual = offsets[regions] - np.einsum("ncd,nd->nc", a, x[verts])
-        move = np.einsum("ndc,nc->nd", np.linalg.pinv(a, rcond=_PARALLEL_RTOL), residual)
-        yield verts, residual, move
+        yield verts, residual, np.einsum("ndc,nc->nd", p, residual)
 
 
 def _unflip(v0, x, tri, rounds: int = 4, collapsed: bool = False, before=None):

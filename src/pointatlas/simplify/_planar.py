@@ -8,7 +8,7 @@ own least-squares plane and moves them onto it, for all of them at once: the fac
 normals are their fits, and their offsets are the ones that move the vertices
 least (one sparse least-squares problem), each vertex going to the nearest point on
 the planes of all its flat faces of two or more triangles (the pseudo-inverse of
-`_place._moves_onto_planes`, planes within 2.5 degrees of parallel acting as one). A
+`_place._plane_groups`, planes within 2.5 degrees of parallel acting as one). A
 planar face that shares a vertex with a bent one keeps its plane: the vertex slides
 along it. A bent face is given up (left as it was) where its vertices would move
 more than ``cap``, a triangle would turn over or keep less than `SHRINK` of its area,
@@ -25,7 +25,7 @@ from scipy import sparse
 from scipy.sparse.linalg import spsolve
 
 from ._mesh import unique_ints, unique_pairs
-from ._place import _PARALLEL_RTOL, _cross, plane_fits
+from ._place import _cross, _plane_groups, plane_fits
 
 __all__ = ["PLANAR_ATTEMPTS", "SHRINK", "planar_faces"]
 
@@ -109,20 +109,13 @@ def _least_moves(x, rows, normals, offsets, free):
     their faces' planes, with the offsets of the faces where ``free`` >= 0 (their
     index among the unknowns) changed from ``offsets`` so that the sum of the squared
     moves is least: ``(vertices, moves (n, 3), offsets of the free faces)``."""
-    first = np.flatnonzero(np.r_[True, rows[1:, 0] != rows[:-1, 0]])
-    count = np.diff(np.append(first, rows.shape[0]))
     n_free = int(free.max()) + 1
     ids, cols, vals, verts, fixed = [], [], [], [], []
     start = 0
-    for c in np.unique(count):
-        j = np.flatnonzero(count == c)
-        v = rows[first[j], 0]
-        faces = rows[first[j][:, None] + np.arange(c), 1]
-        a = normals[faces]
-        p = np.linalg.pinv(a, rcond=_PARALLEL_RTOL)  # (n, 3, c)
+    for v, faces, a, p in _plane_groups(rows, normals):
         fixed.append(np.einsum("ndc,nc->nd", p, offsets[faces] - np.einsum("ncd,nd->nc", a, x[v])))
         row = start + 3 * np.arange(v.size)[:, None] + np.arange(3)
-        for k in range(c):
+        for k in range(faces.shape[1]):
             col = free[faces[:, k]]
             on = col >= 0
             ids.append(row[on].reshape(-1))
