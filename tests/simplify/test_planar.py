@@ -1,10 +1,11 @@
 """The points path's last placement step: faces of flat regions a little bent, moved
-onto their own planes (`_planar.planar_faces`)."""
+onto their own planes (`_planar.planar_faces`), faces meeting on near-parallel planes
+taken as one (`_planar.merged_planar_faces`)."""
 
 import numpy as np
 
 from pointatlas.simplify._place import plane_fits
-from pointatlas.simplify._planar import planar_faces
+from pointatlas.simplify._planar import merged_planar_faces, planar_faces
 
 
 def _grid(n, lift, rng):
@@ -97,6 +98,44 @@ def test_two_parallel_faces_sharing_an_edge_the_smaller_gives_way():
     assert bend[0] <= 1e-9
     assert np.linalg.norm(y - v, axis=1).max() <= 1e-3
     assert bend[1] > 1e-9
+
+
+def _folded(angle_deg):
+    """A 5 x 5 grid (bent by up to 1e-4, seeded) whose last column of quads (face 1,
+    8 triangles) turns up about the line x = 3 by ``angle_deg``; face 0 the rest (24)."""
+    rng = np.random.default_rng(7)
+    v, t = _grid(5, 1e-4, rng)
+    face = (v[t].mean(axis=1)[:, 0] > 3.0).astype(int)
+    right = v[:, 0] > 3.5
+    v[right, 2] += (v[right, 0] - 3.0) * np.tan(np.radians(angle_deg))
+    return v, t, face
+
+
+def test_faces_meeting_on_near_parallel_planes_come_out_one_planar_face():
+    """Two bent faces 1 degree apart (within 2.5: no vertex of their shared edge can
+    lie on both planes) become one planar face, labelled as the larger; each alone
+    would be made planar only where its edge gives way."""
+    v, t, face = _folded(1.0)
+    y, merged = merged_planar_faces(v, t, face, np.ones(2, bool), 1e-9, 0.1)
+    assert (merged == 0).all()
+    assert _planarity(y, t, merged, 2)[0] <= 1e-9
+    assert np.linalg.norm(y - v, axis=1).max() <= np.tan(np.radians(1.0))
+    apart = planar_faces(v, t, face, np.ones(2, bool), 1e-9, 0.1)
+    assert _planarity(apart, t, face, 2).max() > 1e-9
+
+
+def test_faces_at_an_angle_or_a_merge_left_bent_stay_apart():
+    """A box corner's three faces (90 degrees apart) keep their labels and get
+    `planar_faces`' vertices bit for bit; so do two faces 1 degree apart whose
+    merged face cannot be made planar within the cap (it gives way: apart again)."""
+    v, t, face = _box_corner(4, 1e-4, 0)
+    y, labels = merged_planar_faces(v, t, face, np.ones(3, bool), 1e-9, 0.01)
+    np.testing.assert_array_equal(labels, face)
+    np.testing.assert_array_equal(y, planar_faces(v, t, face, np.ones(3, bool), 1e-9, 0.01))
+    v, t, face = _folded(1.0)
+    y, labels = merged_planar_faces(v, t, face, np.ones(2, bool), 1e-9, 1e-3)
+    np.testing.assert_array_equal(labels, face)
+    np.testing.assert_array_equal(y, planar_faces(v, t, face, np.ones(2, bool), 1e-9, 1e-3))
 
 
 def test_no_triangle_is_left_without_area():

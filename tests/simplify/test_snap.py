@@ -298,7 +298,7 @@ def test_the_triangles_cross_products_are_numpys_bit_for_bit():
 
 def test_a_level_the_planar_step_takes_past_the_bound_is_measured_without_it(monkeypatch):
     """`PointsDecimation.within`: a level over the bound with its faces made planar
-    (`_planar.planar_faces`) is measured again as placed without that step, so the
+    (`_planar.merged_planar_faces`) is measured again as placed without that step, so the
     step never costs a level: a step that shifts every vertex by 3 % of the box
     gives the mesh of no step at all, bit for bit."""
     import warnings
@@ -309,8 +309,11 @@ def test_a_level_the_planar_step_takes_past_the_bound_is_measured_without_it(mon
     s = sample_mesh(v, t, 6000, rng=0)
     p, n = np.asarray(s.points), np.asarray(s.normals)
     meshes = []
-    for step in (lambda x, *a: x, lambda x, *a: x + 0.03 * np.ptp(x, axis=0)):
-        monkeypatch.setattr(_snap, "planar_faces", step)
+    for step in (
+        lambda x, t, face, *a: (x, face),
+        lambda x, t, face, *a: (x + 0.03 * np.ptp(x, axis=0), face),
+    ):
+        monkeypatch.setattr(_snap, "merged_planar_faces", step)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SimplifyWarning)
             meshes.append(simplify_points(p, n, path="robust").mesh)

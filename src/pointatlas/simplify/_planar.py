@@ -13,8 +13,10 @@ planar face that shares a vertex with a bent one keeps its plane: the vertex sli
 along it. A bent face is given up (left as it was) where its vertices would move
 more than ``cap``, a triangle would turn over or keep less than `SHRINK` of its area,
 or a vertex cannot lie on all its planes (two near-parallel planes: the smaller face
-gives way); the rest is solved again without it. `_snap.PointsDecimation` runs it
-on every placed level, and measures a level it takes over the bound again without it.
+gives way); the rest is solved again without it. `merged_planar_faces` first takes
+flat faces that meet on near-parallel planes as one face (made planar together, or
+apart again where the merged face stays bent); `_snap.PointsDecimation` runs it on
+every placed level, and measures a level it takes over the bound again without it.
 Decisions in docs/decisions/simplify.md ("The points path's planar faces").
 """
 
@@ -22,12 +24,13 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import sparse
+from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import spsolve
 
 from ._mesh import unique_ints, unique_pairs
-from ._place import _cross, _plane_groups, plane_fits
+from ._place import _PARALLEL_RTOL, _cross, _plane_groups, plane_fits
 
-__all__ = ["PLANAR_ATTEMPTS", "SHRINK", "planar_faces"]
+__all__ = ["PLANAR_ATTEMPTS", "SHRINK", "merged_planar_faces", "planar_faces"]
 
 #: A triangle left with less than this share of its area (along its former normal)
 #: counts as turned over: no triangle of (near) zero area.
@@ -38,7 +41,79 @@ _RIDGE = 1e-12
 PLANAR_ATTEMPTS = 8
 
 
-def planar_faces(x, triangles, triangle_face, flat, tol: float, cap: float):
+def merged_planar_faces(x, triangles, triangle_face, flat, tol: float, cap: float):
+    """`planar_faces` with the flat faces that meet at a vertex on planes within 2.5
+    degrees of parallel (`_place._PARALLEL_RTOL`: no vertex can lie on both) taken
+    as one face where that face comes out planar; the others are made planar apart.
+
+    Returns ``(x, triangle_face)``: the vertices (a copy) and each triangle's face,
+    a merged face labelled as its largest member (in triangles; ties: the lower
+    label). Measured on the voron spool holder's and the einsy doors' sampled points
+    (their final levels): flat faces 127 -> 61 and 149 -> 67, bent by more than 1e-6
+    of the diagonal 44 -> 11 and 91 -> 25, no vertex moved past ``cap``.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    tface = np.asarray(triangle_face, dtype=np.int64)
+    flat = np.asarray(flat, dtype=bool)
+    fits = _bendable_fits(x, tri, tface, flat)
+    merged = _near_parallel(tri, tface, flat, fits)
+    if np.array_equal(merged, tface):
+        return planar_faces(x, tri, tface, flat, tol, cap, fits), tface
+    y = planar_faces(x, tri, merged, flat, tol, cap)
+    deviation = plane_fits(y, tri, merged, flat.size)[2]
+    joined = np.flatnonzero(merged != tface)
+    apart = joined[deviation[merged[joined]] > tol]  # a merged face left bent: apart
+    if apart.size == 0:
+        return y, merged
+    bent = np.zeros(flat.size, dtype=bool)
+    bent[merged[apart]] = True
+    merged = np.where(bent[merged], tface, merged)
+    return planar_faces(x, tri, merged, flat, tol, cap), merged
+
+
+def _bendable_fits(x, tri, tface, flat):
+    """`_place.plane_fits` of the faces of flat regions of two triangles or more (zeros
+    and not spanned for the others)."""
+    nf = flat.size
+    on = np.flatnonzero((flat & (np.bincount(tface, minlength=nf) >= 2))[tface])
+    return plane_fits(x, tri[on], tface[on], nf)
+
+
+def _near_parallel(tri, tface, flat, fits):
+    """Each triangle's face with the flat faces (two triangles or more, spanning a
+    plane; ``fits``: `_bendable_fits`) that meet at a vertex on planes within
+    `_PARALLEL_RTOL` of parallel joined, transitively, each group labelled as its
+    largest member."""
+    nf = flat.size
+    size = np.bincount(tface, minlength=nf)
+    normals, _, _, spanned = fits
+    ok = flat & (size >= 2) & spanned
+    pairs = unique_pairs(np.column_stack([tri.reshape(-1), tface.repeat(3)]))
+    pairs = pairs[ok[pairs[:, 1]]]
+    # every two faces at a vertex: each row against the next ones of its vertex
+    a, b = [], []
+    for shift in range(1, int(np.bincount(pairs[:, 0]).max(initial=0))):
+        same = pairs[shift:, 0] == pairs[:-shift, 0]
+        a.append(pairs[:-shift, 1][same])
+        b.append(pairs[shift:, 1][same])
+    if not a:
+        return tface
+    a, b = np.concatenate(a), np.concatenate(b)
+    cos = np.abs(np.einsum("ij,ij->i", normals[a], normals[b]))
+    near = cos >= np.sqrt(1.0 - _PARALLEL_RTOL**2)
+    if not near.any():
+        return tface
+    graph = sparse.coo_array((np.ones(int(near.sum())), (a[near], b[near])), shape=(nf, nf))
+    _, group = connected_components(graph, directed=False)
+    # the largest member of each group (ties: the lower label) names it
+    order = np.lexsort((-np.arange(nf), size))
+    label = np.empty(group.max() + 1, dtype=np.int64)
+    label[group[order]] = order
+    return label[group][tface]
+
+
+def planar_faces(x, triangles, triangle_face, flat, tol: float, cap: float, fits=None):
     """``x`` with the bent faces of flat regions moved onto their planes (see the module).
 
     Parameters
@@ -53,6 +128,8 @@ def planar_faces(x, triangles, triangle_face, flat, tol: float, cap: float):
         A face whose vertices lie within this distance of their plane is planar.
     cap : float
         Faces bent by more than this, and moves longer than this, are left.
+    fits : tuple, optional
+        `_bendable_fits` of these arguments (found when None).
 
     Returns
     -------
@@ -78,7 +155,9 @@ def planar_faces(x, triangles, triangle_face, flat, tol: float, cap: float):
     on = np.flatnonzero((flat & (size >= 2))[tface])  # the faces that can bend
     if on.size == 0:
         return x.copy()
-    normals, offsets, deviation, spanned = plane_fits(x, tri[on], tface[on], nf)
+    if fits is None:
+        fits = plane_fits(x, tri[on], tface[on], nf)
+    normals, offsets, deviation, spanned = fits
     held = flat & (size >= 2) & spanned & (deviation <= cap)
     before = _cross(x, tri)
     for _ in range(PLANAR_ATTEMPTS):

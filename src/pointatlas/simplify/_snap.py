@@ -29,7 +29,7 @@ from ._caps import flip_caps, spread_tiny, weld_needles
 from ._decimate_mesh import Decimation
 from ._grid_knn import GridKnn
 from ._place import _unflip, place_on_planes
-from ._planar import planar_faces
+from ._planar import merged_planar_faces
 from ._point_distances import SEARCH_POINTS
 from ._untangle import untangle
 
@@ -295,10 +295,12 @@ class PointsDecimation(Decimation):
         out_t = flip_caps(x, out_t, face)
         x = spread_tiny(x, out_t, face, self.planes)
         if m not in self._plain:  # faces of flat regions a little bent: onto their planes
-            y = planar_faces(x, out_t, face, self.planes[2], PLANAR_RTOL * self.diag, self.bound)
+            y, merged = merged_planar_faces(
+                x, out_t, face, self.planes[2], PLANAR_RTOL * self.diag, self.bound
+            )
             self._planar_moved[m] = not np.array_equal(x, y)
             self._unstepped = (m, (x, out_t, face, source, (kept, went)))
-            x = y
+            x, face = y, merged
         return x, out_t, face, source, (kept, went)
 
     def within(self, m: int, bound: float, first=None) -> bool:
