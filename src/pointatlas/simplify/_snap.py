@@ -216,9 +216,9 @@ class PointsDecimation(Decimation):
         self.full = measure  # all the points (`steps_within` measures a subset first)
         self.bound = float(bound)
         self.diag = float(np.linalg.norm(np.ptp(verts, axis=0)))
-        self._plain = set()  # levels placed without `planar_faces` (`within`)
-        self._planar_moved = {}  # level -> whether `planar_faces` moved a vertex
-        self._unstepped = None  # (level, its placement before `planar_faces`)
+        self._plain = set()  # levels placed without `merged_planar_faces` (`within`)
+        self._planar_moved = {}  # level -> whether that step moved a vertex
+        self._unstepped = None  # (level, its placement before that step)
 
     def steps_within(self, bound: float, lowest: int = 0) -> int | None:
         """`Decimation.steps_within`, its levels first measured on a subset of the
@@ -305,7 +305,7 @@ class PointsDecimation(Decimation):
 
     def within(self, m: int, bound: float, first=None) -> bool:
         """`Decimation.within`; a level over ``bound`` whose bent faces were made
-        planar (`planar_faces`) is measured again without that step (its placement
+        planar (`merged_planar_faces`) is measured again without that step (its placement
         before the step, kept: not placed again), and placed without it from then on
         (``_plain``): making faces planar never costs a level
         (a sampled CAD part, normals estimated: the search had ended at 3,984 triangles,
