@@ -61,7 +61,7 @@ def merged_planar_faces(x, triangles, triangle_face, flat, tol: float, cap: floa
     if np.array_equal(merged, tface):
         return planar_faces(x, tri, tface, flat, tol, cap, fits), tface
     y = planar_faces(x, tri, merged, flat, tol, cap)
-    deviation = plane_fits(y, tri, merged, flat.size)[2]
+    deviation = _bendable_fits(y, tri, merged, flat)[2]
     joined = np.flatnonzero(merged != tface)
     apart = joined[deviation[merged[joined]] > tol]  # a merged face left bent: apart
     if apart.size == 0:
@@ -152,11 +152,10 @@ def planar_faces(x, triangles, triangle_face, flat, tol: float, cap: float, fits
     flat = np.asarray(flat, dtype=bool)
     nf = flat.size
     size = np.bincount(tface, minlength=nf)
-    on = np.flatnonzero((flat & (size >= 2))[tface])  # the faces that can bend
-    if on.size == 0:
+    if not (flat & (size >= 2))[tface].any():  # no face that can bend
         return x.copy()
     if fits is None:
-        fits = plane_fits(x, tri[on], tface[on], nf)
+        fits = _bendable_fits(x, tri, tface, flat)
     normals, offsets, deviation, spanned = fits
     held = flat & (size >= 2) & spanned & (deviation <= cap)
     before = _cross(x, tri)
