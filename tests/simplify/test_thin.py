@@ -156,16 +156,21 @@ def test_a_second_surfaces_floors_only_raise_the_first_ones():
     assert raised.within(both, t, bound)  # each dent within its own floor
     assert raised.there_floor.shape == (q.shape[0],)
     # near each sample of either, the floor of the nearest sample of both surfaces
-    # (found lazily): the eager formula's, every sample's at once (plain numpy)
+    # (found lazily), the higher where both are as near: the eager formula's, every
+    # sample's at once (plain numpy and k-d trees)
     layers = raised.back_floor.layers
     assert len(layers) == 2
-    eager = [
-        np.minimum(back[cKDTree(x).query(x, k=FLOOR_NEIGHBORS)[1]].max(axis=1) + add, cap)
-        for x, back, _, add, cap in layers
-    ]
     x = np.concatenate([layer[0] for layer in layers])
-    nearest = cKDTree(x).query(x)[1]
-    assert np.array_equal(raised.back_floor.near(x), np.concatenate(eager)[nearest])
+    found = []  # each layer's distance to its nearest sample and that sample's floor
+    for samples, back, _, add, cap in layers:
+        tree = cKDTree(samples)
+        floor = np.minimum(back[tree.query(samples, k=FLOOR_NEIGHBORS)[1]].max(axis=1) + add, cap)
+        d, i = tree.query(x)
+        found.append((d, floor[i]))
+    (d0, f0), (d1, f1) = found
+    want = np.where(d0 < d1, f0, np.where(d1 < d0, f1, np.maximum(f0, f1)))
+    assert np.array_equal(raised.back_floor.near(x), want)
+    assert ((d0 == d1) & (f0 != f1)).any()  # samples both surfaces share: the higher
     # a dent where neither surface was is over the bound
     side = int(np.argmin(np.linalg.norm(v - [0.5, 0.0, 0.5], axis=1)))
     far = v.copy()
