@@ -246,7 +246,7 @@ def test_a_fin_thinner_than_the_grid_comes_back_on_the_finer_grid():
     p, n = np.asarray(s.points), np.asarray(s.normals)
     tree = cKDTree(p)
     grid = grid_step(p, n, tree)
-    first = _surface_at(p, n, tree, grid, is_closed_sample(p, n))
+    first = _surface_at(p, n, grid, is_closed_sample(p, n))
     far = LOST_STEPS * grid[1]
     assert lost_points(p, first.vertices, first.triangles, far) > 10 * LOST_SHARE * len(p)
     m = simplify_points(p, n).mesh

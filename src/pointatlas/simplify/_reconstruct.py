@@ -318,13 +318,13 @@ def reconstruct_surface(
     rec, closed, surface = _first_surface(q, normals, tree, grid, closed, surface, fields)
     fine = (spacing, *finer_step(q, spacing))
     if fine[1] < step / 1.2:
-        rec = _finer(q, normals, tree, rec, fine, closed, surface, off, fields)
+        rec = _finer(q, normals, rec, fine, closed, surface, off, fields)
 
     if closed:  # an open sample's far points lie beyond its cut outline: no inside
 
         def build(points, point_normals):
             solid = (points, point_normals)
-            return _surface_at(q, normals, tree, fine, closed, solid=solid, fields=fields)
+            return _surface_at(q, normals, fine, closed, solid=solid, fields=fields)
 
         rec = solid_retry(q, normals, rec, build, step, spacing, off)
     return replace(rec, uneven=factor)
@@ -337,17 +337,17 @@ def _first_surface(q, normals, tree, grid, closed, surface, fields=None):
     from ._distance import PointSurface
 
     try:
-        rec = _surface_at(q, normals, tree, grid, closed, surface=surface, fields=fields)
+        rec = _surface_at(q, normals, grid, closed, surface=surface, fields=fields)
         return rec, closed, surface
     except AllBubbles as exc:
         if not closed:
             raise
         surface = PointSurface(q, normals, tree) if surface is None else surface
-        rec = as_open(q, lambda: _surface_at(q, normals, tree, grid, False, surface=surface), exc)
+        rec = as_open(q, lambda: _surface_at(q, normals, grid, False, surface=surface), exc)
         return rec, False, surface
 
 
-def _finer(q, normals, tree, rec, fine, closed, surface, off=None, fields=None):
+def _finer(q, normals, rec, fine, closed, surface, off=None, fields=None):
     """``rec``, or the surface on the ``fine`` grid where ``rec`` lost a part thinner
     than its grid and the finer one brings most of those points near without adding
     handles (``surface``: the points' `PointSurface` of an open sample; strays
@@ -358,7 +358,7 @@ def _finer(q, normals, tree, rec, fine, closed, surface, off=None, fields=None):
     if lost < LOST_POINTS:
         return rec
     try:
-        finer = _surface_at(q, normals, tree, fine, closed, surface=surface, fields=fields)
+        finer = _surface_at(q, normals, fine, closed, surface=surface, fields=fields)
     except PointAtlasError:
         return rec
     still = lost_points(q, finer.vertices, finer.triangles, far, off, link)
@@ -368,9 +368,7 @@ def _finer(q, normals, tree, rec, fine, closed, surface, off=None, fields=None):
     return finer if 2 * still <= lost and (no_handle or whole) else rec
 
 
-def _surface_at(
-    q, normals, tree, grid, closed, solid=None, surface=None, fields=None
-) -> Reconstruction:
+def _surface_at(q, normals, grid, closed, solid=None, surface=None, fields=None) -> Reconstruction:
     """`reconstruct_surface` on the grid ``(spacing, step, shape)``; ``solid``:
     (points, normals) whose half balls the field takes (`_solid.half_balls`);
     ``surface``: the points' `PointSurface` (an open sample's cut at the outline);
@@ -400,7 +398,8 @@ def _surface_at(
     verts = verts.astype(np.float64) + origin
     tri = tri.astype(np.int64)
     centroids = verts[tri].mean(axis=1)
-    d, j = tree.query(centroids, workers=-1)
+    # nearest points and triangles on grids (`GridKnn`: the k-d tree's answers)
+    d, j = (a[:, 0] for a in GridKnn(q, KNN_CELL_SPACINGS * spacing).query(centroids, 1))
     tn = np.cross(verts[tri[:, 1]] - verts[tri[:, 0]], verts[tri[:, 2]] - verts[tri[:, 0]])
     dots, areas = np.einsum("ij,ij->i", tn, normals[j]), np.linalg.norm(tn, axis=1)
     facing = dots / (areas + 1e-300)
@@ -416,7 +415,7 @@ def _surface_at(
     kept = np.flatnonzero(~cut)
     bubbles = np.zeros(0, dtype=bool)
     if kept.size:
-        _, nearest = cKDTree(centroids[kept]).query(q, workers=-1)
+        nearest = GridKnn(centroids[kept], 2.0 * step).query(q, 1)[1][:, 0]
         far = d[kept] > 2.0 * step
         bubbles = _bubbles(tri[kept], far, nearest, dots[kept], areas[kept], closed)
         cut[kept[bubbles]] = True
@@ -508,7 +507,7 @@ def robust_mesh(
         fit_to_points, rec.vertices, rec.triangles, q, normals, surface.grid, FIT_STEPS * rec.step
     )
     s = _surface(rec.vertices, rec.triangles)
-    _, nearest = tree.query(s.centroids, workers=-1)
+    nearest = surface.grid.query(s.centroids, 1)[1][:, 0]
     lab, source = transfer_labels(s, _face_graph(s), labels, nearest)
     pn, offsets, deviation, width, steady = region_planes(q, labels, proxy_normals, source, normals)
     # a region whose points lie within a quarter of the bound of its plane, and wider
@@ -561,5 +560,5 @@ def robust_mesh(
         planarity_error=res.planarity_error * frame.scale,
         polygon_planarity=res.polygon_planarity * frame.scale,
     )
-    _, near_tri = cKDTree(s.centroids).query(q, workers=-1)
+    near_tri = GridKnn(s.centroids, 2.0 * rec.step).query(q, 1)[1][:, 0]
     return res, rec, lab[near_tri]
