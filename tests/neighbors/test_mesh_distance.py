@@ -200,6 +200,35 @@ def test_index_measures_in_any_given_order_with_the_same_values():
         index.all_within(pts, 1.0, hint=hint, order=morton[:-1])
 
 
+@pytest.mark.parametrize("n", [1, 8, 9, 1000])
+def test_hierarchy_boxes_are_their_triangles_boxes(n):
+    """`build_bvh`: the leaves hold every triangle once, at most the leaf size each;
+    an inner node splits its triangles at the middle position, the left half's
+    centroids at most the right half's along the widest span of its centroids; every
+    node's box is exactly the box of its triangles (plain numpy)."""
+    from pointatlas.neighbors._kernels.mesh_distance import build_bvh
+
+    corners = np.random.default_rng(n).random((n, 9))
+    boxes, first, count, order = build_bvh(corners, 4)
+    assert np.array_equal(np.sort(order), np.arange(n))
+    cen = corners.reshape(n, 3, 3).mean(axis=1)
+    span = {0: (0, n)}  # node -> its triangles' positions in ``order``
+    for node in range(first.shape[0]):
+        s, e = span[node]
+        tri = corners[order[s:e]].reshape(-1, 3, 3)
+        box = np.stack([tri.min(axis=(0, 1)), tri.max(axis=(0, 1))], axis=1).reshape(-1)
+        assert np.array_equal(boxes[node], box)
+        if count[node] > 0:
+            assert first[node] == s and count[node] == e - s <= 4
+            continue
+        mid = (s + e) // 2
+        c = cen[order[s:e]]
+        axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+        assert cen[order[s:mid], axis].max() <= cen[order[mid:e], axis].min()
+        span[first[node]], span[first[node] + 1] = (s, mid), (mid, e)
+    assert sum(count) == n
+
+
 @pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
 def test_kernels_without_jit():
     run_module_without_jit(__file__, select="soup or degenerate or small_inputs or index")

@@ -130,7 +130,6 @@ def build_bvh(corners, leaf_size):
             cen[f, k] = (a + b + c) / 3.0
     order = np.arange(t)
     m = 2 * t
-    boxes = np.empty((m, 6))
     first = np.empty(m, dtype=np.int64)
     count = np.empty(m, dtype=np.int64)
     st_node = np.empty(_STACK, dtype=np.int64)
@@ -139,25 +138,22 @@ def build_bvh(corners, leaf_size):
     st_node[0], st_s[0], st_e[0] = 0, 0, t
     top = 1
     n_nodes = 1
+    # the tree top-down by the centroids' spans; the boxes after it, bottom-up (each
+    # node's the union of its children's: the same boxes, each triangle read once)
     while top > 0:
         top -= 1
         node, s, e = st_node[top], st_s[top], st_e[top]
-        for k in range(3):
-            boxes[node, 2 * k] = np.inf
-            boxes[node, 2 * k + 1] = -np.inf
+        if e - s <= leaf_size:
+            first[node] = s
+            count[node] = e - s
+            continue
         clo = np.full(3, np.inf)
         chi = np.full(3, -np.inf)
         for j in range(s, e):
             f = order[j]
             for k in range(3):
-                boxes[node, 2 * k] = min(boxes[node, 2 * k], lo[f, k])
-                boxes[node, 2 * k + 1] = max(boxes[node, 2 * k + 1], hi[f, k])
                 clo[k] = min(clo[k], cen[f, k])
                 chi[k] = max(chi[k], cen[f, k])
-        if e - s <= leaf_size:
-            first[node] = s
-            count[node] = e - s
-            continue
         axis = 0
         for k in (1, 2):
             if chi[k] - clo[k] > chi[axis] - clo[axis]:
@@ -170,7 +166,23 @@ def build_bvh(corners, leaf_size):
         st_node[top + 1], st_s[top + 1], st_e[top + 1] = n_nodes + 1, mid, e
         top += 2
         n_nodes += 2
-    return boxes[:n_nodes].copy(), first[:n_nodes].copy(), count[:n_nodes].copy(), order
+    boxes = np.empty((n_nodes, 6))
+    for node in range(n_nodes - 1, -1, -1):  # children come after their parent
+        for k in range(3):
+            boxes[node, 2 * k] = np.inf
+            boxes[node, 2 * k + 1] = -np.inf
+        if count[node] > 0:  # a leaf: its triangles
+            for j in range(first[node], first[node] + count[node]):
+                f = order[j]
+                for k in range(3):
+                    boxes[node, 2 * k] = min(boxes[node, 2 * k], lo[f, k])
+                    boxes[node, 2 * k + 1] = max(boxes[node, 2 * k + 1], hi[f, k])
+            continue
+        for child in (first[node], first[node] + 1):
+            for k in range(3):
+                boxes[node, 2 * k] = min(boxes[node, 2 * k], boxes[child, 2 * k])
+                boxes[node, 2 * k + 1] = max(boxes[node, 2 * k + 1], boxes[child, 2 * k + 1])
+    return boxes, first[:n_nodes].copy(), count[:n_nodes].copy(), order
 
 
 @njit(cache=True)
