@@ -72,12 +72,16 @@ def merged_planar_faces(x, triangles, triangle_face, flat, tol: float, cap: floa
     return planar_faces(x, tri, merged, flat, tol, cap), merged
 
 
+def _bendable(tface, flat) -> np.ndarray:
+    """Which faces can bend: those of flat regions with two triangles or more."""
+    return flat & (np.bincount(tface, minlength=flat.size) >= 2)
+
+
 def _bendable_fits(x, tri, tface, flat):
-    """`_place.plane_fits` of the faces of flat regions of two triangles or more (zeros
-    and not spanned for the others)."""
-    nf = flat.size
-    on = np.flatnonzero((flat & (np.bincount(tface, minlength=nf) >= 2))[tface])
-    return plane_fits(x, tri[on], tface[on], nf)
+    """`_place.plane_fits` of the faces that can bend (`_bendable`; zeros and not
+    spanned for the others)."""
+    on = np.flatnonzero(_bendable(tface, flat)[tface])
+    return plane_fits(x, tri[on], tface[on], flat.size)
 
 
 def _near_parallel(tri, tface, flat, fits):
@@ -88,7 +92,7 @@ def _near_parallel(tri, tface, flat, fits):
     nf = flat.size
     size = np.bincount(tface, minlength=nf)
     normals, _, _, spanned = fits
-    ok = flat & (size >= 2) & spanned
+    ok = _bendable(tface, flat) & spanned
     pairs = unique_pairs(np.column_stack([tri.reshape(-1), tface.repeat(3)]))
     pairs = pairs[ok[pairs[:, 1]]]
     # every two faces at a vertex: each row against the next ones of its vertex
@@ -151,13 +155,14 @@ def planar_faces(x, triangles, triangle_face, flat, tol: float, cap: float, fits
     tface = np.asarray(triangle_face, dtype=np.int64)
     flat = np.asarray(flat, dtype=bool)
     nf = flat.size
-    size = np.bincount(tface, minlength=nf)
-    if not (flat & (size >= 2))[tface].any():  # no face that can bend
+    size = np.bincount(tface, minlength=nf)  # which face gives way first (`_failed`)
+    bendable = _bendable(tface, flat)
+    if not bendable[tface].any():  # no face that can bend
         return x.copy()
     if fits is None:
         fits = _bendable_fits(x, tri, tface, flat)
     normals, offsets, deviation, spanned = fits
-    held = flat & (size >= 2) & spanned & (deviation <= cap)
+    held = bendable & spanned & (deviation <= cap)
     before = _cross(x, tri)
     for _ in range(PLANAR_ATTEMPTS):
         bent = held & (deviation > tol)

@@ -113,10 +113,11 @@ def is_closed_sample(q, normals, areas=None) -> bool:
     return dipole_share(q, normals, areas) <= CLOSED_DIPOLE
 
 
-def _field(q, normals, step, spacing, origin, shape, closed):
+def _field(q, normals, step, spacing, origin, shape, closed, near_q):
     """Signed field on the grid nodes: tangent-plane distance in the band, +-band
     beyond it (one sign per connected region of nodes, by a vote of its band border);
-    on a closed sample the winding number's side away from the points."""
+    on a closed sample the winding number's side away from the points. ``near_q``:
+    the points ``q`` on a `GridKnn` (`_surface_at`'s)."""
     from ._winding import far_sides, level_sides
 
     width = band_steps(step, spacing)
@@ -135,7 +136,7 @@ def _field(q, normals, step, spacing, origin, shape, closed):
     nodes = np.argwhere(band)
     x = origin + nodes * step
     # their nearest points on a grid of cells (`KNN_CELL_SPACINGS`), not a k-d tree
-    near = GridKnn(q, KNN_CELL_SPACINGS * spacing).query(x, min(FIELD_K, q.shape[0]))
+    near = near_q.query(x, min(FIELD_K, q.shape[0]))
     values, thin = _band_sides(q, normals, x, near, step, spacing)
     f = np.zeros(shape, dtype=np.float64)
     f[band] = values
@@ -379,10 +380,13 @@ def _surface_at(q, normals, grid, closed, solid=None, surface=None, fields=None)
     spacing, step, shape = grid
     lo = q.min(axis=0)
     origin = lo - (band_steps(step, spacing) + 2) * step
+    # the points on a grid (`GridKnn`: the k-d tree's answers), for the band nodes'
+    # and the triangles' nearest points
+    near_q = GridKnn(q, KNN_CELL_SPACINGS * spacing)
     key = (step, tuple(shape), closed)
     f = None if fields is None else fields.get(key)
     if f is None:
-        f = _field(q, normals, step, spacing, origin, shape, closed)
+        f = _field(q, normals, step, spacing, origin, shape, closed, near_q)
         if fields is not None:
             fields[key] = f
     if solid is not None:  # on a copy: the field kept is the plain one
@@ -398,8 +402,7 @@ def _surface_at(q, normals, grid, closed, solid=None, surface=None, fields=None)
     verts = verts.astype(np.float64) + origin
     tri = tri.astype(np.int64)
     centroids = verts[tri].mean(axis=1)
-    # nearest points and triangles on grids (`GridKnn`: the k-d tree's answers)
-    d, j = (a[:, 0] for a in GridKnn(q, KNN_CELL_SPACINGS * spacing).query(centroids, 1))
+    d, j = (a[:, 0] for a in near_q.query(centroids, 1))
     tn = np.cross(verts[tri[:, 1]] - verts[tri[:, 0]], verts[tri[:, 2]] - verts[tri[:, 0]])
     dots, areas = np.einsum("ij,ij->i", tn, normals[j]), np.linalg.norm(tn, axis=1)
     facing = dots / (areas + 1e-300)
