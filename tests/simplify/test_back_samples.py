@@ -2,6 +2,7 @@
 besides its vertices and area samples (`_distance.point_back_samples`)."""
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from pointatlas.simplify._distance import (
     PointSurface,
@@ -9,7 +10,7 @@ from pointatlas.simplify._distance import (
     output_samples,
     point_back_samples,
 )
-from pointatlas.simplify._point_distances import PointDistances
+from pointatlas.simplify._point_distances import FLOOR_NEIGHBORS, PointDistances
 
 
 def _valley():
@@ -66,3 +67,41 @@ def test_a_sliver_across_a_valley_is_seen_by_its_edge_midpoint():
     assert not measure.within(v, t, 0.1)
     assert measure.within(v, t[:4], 0.1)  # the valley alone is on the points
     np.testing.assert_allclose(measure.error(v, t), far, rtol=0.02)
+
+
+def test_the_discs_search_gives_each_samples_nearest_point():
+    """`PointSurface.distance(x, nearest=True)`: the same distances, and the nearest
+    point of every row as a k-d tree finds it (random points: no two equally near),
+    with and without normals."""
+    rng = np.random.default_rng(3)
+    q = rng.random((500, 3))
+    normals = rng.normal(size=(500, 3))
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    x = rng.random((300, 3)) * 1.2 - 0.1
+    expected = cKDTree(q).query(x)[1]
+    for n in (normals, None):
+        surface = PointSurface(q, n)
+        d, j = surface.distance(x, nearest=True)
+        np.testing.assert_array_equal(d, surface.distance(x))
+        np.testing.assert_array_equal(j, expected)
+
+
+def test_back_near_points_is_the_most_of_the_samples_nearest_to_each_neighbour():
+    """`PointDistances.back_near_points` against a plain reference: each sample
+    (`point_back_samples`) goes to its nearest point (a k-d tree), each point takes
+    the most back distance among the samples of its `FLOOR_NEIGHBORS` nearest."""
+    q, normals, v, t = _valley()
+    surface = PointSurface(q, normals)
+    measure = PointDistances(q, surface)
+    tree = cKDTree(q)
+    samples = point_back_samples(v, t)
+    back = surface.distance(samples)
+    owner = tree.query(samples)[1]
+    most = np.zeros(q.shape[0])
+    for i, d in zip(owner, back, strict=True):
+        most[i] = max(most[i], d)
+    near = tree.query(q, k=FLOOR_NEIGHBORS)[1]
+    expected = most[near].max(axis=1)
+    got = measure.back_near_points(v, t)
+    np.testing.assert_array_equal(got, expected)
+    assert got.max() > 0.3  # the sliver's edge reaches its points

@@ -90,14 +90,17 @@ class PointSurface:
         points), cells of twice the median disc radius (about 3 spacings)."""
         return GridKnn(self.points, 2.0 * float(np.median(self.radius)))
 
-    def distance(self, x) -> np.ndarray:
+    def distance(self, x, nearest: bool = False):
         """Distance of every row of ``x`` to the points' surface: the nearest of its
-        `DISC_CANDIDATES` nearest points' discs."""
+        `DISC_CANDIDATES` nearest points' discs. With ``nearest``, ``(distances,
+        rows)``: each row's nearest point too (found by the same search: where two
+        are exactly as near, the smaller row)."""
         x = np.asarray(x, dtype=np.float64)
         if self.normals is None:
-            return self.tree.query(x, workers=query_workers(x.shape[0]))[0]
+            d, j = self.tree.query(x, workers=query_workers(x.shape[0]))
+            return (d, j.astype(np.int64)) if nearest else d
         k = min(DISC_CANDIDATES, self.points.shape[0])
-        return self._rows(disc_rows, x, k, ())
+        return self._rows(disc_rows, x, k, (), nearest)
 
     def outline_distance(self, x) -> np.ndarray:
         """`distance`, with the discs cut at the points' outline: where the
@@ -123,16 +126,16 @@ class PointSurface:
         k = min(max(OUTLINE_NEIGHBORS, DISC_CANDIDATES), self.points.shape[0])
         return self._rows(outline_rows, x, k, (float(OUTLINE_MARGIN),))
 
-    def _rows(self, kernel, x, k: int, extra: tuple) -> np.ndarray:
+    def _rows(self, kernel, x, k: int, extra: tuple, nearest: bool = False):
         """``kernel`` (`_disc_kernels`) on every row of ``x`` with its ``k`` nearest
-        points, on threads."""
+        points, on threads (with ``nearest``, and the nearest point's row)."""
         d, j = self.grid.query(x, k)
         x = np.ascontiguousarray(x)
         out = np.empty(x.shape[0])
         c = min(DISC_CANDIDATES, k)
         args = (x, d, j, self.points, self.normals, self.radius, c, *extra, out)
         run_chunks(kernel, x.shape[0], args)
-        return out
+        return (out, j[:, 0].copy()) if nearest else out
 
 
 def output_samples(vertices, triangles, n: int = BACK_SAMPLES, seed: int = 0) -> np.ndarray:

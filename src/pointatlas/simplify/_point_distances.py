@@ -106,7 +106,7 @@ class PointDistances:
         near each sample the nearest sample's of either). Returns the largest
         distance both ways."""
         slack = FLOOR_SLACK if slack is None else slack
-        there, most, samples, back, _ = self._first_measure(out_v, out_t, neighbors)
+        there, most, samples, back = self._first_measure(out_v, out_t, neighbors)[:4]
         most = float(max(most, back.max()))
         there_floor = np.minimum(there + slack * bound, factor * most)
         edges = np.linalg.norm(out_v[out_t[:, 1]] - out_v[out_t[:, 0]], axis=1)
@@ -132,17 +132,18 @@ class PointDistances:
         point: the most of its back samples' distances (`floor_at`'s: edge midpoints,
         vertices, area samples) among those nearest to the point or to one of its
         `FLOOR_NEIGHBORS` nearest."""
-        _, _, samples, back, nearest = self._first_measure(out_v, out_t, neighbors)
+        _, _, _, back, nearest, sample_point = self._first_measure(out_v, out_t, neighbors)
         most = np.zeros(self.q.shape[0])
-        np.maximum.at(most, self.surface.tree.query(samples, workers=-1)[1], back)
+        np.maximum.at(most, sample_point, back)
         return most[nearest].max(axis=1)
 
     def _first_measure(self, out_v, out_t, neighbors):
-        """``(there, most, samples, back, nearest)`` of the surface ``out_v``, ``out_t``
-        (measured once, kept for the same arrays): each point's distance to it, the most
-        at its `FLOOR_NEIGHBORS` nearest (``nearest``: their rows; ``neighbors``:
-        `floor_at`'s), the largest, and its edge midpoints, vertices and area samples
-        (`point_back_samples`) with their distances to the points' discs."""
+        """``(there, most, samples, back, nearest, sample_point)`` of the surface
+        ``out_v``, ``out_t`` (measured once, kept for the same arrays): each point's
+        distance to it, the most at its `FLOOR_NEIGHBORS` nearest (``nearest``: their
+        rows; ``neighbors``: `floor_at`'s), the largest, and its edge midpoints,
+        vertices and area samples (`point_back_samples`) with their distances to the
+        points' discs and their nearest points (the discs' search: no second one)."""
         from ._distance import point_back_samples
         from ._mesh import point_mesh_distance
 
@@ -156,7 +157,8 @@ class PointDistances:
         nearest = neighbors[:, :k]
         samples = point_back_samples(out_v, out_t)
         found = (there[nearest].max(axis=1), float(there.max()), samples)
-        found += (self.surface.distance(samples), nearest)
+        back, sample_point = self.surface.distance(samples, nearest=True)
+        found += (back, nearest, sample_point)
         self._first = self._first[-1:] + [(out_v, out_t, found)]
         return found
 
