@@ -317,6 +317,32 @@ def winding_reference(x, points, normals, areas):
     return (dot / np.maximum(r, 1e-300) ** 3).sum(axis=1) / (4.0 * np.pi)
 
 
+def winding_cells_reference(x, sources):
+    """`_winding.Dipoles.at` as a plain loop (pointatlas.simplify._winding's
+    ``sources``): each row sums the cells in order, a cell beyond its reach as its
+    one dipole, a near one point by point; the same operations in the same order,
+    so the same bits."""
+    out = np.zeros(x.shape[0])
+    for i, (x0, x1, x2) in enumerate(x):
+        s = 0.0
+        for c, (cx, cy, cz) in enumerate(sources.centres):
+            dx, dy, dz = cx - x0, cy - x1, cz - x2
+            r2 = dx * dx + dy * dy + dz * dz
+            if r2 > sources.reach2[c] and r2 > 0.0:
+                d = sources.cell_dipoles[c]
+                s += (d[0] * dx + d[1] * dy + d[2] * dz) / (r2 * math.sqrt(r2))
+                continue
+            for t in range(sources.starts[c], sources.starts[c + 1]):
+                j = sources.order[t]
+                ex, ey, ez = (sources.p[j, a] - (x0, x1, x2)[a] for a in range(3))
+                e2 = ex * ex + ey * ey + ez * ez
+                if e2 > 0.0:
+                    d = sources.dipoles[j]
+                    s += (d[0] * ex + d[1] * ey + d[2] * ez) / (e2 * math.sqrt(e2))
+        out[i] = s / (4.0 * np.pi)
+    return out
+
+
 def band_field_reference(x, points, normals, dist, idx, step, spacing):
     """The robust path's field at nodes ``x`` from their nearest points (``dist``,
     ``idx`` (n, k), nearest first), in numpy over all nodes at once

@@ -10,11 +10,22 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from pointatlas.neighbors import query_knn
-from pointatlas.simplify._winding import far_sides, point_areas, table_areas, winding_numbers
+from pointatlas.simplify._winding import (
+    dipoles,
+    far_sides,
+    point_areas,
+    table_areas,
+    winding_numbers,
+)
 from pointatlas.synth import sample_mesh
 
 from .cad_shapes import cube_with_square_hole
-from .reference import far_sides_reference, upsample_reference, winding_reference
+from .reference import (
+    far_sides_reference,
+    upsample_reference,
+    winding_cells_reference,
+    winding_reference,
+)
 
 
 def _sphere(n, seed=0):
@@ -36,6 +47,20 @@ def test_clustered_sum_agrees_with_the_point_by_point_sum():
     assert np.abs(fast - slow).max() < 0.05
     # one cell per point: every far cell is one point's own dipole, exactly
     assert np.allclose(winding_numbers(x, p, n, cell=1e-6), slow, atol=1e-12)
+
+
+def test_cells_sum_is_the_plain_loops_bit_for_bit():
+    """The kernel (every cell's far term first, then the sum in the cells' order)
+    gives the bits of a plain loop over the cells, near cells point by point."""
+    p, n = _sphere(600, seed=2)
+    rng = np.random.default_rng(4)
+    x = rng.uniform(-1.5, 1.5, size=(60, 3))
+    x[:3] = p[:3]  # on points: their own term left out
+    sources = dipoles(p, n, cell=0.3)
+    assert (np.diff(sources.starts) > 1).any() and sources.centres.shape[0] > 20
+    got = sources.at(x)
+    np.testing.assert_array_equal(got, winding_cells_reference(x, sources))
+    assert np.abs(got).max() > 0.5  # inside rows as well as outside
 
 
 def test_one_inside_zero_outside_a_sampled_solid_with_a_hole():
@@ -163,7 +188,7 @@ def test_level_sides_turns_a_blob_far_from_the_points_and_nothing_near_them():
     of a face extended past a knife edge leave one) goes, round by round from its
     level inwards; inside nodes a step over the top (near the points: the field is
     theirs there) and every other node stay as they were."""
-    from pointatlas.simplify._winding import LEVEL_FAR_STEPS, LEVEL_ROUNDS, dipoles, level_sides
+    from pointatlas.simplify._winding import LEVEL_FAR_STEPS, LEVEL_ROUNDS, level_sides
 
     step = 0.05
     p, n, origin, f = _box_field(step)

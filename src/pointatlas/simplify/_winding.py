@@ -75,28 +75,43 @@ def table_areas(distances: np.ndarray, k: int = AREA_NEIGHBOR) -> np.ndarray:
 
 
 @njit(cache=True, parallel=True)
-def _winding_kernel(x, p, dipoles, order, starts, centres, cell_dipoles, reach2):
+def _winding_kernel(x, centres, cell_dipoles, reach2, starts, points, dipoles):
+    """The winding number at every row of ``x`` from the cells (``centres`` and
+    ``cell_dipoles`` (3, C), squared reach ``reach2``) and the points in cell order
+    (``points``, ``dipoles`` (3, n); cell c's at ``starts[c]:starts[c + 1]``). Per
+    row, every cell's far term first, in one loop without branches (vectorised: half
+    the time of a loop that tests each cell first), then the sum in the cells'
+    order, a near cell's points one by one: the same sum, bit for bit (a test
+    compares it with a plain loop)."""
+    n_c = centres.shape[1]
+    cx, cy, cz = centres[0], centres[1], centres[2]
+    c0, c1, c2 = cell_dipoles[0], cell_dipoles[1], cell_dipoles[2]
+    px, py, pz = points[0], points[1], points[2]
+    d0, d1, d2 = dipoles[0], dipoles[1], dipoles[2]
     out = np.zeros(x.shape[0])
     for i in prange(x.shape[0]):
+        x0, x1, x2 = x[i, 0], x[i, 1], x[i, 2]
+        r2 = np.empty(n_c)
+        far = np.empty(n_c)
+        for c in range(n_c):
+            dx = cx[c] - x0
+            dy = cy[c] - x1
+            dz = cz[c] - x2
+            rr = dx * dx + dy * dy + dz * dz
+            r2[c] = rr
+            far[c] = (c0[c] * dx + c1[c] * dy + c2[c] * dz) / (rr * np.sqrt(rr))
         s = 0.0
-        for c in range(centres.shape[0]):
-            dx = centres[c, 0] - x[i, 0]
-            dy = centres[c, 1] - x[i, 1]
-            dz = centres[c, 2] - x[i, 2]
-            r2 = dx * dx + dy * dy + dz * dz
-            if r2 > reach2[c] and r2 > 0.0:
-                d = cell_dipoles[c]
-                s += (d[0] * dx + d[1] * dy + d[2] * dz) / (r2 * np.sqrt(r2))
+        for c in range(n_c):
+            if r2[c] > reach2[c] and r2[c] > 0.0:
+                s += far[c]
                 continue
             for t in range(starts[c], starts[c + 1]):
-                j = order[t]
-                ex = p[j, 0] - x[i, 0]
-                ey = p[j, 1] - x[i, 1]
-                ez = p[j, 2] - x[i, 2]
+                ex = px[t] - x0
+                ey = py[t] - x1
+                ez = pz[t] - x2
                 e2 = ex * ex + ey * ey + ez * ez
                 if e2 > 0.0:
-                    d = dipoles[j]
-                    s += (d[0] * ex + d[1] * ey + d[2] * ez) / (e2 * np.sqrt(e2))
+                    s += (d0[t] * ex + d1[t] * ey + d2[t] * ez) / (e2 * np.sqrt(e2))
         out[i] = s / (4.0 * np.pi)
     return out
 
@@ -106,7 +121,9 @@ class Dipoles:
     """Oriented points grouped in cells for `winding_numbers` (private): the points
     ``p``, their ``dipoles`` (normal x disc area), the points of cell c at
     ``order[starts[c]:starts[c + 1]]``, each cell's ``centres``, ``cell_dipoles``
-    and squared reach (``reach2``: beyond it the cell is one dipole)."""
+    and squared reach (``reach2``: beyond it the cell is one dipole); the kernel's
+    copies, one row per axis: ``axes`` (the centres, the cells' dipoles, the points
+    and their dipoles in cell order)."""
 
     p: np.ndarray
     dipoles: np.ndarray
@@ -115,20 +132,13 @@ class Dipoles:
     centres: np.ndarray
     cell_dipoles: np.ndarray
     reach2: np.ndarray
+    axes: tuple
 
     def at(self, x: np.ndarray) -> np.ndarray:
         """The winding number at every row of ``x``."""
         x = np.ascontiguousarray(x, dtype=np.float64)
-        return _winding_kernel(
-            x,
-            self.p,
-            self.dipoles,
-            self.order,
-            self.starts,
-            self.centres,
-            self.cell_dipoles,
-            self.reach2,
-        )
+        centres, cell_dipoles, points, dipoles = self.axes
+        return _winding_kernel(x, centres, cell_dipoles, self.reach2, self.starts, points, dipoles)
 
 
 def dipoles(points, normals, cell: float) -> Dipoles:
@@ -152,7 +162,8 @@ def dipoles(points, normals, cell: float) -> Dipoles:
     radius = np.zeros(n_cells)
     np.maximum.at(radius, lab, np.linalg.norm(p - centres[lab], axis=1))
     reach2 = (FAR_RADII * radius) ** 2
-    return Dipoles(p, dip, order, starts, centres, cell_dipoles, reach2)
+    axes = tuple(np.ascontiguousarray(a.T) for a in (centres, cell_dipoles, p[order], dip[order]))
+    return Dipoles(p, dip, order, starts, centres, cell_dipoles, reach2, axes)
 
 
 def winding_numbers(x, points, normals, cell: float) -> np.ndarray:
