@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._core._threads import run_chunks
 from ._bound_kernels import link_points, move_points, points_stay
 from ._heap import heap_grown, heap_pop, heap_push, heapify
 from ._plane_kernels import collapse_position, edge_planes, planes_position
@@ -414,13 +415,15 @@ def _edge_turn(side, row, q, normals, k):
     return 0.0
 
 
+#: `band_field`'s and `thin_sides`' rows a thread takes at least at once.
+_ROWS_PIECE = 4096
+
 #: `_edge_turn`: two points turn convex or concave when each lies this share of their
 #: distance below (above) the other's plane (their normals more than about 11 degrees
 #: apart).
 EDGE_TURN = 0.1
 
 
-@njit(cache=True)
 def band_field(x, dist, gauss, idx, q, normals, step, spacing):
     """The robust path's field at band nodes ``x`` (n, 3) from their ``k`` <= 128
     nearest points (``dist``, ``idx`` (n, k), nearest first; ``gauss`` =
@@ -429,15 +432,24 @@ def band_field(x, dist, gauss, idx, q, normals, step, spacing):
     the neighbours within the nearest + ``spacing``; where those disagree on the side,
     the distance to the nearest point with the sign of their vote (`_reconstruct._field`).
     Sums in numpy's order (the dot product as (n0 e0 + n2 e2) + n1 e1, as numpy's
-    einsum adds three terms): the plain-numpy reference's values bit for bit."""
-    n, k = dist.shape
-    out = np.empty(n)
+    einsum adds three terms): the plain-numpy reference's values bit for bit. Rows
+    apart on threads (`run_chunks`: the same values)."""
+    out = np.empty(dist.shape[0])
+    args = (x, dist, gauss, idx, q, normals, float(step), float(spacing), out)
+    run_chunks(_band_field_rows, dist.shape[0], args, min_piece=_ROWS_PIECE)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _band_field_rows(x, dist, gauss, idx, q, normals, step, spacing, out, i0, i1) -> None:
+    """`band_field` for the rows ``i0`` to ``i1`` (into ``out``)."""
+    k = dist.shape[1]
     w = np.empty(k)
     signed = np.empty(k)
     side = np.empty(k)
     tmp = np.empty(k)
     tol = 1e-9 * step
-    for i in range(n):
+    for i in range(i0, i1):
         reach = dist[i, 0] + spacing
         for m in range(k):
             j = idx[i, m]
@@ -467,7 +479,6 @@ def band_field(x, dist, gauss, idx, q, normals, step, spacing):
                 turn = _numpy_sum(side, k) + _numpy_sum(tmp, k)
             value = dist[i, 0] if turn >= 0.0 else -dist[i, 0]
         out[i] = value
-    return out
 
 
 #: `thin_sides`: two neighbours of a node face opposite ways when their normals are
@@ -475,7 +486,6 @@ def band_field(x, dist, gauss, idx, q, normals, step, spacing):
 OPPOSITE = -0.5
 
 
-@njit(cache=True)
 def thin_sides(x, dist, idx, q, normals, step, spacing):
     """Nodes between two sides of a thin part that the grid resolves
     (`_reconstruct._field`): -1 where a node ``x`` lies behind the tangent planes of
@@ -484,12 +494,21 @@ def thin_sides(x, dist, idx, q, normals, step, spacing):
     face opposite ways (in a gap between two walls), else 0: a node on a plane,
     planes that disagree, or a part thinner across (the distance between the two
     planes through the node) than the grid's nodes along its normal reach, ``step``
-    times the normal's 1-norm (a digital plane that thin has holes)."""
-    n, k = dist.shape
-    out = np.zeros(n, dtype=np.int8)
+    times the normal's 1-norm (a digital plane that thin has holes). Rows apart on
+    threads (`run_chunks`: the same values)."""
+    out = np.zeros(dist.shape[0], dtype=np.int8)
+    args = (x, dist, idx, q, normals, float(step), float(spacing), out)
+    run_chunks(_thin_sides_rows, dist.shape[0], args, min_piece=_ROWS_PIECE)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _thin_sides_rows(x, dist, idx, q, normals, step, spacing, out, i0, i1) -> None:
+    """`thin_sides` for the rows ``i0`` to ``i1`` (into ``out``, zeros)."""
+    k = dist.shape[1]
     signed = np.empty(k)
     tol = 1e-9 * step
-    for i in range(n):
+    for i in range(i0, i1):
         reach = dist[i, 0] + spacing
         pos = False
         neg = False
@@ -524,4 +543,3 @@ def thin_sides(x, dist, idx, q, normals, step, spacing):
                     break
             if out[i] != 0:
                 break
-    return out
