@@ -93,3 +93,28 @@ def test_the_solid_surface_is_kept_only_where_it_brings_the_points_near_with_its
     assert calls == [40]
     solid_retry(alone, normals[:206], first, build, step, 0.05, np.zeros(206, dtype=bool))
     assert calls == [40, 6]
+
+
+def test_a_surfaces_distance_index_is_built_once_and_measures_as_point_mesh_distance():
+    """`Reconstruction.distance_index`: one `MeshDistanceIndex` per surface (a copy by
+    `replace` shares it), and the lost points counted with it are those counted
+    without it."""
+    from dataclasses import replace
+
+    from pointatlas.neighbors import point_mesh_distance
+    from pointatlas.simplify._voxel_grid import lost_points, lost_strays
+
+    box = cube(4)
+    v, t = np.asarray(box.vertices) + 0.5, np.asarray(box.faces)
+    rec = _surface(v, t)
+    index = rec.distance_index()
+    assert rec.distance_index() is index and replace(rec, uneven=2.0).distance_index() is index
+    rng = np.random.default_rng(5)
+    q = rng.uniform(-0.5, 1.5, size=(300, 3))
+    np.testing.assert_array_equal(index.distance(q), point_mesh_distance(q, v, t))
+    far = 0.3
+    assert lost_points(q, v, t, far, index=index) == lost_points(q, v, t, far) > 0
+    off = rng.random(300) < 0.3
+    np.testing.assert_array_equal(
+        lost_strays(q, v, t, 0.15, off, 0.2, index=index), lost_strays(q, v, t, 0.15, off, 0.2)
+    )

@@ -155,7 +155,9 @@ def as_open(q, build, first: AllBubbles):
     except PointAtlasError:
         raise first from None
     if (
-        lost_points(q, rec.vertices, rec.triangles, LOST_STEPS * rec.step)
+        lost_points(
+            q, rec.vertices, rec.triangles, LOST_STEPS * rec.step, index=rec.distance_index()
+        )
         >= LOST_SHARE * q.shape[0]
     ):
         raise first from None

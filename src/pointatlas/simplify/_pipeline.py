@@ -317,7 +317,7 @@ def _surface_first(path: str, points, normals, vsa, vsa_settings):
     rec = reconstruct_surface(q, nrm, inp.areas, tree, surface, inp.off_planes)
     off = inp.ratio > max(STRAY_DROP, STRAY_NOISE * float(np.median(inp.ratio)))
     link = LOST_LINK * point_spacing(q, tree)
-    strays = lost_strays(q, rec.vertices, rec.triangles, rec.step, off, link)
+    strays = lost_strays(q, rec.vertices, rec.triangles, rec.step, off, link, rec.distance_index())
     if not strays.any():
         return inp, (tree, surface, rec)
     mask = np.zeros(inp.n_input, dtype=bool)

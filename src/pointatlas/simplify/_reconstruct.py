@@ -7,7 +7,7 @@ Decisions in docs/decisions/simplify.md ("The points path's robust path").
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import ndimage
@@ -93,6 +93,18 @@ class Reconstruction:
     n_trimmed: int
     n_handles: int = 0
     uneven: float = 1.0
+    # `distance_index`'s, once built (a copy by `replace` shares it: the same triangles)
+    _index: list = field(default_factory=list, compare=False, repr=False)
+
+    def distance_index(self):
+        """The triangles' `neighbors.MeshDistanceIndex`, built once: the lost points'
+        measures (`_finer`, `_solid.solid_retry`, `_voxel_grid.lost_strays`) ask the
+        same surface (0.05 s a build on a sampled CAD part's 95,572 triangles)."""
+        from ..neighbors import MeshDistanceIndex
+
+        if not self._index:
+            self._index.append(MeshDistanceIndex(self.vertices, self.triangles))
+        return self._index[0]
 
 
 def dipole_share(q, normals, areas=None) -> float:
@@ -355,14 +367,14 @@ def _finer(q, normals, rec, fine, closed, surface, off=None, fields=None):
     among the lost points left out: `_voxel_grid.not_strays`, ``off``; ``fields``:
     `_surface_at`'s)."""
     far, link = LOST_STEPS * rec.step, LOST_LINK * fine[0]
-    lost = lost_points(q, rec.vertices, rec.triangles, far, off, link)
+    lost = lost_points(q, rec.vertices, rec.triangles, far, off, link, rec.distance_index())
     if lost < LOST_POINTS:
         return rec
     try:
         finer = _surface_at(q, normals, fine, closed, surface=surface, fields=fields)
     except PointAtlasError:
         return rec
-    still = lost_points(q, finer.vertices, finer.triangles, far, off, link)
+    still = lost_points(q, finer.vertices, finer.triangles, far, off, link, finer.distance_index())
     no_handle = euler_characteristic(finer.triangles) >= euler_characteristic(rec.triangles)
     # a part lost whole is worth a handle through it (a fin 0.8 steps thin)
     whole = lost >= LOST_SHARE * q.shape[0]

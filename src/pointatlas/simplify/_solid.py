@@ -97,9 +97,7 @@ def solid_retry(q, normals, rec, build, step: float, spacing: float, off=None):
     Euler characteristic. ``build(points, normals)`` builds the surface on the finer
     grid with those points' `half_balls`. Strays among the lost points are left out
     (`_voxel_grid.not_strays`: ``off``, `LOST_LINK` spacings; None: none)."""
-    from ..neighbors import point_mesh_distance
-
-    d = point_mesh_distance(q, rec.vertices, rec.triangles, within=SOLID_FROM * rec.step)
+    d = rec.distance_index().distance(q, within=SOLID_FROM * rec.step)
     link = LOST_LINK * spacing
     lost = not_strays(q, d > SOLID_LOST * step, off, link)
     if lost.sum() < LOST_POINTS:
@@ -109,6 +107,7 @@ def solid_retry(q, normals, rec, build, step: float, spacing: float, off=None):
         solid = build(q[idx], normals[idx])
     except PointAtlasError:
         return rec
-    still = lost_points(q, solid.vertices, solid.triangles, SOLID_LOST * step, off, link)
+    index = solid.distance_index()
+    still = lost_points(q, solid.vertices, solid.triangles, SOLID_LOST * step, off, link, index)
     same = euler_characteristic(solid.triangles) == euler_characteristic(rec.triangles)
     return solid if 2 * still <= lost.sum() and same else rec

@@ -159,30 +159,36 @@ def band_steps(step: float, spacing: float) -> int:
     return max(BAND, int(np.ceil(BAND_SPACINGS * spacing / step)))
 
 
-def lost_points(q, vertices, triangles, far: float, off=None, link: float = 0.0) -> int:
+def lost_points(q, vertices, triangles, far: float, off=None, link: float = 0.0, index=None) -> int:
     """How many points ``q`` lie farther than ``far`` from the triangles, strays left
-    out (`not_strays`: ``off``, ``link``; None: none)."""
-    from ._mesh import point_mesh_distance
-
-    lost = point_mesh_distance(q, vertices, triangles, within=far) > far
+    out (`not_strays`: ``off``, ``link``; None: none). ``index``: the triangles'
+    `neighbors.MeshDistanceIndex` (`Reconstruction.distance_index`), built when None."""
+    lost = _mesh_index(vertices, triangles, index).distance(q, within=far) > far
     return int(not_strays(q, lost, off, link).sum())
 
 
-def lost_strays(q, vertices, triangles, step: float, off, link: float) -> np.ndarray:
+def lost_strays(q, vertices, triangles, step: float, off, link: float, index=None) -> np.ndarray:
     """Mask of the points ``q`` farther than `LOST_STEPS` grid ``step`` from the
     triangles, ``off`` (mask: off their neighbours' tangent planes) and with no other
-    such far point within ``link``."""
-    from ._mesh import point_mesh_distance
-
+    such far point within ``link``; ``index`` as in `lost_points`."""
     far = LOST_STEPS * step
     lost = np.zeros(q.shape[0], dtype=bool)
+    index = _mesh_index(vertices, triangles, index)
     # the points off their planes first: most samples have none that far
     for part in (np.flatnonzero(off), np.flatnonzero(~off)):
         if part.size:
-            lost[part] = point_mesh_distance(q[part], vertices, triangles, within=far) > far
+            lost[part] = index.distance(q[part], within=far) > far
         if not (lost & off).any():
             return lost & off
     return lost & ~not_strays(q, lost, off, link)
+
+
+def _mesh_index(vertices, triangles, index=None):
+    """``index``, or the triangles' `neighbors.MeshDistanceIndex` (its distances are
+    `point_mesh_distance`'s)."""
+    from ..neighbors import MeshDistanceIndex
+
+    return MeshDistanceIndex(vertices, triangles) if index is None else index
 
 
 def not_strays(q, lost, off, link: float) -> np.ndarray:
