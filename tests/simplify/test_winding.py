@@ -61,6 +61,11 @@ def test_cells_sum_is_the_plain_loops_bit_for_bit():
     got = sources.at(x)
     np.testing.assert_array_equal(got, winding_cells_reference(x, sources))
     assert np.abs(got).max() > 0.5  # inside rows as well as outside
+    # a node on a lone point, its cell's centre: no far term of its own (0 / 0)
+    q = np.array([[0.0, 0, 0], [5, 0, 0], [0, 5, 0], [0, 0, 5]])
+    alone = dipoles(q, q / np.maximum(np.linalg.norm(q, axis=1), 1.0)[:, None], cell=1.0)
+    np.testing.assert_array_equal(alone.at(q), winding_cells_reference(q, alone))
+    assert np.isfinite(alone.at(q)).all()
 
 
 def test_one_inside_zero_outside_a_sampled_solid_with_a_hole():
