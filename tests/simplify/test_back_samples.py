@@ -105,3 +105,22 @@ def test_back_near_points_is_the_most_of_the_samples_nearest_to_each_neighbour()
     got = measure.back_near_points(v, t)
     np.testing.assert_array_equal(got, expected)
     assert got.max() > 0.3  # the sliver's edge reaches its points
+
+
+def test_distance_over_is_exact_beyond_the_bound_and_within_it_elsewhere():
+    """`PointSurface.distance_over`: the rows `distance` puts beyond the bound get
+    its values bit for bit, the others at most the bound (normals of any length)."""
+    rng = np.random.default_rng(8)
+    q = rng.random((800, 3)) * [1.0, 1.0, 0.05]
+    x = rng.random((2000, 3)) * [1.2, 1.2, 0.4] - [0.1, 0.1, 0.2]
+    for scale in (1.0, 1.7):
+        normals = rng.normal(size=(800, 3)) * 0.1 + [0.0, 0.0, 1.0]
+        normals *= scale / np.linalg.norm(normals, axis=1)[:, None]
+        surface = PointSurface(q, normals)
+        exact = surface.distance(x)
+        for bound in (0.01, 0.05, 0.1):
+            got = surface.distance_over(x, bound)
+            over = exact > bound
+            assert 0 < over.sum() < x.shape[0]
+            np.testing.assert_array_equal(got > bound, over)
+            np.testing.assert_array_equal(got[over], exact[over])

@@ -199,7 +199,7 @@ class PointDistances:
         """How many ``samples`` of an output are farther than ``bound`` from the points'
         surface (or than the floor `floor_at` set near them): inf when one is farther
         than `SPARE_FACTOR` times that, or more than the spare."""
-        back = self.surface.distance(samples)
+        back = self.surface.distance_over(samples, bound)  # exact where over
         over = back > bound
         if not over.any():
             return 0
