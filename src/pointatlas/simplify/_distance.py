@@ -90,6 +90,12 @@ class PointSurface:
         points), cells of twice the median disc radius (about 3 spacings)."""
         return GridKnn(self.points, 2.0 * float(np.median(self.radius)))
 
+    @functools.cached_property
+    def _normal_scale(self) -> float:
+        """The normals' largest length, at least 1 (`distance_over`'s margin: a disc
+        is no farther than its point times it)."""
+        return max(1.0, float(np.sqrt(np.einsum("ij,ij->i", self.normals, self.normals).max())))
+
     def distance(self, x, nearest: bool = False):
         """Distance of every row of ``x`` to the points' surface: the nearest of its
         `DISC_CANDIDATES` nearest points' discs. With ``nearest``, ``(distances,
@@ -112,8 +118,7 @@ class PointSurface:
         if self.normals is None or x.shape[0] == 0:
             return self.distance(x)
         out = self.grid.query(x, 1)[0][:, 0]
-        scale = max(1.0, float(np.sqrt(np.einsum("ij,ij->i", self.normals, self.normals).max())))
-        far = np.flatnonzero(out * scale * (1.0 + 1e-9) > bound)
+        far = np.flatnonzero(out * self._normal_scale * (1.0 + 1e-9) > bound)
         if far.size:
             out[far] = self.distance(x[far])
         return out
