@@ -184,3 +184,37 @@ def test_the_moves_are_the_least_squares_ones_of_a_plain_reference():
     v, t, face = _box_corner(5, 1e-4, seed=2)
     y = planar_faces(v, t, face, np.ones(3, bool), 1e-9, 0.01)
     np.testing.assert_allclose(y, _least_moves_reference(v, t, face, 3), atol=1e-10)
+
+
+def test_at_a_vertex_that_fails_only_its_smallest_bent_face_gives_way():
+    """`_planar._failed`: a vertex moved past the cap (along z: no triangle turns)
+    lies on two bent faces and a planar one; only the bent face of fewest triangles
+    gives way (the other is solved again without it), and of two bent faces of one
+    size, the lower label."""
+    from pointatlas.simplify._place import _cross
+    from pointatlas.simplify._planar import _failed
+
+    cap = 0.01
+    x = np.array([[0, 0, 0], [0, 1, 0], [1, 1, 0], [1, 0, 0]], dtype=float)
+    tri = np.array([[0, 3, 2], [0, 2, 1]])
+    y = x.copy()
+    y[0, 2] = 2.0 * cap
+    # vertex 0 on faces 0, 1, 2; vertex 1 on face 1; every vertex on its planes
+    rows = np.array([[0, 0], [0, 1], [0, 2], [1, 1]])
+    normals = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    offsets = np.array([2.0 * cap, 0.0, 0.0])
+    bent = np.array([True, True, False])
+    before = _cross(x, tri)
+    args = (rows, normals, offsets, bent)
+    failed = _failed(x, y, tri, *args, np.array([2, 5, 3]), before, 1e-9, cap)
+    np.testing.assert_array_equal(failed, [True, False, False])
+    failed = _failed(x, y, tri, *args, np.array([5, 5, 3]), before, 1e-9, cap)
+    np.testing.assert_array_equal(failed, [True, False, False])
+    # nothing moved, every vertex on its planes: none
+    args = (rows, normals, np.zeros(3), bent)
+    assert not _failed(x, x, tri, *args, np.array([2, 5, 3]), before, 1e-9, cap).any()
+    # face 1's plane away from both its vertices: at vertex 0 face 0 gives way (the
+    # fewest triangles), at vertex 1 face 1 (its only bent face)
+    off = (rows, normals, np.array([0.0, 0.5, 0.0]), bent)
+    failed = _failed(x, x, tri, *off, np.array([2, 5, 3]), before, 1e-9, cap)
+    np.testing.assert_array_equal(failed, [True, True, False])

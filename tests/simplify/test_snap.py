@@ -319,3 +319,44 @@ def test_a_level_the_planar_step_takes_past_the_bound_is_measured_without_it(mon
             meshes.append(simplify_points(p, n, path="robust").mesh)
     np.testing.assert_array_equal(meshes[1].triangles, meshes[0].triangles)
     np.testing.assert_array_equal(meshes[1].vertices, meshes[0].vertices)
+
+
+def test_a_level_over_the_bound_is_made_planar_again_with_smaller_moves(monkeypatch):
+    """`PointsDecimation.within`: a level the planar step takes over the bound and
+    that passes without it is made planar again with the moves at most each share
+    of `GENTLE_SHARES` of the bound in turn; the first that passes is kept. A step
+    that shifts every vertex by 3 % of the box at a cap of half the bound or more,
+    and by a hair at less, gives the mesh of no step shifted by that hair, and every
+    level that passes without the step was asked for the shares in order."""
+    import warnings
+
+    from pointatlas.simplify import SimplifyWarning, _snap, simplify_points
+
+    v, t = cube_with_square_hole()
+    s = sample_mesh(v, t, 6000, rng=0)
+    p, n = np.asarray(s.points), np.asarray(s.normals)
+    hair = 1e-9
+    caps = []
+
+    def shifted(x, t, face, flat, tol, cap):
+        caps.append(cap)
+        far = cap >= 0.5 * caps[0]  # caps[0]: the first level's, the whole bound
+        return x + (0.03 if far else hair) * np.ptp(x, axis=0), face
+
+    meshes = []
+    for step in (lambda x, t, face, *a: (x, face), shifted):
+        monkeypatch.setattr(_snap, "merged_planar_faces", step)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SimplifyWarning)
+            meshes.append(simplify_points(p, n, path="robust").mesh)
+    plain, gentle = meshes
+    np.testing.assert_array_equal(gentle.triangles, plain.triangles)
+    want = np.asarray(plain.vertices)
+    # the hair's shift of the plain level's vertices (the box clip aside)
+    np.testing.assert_allclose(gentle.vertices, want + hair * np.ptp(want, axis=0), atol=1e-12)
+    shares = [round(c / caps[0], 12) for c in caps]
+    order = (1.0, *_snap.GENTLE_SHARES)
+    assert set(shares) == set(order)
+    for prev, share in zip(shares, shares[1:], strict=False):  # each after the one before
+        if share != 1.0:
+            assert prev == order[order.index(share) - 1]

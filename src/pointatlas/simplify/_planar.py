@@ -221,21 +221,21 @@ def _least_moves(x, rows, normals, offsets, free):
 
 
 def _failed(x, y, tri, rows, normals, offsets, bent, size, before, tol, cap):
-    """Which bent faces give way: those with a vertex moved more than ``cap`` or on a
-    triangle turned over, and at each vertex left off one of its planes by more than
-    ``tol`` (near-parallel planes), its bent face of fewest triangles. A triangle
-    left with less than `SHRINK` of its area along its former normal counts as
-    turned over."""
+    """Which bent faces give way: at each vertex moved more than ``cap``, on a
+    triangle turned over, or left off one of its planes by more than ``tol``
+    (near-parallel planes), its bent face of fewest triangles (ties: the lower
+    label). A triangle left with less than `SHRINK` of its area along its former
+    normal counts as turned over."""
     bad = np.zeros(x.shape[0], dtype=bool)
     bad[np.linalg.norm(y - x, axis=1) > cap] = True
     # turned over, or left with less than `SHRINK` of its area along its normal
     kept = np.einsum("ij,ij->i", before, _cross(y, tri))
     flipped = (kept <= SHRINK * np.einsum("ij,ij->i", before, before)) & before.any(axis=1)
     bad[unique_ints(tri[flipped])] = True
-    failed = np.zeros(bent.size, dtype=bool)
-    failed[rows[bad[rows[:, 0]] & bent[rows[:, 1]], 1]] = True
     height = np.einsum("ij,ij->i", normals[rows[:, 1]], y[rows[:, 0]]) - offsets[rows[:, 1]]
-    off = rows[np.isin(rows[:, 0], rows[np.abs(height) > tol, 0]) & bent[rows[:, 1]]]
+    bad[rows[np.abs(height) > tol, 0]] = True
+    off = rows[bad[rows[:, 0]] & bent[rows[:, 1]]]
+    failed = np.zeros(bent.size, dtype=bool)
     if off.size:
         off = off[np.lexsort((off[:, 1], size[off[:, 1]], off[:, 0]))]
         failed[off[np.r_[True, off[1:, 0] != off[:-1, 0]], 1]] = True

@@ -38,6 +38,7 @@ __all__ = [
     "FIT_NEIGHBORS",
     "FIT_RCOND",
     "FIT_STEPS",
+    "GENTLE_SHARES",
     "KEEP_POINTS",
     "PLANAR_RTOL",
     "PointsDecimation",
@@ -188,6 +189,11 @@ KEEP_POINTS = 100_000
 #: diagonal of its plane (`planar_faces`; the mesh path's tolerance, `_SETTLE`).
 PLANAR_RTOL = 1e-7
 
+#: A level the planar faces' step takes over the bound, within it without the step,
+#: is made planar again with moves of at most this share of the bound
+#: (`PointsDecimation.within`).
+GENTLE_SHARES = (0.5, 0.25)
+
 #: The level search's bisection stops within this share of its level's triangles.
 SETTLE_SHARE = 0.01
 
@@ -216,7 +222,9 @@ class PointsDecimation(Decimation):
         self.full = measure  # all the points (`steps_within` measures a subset first)
         self.bound = float(bound)
         self.diag = float(np.linalg.norm(np.ptp(verts, axis=0)))
-        self._plain = set()  # levels placed without `merged_planar_faces` (`within`)
+        # level -> the share of the bound `merged_planar_faces` may move a vertex by
+        # there (1 unless `within` took it lower; 0: the step left out)
+        self._planar_share = {}
         self._planar_moved = {}  # level -> whether that step moved a vertex
         self._unstepped = None  # (level, its placement before that step)
 
@@ -269,8 +277,23 @@ class PointsDecimation(Decimation):
     def _placed(self, m: int):
         if self._kept_level is not None and self._kept_level[0] == m:
             return self._kept_level[1]
-        if m in self._plain and self._unstepped is not None and self._unstepped[0] == m:
-            return self._unstepped[1]  # the level's placement, `within` measures it again
+        if self._unstepped is None or self._unstepped[0] != m:
+            self._unstepped = (m, self._unplanar(m))
+        x, out_t, face, source, lineage = self._unstepped[1]
+        share = self._planar_share.get(m, 1.0)
+        if share == 0.0:
+            return x, out_t, face, source, lineage
+        # faces of flat regions a little bent: onto their planes
+        y, merged = merged_planar_faces(
+            x, out_t, face, self.planes[2], PLANAR_RTOL * self.diag, share * self.bound
+        )
+        if share == 1.0:
+            self._planar_moved[m] = not np.array_equal(x, y)
+        return y, out_t, merged, source, lineage
+
+    def _unplanar(self, m: int):
+        """Level ``m`` placed (`Decimation._placed`'s tuple) but for its faces made
+        planar (`merged_planar_faces`, `_placed`)."""
         out_v, out_t, kept, source, went = self.mesh_and_map(m)
         face = self.labels[kept]
         x = place_on_planes(out_v, out_t, face, *self.planes, self.step, self.still, unflip=False)
@@ -294,28 +317,39 @@ class PointsDecimation(Decimation):
         x, out_t, face, source, kept, went = weld_needles(x, out_t, face, source, kept, went)
         out_t = flip_caps(x, out_t, face)
         x = spread_tiny(x, out_t, face, self.planes)
-        if m not in self._plain:  # faces of flat regions a little bent: onto their planes
-            y, merged = merged_planar_faces(
-                x, out_t, face, self.planes[2], PLANAR_RTOL * self.diag, self.bound
-            )
-            self._planar_moved[m] = not np.array_equal(x, y)
-            self._unstepped = (m, (x, out_t, face, source, (kept, went)))
-            x, face = y, merged
         return x, out_t, face, source, (kept, went)
 
     def within(self, m: int, bound: float, first=None) -> bool:
         """`Decimation.within`; a level over ``bound`` whose bent faces were made
-        planar (`merged_planar_faces`) is measured again without that step (its placement
-        before the step, kept: not placed again), and placed without it from then on
-        (``_plain``): making faces planar never costs a level
-        (a sampled CAD part, normals estimated: the search had ended at 3,984 triangles,
-        1.30 % from the truth, for 2,164 and 0.99 %)."""
+        planar (`merged_planar_faces`) is measured again without that step (its
+        placement before the step, kept: not placed again); where it passes so, with
+        the step's moves at most each share of `GENTLE_SHARES` of the bound in turn,
+        the first that passes too, else without the step (from then on:
+        ``_planar_share``). Making faces planar never costs a level (a sampled CAD
+        part, normals estimated: the search had ended at 3,984 triangles, 1.30 % from
+        the truth, for 2,164 and 0.99 %)."""
         if super().within(m, bound, first):
             return True
-        if m in self._plain or not self._planar_moved.get(m, False):
+        if self._planar_share.get(m, 1.0) < 1.0 or not self._planar_moved.get(m, False):
             return False
-        self._plain.add(m)
+        if not self._again(m, bound, first, 0.0):
+            return False
+        plain = self._kept_level
+        for share in GENTLE_SHARES:
+            if self._again(m, bound, first, share):
+                return True
+        self._planar_share[m] = 0.0
         self._over.discard((m, bound))
+        self._kept_level = plain
+        return True
+
+    def _again(self, m: int, bound: float, first, share: float) -> bool:
+        """`Decimation.within` of level ``m`` placed again, its faces made planar with
+        moves of at most ``share`` of the bound (0: not at all)."""
+        self._planar_share[m] = share
+        self._over.discard((m, bound))
+        if self._kept_level is not None and self._kept_level[0] == m:
+            self._kept_level = None
         return super().within(m, bound, first)
 
 
