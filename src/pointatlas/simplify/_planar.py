@@ -10,13 +10,14 @@ least (one sparse least-squares problem), each vertex going to the nearest point
 the planes of all its flat faces of two or more triangles (the pseudo-inverse of
 `_place._plane_groups`, planes within 2.5 degrees of parallel acting as one). A
 planar face that shares a vertex with a bent one keeps its plane: the vertex slides
-along it. A bent face is given up (left as it was) where its vertices would move
-more than ``cap``, a triangle would turn over or keep less than `SHRINK` of its area,
-or a vertex cannot lie on all its planes (two near-parallel planes: the smaller face
-gives way); the rest is solved again without it. `merged_planar_faces` first takes
-flat faces that meet on near-parallel planes as one face (made planar together, or
-apart again where the merged face stays bent); `_snap.PointsDecimation` runs it on
-every placed level, and measures a level it takes over the bound again without it.
+along it. At a vertex that would move more than ``cap``, on a triangle that would
+turn over or keep less than `SHRINK` of its area, or that cannot lie on all its
+planes (two near-parallel planes), its bent face of fewest triangles is given up
+(left as it was); the rest is solved again without it. `merged_planar_faces` first
+takes flat faces that meet on near-parallel planes as one face (made planar together,
+or apart again where the merged face stays bent); `_snap.PointsDecimation` runs it on
+every placed level, and measures a level it takes over the bound again without it and
+with shorter moves (`_snap.GENTLE_SHARES`).
 Decisions in docs/decisions/simplify.md ("The points path's planar faces").
 """
 
