@@ -362,3 +362,42 @@ def test_a_level_over_the_bound_is_made_planar_again_with_smaller_moves(monkeypa
     for prev, share in zip(shares, shares[1:], strict=False):  # each after the one before
         if share != 1.0:
             assert prev == order[order.index(share) - 1]
+
+
+def test_the_planar_step_s_shares_hold_only_for_the_measure_that_chose_them(monkeypatch):
+    """`PointsDecimation.within` / `forget_levels`: a level over the bound with and
+    without the planar step keeps the step (the step did not take it over); a level
+    placed without the step, or with a shorter move, under one measure gets the whole
+    step again once the measure changes (`forget_levels`: the looser floors), and
+    keeps it where it then passes (the sampled cable holder: 48 -> 25 faces bent)."""
+    from pointatlas.simplify import _decimate_mesh, _snap
+
+    level = object.__new__(_snap.PointsDecimation)
+    level._planar_share, level._planar_moved = {}, {5: True, 7: True}
+    level._over, level._near, level._kept_level = set(), {}, None
+    passes = {}  # (level, share) -> within, under the measure of the moment
+
+    def within(self, m, bound, first=None):
+        ok = passes[(m, self._planar_share.get(m, 1.0))]
+        if ok:
+            self._kept_level = (m, ("placed", self._planar_share.get(m, 1.0)))
+        else:
+            self._over.add((m, bound))
+        return ok
+
+    monkeypatch.setattr(_decimate_mesh.Decimation, "within", within)
+    shares = (1.0, 0.0, *_snap.GENTLE_SHARES)
+    passes.update({(5, s): False for s in shares})
+    passes.update({(7, s): s == 0.0 for s in shares})
+    assert not level.within(5, 1.0)
+    assert 5 not in level._planar_share  # over either way: the step stays
+    assert level.within(7, 1.0)
+    assert level._planar_share[7] == 0.0 and level._kept_level == (7, ("placed", 0.0))
+    # looser floors: every level passes with the whole step
+    level.forget_levels()
+    passes.update({(m, s): True for m in (5, 7) for s in shares})
+    assert level._planar_share == {} and level._kept_level is None
+    for m in (5, 7):
+        assert level.within(m, 1.0)
+        assert level._planar_share.get(m, 1.0) == 1.0
+        assert level._kept_level == (m, ("placed", 1.0))

@@ -334,7 +334,8 @@ class PointsDecimation(Decimation):
             return True
         if self._planar_share.get(m, 1.0) < 1.0 or not self._planar_moved.get(m, False):
             return False
-        if not self._again(m, bound, first, 0.0):
+        if not self._again(m, bound, first, 0.0):  # over with or without the step
+            del self._planar_share[m]
             return False
         plain = self._kept_level
         for share in GENTLE_SHARES:
@@ -344,6 +345,14 @@ class PointsDecimation(Decimation):
         self._over.discard((m, bound))
         self._kept_level = plain
         return True
+
+    def forget_levels(self) -> None:
+        """`Decimation.forget_levels`, and the shares of the bound the planar step
+        moves by (``within`` chose them for the measure before) and the level last
+        found within it (its placement keeps the points within their former floors)."""
+        super().forget_levels()
+        self._planar_share.clear()
+        self._kept_level = None
 
     def _again(self, m: int, bound: float, first, share: float) -> bool:
         """`Decimation.within` of level ``m`` placed again, its faces made planar with
