@@ -6,7 +6,8 @@ Run from the repository root::
         --models ../shared/data/collection --every 3 --points 20000 \
         --out bench-output/simplify_points.csv
     # raw points: normals estimated (`surface_normals`: PCA k = 20, the least-entropy
-    # size in 10..30 where not flat) and oriented, as the CLI does
+    # size in 10..30 where not flat), oriented and made sharp beside edges
+    # (`sharpen_normals`), as the CLI does
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --estimate-normals
     # a scanner's noise: Gaussian, sigma 0.1 % of the diagonal (seeded)
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --noise 0.1
@@ -59,7 +60,13 @@ from bench_simplify_rd import both_ways, kinds, open3d_quadric, zero_area_triang
 from pointatlas.io import read_mesh
 from pointatlas.neighbors import point_mesh_distance
 from pointatlas.normals import orient_normals
-from pointatlas.simplify import SimplifyWarning, mesh_checks, simplify_points, surface_normals
+from pointatlas.simplify import (
+    SimplifyWarning,
+    mesh_checks,
+    sharpen_normals,
+    simplify_points,
+    surface_normals,
+)
 from pointatlas.synth import sample_mesh
 
 MESH_SUFFIXES = (".obj", ".off", ".ply", ".stl")
@@ -89,7 +96,7 @@ class Sampling:
     (``no_bottom``: a part scanned on a table) or where a scanner at `VIEW` does not
     see it (``view``: one scan), ``outliers`` % of them moved off by a Gaussian of
     `OUTLIER_SIGMA` % of the diagonal (stray returns), their normals the true ones or
-    estimated (``estimate``: `surface_normals`, oriented as the CLI does)."""
+    estimated (``estimate``: `surface_normals`, oriented and sharpened as the CLI does)."""
 
     points: int = 20000
     estimate: bool = False
@@ -143,7 +150,7 @@ class Sampling:
             p = p.copy()
             p[moved] += rng.normal(0.0, sigma, (int(moved.sum()), 3))
         if self.estimate:
-            n = orient_normals(p, surface_normals(p, k=20))
+            n = sharpen_normals(p, orient_normals(p, surface_normals(p, k=20)))
         return p, n
 
 

@@ -7,6 +7,7 @@ from ._normals import NORMAL_K_RANGE, surface_normals
 from ._pipeline import PointSimplification, simplify_points
 from ._proxies import RegionProxies, region_proxies
 from ._segmentation import simplify_segmentation
+from ._sharp import sharpen_normals
 from ._surface import SurfaceSimplification
 from ._vertices import MeshVertices, SimplifyWarning
 
@@ -22,6 +23,7 @@ __all__ = [
     "mesh_checks",
     "point_mesh_distance",
     "region_proxies",
+    "sharpen_normals",
     "simplify_mesh",
     "simplify_points",
     "simplify_segmentation",

@@ -7,7 +7,7 @@ from __future__ import annotations
 from ..._core import PointAtlasError
 from ...neighbors import query_knn
 from ...normals import estimate_normals, orient_normals
-from ...simplify import NORMAL_K_RANGE, surface_normals
+from ...simplify import NORMAL_K_RANGE, sharpen_normals, surface_normals
 
 __all__ = ["ORIENT_METHODS", "compute_normals", "normals_and_table"]
 
@@ -47,7 +47,8 @@ def normals_and_table(
     (``(indices, distances)``, at least ``min_cols`` columns: ``features --normals``
     computes its features from the same table). ``surface``: where the
     k-neighbourhood is not flat, the eigenentropy-optimal one's normal
-    (`pointatlas.simplify.surface_normals`, the points path's)."""
+    (`pointatlas.simplify.surface_normals`, the points path's), oriented, then made
+    sharp beside edges and thin walls (`pointatlas.simplify.sharpen_normals`)."""
     if orient not in ORIENT_METHODS:
         raise PointAtlasError(
             f"--orient must be one of {', '.join(ORIENT_METHODS)}; got {orient!r}"
@@ -81,5 +82,7 @@ def normals_and_table(
         oriented = orient_normals(
             points, unoriented, k=orient_k, method=orient, neighbors=neighbors
         )
+    if surface:  # sharp beside edges and thin walls, signed as oriented
+        oriented = sharpen_normals(points, oriented, k, neighbors=neighbors)
     advance()
     return oriented, neighbors

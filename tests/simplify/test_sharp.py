@@ -1,0 +1,121 @@
+"""Oriented normals made sharp beside edges and thin walls (`simplify/_sharp.py`,
+`sharpen_normals`): the best-supported plane through the point and two neighbours
+checked against a plain-numpy reference, nearer the true face normals than the
+blended ones beside the edges of a sampled plate, signs that follow the given
+orientation and do not cross a thin wall, flat and noisy samples left alone."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pointatlas.neighbors import query_knn
+from pointatlas.normals import orient_normals
+from pointatlas.simplify import sharpen_normals, surface_normals
+from pointatlas.simplify._sharp import PAIR_NEIGHBORS, _plane_normals
+from pointatlas.synth import sample_mesh
+
+from .cad_shapes import extrude
+
+
+def _plate(thickness: float, n: int):
+    """A 1 x 1 plate ``thickness`` thick sampled with ``n`` points and true normals."""
+    v, t = extrude([(0, 0), (1, 0), (1, 1), (0, 1)], height=thickness)
+    s = sample_mesh(v, t, n, rng=0)
+    return np.asarray(s.points), np.asarray(s.normals)
+
+
+def _reference(p, n, idx, rows, tau, pairs=PAIR_NEIGHBORS):
+    """`_plane_normals` in plain numpy: every plane through the point and two of its
+    ``pairs`` nearest (not about one line with it), scored by the neighbours within
+    ``tau`` less those on its lesser side; the best (first on ties) refitted to the
+    neighbours on it where it scores above the given normal's plane."""
+
+    def score(c, rel):
+        d = rel @ c
+        return int((np.abs(d) <= tau).sum()) - min(int((d > tau).sum()), int((d < -tau).sum()))
+
+    out = n[rows].copy()
+    for r, i in enumerate(rows):
+        rel = p[idx[i]] - p[i]
+        own = best = score(n[i], rel)
+        plane = n[i]
+        for a in range(1, pairs):
+            for b in range(a + 1, pairs):
+                c = np.cross(rel[a], rel[b])
+                if np.linalg.norm(c) <= 0.2 * np.linalg.norm(rel[a]) * np.linalg.norm(rel[b]):
+                    continue
+                c = c / np.linalg.norm(c)
+                if score(c, rel) > best:
+                    best, plane = score(c, rel), c
+        if best <= own:
+            continue
+        on = rel[np.abs(rel @ plane) <= tau]
+        out[r] = plane
+        if on.shape[0] >= 6:
+            w, u = np.linalg.eigh(np.cov(on.T, bias=True))
+            if w[1] > 0.1 * w[2]:
+                out[r] = u[:, 0]
+    return out
+
+
+def test_the_planes_match_a_plain_numpy_reference():
+    p, _ = _plate(0.1, 3000)
+    n = orient_normals(p, surface_normals(p))
+    idx = query_knn(p, 20)[0]
+    rows = np.arange(0, p.shape[0], 7)
+    tau = 0.2 * float(np.median(query_knn(p, 2)[1][:, 1]))
+    got, took = _plane_normals(p, idx, rows, n, tau, PAIR_NEIGHBORS)
+    want = _reference(p, n, idx, rows, tau)
+    assert took.any() and not took.all()
+    # a normal's sign is free until `_signs`
+    assert np.allclose(np.abs((got * want).sum(axis=1)), 1.0, atol=1e-9)
+
+
+def test_beside_the_edges_of_a_plate_the_normals_come_nearer_the_faces():
+    p, true = _plate(0.1, 6000)
+    blended = orient_normals(p, surface_normals(p))
+    sharp = sharpen_normals(p, blended)
+    cos = np.cos(np.radians(30.0))
+    before = int((np.abs((blended * true).sum(axis=1)) < cos).sum())
+    after = int((np.abs((sharp * true).sum(axis=1)) < cos).sum())
+    assert before > 0
+    assert after < before / 2
+    assert np.allclose(np.linalg.norm(sharp, axis=1), 1.0)
+
+
+def test_signs_follow_the_given_orientation_and_stay_outward_on_a_thin_plate():
+    p, true = _plate(0.02, 6000)  # a wall thinner than a neighbourhood
+    blended = orient_normals(p, surface_normals(p))
+    blended *= np.where((blended * true).sum(axis=1) < 0.0, -1.0, 1.0)[:, None]
+    sharp = sharpen_normals(p, blended)
+    flipped = sharpen_normals(p, -blended)
+    assert np.array_equal(flipped, -sharp)
+    # none turned inward that the given orientation had outward by more than 60 degrees
+    inward = (sharp * true).sum(axis=1) < -0.5
+    assert int(inward.sum()) <= int(((blended * true).sum(axis=1) < -0.5).sum())
+
+
+def test_flat_and_noisy_samples_keep_their_normals():
+    rng = np.random.default_rng(1)
+    plane = np.c_[rng.random((2000, 2)), np.zeros(2000)]
+    n = np.tile([0.0, 0.0, 1.0], (2000, 1))
+    assert np.array_equal(sharpen_normals(plane, n), n)
+    noisy = plane + np.c_[np.zeros((2000, 2)), 0.01 * rng.standard_normal(2000)]
+    given = orient_normals(noisy, surface_normals(noisy))
+    assert np.array_equal(sharpen_normals(noisy, given), given)
+
+
+def test_the_same_input_gives_the_same_normals_and_a_table_is_used_as_given():
+    p, _ = _plate(0.1, 3000)
+    blended = orient_normals(p, surface_normals(p))
+    table = query_knn(p, 30)
+    a = sharpen_normals(p, blended)
+    assert np.array_equal(a, sharpen_normals(p, blended))
+    assert np.array_equal(a, sharpen_normals(p, blended, neighbors=table))
+
+
+def test_normals_of_another_shape_are_refused():
+    p, _ = _plate(0.1, 500)
+    with pytest.raises(ValueError, match=r"normals must have shape \(\d+, 3\); got \(499, 3\)"):
+        sharpen_normals(p, np.zeros((499, 3)))
