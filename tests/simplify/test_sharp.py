@@ -119,3 +119,9 @@ def test_normals_of_another_shape_are_refused():
     p, _ = _plate(0.1, 500)
     with pytest.raises(ValueError, match=r"normals must have shape \(\d+, 3\); got \(499, 3\)"):
         sharpen_normals(p, np.zeros((499, 3)))
+
+
+def test_a_neighbourhood_too_small_for_a_plane_is_refused():
+    p, _ = _plate(0.1, 500)
+    with pytest.raises(ValueError, match=r"k must be an integer in \[3, 500\]"):
+        sharpen_normals(p, np.tile([0.0, 0.0, 1.0], (500, 1)), k=2)

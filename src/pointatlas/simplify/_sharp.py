@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .._core import as_points
+from .._core import as_k, as_points
 from ..neighbors import query_knn
 from ..normals import pca_normals
 from ._normals import FLAT_VARIATION, NOISE_FACTOR, noise_floor
@@ -201,7 +201,7 @@ def sharpen_normals(points, normals, k: int = 20, *, neighbors=None) -> np.ndarr
     if nrm.shape != pts.shape:
         raise ValueError(f"normals must have shape {pts.shape}; got {nrm.shape}")
     n = pts.shape[0]
-    k = min(int(k), n)
+    k = as_k(k, n, minimum=3)
     if not isinstance(neighbors, tuple) or neighbors[0].shape[1] < k:
         neighbors = query_knn(pts, k)
     idx = np.ascontiguousarray(neighbors[0][:, :k], dtype=np.int64)
