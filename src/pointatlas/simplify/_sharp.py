@@ -212,7 +212,7 @@ def sharpen_normals(points, normals, k: int = 20, *, neighbors=None) -> np.ndarr
     floor = noise_floor(pts, idx[:, : min(k, 10)]) if bent.any() else 0.0
     bent &= lam[:, 2] > NOISE_FACTOR * floor
     spacing = float(np.median(neighbors[1][:, 1])) if k > 1 else 0.0
-    tau = max(PLANE_SPACINGS * spacing, 3.0 * np.sqrt(floor))
+    tau = max(PLANE_SPACINGS * spacing, 3.0 * np.sqrt(max(floor, 0.0)))
     out = nrm.copy()
     rows = np.flatnonzero(bent)
     if rows.size:
