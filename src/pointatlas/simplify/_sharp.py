@@ -8,8 +8,8 @@ part's points more than 60 degrees off their face's normal). The points path's
 field takes the sign of its nodes from those tangent planes, and such normals
 bridge thin walls and edges with small handles: the estimated normals' surfaces
 missed the Euler characteristic on 35 of the 149 collection models where the true
-normals missed it on 9, and on 6 of 8 of those the true directions at the points
-more than 60 degrees off alone gave it back. Here, at each point whose
+normals missed it on 9, and on 6 of 8 of those the true normals at the points
+more than 60 degrees off, given alone, gave it back. Here, at each point whose
 neighbourhood is not flat, planes through the point and two of its nearest
 neighbours are scored by the neighbours within a tolerance of them, less those on
 the plane's lesser side (a chord across a small cylinder or a slot has points on

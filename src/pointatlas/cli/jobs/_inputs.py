@@ -121,7 +121,8 @@ def read_with_normals(
     is one that ``check`` (called with the number of points) refuses: the options
     bounded by N (`pointatlas.cli._flag_checks`). ``surface``: the estimated normals
     are the points path's (`pointatlas.simplify.surface_normals`: where a
-    neighbourhood is not flat, the eigenentropy-optimal one's).
+    neighbourhood is not flat, the eigenentropy-optimal one's; oriented, then
+    `pointatlas.simplify.sharpen_normals`).
     """
     from ..._core import as_int
 
@@ -154,6 +155,7 @@ def read_with_normals(
     how = f" (k in {lo}..{hi} where bent beyond the noise, least eigenentropy)" if surface else ""
     say(
         f"estimating normals: PCA with k = {normal_k}{how}, MST orientation"
+        + (", then sharp beside edges" if surface else "")
         + ("" if estimate else " (the input has none)"),
         out=err_console,
     )
