@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .._core import as_k, as_points
+from .._core import as_k, as_normals, as_points
 from ..neighbors import query_knn
 from ..normals import pca_normals
 from ._normals import FLAT_VARIATION, NOISE_FACTOR, noise_floor
@@ -181,6 +181,13 @@ def sharpen_normals(points, normals, k: int = 20, *, neighbors=None) -> np.ndarr
     normals : ndarray of shape (N, 3), float64
         Unit normals, oriented as ``normals``.
 
+    Raises
+    ------
+    ValueError
+        If ``normals`` is not one unit row per point, or ``k`` is outside 3..N.
+    NonFiniteError
+        If ``points`` or ``normals`` hold NaN or Inf.
+
     Examples
     --------
     >>> from pointatlas.simplify import surface_normals
@@ -197,10 +204,8 @@ def sharpen_normals(points, normals, k: int = 20, *, neighbors=None) -> np.ndarr
     (13, 3)
     """
     pts = as_points(points)
-    nrm = np.ascontiguousarray(normals, dtype=np.float64)
-    if nrm.shape != pts.shape:
-        raise ValueError(f"normals must have shape {pts.shape}; got {nrm.shape}")
     n = pts.shape[0]
+    nrm = as_normals(normals, n, normalize=False)
     k = as_k(k, n, minimum=3)
     if not isinstance(neighbors, tuple) or neighbors[0].shape[1] < k:
         neighbors = query_knn(pts, k)
