@@ -29,6 +29,7 @@ __all__ = [
     "NOISE_FACTOR",
     "NOISE_SAMPLE",
     "NORMAL_K_RANGE",
+    "bent_beyond_noise",
     "noise_floor",
     "surface_normals",
 ]
@@ -104,19 +105,29 @@ def surface_normals(
         idx = np.asarray(neighbors[0] if isinstance(neighbors, tuple) else neighbors)
     if idx is None or idx.shape[1] < width:  # too few columns: searched
         idx = query_knn(pts, width)[0]
-    res = pca_normals(pts, k, neighbors=idx)
-    lam = res.eigenvalues
-    total = lam.sum(axis=1)
-    variation = np.divide(lam[:, 2], total, out=np.zeros(n), where=total > 0.0)
-    bent = variation > flat
-    if bent.any():  # a flat sample needs no noise floor
-        bent &= lam[:, 2] > NOISE_FACTOR * noise_floor(pts, idx[:, :lo])
+    res, bent, _ = bent_beyond_noise(pts, idx, k, flat, lo)
     if not bent.any():
         return np.array(res.normals)
     opt = optimal_k_features(pts, k_range=(lo, hi), neighbors=np.ascontiguousarray(idx[:, :hi]))
     other = np.asarray(opt.eigenvector_3)
     use = bent & (np.asarray(opt.k) > 0) & np.isfinite(other).all(axis=1)
     return np.where(use[:, None], other, res.normals)
+
+
+def bent_beyond_noise(points: np.ndarray, idx: np.ndarray, k: int, flat: float, small: int):
+    """``(pca, bent, floor)`` of validated ``points`` and their neighbour table
+    ``idx`` (nearest first, at least ``k`` and ``small`` columns): `pca_normals` at
+    ``k``, where the neighbourhood is not flat (surface variation above ``flat``)
+    and bent beyond the noise (its smallest eigenvalue above `NOISE_FACTOR` times
+    the noise floor), and that floor (`noise_floor` at ``small``; 0 where nothing
+    is bent: a flat sample needs none)."""
+    res = pca_normals(points, k, neighbors=idx)
+    lam = res.eigenvalues
+    total = lam.sum(axis=1)
+    variation = np.divide(lam[:, 2], total, out=np.zeros(points.shape[0]), where=total > 0.0)
+    bent = variation > flat
+    floor = noise_floor(points, idx[:, :small]) if bent.any() else 0.0
+    return res, bent & (lam[:, 2] > NOISE_FACTOR * floor), floor
 
 
 def noise_floor(points: np.ndarray, neighbors: np.ndarray) -> float:

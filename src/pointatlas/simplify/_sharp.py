@@ -28,8 +28,7 @@ from numba import njit, prange
 
 from .._core import as_k, as_normals, as_points
 from ..neighbors import query_knn
-from ..normals import pca_normals
-from ._normals import FLAT_VARIATION, NOISE_FACTOR, noise_floor
+from ._normals import FLAT_VARIATION, NORMAL_K_RANGE, bent_beyond_noise
 
 __all__ = [
     "PAIR_NEIGHBORS",
@@ -156,8 +155,8 @@ def sharpen_normals(points, normals, k: int = 20, *, neighbors=None) -> np.ndarr
     """Oriented normals of a point set, sharp beside its edges and thin walls.
 
     Where a point's ``k``-neighbourhood is not flat (surface variation above
-    `FLAT_VARIATION`, and bent beyond the noise: `NOISE_FACTOR` times
-    `noise_floor`), its normal becomes that of the plane through it and two of its
+    `FLAT_VARIATION`, and bent beyond the noise: `surface_normals`' test,
+    `_normals.bent_beyond_noise`), its normal becomes that of the plane through it and two of its
     `PAIR_NEIGHBORS` nearest which holds the most of its neighbours within
     `PLANE_SPACINGS` point spacings (less those on the plane's lesser side),
     refitted to them, where that plane holds more than the given normal's; the
@@ -210,12 +209,7 @@ def sharpen_normals(points, normals, k: int = 20, *, neighbors=None) -> np.ndarr
     if not isinstance(neighbors, tuple) or neighbors[0].shape[1] < k:
         neighbors = query_knn(pts, k)
     idx = np.ascontiguousarray(neighbors[0][:, :k], dtype=np.int64)
-    lam = pca_normals(pts, k, neighbors=idx).eigenvalues
-    total = lam.sum(axis=1)
-    variation = np.divide(lam[:, 2], total, out=np.zeros(n), where=total > 0.0)
-    bent = variation > FLAT_VARIATION
-    floor = noise_floor(pts, idx[:, : min(k, 10)]) if bent.any() else 0.0
-    bent &= lam[:, 2] > NOISE_FACTOR * floor
+    _, bent, floor = bent_beyond_noise(pts, idx, k, FLAT_VARIATION, min(k, NORMAL_K_RANGE[0]))
     spacing = float(np.median(neighbors[1][:, 1])) if k > 1 else 0.0
     tau = max(PLANE_SPACINGS * spacing, 3.0 * np.sqrt(max(floor, 0.0)))
     out = nrm.copy()
