@@ -214,20 +214,25 @@ def run_scene(n_points: int, path: str = "robust") -> dict:
     """Raw scan points of benchmarks/scene.py (normals estimated) to a mesh, timed.
 
     Normals: `surface_normals` (PCA with k = 20, the least-entropy size in 10..30
-    where not flat) and MST orientation (as ``pointatlas simplify
-    --estimate-normals``); then `simplify_points` with ``path`` (``"robust"``: the
-    points' surface on a voxel grid, then the mesh path). The scene is open (a
+    where not flat), MST orientation, `sharpen_normals` and `outward_normals` (as
+    ``pointatlas simplify --estimate-normals``); then `simplify_points` with ``path``
+    (``"robust"``: the points' surface on a voxel grid, then the mesh path). The scene is open (a
     ground plane), so the mesh's boundary follows the ground's outline.
     """
+    from pointatlas.neighbors import query_knn
     from pointatlas.normals import orient_normals
-    from pointatlas.simplify import surface_normals
+    from pointatlas.simplify import outward_normals, sharpen_normals, surface_normals
 
     spec = importlib.util.spec_from_file_location("scene", ROOT / "benchmarks/scene.py")
     scene = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(scene)
     points, _, _ = scene.cad_scene(n_points, rng=0)
     t0 = time.perf_counter()
-    normals = orient_normals(points, surface_normals(points, k=20), k=10, method="mst")
+    table = query_knn(points, 30)  # one table for the three steps, as the CLI's
+    normals = surface_normals(points, k=20, neighbors=table)
+    normals = orient_normals(points, normals, k=10, method="mst", neighbors=table)
+    normals = sharpen_normals(points, normals, 20, neighbors=table)
+    normals = outward_normals(points, normals, neighbors=table)
     t1 = time.perf_counter()
     res = simplify_points(points, normals, path=path)
     t2 = time.perf_counter()

@@ -6,8 +6,8 @@ Run from the repository root::
         --models ../shared/data/collection --every 3 --points 20000 \
         --out bench-output/simplify_points.csv
     # raw points: normals estimated (`surface_normals`: PCA k = 20, the least-entropy
-    # size in 10..30 where not flat), oriented and made sharp beside edges
-    # (`sharpen_normals`), as the CLI does
+    # size in 10..30 where not flat), oriented, made sharp beside edges
+    # (`sharpen_normals`) and turned outward (`outward_normals`), as the CLI does
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --estimate-normals
     # a scanner's noise: Gaussian, sigma 0.1 % of the diagonal (seeded)
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --noise 0.1
@@ -63,6 +63,7 @@ from pointatlas.normals import orient_normals
 from pointatlas.simplify import (
     SimplifyWarning,
     mesh_checks,
+    outward_normals,
     sharpen_normals,
     simplify_points,
     surface_normals,
@@ -96,7 +97,8 @@ class Sampling:
     (``no_bottom``: a part scanned on a table) or where a scanner at `VIEW` does not
     see it (``view``: one scan), ``outliers`` % of them moved off by a Gaussian of
     `OUTLIER_SIGMA` % of the diagonal (stray returns), their normals the true ones or
-    estimated (``estimate``: `surface_normals`, oriented and sharpened as the CLI does)."""
+    estimated (``estimate``: `surface_normals`, oriented, sharpened and turned
+    outward as the CLI does)."""
 
     points: int = 20000
     estimate: bool = False
@@ -151,6 +153,7 @@ class Sampling:
             p[moved] += rng.normal(0.0, sigma, (int(moved.sum()), 3))
         if self.estimate:
             n = sharpen_normals(p, orient_normals(p, surface_normals(p, k=20)))
+            n = outward_normals(p, n)
         return p, n
 
 

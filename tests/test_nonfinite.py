@@ -222,6 +222,7 @@ def _calls(tmp_path):
         "surface_diagonal": lambda a: simplify.surface_diagonal(a["vertices"], a["faces"]),
         "surface_normals": lambda a: simplify.surface_normals(a["points"], 8, k_range=(6, 10)),
         "sharpen_normals": lambda a: simplify.sharpen_normals(a["points"], a["normals"], 8),
+        "outward_normals": lambda a: simplify.outward_normals(a["points"], a["normals"]),
         "deform_points": lambda a: dynamics.deform_points(
             a["points"], _cloud_complex(), _cloud_complex().cloud_points
         ),

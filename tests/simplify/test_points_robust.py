@@ -319,7 +319,8 @@ def test_points_without_normals_through_the_command_line(tmp_path):
     assert res.exit_code == 0, res.output
     assert "estimating normals" in res.output
     assert "least eigenentropy" in res.output  # `surface_normals`, not PCA at k alone
-    assert "then sharp beside edges" in res.output  # `sharpen_normals` after the orientation
+    # `sharpen_normals` after the orientation, then `outward_normals`
+    assert "then sharp beside edges and turned outward" in res.output
     info = json.loads(rep.read_text())
     diag = float(np.linalg.norm(np.ptp(p, axis=0)))
     assert info["is_closed"] and info["hausdorff"] <= 0.015 * diag

@@ -8,6 +8,7 @@ from ._pipeline import PointSimplification, simplify_points
 from ._proxies import RegionProxies, region_proxies
 from ._segmentation import simplify_segmentation
 from ._sharp import sharpen_normals
+from ._signs import outward_normals
 from ._surface import SurfaceSimplification
 from ._vertices import MeshVertices, SimplifyWarning
 
@@ -21,6 +22,7 @@ __all__ = [
     "SurfaceSimplification",
     "decimate_mesh",
     "mesh_checks",
+    "outward_normals",
     "point_mesh_distance",
     "region_proxies",
     "sharpen_normals",

@@ -122,7 +122,7 @@ def read_with_normals(
     bounded by N (`pointatlas.cli._flag_checks`). ``surface``: the estimated normals
     are the points path's (`pointatlas.simplify.surface_normals`: where a
     neighbourhood is not flat, the eigenentropy-optimal one's; oriented, then
-    `pointatlas.simplify.sharpen_normals`).
+    `pointatlas.simplify.sharpen_normals`, then `pointatlas.simplify.outward_normals`).
     """
     from ..._core import as_int
 
@@ -155,7 +155,7 @@ def read_with_normals(
     how = f" (k in {lo}..{hi} where bent beyond the noise, least eigenentropy)" if surface else ""
     say(
         f"estimating normals: PCA with k = {normal_k}{how}, MST orientation"
-        + (", then sharp beside edges" if surface else "")
+        + (", then sharp beside edges and turned outward" if surface else "")
         + ("" if estimate else " (the input has none)"),
         out=err_console,
     )

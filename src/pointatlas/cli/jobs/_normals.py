@@ -7,7 +7,7 @@ from __future__ import annotations
 from ..._core import PointAtlasError
 from ...neighbors import query_knn
 from ...normals import estimate_normals, orient_normals
-from ...simplify import NORMAL_K_RANGE, sharpen_normals, surface_normals
+from ...simplify import NORMAL_K_RANGE, outward_normals, sharpen_normals, surface_normals
 
 __all__ = ["ORIENT_METHODS", "compute_normals", "normals_and_table"]
 
@@ -48,7 +48,9 @@ def normals_and_table(
     computes its features from the same table). ``surface``: where the
     k-neighbourhood is not flat, the eigenentropy-optimal one's normal
     (`pointatlas.simplify.surface_normals`, the points path's), oriented, then made
-    sharp beside edges and thin walls (`pointatlas.simplify.sharpen_normals`)."""
+    sharp beside edges and thin walls (`pointatlas.simplify.sharpen_normals`), and
+    on a closed sample the sheets and patches turned inward turned out
+    (`pointatlas.simplify.outward_normals`)."""
     if orient not in ORIENT_METHODS:
         raise PointAtlasError(
             f"--orient must be one of {', '.join(ORIENT_METHODS)}; got {orient!r}"
@@ -82,7 +84,8 @@ def normals_and_table(
         oriented = orient_normals(
             points, unoriented, k=orient_k, method=orient, neighbors=neighbors
         )
-    if surface:  # sharp beside edges and thin walls, signed as oriented
+    if surface:  # sharp beside edges and thin walls, signed as oriented, then out
         oriented = sharpen_normals(points, oriented, k, neighbors=neighbors)
+        oriented = outward_normals(points, oriented, neighbors=neighbors)
     advance()
     return oriented, neighbors
