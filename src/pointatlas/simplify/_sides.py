@@ -29,12 +29,14 @@ from ._reconstruct import CLOSED_DIPOLE, dipole_share
 __all__ = [
     "GAP_SPACINGS",
     "MAX_CELLS",
+    "OPPOSED_COS",
     "TANGENT_COS",
     "TURN_CONFLICTS",
     "TURN_DIPOLE",
     "added_conflicts",
     "enclosed_volume",
     "outside_votes",
+    "sheet_dots",
     "turn_outward",
 ]
 
@@ -61,8 +63,10 @@ SMOOTH_ROUNDS = 2
 #: surface in two (a scan without its bottom, whose inside the grid's outside
 #: reaches through the missing side: 0.8-2.1, and no surface at all after it) ...
 TURN_CONFLICTS = 0.5
-#: ... neighbours on one sheet: their edge within this cosine of both tangent planes.
+#: ... neighbours on one sheet: their edge within this cosine of both tangent planes;
+#: opposed when their normals' cosine is below minus this, agreeing above it.
 TANGENT_COS = 0.25
+OPPOSED_COS = 0.7
 
 
 def _grid(q: np.ndarray, spacing: float):
@@ -214,7 +218,7 @@ def enclosed_volume(q, normals, areas) -> float:
 def added_conflicts(q, normals, flip, indices) -> int:
     """How many more pairs of neighbours (rows of ``indices``, the point itself first)
     on one sheet (their edge within `TANGENT_COS` of both tangent planes) have
-    opposite normals (cosine below -0.7) after the normals ``flip`` marks are turned
+    opposite normals (cosine below -`OPPOSED_COS`) after the normals ``flip`` marks are turned
     than before (fewer: negative); only the pairs with one end turned change.
 
     Examples
@@ -231,12 +235,18 @@ def added_conflicts(q, normals, flip, indices) -> int:
     rows = np.repeat(np.arange(indices.shape[0]), indices.shape[1] - 1)
     cols = indices[:, 1:].reshape(-1)
     one = flip[rows] != flip[cols]
-    i, j = rows[one], cols[one]
+    _, dot = sheet_dots(q, normals, rows[one], cols[one])
+    return int(np.count_nonzero(dot > OPPOSED_COS)) - int(np.count_nonzero(dot < -OPPOSED_COS))
+
+
+def sheet_dots(q, normals, i, j):
+    """``(sheet, dot)``: which pairs of points ``i[a]``, ``j[a]`` lie on one sheet
+    (their edge within `TANGENT_COS` of both tangent planes), and the cosine of their
+    normals for those pairs."""
     e = q[j] - q[i]
     e /= np.maximum(np.linalg.norm(e, axis=1), 1e-300)[:, None]
     ni, nj = normals[i], normals[j]
     sheet = (np.abs(np.einsum("ij,ij->i", ni, e)) < TANGENT_COS) & (
         np.abs(np.einsum("ij,ij->i", nj, e)) < TANGENT_COS
     )
-    dot = np.einsum("ij,ij->i", ni, nj)[sheet]
-    return int(np.count_nonzero(dot > 0.7)) - int(np.count_nonzero(dot < -0.7))
+    return sheet, np.einsum("ij,ij->i", ni[sheet], nj[sheet])

@@ -31,7 +31,7 @@ from scipy.spatial import cKDTree
 from .._core import as_normals, as_points
 from ..neighbors import query_knn
 from ._reconstruct import CLOSED_DIPOLE, dipole_share
-from ._sides import SMOOTH_K, TANGENT_COS, turn_outward
+from ._sides import OPPOSED_COS, SMOOTH_K, sheet_dots, turn_outward
 from ._winding import AREA_NEIGHBOR, MAX_POINTS, dipoles, table_areas
 
 __all__ = [
@@ -148,24 +148,19 @@ def _patches(q, n, idx, tol):
 
 def _disagreeing(q, n, idx, lab) -> np.ndarray:
     """Per patch: whether more of its points' neighbours on one sheet in other patches
-    face against it (cosine below -0.7) than with it (above 0.7): turning it would
+    face against it (cosine below -`OPPOSED_COS`) than with it (above it): turning it would
     set fewer pairs against each other (`_sides.added_conflicts`, per patch)."""
     k = idx.shape[1]
     rows = np.repeat(np.arange(q.shape[0]), k - 1)
     cols = idx[:, 1:].reshape(-1)
     keep = lab[rows] != lab[cols]
     rows, cols = rows[keep], cols[keep]
-    e = q[cols] - q[rows]
-    e /= np.maximum(np.linalg.norm(e, axis=1), 1e-300)[:, None]
-    sheet = (np.abs(np.einsum("ij,ij->i", n[rows], e)) < TANGENT_COS) & (
-        np.abs(np.einsum("ij,ij->i", n[cols], e)) < TANGENT_COS
-    )
-    dot = np.einsum("ij,ij->i", n[rows], n[cols])[sheet]
+    sheet, dot = sheet_dots(q, n, rows, cols)
     m = int(lab.max()) + 1
     against, along = np.zeros(m, dtype=np.int64), np.zeros(m, dtype=np.int64)
     for end in (rows[sheet], cols[sheet]):  # a pair counts for the patches at both ends
-        against += np.bincount(lab[end[dot < -0.7]], minlength=m)
-        along += np.bincount(lab[end[dot > 0.7]], minlength=m)
+        against += np.bincount(lab[end[dot < -OPPOSED_COS]], minlength=m)
+        along += np.bincount(lab[end[dot > OPPOSED_COS]], minlength=m)
     return against > along
 
 
