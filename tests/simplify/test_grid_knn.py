@@ -107,6 +107,41 @@ def test_one_point_and_no_extent():
     assert j.tolist() == [[0, 1, 2], [0, 1, 2]] and d[0].tolist() == [1.0] * 3
 
 
+@pytest.mark.parametrize("cell", [0.01, 0.03, 0.2])
+def test_farther_than_is_never_wrong_and_tells_the_far_queries(cell):
+    # a thin sheet and queries all over a box twice its size (many far from it)
+    rng = np.random.default_rng(3)
+    p = rng.random((4000, 3)) * [1.0, 1.0, 0.01]
+    x = rng.random((50000, 3)) * 2.0 - 0.5
+    d0 = cKDTree(p).query(x)[0]
+    g = GridKnn(p, cell)
+    for dist in (0.0, 0.05, 0.1, 0.4):
+        far = g.farther_than(x, dist)
+        assert not (d0[far] <= dist).any()  # never a row within dist
+        # a row D cells (Chebyshev) from every point's cell is within (D + 1)
+        # cell diagonals of a point: those farther than this are all told
+        surely = d0 > np.sqrt(3.0) * (dist + 2.0 * g.h + g.margin)
+        assert surely.any() and far[surely].all()
+
+
+def test_farther_than_says_nothing_where_the_tree_answers():
+    p = np.vstack([np.random.default_rng(5).random((200, 3)), [[1e6, 0, 0]]])
+    g = GridKnn(p, 0.05)
+    assert g.tree is not None and not g.farther_than(p + 10.0, 0.0).any()
+
+
+def test_nearest_of_some_rows():
+    rng = np.random.default_rng(4)
+    p, x = rng.random((500, 3)), rng.random((300, 3)) * 3.0 - 1.0
+    g = GridKnn(p, 0.1)
+    d0, j0 = cKDTree(p).query(x)
+    rows = rng.random(300) < 0.4
+    for asked in (rows, np.flatnonzero(rows)):
+        d, j = g.nearest_of(x, asked)
+        assert np.array_equal(d[rows], d0[rows]) and np.array_equal(j[rows], j0[rows])
+        assert np.isinf(d[~rows]).all() and (j[~rows] == 0).all()
+
+
 @pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
 def test_kernels_without_jit():
     run_module_without_jit(__file__, select="few_points or repeated or no_extent")

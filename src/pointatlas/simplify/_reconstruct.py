@@ -18,7 +18,15 @@ from .._core._threads import on_thread
 from ._grid_knn import GridKnn
 from ._handles import cut_handles
 from ._mesh import split_pinches, used_only
-from ._open import AllBubbles, as_open, beyond_points, drop_strays, smooth_outline, trim
+from ._open import (
+    TRIM_STEPS,
+    AllBubbles,
+    as_open,
+    beyond_points,
+    drop_strays,
+    smooth_outline,
+    trim,
+)
 from ._solid import SOLID_RADIUS, half_balls, solid_retry
 from ._voxel_grid import (
     LOST_LINK,
@@ -414,7 +422,12 @@ def _surface_at(q, normals, grid, closed, solid=None, surface=None, fields=None)
     verts = verts.astype(np.float64) + origin
     tri = tri.astype(np.int64)
     centroids = verts[tri].mean(axis=1)
-    d, j = (a[:, 0] for a in near_q.query(centroids, 1))
+    # an open sample's triangles surely beyond its points (`farther_than`) are cut
+    # whatever their nearest point: that is found for the rest only
+    gone = np.zeros(tri.shape[0], dtype=bool)
+    if not closed:
+        gone = near_q.farther_than(centroids, TRIM_STEPS * step)
+    d, j = near_q.nearest_of(centroids, ~gone)
     tn = np.cross(verts[tri[:, 1]] - verts[tri[:, 0]], verts[tri[:, 2]] - verts[tri[:, 0]])
     dots, areas = np.einsum("ij,ij->i", tn, normals[j]), np.linalg.norm(tn, axis=1)
     facing = dots / (areas + 1e-300)
@@ -425,6 +438,10 @@ def _surface_at(q, normals, grid, closed, solid=None, surface=None, fields=None)
     cut = np.zeros(tri.shape[0], dtype=bool)
     if not closed:
         cut = trim(tri, beyond_points(surface, centroids, d, facing, step))
+        late = np.flatnonzero(gone & ~cut)  # left by the cut (a small piece)
+        d_late, j_late = near_q.nearest_of(centroids, late)
+        d[late], j[late] = d_late[late], j_late[late]
+        dots[late] = np.einsum("ij,ij->i", tn[late], normals[j[late]])
     n_trimmed = int(cut.sum())  # the open cut (not the bubbles below)
     # bubbles among the triangles left (a cut can leave a stray triangle on its own)
     kept = np.flatnonzero(~cut)
