@@ -477,3 +477,33 @@ def test_the_placements_floor_check_reads_every_sth_point_of_a_large_input(monke
     assert mesh_checks(m.n_vertices, m.triangles) == (True, True, True)
     assert _euler(m.n_vertices, m.triangles) == 2
     assert max(m.distance_max, m.back_distance_max) <= 0.0105 * diag
+
+
+def test_the_collapses_carry_every_sth_point_of_a_large_input(monkeypatch):
+    """Above `_snap.CARRY_POINTS` points the collapses' bounds (`start_collapses`)
+    carry every s-th point, its normal, disc radius and tolerances (C arrays, the
+    kernels' one signature); the level found is measured on all the points (the
+    bound holds as the report measures it, above)."""
+    from pointatlas.simplify import _decimate_mesh, _snap
+
+    v, t = l_bracket()
+    s = sample_mesh(v, t, 6000, rng=0)
+    carried = []
+    collapse_all = _decimate_mesh.collapse_all
+
+    def spy(vertices, triangles, **kw):
+        surface, bounds = kw.get("surface"), kw.get("tolerance")
+        if surface is not None:
+            tol, back = bounds.result()
+            arrays = (surface.points, surface.normals, surface.radius, back)
+            carried.append((surface.points.shape[0], np.size(tol), back.shape[0]))
+            assert all(a.flags.c_contiguous for a in arrays[:3])
+        return collapse_all(vertices, triangles, **kw)
+
+    monkeypatch.setattr(_decimate_mesh, "collapse_all", spy)
+    for keep, n in ((1000, 1000), (10_000, 6000)):  # every 6th; all of them
+        carried.clear()
+        monkeypatch.setattr(_snap, "CARRY_POINTS", keep)
+        m = simplify_points(np.asarray(s.points), s.normals).mesh
+        assert carried == [(n, n, n)]
+        assert mesh_checks(m.n_vertices, m.triangles) == (True, True, True)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from concurrent.futures import Future
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -27,7 +28,7 @@ from ._bound_kernels import nearest_of
 from ._kernels import add_rows, collapse_edges, replay
 from ._mesh import unique_pairs
 
-__all__ = ["Collapses", "collapse_all", "decimate"]
+__all__ = ["CarriedPoints", "Collapses", "collapse_all", "decimate"]
 
 #: Weight of an open boundary edge's quadric relative to the triangles'.
 _BOUNDARY_WEIGHT = 100.0
@@ -91,6 +92,16 @@ def decimate(vertices, triangles, target: int, *, labels=None, planes=None, stru
         vertices, triangles, labels=labels, planes=planes, structure=structure, target=target
     )
     return seq.mesh(seq.steps_for(target))
+
+
+class CarriedPoints(NamedTuple):
+    """What `collapse_all` reads of its ``surface`` (a `PointSurface`): the points,
+    their normals (or None) and their discs' radii (`_snap.start_collapses`: every
+    s-th point of a large input)."""
+
+    points: np.ndarray
+    normals: np.ndarray | None
+    radius: np.ndarray
 
 
 @dataclass(frozen=True, slots=True)

@@ -34,6 +34,7 @@ from ._point_distances import SEARCH_POINTS
 from ._untangle import untangle
 
 __all__ = [
+    "CARRY_POINTS",
     "COLLAPSE_SHARE",
     "FIT_NEIGHBORS",
     "FIT_RCOND",
@@ -184,6 +185,12 @@ def placed_keeps_points(v0, placed, triangles, q, floor, tol, before=None, round
 #: measured on all the points all the same (`steps_within`), and inputs of up to this
 #: many points (the collection's 20,000) are checked whole.
 KEEP_POINTS = 100_000
+#: The collapses' bounds (`start_collapses`) carry every s-th point, s the smallest
+#: stride that leaves at most this many: on the 10^6-point scan, 12.0 s of collapses
+#: with every point (the points of the triangles around each collapse measured), 2.9
+#: s with every 10th; 852 -> 626 triangles, mean distance 0.025 -> 0.027 % of the
+#: diagonal, largest 0.58 -> 0.57 %. The level found is measured on all the points.
+CARRY_POINTS = 100_000
 
 #: A face of a flat region is planar when its vertices lie within this share of the
 #: diagonal of its plane (`planar_faces`; the mesh path's tolerance, `_SETTLE`).
@@ -407,11 +414,21 @@ def start_collapses(level, measure, verts, tri, bound, max_error, neighbors):
     past `COLLAPSE_SHARE` of the bound (or of its floor, `there_floor_of`, by
     default), nor a triangle past the bound (or as far as level 0 was from the
     points). The thread finds the quadrics and the points' owners while those bounds
-    are measured here."""
+    are measured here. Of more than `CARRY_POINTS` points the collapses carry every
+    s-th (`CarriedPoints`; the level found is measured on all, `steps_within`)."""
     from concurrent.futures import Future
 
+    from ._decimate import CarriedPoints
+
     bounds = Future()
-    level.start(True, surface=measure.surface, tolerance=bounds)
+    surface = measure.surface
+    s = -(-surface.points.shape[0] // CARRY_POINTS)  # every s-th point carried
+    if s > 1:
+        # copies (C order: the kernels' one signature)
+        rows = (surface.points, surface.normals, surface.radius)
+        every = [None if a is None else a[::s].copy() for a in rows]
+        surface = CarriedPoints(*every)
+    level.start(True, surface=surface, tolerance=bounds)
     try:
         tol = bound
         if max_error is None:  # the floor of `floor_at`, from the points' side
@@ -421,4 +438,4 @@ def start_collapses(level, measure, verts, tri, bound, max_error, neighbors):
     except BaseException as exc:  # the thread waits for them: it stops too
         bounds.set_exception(exc)
         raise
-    bounds.set_result((COLLAPSE_SHARE * tol, back))
+    bounds.set_result((COLLAPSE_SHARE * (tol if np.ndim(tol) == 0 else tol[::s]), back[::s]))
