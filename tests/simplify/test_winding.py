@@ -10,7 +10,10 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from pointatlas.neighbors import query_knn
+from pointatlas.simplify._reconstruct import CLOSED_DIPOLE
 from pointatlas.simplify._winding import (
+    DIPOLE_AREA_CAP,
+    dipole_share,
     dipoles,
     far_sides,
     point_areas,
@@ -136,6 +139,28 @@ def test_areas_from_the_knn_table_are_the_searched_ones():
     np.testing.assert_allclose(table_areas(few), point_areas(p[:4]), rtol=1e-13, atol=0)
     with pytest.raises(ValueError, match="needs 9 neighbours"):
         table_areas(dist[:, :5])
+
+
+def test_dipole_share_a_few_strays_do_not_open_a_closed_sample():
+    """A sphere's discs sum to nothing (the share near 0), a hemisphere's to half its
+    area; 12 stray points far off with normals all one way (each disc hundreds of the
+    sphere's) would make it open, but no disc counts for more than `DIPOLE_AREA_CAP`
+    times the median; without a disc over the cap the share is the plain sum's."""
+    p, n = _sphere(4000)
+    area = point_areas(p)
+    plain = float(np.linalg.norm(area @ n)) / float(area.sum())
+    assert dipole_share(p, n) == plain < 0.01
+    cap = p[:, 2] > 0.0
+    assert 0.45 < dipole_share(p[cap], n[cap]) < 0.55
+    rng = np.random.default_rng(1)
+    strays = np.array([3.0, 0.0, 0.0]) + rng.normal(0.0, 1.0, (12, 3))
+    q = np.vstack([p, strays])
+    m = np.vstack([n, np.tile([1.0, 0.0, 0.0], (12, 1))])
+    a = point_areas(q)
+    assert (a > DIPOLE_AREA_CAP * np.median(a)).sum() >= 10
+    assert float(np.linalg.norm(a @ m)) / float(a.sum()) > CLOSED_DIPOLE  # uncapped
+    assert dipole_share(q, m) < CLOSED_DIPOLE
+    assert dipole_share(q, m, a) == dipole_share(q, m)  # the areas given or found
 
 
 @pytest.mark.parametrize("stride", [2, 3, 5])

@@ -40,6 +40,7 @@ from ._voxel_grid import (
     lost_points,
     uneven_factor,
 )
+from ._winding import dipole_share
 
 __all__ = [
     "Reconstruction",
@@ -113,18 +114,6 @@ class Reconstruction:
         if not self._index:
             self._index.append(MeshDistanceIndex(self.vertices, self.triangles))
         return self._index[0]
-
-
-def dipole_share(q, normals, areas=None) -> float:
-    """The length of the points' normals times their disc areas, summed, as a share of
-    their area (``areas``: `_winding.point_areas` of ``q``, found when None): zero
-    for a closed surface, by the divergence theorem; one for a flat sheet; 0 for
-    points of no area."""
-    from ._winding import point_areas
-
-    area = point_areas(q) if areas is None else areas
-    total = float(area.sum())
-    return float(np.linalg.norm(area @ normals)) / total if total > 0.0 else 0.0
 
 
 def is_closed_sample(q, normals, areas=None) -> bool:

@@ -24,7 +24,7 @@ from scipy import ndimage
 
 from ..neighbors import query_knn
 from ._edt import distance_to
-from ._reconstruct import CLOSED_DIPOLE, dipole_share
+from ._reconstruct import CLOSED_DIPOLE
 
 __all__ = [
     "GAP_SPACINGS",
@@ -168,7 +168,7 @@ def turn_outward(
     ``neighbors``: ``(indices, distances)``, a `query_knn` table of ``q`` with at
     least `SMOOTH_K` columns (its first `SMOOTH_K` are used; searched when None);
     ``areas``: the points' disc areas (`is_closed_sample`; found when None)."""
-    from ._winding import point_areas
+    from ._winding import dipole_share, point_areas
 
     if q.shape[0] < SMOOTH_K:
         return normals, 0

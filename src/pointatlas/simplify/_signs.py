@@ -30,9 +30,9 @@ from scipy.spatial import cKDTree
 
 from .._core import as_normals, as_points
 from ..neighbors import query_knn
-from ._reconstruct import CLOSED_DIPOLE, dipole_share
+from ._reconstruct import CLOSED_DIPOLE
 from ._sides import OPPOSED_COS, SMOOTH_K, sheet_dots, turn_outward
-from ._winding import AREA_NEIGHBOR, MAX_POINTS, dipoles, table_areas
+from ._winding import AREA_NEIGHBOR, MAX_POINTS, dipole_share, dipoles, table_areas
 
 __all__ = [
     "FLIP_MARGIN",
