@@ -80,7 +80,7 @@ class GridKnn:
         cells = np.arange(int(np.prod(self.dims)) + 1)
         self.start = np.searchsorted(key[self.ids], cells).astype(np.int64)
         self.sorted = np.ascontiguousarray(q[self.ids])
-        self._empty_steps = None  # `farther_than`: each cell's distance to a point's
+        self._empty_steps = None  # `farther_than`'s: each cell's to one with a point
 
     def query(self, x, k: int):
         """``(d, j)``: each row of ``x``'s ``k`` nearest points (1 <= k <= n), their
@@ -112,10 +112,11 @@ class GridKnn:
         """Which rows of ``x`` are surely farther than ``dist`` from every point, told
         by the cells alone: a row whose own cell is D cells (Chebyshev) from every
         cell with a point is at least (D - 1) cell sides from the points (a row
-        outside the cells: D the larger of its nearest cell's and its own offset). For the queries
-        `query` would answer slowly (its shells grow as the cube of D: a one-view
-        scan's voxel surface, 623,160 triangles a median 13 cells from the points,
-        31.5 s for their nearest points); all False where a k-d tree answers."""
+        outside the cells: D the larger of its nearest cell's and its own offset).
+        For the queries `query` would answer slowly (its shells grow as the cube of
+        D: a one-view scan's voxel surface, 623,160 triangles a median 13 cells from
+        the points, 31.5 s for their nearest points); all False where a k-d tree
+        answers."""
         from scipy.ndimage import distance_transform_cdt
 
         x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 3)

@@ -186,10 +186,11 @@ def placed_keeps_points(v0, placed, triangles, q, floor, tol, before=None, round
 #: many points (the collection's 20,000) are checked whole.
 KEEP_POINTS = 100_000
 #: The collapses' bounds (`start_collapses`) carry every s-th point, s the smallest
-#: stride that leaves at most this many: on the 10^6-point scan, 12.0 s of collapses
-#: with every point (the points of the triangles around each collapse measured), 2.9
-#: s with every 10th; 852 -> 626 triangles, mean distance 0.025 -> 0.027 % of the
-#: diagonal, largest 0.58 -> 0.57 %. The level found is measured on all the points.
+#: stride that leaves at most this many: on the 10^6-point scan (its points with
+#: oriented normals), 12.0 s of collapses with every point (the points of the
+#: triangles around each collapse measured), 2.9 s with every 10th; 852 -> 626
+#: triangles, mean distance 0.025 -> 0.027 % of the diagonal, largest 0.58 -> 0.57 %.
+#: The level found is measured on all the points.
 CARRY_POINTS = 100_000
 
 #: A face of a flat region is planar when its vertices lie within this share of the
