@@ -37,6 +37,7 @@ __all__ = [
     "enclosed_volume",
     "outside_votes",
     "sheet_dots",
+    "table_spacing",
     "turn_outward",
 ]
 
@@ -82,6 +83,13 @@ def _grid(q: np.ndarray, spacing: float):
             break
         step *= 1.25
     return step, lo - pad * step, shape, reach
+
+
+def table_spacing(dist) -> float:
+    """The points' spacing from a k-NN table's ``dist`` (the point itself first): the
+    median distance to the nearest other point, repeats left out; 0 if all repeat."""
+    near = np.asarray(dist)[:, 1]
+    return float(np.median(near[near > 0])) if (near > 0).any() else 0.0
 
 
 def outside_votes(q: np.ndarray, normals: np.ndarray, spacing: float) -> np.ndarray:
@@ -186,8 +194,7 @@ def turn_outward(
     positive = near[near > 0]
     if positive.size == 0:
         return normals, 0
-    spacing = float(np.median(near[:, 0][near[:, 0] > 0])) if (near[:, 0] > 0).any() else 0.0
-    spacing = spacing or float(np.median(positive))
+    spacing = table_spacing(dist) or float(np.median(positive))
     votes = _smoothed(q, normals, outside_votes(q, normals, spacing), np.asarray(idx))
     flip = votes < 0
     if not flip.any():

@@ -31,7 +31,7 @@ from scipy.spatial import cKDTree
 from .._core import as_normals, as_points
 from ..neighbors import query_knn
 from ._reconstruct import CLOSED_DIPOLE
-from ._sides import OPPOSED_COS, SMOOTH_K, sheet_dots, turn_outward
+from ._sides import OPPOSED_COS, SMOOTH_K, sheet_dots, table_spacing, turn_outward
 from ._winding import AREA_NEIGHBOR, MAX_POINTS, dipole_share, dipoles, table_areas
 
 __all__ = [
@@ -167,8 +167,7 @@ def _disagreeing(q, n, idx, lab) -> np.ndarray:
 def _inward_patches(q, n, idx, dist) -> np.ndarray:
     """Which points lie on a patch whose front the other points' winding number
     says is inside (`patch_signals` below -`FLIP_MARGIN`)."""
-    near = dist[:, 1]
-    spacing = float(np.median(near[near > 0])) if (near > 0).any() else 0.0
+    spacing = table_spacing(dist)
     flip = np.zeros(q.shape[0], dtype=bool)
     if spacing == 0.0:
         return flip
