@@ -9,7 +9,14 @@ import numpy as np
 from pointatlas.neighbors import query_knn
 from pointatlas.normals import estimate_normals, orient_normals
 from pointatlas.simplify import mesh_checks, simplify_points
-from pointatlas.simplify._sides import SMOOTH_ROUNDS, _smoothed, outside_votes, turn_outward
+from pointatlas.simplify._sides import (
+    SMOOTH_ROUNDS,
+    _smoothed,
+    enclosed_volume,
+    outside_votes,
+    turn_outward,
+)
+from pointatlas.simplify._winding import point_areas
 from pointatlas.synth import sample_mesh
 
 from .cad_shapes import extrude
@@ -173,3 +180,23 @@ def test_normals_given_pointing_in_are_all_turned_out():
     down = np.tile([0.0, 0.0, -1.0], (sheet.shape[0], 1))
     same, count = turn_outward(sheet, down)
     assert same is down and count == 0
+
+
+def test_the_enclosed_volume_does_not_depend_on_where_the_part_lies():
+    """A box sampled with a gap in its top (not quite closed: its dipole sum is not
+    0) gives the same volume 400 units from the origin as at it, and with every
+    normal in a negative one (about the origin the gap's dipole times 400 read
+    positive)."""
+    v, t = extrude([(0, 0), (2, 0), (2, 1), (0, 1)], height=0.5)
+    s = sample_mesh(v, t, 6000, rng=0)
+    p, n = np.asarray(s.points), np.asarray(s.normals)
+    keep = ~((n[:, 2] > 0.9) & (p[:, 0] < 0.6))  # a third of the top left out
+    p, n = p[keep], n[keep]
+    areas = point_areas(p)
+    here = enclosed_volume(p, n, areas)
+    assert abs(here - 1.0) < 0.2
+    far = p + [400.0, 0.0, 0.0]
+    assert abs(enclosed_volume(far, n, areas) - here) < 1e-6
+    assert enclosed_volume(far, -n, areas) < 0.0
+    # about the origin the same sample and normals read the other way
+    assert float(np.dot(areas, np.einsum("ij,ij->i", far, -n))) / 3.0 > 0.0

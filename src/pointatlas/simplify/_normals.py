@@ -26,6 +26,8 @@ from ._checks import distinct_positions
 
 __all__ = [
     "FLAT_VARIATION",
+    "NOISE_CORE_K",
+    "NOISE_CORE_RATIO",
     "NOISE_FACTOR",
     "NOISE_SAMPLE",
     "NORMAL_K_RANGE",
@@ -48,6 +50,14 @@ NORMAL_K_RANGE = (10, 30)
 NOISE_FACTOR = 8.0
 #: ... measured on every s-th point, s the smallest stride leaving at most this many.
 NOISE_SAMPLE = 20_000
+#: That floor is at most `NOISE_CORE_RATIO` times the floor of the smallest
+#: neighbourhoods (this many points): on planes with Gaussian noise of 0.3-2.8
+#: spacings the floor at 10 is 2.6-4.3 times the floor at 6; more is both sides of a
+#: thin wall in the larger neighbourhoods, not noise (a tube whose wall is 2.1
+#: spacings thick: 0.59 spacings at 10, 0.027 at 6) ...
+NOISE_CORE_K = 6
+#: ... and this ratio.
+NOISE_CORE_RATIO = 4.5
 
 
 def surface_normals(
@@ -114,19 +124,27 @@ def surface_normals(
     return np.where(use[:, None], other, res.normals)
 
 
-def bent_beyond_noise(points: np.ndarray, idx: np.ndarray, k: int, flat: float, small: int):
+def bent_beyond_noise(
+    points: np.ndarray, idx: np.ndarray, k: int, flat: float, small: int, core: bool = False
+):
     """``(pca, bent, floor)`` of validated ``points`` and their neighbour table
     ``idx`` (nearest first, at least ``k`` and ``small`` columns): `pca_normals` at
     ``k``, where the neighbourhood is not flat (surface variation above ``flat``)
     and bent beyond the noise (its smallest eigenvalue above `NOISE_FACTOR` times
-    the noise floor), and that floor (`noise_floor` at ``small``; 0 where nothing
-    is bent: a flat sample needs none)."""
+    the noise floor), and that floor (`noise_floor` at ``small``, with ``core`` at
+    most `NOISE_CORE_RATIO` times the floor at `NOISE_CORE_K`; 0 where nothing is
+    bent: a flat sample needs none)."""
     res = pca_normals(points, k, neighbors=idx)
     lam = res.eigenvalues
     total = lam.sum(axis=1)
     variation = np.divide(lam[:, 2], total, out=np.zeros(points.shape[0]), where=total > 0.0)
     bent = variation > flat
-    floor = noise_floor(points, idx[:, :small]) if bent.any() else 0.0
+    floor = 0.0
+    if bent.any():
+        floor = noise_floor(points, idx[:, :small])
+        if core and small > NOISE_CORE_K:  # a thin wall is not noise
+            core = noise_floor(points, idx[:, :NOISE_CORE_K])
+            floor = min(floor, NOISE_CORE_RATIO * core)
     return res, bent & (lam[:, 2] > NOISE_FACTOR * floor), floor
 
 

@@ -17,8 +17,10 @@ both sides; a face beside an edge has the other face on one side only); the best
 refitted to the neighbours on it, replaces the blended normal where it holds more
 of them. The sign is the oriented normal's where the two agree, and elsewhere that
 of the neighbours already signed on the same plane (not across a thin wall: a
-neighbour off the plane does not vote). Decisions: docs/decisions/simplify.md,
-"Normals for raw points".
+neighbour off the plane does not vote). The noise floor that gates it is at most
+`_normals.NOISE_CORE_RATIO` times the floor of the smallest neighbourhoods: both
+sides of a thin wall in a neighbourhood of 10 are not noise. Decisions:
+docs/decisions/simplify.md, "Normals for raw points".
 """
 
 from __future__ import annotations
@@ -209,7 +211,8 @@ def sharpen_normals(points, normals, k: int = 20, *, neighbors=None) -> np.ndarr
     if not isinstance(neighbors, tuple) or neighbors[0].shape[1] < k:
         neighbors = query_knn(pts, k)
     idx = np.ascontiguousarray(neighbors[0][:, :k], dtype=np.int64)
-    _, bent, floor = bent_beyond_noise(pts, idx, k, FLAT_VARIATION, min(k, NORMAL_K_RANGE[0]))
+    small = min(k, NORMAL_K_RANGE[0])
+    _, bent, floor = bent_beyond_noise(pts, idx, k, FLAT_VARIATION, small, core=True)
     spacing = float(np.median(neighbors[1][:, 1])) if k > 1 else 0.0
     tau = max(PLANE_SPACINGS * spacing, 3.0 * np.sqrt(max(floor, 0.0)))
     out = nrm.copy()

@@ -1,6 +1,10 @@
 """Estimated normals turned outward: whole sheets, then the small patches the
 orientation left inward (private; public as `outward_normals`).
 
+On a closed sample, whole sheets the voxel outside cannot judge (a tube's inner
+wall: both its sides are outside) are first turned by the winding number far from
+the points (`_sheets.far_sheet_flips`).
+
 Normals oriented by propagation (`pointatlas.normals.orient_normals`) cross thin
 walls and edges: whole sheets come out turned inward (`_sides.turn_outward` turns
 them back by the voxel outside), and so do patches of tens to hundreds of points
@@ -31,6 +35,7 @@ from scipy.spatial import cKDTree
 from .._core import as_normals, as_points
 from ..neighbors import query_knn
 from ._reconstruct import CLOSED_DIPOLE
+from ._sheets import far_sheet_flips
 from ._sides import OPPOSED_COS, SMOOTH_K, sheet_dots, table_spacing, turn_outward
 from ._winding import AREA_NEIGHBOR, MAX_POINTS, dipole_share, dipoles, table_areas
 
@@ -65,9 +70,10 @@ CELL_SPACINGS = 4.0
 
 def outward_normals(points, normals, *, neighbors=None) -> np.ndarray:
     """Oriented normals of a closed point set turned outward: whole sheets turned
-    inward by the voxel outside (`_sides.turn_outward`), then the patches still
-    turned inward by the winding number of the other points (see the module's
-    notes). An open sample keeps its normals (no inside).
+    inward by the voxel outside (`_sides.turn_outward`), then by the winding number
+    far from the points (`_sheets.far_sheet_flips`), then the patches still turned
+    inward by the winding number of the other points (see the module's notes). An
+    open sample keeps its normals (no inside).
 
     Parameters
     ----------
@@ -118,16 +124,26 @@ def outward_normals(points, normals, *, neighbors=None) -> np.ndarray:
     if dipole_share(pts, out, areas) > CLOSED_DIPOLE:
         return out  # open: both sides outside
     if n <= MAX_POINTS:
-        flip = _inward_patches(pts, out, idx, dist)
+        flip = _turned(pts, out, idx, dist, areas)
     else:  # on an even stride of the points; each point as its nearest there
         stride = -(-n // MAX_POINTS)
         sub = np.ascontiguousarray(pts[::stride])
         sub_idx, sub_dist = query_knn(sub, SMOOTH_K)
-        sub_flip = _inward_patches(sub, out[::stride], np.asarray(sub_idx), sub_dist)
+        sub_dist = np.asarray(sub_dist)
+        sub_areas = table_areas(sub_dist, AREA_NEIGHBOR)
+        sub_flip = _turned(sub, out[::stride], np.asarray(sub_idx), sub_dist, sub_areas)
         j = cKDTree(sub).query(pts, 1, workers=-1)[1]
         same = np.einsum("ij,ij->i", out, out[::stride][j]) > 0.0
         flip = sub_flip[j] & same
     return np.where(flip[:, None], -out, out)
+
+
+def _turned(q, n, idx, dist, areas) -> np.ndarray:
+    """Which normals of a closed sample to turn: whole sheets by the winding number
+    far from the points (`_sheets.far_sheet_flips`), then the patches still turned
+    inward (`_inward_patches`)."""
+    sheets = far_sheet_flips(q, n, idx, dist, areas)
+    return sheets ^ _inward_patches(q, np.where(sheets[:, None], -n, n), idx, dist)
 
 
 def _patches(q, n, idx, tol):

@@ -1,0 +1,92 @@
+"""Whole sheets turned by the winding number far from the points
+(`simplify/_sheets.py`, a step of `outward_normals`): the per-sheet winding number
+against plain numpy, a tube whose inner wall faces into the wall (which the dipole
+test reads as closed) turned back, right normals left as they are, the probes far
+from every point, determinism."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from pointatlas.neighbors import query_knn
+from pointatlas.simplify import outward_normals
+from pointatlas.simplify._reconstruct import CLOSED_DIPOLE
+from pointatlas.simplify._sheets import FAR_SPACINGS, far_probes, far_sheet_flips, sheet_winding
+from pointatlas.simplify._winding import dipole_share, point_areas, table_areas
+from pointatlas.synth import sample_mesh
+
+from .cad_shapes import box, circle, extrude
+
+
+def sheet_winding_reference(x, p, dip, row, rows):
+    """`sheet_winding` in plain numpy: per row, the winding number of its points."""
+    out = np.zeros((rows, x.shape[0]))
+    for r in range(rows):
+        e = p[row == r][None, :, :] - x[:, None, :]
+        dist = np.linalg.norm(e, axis=2)
+        out[r] = (np.einsum("ijk,jk->ij", e, dip[row == r]) / dist**3).sum(axis=1)
+    return out / (4.0 * np.pi)
+
+
+def _tube():
+    """A tube 6 long, radii 1 and 0.9, 8,000 points: its wall about 2.2 spacings."""
+    v, t = extrude(circle((0, 0), 1.0, 96), [circle((0, 0), 0.9, 96)], height=6.0)
+    s = sample_mesh(v, t, 8000, rng=0)
+    return np.asarray(s.points), np.asarray(s.normals)
+
+
+def _table(p):
+    idx, dist = query_knn(p, 10)
+    dist = np.asarray(dist)
+    return np.asarray(idx), dist, table_areas(dist, 8)
+
+
+def test_sheet_winding_matches_plain_numpy():
+    rng = np.random.default_rng(0)
+    p = rng.normal(size=(300, 3))
+    dip = rng.normal(size=(300, 3)) * 0.01
+    row = rng.integers(0, 4, 300)
+    x = rng.normal(size=(50, 3)) * 3.0
+    got = sheet_winding(x, p, dip, row, 4)
+    np.testing.assert_allclose(got, sheet_winding_reference(x, p, dip, row, 4), rtol=1e-10)
+
+
+def test_a_tubes_inner_wall_turned_into_the_wall_is_turned_back():
+    p, truth = _tube()
+    inner = (np.hypot(p[:, 0], p[:, 1]) < 0.95) & (np.abs(truth[:, 2]) < 0.5)
+    n = truth.copy()
+    n[inner] *= -1.0  # facing into the wall, as propagation across it leaves it
+    areas = point_areas(p)
+    # the walls' normals cancel: the dipole test reads closed, the sheets step runs
+    assert dipole_share(p, n, areas) <= CLOSED_DIPOLE
+    idx, dist, table = _table(p)
+    flip = far_sheet_flips(p, n, idx, dist, table)
+    turned = np.where(flip[:, None], -n, n)
+    assert int((np.einsum("ij,ij->i", turned, truth) < 0.0).sum()) == 0
+    assert int((np.einsum("ij,ij->i", outward_normals(p, n), truth) < 0.0).sum()) == 0
+
+
+def test_right_normals_are_left_as_they_are():
+    v, t = box()
+    s = sample_mesh(v, t, 4000, rng=0)
+    for p, truth in (_tube(), (np.asarray(s.points), np.asarray(s.normals))):
+        idx, dist, table = _table(p)
+        assert not far_sheet_flips(p, truth, idx, dist, table).any()
+        np.testing.assert_array_equal(outward_normals(p, truth), truth)
+
+
+def test_all_turned_where_every_normal_points_in():
+    p, truth = _tube()
+    idx, dist, table = _table(p)
+    assert far_sheet_flips(p, -truth, idx, dist, table).all()
+
+
+def test_probes_are_far_from_every_point_and_seeded():
+    p, _ = _tube()
+    spacing = float(np.median(query_knn(p, 2)[1][:, 1]))
+    x = far_probes(p, spacing)
+    assert x.shape[0] > 100
+    near = cKDTree(p).query(x, 1)[0]
+    assert near.min() >= FAR_SPACINGS * spacing
+    np.testing.assert_array_equal(x, far_probes(p, spacing))
