@@ -43,13 +43,27 @@ def _table(p):
 
 
 def test_sheet_winding_matches_plain_numpy():
+    """Exact where every group is near (one cube holding all the points), and within
+    a thousandth where far groups act as one dipole (a closed sphere's winding number
+    is about 1 inside, 0 outside)."""
     rng = np.random.default_rng(0)
     p = rng.normal(size=(300, 3))
     dip = rng.normal(size=(300, 3)) * 0.01
     row = rng.integers(0, 4, 300)
-    x = rng.normal(size=(50, 3)) * 3.0
-    got = sheet_winding(x, p, dip, row, 4)
-    np.testing.assert_allclose(got, sheet_winding_reference(x, p, dip, row, 4), rtol=1e-10)
+    x = rng.normal(size=(50, 3))  # within every group's reach
+    want = sheet_winding_reference(x, p, dip, row, 4)
+    np.testing.assert_allclose(sheet_winding(x, p, dip, row, 4, 100.0), want, rtol=1e-10)
+    u = rng.normal(size=(6000, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    dip = u * point_areas(u)[:, None]
+    row = (u[:, 2] > 0.0).astype(np.int64)  # two hemispheres
+    x = np.vstack([rng.normal(size=(40, 3)) * 0.2, rng.normal(size=(40, 3)) * 3.0])
+    x = x[np.abs(np.linalg.norm(x, axis=1) - 1.0) > 0.2]  # far from the points
+    want = sheet_winding_reference(x, u, dip, row, 2)
+    got = sheet_winding(x, u, dip, row, 2, 0.1)
+    np.testing.assert_allclose(got, want, atol=1e-3)
+    inside = np.linalg.norm(x, axis=1) < 1.0
+    assert np.allclose(got.sum(axis=0), inside.astype(float), atol=0.05)
 
 
 def test_a_tubes_inner_wall_turned_into_the_wall_is_turned_back():

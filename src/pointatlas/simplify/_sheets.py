@@ -30,8 +30,17 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ._sides import OPPOSED_COS, enclosed_volume, sheet_dots, table_spacing
+from ._winding import FAR_RADII
 
-__all__ = ["FAR_GAIN", "FAR_PROBES", "FAR_SPACINGS", "SHEET_SHARE", "far_sheet_flips"]
+__all__ = [
+    "CELL_SPACINGS",
+    "FAR_GAIN",
+    "FAR_PROBES",
+    "FAR_SPACINGS",
+    "SHEET_SHARE",
+    "far_sheet_flips",
+    "sheet_winding",
+]
 
 #: Probes lie at least this many point spacings from every point (nearer, the
 #: winding number of a few discs swings with the sampling) ...
@@ -42,6 +51,8 @@ PAD_SPACINGS = 3.0
 #: Sheets of at least this share of the points are turned (smaller ones are the
 #: patches' step, `_signs`).
 SHEET_SHARE = 0.01
+#: Points of one sheet in a cube of this many spacings act as one dipole far off.
+CELL_SPACINGS = 4.0
 #: A turn is kept where the squared distance of the probes' winding numbers to the
 #: nearer of 0 and 1, summed, falls by at least this much per probe.
 FAR_GAIN = 1e-3
@@ -68,8 +79,10 @@ def far_probes(q, spacing: float, count: int = FAR_PROBES) -> np.ndarray:
     hi = q.max(axis=0) + PAD_SPACINGS * spacing
     rng = np.random.default_rng(0)
     candidates = lo + (hi - lo) * rng.random((40 * count, 3))
-    dist = cKDTree(q).query(candidates, 1, workers=-1)[0]
-    return np.ascontiguousarray(candidates[dist >= FAR_SPACINGS * spacing][:count])
+    far = FAR_SPACINGS * spacing
+    # a search bounded by that distance: inf where no point is nearer (fast)
+    dist = cKDTree(q).query(candidates, 1, distance_upper_bound=far, workers=-1)[0]
+    return np.ascontiguousarray(candidates[dist >= far][:count])
 
 
 def far_sheet_flips(q, n, idx, dist, areas) -> np.ndarray:
@@ -94,7 +107,7 @@ def far_sheet_flips(q, n, idx, dist, areas) -> np.ndarray:
     col = np.full(size.size, var.size, dtype=np.int64)  # the rest: one more row
     col[var] = np.arange(var.size)
     dip = np.ascontiguousarray(n * areas[:, None])
-    w_by = sheet_winding(x, np.ascontiguousarray(q), dip, col[lab], var.size + 1)
+    w_by = sheet_winding(x, q, dip, col[lab], var.size + 1, CELL_SPACINGS * spacing)
     w = w_by.sum(axis=0)
     sign = np.ones(var.size)
     gain = FAR_GAIN * x.shape[0]
@@ -118,17 +131,58 @@ def _off_integer(w) -> float:
     return float(np.minimum(w * w, (w - 1.0) ** 2).sum())
 
 
-@njit(cache=True, parallel=True)
-def sheet_winding(x, p, dip, row, rows):
+def sheet_winding(x, p, dip, row, rows: int, cell: float) -> np.ndarray:
     """(rows, len(x)): the winding number at every probe ``x[j]`` of the points ``p``
-    (``dip``: normal times disc area) of each row (``row[i]``: point i's), summed
-    exactly. Plain numpy: `sheet_winding_reference` in tests/simplify/test_sheets.py."""
+    (``dip``: normal times disc area) of each row (``row[i]``: point i's). The points
+    of one row in one cube of side ``cell`` act as one dipole beyond `FAR_RADII` of
+    their radius (Barill et al.), point by point nearer. Plain numpy:
+    `sheet_winding_reference` in tests/simplify/test_sheets.py."""
+    key = np.floor((p - p.min(axis=0)) / cell).astype(np.int64)
+    _, group = np.unique(np.column_stack([key, row]), axis=0, return_inverse=True)
+    group = group.reshape(-1)
+    n_groups = int(group.max()) + 1
+    order = np.argsort(group, kind="stable")
+    starts = np.searchsorted(group[order], np.arange(n_groups + 1))
+    count = np.bincount(group, minlength=n_groups).astype(np.float64)
+    centres = np.stack([np.bincount(group, p[:, i], n_groups) for i in range(3)], axis=1)
+    centres /= count[:, None]
+    group_dip = np.stack([np.bincount(group, dip[:, i], n_groups) for i in range(3)], axis=1)
+    radius = np.zeros(n_groups)
+    np.maximum.at(radius, group, np.linalg.norm(p - centres[group], axis=1))
+    group_row = np.zeros(n_groups, dtype=np.int64)
+    group_row[group] = row
+    return _sheet_winding_kernel(
+        np.ascontiguousarray(x, dtype=np.float64),
+        centres,
+        group_dip,
+        (FAR_RADII * radius) ** 2,
+        group_row,
+        starts.astype(np.int64),
+        np.ascontiguousarray(p[order]),
+        np.ascontiguousarray(dip[order]),
+        rows,
+    )
+
+
+@njit(cache=True, parallel=True)
+def _sheet_winding_kernel(x, centres, group_dip, reach2, group_row, starts, p, dip, rows):
+    """`sheet_winding` on its groups: group c (centre, dipole, squared reach, row)
+    holds the points ``starts[c]:starts[c + 1]`` of ``p`` and ``dip``."""
     out = np.zeros((rows, x.shape[0]))
     for j in prange(x.shape[0]):
-        for i in range(p.shape[0]):
-            e0, e1, e2 = p[i, 0] - x[j, 0], p[i, 1] - x[j, 1], p[i, 2] - x[j, 2]
+        for c in range(centres.shape[0]):
+            e0 = centres[c, 0] - x[j, 0]
+            e1 = centres[c, 1] - x[j, 1]
+            e2 = centres[c, 2] - x[j, 2]
             r2 = e0 * e0 + e1 * e1 + e2 * e2
-            if r2 > 0.0:
-                s = dip[i, 0] * e0 + dip[i, 1] * e1 + dip[i, 2] * e2
-                out[row[i], j] += s / (r2 * np.sqrt(r2) * 4.0 * np.pi)
+            if r2 > reach2[c] and r2 > 0.0:
+                s = group_dip[c, 0] * e0 + group_dip[c, 1] * e1 + group_dip[c, 2] * e2
+                out[group_row[c], j] += s / (r2 * np.sqrt(r2) * 4.0 * np.pi)
+                continue
+            for i in range(starts[c], starts[c + 1]):
+                e0, e1, e2 = p[i, 0] - x[j, 0], p[i, 1] - x[j, 1], p[i, 2] - x[j, 2]
+                r2 = e0 * e0 + e1 * e1 + e2 * e2
+                if r2 > 0.0:
+                    s = dip[i, 0] * e0 + dip[i, 1] * e1 + dip[i, 2] * e2
+                    out[group_row[c], j] += s / (r2 * np.sqrt(r2) * 4.0 * np.pi)
     return out
