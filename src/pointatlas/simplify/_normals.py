@@ -143,8 +143,8 @@ def bent_beyond_noise(
     if bent.any():
         floor = noise_floor(points, idx[:, :small])
         if core and small > NOISE_CORE_K:  # a thin wall is not noise
-            core = noise_floor(points, idx[:, :NOISE_CORE_K])
-            floor = min(floor, NOISE_CORE_RATIO * core)
+            core_floor = noise_floor(points, idx[:, :NOISE_CORE_K])
+            floor = min(floor, NOISE_CORE_RATIO * core_floor)
     return res, bent & (lam[:, 2] > NOISE_FACTOR * floor), floor
 
 

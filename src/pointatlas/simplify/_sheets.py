@@ -3,22 +3,21 @@
 
 Propagated normals cross a thin wall between its two sides: a tube whose wall is two
 point spacings thick (`trimesh_round`, 20,000 points) came out with its whole inner
-wall facing into the wall. The dipole
-test cannot see it (the two walls' normals cancel in the sum, so the sample reads
-closed) and neither can the voxel outside (both sides of the inner wall are
-outside). The winding number can: far from the points (`FAR_SPACINGS`) a closed
-surface's is 0 outside and 1 inside, and a sheet turned the wrong way sets it near 2
-or -1 wherever it encloses (the tube's hole read 2). The points are cut into sheets
-(neighbours on one plane with agreeing normals, `_sides.sheet_dots`); each sheet of
-at least `SHEET_SHARE` of the points is a variable whose winding number at
-`FAR_PROBES` random points far from every point is found once (the winding number is
-linear in the normals); normals that enclose a negative volume are first all turned
-(inside, their winding number reads -1), then sheets are turned one at a time, the
-one that brings the probes' winding numbers nearest to 0 or 1 first, while a turn
-gains at least `FAR_GAIN` per probe. Where the turned normals then enclose a
-negative volume, all of them are turned (a tube's outer wall turned is its inner
-wall turned, seen from inside). Decisions: docs/decisions/simplify.md, "Normals for
-raw points".
+wall facing into the wall. The dipole test cannot see it (the two walls' normals
+cancel in the sum, so the sample reads closed) and neither can the voxel outside
+(both sides of the inner wall are outside). The winding number can: far from the
+points (`FAR_SPACINGS`) a closed surface's is 0 outside and 1 inside, and a sheet
+turned the wrong way sets it near 2 or -1 wherever it encloses (the tube's hole read
+2). The points are cut into sheets (neighbours on one plane with agreeing normals,
+`_sides.sheet_dots`); each sheet of at least `SHEET_SHARE` of the points is a
+variable whose winding number at `FAR_PROBES` random points far from every point is
+found once (the winding number is linear in the normals); normals that enclose a
+negative volume are first all turned (inside, their winding number reads -1), then
+sheets are turned one at a time, the one that brings the probes' winding numbers
+nearest to 0 or 1 first, while a turn gains at least `FAR_GAIN` per probe. Where the
+turned normals then enclose a negative volume, all of them are turned (a tube's
+outer wall turned is its inner wall turned, seen from inside). Decisions:
+docs/decisions/simplify.md, "Normals for raw points".
 """
 
 from __future__ import annotations
