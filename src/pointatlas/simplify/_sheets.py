@@ -23,13 +23,18 @@ docs/decisions/simplify.md, "Normals for raw points".
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as ss
 from numba import njit, prange
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from ._sides import OPPOSED_COS, enclosed_volume, sheet_dots, table_spacing
-from ._winding import FAR_RADII
+from ._sides import (
+    OPPOSED_COS,
+    enclosed_volume,
+    neighbour_pairs,
+    pair_components,
+    sheet_dots,
+    table_spacing,
+)
+from ._winding import cell_groups
 
 __all__ = [
     "CELL_SPACINGS",
@@ -60,14 +65,10 @@ FAR_GAIN = 1e-3
 def _sheets(q, n, idx):
     """Each point's sheet: components of the neighbour pairs on one plane
     (`_sides.sheet_dots`) whose normals agree (cosine above `_sides.OPPOSED_COS`)."""
-    k = idx.shape[1]
-    rows = np.repeat(np.arange(q.shape[0]), k - 1)
-    cols = idx[:, 1:].reshape(-1)
+    rows, cols = neighbour_pairs(idx)
     sheet, dot = sheet_dots(q, n, rows, cols)
     on = np.flatnonzero(sheet)[dot > OPPOSED_COS]
-    size = q.shape[0]
-    graph = ss.coo_matrix((np.ones(on.size), (rows[on], cols[on])), shape=(size, size))
-    return connected_components(graph, directed=False)[1]
+    return pair_components(q.shape[0], rows[on], cols[on])
 
 
 def far_probes(q, spacing: float, count: int = FAR_PROBES) -> np.ndarray:
@@ -112,7 +113,7 @@ def far_sheet_flips(q, n, idx, dist, areas) -> np.ndarray:
     gain = FAR_GAIN * x.shape[0]
     while True:
         now = _off_integer(w)
-        after = np.array([_off_integer(w - 2.0 * sign[s] * w_by[s]) for s in range(var.size)])
+        after = _off_integer(w - 2.0 * sign[:, None] * w_by[: var.size])  # each turned
         best = int(np.argmin(after))
         if now - after[best] < gain:
             break
@@ -124,39 +125,31 @@ def far_sheet_flips(q, n, idx, dist, areas) -> np.ndarray:
     return turn ^ inverted
 
 
-def _off_integer(w) -> float:
+def _off_integer(w):
     """The squared distances of the winding numbers ``w`` to the nearer of 0 and 1,
-    summed."""
-    return float(np.minimum(w * w, (w - 1.0) ** 2).sum())
+    summed along the last axis."""
+    return np.minimum(w * w, (w - 1.0) ** 2).sum(axis=-1)
 
 
 def sheet_winding(x, p, dip, row, rows: int, cell: float) -> np.ndarray:
     """(rows, len(x)): the winding number at every probe ``x[j]`` of the points ``p``
     (``dip``: normal times disc area) of each row (``row[i]``: point i's). The points
-    of one row in one cube of side ``cell`` act as one dipole beyond `FAR_RADII` of
-    their radius (Barill et al.), point by point nearer. Plain numpy:
-    `sheet_winding_reference` in tests/simplify/test_sheets.py."""
+    of one row in one cube of side ``cell`` act as one dipole beyond
+    `_winding.FAR_RADII` of their radius (`_winding.cell_groups`), point by point
+    nearer. Plain numpy: `sheet_winding_reference` in tests/simplify/test_sheets.py."""
     key = np.floor((p - p.min(axis=0)) / cell).astype(np.int64)
-    _, group = np.unique(np.column_stack([key, row]), axis=0, return_inverse=True)
-    group = group.reshape(-1)
-    n_groups = int(group.max()) + 1
-    order = np.argsort(group, kind="stable")
-    starts = np.searchsorted(group[order], np.arange(n_groups + 1))
-    count = np.bincount(group, minlength=n_groups).astype(np.float64)
-    centres = np.stack([np.bincount(group, p[:, i], n_groups) for i in range(3)], axis=1)
-    centres /= count[:, None]
-    group_dip = np.stack([np.bincount(group, dip[:, i], n_groups) for i in range(3)], axis=1)
-    radius = np.zeros(n_groups)
-    np.maximum.at(radius, group, np.linalg.norm(p - centres[group], axis=1))
-    group_row = np.zeros(n_groups, dtype=np.int64)
+    group, order, starts, centres, group_dip, reach2 = cell_groups(
+        p, dip, np.column_stack([key, row])
+    )
+    group_row = np.zeros(centres.shape[0], dtype=np.int64)
     group_row[group] = row
     return _sheet_winding_kernel(
         np.ascontiguousarray(x, dtype=np.float64),
         centres,
         group_dip,
-        (FAR_RADII * radius) ** 2,
+        reach2,
         group_row,
-        starts.astype(np.int64),
+        starts,
         np.ascontiguousarray(p[order]),
         np.ascontiguousarray(dip[order]),
         rows,

@@ -19,8 +19,10 @@ docs/decisions/simplify.md, "Normals turned to the outside".
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as ss
 from numba import njit
 from scipy import ndimage
+from scipy.sparse.csgraph import connected_components
 
 from ..neighbors import query_knn
 from ._edt import distance_to
@@ -35,7 +37,9 @@ __all__ = [
     "TURN_DIPOLE",
     "added_conflicts",
     "enclosed_volume",
+    "neighbour_pairs",
     "outside_votes",
+    "pair_components",
     "sheet_dots",
     "table_spacing",
     "turn_outward",
@@ -245,11 +249,24 @@ def added_conflicts(q, normals, flip, indices) -> int:
     >>> added_conflicts(q, n, np.ones(16, dtype=bool), idx)  # all of it
     0
     """
-    rows = np.repeat(np.arange(indices.shape[0]), indices.shape[1] - 1)
-    cols = indices[:, 1:].reshape(-1)
+    rows, cols = neighbour_pairs(indices)
     one = flip[rows] != flip[cols]
     _, dot = sheet_dots(q, normals, rows[one], cols[one])
     return int(np.count_nonzero(dot > OPPOSED_COS)) - int(np.count_nonzero(dot < -OPPOSED_COS))
+
+
+def neighbour_pairs(indices):
+    """``(rows, cols)``: every point and each of its neighbours in a k-NN table
+    ``indices`` (the point itself first, left out), row by row."""
+    rows = np.repeat(np.arange(indices.shape[0]), indices.shape[1] - 1)
+    return rows, indices[:, 1:].reshape(-1)
+
+
+def pair_components(size: int, rows, cols) -> np.ndarray:
+    """Each of ``size`` points' label: the connected components of the pairs
+    ``rows[a]``, ``cols[a]``."""
+    graph = ss.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(size, size))
+    return connected_components(graph, directed=False)[1]
 
 
 def sheet_dots(q, normals, i, j):

@@ -27,16 +27,22 @@ Decisions: docs/decisions/simplify.md, "Normals for raw points".
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as ss
 from numba import njit, prange
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .._core import as_normals, as_points
 from ..neighbors import query_knn
 from ._reconstruct import CLOSED_DIPOLE
 from ._sheets import far_sheet_flips
-from ._sides import OPPOSED_COS, SMOOTH_K, sheet_dots, table_spacing, turn_outward
+from ._sides import (
+    OPPOSED_COS,
+    SMOOTH_K,
+    neighbour_pairs,
+    pair_components,
+    sheet_dots,
+    table_spacing,
+    turn_outward,
+)
 from ._winding import AREA_NEIGHBOR, MAX_POINTS, dipole_share, dipoles, table_areas
 
 __all__ = [
@@ -149,26 +155,20 @@ def _turned(q, n, idx, dist, areas) -> np.ndarray:
 def _patches(q, n, idx, tol):
     """Each point's patch label: components of the neighbour pairs within ``tol`` of
     both tangent planes whose normals agree (`PATCH_COS`)."""
-    k = idx.shape[1]
-    rows = np.repeat(np.arange(q.shape[0]), k - 1)
-    cols = idx[:, 1:].reshape(-1)
+    rows, cols = neighbour_pairs(idx)
     e = q[cols] - q[rows]
     on = (np.abs(np.einsum("ij,ij->i", n[rows], e)) <= tol) & (
         np.abs(np.einsum("ij,ij->i", n[cols], e)) <= tol
     )
     on &= np.einsum("ij,ij->i", n[rows], n[cols]) > PATCH_COS
-    size = q.shape[0]
-    graph = ss.coo_matrix((np.ones(int(on.sum())), (rows[on], cols[on])), shape=(size, size))
-    return connected_components(graph, directed=False)[1]
+    return pair_components(q.shape[0], rows[on], cols[on])
 
 
 def _disagreeing(q, n, idx, lab) -> np.ndarray:
     """Per patch: whether more of its points' neighbours on one sheet in other patches
     face against it (cosine below -`OPPOSED_COS`) than with it (above it): turning it would
     set fewer pairs against each other (`_sides.added_conflicts`, per patch)."""
-    k = idx.shape[1]
-    rows = np.repeat(np.arange(q.shape[0]), k - 1)
-    cols = idx[:, 1:].reshape(-1)
+    rows, cols = neighbour_pairs(idx)
     keep = lab[rows] != lab[cols]
     rows, cols = rows[keep], cols[keep]
     sheet, dot = sheet_dots(q, n, rows, cols)

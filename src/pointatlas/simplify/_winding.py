@@ -29,6 +29,7 @@ __all__ = [
     "LEVEL_FAR_STEPS",
     "LEVEL_ROUNDS",
     "DIPOLE_AREA_CAP",
+    "cell_groups",
     "dipole_share",
     "dipoles",
     "far_sides",
@@ -170,6 +171,18 @@ def dipoles(points, normals, cell: float) -> Dipoles:
     n = np.asarray(normals[::stride], dtype=np.float64)
     dip = np.ascontiguousarray(n * point_areas(p)[:, None])
     key = np.floor((p - p.min(axis=0)) / cell).astype(np.int64)
+    _, order, starts, centres, cell_dipoles, reach2 = cell_groups(p, dip, key)
+    axes = tuple(np.ascontiguousarray(a.T) for a in (centres, cell_dipoles, p[order], dip[order]))
+    return Dipoles(p, dip, order, starts, centres, cell_dipoles, reach2, axes)
+
+
+def cell_groups(p, dip, key):
+    """The points ``p`` with dipoles ``dip`` grouped by the rows of ``key`` (a cell's
+    integer coordinates, and whatever else must tell groups apart): ``(lab, order,
+    starts, centres, group_dipoles, reach2)``, each point's group, the points in
+    group order (group c's at ``order[starts[c]:starts[c + 1]]``), each group's
+    centre (the mean of its points), summed dipole and squared reach (beyond
+    `FAR_RADII` of its radius it acts as one dipole)."""
     _, lab = np.unique(key, axis=0, return_inverse=True)
     lab = lab.reshape(-1)
     n_cells = int(lab.max()) + 1
@@ -181,9 +194,7 @@ def dipoles(points, normals, cell: float) -> Dipoles:
     cell_dipoles = np.stack([np.bincount(lab, dip[:, i], n_cells) for i in range(3)], 1)
     radius = np.zeros(n_cells)
     np.maximum.at(radius, lab, np.linalg.norm(p - centres[lab], axis=1))
-    reach2 = (FAR_RADII * radius) ** 2
-    axes = tuple(np.ascontiguousarray(a.T) for a in (centres, cell_dipoles, p[order], dip[order]))
-    return Dipoles(p, dip, order, starts, centres, cell_dipoles, reach2, axes)
+    return lab, order, starts, centres, cell_dipoles, (FAR_RADII * radius) ** 2
 
 
 def winding_numbers(x, points, normals, cell: float) -> np.ndarray:
