@@ -11,7 +11,7 @@ from scipy.spatial import cKDTree
 
 from pointatlas.simplify._distance import PointSurface
 from pointatlas.simplify._kernels import OPPOSITE, thin_sides
-from pointatlas.simplify._point_distances import FLOOR_NEIGHBORS, PointDistances
+from pointatlas.simplify._point_distances import FLOOR_CAP, FLOOR_NEIGHBORS, PointDistances
 from pointatlas.simplify._reconstruct import FIELD_K, _thin_keep
 from pointatlas.synth import sample_mesh
 
@@ -132,6 +132,40 @@ def test_floor_raises_the_bound_only_where_the_surface_is_far():
     assert not measure.within(_dented(v, top, 0.057), t, bound)
 
 
+def test_capped_floors_stay_under_the_cap_where_the_surface_is_nearer():
+    """`PointDistances.floor_at` with ``cap`` (`FLOOR_CAP` bounds, the level search's):
+    where the points' surface is within the cap, a level may reach the cap there, not
+    what the surface reaches plus the bound; where the surface itself is farther, as
+    far as it is, no farther."""
+    v, t = subdivide(*box())
+    v = (v - v.min(axis=0)) / np.ptp(v, axis=0)  # the unit cube
+    s = sample_mesh(v, t, 6000, rng=0)
+    q, n = np.asarray(s.points), np.asarray(s.normals)
+    top = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 1.0], axis=1)))
+    bottom = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 0.0], axis=1)))
+    bound = 0.01
+    # the points' surface 5 bounds off at the top's middle, 1.2 at the bottom's
+    surface = _dented(_dented(v, top, 0.05), bottom, 0.012)
+    level = _dented(surface, bottom, 0.021 - 0.012)  # the bottom 2.1 bounds off
+    plain = PointDistances(q, PointSurface(q, n))
+    plain.floor_at(surface, t, bound)
+    capped = PointDistances(q, PointSurface(q, n))
+    capped.floor_at(surface, t, bound, cap=FLOOR_CAP)
+    assert plain.within(level, t, bound)  # 1.2 + 1 bounds
+    assert not capped.within(level, t, bound)  # over 1.8
+    assert capped.within(_dented(surface, bottom, 0.017 - 0.012), t, bound)
+    assert capped.within(surface, t, bound)  # the far top: as far as it is
+    assert not capped.within(_dented(surface, top, 0.06 - 0.05), t, bound)
+    assert plain.within(_dented(surface, top, 0.054 - 0.05), t, bound)
+    over = capped.there_floor > FLOOR_CAP * bound + 1e-12
+    assert over.any() and (q[over, 2] > 0.9).all()  # the top's only
+    # the collapses' tolerance (`there_floor_of`) is not capped: the bottom's is the
+    # surface's distance there plus the bound
+    low = capped.there_floor_of(surface, t, bound)
+    assert low[q[:, 2] < 0.1].max() > FLOOR_CAP * bound
+    assert (low >= np.maximum(bound, capped.there_floor)).all()
+
+
 def test_a_second_surfaces_floors_only_raise_the_first_ones():
     """`PointDistances.floor_at` with ``raise_only``: the floors of two surfaces (the
     points' surface, and it placed on its planes) let pass what either lets pass:
@@ -162,7 +196,8 @@ def test_a_second_surfaces_floors_only_raise_the_first_ones():
     assert len(layers) == 2
     x = np.concatenate([layer[0] for layer in layers])
     found = []  # each layer's distance to its nearest sample and that sample's floor
-    for samples, back, _, add, cap in layers:
+    for samples, back, _, add, cap, low in layers:
+        assert low == np.inf  # not capped: floor_at's default
         tree = cKDTree(samples)
         floor = np.minimum(back[tree.query(samples, k=FLOOR_NEIGHBORS)[1]].max(axis=1) + add, cap)
         d, i = tree.query(x)

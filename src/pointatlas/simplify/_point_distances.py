@@ -44,6 +44,11 @@ LOOSE_SHARE = 0.05
 FLOOR_NEIGHBORS = 8
 #: ... and never more than this many times the most it reaches anywhere.
 FLOOR_FACTOR = 1.1
+#: The level search's floors (`floor_at`'s ``cap``): where the surface is nearer than
+#: this many bounds, no more than that (0.9 % of the diagonal at the default bound:
+#: with `SPARE` points up to `SPARE_FACTOR` over, within the 1 % the report's
+#: two-sided distance is held to); where it is farther, no more than it reaches there.
+FLOOR_CAP = 1.8
 #: Without ``max_error``, a level may leave this many points, and this many of its
 #: samples, over the bound (or the floor there), by at most this factor: the level
 #: search was decided by a point a hair over (a sampled fan mount's levels from
@@ -91,6 +96,7 @@ class PointDistances:
         factor=FLOOR_FACTOR,
         neighbors=None,
         raise_only=False,
+        cap=np.inf,
     ):
         """From now on (`within`), at each point and near each sample of the surface
         ``out_v``, ``out_t`` a level may reach what that surface reaches there (the
@@ -101,17 +107,19 @@ class PointDistances:
         everywhere, it let a level of 168 triangles 3.6 % of the diagonal off the
         truth pass). ``neighbors``: the points' k-NN table (`query_knn`: the point
         itself first, at least `FLOOR_NEIGHBORS` columns), searched when None;
-        ``slack``: `FLOOR_SLACK` when None. With ``raise_only``, the floors already
+        ``slack``: `FLOOR_SLACK` when None; ``cap`` (in bounds): where the surface is
+        nearer, no floor above it, and no more than the surface reaches elsewhere
+        (`FLOOR_CAP`; none by default). With ``raise_only``, the floors already
         set are only raised (a second surface's: each point's the higher of the two,
         near each sample the nearest sample's of either). Returns the largest
         distance both ways."""
         slack = FLOOR_SLACK if slack is None else slack
         there, most, samples, back = self._first_measure(out_v, out_t, neighbors)[:4]
         most = float(max(most, back.max()))
-        there_floor = np.minimum(there + slack * bound, factor * most)
+        there_floor = _capped(there, there + slack * bound, factor * most, cap * bound)
         edges = np.linalg.norm(out_v[out_t[:, 1]] - out_v[out_t[:, 0]], axis=1)
         cell = 1.5 * float(np.median(edges)) if edges.size else 0.0  # ~3 samples apart
-        back_floor = BackFloors([(samples, back, cell, slack * bound, factor * most)])
+        back_floor = BackFloors([(samples, back, cell, slack * bound, factor * most, cap * bound)])
         if raise_only and self.there_floor is not None:
             # the floors of both surfaces: each point the higher, near each sample
             # the nearest sample's of either
@@ -225,15 +233,16 @@ class PointDistances:
 class BackFloors:
     """`PointDistances.floor_at`'s floors near a level's samples: at a position, that
     of the nearest sample of the surfaces ``layers`` (each ``(samples, back, cell,
-    add, cap)``: a surface's samples, their distances to the points' discs, the
-    cells of their `GridKnn`, the bound's slack and the cap), which is the most
+    add, cap, low)``: a surface's samples, their distances to the points' discs, the
+    cells of their `GridKnn`, the bound's slack and the caps), which is the most
     ``back`` at that sample's `FLOOR_NEIGHBORS` nearest of its own surface plus
-    ``add``, at most ``cap``; where samples of two surfaces are as near (a vertex the
-    placement left where it was), the higher. Found only for the samples asked
-    about (a level's samples over the bound: a handful a call), on grids of each
-    surface's samples built at the first call: none where none is asked about (2 of
-    5 models measured; k-d trees of level 0's 419,500 samples before and after its
-    placement, and of both, took 0.6 s of a 9 s run, built whether asked or not)."""
+    ``add``, at most ``cap``, and at most ``low`` where that most is nearer; where
+    samples of two surfaces are as near (a vertex the placement left where it was),
+    the higher. Found only for the samples asked about (a level's samples over the
+    bound: a handful a call), on grids of each surface's samples built at the first
+    call: none where none is asked about (2 of 5 models measured; k-d trees of level
+    0's 419,500 samples before and after its placement, and of both, took 0.6 s of a
+    9 s run, built whether asked or not)."""
 
     def __init__(self, layers, grids=()):
         self.layers = list(layers)
@@ -248,17 +257,23 @@ class BackFloors:
         x = np.asarray(x, dtype=np.float64).reshape(-1, 3)
         best = np.full(x.shape[0], np.inf)
         out = np.full(x.shape[0], -np.inf)
-        for at, (samples, back, cell, add, cap) in enumerate(self.layers):
+        for at, (samples, back, cell, add, cap, low) in enumerate(self.layers):
             if self.grids[at] is None:
                 self.grids[at] = GridKnn(samples, cell)
             d, i = self.grids[at].query(x, 1)
             k = min(FLOOR_NEIGHBORS, samples.shape[0])
             j = self.grids[at].query(samples[i[:, 0]], k)[1]
-            floor = np.minimum(back[j].max(axis=1) + add, cap)
+            local = back[j].max(axis=1)
+            floor = _capped(local, local + add, cap, low)
             d = d[:, 0]
             out = np.where(d < best, floor, np.where(d == best, np.maximum(out, floor), out))
             best = np.minimum(best, d)
         return out
+
+
+def _capped(local, floor, cap, low):
+    """``floor`` at most ``cap``, and at most ``low`` where ``local`` is nearer."""
+    return np.minimum(np.minimum(floor, cap), np.maximum(low, local))
 
 
 def _over(d, floor, spare: int) -> float:

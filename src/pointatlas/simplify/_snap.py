@@ -388,24 +388,33 @@ COLLAPSE_SHARE = 0.5
 def default_steps(level, measure, surface, bound, neighbors, budget):
     """The level of the default bound: the floors of `PointDistances.floor_at` from
     level 0 before (``surface``) and after its placement (each point the higher),
-    then the level search (or the collapses for a ``budget`` of triangles). A search
-    that would end above `LOOSE_SHARE` of level 0's triangles (it failed at the
-    coarse end) stops there, and runs again at the looser floors (`LOOSE_SLACK`)."""
-    from ._point_distances import LOOSE_SHARE, LOOSE_SLACK
+    then the level search (or the collapses for a ``budget`` of triangles), the
+    floors capped (`FLOOR_CAP`). A search that would end above `LOOSE_SHARE` of level
+    0's triangles (it failed at the coarse end) stops there, and runs again at the
+    looser floors (`LOOSE_SLACK`); where that fails too, once more without the cap."""
+    from ._point_distances import FLOOR_CAP, LOOSE_SHARE, LOOSE_SLACK
 
-    measure.floor_at(*surface, bound, neighbors=neighbors)
+    measure.floor_at(*surface, bound, neighbors=neighbors, cap=FLOOR_CAP)
     placed = level.placed(0)[:2]  # placed within those floors
-    measure.floor_at(*placed, bound, neighbors=neighbors, raise_only=True)
+    measure.floor_at(*placed, bound, neighbors=neighbors, raise_only=True, cap=FLOOR_CAP)
     if budget is not None:
         return level.steps_for(budget, bound)
-    steps = level.steps_within(bound, level.seq.steps_for(int(LOOSE_SHARE * surface[1].shape[0])))
-    if steps is None:
+    lowest = level.seq.steps_for(int(LOOSE_SHARE * surface[1].shape[0]))
+    steps = level.steps_within(bound, lowest)
+    for cap in (FLOOR_CAP, np.inf):
+        if steps is not None:
+            break
         for first, raise_only in ((surface, False), (placed, True)):
             measure.floor_at(
-                *first, bound, slack=LOOSE_SLACK, neighbors=neighbors, raise_only=raise_only
+                *first,
+                bound,
+                slack=LOOSE_SLACK,
+                neighbors=neighbors,
+                raise_only=raise_only,
+                cap=cap,
             )
         level.forget_levels()
-        steps = level.steps_within(bound)
+        steps = level.steps_within(bound, lowest if np.isfinite(cap) else 0)
     return steps
 
 
