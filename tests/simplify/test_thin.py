@@ -110,14 +110,21 @@ def _dented(v, at, depth):
     return w
 
 
-def test_floor_raises_the_bound_only_where_the_surface_is_far():
+def _sampled_cube():
+    """The unit cube (subdivided), 6,000 points sampled on it with their normals, and
+    its vertices at the top's and the bottom's middle."""
     v, t = subdivide(*box())
     v = (v - v.min(axis=0)) / np.ptp(v, axis=0)  # the unit cube
     s = sample_mesh(v, t, 6000, rng=0)
     q, n = np.asarray(s.points), np.asarray(s.normals)
-    measure = PointDistances(q, PointSurface(q, n))
     top = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 1.0], axis=1)))
     bottom = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 0.0], axis=1)))
+    return v, t, q, n, top, bottom
+
+
+def test_floor_raises_the_bound_only_where_the_surface_is_far():
+    v, t, q, n, top, bottom = _sampled_cube()
+    measure = PointDistances(q, PointSurface(q, n))
     bound = 0.01
     far = _dented(v, top, 0.05)  # the points' surface 5 % off at one face's middle
     most = measure.floor_at(far, t, bound, slack=1.0, factor=1.1)
@@ -137,12 +144,7 @@ def test_capped_floors_stay_under_the_cap_where_the_surface_is_nearer():
     where the points' surface is within the cap, a level may reach the cap there, not
     what the surface reaches plus the bound; where the surface itself is farther, as
     far as it is, no farther."""
-    v, t = subdivide(*box())
-    v = (v - v.min(axis=0)) / np.ptp(v, axis=0)  # the unit cube
-    s = sample_mesh(v, t, 6000, rng=0)
-    q, n = np.asarray(s.points), np.asarray(s.normals)
-    top = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 1.0], axis=1)))
-    bottom = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 0.0], axis=1)))
+    v, t, q, n, top, bottom = _sampled_cube()
     bound = 0.01
     # the points' surface 5 bounds off at the top's middle, 1.2 at the bottom's
     surface = _dented(_dented(v, top, 0.05), bottom, 0.012)
@@ -170,12 +172,7 @@ def test_a_second_surfaces_floors_only_raise_the_first_ones():
     """`PointDistances.floor_at` with ``raise_only``: the floors of two surfaces (the
     points' surface, and it placed on its planes) let pass what either lets pass:
     each surface's own dent, not a third one."""
-    v, t = subdivide(*box())
-    v = (v - v.min(axis=0)) / np.ptp(v, axis=0)  # the unit cube
-    s = sample_mesh(v, t, 6000, rng=0)
-    q, n = np.asarray(s.points), np.asarray(s.normals)
-    top = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 1.0], axis=1)))
-    bottom = int(np.argmin(np.linalg.norm(v - [0.5, 0.5, 0.0], axis=1)))
+    v, t, q, n, top, bottom = _sampled_cube()
     bound = 0.01
     first, second = _dented(v, top, 0.05), _dented(v, bottom, 0.05)
     both = _dented(first, bottom, 0.05)
