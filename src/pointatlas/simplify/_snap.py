@@ -391,8 +391,9 @@ def default_steps(level, measure, surface, bound, neighbors, budget):
     then the level search (or the collapses for a ``budget`` of triangles), the
     floors capped (`FLOOR_CAP`). A search that would end above `LOOSE_SHARE` of level
     0's triangles (it failed at the coarse end) stops there, and runs again at the
-    looser floors (`LOOSE_SLACK`); where that fails too, once more without the cap."""
-    from ._point_distances import FLOOR_CAP, LOOSE_SHARE, LOOSE_SLACK
+    looser floors (`LOOSE_SLACK`); where that fails too, at the first floors without
+    the cap, then at the looser ones without it, to the end."""
+    from ._point_distances import FLOOR_CAP, FLOOR_SLACK, LOOSE_SHARE, LOOSE_SLACK
 
     measure.floor_at(*surface, bound, neighbors=neighbors, cap=FLOOR_CAP)
     placed = level.placed(0)[:2]  # placed within those floors
@@ -401,20 +402,26 @@ def default_steps(level, measure, surface, bound, neighbors, budget):
         return level.steps_for(budget, bound)
     lowest = level.seq.steps_for(int(LOOSE_SHARE * surface[1].shape[0]))
     steps = level.steps_within(bound, lowest)
-    for cap in (FLOOR_CAP, np.inf):
+    # looser, then uncapped (the first floors again), then both: the last to the end
+    tries = (
+        (LOOSE_SLACK, FLOOR_CAP, lowest),
+        (FLOOR_SLACK, np.inf, lowest),
+        (LOOSE_SLACK, np.inf, 0),
+    )
+    for slack, cap, least in tries:
         if steps is not None:
             break
         for first, raise_only in ((surface, False), (placed, True)):
             measure.floor_at(
                 *first,
                 bound,
-                slack=LOOSE_SLACK,
+                slack=slack,
                 neighbors=neighbors,
                 raise_only=raise_only,
                 cap=cap,
             )
         level.forget_levels()
-        steps = level.steps_within(bound, lowest if np.isfinite(cap) else 0)
+        steps = level.steps_within(bound, least)
     return steps
 
 
