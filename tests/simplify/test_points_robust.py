@@ -445,7 +445,7 @@ def test_a_search_that_ends_fine_runs_again_at_the_looser_floors(monkeypatch):
             warnings.simplefilter("ignore", SimplifyWarning)
             out[share] = simplify_points(p, n, path="robust").mesh
     # floors capped at what level 0 reaches (`FLOOR_CAP` 0): the looser search fails
-    # too, and runs once more uncapped
+    # too, and the searches run again uncapped
     monkeypatch.setattr(_point_distances, "FLOOR_CAP", 0.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SimplifyWarning)

@@ -116,7 +116,7 @@ class PointDistances:
         slack = FLOOR_SLACK if slack is None else slack
         there, most, samples, back = self._first_measure(out_v, out_t, neighbors)[:4]
         most = float(max(most, back.max()))
-        there_floor = _capped(there, there + slack * bound, factor * most, cap * bound)
+        there_floor = _capped(there, slack * bound, factor * most, cap * bound)
         edges = np.linalg.norm(out_v[out_t[:, 1]] - out_v[out_t[:, 0]], axis=1)
         cell = 1.5 * float(np.median(edges)) if edges.size else 0.0  # ~3 samples apart
         back_floor = BackFloors([(samples, back, cell, slack * bound, factor * most, cap * bound)])
@@ -264,16 +264,17 @@ class BackFloors:
             k = min(FLOOR_NEIGHBORS, samples.shape[0])
             j = self.grids[at].query(samples[i[:, 0]], k)[1]
             local = back[j].max(axis=1)
-            floor = _capped(local, local + add, cap, low)
+            floor = _capped(local, add, cap, low)
             d = d[:, 0]
             out = np.where(d < best, floor, np.where(d == best, np.maximum(out, floor), out))
             best = np.minimum(best, d)
         return out
 
 
-def _capped(local, floor, cap, low):
-    """``floor`` at most ``cap``, and at most ``low`` where ``local`` is nearer."""
-    return np.minimum(np.minimum(floor, cap), np.maximum(low, local))
+def _capped(local, add, cap, low):
+    """The floors over distances ``local``: ``local`` plus ``add``, at most ``cap``,
+    and at most ``low`` where ``local`` is nearer."""
+    return np.minimum(np.minimum(local + add, cap), np.maximum(low, local))
 
 
 def _over(d, floor, spare: int) -> float:
