@@ -28,6 +28,7 @@ from ..neighbors._kernels.mesh_distance import closest_sq
 from ._caps import flip_caps, spread_tiny, weld_needles
 from ._decimate_mesh import Decimation
 from ._grid_knn import GridKnn
+from ._mesh import unique_pairs
 from ._place import _unflip, place_on_planes
 from ._planar import merged_planar_faces
 from ._point_distances import SEARCH_POINTS
@@ -46,7 +47,12 @@ __all__ = [
     "SETTLE_SHARE",
     "default_steps",
     "fit_to_points",
+    "PULL_FAR",
+    "PULL_ROUNDS",
+    "PULL_STEP",
+    "placed_edges_near_points",
     "placed_near_points",
+    "pull_far",
     "refit_far",
     "start_collapses",
 ]
@@ -107,6 +113,75 @@ def refit_far(x, tri, surface, tol: float, bound: float, before=None) -> np.ndar
     y = x.copy()
     y[far[better]] = at[better]
     return _unflip(x, y, tri, before=before)
+
+
+#: Level 0's vertices farther than this many bounds from the points' discs are pulled
+#: onto their nearest point's disc (`pull_far`) ...
+PULL_FAR = 1.0
+#: ... by at most this many grid steps a round
+#: (whole moves of a single vertex, 1-2 steps, turned its triangles over: none was
+#: kept) ...
+PULL_STEP = 0.2
+#: ... for at most this many rounds.
+PULL_ROUNDS = 8
+
+
+def pull_far(x, tri, surface, far: float, step: float) -> np.ndarray:
+    """``x`` with every vertex farther than ``far`` from the points' ``surface``
+    (`PointSurface.distance`) moved towards the nearest point's disc (the foot on
+    its tangent plane, at most its radius from it), `PULL_STEP` grid steps
+    (``step``) a round, for `PULL_ROUNDS` rounds or until none is farther; no
+    triangle turned over (`_unflip`). What the voxel surface leaves a few spacings
+    off the points beside thin walls (a pocket inside one, a bulge past a fin) and
+    the tangent planes' fit cannot move (it moves along the planes' normals only,
+    between a wall's two sides not at all)."""
+    rows = np.arange(x.shape[0])
+    for _ in range(PULL_ROUNDS):
+        d, j = surface.distance(x[rows], nearest=True)
+        rows, j = rows[d > far], j[d > far]
+        if rows.size == 0:
+            break
+        p, n = surface.points[j], surface.normals[j]
+        rel = x[rows] - p
+        along = rel - n * np.einsum("ij,ij->i", rel, n)[:, None]
+        length = np.linalg.norm(along, axis=1)
+        along *= np.minimum(1.0, surface.radius[j] / np.maximum(length, 1e-300))[:, None]
+        move = p + along - x[rows]
+        length = np.linalg.norm(move, axis=1)
+        move *= np.minimum(1.0, PULL_STEP * step / np.maximum(length, 1e-300))[:, None]
+        y = x.copy()
+        y[rows] += move
+        x = _unflip(x, y, tri, collapsed=True)
+    return x
+
+
+def placed_edges_near_points(v0, placed, triangles, surface, far: float, before=None):
+    """``placed`` with the moved ends of every edge whose midpoint the placement took
+    farther than ``far`` from the points' ``surface`` (`PointSurface.distance`), and
+    farther than it was, put back at ``v0``; then no triangle turned over (`_unflip`,
+    ``before`` its former normals). `placed_near_points` reads the vertices only: a
+    placed edge 3-5 spacings long with both ends on the points may cut across a
+    gap (a slot between two walls, an inner corner) 2.5-3 spacings off them."""
+    moved = np.any(placed != v0, axis=1)
+    if not moved.any():
+        return placed
+    tri = np.asarray(triangles, dtype=np.int64)
+    edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    edges = unique_pairs(edges)
+    edges = edges[moved[edges[:, 0]] | moved[edges[:, 1]]]
+    after = surface.distance_over(0.5 * (placed[edges[:, 0]] + placed[edges[:, 1]]), far)
+    over = after > far
+    if not over.any():
+        return placed
+    edges = edges[over]
+    was = surface.distance(0.5 * (v0[edges[:, 0]] + v0[edges[:, 1]]))
+    back = np.unique(edges[after[over] > was])
+    back = back[moved[back]]
+    if back.size == 0:
+        return placed
+    x = placed.copy()
+    x[back] = v0[back]
+    return _unflip(v0, x, triangles, before=before)
 
 
 def placed_near_points(v0, placed, triangles, surface, tol: float, before=None) -> np.ndarray:
@@ -315,6 +390,9 @@ class PointsDecimation(Decimation):
         x = _unflip(out_v, x, out_t, collapsed=True, before=before)
         x = placed_near_points(out_v, x, out_t, self.measure.surface, self.tol, before)
         x = refit_far(x, out_t, self.measure.surface, self.tol, self.fit_bound, before)
+        # an edge the placement took across a gap (both ends on the points, the middle
+        # not): its moved ends back
+        x = placed_edges_near_points(out_v, x, out_t, self.measure.surface, self.bound, before)
         if self.full.there_floor is not None:  # no point taken past its floor
             floor = np.maximum(self.bound, self.full.there_floor)
             s = -(-self.full.q.shape[0] // KEEP_POINTS)  # every s-th point (C array)
