@@ -502,15 +502,12 @@ def robust_mesh(
     in input coordinates (``distances`` are those of the points), the surface and
     the face of every point (its nearest triangle's region).
     """
-    import dataclasses
-
     from ._decimate_mesh import MAX_ERROR
     from ._distance import PointSurface
     from ._point_distances import PointDistances
     from ._polygons import PLANAR_RTOL
     from ._snap import (
         FIT_STEPS,
-        PULL_FAR,
         PointsDecimation,
         default_steps,
         fit_to_points,
@@ -546,7 +543,7 @@ def robust_mesh(
     planes = (pn, offsets, (deviation <= 0.25 * bound) & ((width >= rec.step) | steady))
     measure = PointDistances(q, surface)
     # what the fit leaves farther than the bound (beside thin walls): pulled in
-    verts = pull_far(fitted.result(), rec.triangles, surface, PULL_FAR * bound, rec.step)
+    verts = pull_far(fitted.result(), rec.triangles, surface, bound, rec.step)
     box = measure.box  # never a vertex outside
     # a vertex placed on its planes stays there only within a quarter of the bound of
     # the points' surface (or no farther than it was): a wrong plane is not followed
@@ -577,9 +574,18 @@ def robust_mesh(
         # a budget is met only while the output stays near the points (the last
         # collapses of a sequence can fold the surface): else the closest level
         steps = level.steps_within(SPIKE_FACTOR * bound)
-    res = level.result(steps, PLANAR_RTOL * diag)  # distances: to the points
+    res = _in_input(level.result(steps, PLANAR_RTOL * diag), frame)  # to the points
+    near_tri = GridKnn(s.centroids, 2.0 * rec.step).query(q, 1)[1][:, 0]
+    return res, rec, lab[near_tri]
+
+
+def _in_input(res, frame):
+    """The `SurfaceSimplification` ``res`` of the frame's coordinates in the input's:
+    its vertices mapped back, its distances and planarity errors scaled."""
+    import dataclasses
+
     scale = frame.scale
-    res = dataclasses.replace(
+    return dataclasses.replace(
         res,
         vertices=frame.to_input(res.vertices),
         distances=res.distances * scale,
@@ -587,8 +593,6 @@ def robust_mesh(
         distance_max=res.distance_max * scale,
         back_distance_mean=res.back_distance_mean * scale,
         back_distance_max=res.back_distance_max * scale,
-        planarity_error=res.planarity_error * frame.scale,
-        polygon_planarity=res.polygon_planarity * frame.scale,
+        planarity_error=res.planarity_error * scale,
+        polygon_planarity=res.polygon_planarity * scale,
     )
-    near_tri = GridKnn(s.centroids, 2.0 * rec.step).query(q, 1)[1][:, 0]
-    return res, rec, lab[near_tri]

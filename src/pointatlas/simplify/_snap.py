@@ -126,15 +126,16 @@ PULL_STEP = 0.2
 PULL_ROUNDS = 8
 
 
-def pull_far(x, tri, surface, far: float, step: float) -> np.ndarray:
-    """``x`` with every vertex farther than ``far`` from the points' ``surface``
-    (`PointSurface.distance`) moved towards the nearest point's disc (the foot on
-    its tangent plane, at most its radius from it), `PULL_STEP` grid steps
+def pull_far(x, tri, surface, bound: float, step: float) -> np.ndarray:
+    """``x`` with every vertex farther than `PULL_FAR` times ``bound`` from the points'
+    ``surface`` (`PointSurface.distance`) moved towards the nearest point's disc (the
+    foot on its tangent plane, at most its radius from it), `PULL_STEP` grid steps
     (``step``) a round, for `PULL_ROUNDS` rounds or until none is farther; no
     triangle turned over (`_unflip`). What the voxel surface leaves a few spacings
     off the points beside thin walls (a pocket inside one, a bulge past a fin) and
     the tangent planes' fit cannot move (it moves along the planes' normals only,
     between a wall's two sides not at all)."""
+    far = PULL_FAR * bound
     rows = np.arange(x.shape[0])
     for _ in range(PULL_ROUNDS):
         d, j = surface.distance(x[rows], nearest=True)
