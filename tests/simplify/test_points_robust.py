@@ -426,10 +426,9 @@ def test_bridges_across_thin_gaps_are_cut_and_the_topology_is_the_inputs():
 def test_a_search_that_ends_fine_runs_again_at_the_looser_floors(monkeypatch):
     """`_reconstruct.robust_mesh`: where the level found keeps more than `LOOSE_SHARE`
     of level 0's triangles (the search failed at the coarse end: here made so by
-    floors half a bound below what level 0 reaches, where that is over the bound;
-    with no slack over level 0 the search ends at 42 triangles since the output's
-    edge midpoints are measured too), the search runs again at `LOOSE_SLACK` and
-    the coarser level is kept, closed and near the points."""
+    floors half a bound below what level 0 reaches, where that is over the bound),
+    the search runs again at `LOOSE_SLACK` and a level coarser than that share is
+    kept, closed and near the points."""
     import warnings
 
     from pointatlas.simplify import SimplifyWarning, _point_distances
@@ -452,10 +451,13 @@ def test_a_search_that_ends_fine_runs_again_at_the_looser_floors(monkeypatch):
         out[0.0] = simplify_points(p, n, path="robust").mesh
     once, again = out[1.0], out[_point_distances.LOOSE_SHARE]
     tri_once, tri_again = np.asarray(once.triangles), np.asarray(again.triangles)
-    assert tri_once.shape[0] > 1000 and tri_again.shape[0] < 100
+    # coarser than the share that sets the looser search off (the level it ends on
+    # follows the CPU's float rounding: 42-594 triangles on two machines)
+    coarse = _point_distances.LOOSE_SHARE * tri_once.shape[0]
+    assert tri_once.shape[0] > 1000 and tri_again.shape[0] < coarse
     diag = float(np.linalg.norm(np.ptp(p, axis=0)))
     for mesh in (again, out[0.0]):
-        assert np.asarray(mesh.triangles).shape[0] < 100
+        assert np.asarray(mesh.triangles).shape[0] < coarse
         assert all(mesh_checks(mesh.n_vertices, np.asarray(mesh.triangles)))
         assert max(mesh.distance_max, mesh.back_distance_max) <= 0.02 * diag
 

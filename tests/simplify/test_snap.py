@@ -15,15 +15,10 @@ from pointatlas.simplify._distance import (
     PointSurface,
 )
 from pointatlas.simplify._grid_knn import GridKnn
-from pointatlas.simplify._place import triangle_normals
 from pointatlas.simplify._snap import (
-    PULL_FAR,
-    PULL_ROUNDS,
-    PULL_STEP,
     fit_to_points,
     placed_edges_near_points,
     placed_near_points,
-    pull_far,
     refit_far,
 )
 from pointatlas.synth import sample_mesh
@@ -132,26 +127,6 @@ def test_a_vertex_left_off_the_points_is_fitted_back_within_the_bound():
     # within the tolerance: nothing moves
     v[0, 2] = 0.005
     assert (refit_far(v, t, surface, tol=0.01, bound=1.0) == v).all()
-
-
-def test_a_vertex_far_off_the_points_is_pulled_onto_their_discs_a_step_at_a_time():
-    """`pull_far`: a vertex 3 spacings over the floor comes down to the bound given,
-    straight onto its nearest point's disc, a share of a grid step a round; the ring
-    on the points stays; no triangle turns over."""
-    assert PULL_FAR == 1.0  # the bound is where it pulls from
-    _, _, surface = _floor()  # spacing 0.05
-    v, t = _fan(np.array([0.5, 0.5, 0.15]))
-    v[1:, 2] = 0.0
-    step = 0.075  # 1.5 spacings
-    out = pull_far(v.copy(), t, surface, bound=0.05, step=step)
-    assert surface.distance(out[:1])[0] <= 0.05
-    assert out[0, :2].tolist() == [0.5, 0.5] and out[0, 2] >= 0.05 - PULL_STEP * step
-    assert (out[1:] == v[1:]).all()
-    assert (np.einsum("ij,ij->i", triangle_normals(out, t), triangle_normals(v, t)) > 0).all()
-    # at most the rounds' steps in all; within the bound already: nothing moves
-    near = pull_far(v.copy(), t, surface, bound=1e-9, step=0.01)
-    assert near[0, 2] == pytest.approx(0.15 - PULL_ROUNDS * PULL_STEP * 0.01)
-    assert (pull_far(v.copy(), t, surface, bound=0.2, step=step) == v).all()
 
 
 def test_an_edge_placed_across_a_gap_goes_back():

@@ -506,14 +506,7 @@ def robust_mesh(
     from ._distance import PointSurface
     from ._point_distances import PointDistances
     from ._polygons import PLANAR_RTOL
-    from ._snap import (
-        FIT_STEPS,
-        PointsDecimation,
-        default_steps,
-        fit_to_points,
-        pull_far,
-        start_collapses,
-    )
+    from ._snap import FIT_STEPS, PointsDecimation, default_steps, fit_to_points, start_collapses
     from ._surface_regions import region_layers, region_planes, transfer_labels
     from ._triangles import _face_graph, _surface
 
@@ -542,8 +535,7 @@ def robust_mesh(
     # (estimated normals turning over an edge) carries no plane.
     planes = (pn, offsets, (deviation <= 0.25 * bound) & ((width >= rec.step) | steady))
     measure = PointDistances(q, surface)
-    # what the fit leaves farther than the bound (beside thin walls): pulled in
-    verts = pull_far(fitted.result(), rec.triangles, surface, bound, rec.step)
+    verts = fitted.result()
     box = measure.box  # never a vertex outside
     # a vertex placed on its planes stays there only within a quarter of the bound of
     # the points' surface (or no farther than it was): a wrong plane is not followed

@@ -47,12 +47,8 @@ __all__ = [
     "SETTLE_SHARE",
     "default_steps",
     "fit_to_points",
-    "PULL_FAR",
-    "PULL_ROUNDS",
-    "PULL_STEP",
     "placed_edges_near_points",
     "placed_near_points",
-    "pull_far",
     "refit_far",
     "start_collapses",
 ]
@@ -113,47 +109,6 @@ def refit_far(x, tri, surface, tol: float, bound: float, before=None) -> np.ndar
     y = x.copy()
     y[far[better]] = at[better]
     return _unflip(x, y, tri, before=before)
-
-
-#: Level 0's vertices farther than this many bounds from the points' discs are pulled
-#: onto their nearest point's disc (`pull_far`) ...
-PULL_FAR = 1.0
-#: ... by at most this many grid steps a round
-#: (whole moves of a single vertex, 1-2 steps, turned its triangles over: none was
-#: kept) ...
-PULL_STEP = 0.2
-#: ... for at most this many rounds.
-PULL_ROUNDS = 8
-
-
-def pull_far(x, tri, surface, bound: float, step: float) -> np.ndarray:
-    """``x`` with every vertex farther than `PULL_FAR` times ``bound`` from the points'
-    ``surface`` (`PointSurface.distance`) moved towards the nearest point's disc (the
-    foot on its tangent plane, at most its radius from it), `PULL_STEP` grid steps
-    (``step``) a round, for `PULL_ROUNDS` rounds or until none is farther; no
-    triangle turned over (`_unflip`). What the voxel surface leaves a few spacings
-    off the points beside thin walls (a pocket inside one, a bulge past a fin) and
-    the tangent planes' fit cannot move (it moves along the planes' normals only,
-    between a wall's two sides not at all)."""
-    far = PULL_FAR * bound
-    rows = np.arange(x.shape[0])
-    for _ in range(PULL_ROUNDS):
-        d, j = surface.distance(x[rows], nearest=True)
-        rows, j = rows[d > far], j[d > far]
-        if rows.size == 0:
-            break
-        p, n = surface.points[j], surface.normals[j]
-        rel = x[rows] - p
-        along = rel - n * np.einsum("ij,ij->i", rel, n)[:, None]
-        length = np.linalg.norm(along, axis=1)
-        along *= np.minimum(1.0, surface.radius[j] / np.maximum(length, 1e-300))[:, None]
-        move = p + along - x[rows]
-        length = np.linalg.norm(move, axis=1)
-        move *= np.minimum(1.0, PULL_STEP * step / np.maximum(length, 1e-300))[:, None]
-        y = x.copy()
-        y[rows] += move
-        x = _unflip(x, y, tri, collapsed=True)
-    return x
 
 
 def placed_edges_near_points(v0, placed, triangles, surface, far: float, before=None):
