@@ -345,3 +345,36 @@ def test_twins_on_the_line_of_two_flat_faces_part_along_the_line():
     )
     assert (area > 0.0).all()
     assert (np.einsum("ij,ij->i", triangle_normals(out, t), planes[0][face]) > 0.999).all()
+
+
+def _notch_with_twins():
+    """A flat face in z = 0: a rectangle (rows 0-3, at 300, 60, 120 and 240 degrees
+    round the origin) with a notch down to the origin, whose tip (row 5, on the
+    outline) has a twin inside the face (row 4) fanned to all four corners: the two
+    needles (twin, corner, twin) and (twin, corner, twin) have no area, and the
+    twin's neighbours average to where it is (no move towards their mean)."""
+    ring = [[np.cos(a), np.sin(a), 0.0] for a in np.radians([300.0, 60.0, 120.0, 240.0])]
+    v = np.vstack([ring, np.zeros((2, 3))])
+    t = np.array([[4, 0, 1], [4, 1, 2], [4, 2, 3], [4, 3, 5], [5, 0, 4]], dtype=np.int64)
+    return v, t
+
+
+def test_a_twin_whose_neighbours_average_to_it_steps_aside_in_its_plane(monkeypatch):
+    """The twin inside the notched face cannot move towards its neighbours' mean (it
+    is there already): it steps a quarter of its shortest edge along the plane, the
+    first way round that gives every triangle an area; the outline stays, and so
+    does the polygon the triangles cover."""
+    import pointatlas.simplify._caps as caps
+
+    v, t = _notch_with_twins()
+    face = np.zeros(len(t), dtype=np.int64)
+    assert (_areas(v, t) <= 1e-15).sum() == 2
+    out = spread_tiny(v, t, face, _planes())
+    assert (out[[0, 1, 2, 3, 5]] == v[[0, 1, 2, 3, 5]]).all()  # the outline
+    assert out[4, 2] == 0.0 and np.linalg.norm(out[4]) == pytest.approx(0.25)
+    assert (_areas(out, t) > 1e-3).all()
+    assert _areas(out, t).sum() == pytest.approx(_areas(v, t).sum())  # the same polygon
+    twice = np.cross(out[t[:, 1]] - out[t[:, 0]], out[t[:, 2]] - out[t[:, 0]])
+    assert (twice[:, 2] > 0.0).all()  # facing up, as the face does: no fold
+    monkeypatch.setattr(caps, "TURN_SHARES", ())  # without the step: the needles stay
+    assert (_areas(spread_tiny(v, t, face, _planes()), t) <= 1e-15).sum() == 2

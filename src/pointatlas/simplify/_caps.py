@@ -28,7 +28,9 @@ without a triangle goes into the merged one).
 
 What neither ends (twins whose merge would break the link condition, clusters of
 vertices a millionth of an edge apart) `spread_tiny` ends by moving a vertex inside
-its face: in a flat face's plane, where the face stays the same polygon.
+its face: in a flat face's plane, where the face stays the same polygon; towards its
+neighbours' mean, else a short step any way round in the plane that gives more of
+its triangles an area (twins in a row, a fold beside them).
 """
 
 from __future__ import annotations
@@ -48,6 +50,8 @@ __all__ = [
     "FLAT_SHARES",
     "NEEDLE_RTOL",
     "ON_PLANE_RTOL",
+    "TURN_DIRECTIONS",
+    "TURN_SHARES",
     "flip_caps",
     "outline_vertices",
     "compact",
@@ -78,6 +82,12 @@ CURVED_LAST = 4.0
 #: ... a face being flat around a vertex when the ring lies this close to its plane,
 #: relative to the ring's extent.
 ON_PLANE_RTOL = 1e-9
+#: Where no move towards the neighbours' mean leaves every triangle an area, a step
+#: of these shares of the vertex's shortest edge (in a curved face at most the last
+#: reach above) ...
+TURN_SHARES = (0.25, 0.1, 0.01)
+#: ... along one of this many directions in the face's plane, evenly turned.
+TURN_DIRECTIONS = 12
 
 
 def weld_needles(vertices, triangles, face, source, kept, went):
@@ -371,8 +381,10 @@ def spread_tiny(vertices, triangles, face, planes) -> np.ndarray:
     most a thousandth of the mean edge, else a tenth of that (`CURVED_REACH`): a move
     the size of the ring, or onto a plane the vertex was not on, changed the surface there
     (`cad_a_a32`'s voxel surface, whose error sets the default bound's floor: 0.95 ->
-    8.84 % of the diagonal from the truth). The moves stay in the hull of the ring's
-    vertices (no vertex leaves the points' box).
+    8.84 % of the diagonal from the truth). Where every such move leaves a triangle
+    without area, a short step in the plane that gives more of them one
+    (`_spread_turning`). The moves stay in the hull (the steps in the box) of the
+    ring's vertices (no vertex leaves the points' box).
     A move is made only where every triangle around the vertex keeps more than
     `CAP_RTOL` of the mean triangle's area along the face's side (the plane's normal;
     in a curved face, the sum of its triangles' around the vertex): no fold; passes
@@ -442,7 +454,8 @@ def _spread(v, tri, face, planes, ring, i: int, tiny: float, reach: float) -> bo
     off = np.abs(corners @ normals[f] - offsets[f]).max() if flat[f] else np.inf
     first = min(1.0, reach / max(float(np.linalg.norm(mean - v[i])), 1e-300))
     short = (first, 0.1 * first, min(1.0, CURVED_LAST * first))
-    if off <= ON_PLANE_RTOL * float(np.ptp(corners, axis=0).max()):
+    in_plane = off <= ON_PLANE_RTOL * float(np.ptp(corners, axis=0).max())
+    if in_plane:
         # in the plane: the shares of the way, then the short moves of a curved face
         # (twins in a flat face whose ring no share of the way left folded-free)
         n, shares = normals[f], FLAT_SHARES + short
@@ -459,7 +472,45 @@ def _spread(v, tri, face, planes, ring, i: int, tiny: float, reach: float) -> bo
         if (0.5 * side * (_cross(v, tri[ring]) @ n) > tiny).all():
             return True
     v[i] = here
-    return False
+    # towards the mean, a triangle turns over: a short step any way in the plane
+    # that gives more of them an area (twins in a row, a fold beside them)
+    longest = np.inf if in_plane else CURVED_LAST * first * float(np.linalg.norm(mean - here))
+    return _spread_turning(v, tri[ring], i, side * n, tiny, longest)
+
+
+def _spread_turning(v, rows, i: int, n, tiny: float, longest: float) -> bool:
+    """Move vertex ``i`` (its triangles ``rows``) by `TURN_SHARES` of its shortest
+    edge, at most ``longest``, along one of `TURN_DIRECTIONS` directions in the plane
+    of normal ``n``: the move that leaves the most triangles an area along ``n`` (more
+    than ``tiny``; the first such move on ties), where that is more than before and
+    none of them loses its area. Where the twins of a row share a vertex, no single
+    move gives every triangle an area, and a fold beside them turns one over
+    whatever the move: `spread_tiny`'s next pass, or another vertex, ends the rest."""
+    ring = np.setdiff1d(rows, [i])
+    edges = np.linalg.norm(v[ring] - v[i], axis=1)
+    edges = edges[edges > 0.0]
+    if edges.size == 0:
+        return False
+    u = cross(n, np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
+    u /= float(np.linalg.norm(u))
+    w = cross(n, u)
+    angles = np.arange(TURN_DIRECTIONS) * (2.0 * np.pi / TURN_DIRECTIONS)
+    ways = np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * w
+    had = 0.5 * (_cross(v, rows) @ n) > tiny
+    # within the box of the ring (no vertex leaves the points' box)
+    grow = ON_PLANE_RTOL * float(np.ptp(v[ring], axis=0).max())
+    lo, hi = v[ring].min(axis=0) - grow, v[ring].max(axis=0) + grow
+    here = v[i].copy()
+    best, at = int(had.sum()), None
+    for share in TURN_SHARES:
+        for way in ways:
+            v[i] = here + min(share * float(edges.min()), longest) * way
+            now = 0.5 * (_cross(v, rows) @ n) > tiny
+            inside = bool(((v[i] >= lo) & (v[i] <= hi)).all())
+            if inside and (now | ~had).all() and int(now.sum()) > best:
+                best, at = int(now.sum()), v[i].copy()
+    v[i] = here if at is None else at
+    return at is not None
 
 
 def _spread_across(v, tri, face, planes, ring, i: int, tiny: float, reach: float) -> bool:
