@@ -39,7 +39,7 @@ import collections
 
 import numpy as np
 
-from ._mesh import cross, unique_pairs, vertex_triangles
+from ._mesh import cross, plane_basis, unique_pairs, vertex_triangles
 from ._place import _cross
 
 __all__ = [
@@ -491,9 +491,7 @@ def _spread_turning(v, rows, i: int, n, tiny: float, longest: float) -> bool:
     edges = edges[edges > 0.0]
     if edges.size == 0:
         return False
-    u = cross(n, np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
-    u /= float(np.linalg.norm(u))
-    w = cross(n, u)
+    u, w = plane_basis(n)
     angles = np.arange(TURN_DIRECTIONS) * (2.0 * np.pi / TURN_DIRECTIONS)
     ways = np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * w
     had = 0.5 * (_cross(v, rows) @ n) > tiny

@@ -22,6 +22,7 @@ __all__ = [
     "SimplifiedMesh",
     "cross",
     "mesh_checks",
+    "plane_basis",
     "point_mesh_distance",
     "split_pinches",
     "unique_ints",
@@ -53,6 +54,15 @@ def cross(a, b) -> np.ndarray:
         ),
         axis=-1,
     )
+
+
+def plane_basis(normal) -> tuple[np.ndarray, np.ndarray]:
+    """Orthonormal ``(u, v)`` of the plane of unit ``normal``, ``(u, v, normal)``
+    right-handed: ``u`` the axis least along the normal, projected."""
+    axis = np.eye(3)[int(np.argmin(np.abs(normal)))]
+    u = axis - (axis @ normal) * normal
+    u /= np.linalg.norm(u)
+    return u, np.cross(normal, u)
 
 
 def unique_ints(values) -> np.ndarray:

@@ -574,10 +574,8 @@ def robust_mesh(
 def _in_input(res, frame):
     """The `SurfaceSimplification` ``res`` of the frame's coordinates in the input's:
     its vertices mapped back, its distances and planarity errors scaled."""
-    import dataclasses
-
     scale = frame.scale
-    return dataclasses.replace(
+    return replace(
         res,
         vertices=frame.to_input(res.vertices),
         distances=res.distances * scale,

@@ -14,7 +14,7 @@ import mapbox_earcut
 import numpy as np
 
 from ._faces import _signed_area
-from ._mesh import link_is_one_fan, unique_ints, vertex_links
+from ._mesh import link_is_one_fan, plane_basis, unique_ints, vertex_links
 
 __all__ = ["bad_regions", "face_of_loops", "loop_vertices"]
 
@@ -26,13 +26,6 @@ def loop_vertices(uses, arcs) -> list[int]:
         seq = kept[::-1] if rev else kept
         out.extend(seq[:-1])
     return out
-
-
-def _basis(normal):
-    axis = np.eye(3)[int(np.argmin(np.abs(normal)))]
-    u = axis - (axis @ normal) * normal
-    u /= np.linalg.norm(u)
-    return u, np.cross(normal, u)
 
 
 def _segments_cross(xy_loops) -> bool:
@@ -87,7 +80,7 @@ def face_of_loops(loops_v, positions, normal):
     if any(len(lp) < 3 for lp in loops_v):
         return None
     flat = np.concatenate([np.asarray(lp, dtype=np.int64) for lp in loops_v])
-    u, v = _basis(normal)
+    u, v = plane_basis(normal)
     origin = positions[flat].mean(axis=0)
     xy = [
         np.stack([(positions[lp] - origin) @ u, (positions[lp] - origin) @ v], 1) for lp in loops_v
