@@ -134,6 +134,26 @@ def test_two_vertices_on_one_spot_merge_and_every_array_follows():
     assert (osrc[owent[[0, 1, 2, 3, 5]]] == [0, 10, 20, 30, 50]).all()
 
 
+def test_a_lone_triangle_without_area_is_dropped_and_a_lone_one_with_area_kept():
+    """An octahedron beside two pieces of one triangle each: one whose corners lie on
+    a line (no area; its edges far longer than a cluster's, so no merge) is dropped
+    with its vertices, the input vertex on it then on nothing; one with an area
+    stays. The octahedron is as it was."""
+    v, t = _octahedron()
+    line = np.array([[3.0, 0, 0], [3.5, 0, 0], [4.0, 0, 0]])  # vertices 6, 7, 8
+    tri = np.array([[3.0, 1, 0], [3.5, 1, 0], [3.0, 1.5, 0]])  # vertices 9, 10, 11
+    v = np.vstack([v, line, tri])
+    t = np.vstack([t, [[6, 7, 8], [9, 10, 11]]])
+    face = np.arange(len(t))
+    went = np.arange(12)
+    ov, ot, of, osrc, okept, owent = weld_needles(v, t, face, np.arange(12), face + 100, went)
+    assert ov.shape[0] == 9 and ot.shape[0] == 9
+    assert of.tolist() == [0, 1, 2, 3, 4, 5, 6, 7, 9] and okept.tolist() == (of + 100).tolist()
+    assert (owent[6:9] == -1).all() and (osrc[owent[:6]] == np.arange(6)).all()
+    np.testing.assert_array_equal(ov[ot[:8]], v[t[:8]])
+    np.testing.assert_array_equal(ov[ot[8]], v[[9, 10, 11]])
+
+
 @pytest.mark.parametrize(("apart", "merged"), [(3e-7, True), (1e-4, False)])
 def test_two_vertices_a_hair_apart_merge_only_where_their_triangles_have_no_area(apart, merged):
     """The split octahedron's twins ``apart`` (its edges about 1.4 long): 3e-7 is

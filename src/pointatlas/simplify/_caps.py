@@ -112,7 +112,9 @@ def weld_needles(vertices, triangles, face, source, kept, went):
     tuple
         ``(vertices, triangles, face, source, kept, went)`` without the merged
         vertices and the triangles that lost their area (the inputs when no edge
-        is of no length).
+        is of no length), nor a triangle without area that is a piece of its own
+        (none of its vertices on another triangle: no merge gives it an area, and
+        `spread_tiny` leaves an outline where it is).
     """
     v = np.asarray(vertices, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.int64)
@@ -122,15 +124,18 @@ def weld_needles(vertices, triangles, face, source, kept, went):
     edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
     length = np.linalg.norm(v[edges[:, 1]] - v[edges[:, 0]], axis=1)
     area = _areas(v, tri)
-    no_area = np.tile(area <= CAP_RTOL * float(area.mean()), 3)  # each edge's triangle
+    flat_out = area <= CAP_RTOL * float(area.mean())
+    alone = flat_out & (np.bincount(tri.ravel(), minlength=v.shape[0])[tri] == 1).all(axis=1)
+    no_area = np.tile(flat_out, 3)  # each edge's triangle
     mean = float(length.mean())
     short = np.flatnonzero(
-        (length <= NEEDLE_RTOL * mean) | (no_area & (length <= CLUSTER_RTOL * mean))
+        ((length <= NEEDLE_RTOL * mean) | (no_area & (length <= CLUSTER_RTOL * mean)))
+        & ~np.tile(alone, 3)
     )
-    if short.size == 0:
+    if short.size == 0 and not alone.any():
         return out
     into = np.arange(v.shape[0])  # each vertex, or the one it merged into
-    alive = np.ones(tri.shape[0], dtype=bool)
+    alive = ~alone
     rows = tri.copy()
     # the triangles of each vertex, for those of the triangles around an edge's ends
     # and of their neighbours (the link test reads only the ends' sets, a merge only
