@@ -48,7 +48,12 @@ def write_triangles(path, mesh) -> Path:
 def write_simplified(path, mesh) -> Path:
     """OUT of ``simplify``: the polygon faces (OBJ, PLY, OFF); STL holds triangles only,
     so there the earcut triangles (`write_triangles`' triangles: a non-convex face is
-    not fan-triangulated across its outside)."""
-    if Path(path).suffix.lower() == ".stl":
+    not fan-triangulated across its outside). A PLY whose faces have different numbers
+    of corners is ASCII: trimesh's binary PLY reader refuses list rows of mixed
+    lengths ("PLY is unexpected length!"), its ASCII one and Open3D's read both."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".stl":
         return write_mesh(path, mesh.vertices, mesh.triangles)
-    return write_mesh(path, mesh.vertices, [p.tolist() for p in mesh.polygons])
+    faces = [p.tolist() for p in mesh.polygons]
+    mixed = len({len(f) for f in faces}) > 1
+    return write_mesh(path, mesh.vertices, faces, binary=not (suffix == ".ply" and mixed))
