@@ -124,9 +124,9 @@ def weld_needles(vertices, triangles, face, source, kept, went):
     edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
     length = np.linalg.norm(v[edges[:, 1]] - v[edges[:, 0]], axis=1)
     area = _areas(v, tri)
-    flat_out = area <= CAP_RTOL * float(area.mean())
-    alone = flat_out & (np.bincount(tri.ravel(), minlength=v.shape[0])[tri] == 1).all(axis=1)
-    no_area = np.tile(flat_out, 3)  # each edge's triangle
+    no_area_t = area <= CAP_RTOL * float(area.mean())
+    alone = no_area_t & (np.bincount(tri.ravel(), minlength=v.shape[0])[tri] == 1).all(axis=1)
+    no_area = np.tile(no_area_t, 3)  # each edge's triangle
     mean = float(length.mean())
     short = np.flatnonzero(
         ((length <= NEEDLE_RTOL * mean) | (no_area & (length <= CLUSTER_RTOL * mean)))

@@ -144,9 +144,7 @@ def _across_thin_walls(points, idx, eigenvalues, bent, flat: float, floor: float
     at k = 20, 122 at 30; on a surface with noise the floors keep within that ratio
     and nothing changes). There a wider neighbourhood reaches farther along the wall
     than across it."""
-    total = eigenvalues.sum(axis=1)
-    variation = np.divide(eigenvalues[:, 2], total, out=np.zeros(total.size), where=total > 0.0)
-    quiet = (variation > flat) & ~bent
+    quiet = (_variation(eigenvalues) > flat) & ~bent
     if not quiet.any() or small <= NOISE_CORE_K:
         return np.zeros(points.shape[0], dtype=bool)
     core = noise_floor(points, idx[:, :NOISE_CORE_K])
@@ -165,9 +163,7 @@ def bent_beyond_noise(
     bent: a flat sample needs none)."""
     res = pca_normals(points, k, neighbors=idx)
     lam = res.eigenvalues
-    total = lam.sum(axis=1)
-    variation = np.divide(lam[:, 2], total, out=np.zeros(points.shape[0]), where=total > 0.0)
-    bent = variation > flat
+    bent = _variation(lam) > flat
     floor = 0.0
     if bent.any():
         floor = noise_floor(points, idx[:, :small])
@@ -175,6 +171,13 @@ def bent_beyond_noise(
             core_floor = noise_floor(points, idx[:, :NOISE_CORE_K])
             floor = min(floor, NOISE_CORE_RATIO * core_floor)
     return res, bent & (lam[:, 2] > NOISE_FACTOR * floor), floor
+
+
+def _variation(eigenvalues: np.ndarray) -> np.ndarray:
+    """Surface variation lambda_3 / (lambda_1 + lambda_2 + lambda_3) per row of
+    covariance ``eigenvalues`` (the smallest last; 0 where they sum to 0)."""
+    total = eigenvalues.sum(axis=1)
+    return np.divide(eigenvalues[:, 2], total, out=np.zeros(total.size), where=total > 0.0)
 
 
 def noise_floor(points: np.ndarray, neighbors: np.ndarray) -> float:
