@@ -218,3 +218,48 @@ def test_at_a_vertex_that_fails_only_its_smallest_bent_face_gives_way():
     off = (rows, normals, np.array([0.0, 0.5, 0.0]), bent)
     failed = _failed(x, x, tri, *off, np.array([2, 5, 3]), before, 1e-9, cap)
     np.testing.assert_array_equal(failed, [True, True, False])
+
+
+def _axis_planes():
+    """The box corner's true planes as (normals, offsets), in `_box_corner`'s face
+    order: z = 0, x = 0, y = 0."""
+    normals = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    return normals, np.zeros(3)
+
+
+def test_given_planes_take_the_bent_faces_with_their_offsets_held():
+    """The box corner bent by up to 1e-4, given its true planes (the points' fits):
+    each vertex goes onto the nearest point on its faces' planes (plain numpy: the
+    coordinates of its faces' axes set to 0), the corner onto the origin; without
+    them the faces' own planes leave the vertices off the true ones."""
+    v, t, face = _box_corner(4, 1e-4, seed=0)
+    normals, offsets = _axis_planes()
+    flat = np.ones(3, bool)
+    # each face's normal is the axis its grid's third coordinate went to
+    fit = plane_fits(v, t, face, 3)[0]
+    np.testing.assert_allclose(np.abs(fit), np.abs(normals), atol=1e-3)
+    y, labels = merged_planar_faces(v, t, face, flat, 1e-9, 0.01, planes=(normals, offsets))
+    np.testing.assert_array_equal(labels, face)
+    want = v.copy()
+    for k in range(3):
+        on = np.unique(t[face == k])
+        want[on] -= np.outer(want[on] @ normals[k], normals[k])
+    np.testing.assert_allclose(y, want, atol=1e-12)
+    corner = np.argmin(np.linalg.norm(v, axis=1))
+    np.testing.assert_allclose(y[corner], 0.0, atol=1e-12)
+    own, _ = merged_planar_faces(v, t, face, flat, 1e-9, 0.01)
+    assert np.abs(own - want).max() > 1e-6
+
+
+def test_faces_the_given_planes_cannot_take_go_onto_their_own():
+    """The given planes 0.05 off the corner's faces, the cap 0.01: no face can move
+    onto them (each gives way), so each goes onto its own plane as without them (the
+    same vertices bit for bit)."""
+    v, t, face = _box_corner(4, 1e-4, seed=0)
+    normals, offsets = _axis_planes()
+    flat = np.ones(3, bool)
+    y, labels = merged_planar_faces(v, t, face, flat, 1e-9, 0.01, planes=(normals, offsets + 0.05))
+    own, own_labels = merged_planar_faces(v, t, face, flat, 1e-9, 0.01)
+    np.testing.assert_array_equal(y, own)
+    np.testing.assert_array_equal(labels, own_labels)
+    assert _planarity(y, t, face, 3).max() <= 1e-9

@@ -340,8 +340,8 @@ def test_a_level_the_planar_step_takes_past_the_bound_is_measured_without_it(mon
     p, n = np.asarray(s.points), np.asarray(s.normals)
     meshes = []
     for step in (
-        lambda x, t, face, *a: (x, face),
-        lambda x, t, face, *a: (x + (t.shape[0] < LEVEL_0) * 0.03 * np.ptp(x, axis=0), face),
+        lambda x, t, face, *a, **k: (x, face),
+        lambda x, t, face, *a, **k: (x + (t.shape[0] < LEVEL_0) * 0.03 * np.ptp(x, axis=0), face),
     ):
         monkeypatch.setattr(_snap, "merged_planar_faces", step)
         with warnings.catch_warnings():
@@ -368,7 +368,7 @@ def test_a_level_over_the_bound_is_made_planar_again_with_smaller_moves(monkeypa
     hair = 1e-9
     caps = []
 
-    def shifted(x, t, face, flat, tol, cap):
+    def shifted(x, t, face, flat, tol, cap, planes=None):
         caps.append(cap)
         if t.shape[0] >= LEVEL_0:  # level 0, whose placement sets the floors, as is
             return x, face
@@ -376,7 +376,7 @@ def test_a_level_over_the_bound_is_made_planar_again_with_smaller_moves(monkeypa
         return x + (0.03 if far else hair) * np.ptp(x, axis=0), face
 
     meshes = []
-    for step in (lambda x, t, face, *a: (x, face), shifted):
+    for step in (lambda x, t, face, *a, **k: (x, face), shifted):
         monkeypatch.setattr(_snap, "merged_planar_faces", step)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SimplifyWarning)

@@ -324,9 +324,15 @@ class PointsDecimation(Decimation):
         share = self._planar_share.get(m, 1.0)
         if share == 0.0:
             return x, out_t, face, source, lineage
-        # faces of flat regions a little bent: onto their planes
+        # faces of flat regions a little bent: onto the points' planes, else their own
         y, merged = merged_planar_faces(
-            x, out_t, face, self.planes[2], PLANAR_RTOL * self.diag, share * self.bound
+            x,
+            out_t,
+            face,
+            self.planes[2],
+            PLANAR_RTOL * self.diag,
+            share * self.bound,
+            planes=self.planes[:2],
         )
         if share == 1.0:
             self._planar_moved[m] = not np.array_equal(x, y)
