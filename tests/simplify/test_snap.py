@@ -397,39 +397,49 @@ def test_a_level_over_the_bound_is_made_planar_again_with_smaller_moves(monkeypa
 
 
 def test_the_planar_step_s_shares_hold_only_for_the_measure_that_chose_them(monkeypatch):
-    """`PointsDecimation.within` / `forget_levels`: a level over the bound with and
-    without the planar step keeps the step (the step did not take it over); a level
-    placed without the step, or with a shorter move, under one measure gets the whole
-    step again once the measure changes (`forget_levels`: the looser floors), and
-    keeps it where it then passes (the sampled cable holder: 48 -> 25 faces bent)."""
+    """`PointsDecimation.within` / `forget_levels`: a level over the bound with the
+    step on the points' planes, on its own planes and without it keeps the step (the
+    step did not take it over); a level over on the points' planes and within on the
+    faces' own planes keeps those; a level placed without the step, or with a shorter
+    move, under one measure gets the whole step on the points' planes again once the
+    measure changes (`forget_levels`: the looser floors), and keeps it where it then
+    passes (the sampled cable holder: 48 -> 25 faces bent)."""
     from pointatlas.simplify import _decimate_mesh, _snap
 
     level = object.__new__(_snap.PointsDecimation)
-    level._planar_share, level._planar_moved = {}, {5: True, 7: True}
+    level._planar_share, level._planar_moved = {}, {5: True, 6: True, 7: True}
+    level._on_points = {}
     level._over, level._near, level._kept_level = set(), {}, None
-    passes = {}  # (level, share) -> within, under the measure of the moment
+    passes = {}  # (level, how) -> within, under the measure of the moment
+
+    def how(self, m):
+        share = self._planar_share.get(m, 1.0)
+        return "points" if share == 1.0 and self._on_points.get(m, True) else share
 
     def within(self, m, bound, first=None):
-        ok = passes[(m, self._planar_share.get(m, 1.0))]
+        ok = passes[(m, how(self, m))]
         if ok:
-            self._kept_level = (m, ("placed", self._planar_share.get(m, 1.0)))
+            self._kept_level = (m, ("placed", how(self, m)))
         else:
             self._over.add((m, bound))
         return ok
 
     monkeypatch.setattr(_decimate_mesh.Decimation, "within", within)
-    shares = (1.0, 0.0, *_snap.GENTLE_SHARES)
+    shares = ("points", 1.0, 0.0, *_snap.GENTLE_SHARES)
     passes.update({(5, s): False for s in shares})
+    passes.update({(6, s): s == 1.0 for s in shares})
     passes.update({(7, s): s == 0.0 for s in shares})
     assert not level.within(5, 1.0)
     assert 5 not in level._planar_share  # over either way: the step stays
+    assert level.within(6, 1.0)
+    assert level._kept_level == (6, ("placed", 1.0)) and not level._on_points[6]
     assert level.within(7, 1.0)
     assert level._planar_share[7] == 0.0 and level._kept_level == (7, ("placed", 0.0))
-    # looser floors: every level passes with the whole step
+    # looser floors: every level passes with the whole step on the points' planes
     level.forget_levels()
-    passes.update({(m, s): True for m in (5, 7) for s in shares})
-    assert level._planar_share == {} and level._kept_level is None
-    for m in (5, 7):
+    passes.update({(m, s): True for m in (5, 6, 7) for s in shares})
+    assert level._planar_share == {} and level._on_points == {} and level._kept_level is None
+    for m in (5, 6, 7):
         assert level.within(m, 1.0)
         assert level._planar_share.get(m, 1.0) == 1.0
-        assert level._kept_level == (m, ("placed", 1.0))
+        assert level._kept_level == (m, ("placed", "points"))

@@ -20,7 +20,7 @@ points' fits, which the placement used), it first moves the bent faces onto thos
 their offsets held (each vertex to the nearest point on its faces' planes), and then
 what stays bent onto its own plane: the points' planes are nearer the surface than
 the vertices' (all 149 collection models, true normals: mean distance to the truth
-0.89x at equal triangle counts). `_snap.PointsDecimation` runs it on every placed
+0.90x at equal triangle counts). `_snap.PointsDecimation` runs it on every placed
 level, and measures a level it takes over the bound again without it and with
 shorter moves (`_snap.GENTLE_SHARES`).
 Decisions in docs/decisions/simplify.md ("The points path's planar faces").

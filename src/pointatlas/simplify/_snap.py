@@ -267,6 +267,8 @@ class PointsDecimation(Decimation):
         # there (1 unless `within` took it lower; 0: the step left out)
         self._planar_share = {}
         self._planar_moved = {}  # level -> whether that step moved a vertex
+        # level -> whether that step takes the points' planes first (`within`)
+        self._on_points = {}
         self._unstepped = None  # (level, its placement before that step)
 
     def steps_within(self, bound: float, lowest: int = 0) -> int | None:
@@ -332,7 +334,7 @@ class PointsDecimation(Decimation):
             self.planes[2],
             PLANAR_RTOL * self.diag,
             share * self.bound,
-            planes=self.planes[:2],
+            planes=self.planes[:2] if self._on_points.get(m, True) else None,
         )
         if share == 1.0:
             self._planar_moved[m] = not np.array_equal(x, y)
@@ -371,7 +373,10 @@ class PointsDecimation(Decimation):
 
     def within(self, m: int, bound: float, first=None) -> bool:
         """`Decimation.within`; a level over ``bound`` whose bent faces were made
-        planar (`merged_planar_faces`) is measured again without that step (its
+        planar (`merged_planar_faces`) on the points' planes first is measured again
+        with the faces' own planes only (from then on: ``_on_points``; a sampled
+        64-sided prism's level of 108 triangles passes so, over on the points' planes
+        and without the step), then without that step (its
         placement before the step, kept: not placed again); where it passes so, with
         the step's moves at most each share of `GENTLE_SHARES` of the bound in turn,
         the first that passes too, else without the step (from then on:
@@ -382,6 +387,10 @@ class PointsDecimation(Decimation):
             return True
         if self._planar_share.get(m, 1.0) < 1.0 or not self._planar_moved.get(m, False):
             return False
+        if self._on_points.get(m, True):  # over on the points' planes: the own planes
+            self._on_points[m] = False
+            if self._again(m, bound, first, 1.0):
+                return True
         if not self._again(m, bound, first, 0.0):  # over with or without the step
             del self._planar_share[m]
             return False
@@ -400,6 +409,7 @@ class PointsDecimation(Decimation):
         found within it (its placement keeps the points within their former floors)."""
         super().forget_levels()
         self._planar_share.clear()
+        self._on_points.clear()
         self._kept_level = None
 
     def _again(self, m: int, bound: float, first, share: float) -> bool:
