@@ -248,7 +248,7 @@ def _least_moves(x, rows, normals, offsets, free):
     for v, faces, a, p in _plane_groups(rows, normals):
         fixed.append(np.einsum("ndc,nc->nd", p, offsets[faces] - np.einsum("ncd,nd->nc", a, x[v])))
         row = start + 3 * np.arange(v.size)[:, None] + np.arange(3)
-        for k in range(faces.shape[1]):
+        for k in range(faces.shape[1] if n_free else 0):  # the free offsets' columns
             col = free[faces[:, k]]
             on = col >= 0
             ids.append(row[on].reshape(-1))
