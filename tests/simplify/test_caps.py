@@ -1,17 +1,18 @@
-"""Zero-area triangles ended (`simplify/_caps.py`): two vertices on one spot merge
-where the mesh stays manifold, with every per-vertex and per-triangle array along; a
-cap flips into two triangles of the same area and orientation, a row of vertices on
-one line is cleared in passes, and nothing flips across a face's outline, onto an
-existing edge or into a fold; twins that cannot merge spread inside a flat face,
-which stays the same polygon."""
+"""Zero-area triangles ended (`simplify/_caps.py`, `simplify/_spread.py`): two
+vertices on one spot merge where the mesh stays manifold, with every per-vertex and
+per-triangle array along; a cap flips into two triangles of the same area and
+orientation, a row of vertices on one line is cleared in passes, and nothing flips
+across a face's outline, onto an existing edge or into a fold; twins that cannot
+merge spread inside a flat face, which stays the same polygon."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pointatlas.simplify._caps import _EdgeOwners, flip_caps, spread_tiny, weld_needles
+from pointatlas.simplify._caps import _EdgeOwners, flip_caps, weld_needles
 from pointatlas.simplify._mesh import mesh_checks
+from pointatlas.simplify._spread import spread_tiny
 
 
 def _areas(v, t):
@@ -327,6 +328,7 @@ def test_twins_a_thousandth_cannot_part_move_up_to_four_thousandths(monkeypatch)
     thousandth of the mean edge leaves the needles less than the area a triangle
     needs (`CAP_RTOL` of the mean's), four thousandths give it (`CURVED_LAST`)."""
     import pointatlas.simplify._caps as caps
+    import pointatlas.simplify._spread as spread
 
     v, t = _hexagon_with_twins(z_twin=1e-8)
     far = np.array([[1e4, 0.0, 0.0], [1e4 + 1500.0, 0.0, 0.0], [1e4, 1500.0, 0.0]])
@@ -338,10 +340,11 @@ def test_twins_a_thousandth_cannot_part_move_up_to_four_thousandths(monkeypatch)
     out = spread_tiny(v, t, face, _planes())
     moved = np.linalg.norm(out - v, axis=1)
     assert moved[:6].max() == 0.0 and moved[8:].max() == 0.0
-    assert caps.CURVED_REACH * mean_edge < moved[6:8].max()
-    assert moved[6:8].max() <= caps.CURVED_LAST * caps.CURVED_REACH * mean_edge * (1 + 1e-9)
+    assert spread.CURVED_REACH * mean_edge < moved[6:8].max()
+    limit = spread.CURVED_LAST * spread.CURVED_REACH * mean_edge
+    assert moved[6:8].max() <= limit * (1 + 1e-9)
     assert (caps._areas(out, t) > tiny).all()
-    monkeypatch.setattr(caps, "CURVED_LAST", 0.1)  # a thousandth at most: the needles stay
+    monkeypatch.setattr(spread, "CURVED_LAST", 0.1)  # a thousandth at most: the needles stay
     assert (caps._areas(spread_tiny(v, t, face, _planes()), t) <= tiny).any()
 
 
@@ -384,7 +387,7 @@ def test_a_twin_whose_neighbours_average_to_it_steps_aside_in_its_plane(monkeypa
     is there already): it steps a quarter of its shortest edge along the plane, the
     first way round that gives every triangle an area; the outline stays, and so
     does the polygon the triangles cover."""
-    import pointatlas.simplify._caps as caps
+    import pointatlas.simplify._spread as spread
 
     v, t = _notch_with_twins()
     face = np.zeros(len(t), dtype=np.int64)
@@ -396,5 +399,5 @@ def test_a_twin_whose_neighbours_average_to_it_steps_aside_in_its_plane(monkeypa
     assert _areas(out, t).sum() == pytest.approx(_areas(v, t).sum())  # the same polygon
     twice = np.cross(out[t[:, 1]] - out[t[:, 0]], out[t[:, 2]] - out[t[:, 0]])
     assert (twice[:, 2] > 0.0).all()  # facing up, as the face does: no fold
-    monkeypatch.setattr(caps, "TURN_SHARES", ())  # without the step: the needles stay
+    monkeypatch.setattr(spread, "TURN_SHARES", ())  # without the step: the needles stay
     assert (_areas(spread_tiny(v, t, face, _planes()), t) <= 1e-15).sum() == 2

@@ -25,13 +25,14 @@ import numpy as np
 from numba import njit, prange
 
 from ..neighbors._kernels.mesh_distance import closest_sq
-from ._caps import flip_caps, spread_tiny, weld_needles
+from ._caps import flip_caps, weld_needles
 from ._decimate_mesh import Decimation
 from ._grid_knn import GridKnn
 from ._mesh import unique_pairs
 from ._place import _unflip, place_on_planes
 from ._planar import merged_planar_faces
 from ._point_distances import SEARCH_POINTS
+from ._spread import spread_tiny
 from ._untangle import untangle
 
 __all__ = [
