@@ -124,3 +124,26 @@ def test_distance_over_is_exact_beyond_the_bound_and_within_it_elsewhere():
             assert 0 < over.sum() < x.shape[0]
             np.testing.assert_array_equal(got > bound, over)
             np.testing.assert_array_equal(got[over], exact[over])
+
+
+def test_over_at_is_where_within_finds_the_surface_over_the_bound():
+    """`PointDistances.over_at` against a plain reference: the vertices outside the
+    box, the points farther than the bound from the output (exact distances to every
+    triangle) and its back samples (`point_back_samples`) farther than the bound from
+    the points' discs; here the sliver's edge, whose midpoint is over the bound
+    while every point is near the valley; none where `within` passes."""
+    from pointatlas.neighbors import point_mesh_distance
+
+    q, normals, v, t = _valley()
+    surface = PointSurface(q, normals)
+    measure = PointDistances(q, surface)
+    for bound, tri in ((0.1, t), (0.1, t[:4]), (0.01, t[:3])):
+        there = point_mesh_distance(q, v, tri)
+        samples = point_back_samples(v, tri)
+        back = surface.distance(samples)
+        outside = ((v < measure.lo) | (v > measure.hi)).any(axis=1)
+        expected = np.vstack([v[outside], q[there > bound], samples[back > bound]])
+        got = measure.over_at(v, tri, bound)
+        np.testing.assert_array_equal(got, expected)
+        assert (got.shape[0] == 0) == measure.within(v, tri, bound)
+    assert measure.over_at(v, t, 0.1).shape[0] > 0

@@ -408,7 +408,7 @@ def test_the_planar_step_s_shares_hold_only_for_the_measure_that_chose_them(monk
 
     level = object.__new__(_snap.PointsDecimation)
     level._planar_share, level._planar_moved = {}, {5: True, 6: True, 7: True}
-    level._on_points = {}
+    level._on_points, level._given_up, level.measure = {}, {}, None  # no faces left out
     level._over, level._near, level._kept_level = set(), {}, None
     passes = {}  # (level, how) -> within, under the measure of the moment
 
@@ -443,3 +443,73 @@ def test_the_planar_step_s_shares_hold_only_for_the_measure_that_chose_them(monk
         assert level.within(m, 1.0)
         assert level._planar_share.get(m, 1.0) == 1.0
         assert level._kept_level == (m, ("placed", "points"))
+
+
+def test_a_level_over_the_bound_leaves_out_of_the_step_the_faces_where_it_went_over(
+    monkeypatch,
+):
+    """`PointsDecimation.within`: a level the planar step takes over the bound on the
+    points' planes and on its own, and within it without the step, is placed again
+    with the step on the points' planes but for the flat faces at the vertices
+    nearest to where it went over (`PointDistances.over_at`) that the step moved,
+    round by round; the first round that passes is kept with the faces it left out
+    (``_given_up``). Where no round passes, the shorter moves follow on the faces'
+    own planes as before, and no face is left out."""
+    from pointatlas.simplify import _decimate_mesh, _snap
+
+    x = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [2, 0, 0], [2, 1, 0.0]])
+    t = np.array([[0, 1, 2], [1, 3, 2], [1, 4, 3], [4, 5, 3]])
+    face = np.array([0, 1, 1, 2])  # vertex 3 is on faces 1 and 2, moved by the step
+
+    class Measure:
+        def over_at(self, y, out_t, bound):
+            return y[[3]] + 1e-3 if (y[3] != x[3]).any() else np.zeros((0, 3))
+
+    def placed(self, m):
+        given = self._given_up.get(m)
+        y = x.copy()
+        if given is None or not given[1]:
+            y[3, 2] += 0.1
+        return y, t, face, None, None
+
+    calls = []
+
+    def run(passes_with_face_1_out):
+        level = object.__new__(_snap.PointsDecimation)
+        level._planar_share, level._planar_moved = {}, {4: True}
+        level._on_points, level._given_up = {}, {}
+        level._over, level._near, level._kept_level = set(), {}, None
+        level.planes = (None, None, np.ones(3, dtype=bool))
+        level.measure, level._unstepped = Measure(), (4, (x, t, face, None, None))
+        calls.clear()
+
+        def within(self, m, bound, first=None):
+            share, on = self._planar_share.get(m, 1.0), self._on_points.get(m, True)
+            given = self._given_up.get(m)
+            calls.append((share, on, None if given is None else given.tolist()))
+            out = given is not None and bool(given[1]) and passes_with_face_1_out
+            ok = share == 0.0 or (share == 1.0 and on and out)
+            if ok:
+                self._kept_level = (m, ("placed", share, on))
+            else:
+                self._over.add((m, bound))
+            return ok
+
+        monkeypatch.setattr(_decimate_mesh.Decimation, "within", within)
+        monkeypatch.setattr(_snap.PointsDecimation, "_placed", placed)
+        assert level.within(4, 1.0)
+        return level
+
+    none, one = [False, False, False], [False, True, True]  # the faces at vertex 3
+    level = run(True)
+    assert calls == [(1.0, True, None), (1.0, False, None), (0.0, False, None)] + [
+        (1.0, True, none),
+        (1.0, True, one),
+    ]
+    assert level._given_up[4].tolist() == one and level._on_points[4]
+    assert level._planar_share[4] == 1.0 and level._kept_level == (4, ("placed", 1.0, True))
+    level = run(False)  # no round passes: the shorter moves, then no step
+    gentle = [(share, False, None) for share in _snap.GENTLE_SHARES]
+    assert calls[3:] == [(1.0, True, none), (1.0, True, one), *gentle]
+    assert 4 not in level._given_up and not level._on_points[4]
+    assert level._planar_share[4] == 0.0 and level._kept_level == (4, ("placed", 0.0, False))

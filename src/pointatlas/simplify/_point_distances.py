@@ -203,6 +203,24 @@ class PointDistances:
         left -= self._back_over(samples[:cut], bound)
         return left >= 0 and self._back_over(samples[cut:], bound) <= left
 
+    def over_at(self, out_v, out_t, bound: float) -> np.ndarray:
+        """(k, 3): where the surface ``out_v``, ``out_t`` is over ``bound`` as `within`
+        measures it: its vertices outside the box, the points farther than their floor
+        from it, and its back samples farther than the bound (or the floor near them)
+        from the points' surface (the spare ones included)."""
+        from ._distance import point_back_samples
+        from ._mesh import point_mesh_distance
+
+        outside = out_v[((out_v < self.lo) | (out_v > self.hi)).any(axis=1)]
+        there = point_mesh_distance(self.q, out_v, out_t, within=bound)
+        floor = bound if self.there_floor is None else np.maximum(bound, self.there_floor)
+        samples = point_back_samples(out_v, out_t)
+        back = self.surface.distance_over(samples, bound)
+        over = np.flatnonzero(back > bound)
+        if over.size and self.back_floor is not None:
+            over = over[back[over] > np.maximum(bound, self.back_floor.near(samples[over]))]
+        return np.vstack([outside, self.q[there > floor], samples[over]])
+
     def _back_over(self, samples, bound: float) -> float:
         """How many ``samples`` of an output are farther than ``bound`` from the points'
         surface (or than the floor `floor_at` set near them): inf when one is farther
