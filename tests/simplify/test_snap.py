@@ -465,12 +465,13 @@ def test_a_level_over_the_bound_leaves_out_of_the_step_the_faces_where_it_went_o
         def over_at(self, y, out_t, bound):
             return y[[3]] + 1e-3 if (y[3] != x[3]).any() else np.zeros((0, 3))
 
-    def placed(self, m):
+    def placed(self, m):  # as the level's `_placed`: the placement, kept as the last made
         given = self._given_up.get(m)
         y = x.copy()
         if given is None or not given[1]:
             y[3, 2] += 0.1
-        return y, t, face, None, None
+        self._stepped = (m, (y, t, face, None, None))
+        return self._stepped[1]
 
     calls = []
 
@@ -483,7 +484,8 @@ def test_a_level_over_the_bound_leaves_out_of_the_step_the_faces_where_it_went_o
         level.measure, level._unstepped = Measure(), (4, (x, t, face, None, None))
         calls.clear()
 
-        def within(self, m, bound, first=None):
+        def within(self, m, bound, first=None):  # places the level, as `Decimation.within`
+            self._placed(m)
             share, on = self._planar_share.get(m, 1.0), self._on_points.get(m, True)
             given = self._given_up.get(m)
             calls.append((share, on, None if given is None else given.tolist()))

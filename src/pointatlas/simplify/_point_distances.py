@@ -191,7 +191,7 @@ class PointDistances:
         if (out_v < self.lo).any() or (out_v > self.hi).any():
             return False
         there = point_mesh_distance(self.q, out_v, out_t, within=bound)
-        floor = bound if self.there_floor is None else np.maximum(bound, self.there_floor)
+        floor = self._points_floor(bound)
         left = self.spare - _over(there, floor, self.spare)
         if left < 0:
             return False
@@ -203,6 +203,15 @@ class PointDistances:
         left -= self._back_over(samples[:cut], bound)
         return left >= 0 and self._back_over(samples[cut:], bound) <= left
 
+    def _points_floor(self, bound: float):
+        """What each point may be from a level: ``bound``, or its floor where higher."""
+        return bound if self.there_floor is None else np.maximum(bound, self.there_floor)
+
+    def _samples_floor(self, samples, bound: float) -> np.ndarray:
+        """What each of a level's ``samples`` may be from the points' surface: ``bound``,
+        or the floor near it where higher (`BackFloors`; set)."""
+        return np.maximum(bound, self.back_floor.near(samples))
+
     def over_at(self, out_v, out_t, bound: float) -> np.ndarray:
         """(k, 3): where the surface ``out_v``, ``out_t`` is over ``bound`` as `within`
         measures it: its vertices outside the box, the points farther than their floor
@@ -213,12 +222,12 @@ class PointDistances:
 
         outside = out_v[((out_v < self.lo) | (out_v > self.hi)).any(axis=1)]
         there = point_mesh_distance(self.q, out_v, out_t, within=bound)
-        floor = bound if self.there_floor is None else np.maximum(bound, self.there_floor)
+        floor = self._points_floor(bound)
         samples = point_back_samples(out_v, out_t)
         back = self.surface.distance_over(samples, bound)
         over = np.flatnonzero(back > bound)
         if over.size and self.back_floor is not None:
-            over = over[back[over] > np.maximum(bound, self.back_floor.near(samples[over]))]
+            over = over[back[over] > self._samples_floor(samples[over], bound)]
         return np.vstack([outside, self.q[there > floor], samples[over]])
 
     def _back_over(self, samples, bound: float) -> float:
@@ -231,8 +240,7 @@ class PointDistances:
             return 0
         if self.back_floor is None:
             return np.inf
-        floor = self.back_floor.near(samples[over])
-        return _over(back[over], np.maximum(bound, floor), self.spare)
+        return _over(back[over], self._samples_floor(samples[over], bound), self.spare)
 
     def error(self, out_v, out_t) -> float:
         """The largest distance both ways."""

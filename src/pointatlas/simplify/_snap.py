@@ -279,6 +279,7 @@ class PointsDecimation(Decimation):
         # level -> whether that step takes the points' planes first (`within`)
         self._on_points = {}
         self._unstepped = None  # (level, its placement before that step)
+        self._stepped = None  # (level, its placement with that step), the last made
         # level -> the faces `within` left out of that step (flat ones, by label)
         self._given_up = {}
 
@@ -352,7 +353,8 @@ class PointsDecimation(Decimation):
         )
         if share == 1.0:
             self._planar_moved[m] = not np.array_equal(x, y)
-        return y, out_t, merged, source, lineage
+        self._stepped = (m, (y, out_t, merged, source, lineage))
+        return self._stepped[1]
 
     def _unplanar(self, m: int):
         """Level ``m`` placed (`Decimation._placed`'s tuple) but for its faces made
@@ -449,7 +451,7 @@ class PointsDecimation(Decimation):
             if self._again(m, bound, first, 1.0):
                 return True
             x = self._unstepped[1][0]
-            y, out_t, face = self._placed(m)[:3]
+            y, out_t, face = self._stepped[1][:3]  # the placement just measured
             at = self.measure.over_at(y, out_t, bound)
             if at.shape[0] == 0:
                 break
