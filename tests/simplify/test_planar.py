@@ -5,7 +5,12 @@ taken as one (`_planar.merged_planar_faces`)."""
 import numpy as np
 
 from pointatlas.simplify._place import plane_fits
-from pointatlas.simplify._planar import merged_planar_faces, planar_faces
+from pointatlas.simplify._planar import (
+    edge_neighbours,
+    merged_planar_faces,
+    off_plane_relabelled,
+    planar_faces,
+)
 
 
 def _grid(n, lift, rng):
@@ -263,3 +268,72 @@ def test_faces_the_given_planes_cannot_take_go_onto_their_own():
     np.testing.assert_array_equal(y, own)
     np.testing.assert_array_equal(labels, own_labels)
     assert _planarity(y, t, face, 3).max() <= 1e-9
+
+
+def _neighbours_reference(t):
+    """`edge_neighbours` in plain Python: edge j of triangle i runs from corner j to
+    corner j + 1; the triangle across it where exactly two share it, else -1."""
+    sides = {}
+    for i, f in enumerate(t.tolist()):
+        for j in range(3):
+            sides.setdefault(frozenset((f[j], f[(j + 1) % 3])), []).append((i, j))
+    out = np.full(t.shape, -1)
+    for pair in sides.values():
+        if len(pair) == 2:
+            (a, ja), (b, jb) = pair
+            out[a, ja], out[b, jb] = b, a
+    return out
+
+
+def test_edge_neighbours_agree_with_a_plain_reference():
+    """The box corner's triangles with a fin on one of its edges (three triangles
+    there: no neighbour across it) and its open border."""
+    v, t, _ = _box_corner(4, 0.0, seed=0)
+    fin = np.array([[t[5, 0], t[5, 1], len(v)]])
+    t = np.vstack([t, fin])
+    got = edge_neighbours(t)
+    np.testing.assert_array_equal(got, _neighbours_reference(t))
+    assert (got == -1).sum() > 3
+
+
+def _mislabelled_corner():
+    """The box corner (5 x 5 grids, exact) with the triangles of face 0 (z = 0) at
+    its edge with face 1 (x = 0) labelled as face 1."""
+    v, t, face = _box_corner(5, 0.0, seed=0)
+    wrong = np.flatnonzero((face == 0) & (v[t][:, :, 0].min(axis=1) == 0.0))
+    labels = face.copy()
+    labels[wrong] = 1
+    return v, t, face, labels, wrong
+
+
+def test_triangles_off_their_planes_go_back_to_the_face_that_holds_them():
+    """Each mislabelled triangle has a corner 1 from the plane x = 0 and lies on
+    z = 0: given back to face 0; no other triangle changes. Left as they were, face 1
+    cannot be made planar within the cap (it stays bent); given back, every face
+    comes out exactly on its plane."""
+    v, t, face, labels, wrong = _mislabelled_corner()
+    assert wrong.size == 8  # the two triangles of each of 4 quads
+    normals, offsets = _axis_planes()
+    flat = np.ones(3, bool)
+    got = off_plane_relabelled(v, t, labels, flat, (normals, offsets), 0.1)
+    np.testing.assert_array_equal(got, face)
+    bent, _ = merged_planar_faces(v, t, labels, flat, 1e-9, 0.1, planes=(normals, offsets))
+    assert _planarity(bent, t, labels, 3)[1] > 0.1
+    y, merged = merged_planar_faces(v, t, got, flat, 1e-9, 0.1, planes=(normals, offsets))
+    assert _planarity(y, t, merged, 3).max() <= 1e-12
+
+
+def test_a_triangle_no_flat_neighbour_holds_goes_to_a_curved_one():
+    """Face 0 not flat: its mislabelled triangles go back to it (curved) though the
+    plane x = 0 of their flat neighbours is 1 away; with no neighbour but their own
+    flat face (a lone triangle labelled alone), a triangle keeps its face, and a
+    triangle on its face's plane is never moved."""
+    v, t, face, labels, wrong = _mislabelled_corner()
+    planes = _axis_planes()
+    got = off_plane_relabelled(v, t, labels, np.array([False, True, True]), planes, 0.1)
+    np.testing.assert_array_equal(got, face)
+    lone = t[wrong[:1]]
+    kept = off_plane_relabelled(v, lone, np.array([1]), np.ones(3, bool), planes, 0.1)
+    np.testing.assert_array_equal(kept, [1])
+    same = off_plane_relabelled(v, t, face, np.ones(3, bool), planes, 0.1)
+    np.testing.assert_array_equal(same, face)

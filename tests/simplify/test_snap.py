@@ -409,6 +409,7 @@ def test_the_planar_step_s_shares_hold_only_for_the_measure_that_chose_them(monk
     level = object.__new__(_snap.PointsDecimation)
     level._planar_share, level._planar_moved = {}, {5: True, 6: True, 7: True}
     level._on_points, level._given_up, level.measure = {}, {}, None  # no faces left out
+    level._relabel, level._relabelled = {}, {}  # no triangle given away
     level._over, level._near, level._kept_level = set(), {}, None
     passes = {}  # (level, how) -> within, under the measure of the moment
 
@@ -479,6 +480,7 @@ def test_a_level_over_the_bound_leaves_out_of_the_step_the_faces_where_it_went_o
         level = object.__new__(_snap.PointsDecimation)
         level._planar_share, level._planar_moved = {}, {4: True}
         level._on_points, level._given_up = {}, {}
+        level._relabel, level._relabelled = {}, {}
         level._over, level._near, level._kept_level = set(), {}, None
         level.planes = (None, None, np.ones(3, dtype=bool))
         level.measure, level._unstepped = Measure(), (4, (x, t, face, None, None))
@@ -515,3 +517,41 @@ def test_a_level_over_the_bound_leaves_out_of_the_step_the_faces_where_it_went_o
     assert calls[3:] == [(1.0, True, none), (1.0, True, one), *gentle]
     assert 4 not in level._given_up and not level._on_points[4]
     assert level._planar_share[4] == 0.0 and level._kept_level == (4, ("placed", 0.0, False))
+
+
+def test_a_level_over_with_triangles_given_away_is_measured_as_they_were(monkeypatch):
+    """`PointsDecimation.within`: a level the step takes over the bound with triangles
+    of flat faces given to the faces they lie on (`off_plane_relabelled`) is measured
+    again with them as they were, on the points' planes, and kept so where it passes
+    (the triangles never cost a level: a sampled knob, normals estimated, had ended
+    at 5,380 triangles for 2,070); where the triangles were not given away (nothing
+    changed), that measure is not made again; `forget_levels` gives them away anew."""
+    from pointatlas.simplify import _decimate_mesh, _snap
+
+    calls = []
+
+    def within(self, m, bound, first=None):
+        share, on = self._planar_share.get(m, 1.0), self._on_points.get(m, True)
+        relabel = self._relabel.get(m, True)
+        calls.append((m, share, on, relabel))
+        ok = share == 1.0 and on and not relabel
+        if ok:
+            self._kept_level = (m, ("placed", share, on, relabel))
+        else:
+            self._over.add((m, bound))
+        return ok
+
+    monkeypatch.setattr(_decimate_mesh.Decimation, "within", within)
+    level = object.__new__(_snap.PointsDecimation)
+    level._planar_share, level._planar_moved = {}, {8: True, 9: True}
+    level._on_points, level._given_up, level.measure = {}, {}, None
+    level._relabel, level._relabelled = {}, {8: True, 9: False}
+    level._over, level._near, level._kept_level = set(), {}, None
+    assert level.within(8, 1.0)
+    assert calls == [(8, 1.0, True, True), (8, 1.0, True, False)]
+    assert level._kept_level == (8, ("placed", 1.0, True, False)) and not level._relabel[8]
+    calls.clear()
+    assert not level.within(9, 1.0)  # nothing given away: own planes, then no step
+    assert calls == [(9, 1.0, True, True), (9, 1.0, False, True), (9, 0.0, False, True)]
+    level.forget_levels()
+    assert level._relabel == {}

@@ -36,7 +36,15 @@ from scipy.sparse.linalg import spsolve
 from ._mesh import unique_ints, unique_pairs
 from ._place import _PARALLEL_RTOL, _cross, _plane_groups, plane_fits
 
-__all__ = ["PLANAR_ATTEMPTS", "SHRINK", "merged_planar_faces", "planar_faces"]
+__all__ = [
+    "PLANAR_ATTEMPTS",
+    "RELABEL_PASSES",
+    "SHRINK",
+    "edge_neighbours",
+    "merged_planar_faces",
+    "off_plane_relabelled",
+    "planar_faces",
+]
 
 #: A triangle left with less than this share of its area (along its former normal)
 #: counts as turned over: no triangle of (near) zero area.
@@ -292,3 +300,95 @@ def _failed(x, y, tri, rows, normals, offsets, bent, size, before, tol, cap):
         off = off[np.lexsort((off[:, 1], size[off[:, 1]], off[:, 0]))]
         failed[off[np.r_[True, off[1:, 0] != off[:-1, 0]], 1]] = True
     return failed
+
+
+#: Passes of `off_plane_relabelled` at most (a triangle given away can let the one
+#: behind it go next).
+RELABEL_PASSES = 3
+
+
+def off_plane_relabelled(x, triangles, triangle_face, flat, planes, far: float) -> np.ndarray:
+    """Each triangle's face, the triangles of flat faces with a corner farther than
+    ``far`` from their face's plane (``planes``: normals (R, 3) and offsets (R,), by
+    face) given to a face across one of their edges: the flat one whose plane holds
+    their corners nearest, within ``far``, else the first that is not flat; in at
+    most `RELABEL_PASSES` passes. Such a triangle lies on another face (a corner of a
+    sharp edge the segmentation gave to the wrong side): left in, it keeps its face
+    bent (`merged_planar_faces` cannot move its corner that far).
+
+    Examples
+    --------
+    Two triangles given each other's face: the first (face 0, the plane z = 0) lies
+    on x = 0, the second (face 1, the plane x = 0) on z = 0:
+
+    >>> x = np.array([[0, 0, 0], [0, 1, 0], [0, 0, 1], [1, 0, 0.0]])
+    >>> t = np.array([[0, 1, 2], [0, 3, 1]])
+    >>> planes = (np.array([[0, 0, 1], [1, 0, 0.0]]), np.zeros(2))
+    >>> off_plane_relabelled(x, t, np.array([0, 1]), np.array([True, True]), planes, 0.1)
+    array([1, 0])
+    """
+    x = np.asarray(x, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    face = np.asarray(triangle_face, dtype=np.int64).copy()
+    flat = np.asarray(flat, dtype=bool)
+    normals, offsets = planes
+    if tri.shape[0] == 0 or not flat.any():
+        return face
+    across = edge_neighbours(tri)
+    corners = x[tri]  # (T, 3, 3)
+    for _ in range(RELABEL_PASSES):
+        height = np.abs(np.einsum("tcd,td->tc", corners, normals[face]) - offsets[face][:, None])
+        off = np.flatnonzero(flat[face] & (height.max(axis=1) > far))
+        if off.size == 0:
+            break
+        new = _taker(corners[off], face[off], face, across[off], flat, planes, far)
+        changed = new != face[off]
+        if not changed.any():
+            break
+        face[off[changed]] = new[changed]
+    return face
+
+
+def _taker(corners, own, face, across, flat, planes, far: float) -> np.ndarray:
+    """`off_plane_relabelled`'s new face for triangles of ``corners`` (k, 3, 3), of
+    faces ``own`` (k,), whose neighbours are ``across`` (k, 3; -1: none) and the
+    triangles' faces ``face``: ``own`` where none takes them."""
+    normals, offsets = planes
+    cand = np.where(across >= 0, face[np.maximum(across, 0)], -1)
+    cand = np.where(cand == own[:, None], -1, cand)
+    valid = cand >= 0
+    g = np.maximum(cand, 0)
+    height = np.einsum("kcd,kjd->kjc", corners, normals[g]) - offsets[g][:, :, None]
+    fit = np.abs(height).max(axis=2)  # (k, 3): the corners' farthest from each plane
+    score = np.where(valid & flat[g] & (fit <= far), fit, np.inf)
+    rows = np.arange(own.size)
+    best = np.argmin(score, axis=1)
+    curved = valid & ~flat[g]
+    return np.where(
+        np.isfinite(score[rows, best]),
+        g[rows, best],
+        np.where(curved.any(axis=1), g[rows, np.argmax(curved, axis=1)], own),
+    )
+
+
+def edge_neighbours(tri) -> np.ndarray:
+    """(T, 3): the triangle across each edge (``a b``, ``b c``, ``c a``) of every
+    triangle, -1 on an edge of one triangle or of more than two.
+
+    Examples
+    --------
+    >>> edge_neighbours(np.array([[0, 1, 2], [2, 1, 3]]))
+    array([[-1,  1, -1],
+           [ 0, -1, -1]])
+    """
+    n = tri.shape[0]
+    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    _, inverse, counts = unique_pairs(
+        np.sort(edges, axis=1), return_inverse=True, return_counts=True
+    )
+    out = np.full(3 * n, -1, dtype=np.int64)
+    two = np.flatnonzero(counts[inverse] == 2)
+    order = two[np.argsort(inverse[two], kind="stable")]  # the two sides in turn
+    a, b = order[0::2], order[1::2]
+    out[a], out[b] = b % n, a % n
+    return out.reshape(3, n).T

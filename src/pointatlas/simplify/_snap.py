@@ -31,7 +31,7 @@ from ._decimate_mesh import Decimation
 from ._grid_knn import GridKnn
 from ._mesh import unique_pairs
 from ._place import _unflip, place_on_planes
-from ._planar import merged_planar_faces
+from ._planar import merged_planar_faces, off_plane_relabelled
 from ._point_distances import SEARCH_POINTS
 from ._spread import spread_tiny
 from ._untangle import untangle
@@ -282,6 +282,10 @@ class PointsDecimation(Decimation):
         self._stepped = None  # (level, its placement with that step), the last made
         # level -> the faces `within` left out of that step (flat ones, by label)
         self._given_up = {}
+        # level -> whether that step first gives the triangles of flat faces far off
+        # their planes to the faces they lie on (`within`), and whether that changed one
+        self._relabel = {}
+        self._relabelled = {}
 
     def steps_within(self, bound: float, lowest: int = 0) -> int | None:
         """`Decimation.steps_within`, its levels first measured on a subset of the
@@ -338,6 +342,11 @@ class PointsDecimation(Decimation):
         share = self._planar_share.get(m, 1.0)
         if share == 0.0:
             return x, out_t, face, source, lineage
+        # triangles of a flat face far off its plane: to the face they lie on
+        if self._relabel.get(m, True):
+            before = face
+            face = off_plane_relabelled(x, out_t, face, self.planes[2], self.planes[:2], self.bound)
+            self._relabelled[m] = not np.array_equal(face, before)
         # faces of flat regions a little bent: onto the points' planes, else their own
         flat = self.planes[2]
         if m in self._given_up:
@@ -405,6 +414,10 @@ class PointsDecimation(Decimation):
             return True
         if self._planar_share.get(m, 1.0) < 1.0 or not self._planar_moved.get(m, False):
             return False
+        if self._relabel.get(m, True) and self._relabelled.get(m, False):
+            self._relabel[m] = False  # over with the triangles given away: as they were
+            if self._again(m, bound, first, 1.0):
+                return True
         if self._on_points.get(m, True):  # over on the points' planes: the own planes
             self._on_points[m] = False
             if self._again(m, bound, first, 1.0):
@@ -431,6 +444,7 @@ class PointsDecimation(Decimation):
         self._planar_share.clear()
         self._given_up.clear()
         self._on_points.clear()
+        self._relabel.clear()
         self._kept_level = None
 
     def _faces_given_up(self, m: int, bound: float, first) -> bool:
