@@ -22,7 +22,11 @@ what stays bent onto its own plane: the points' planes are nearer the surface th
 the vertices' (all 149 collection models, true normals: mean distance to the truth
 0.90x at equal triangle counts). `_snap.PointsDecimation` runs it on every placed
 level, and measures a level it takes over the bound again without it and with
-shorter moves (`_snap.GENTLE_SHARES`).
+shorter moves (`_snap.GENTLE_SHARES`). Before it, `off_plane_relabelled` gives each
+triangle of a flat face with a corner farther than the bound from the face's plane
+(a wall's triangle on the wrong side of a sharp edge) to the face across an edge
+whose plane holds it, else to a curved neighbour: no move within the bound could
+have made that face planar.
 Decisions in docs/decisions/simplify.md ("The points path's planar faces").
 """
 

@@ -398,8 +398,10 @@ class PointsDecimation(Decimation):
 
     def within(self, m: int, bound: float, first=None) -> bool:
         """`Decimation.within`; a level over ``bound`` whose bent faces were made
-        planar (`merged_planar_faces`) on the points' planes first is measured again
-        with the faces' own planes only (from then on: ``_on_points``; a sampled
+        planar (`merged_planar_faces`) on the points' planes first, with triangles
+        far off their faces' planes given away (`off_plane_relabelled`), is measured
+        again with them as they were (from then on: ``_relabel``), then with the
+        faces' own planes only (from then on: ``_on_points``; a sampled
         64-sided prism's level of 108 triangles passes so, over on the points' planes
         and without the step), then without that step (its
         placement before the step, kept: not placed again); where it passes so, with
