@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import sys
 
 import pytest
 
@@ -58,3 +60,42 @@ def test_a_signal_during_a_command_says_so_and_keeps_outputs(
     # the command put the handlers back
     assert signal.getsignal(signal.SIGINT) is before
     assert signal.getsignal(signal.SIGTERM).__name__ == "caught"
+
+
+_STUCK = """
+import signal, sys, threading, time
+from pointatlas.cli import _signals
+_signals.GRACE_S = 1.0
+held = threading.Lock()
+held.acquire()  # as a library lock left held by an interrupt between acquire and try
+with _signals.stop_signals_handled():
+    try:
+        signal.raise_signal(signal.SIG{name})
+    except KeyboardInterrupt:
+        pass
+    if {stuck}:
+        held.acquire()  # never released: the command cannot end on its own
+time.sleep(3.0)  # after the command: a watchdog that fired now would be wrong
+print("ended")
+"""
+
+
+@pytest.mark.parametrize(
+    ("name", "code", "line"),
+    [("INT", 130, "error: interrupted"), ("TERM", 143, "error: terminated")],
+)
+def test_a_command_stuck_after_a_signal_is_ended_by_the_watchdog(name, code, line):
+    stuck = subprocess.run(
+        [sys.executable, "-c", _STUCK.format(name=name, stuck=True)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert (stuck.returncode, stuck.stderr.strip(), stuck.stdout) == (code, line, "")
+    ended = subprocess.run(
+        [sys.executable, "-c", _STUCK.format(name=name, stuck=False)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert (ended.returncode, ended.stderr, ended.stdout) == (0, "", "ended\n")

@@ -4,11 +4,20 @@ The handlers record the request (`pointatlas._core.request_interrupt`) and raise
 ``KeyboardInterrupt``; `pointatlas.cli._app.guarded` turns it into the line and
 exit status of `STOPPED`. Kept apart from ``_app`` so that ``cli/__init__.py``
 reads the table before the heavy imports.
+
+A ``KeyboardInterrupt`` raised between a library's lock acquire and the ``try``
+that releases it leaves the lock held, and a thread that then waits for it (rich's
+refresh thread, joined when a progress bar closes) never ends: the first signal
+therefore also starts a watchdog that, if the command has not ended `GRACE_S`
+seconds later, writes the line itself and leaves with the same exit status. No
+output has replaced a file by then: ``atomic_write`` refuses once the request is
+recorded.
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 import sys
 import threading
@@ -21,7 +30,7 @@ from .._core import (
     request_interrupt,
 )
 
-__all__ = ["STOPPED", "stop_signals_handled", "stopped_line"]
+__all__ = ["GRACE_S", "STOPPED", "stop_signals_handled", "stopped_line"]
 
 #: What a command says, and its exit status, when a signal stopped it (128 + the
 #: signal's number, as a shell reports a process that signal killed).
@@ -36,8 +45,26 @@ def stopped_line() -> tuple[str, int]:
     return STOPPED[interrupt_signal() or signal.SIGINT]
 
 
+#: Seconds a stopped command has to end on its own before the watchdog ends it.
+GRACE_S = 10.0
+
+_ENDED = threading.Event()  # set when the command ended (its handlers put back)
+_WATCHDOG: list[threading.Thread] = []  # the watchdog of the running command, once started
+
+
+def _end_if_stuck() -> None:
+    if _ENDED.wait(GRACE_S):
+        return
+    line, code = stopped_line()
+    os.write(2, f"error: {line}\n".encode())  # no Python-level lock: one may be held
+    os._exit(code)
+
+
 def _on_stop_signal(signum, frame):
     request_interrupt(signum)
+    if not _WATCHDOG:
+        _WATCHDOG.append(threading.Thread(target=_end_if_stuck, name="stop-watchdog", daemon=True))
+        _WATCHDOG[0].start()
     raise KeyboardInterrupt
 
 
@@ -59,6 +86,8 @@ def stop_signals_handled():
     """Record SIGINT and SIGTERM while a command runs (main thread only), then put
     the previous handlers back and forget the request, which belonged to it."""
     clear_interrupt()
+    _ENDED.clear()
+    _WATCHDOG.clear()
     previous = {}
     previous_hook = sys.unraisablehook
     if threading.current_thread() is threading.main_thread():
@@ -72,4 +101,5 @@ def stop_signals_handled():
                 signal.signal(signum, handler)
         if previous:
             sys.unraisablehook = previous_hook
+        _ENDED.set()  # the command ended: its watchdog, if any, stands down
         clear_interrupt()
