@@ -64,8 +64,9 @@ def test_a_signal_during_a_command_says_so_and_keeps_outputs(
 
 _STUCK = """
 import signal, sys, threading, time
+from pointatlas._core import interrupts_deferred
 from pointatlas.cli import _signals
-_signals.GRACE_S = 1.0
+_signals.GRACE_S, _signals.GRACE_ROUNDS = 1.0, 4
 held = threading.Lock()
 held.acquire()  # as a library lock left held by an interrupt between acquire and try
 with _signals.stop_signals_handled():
@@ -73,11 +74,23 @@ with _signals.stop_signals_handled():
         signal.raise_signal(signal.SIG{name})
     except KeyboardInterrupt:
         pass
-    if {stuck}:
+    if "{mode}" == "stuck":
         held.acquire()  # never released: the command cannot end on its own
+    if "{mode}" == "clean-up":
+        with interrupts_deferred():
+            time.sleep(2.5)  # longer than GRACE_S: a cluster closing
 time.sleep(3.0)  # after the command: a watchdog that fired now would be wrong
 print("ended")
 """
+
+
+def _run_stuck(name: str, mode: str):
+    return subprocess.run(
+        [sys.executable, "-c", _STUCK.format(name=name, mode=mode)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
 
 
 @pytest.mark.parametrize(
@@ -85,17 +98,8 @@ print("ended")
     [("INT", 130, "error: interrupted"), ("TERM", 143, "error: terminated")],
 )
 def test_a_command_stuck_after_a_signal_is_ended_by_the_watchdog(name, code, line):
-    stuck = subprocess.run(
-        [sys.executable, "-c", _STUCK.format(name=name, stuck=True)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    stuck = _run_stuck(name, "stuck")
     assert (stuck.returncode, stuck.stderr.strip(), stuck.stdout) == (code, line, "")
-    ended = subprocess.run(
-        [sys.executable, "-c", _STUCK.format(name=name, stuck=False)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert (ended.returncode, ended.stderr, ended.stdout) == (0, "", "ended\n")
+    for mode in ("ends", "clean-up"):  # the watchdog stands down; waits for a clean-up
+        ended = _run_stuck(name, mode)
+        assert (ended.returncode, ended.stderr, ended.stdout) == (0, "", "ended\n"), mode

@@ -7,6 +7,7 @@ from ._interrupt import (
     interrupt_requested,
     interrupt_signal,
     interrupts_deferred,
+    interrupts_deferred_now,
     request_interrupt,
 )
 from ._pointset import PointSet, readonly, readonly_view
@@ -46,6 +47,7 @@ __all__ = [
     "interrupt_requested",
     "interrupt_signal",
     "interrupts_deferred",
+    "interrupts_deferred_now",
     "readonly",
     "readonly_view",
     "request_interrupt",

@@ -23,6 +23,7 @@ __all__ = [
     "interrupt_requested",
     "interrupt_signal",
     "interrupts_deferred",
+    "interrupts_deferred_now",
     "request_interrupt",
 ]
 
@@ -31,6 +32,8 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 _REQUESTED = threading.Event()
 _SIGNAL = [signal.SIGINT]  # the signal of the request (one slot, set before the event)
+_DEFERRING = [0]  # `interrupts_deferred` blocks running now, in any thread
+_DEFERRING_LOCK = threading.Lock()
 
 
 def request_interrupt(signum: int = signal.SIGINT) -> None:
@@ -119,9 +122,13 @@ def interrupts_deferred(*, children: bool = False):
     mask = None
     if hasattr(signal, "pthread_sigmask"):
         mask = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    with _DEFERRING_LOCK:
+        _DEFERRING[0] += 1
     try:
         yield
     finally:
+        with _DEFERRING_LOCK:
+            _DEFERRING[0] -= 1
         if mask is not None:  # a signal held back by the mask is noted here
             signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         for signum, handler in previous.items():
@@ -129,3 +136,15 @@ def interrupts_deferred(*, children: bool = False):
                 signal.signal(signum, handler)
         if noted:
             signal.raise_signal(noted[0])
+
+
+def interrupts_deferred_now() -> bool:
+    """Whether an `interrupts_deferred` block is running now (in any thread): a stop
+    requested meanwhile waits for it (the command line's watchdog does too).
+
+    Returns
+    -------
+    deferring : bool
+        True while at least one such block has not ended.
+    """
+    return _DEFERRING[0] > 0

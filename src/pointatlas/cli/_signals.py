@@ -11,7 +11,9 @@ refresh thread, joined when a progress bar closes) never ends: the first signal
 therefore also starts a watchdog that, if the command has not ended `GRACE_S`
 seconds later, writes the line itself and leaves with the same exit status. No
 output has replaced a file by then: ``atomic_write`` refuses once the request is
-recorded.
+recorded. A clean-up that must not be cut short (``interrupts_deferred``: a tiled
+run's cluster closing, its temporary folder removed) gets up to `GRACE_ROUNDS`
+grace periods.
 """
 
 from __future__ import annotations
@@ -27,10 +29,11 @@ from .._core import (
     clear_interrupt,
     interrupt_requested,
     interrupt_signal,
+    interrupts_deferred_now,
     request_interrupt,
 )
 
-__all__ = ["GRACE_S", "STOPPED", "stop_signals_handled", "stopped_line"]
+__all__ = ["GRACE_ROUNDS", "GRACE_S", "STOPPED", "stop_signals_handled", "stopped_line"]
 
 #: What a command says, and its exit status, when a signal stopped it (128 + the
 #: signal's number, as a shell reports a process that signal killed).
@@ -45,16 +48,21 @@ def stopped_line() -> tuple[str, int]:
     return STOPPED[interrupt_signal() or signal.SIGINT]
 
 
-#: Seconds a stopped command has to end on its own before the watchdog ends it.
+#: Seconds a stopped command has to end on its own before the watchdog ends it ...
 GRACE_S = 10.0
+#: ... or this many times as long while an ``interrupts_deferred`` block runs.
+GRACE_ROUNDS = 6
 
 _ENDED = threading.Event()  # set when the command ended (its handlers put back)
 _WATCHDOG: list[threading.Thread] = []  # the watchdog of the running command, once started
 
 
 def _end_if_stuck() -> None:
-    if _ENDED.wait(GRACE_S):
-        return
+    for _ in range(GRACE_ROUNDS):
+        if _ENDED.wait(GRACE_S):
+            return
+        if not interrupts_deferred_now():
+            break
     line, code = stopped_line()
     os.write(2, f"error: {line}\n".encode())  # no Python-level lock: one may be held
     os._exit(code)
