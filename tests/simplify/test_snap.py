@@ -554,4 +554,4 @@ def test_a_level_over_with_triangles_given_away_is_measured_as_they_were(monkeyp
     assert not level.within(9, 1.0)  # nothing given away: own planes, then no step
     assert calls == [(9, 1.0, True, True), (9, 1.0, False, True), (9, 0.0, False, True)]
     level.forget_levels()
-    assert level._relabel == {}
+    assert level._relabel == {} and level._relabelled == {}

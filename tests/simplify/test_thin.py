@@ -11,7 +11,12 @@ from scipy.spatial import cKDTree
 
 from pointatlas.simplify._distance import PointSurface
 from pointatlas.simplify._kernels import OPPOSITE, thin_sides
-from pointatlas.simplify._point_distances import FLOOR_CAP, FLOOR_NEIGHBORS, PointDistances
+from pointatlas.simplify._point_distances import (
+    FLOOR_CAP,
+    FLOOR_NEIGHBORS,
+    WITNESSES,
+    PointDistances,
+)
 from pointatlas.simplify._reconstruct import FIELD_K, _thin_keep
 from pointatlas.synth import sample_mesh
 
@@ -137,6 +142,55 @@ def test_floor_raises_the_bound_only_where_the_surface_is_far():
     # at the first: what the surface reaches there + the bound, at most 1.1 x the most
     assert measure.within(_dented(v, top, 0.054), t, bound)
     assert not measure.within(_dented(v, top, 0.057), t, bound)
+
+
+def test_witnesses_of_a_level_over_the_bound_give_every_answer_a_fresh_measure_gives(
+    monkeypatch,
+):
+    """`PointDistances.within` keeps the points a level was over at (at most
+    `WITNESSES`, the farthest past their floors) and asks them first: the same answer
+    as a measure of every point for each surface of a sequence (over, over nearby,
+    within, over elsewhere), measuring every point only where the witnesses do not
+    decide; a subset keeps witnesses of its own rows."""
+    from pointatlas.simplify import _mesh
+
+    v, t, q, n, top, bottom = _sampled_cube()
+    bound = 0.01
+
+    def measure():
+        out = PointDistances(q, PointSurface(q, n))
+        out.floor_at(v, t, bound)  # the cube is the points' surface
+        return out
+
+    kept = measure()
+    seq = [
+        _dented(v, top, 0.05),
+        _dented(v, top, 0.04),
+        v,
+        _dented(v, bottom, 0.05),
+        _dented(v, top, 0.03),
+    ]
+    answers = [measure().within(w, t, bound) for w in seq]
+    assert answers == [False, False, True, False, False]
+    sizes = []
+    real = _mesh.point_mesh_distance
+
+    def counted(points, *args, **kwargs):
+        sizes.append(len(points))
+        return real(points, *args, **kwargs)
+
+    monkeypatch.setattr(_mesh, "point_mesh_distance", counted)
+    for w, want in zip(seq, answers, strict=True):
+        sizes.clear()
+        assert kept.within(w, t, bound) == want
+        if w is seq[1]:  # decided by the first one's witnesses alone
+            assert q.shape[0] not in sizes
+        if not want:
+            assert 0 < kept._witness.size <= WITNESSES
+            over = kept._witness
+            assert (real(q[over], w, t) > bound).all()
+    few = kept.subset(1000)
+    assert few._witness.size == 0 and few.within(seq[0], t, bound) is False
 
 
 def test_capped_floors_stay_under_the_cap_where_the_surface_is_nearer():

@@ -23,6 +23,7 @@ __all__ = [
     "SEARCH_POINTS",
     "SPARE",
     "SPARE_FACTOR",
+    "WITNESSES",
     "PointDistances",
 ]
 
@@ -63,6 +64,12 @@ SEARCH_POINTS = 4000
 #: edge midpoints, vertices, then area samples), the rest only when none of them is
 #: over the bound.
 FIRST_SAMPLES = 4000
+#: A level found over the bound at its points keeps this many of them, the farthest
+#: past their floors; the next measure asks them first (a level over the bound on
+#: them is over it on all: the same answer, without the distances of every point).
+#: The level search's neighbours and a level's planar retries are mostly over at the
+#: same points (a 10^6-point scan: 4 measures of all points per level over the bound).
+WITNESSES = 64
 
 
 class PointDistances:
@@ -85,6 +92,7 @@ class PointDistances:
         # 0's before and after its placement, measured once
         self._first = []
         self.spare = 0  # points and samples a level may leave over (`floor_at`)
+        self._witness = np.zeros(0, dtype=np.int64)  # rows of ``q`` last found over
 
     def floor_at(
         self,
@@ -180,6 +188,7 @@ class PointDistances:
             return None
         few = copy.copy(self)
         few.q = self.q[::stride]
+        few._witness = np.zeros(0, dtype=np.int64)  # rows of its own points
         if self.there_floor is not None:
             few.there_floor = self.there_floor[::stride]
         return few
@@ -190,10 +199,18 @@ class PointDistances:
 
         if (out_v < self.lo).any() or (out_v > self.hi).any():
             return False
-        there = point_mesh_distance(self.q, out_v, out_t, within=bound)
         floor = self._points_floor(bound)
+        if self._witness.size and self._over_at_witnesses(out_v, out_t, bound, floor):
+            return False
+        there = point_mesh_distance(self.q, out_v, out_t, within=bound)
         left = self.spare - _over(there, floor, self.spare)
         if left < 0:
+            excess = there - floor
+            over = np.flatnonzero(excess > 0.0)
+            if over.size > WITNESSES:  # the farthest past their floors (ties: lower row)
+                order = np.argsort(-excess[over], kind="stable")
+                over = np.sort(over[order[:WITNESSES]])
+            self._witness = over
             return False
         samples = point_back_samples(out_v, out_t)
         # the edges' midpoints, the vertices and the first area samples first: a
@@ -202,6 +219,15 @@ class PointDistances:
         cut = min(samples.shape[0], FIRST_SAMPLES)
         left -= self._back_over(samples[:cut], bound)
         return left >= 0 and self._back_over(samples[cut:], bound) <= left
+
+    def _over_at_witnesses(self, out_v, out_t, bound: float, floor) -> bool:
+        """Whether the points a level was last found over at (``_witness``) alone put
+        this one over ``bound`` (then so do all the points: `within`'s answer)."""
+        from ._mesh import point_mesh_distance
+
+        rows = self._witness
+        there = point_mesh_distance(self.q[rows], out_v, out_t, within=bound)
+        return _over(there, floor if np.ndim(floor) == 0 else floor[rows], self.spare) > self.spare
 
     def _points_floor(self, bound: float):
         """What each point may be from a level: ``bound``, or its floor where higher."""

@@ -447,6 +447,7 @@ class PointsDecimation(Decimation):
         self._given_up.clear()
         self._on_points.clear()
         self._relabel.clear()
+        self._relabelled.clear()
         self._kept_level = None
 
     def _faces_given_up(self, m: int, bound: float, first) -> bool:
