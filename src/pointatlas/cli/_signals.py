@@ -7,13 +7,13 @@ reads the table before the heavy imports.
 
 A ``KeyboardInterrupt`` raised between a library's lock acquire and the ``try``
 that releases it leaves the lock held, and a thread that then waits for it (rich's
-refresh thread, joined when a progress bar closes) never ends: the first signal
-therefore also starts a watchdog that, if the command has not ended `GRACE_S`
-seconds later, writes the line itself and leaves with the same exit status. No
-output has replaced a file by then: ``atomic_write`` refuses once the request is
-recorded. A clean-up that must not be cut short (``interrupts_deferred``: a tiled
-run's cluster closing, its temporary folder removed) gets up to `GRACE_ROUNDS`
-grace periods.
+refresh thread, joined when a progress bar closes) never ends: a watchdog thread,
+started with the command, sees the request and, if the command has not ended
+`GRACE_S` seconds later, writes the line itself and leaves with the same exit
+status. No output has replaced a file by then: ``atomic_write`` refuses once the
+request is recorded. A clean-up that must not be cut short
+(``interrupts_deferred``: a tiled run's cluster closing, its temporary folder
+removed) gets up to `GRACE_ROUNDS` grace periods.
 """
 
 from __future__ import annotations
@@ -53,13 +53,21 @@ GRACE_S = 10.0
 #: ... or this many times as long while an ``interrupts_deferred`` block runs.
 GRACE_ROUNDS = 6
 
-_ENDED = threading.Event()  # set when the command ended (its handlers put back)
-_WATCHDOG: list[threading.Thread] = []  # the watchdog of the running command, once started
+#: How often the watchdog looks for a request (seconds).
+_POLL_S = 0.1
 
 
-def _end_if_stuck() -> None:
+def _watch(ended: threading.Event) -> None:
+    """The command's watchdog (a thread started with it, not by the signal handler:
+    a handler that starts a thread can itself meet a lock the interrupted code
+    holds): once a stop is requested, the command has `GRACE_S` seconds to end
+    (``ended``), more while an ``interrupts_deferred`` block runs; then the line and
+    the exit status without the interpreter's teardown."""
+    while not interrupt_requested():
+        if ended.wait(_POLL_S):
+            return
     for _ in range(GRACE_ROUNDS):
-        if _ENDED.wait(GRACE_S):
+        if ended.wait(GRACE_S):
             return
         if not interrupts_deferred_now():
             break
@@ -70,9 +78,6 @@ def _end_if_stuck() -> None:
 
 def _on_stop_signal(signum, frame):
     request_interrupt(signum)
-    if not _WATCHDOG:
-        _WATCHDOG.append(threading.Thread(target=_end_if_stuck, name="stop-watchdog", daemon=True))
-        _WATCHDOG[0].start()
     raise KeyboardInterrupt
 
 
@@ -94,11 +99,13 @@ def stop_signals_handled():
     """Record SIGINT and SIGTERM while a command runs (main thread only), then put
     the previous handlers back and forget the request, which belonged to it."""
     clear_interrupt()
-    _ENDED.clear()
-    _WATCHDOG.clear()
     previous = {}
     previous_hook = sys.unraisablehook
+    ended, watchdog = threading.Event(), None
     if threading.current_thread() is threading.main_thread():
+        watchdog = threading.Thread(target=_watch, args=(ended,), name="stop-watchdog")
+        watchdog.daemon = True
+        watchdog.start()
         previous = {s: signal.signal(s, _on_stop_signal) for s in STOP_SIGNALS}
         sys.unraisablehook = _quiet_interrupts(previous_hook)
     try:
@@ -109,5 +116,7 @@ def stop_signals_handled():
                 signal.signal(signum, handler)
         if previous:
             sys.unraisablehook = previous_hook
-        _ENDED.set()  # the command ended: its watchdog, if any, stands down
+        ended.set()  # the command ended: its watchdog stands down
+        if watchdog is not None:
+            watchdog.join()
         clear_interrupt()
