@@ -255,6 +255,26 @@ def place_on_planes_reference(v0, triangles, triangle_face, normals, offsets, fl
     return x
 
 
+def plane_fits_reference(vertices, triangles, labels, n_regions):
+    """`plane_fits` one region at a time in numpy: the SVD of its distinct vertices,
+    centred (in order of their index)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    labels = np.asarray(labels)
+    normals, offsets = np.zeros((n_regions, 3)), np.zeros(n_regions)
+    deviation, spanned = np.zeros(n_regions), np.zeros(n_regions, dtype=bool)
+    for r in range(n_regions):
+        ids = np.unique(tri[labels == r])
+        if ids.size < 3:
+            continue
+        centre = v[ids].mean(axis=0)
+        _, sv, vt = np.linalg.svd(v[ids] - centre, full_matrices=False)
+        normals[r], offsets[r] = vt[-1], vt[-1] @ centre
+        deviation[r] = np.abs((v[ids] - centre) @ vt[-1]).max()
+        spanned[r] = sv[1] > 0.0
+    return normals, offsets, deviation, spanned
+
+
 def ear_clip_reference(points, ids):
     """Open3D's ear clipping in numpy (`_readers.ear_clip_triangles`), one corner test
     at a time."""

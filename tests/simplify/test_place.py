@@ -5,6 +5,8 @@ import numpy as np
 
 from pointatlas.simplify._place import plane_fits, settle_planes
 
+from .reference import plane_fits_reference
+
 
 def _four_quads(delta):
     """A 3 x 3 grid of vertices in four quads (two triangles each) around the centre,
@@ -58,3 +60,24 @@ def test_planar_faces_and_faces_that_cannot_settle_are_left_as_they_are():
     for bound, flags in ((1e-7, flat), (1e-3, np.zeros(4, dtype=bool))):
         y = settle_planes(v, t, face, normals, delta, flags, 1e-9, bound)
         np.testing.assert_array_equal(y, v)
+
+
+def test_plane_fits_agree_with_a_region_by_region_svd():
+    """`plane_fits` (a kernel) against numpy's SVD one region at a time on random
+    regions of up to 40 vertices and one on a line: the same planes (normals up to
+    sign), offsets and deviations to rounding, the same spanned flags (on the line,
+    rounding decides: no plane, or one through it)."""
+    rng = np.random.default_rng(5)
+    v = rng.normal(size=(300, 3)) * [1.0, 2.0, 0.01]
+    v[:4] = [[0, 0, 0], [1, 1, 1], [2, 2, 2], [3, 3, 3]]  # region 0: on a line
+    t = np.vstack([[0, 1, 2], [1, 2, 3], rng.integers(4, 300, size=(200, 3))])
+    labels = np.r_[0, 0, rng.integers(1, 40, size=200)]
+    got = plane_fits(v, t, labels, 42)
+    want = plane_fits_reference(v, t, labels, 42)
+    sign = np.where(np.einsum("ij,ij->i", got[0], want[0]) < 0.0, -1.0, 1.0)
+    np.testing.assert_allclose(got[0] * sign[:, None], want[0], atol=1e-12)
+    np.testing.assert_allclose(got[1] * sign, want[1], atol=1e-12)
+    np.testing.assert_allclose(got[2], want[2], atol=1e-12)
+    assert np.array_equal(got[3][1:], want[3][1:])
+    assert not got[3][0] or got[2][0] <= 1e-12  # on a line: no plane, or any through it
+    assert np.array_equal(got[3][40:], [False, False])  # no vertex: no plane

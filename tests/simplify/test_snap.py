@@ -506,7 +506,7 @@ def test_a_level_over_the_bound_leaves_out_of_the_step_the_faces_where_it_went_o
 
     none, one = [False, False, False], [False, True, True]  # the faces at vertex 3
     level = run(True)
-    assert calls == [(1.0, True, None), (1.0, False, None), (0.0, False, None)] + [
+    assert calls == [(1.0, True, None), (0.0, True, None), (1.0, False, None)] + [
         (1.0, True, none),
         (1.0, True, one),
     ]
@@ -516,16 +516,20 @@ def test_a_level_over_the_bound_leaves_out_of_the_step_the_faces_where_it_went_o
     gentle = [(share, False, None) for share in _snap.GENTLE_SHARES]
     assert calls[3:] == [(1.0, True, none), (1.0, True, one), *gentle]
     assert 4 not in level._given_up and not level._on_points[4]
-    assert level._planar_share[4] == 0.0 and level._kept_level == (4, ("placed", 0.0, False))
+    # the placement without the step, as measured second (before the own planes)
+    assert level._planar_share[4] == 0.0 and level._kept_level == (4, ("placed", 0.0, True))
 
 
 def test_a_level_over_with_triangles_given_away_is_measured_as_they_were(monkeypatch):
     """`PointsDecimation.within`: a level the step takes over the bound with triangles
-    of flat faces given to the faces they lie on (`off_plane_relabelled`) is measured
-    again with them as they were, on the points' planes, and kept so where it passes
-    (the triangles never cost a level: a sampled knob, normals estimated, had ended
-    at 5,380 triangles for 2,070); where the triangles were not given away (nothing
-    changed), that measure is not made again; `forget_levels` gives them away anew."""
+    of flat faces given to the faces they lie on (`off_plane_relabelled`), within it
+    without the step, is measured again with them as they were, on the points'
+    planes, and kept so where it passes (the triangles never cost a level: a sampled
+    knob, normals estimated, had ended at 5,380 triangles for 2,070); where the
+    triangles were not given away (nothing changed), that measure is not made again.
+    A level over without the step too is measured once more on the faces' own planes
+    as they were, and is over where that fails: not measured again, nor placed.
+    `forget_levels` gives the triangles away anew."""
     from pointatlas.simplify import _decimate_mesh, _snap
 
     calls = []
@@ -534,7 +538,9 @@ def test_a_level_over_with_triangles_given_away_is_measured_as_they_were(monkeyp
         share, on = self._planar_share.get(m, 1.0), self._on_points.get(m, True)
         relabel = self._relabel.get(m, True)
         calls.append((m, share, on, relabel))
-        ok = share == 1.0 and on and not relabel
+        # on the points' planes with the triangles as they were; without the step,
+        # but for level 10
+        ok = (share == 1.0 and on and not relabel) or (share == 0.0 and m != 10)
         if ok:
             self._kept_level = (m, ("placed", share, on, relabel))
         else:
@@ -543,15 +549,20 @@ def test_a_level_over_with_triangles_given_away_is_measured_as_they_were(monkeyp
 
     monkeypatch.setattr(_decimate_mesh.Decimation, "within", within)
     level = object.__new__(_snap.PointsDecimation)
-    level._planar_share, level._planar_moved = {}, {8: True, 9: True}
+    level._planar_share, level._planar_moved = {}, {8: True, 9: True, 10: True}
     level._on_points, level._given_up, level.measure = {}, {}, None
-    level._relabel, level._relabelled = {}, {8: True, 9: False}
+    level._relabel, level._relabelled = {}, {8: True, 9: False, 10: True}
     level._over, level._near, level._kept_level = set(), {}, None
     assert level.within(8, 1.0)
-    assert calls == [(8, 1.0, True, True), (8, 1.0, True, False)]
+    assert calls == [(8, 1.0, True, True), (8, 0.0, True, True), (8, 1.0, True, False)]
     assert level._kept_level == (8, ("placed", 1.0, True, False)) and not level._relabel[8]
     calls.clear()
-    assert not level.within(9, 1.0)  # nothing given away: own planes, then no step
-    assert calls == [(9, 1.0, True, True), (9, 1.0, False, True), (9, 0.0, False, True)]
+    assert level.within(9, 1.0)  # nothing given away: the own planes, then ...
+    assert calls[:3] == [(9, 1.0, True, True), (9, 0.0, True, True), (9, 1.0, False, True)]
+    calls.clear()
+    assert not level.within(10, 1.0)  # over without the step: the own planes alone
+    assert calls == [(10, 1.0, True, True), (10, 0.0, True, True), (10, 1.0, False, False)]
+    calls.clear()
+    assert not level.within(10, 1.0) and calls == []  # over: not measured again
     level.forget_levels()
     assert level._relabel == {} and level._relabelled == {}
