@@ -490,11 +490,11 @@ def test_the_placements_floor_check_reads_every_sth_point_of_a_large_input(monke
 
 
 def test_the_collapses_carry_every_sth_point_of_a_large_input(monkeypatch):
-    """Above `_snap.CARRY_POINTS` points the collapses' bounds (`start_collapses`)
-    carry every s-th point, its normal, disc radius and tolerances (C arrays, the
-    kernels' one signature); the level found is measured on all the points (the
-    bound holds as the report measures it, above)."""
-    from pointatlas.simplify import _decimate_mesh, _snap
+    """Above `_level_search.CARRY_POINTS` points the collapses' bounds
+    (`start_collapses`) carry every s-th point, its normal, disc radius and
+    tolerances (C arrays, the kernels' one signature); the level found is measured
+    on all the points (the bound holds as the report measures it, above)."""
+    from pointatlas.simplify import _decimate_mesh, _level_search
 
     v, t = l_bracket()
     s = sample_mesh(v, t, 6000, rng=0)
@@ -513,7 +513,7 @@ def test_the_collapses_carry_every_sth_point_of_a_large_input(monkeypatch):
     monkeypatch.setattr(_decimate_mesh, "collapse_all", spy)
     for keep, n in ((1000, 1000), (10_000, 6000)):  # every 6th; all of them
         carried.clear()
-        monkeypatch.setattr(_snap, "CARRY_POINTS", keep)
+        monkeypatch.setattr(_level_search, "CARRY_POINTS", keep)
         m = simplify_points(np.asarray(s.points), s.normals).mesh
         assert carried == [(n, n, n)]
         assert mesh_checks(m.n_vertices, m.triangles) == (True, True, True)

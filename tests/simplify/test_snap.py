@@ -329,7 +329,7 @@ def test_a_level_the_planar_step_takes_past_the_bound_is_measured_without_it(mon
     (`_planar.merged_planar_faces`) is measured again as placed without that step, so the
     step never costs a level: a step that shifts every vertex of a level by 3 % of
     the box gives the mesh of no step at all, bit for bit (level 0 aside: its
-    placement sets the search's floors, `_snap.default_steps`, so shifted it raises
+    placement sets the search's floors, `_level_search.default_steps`, so shifted it raises
     them to the shift, no farther, and the level found moves by three collapses)."""
     import warnings
 

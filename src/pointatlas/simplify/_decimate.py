@@ -96,8 +96,8 @@ def decimate(vertices, triangles, target: int, *, labels=None, planes=None, stru
 
 class CarriedPoints(NamedTuple):
     """What `collapse_all` reads of its ``surface`` (a `PointSurface`): the points,
-    their normals (or None) and their discs' radii (`_snap.start_collapses`: every
-    s-th point of a large input)."""
+    their normals (or None) and their discs' radii
+    (`_level_search.start_collapses`: every s-th point of a large input)."""
 
     points: np.ndarray
     normals: np.ndarray | None

@@ -504,9 +504,10 @@ def robust_mesh(
     """
     from ._decimate_mesh import MAX_ERROR
     from ._distance import PointSurface
+    from ._level_search import default_steps, start_collapses
     from ._point_distances import PointDistances
     from ._polygons import PLANAR_RTOL
-    from ._snap import FIT_STEPS, PointsDecimation, default_steps, fit_to_points, start_collapses
+    from ._snap import FIT_STEPS, PointsDecimation, fit_to_points
     from ._surface_regions import region_layers, region_planes, transfer_labels
     from ._triangles import _face_graph, _surface
 
