@@ -7,7 +7,11 @@ Decisions in docs/decisions/simplify.md ("The points path's robust path").
 
 from __future__ import annotations
 
+from concurrent.futures import Future
+
 import numpy as np
+
+from ._decimate import CarriedPoints
 
 __all__ = ["CARRY_POINTS", "COLLAPSE_SHARE", "default_steps", "start_collapses"]
 
@@ -40,6 +44,7 @@ def default_steps(level, measure, surface, bound, neighbors, budget):
     0's triangles (it failed at the coarse end) stops there, and runs again at the
     looser floors (`LOOSE_SLACK`); where that fails too, at the first floors without
     the cap, then at the looser ones without it, to the end."""
+    # read when called (tests set them on `_point_distances`)
     from ._point_distances import FLOOR_CAP, FLOOR_SLACK, LOOSE_SHARE, LOOSE_SLACK
 
     measure.floor_at(*surface, bound, neighbors=neighbors, cap=FLOOR_CAP)
@@ -80,10 +85,6 @@ def start_collapses(level, measure, verts, tri, bound, max_error, neighbors):
     points). The thread finds the quadrics and the points' owners while those bounds
     are measured here. Of more than `CARRY_POINTS` points the collapses carry every
     s-th (`CarriedPoints`; the level found is measured on all, `steps_within`)."""
-    from concurrent.futures import Future
-
-    from ._decimate import CarriedPoints
-
     bounds = Future()
     surface = measure.surface
     s = -(-surface.points.shape[0] // CARRY_POINTS)  # every s-th point carried
