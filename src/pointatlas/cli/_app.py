@@ -83,8 +83,12 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
-data_app = typer.Typer(help="Bundled models: list and export.", no_args_is_help=True)
-experiment_app = typer.Typer(help="Reproduce the thesis' experiments.", no_args_is_help=True)
+data_app = typer.Typer(
+    cls=TypedArgsGroup, help="Bundled models: list and export.", no_args_is_help=True
+)
+experiment_app = typer.Typer(
+    cls=TypedArgsGroup, help="Reproduce the thesis' experiments.", no_args_is_help=True
+)
 app.add_typer(data_app, name="data")
 app.add_typer(experiment_app, name="experiment")
 
