@@ -5,6 +5,7 @@ docstring's own line ends."""
 from __future__ import annotations
 
 import itertools
+import re
 
 import pytest
 from typer.main import get_command
@@ -29,8 +30,9 @@ COMMANDS = sorted(words for words, _ in _commands(get_command(app)))
 
 
 def _description(output: str) -> list[str]:
-    """The help's lines after the usage line, up to the first panel."""
-    lines = output.splitlines()
+    """The help's lines after the usage line, up to the first panel (colour codes
+    left out: typer colours its help where FORCE_COLOR or GITHUB_ACTIONS is set)."""
+    lines = re.sub(r"\x1b\[[0-9;]*m", "", output).splitlines()
     start = next(i for i, line in enumerate(lines) if "Usage:" in line) + 1
     end = next(i for i, line in enumerate(lines) if line.lstrip().startswith("╭"))
     return [line.rstrip() for line in lines[start:end]]
