@@ -70,6 +70,38 @@ def cube_with_square_hole():
     return extrude([[0, 0], [3, 0], [3, 3], [0, 3]], [[[1, 1], [2, 1], [2, 2], [1, 2]]], height=3.0)
 
 
+def pocketed_block(pockets, size=4.0, height=1.0, depth=0.5):
+    """A square block ``size`` across with blind square pockets ``depth`` deep
+    (``pockets``: (x, y, width) of each), as outward triangles of its faces (a
+    surface to sample, not one mesh: the faces meet at the edges without sharing
+    vertices)."""
+    outer = [[0, 0], [size, 0], [size, size], [0, size]]
+    rings = [[[x, y], [x + w, y], [x + w, y + w], [x, y + w]] for x, y, w in pockets]
+    floor = height - depth
+    # the rim: the top with the pockets' openings, outer and pocket walls above the
+    # floor (its bottom dropped); the base below the floor (its top dropped); floors
+    parts = [_faces_facing(*extrude(outer, rings, height=depth), up=False, lift=floor)]
+    parts.append(_faces_facing(*extrude(outer, height=floor), up=True))
+    parts += [_faces_facing(*extrude(r, height=floor), up=True, keep=True) for r in rings]
+    vertices, triangles, start = [], [], 0
+    for v, t in parts:
+        vertices.append(v)
+        triangles.append(t + start)
+        start += v.shape[0]
+    return np.concatenate(vertices), np.concatenate(triangles)
+
+
+def _faces_facing(vertices, triangles, up: bool, lift: float = 0.0, keep: bool = False):
+    """A prism's triangles without those facing ``up`` (or down), or with only those
+    facing up (``keep``), its vertices lifted by ``lift``."""
+    e1 = vertices[triangles[:, 1]] - vertices[triangles[:, 0]]
+    e2 = vertices[triangles[:, 2]] - vertices[triangles[:, 0]]
+    nz = np.cross(e1, e2)[:, 2]
+    facing = nz > 0.0 if up else nz < 0.0
+    chosen = facing if keep else ~facing
+    return vertices + [0.0, 0.0, lift], triangles[chosen]
+
+
 def subdivide(vertices, triangles):
     """Every triangle split into four at its edges' midpoints (flat faces stay flat,
     as a CAD export tessellated finer): (vertices, triangles)."""

@@ -1,5 +1,5 @@
-"""Whole sheets of a closed point set turned by the winding number far from the points
-(private; a step of `outward_normals`).
+"""Whole sheets of a closed point set turned by the winding number far from the points,
+and near them (private; steps of `outward_normals`).
 
 Propagated normals cross a thin wall between its two sides: a tube whose wall is two
 point spacings thick (`trimesh_round`, 20,000 points) came out with its whole inner
@@ -16,7 +16,14 @@ negative volume are first all turned (inside, their winding number reads -1), th
 sheets are turned one at a time, the one that brings the probes' winding numbers
 nearest to 0 or 1 first, while a turn gains at least `FAR_GAIN` per probe. Where the
 turned normals then enclose a negative volume, all of them are turned (a tube's
-outer wall turned is its inner wall turned, seen from inside). Decisions:
+outer wall turned is its inner wall turned, seen from inside).
+
+The last step of `outward_normals` (`near_sheet_flips`) asks the same of smaller
+sheets, down to `NEAR_MIN_POINTS`, at probes near them too (`near_probes`): a pocket
+turned inward as a whole, walls and floor, is a few sheets each far below
+`SHEET_SHARE` that the box's probes seldom reach. Its gain is counted per probe a
+turn moves, and sheets that touch are also turned together (a pocket's walls, whose
+turns alone each leave its hollow read halfway). Decisions:
 docs/decisions/simplify.md, "Normals for raw points".
 """
 
@@ -43,6 +50,8 @@ __all__ = [
     "FAR_SPACINGS",
     "SHEET_SHARE",
     "far_sheet_flips",
+    "near_probes",
+    "near_sheet_flips",
     "sheet_winding",
 ]
 
@@ -60,6 +69,26 @@ CELL_SPACINGS = 4.0
 #: A turn is kept where the squared distance of the probes' winding numbers to the
 #: nearer of 0 and 1, summed, falls by at least this much per probe.
 FAR_GAIN = 1e-3
+#: Sheets of at least this many points, and at most `NEAR_MAX_SHARE` of them, are
+#: turned by the winding number near them too (`near_sheet_flips`: a pocket's walls
+#: and floor, each below `SHEET_SHARE`, which the probes in the box seldom reach) ...
+NEAR_MIN_POINTS = 20
+NEAR_MAX_SHARE = 0.25
+#: ... at probes this many point spacings in front of and behind every
+#: `NEAR_STRIDE`-th of their points (those at least `FAR_SPACINGS` from every point) ...
+NEAR_OFFSETS = (2.5, 4.0)
+NEAR_STRIDE = 4
+#: ... where the squared distance of the probes' winding numbers to the nearer of 0
+#: and 1 falls by at least this much per probe the turn moves by more than
+#: `NEAR_MOVED` (the probes of the whole box would ask a small sheet for a gain it
+#: cannot give anywhere but near itself).
+NEAR_GAIN = 0.02
+NEAR_MOVED = 0.05
+#: Sheets that touch are also turned together where each alone loses less than this
+#: share of its need (and together they gain theirs) ...
+JOINT_LOSS = 0.5
+#: ... one at a time and together, at most this many rounds.
+NEAR_ROUNDS = 3
 
 
 def _sheets(q, n, idx):
@@ -104,25 +133,119 @@ def far_sheet_flips(q, n, idx, dist, areas) -> np.ndarray:
     x = far_probes(q, spacing)
     if var.size == 0 or x.shape[0] == 0:
         return flip
-    col = np.full(size.size, var.size, dtype=np.int64)  # the rest: one more row
-    col[var] = np.arange(var.size)
-    dip = np.ascontiguousarray(n * areas[:, None])
-    w_by = sheet_winding(x, q, dip, col[lab], var.size + 1, CELL_SPACINGS * spacing)
-    w = w_by.sum(axis=0)
-    sign = np.ones(var.size)
-    gain = FAR_GAIN * x.shape[0]
-    while True:
-        now = _off_integer(w)
-        after = _off_integer(w - 2.0 * sign[:, None] * w_by[: var.size])  # each turned
-        best = int(np.argmin(after))
-        if now - after[best] < gain:
-            break
-        w = w - 2.0 * sign[best] * w_by[best]
-        sign[best] = -sign[best]
+    w_by = _winding_by(x, q, n, areas, lab, var, spacing)
+    sign = _greedy_turns(w_by, np.full(var.size, FAR_GAIN * x.shape[0]))
     turn = np.isin(lab, var[sign < 0])
     if enclosed_volume(q, np.where(turn[:, None], -n, n), areas) < 0.0:
         turn = ~turn
     return turn ^ inverted
+
+
+def near_sheet_flips(q, n, idx, dist, areas) -> np.ndarray:
+    """Which points of the closed sample ``q`` (normals ``n``, the rest as
+    `far_sheet_flips`') lie on a sheet of `NEAR_MIN_POINTS` or more turned the wrong
+    way by the winding number near the sheets (`near_probes`, and the box's
+    `far_probes`): sheets turned one at a time, the one that brings the probes'
+    winding numbers nearest to 0 or 1 first, while a turn gains `NEAR_GAIN` per probe
+    it moves. A pocket turned inward as a whole (its walls and floor, each a sheet
+    of its own, bounded by edges) reads near 1 in its hollow and near 0 in the
+    material around it; each of its sheets turned brings both back."""
+    spacing = table_spacing(dist)
+    flip = np.zeros(q.shape[0], dtype=bool)
+    if spacing == 0.0:
+        return flip
+    lab = _sheets(q, n, idx)
+    size = np.bincount(lab)
+    var = np.flatnonzero((size >= NEAR_MIN_POINTS) & (size <= NEAR_MAX_SHARE * q.shape[0]))
+    if var.size == 0:
+        return flip
+    x = np.vstack(
+        [far_probes(q, spacing), near_probes(q, n, np.flatnonzero(np.isin(lab, var)), spacing)]
+    )
+    w_by = _winding_by(x, q, n, areas, lab, var, spacing)
+    moved = (np.abs(2.0 * w_by[: var.size]) > NEAR_MOVED).sum(axis=1)
+    col = np.full(size.size, -1, dtype=np.int64)
+    col[var] = np.arange(var.size)
+    rows, cols = neighbour_pairs(idx)
+    a, b = col[lab[rows]], col[lab[cols]]
+    touch = (a >= 0) & (b >= 0) & (a != b)
+    sign = np.ones(var.size)
+    for _ in range(NEAR_ROUNDS):
+        before = sign.copy()
+        sign = _greedy_turns(w_by, NEAR_GAIN * moved, sign)
+        sign = _joint_turns(w_by, sign, a[touch], b[touch])
+        if np.array_equal(sign, before):
+            break
+    return np.isin(lab, var[sign < 0])
+
+
+def near_probes(q, n, rows, spacing: float) -> np.ndarray:
+    """Probes `NEAR_OFFSETS` spacings in front of and behind every `NEAR_STRIDE`-th of
+    the points ``rows`` along their normals ``n``, those at least `FAR_SPACINGS`
+    spacings from every point."""
+    at = rows[::NEAR_STRIDE]
+    x = np.vstack([q[at] + s * d * spacing * n[at] for d in NEAR_OFFSETS for s in (1.0, -1.0)])
+    far = FAR_SPACINGS * spacing
+    dist = cKDTree(q).query(x, 1, distance_upper_bound=far, workers=-1)[0]
+    return np.ascontiguousarray(x[dist >= far])
+
+
+def _winding_by(x, q, n, areas, lab, var, spacing):
+    """(len(var) + 1, len(x)): the winding number at the probes ``x`` of each sheet
+    ``var[r]`` (sheet labels ``lab``), the other points in the last row."""
+    col = np.full(int(lab.max()) + 1, var.size, dtype=np.int64)  # the rest: one more row
+    col[var] = np.arange(var.size)
+    dip = np.ascontiguousarray(n * areas[:, None])
+    return sheet_winding(x, q, dip, col[lab], var.size + 1, CELL_SPACINGS * spacing)
+
+
+def _greedy_turns(w_by, need, sign=None) -> np.ndarray:
+    """Each sheet's sign (-1: turned): the rows of ``w_by`` but its last turned one at
+    a time, the turn that brings the probes' winding numbers nearest to 0 or 1 first
+    (`_off_integer`), among those that gain at least their ``need``."""
+    m = w_by.shape[0] - 1
+    sign = np.ones(m) if sign is None else sign.copy()
+    w = w_by.sum(axis=0) - 2.0 * ((1.0 - sign) / 2.0) @ w_by[:m]
+    while True:
+        now = _off_integer(w)
+        after = _off_integer(w - 2.0 * sign[:, None] * w_by[:m])  # each turned
+        after = np.where(now - after >= need, after, np.inf)
+        best = int(np.argmin(after))
+        if not np.isfinite(after[best]):
+            return sign
+        w = w - 2.0 * sign[best] * w_by[best]
+        sign[best] = -sign[best]
+
+
+def _joint_turns(w_by, sign, a, b) -> np.ndarray:
+    """``sign`` after turning together the sheets that touch (pairs ``a[k]``,
+    ``b[k]`` of rows of ``w_by``, components of them) and that each lose less than
+    `JOINT_LOSS` of their need turned alone, where together they gain `NEAR_GAIN`
+    per probe they move (a pocket's walls turned inward, its floor turned back:
+    each wall alone leaves the hollow read halfway either way)."""
+    m = w_by.shape[0] - 1
+    w = w_by.sum(axis=0) - 2.0 * ((1.0 - sign) / 2.0) @ w_by[:m]
+    now = _off_integer(w)
+    step = -2.0 * sign[:, None] * w_by[:m]  # each sheet's turn
+    gains = now - _off_integer(w + step)
+    # a sheet of a pocket turned alone can lose a little (the hollow read halfway
+    # either way); a right sheet turned loses several times its need
+    moved = (np.abs(step) > NEAR_MOVED).sum(axis=1)
+    good = gains > -JOINT_LOSS * NEAR_GAIN * moved
+    keep = good[a] & good[b]
+    groups = pair_components(m, a[keep], b[keep])
+    sign = sign.copy()
+    for g in np.unique(groups[good]):
+        members = np.flatnonzero((groups == g) & good)
+        if members.size < 2:
+            continue
+        moved_by = step[members].sum(axis=0)
+        gain = now - _off_integer(w + moved_by)
+        if gain >= NEAR_GAIN * int((np.abs(moved_by) > NEAR_MOVED).sum()):
+            w = w + moved_by
+            now = _off_integer(w)
+            sign[members] = -sign[members]
+    return sign
 
 
 def _off_integer(w):

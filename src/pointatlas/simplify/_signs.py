@@ -20,7 +20,11 @@ is asked which of its sides is inside: the winding number of all the other point
 (`_winding`, Barill et al. 2018), a little behind and a little in front of each
 of its points (`PROBE_SPACINGS`), its own points left out (a patch's own discs
 always read as consistent with themselves). It is turned where the rest says its
-front is inside. Only a closed sample has an inside: open ones keep their normals.
+front is inside. Last, sheets of tens of points or more are turned by the winding
+number of all the points near them (`_sheets.near_sheet_flips`): a pocket turned
+inward as a whole, walls and floor, agrees with itself across its edges, so no
+patch of it disagrees. Only a closed sample has an inside: open ones keep their
+normals.
 Decisions: docs/decisions/simplify.md, "Normals for raw points".
 """
 
@@ -33,7 +37,7 @@ from scipy.spatial import cKDTree
 from .._core import as_normals, as_points
 from ..neighbors import query_knn
 from ._reconstruct import CLOSED_DIPOLE
-from ._sheets import far_sheet_flips
+from ._sheets import far_sheet_flips, near_sheet_flips
 from ._sides import (
     OPPOSED_COS,
     SMOOTH_K,
@@ -147,9 +151,11 @@ def outward_normals(points, normals, *, neighbors=None) -> np.ndarray:
 def _turned(q, n, idx, dist, areas) -> np.ndarray:
     """Which normals of a closed sample to turn: whole sheets by the winding number
     far from the points (`_sheets.far_sheet_flips`), then the patches still turned
-    inward (`_inward_patches`)."""
+    inward (`_inward_patches`), then the sheets by the winding number near them
+    (`_sheets.near_sheet_flips`)."""
     sheets = far_sheet_flips(q, n, idx, dist, areas)
-    return sheets ^ _inward_patches(q, np.where(sheets[:, None], -n, n), idx, dist)
+    flip = sheets ^ _inward_patches(q, np.where(sheets[:, None], -n, n), idx, dist)
+    return flip ^ near_sheet_flips(q, np.where(flip[:, None], -n, n), idx, dist, areas)
 
 
 def _patches(q, n, idx, tol):
