@@ -15,6 +15,8 @@ from pointatlas.simplify import outward_normals
 from pointatlas.simplify._reconstruct import CLOSED_DIPOLE
 from pointatlas.simplify._sheets import (
     FAR_SPACINGS,
+    NEAR_SOURCES,
+    NEAR_STRIDE,
     far_probes,
     far_sheet_flips,
     near_probes,
@@ -179,3 +181,8 @@ def test_near_probes_are_far_from_every_point_and_on_both_sides():
     # inside the block and outside it (the block is [0, 4]^2 x [0, 1])
     inside = ((x > 0.0) & (x < [4.0, 4.0, 1.0])).all(axis=1)
     assert 0 < int(inside.sum()) < x.shape[0]
+    # every 4th point gives probes, or fewer where there are many (at most about
+    # NEAR_SOURCES of them, four probes each)
+    assert x.shape[0] <= 4 * len(range(0, rows.size, NEAR_STRIDE))
+    many = np.tile(rows, 4)
+    assert near_probes(p, truth, many, spacing).shape[0] <= 4 * NEAR_SOURCES
