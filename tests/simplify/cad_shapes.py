@@ -70,13 +70,18 @@ def cube_with_square_hole():
     return extrude([[0, 0], [3, 0], [3, 3], [0, 3]], [[[1, 1], [2, 1], [2, 2], [1, 2]]], height=3.0)
 
 
+def square(x, y, w):
+    """The square ``w`` across with its corner at (x, y), counter-clockwise."""
+    return [[x, y], [x + w, y], [x + w, y + w], [x, y + w]]
+
+
 def pocketed_block(pockets, size=4.0, height=1.0, depth=0.5):
     """A square block ``size`` across with blind square pockets ``depth`` deep
     (``pockets``: (x, y, width) of each), as outward triangles of its faces (a
     surface to sample, not one mesh: the faces meet at the edges without sharing
     vertices)."""
-    outer = [[0, 0], [size, 0], [size, size], [0, size]]
-    rings = [[[x, y], [x + w, y], [x + w, y + w], [x, y + w]] for x, y, w in pockets]
+    outer = square(0, 0, size)
+    rings = [square(x, y, w) for x, y, w in pockets]
     floor = height - depth
     # the rim: the top with the pockets' openings, outer and pocket walls above the
     # floor (its bottom dropped); the base below the floor (its top dropped); floors

@@ -26,7 +26,7 @@ from pointatlas.simplify._sheets import (
 from pointatlas.simplify._winding import dipole_share, point_areas, table_areas
 from pointatlas.synth import sample_mesh
 
-from .cad_shapes import box, circle, extrude, pocketed_block
+from .cad_shapes import box, circle, extrude, pocketed_block, square
 
 
 def sheet_winding_reference(x, p, dip, row, rows):
@@ -134,15 +134,11 @@ def _pockets():
     return p, truth, pocket & (p[:, 2] < 1.0 - 1e-9)
 
 
-def _square(x, y, w):
-    return [[x, y], [x + w, y], [x + w, y + w], [x, y + w]]
-
-
 def _holes():
     """A plate 4 x 4 x 0.5 with four square through-holes 0.4 wide, 12,000 points
     with their true normals, and which points lie on two of the holes' walls."""
-    holes = [_square(x, y, 0.4) for x, y in ((0.6, 0.6), (3.0, 0.6), (0.6, 3.0), (3.0, 3.0))]
-    v, t = extrude(_square(0, 0, 4), holes, height=0.5)
+    holes = [square(x, y, 0.4) for x, y in ((0.6, 0.6), (3.0, 0.6), (0.6, 3.0), (3.0, 3.0))]
+    v, t = extrude(square(0, 0, 4), holes, height=0.5)
     s = sample_mesh(v, t, 12000, rng=0)
     p, truth = np.asarray(s.points), np.asarray(s.normals)
     walls = _inside(p, 0.6, 0.6, 0.4) | _inside(p, 3.0, 3.0, 0.4)

@@ -104,18 +104,24 @@ def _sheets(q, n, idx):
     return pair_components(q.shape[0], rows[on], cols[on])
 
 
-def far_probes(q, spacing: float, count: int = FAR_PROBES) -> np.ndarray:
+def far_probes(q, spacing: float, count: int = FAR_PROBES, tree=None) -> np.ndarray:
     """Up to ``count`` points uniform in the box of ``q`` grown by `PAD_SPACINGS`
     spacings, each at least `FAR_SPACINGS` spacings from every point (seeded: the
-    same for the same points)."""
+    same for the same points). ``tree``: a `cKDTree` of ``q``, built when None."""
     lo = q.min(axis=0) - PAD_SPACINGS * spacing
     hi = q.max(axis=0) + PAD_SPACINGS * spacing
     rng = np.random.default_rng(0)
     candidates = lo + (hi - lo) * rng.random((40 * count, 3))
-    far = FAR_SPACINGS * spacing
+    return _clear_of(q, candidates, FAR_SPACINGS * spacing, tree)[:count]
+
+
+def _clear_of(q, x, clear: float, tree=None) -> np.ndarray:
+    """The rows of ``x`` at least ``clear`` from every point ``q`` (``tree``: a
+    `cKDTree` of them, built when None), contiguous."""
+    tree = cKDTree(q) if tree is None else tree
     # a search bounded by that distance: inf where no point is nearer (fast)
-    dist = cKDTree(q).query(candidates, 1, distance_upper_bound=far, workers=-1)[0]
-    return np.ascontiguousarray(candidates[dist >= far][:count])
+    dist = tree.query(x, 1, distance_upper_bound=clear, workers=-1)[0]
+    return np.ascontiguousarray(x[dist >= clear])
 
 
 def far_sheet_flips(q, n, idx, dist, areas) -> np.ndarray:
@@ -137,7 +143,7 @@ def far_sheet_flips(q, n, idx, dist, areas) -> np.ndarray:
     x = far_probes(q, spacing)
     if var.size == 0 or x.shape[0] == 0:
         return flip
-    w_by = _winding_by(x, q, n, areas, lab, var, spacing)
+    w_by = _winding_by(x, q, n, areas, _sheet_rows(lab, var), var.size, spacing)
     sign = _greedy_turns(w_by, np.full(var.size, FAR_GAIN * x.shape[0]))
     turn = np.isin(lab, var[sign < 0])
     if enclosed_volume(q, np.where(turn[:, None], -n, n), areas) < 0.0:
@@ -163,16 +169,19 @@ def near_sheet_flips(q, n, idx, dist, areas) -> np.ndarray:
     var = np.flatnonzero((size >= NEAR_MIN_POINTS) & (size <= NEAR_MAX_SHARE * q.shape[0]))
     if var.size == 0:
         return flip
+    row = _sheet_rows(lab, var)  # var.size: no variable
+    tree = cKDTree(q)
     x = np.vstack(
-        [far_probes(q, spacing), near_probes(q, n, np.flatnonzero(np.isin(lab, var)), spacing)]
+        [
+            far_probes(q, spacing, tree=tree),
+            near_probes(q, n, np.flatnonzero(row < var.size), spacing, tree),
+        ]
     )
-    w_by = _winding_by(x, q, n, areas, lab, var, spacing)
+    w_by = _winding_by(x, q, n, areas, row, var.size, spacing)
     moved = (np.abs(2.0 * w_by[: var.size]) > NEAR_MOVED).sum(axis=1)
-    col = np.full(size.size, -1, dtype=np.int64)
-    col[var] = np.arange(var.size)
     rows, cols = neighbour_pairs(idx)
-    a, b = col[lab[rows]], col[lab[cols]]
-    touch = (a >= 0) & (b >= 0) & (a != b)
+    a, b = row[rows], row[cols]
+    touch = (a < var.size) & (b < var.size) & (a != b)
     sign = np.ones(var.size)
     for _ in range(NEAR_ROUNDS):
         before = sign.copy()
@@ -183,24 +192,35 @@ def near_sheet_flips(q, n, idx, dist, areas) -> np.ndarray:
     return np.isin(lab, var[sign < 0])
 
 
-def near_probes(q, n, rows, spacing: float) -> np.ndarray:
+def near_probes(q, n, rows, spacing: float, tree=None) -> np.ndarray:
     """Probes `NEAR_OFFSETS` spacings in front of and behind every `NEAR_STRIDE`-th of
     the points ``rows`` (at most about `NEAR_SOURCES` of them) along their normals
-    ``n``, those at least `FAR_SPACINGS` spacings from every point."""
+    ``n``, those at least `FAR_SPACINGS` spacings from every point (``tree``: as
+    `far_probes`')."""
     at = rows[:: max(NEAR_STRIDE, -(-rows.size // NEAR_SOURCES))]
     x = np.vstack([q[at] + s * d * spacing * n[at] for d in NEAR_OFFSETS for s in (1.0, -1.0)])
-    far = FAR_SPACINGS * spacing
-    dist = cKDTree(q).query(x, 1, distance_upper_bound=far, workers=-1)[0]
-    return np.ascontiguousarray(x[dist >= far])
+    return _clear_of(q, x, FAR_SPACINGS * spacing, tree)
 
 
-def _winding_by(x, q, n, areas, lab, var, spacing):
-    """(len(var) + 1, len(x)): the winding number at the probes ``x`` of each sheet
-    ``var[r]`` (sheet labels ``lab``), the other points in the last row."""
-    col = np.full(int(lab.max()) + 1, var.size, dtype=np.int64)  # the rest: one more row
+def _sheet_rows(lab, var) -> np.ndarray:
+    """Each point's row: r where its sheet (``lab``) is ``var[r]``, else ``var.size``
+    (the rest: one more row)."""
+    col = np.full(int(lab.max()) + 1, var.size, dtype=np.int64)
     col[var] = np.arange(var.size)
+    return col[lab]
+
+
+def _winding_by(x, q, n, areas, row, m: int, spacing):
+    """(m + 1, len(x)): the winding number at the probes ``x`` of the points of each
+    row (``row``: `_sheet_rows`, the rest's the last)."""
     dip = np.ascontiguousarray(n * areas[:, None])
-    return sheet_winding(x, q, dip, col[lab], var.size + 1, CELL_SPACINGS * spacing)
+    return sheet_winding(x, q, dip, row, m + 1, CELL_SPACINGS * spacing)
+
+
+def _signed_sum(w_by, sign) -> np.ndarray:
+    """The winding number of all the points with the sheets ``sign`` < 0 turned
+    (the rows of ``w_by`` but its last, the rest)."""
+    return w_by.sum(axis=0) - 2.0 * ((1.0 - sign) / 2.0) @ w_by[:-1]
 
 
 def _greedy_turns(w_by, need, sign=None) -> np.ndarray:
@@ -209,7 +229,7 @@ def _greedy_turns(w_by, need, sign=None) -> np.ndarray:
     (`_off_integer`), among those that gain at least their ``need``."""
     m = w_by.shape[0] - 1
     sign = np.ones(m) if sign is None else sign.copy()
-    w = w_by.sum(axis=0) - 2.0 * ((1.0 - sign) / 2.0) @ w_by[:m]
+    w = _signed_sum(w_by, sign)
     while True:
         now = _off_integer(w)
         after = _off_integer(w - 2.0 * sign[:, None] * w_by[:m])  # each turned
@@ -228,7 +248,7 @@ def _joint_turns(w_by, sign, a, b) -> np.ndarray:
     per probe they move (a pocket's walls turned inward, its floor turned back:
     each wall alone leaves the hollow read halfway either way)."""
     m = w_by.shape[0] - 1
-    w = w_by.sum(axis=0) - 2.0 * ((1.0 - sign) / 2.0) @ w_by[:m]
+    w = _signed_sum(w_by, sign)
     now = _off_integer(w)
     step = -2.0 * sign[:, None] * w_by[:m]  # each sheet's turn
     gains = now - _off_integer(w + step)
