@@ -8,7 +8,9 @@ import numpy as np
 
 from pointatlas.neighbors import query_knn
 from pointatlas.normals import estimate_normals, orient_normals
-from pointatlas.simplify import mesh_checks, simplify_points
+from pointatlas.simplify import mesh_checks, outward_normals, simplify_points
+from pointatlas.simplify._frame import frame_of
+from pointatlas.simplify._points_input import _outward
 from pointatlas.simplify._sides import (
     SMOOTH_ROUNDS,
     _smoothed,
@@ -62,10 +64,12 @@ def test_thin_walled_channel_without_normals_comes_out_closed():
     assert mesh_checks(m.n_vertices, m.triangles) == (True, True, True)
     assert r.n_turned > 0.2 * p.shape[0]
     assert r.summary()["normals_turned"] == r.n_turned
-    # what was turned: the normals now agree with the true ones nearly everywhere
-    q = p - p.mean(axis=0)
-    turned, count = turn_outward(q, n)
-    assert count == r.n_turned
+    # what was turned: the vote turns some, so all of `outward_normals`' steps run
+    # (in the working frame), and the normals agree with the true ones nearly everywhere
+    q = frame_of(p).to_local(p)
+    assert 0 < turn_outward(q, n)[1] < p.shape[0]
+    turned = outward_normals(q, n)
+    assert int((np.einsum("ij,ij->i", turned, n) < 0).sum()) == r.n_turned
     assert _flipped(turned, truth) < 0.03
 
 
@@ -202,3 +206,25 @@ def test_the_enclosed_volume_does_not_depend_on_where_the_part_lies():
     assert enclosed_volume(far, -n, areas) < 0.0
     # about the origin the same sample and normals read the other way
     assert float(np.dot(areas, np.einsum("ij,ij->i", far, -n))) / 3.0 > 0.0
+
+
+def test_a_vote_that_turns_some_normals_is_checked_by_outward_normals():
+    # the voxel outside's vote alone turns some of these normals; the input step then
+    # runs all of `outward_normals`' steps, which check that vote by the winding
+    # number, so normals `outward_normals` gave are not turned back by the vote
+    p, truth = _u_channel()
+    q = frame_of(p).to_local(p)
+    n = orient_normals(q, estimate_normals(q, k=20))
+    table = query_knn(q, 30)
+    areas = point_areas(q)
+    voted, count = turn_outward(q, n, table, areas)
+    assert 0 < count < q.shape[0]
+    out, turned = _outward(q, n, table, areas)
+    want = outward_normals(q, n, neighbors=table)
+    np.testing.assert_array_equal(out, want)
+    assert turned == int((np.einsum("ij,ij->i", want, n) < 0).sum())
+    assert not np.array_equal(out, voted)  # the vote alone gives other normals
+    assert _flipped(out, truth) < 0.03
+    # normals already turned by `outward_normals` are kept
+    _, again = _outward(q, want, table, areas)
+    assert again <= 0.01 * q.shape[0]

@@ -56,6 +56,7 @@ class PointSimplification:
         Normals turned to the outside before anything else: where the normals'
         dipole sum says open but their outward sides, asked of a voxel grid, make
         the sample closed (estimated normals whose orientation crossed a thin wall;
+        that vote checked by `outward_normals`' steps, whose turns it replaces;
         docs/decisions/simplify.md, "Normals turned to the outside"), or every
         normal where they close the sample but enclose a negative volume.
     n_off_surface : int
