@@ -16,7 +16,7 @@ from rich.progress import (
     TimeElapsedColumn,
 )
 
-__all__ = ["PIPE_WIDTH", "console", "err_console", "progress_bar", "say", "warn"]
+__all__ = ["PIPE_WIDTH", "console", "counted", "err_console", "progress_bar", "say", "warn"]
 
 # soft_wrap: a printed line is never broken at the terminal width (paths stay whole
 # when the output is piped or the terminal is narrow); tables still fit the width.
@@ -42,6 +42,15 @@ def say(*parts, out: Console | None = None) -> None:
     are and long paths are not broken.
     """
     (out or console).print(*parts, markup=False, highlight=False, soft_wrap=True, emoji=False)
+
+
+def counted(n: int, one: str, many: str) -> str:
+    """``n`` (thousands separated) and the words for one of a thing or for many.
+
+    >>> counted(1, "normal", "normals"), counted(1200, "point lies", "points lie")
+    ('1 normal', '1,200 points lie')
+    """
+    return f"{n:,} {one if n == 1 else many}"
 
 
 def warn(text: str) -> None:

@@ -22,7 +22,7 @@ from ...simplify import SimplifyWarning, simplify_points
 from .._flag_checks import angle_deg_option, vsa_counts, vsa_options
 from .._outputs import check_outputs, write_summary_json
 from .._reports import REPORT_EXTENSIONS
-from ._console import say, warn
+from ._console import counted, say, warn
 from ._inputs import read_with_normals
 from ._mesh_io import read_mesh_input, write_simplified, write_triangles
 from ._simplify_report import (
@@ -328,13 +328,20 @@ def _simplify_point_input(infile, out, o: SimplifyOptions) -> SimplifyResult:
     mesh = result.mesh
     robust = result.path == "robust"
     if result.n_turned:
-        say(f"{result.n_turned:,} normals pointed into the shape: turned to the outside")
+        turned = counted(result.n_turned, "normal", "normals")
+        say(f"{turned} pointed into the shape: turned to the outside")
     if result.n_repeated:
-        say(f"{result.n_repeated:,} points repeat the position of a point before them: used once")
+        repeated = counted(
+            result.n_repeated,
+            "point repeats the position of a point before it",
+            "points repeat the position of a point before them",
+        )
+        say(f"{repeated}: used once")
     if result.n_off_surface:
+        off = counted(result.n_off_surface, "point lies", "points lie")
         warn(
-            f"{result.n_off_surface:,} points lie far off the surface the others sample "
-            "(outliers): left out; the distances are those of the points used"
+            f"{off} far off the surface the others sample (outliers): left out; the "
+            "distances are those of the points used"
         )
     if robust:
         _say_missed_target(mesh, n_faces=None, max_triangles=None, max_error=bound)
