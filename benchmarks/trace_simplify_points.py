@@ -20,6 +20,11 @@ farthest truth sample from the output, and its distance to the nearest input poi
 % of the points' diagonal. Decisions: docs/decisions/simplify.md, "The output's edge
 midpoints, measured back to the points".
 
+With ``--estimate-normals`` it first prints how many of the estimated normals point
+against the true face normals of the same points, as given to `simplify_points` and
+after its input step (`_points_input._outward`, which may turn some): a step that
+undoes another's turns shows there.
+
 With ``--vertices`` it also prints, for the voxel surface and level 0, how many of
 their vertices lie over ``FAR`` % of the diagonal from the truth and how far those are
 from the nearest point in points' spacings (their median nearest-neighbour distance),
@@ -32,12 +37,14 @@ from __future__ import annotations
 
 import argparse
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 from bench_simplify_points import Sampling
 from scipy.spatial import cKDTree
 
+import pointatlas.simplify._points_input as points_input
 import pointatlas.simplify._snap as snap
 from pointatlas.io import read_mesh
 from pointatlas.neighbors import point_mesh_distance
@@ -49,26 +56,43 @@ from pointatlas.synth import sample_mesh
 COLLECTION = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "collection"
 
 
-def level_zero(points, normals) -> tuple[dict, object]:
-    """``simplify_points``' result and the robust path's first two surfaces in its
+def level_zero(points, normals) -> tuple[dict, object, np.ndarray]:
+    """``simplify_points``' result, the robust path's first two surfaces in its
     working frame: ``{"voxel": (v, t), "level 0": (v, t)}`` (empty on the thesis
-    path), caught at `_snap.fit_to_points`."""
-    caught = {}
-    fit = snap.fit_to_points
+    path), caught at `_snap.fit_to_points`, and the normals of the points used after
+    the input step (caught at `_points_input._outward`)."""
+    caught, turned = {}, {}
+    fit, outward = snap.fit_to_points, points_input._outward
 
     def catch(verts, tri, *args, **kwargs):
         out = fit(verts, tri, *args, **kwargs)
         caught["voxel"], caught["level 0"] = (verts.copy(), tri.copy()), (out.copy(), tri.copy())
         return out
 
-    snap.fit_to_points = catch
+    def catch_normals(*args, **kwargs):
+        out, count = outward(*args, **kwargs)
+        turned["normals"] = out.copy()
+        return out, count
+
+    snap.fit_to_points, points_input._outward = catch, catch_normals
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SimplifyWarning)
             result = simplify_points(points, normals)
     finally:
-        snap.fit_to_points = fit
-    return caught, result
+        snap.fit_to_points, points_input._outward = fit, outward
+    return caught, result, turned["normals"]
+
+
+def inward_line(normals, after, truth, used) -> str:
+    """How many of ``normals`` (estimated) point against the true ones ``truth``, and
+    how many of ``after`` (the input step's, for the points ``used``)."""
+    before = int((np.einsum("ij,ij->i", normals, truth) < 0.0).sum())
+    then = int((np.einsum("ij,ij->i", after, truth[used]) < 0.0).sum())
+    return (
+        f"  normals  {before} of {normals.shape[0]} against the true ones as estimated, "
+        f"{then} of {used.size} after the input step"
+    )
 
 
 def farthest(label, mesh, truth, near, diag) -> str:
@@ -117,9 +141,12 @@ def trace(path: Path, sampling: Sampling, vertices: bool = False) -> list[str]:
     truth = (np.asarray(mesh.vertices), tri)
     p, n = sampling.sample(mesh.vertices, tri)
     diag = float(np.linalg.norm(np.ptp(p, axis=0)))
-    caught, result = level_zero(p, n)
+    caught, result, after = level_zero(p, n)
     near = PointSurface(p, n)
     lines = [f"{path.name} ({result.path}, {len(result.mesh.triangles)} triangles)"]
+    if sampling.estimate:  # the same points with their true normals
+        truth_n = replace(sampling, estimate=False).sample(mesh.vertices, tri)[1]
+        lines.append(inward_line(n, after, truth_n, result.point_index))
     if caught:
         frame = frame_of(p[result.point_index])
         for label, (v, t) in caught.items():
