@@ -122,17 +122,19 @@ def prepare_points(points, normals, vsa, vsa_settings, strays=None) -> PreparedP
 
 def _outward(q, normals, neighbors, areas) -> tuple[np.ndarray, int]:
     """``normals`` turned to the outside, and how many were: by the voxel outside's
-    vote (`turn_outward`), or, where that vote turns some of a closed sample's
-    normals but not all, by all of `outward_normals`' steps, which begin with that
-    vote and check it by the winding number (the vote alone undid their turns:
+    vote (`turn_outward`), and where that vote turns some of a closed sample's
+    normals but not all, then by the rest of `outward_normals`' steps, which check it
+    by the winding number (`_signs.winding_turns`; the vote alone undid their turns:
     `prusamini_mini-fsenzor-box`, 20,000 points, normals estimated and turned by
     `outward_normals`, 1,157 of them pointing in, 2,163 after the vote)."""
-    from ._signs import outward_normals
+    from ._signs import winding_turns
 
     turned, count = turn_outward(q, normals, neighbors, areas)
     if count == 0 or count == q.shape[0]:
         return turned, count
-    out = outward_normals(q, normals, neighbors=neighbors)
+    idx = np.ascontiguousarray(neighbors[0][:, :SMOOTH_K], dtype=np.int64)
+    dist = np.asarray(neighbors[1][:, :SMOOTH_K], dtype=np.float64)
+    out = winding_turns(q, turned, idx, dist, areas)
     return out, int((np.einsum("ij,ij->i", out, normals) < 0.0).sum())
 
 

@@ -57,6 +57,7 @@ __all__ = [
     "PROBE_SPACINGS",
     "outward_normals",
     "patch_signals",
+    "winding_turns",
 ]
 
 #: Neighbours (of the point's `SMOOTH_K` nearest) on one patch lie within this many
@@ -131,6 +132,15 @@ def outward_normals(points, normals, *, neighbors=None) -> np.ndarray:
     dist = np.asarray(neighbors[1][:, :SMOOTH_K], dtype=np.float64)
     areas = table_areas(dist, AREA_NEIGHBOR)
     out, _ = turn_outward(pts, nrm, (idx, dist), areas)
+    return winding_turns(pts, out, idx, dist, areas)
+
+
+def winding_turns(pts, out, idx, dist, areas) -> np.ndarray:
+    """`outward_normals`' steps after the voxel outside's vote: normals ``out`` of
+    the points ``pts`` (their `_sides.SMOOTH_K`-column k-NN table ``idx``, ``dist``,
+    disc ``areas``) with the sheets and patches the winding number finds turned
+    inward turned out; unchanged on an open sample."""
+    n = pts.shape[0]
     if dipole_share(pts, out, areas) > CLOSED_DIPOLE:
         return out  # open: both sides outside
     if n <= MAX_POINTS:
