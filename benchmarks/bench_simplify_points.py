@@ -7,7 +7,9 @@ Run from the repository root::
         --out bench-output/simplify_points.csv
     # raw points: normals estimated (`surface_normals`: PCA k = 20, the least-entropy
     # size in 10..30 where not flat), oriented, made sharp beside edges
-    # (`sharpen_normals`) and turned outward (`outward_normals`), as the CLI does
+    # (`sharpen_normals`) and turned outward (`outward_normals`), as the CLI does,
+    # and again at k = 30 and 40 where the output misses the points
+    # (`simplify_estimated`: the nearest kept; the peer given the kept normals)
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --estimate-normals
     # a scanner's noise: Gaussian, sigma 0.1 % of the diagonal (seeded)
     .venv/bin/python benchmarks/bench_simplify_points.py --every 6 --noise 0.1
@@ -45,6 +47,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import multiprocessing
 import sys
 import time
@@ -65,6 +68,7 @@ from pointatlas.simplify import (
     mesh_checks,
     outward_normals,
     sharpen_normals,
+    simplify_estimated,
     simplify_points,
     surface_normals,
 )
@@ -87,6 +91,10 @@ VIEW_COS = 0.1
 #: ``--outliers``: the moved points go off along every axis by a Gaussian of this
 #: sigma, in % of the diagonal (their normals kept, or estimated with the others)
 OUTLIER_SIGMA = 10.0
+#: ``--estimate-normals``: the first estimate's neighbourhood size (the CLI's
+#: ``--normal-k``); `simplify_estimated` estimates again at its `RETRY_K` sizes where
+#: the output misses the points
+ESTIMATE_K = 20
 
 
 @dataclass(frozen=True)
@@ -152,9 +160,14 @@ class Sampling:
             p = p.copy()
             p[moved] += rng.normal(0.0, sigma, (int(moved.sum()), 3))
         if self.estimate:
-            n = sharpen_normals(p, orient_normals(p, surface_normals(p, k=20)))
-            n = outward_normals(p, n)
+            n = self.estimate_normals(p, ESTIMATE_K)
         return p, n
+
+    @staticmethod
+    def estimate_normals(p, k: int):
+        """The points' normals as the CLI estimates them at neighbourhoods of ``k``."""
+        n = sharpen_normals(p, orient_normals(p, surface_normals(p, k=k)))
+        return outward_normals(p, n)
 
 
 KINDS = kinds()
@@ -300,7 +313,12 @@ def run_model(path: Path, sampling: Sampling, peer: bool = True) -> dict:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SimplifyWarning)
-            r = simplify_points(p, n)
+            if sampling.estimate:  # estimated again where the output misses the points
+                estimate = functools.partial(Sampling.estimate_normals, p)
+                kept = simplify_estimated(p, estimate, normal_k=ESTIMATE_K, normals=n)
+                r, n, normal_k = kept.result, kept.normals, kept.k
+            else:
+                r, normal_k = simplify_points(p, n), ""
     except Exception as exc:  # noqa: BLE001 - a crash is a result here
         row.update(seconds=time.perf_counter() - t0, path="error", reason=repr(exc))
         return row
@@ -312,6 +330,7 @@ def run_model(path: Path, sampling: Sampling, peer: bool = True) -> dict:
     row.update(
         path=r.path,
         reason=r.reason,
+        normal_k=normal_k,
         faces=m.n_faces,
         polygons=len(m.polygons),
         vertices=m.n_vertices,
@@ -490,6 +509,7 @@ def main(argv=None) -> int:
         "flat_faces_bent",
         "max_flat_planarity_pct",
         "reason",
+        "normal_k",
     ]
     with open(args.out, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)

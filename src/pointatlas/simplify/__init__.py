@@ -1,6 +1,7 @@
 """Simplified polygon meshes from segmented point sets (thesis 4.4)."""
 
 from ._decimate_mesh import decimate_mesh
+from ._estimated import RETRY_FACTOR, RETRY_K, EstimatedSimplification, simplify_estimated
 from ._mesh import SimplifiedMesh, mesh_checks, point_mesh_distance
 from ._mesh_path import simplify_mesh, surface_diagonal
 from ._normals import NORMAL_K_RANGE, surface_normals
@@ -14,6 +15,9 @@ from ._vertices import MeshVertices, SimplifyWarning
 
 __all__ = [
     "NORMAL_K_RANGE",
+    "RETRY_FACTOR",
+    "RETRY_K",
+    "EstimatedSimplification",
     "MeshVertices",
     "PointSimplification",
     "RegionProxies",
@@ -26,6 +30,7 @@ __all__ = [
     "point_mesh_distance",
     "region_proxies",
     "sharpen_normals",
+    "simplify_estimated",
     "simplify_mesh",
     "simplify_points",
     "simplify_segmentation",

@@ -12,7 +12,14 @@ from .._flag_checks import normal_k_check
 from ._console import err_console, progress_bar, say
 from ._normals import compute_normals
 
-__all__ = ["fill_unusable_normals", "read_input", "read_keeping_normals", "read_with_normals"]
+__all__ = [
+    "estimated_normals",
+    "fill_unusable_normals",
+    "read_estimating_normals",
+    "read_input",
+    "read_keeping_normals",
+    "read_with_normals",
+]
 
 
 #: The text files whose column layout was printed (a command may read IN twice).
@@ -107,7 +114,31 @@ def read_with_normals(
     check=None,
     surface: bool = False,
 ):
-    """Read IN and make sure it has normals; returns the PointSet.
+    """Read IN and make sure it has normals; returns the PointSet
+    (`read_estimating_normals`' first output)."""
+    return read_estimating_normals(
+        path,
+        estimate=estimate,
+        normal_k=normal_k,
+        min_points=min_points,
+        what=what,
+        check=check,
+        surface=surface,
+    )[0]
+
+
+def read_estimating_normals(
+    path,
+    *,
+    estimate: bool | None = None,
+    normal_k: int = 20,
+    min_points: int = 1,
+    what: str = "",
+    check=None,
+    surface: bool = False,
+):
+    """Read IN and make sure it has normals; returns ``(point set, estimated)``:
+    whether its normals were estimated here.
 
     ``estimate`` None (default of the commands): the input's normals are used; an
     input without normals gets PCA normals (``normal_k`` neighbours, MST
@@ -144,7 +175,7 @@ def read_with_normals(
             ps = fill_unusable_normals(path, ps, normal_k)
         if ps.normals is not None:
             _check_min_points(path, ps, min_points, what, check)
-            return ps
+            return ps, False
         if estimate is False:
             raise PointAtlasError(
                 f"{path}: the input has no normals; drop --no-estimate-normals to estimate them"
@@ -159,9 +190,16 @@ def read_with_normals(
         + ("" if estimate else " (the input has none)"),
         out=err_console,
     )
-    with progress_bar("normals", total=2) as advance:
-        normals = compute_normals(
-            ps.points,
+    return ps.replace(normals=estimated_normals(ps.points, normal_k, surface=surface)), True
+
+
+def estimated_normals(points, normal_k: int, *, surface: bool = False, label: str = "normals"):
+    """The commands' estimate of the normals of ``points`` (`compute_normals`: PCA at
+    ``normal_k``, MST orientation; ``surface``: the points path's), with a progress
+    bar named ``label``."""
+    with progress_bar(label, total=2) as advance:
+        return compute_normals(
+            points,
             k=normal_k,
             orient="mst",
             orient_k=10,
@@ -169,7 +207,6 @@ def read_with_normals(
             advance=advance,
             surface=surface,
         )
-    return ps.replace(normals=normals)
 
 
 def read_keeping_normals(path):

@@ -18,12 +18,12 @@ from pathlib import Path
 import numpy as np
 
 from ..._core import PointAtlasError, as_float, as_int
-from ...simplify import SimplifyWarning, simplify_points
+from ...simplify import RETRY_FACTOR, SimplifyWarning, simplify_estimated, simplify_points
 from .._flag_checks import angle_deg_option, vsa_counts, vsa_options
 from .._outputs import check_outputs, write_summary_json
 from .._reports import REPORT_EXTENSIONS
 from ._console import counted, say, warn
-from ._inputs import read_with_normals
+from ._inputs import estimated_normals, read_estimating_normals
 from ._mesh_io import read_mesh_input, write_simplified, write_triangles
 from ._simplify_report import (
     distance_shares,
@@ -301,7 +301,7 @@ def _simplify_point_input(infile, out, o: SimplifyOptions) -> SimplifyResult:
     """The points path: read with normals, `simplify_points` (the input's ``label``
     field as the segmentation with ``use_labels``), write the outputs."""
     settings = _point_settings(o)
-    ps = read_with_normals(
+    ps, estimated = read_estimating_normals(
         infile,
         estimate=o.estimate_normals,
         normal_k=o.normal_k,
@@ -316,15 +316,20 @@ def _simplify_point_input(infile, out, o: SimplifyOptions) -> SimplifyResult:
         say("segmentation: the input's 'label' field (--no-labels runs VSA instead)")
     diagonal = float(np.linalg.norm(np.ptp(ps.points, axis=0)))
     bound = _length_option(o.max_error, "--max-error", diagonal)
-    result = simplify_quietly(
-        ps.points,
-        normals,
-        labels=given,
-        rng=o.seed,
-        max_error=bound,
-        max_triangles=o.max_triangles,
+    options = {
+        "labels": given,
+        "rng": o.seed,
+        "max_error": bound,
+        "max_triangles": o.max_triangles,
         **settings,
-    )
+    }
+    estimates = None  # with estimated normals: each estimate's k and distance, the kept's
+    if estimated:  # estimated again where the output misses the points
+        result, normals, estimates = _estimated_run(
+            ps.points, normals, o.normal_k, diagonal, options
+        )
+    else:
+        result = simplify_quietly(ps.points, normals, **options)
     mesh = result.mesh
     robust = result.path == "robust"
     if result.n_turned:
@@ -357,11 +362,49 @@ def _simplify_point_input(infile, out, o: SimplifyOptions) -> SimplifyResult:
     if o.report is not None:
         info = {"input": str(infile), "seed": o.seed, **result.summary()}
         info.update(distance_shares(info, diagonal))
+        if estimates is not None:
+            info["normals_estimated"] = estimates
         if not robust:
             info["complex"] = mesh.surface_complex.summary()
         written.append(_write_report(o.report, infile, info, written, _points_layers, used, result))
     how = f"robust ({result.reason})" if robust else None
     return SimplifyResult(mesh, result.segmentation, ps.name, how, written, diagonal)
+
+
+def _estimated_run(points, normals, normal_k: int, diagonal: float, options: dict):
+    """`simplify_estimated` on normals estimated at ``normal_k`` (``normals``), with a
+    line when the output misses the points and the normals are estimated again, and
+    one with what was kept. Returns the kept result, its normals and the report's
+    ``normals_estimated`` (the kept k, and each estimate's k and two-sided distance)."""
+
+    def estimate(k):
+        return estimated_normals(points, k, surface=True, label=f"normals, k = {k}")
+
+    def pct(distance: float) -> str:
+        return f"{100.0 * distance / diagonal:.2f} %" if diagonal > 0 else f"{distance:.4g}"
+
+    def retrying(distance: float, sizes: tuple) -> None:
+        say(
+            f"the output lies {pct(distance)} of the diagonal from the points, over "
+            f"{RETRY_FACTOR:g} times the bound: normals estimated again at k = "
+            + ", ".join(str(k) for k in sizes)
+            + " (the output nearest to the points kept)"
+        )
+
+    kept = simplify_quietly(
+        points,
+        estimate,
+        function=simplify_estimated,
+        normal_k=normal_k,
+        normals=normals,
+        on_retry=retrying,
+        **options,
+    )
+    if len(kept.tried) > 1:
+        runs = ", ".join(f"k = {k}: {pct(d)}" for k, d in kept.tried)
+        say(f"kept the normals of k = {kept.k} ({runs})")
+    tried = [{"k": k, "hausdorff": d} for k, d in kept.tried]
+    return kept.result, kept.normals, {"k": kept.k, "tried": tried}
 
 
 def _point_settings(o: SimplifyOptions) -> dict:

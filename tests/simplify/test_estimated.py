@@ -1,0 +1,92 @@
+"""`simplify_estimated`: estimated normals estimated again where the output misses the
+points, the output nearest to them kept."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pointatlas.simplify import RETRY_K, simplify_estimated
+from pointatlas.simplify._estimated import retry_over, two_sided
+from pointatlas.synth import sample_mesh
+
+from .cad_shapes import extrude
+
+
+@pytest.fixture(scope="module")
+def box():
+    """3,000 points of a 2 x 1 x 1 box with their true normals, and the same normals
+    but those of half the top face lying in it (pointing along x): a surface that
+    misses the points there."""
+    v, t = extrude(np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]]), height=1.0)
+    s = sample_mesh(v, t, 3000, rng=0)
+    p, n = np.asarray(s.points), np.asarray(s.normals)
+    bad = n.copy()
+    bad[(n[:, 2] > 0.9) & (p[:, 0] > 1.0)] = [1.0, 0.0, 0.0]
+    return p, n, bad
+
+
+def _diag(p) -> float:
+    return float(np.linalg.norm(np.ptp(p, axis=0)))
+
+
+def test_a_far_output_is_estimated_again_and_the_nearest_kept(box):
+    p, n, bad = box
+    bound = 0.015 * _diag(p)  # the retry past twice this: 3 % of the diagonal
+    asked, said = [], []
+
+    def estimate(k):
+        asked.append(k)
+        return n
+
+    out = simplify_estimated(
+        p,
+        estimate,
+        normals=bad,
+        on_retry=lambda d, sizes: said.append((d, sizes)),
+        path="robust",
+        max_error=bound,
+    )
+    first = out.tried[0]
+    assert first[0] == 20 and first[1] > 2.0 * bound  # the first output missed the points
+    assert asked == list(RETRY_K) and said == [(first[1], RETRY_K)]
+    # both later estimates are the true normals: equally near, the first of them kept
+    assert out.tried[1][1] == out.tried[2][1] < first[1]
+    assert out.k == RETRY_K[0] and np.array_equal(out.normals, n)
+    assert two_sided(out.result) == min(d for _, d in out.tried) <= 2.0 * bound
+    assert not out.normals.flags.writeable
+
+
+def test_a_near_output_is_kept_without_a_second_estimate(box):
+    p, n, _ = box
+    bound = 0.015 * _diag(p)
+    out = simplify_estimated(p, lambda k: n, path="robust", max_error=bound)
+    assert out.k == 20 and len(out.tried) == 1 and out.tried[0][1] <= 2.0 * bound
+    # the bound of the retry: twice the one asked, at least twice the default one
+    assert retry_over(out.result, p, bound) == pytest.approx(2.0 * bound)
+    assert retry_over(out.result, p, None) == pytest.approx(0.01 * _diag(p))
+    assert retry_over(out.result, p, 1e-9) == pytest.approx(0.01 * _diag(p))
+
+
+def test_a_triangle_budget_is_not_estimated_again(box):
+    p, n, bad = box
+    asked = []
+    out = simplify_estimated(
+        p, lambda k: asked.append(k) or n, normals=bad, path="robust", max_triangles=200
+    )
+    assert asked == [] and len(out.tried) == 1
+    assert out.tried[0][1] > 0.01 * _diag(p)  # far, but the budget sets the distance
+
+
+def test_a_first_estimate_at_one_of_the_sizes_is_not_estimated_again_there(box):
+    """At the default bound (0.5 % of the diagonal) the box's 3,000 points, true
+    normals and all, come out past twice it (corners a spacing wide): a first
+    estimate at k = 30 is estimated again at 40 only."""
+    p, n, _ = box
+    asked = []
+    out = simplify_estimated(
+        p, lambda k: asked.append(k) or n, normal_k=30, normals=n, path="robust"
+    )
+    assert out.tried[0][1] > 0.01 * _diag(p)
+    assert asked == [40] and [k for k, _ in out.tried] == [30, 40]
+    assert out.k == 30  # the same normals again: the same output, the first kept
