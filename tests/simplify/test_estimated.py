@@ -108,3 +108,19 @@ def test_points_with_strays_left_out_are_not_estimated_again(box):
     )
     assert out.result.n_off_surface > 0 and out.tried[0][1] > 0.01 * _diag(p)
     assert asked == [] and len(out.tried) == 1
+
+
+def test_an_open_output_is_not_estimated_again():
+    """A sheet (an open sample) whose normals lean 60 degrees on half of it: its
+    output is far from the points but open, where the outline sets the distance as
+    much as the normals, and is kept as it is."""
+    rng = np.random.default_rng(1)
+    p = np.column_stack([rng.random(4000) * 2.0, rng.random(4000), np.zeros(4000)])
+    n = np.tile([0.0, 0.0, 1.0], (4000, 1))
+    tilt = np.radians(60.0)
+    bad = n.copy()
+    bad[p[:, 0] > 1.0] = [np.sin(tilt), 0.0, np.cos(tilt)]
+    asked = []
+    out = simplify_estimated(p, lambda k: asked.append(k) or n, normals=bad)
+    assert not out.result.mesh.is_closed and out.tried[0][1] > 0.01 * _diag(p)
+    assert asked == [] and len(out.tried) == 1

@@ -238,8 +238,8 @@ def simplify_command(
     (the points' surface from their normals on a voxel grid, then the mesh path;
     ``--path``); the table and the report say which and why. A point set without
     normals (or with ``--estimate-normals``) gets them estimated at --normal-k, and
-    again at k = 30 and 40 where the output lies farther than twice the bound from the
-    points (the output nearest to them kept). A point set with a
+    again at k = 30 and 40 where the output, closed, lies farther than twice the bound
+    from the points (the output nearest to them kept). A point set with a
     ``label`` field (written by ``pointatlas segment``) is meshed with those regions.
     With ``--report`` the JSON report is written last and names every file of the
     run with its SHA-256.
