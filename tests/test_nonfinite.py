@@ -216,6 +216,9 @@ def _calls(tmp_path):
         "region_proxies": lambda a: simplify.region_proxies(a["points"], a["normals"], lab),
         "simplify_mesh": lambda a: simplify.simplify_mesh(a["vertices"], a["faces"]),
         "simplify_points": lambda a: simplify.simplify_points(a["points"], a["normals"], rng=0),
+        "simplify_estimated": lambda a: simplify.simplify_estimated(
+            a["points"], lambda k: a["normals"], rng=0
+        ),
         "simplify_segmentation": lambda a: simplify.simplify_segmentation(
             a["points"], a["normals"], lab
         ),
