@@ -104,27 +104,10 @@ def fill_unusable_normals(path, kept, normal_k: int):
     return full.replace(normals=normals)
 
 
-def read_with_normals(
-    path,
-    *,
-    estimate: bool | None = None,
-    normal_k: int = 20,
-    min_points: int = 1,
-    what: str = "",
-    check=None,
-    surface: bool = False,
-):
+def read_with_normals(path, **options):
     """Read IN and make sure it has normals; returns the PointSet
-    (`read_estimating_normals`' first output)."""
-    return read_estimating_normals(
-        path,
-        estimate=estimate,
-        normal_k=normal_k,
-        min_points=min_points,
-        what=what,
-        check=check,
-        surface=surface,
-    )[0]
+    (`read_estimating_normals`' first output; ``options`` its keywords)."""
+    return read_estimating_normals(path, **options)[0]
 
 
 def read_estimating_normals(
