@@ -94,7 +94,7 @@ def simplify_estimated(
     `simplify_points` runs on the normals estimated at ``normal_k``; where its output
     lies farther from the points than `RETRY_FACTOR` times the bound (both ways, as
     reported), the normals are estimated again at each size of `RETRY_K` and the
-    output nearest to the points is kept. Estimated normals go wrong beside edges and
+    closed output nearest to the points is kept. Estimated normals go wrong beside edges and
     thin walls, in ways that change with the neighbourhood's size; the points say
     which surface fits them. Not with a triangle budget (``max_triangles``: the
     budget, not the normals, sets the distance), nor where points were left out far
@@ -150,7 +150,10 @@ def simplify_estimated(
             n = np.asarray(estimate(k), dtype=np.float64)
             runs.append((k, n, *_run(points, n, kwargs)))
             tried.append((k, two_sided(runs[-1][2])))
-    best = min(range(len(runs)), key=lambda i: (tried[i][1], i))
+    # the nearest of the first and the later closed outputs (the first is closed where
+    # they ran: another estimate may open the surface)
+    kept = [0] + [i for i in range(1, len(runs)) if runs[i][2].mesh.is_closed]
+    best = min(kept, key=lambda i: (tried[i][1], i))
     k, n, result, caught = runs[best]
     for w in caught:  # the kept run's warnings only
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
