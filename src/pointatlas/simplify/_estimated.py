@@ -94,9 +94,9 @@ def simplify_estimated(
     `simplify_points` runs on the normals estimated at ``normal_k``; where its output
     lies farther from the points than `RETRY_FACTOR` times the bound (both ways, as
     reported), the normals are estimated again at each size of `RETRY_K` and the
-    closed output nearest to the points is kept. Estimated normals go wrong beside edges and
-    thin walls, in ways that change with the neighbourhood's size; the points say
-    which surface fits them. Not with a triangle budget (``max_triangles``: the
+    closed output nearest to the points is kept. Estimated normals go wrong beside
+    edges and thin walls, in ways that change with the neighbourhood's size; the
+    points say which surface fits them. Not with a triangle budget (``max_triangles``: the
     budget, not the normals, sets the distance), nor where points were left out far
     off the surface (``n_off_surface``: the strays nearer than those set it), nor
     where the first output is open (a scan of one side: its outline and gaps set it).
