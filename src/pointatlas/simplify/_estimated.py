@@ -63,8 +63,7 @@ class EstimatedSimplification:
 def two_sided(result: PointSimplification) -> float:
     """The output's two-sided distance to the points, as reported (input units):
     the larger of the points' distance to it and its samples' to the points."""
-    mesh = result.mesh
-    return float(max(mesh.distance_max, mesh.back_distance_max))
+    return float(result.mesh.hausdorff)
 
 
 def retry_over(result: PointSimplification, points, max_error: float | None) -> float:

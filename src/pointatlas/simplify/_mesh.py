@@ -342,6 +342,12 @@ class SimplifiedMesh:
         """Number of holes of every face, shape (F,)."""
         return np.array([len(lp) - 1 for lp in self.face_loops], dtype=np.int64)
 
+    @property
+    def hausdorff(self) -> float:
+        """The two-sided Hausdorff distance: the larger of ``distance_max`` (the input
+        to the output) and ``back_distance_max`` (the output back to the input)."""
+        return max(self.distance_max, self.back_distance_max)
+
     def summary(self) -> dict:
         """A JSON-friendly report of the mesh and its quality."""
         return {
@@ -367,7 +373,7 @@ class SimplifiedMesh:
             "distance_max": self.distance_max,
             "back_distance_mean": self.back_distance_mean,
             "back_distance_max": self.back_distance_max,
-            "hausdorff": max(self.distance_max, self.back_distance_max),
+            "hausdorff": self.hausdorff,
             "regions_without_face": [int(x) for x in self.regions_without_face],
             "anchor_weight": None if np.isnan(self.anchor_weight) else self.anchor_weight,
             "n_input_regions": int(self.region_map.shape[0]),

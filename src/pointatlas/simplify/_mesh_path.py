@@ -387,12 +387,12 @@ def _search_error(run, bound: float, tol: float) -> SurfaceSimplification:
     (every input vertex to the output, and the output's samples to the input)."""
     lo, hi = np.log(np.radians(0.01)), np.log(np.radians(60.0))
     best = run(float(np.exp(lo)), None, tol)
-    if max(best.distance_max, best.back_distance_max) > bound:
+    if best.hausdorff > bound:
         return best  # even the finest segmentation misses the bound: report it
     for _ in range(12):
         mid = 0.5 * (lo + hi)
         res = run(float(np.exp(mid)), None, tol)
-        if max(res.distance_max, res.back_distance_max) <= bound:
+        if res.hausdorff <= bound:
             best, lo = res, mid
         else:
             hi = mid

@@ -462,7 +462,7 @@ def _thesis_flaw(mesh: SimplifiedMesh, far: bool = True) -> str:
     area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
     if (area <= 1e-12 * diag**2).any():
         return f"thesis path: {int((area <= 1e-12 * diag**2).sum())} degenerate triangles"
-    off = max(mesh.distance_max, mesh.back_distance_max)
+    off = mesh.hausdorff
     if far and off > THESIS_HAUSDORFF * diag:
         return (
             f"thesis path: the mesh is {100 * off / diag:.2g} % of the diagonal from the "

@@ -160,6 +160,12 @@ class SurfaceSimplification:
         """Number of holes of every face, shape (F,)."""
         return np.array([max(len(lp) - 1, 0) for lp in self.face_loops], dtype=np.int64)
 
+    @property
+    def hausdorff(self) -> float:
+        """The two-sided Hausdorff distance: the larger of ``distance_max`` (the input
+        to the output) and ``back_distance_max`` (the output back to the input)."""
+        return max(self.distance_max, self.back_distance_max)
+
     def summary(self) -> dict:
         """A JSON-friendly report of the mesh and its quality."""
         return {
@@ -188,7 +194,7 @@ class SurfaceSimplification:
             "distance_max": self.distance_max,
             "back_distance_mean": self.back_distance_mean,
             "back_distance_max": self.back_distance_max,
-            "hausdorff": max(self.distance_max, self.back_distance_max),
+            "hausdorff": self.hausdorff,
             "n_regions": self.n_faces,
         }
 

@@ -234,7 +234,7 @@ def _say_missed_target(res, *, n_faces, max_triangles, max_error) -> None:
             f"--max-triangles {max_triangles}: the coarsest level has {len(res.triangles)}"
         )
     if max_error is not None:
-        reached = max(res.distance_max, res.back_distance_max)
+        reached = res.hausdorff
         if reached > max_error:
             missed.append(f"--max-error {max_error:.4g}: the finest level is {reached:.4g} away")
     for line in missed:
