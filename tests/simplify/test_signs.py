@@ -11,7 +11,7 @@ import pytest
 
 from pointatlas.neighbors import query_knn
 from pointatlas.simplify import _signs, outward_normals
-from pointatlas.simplify._signs import _patches, patch_signals
+from pointatlas.simplify._signs import PATCH_SPACINGS, _patches, patch_signals
 from pointatlas.simplify._winding import point_areas
 from pointatlas.synth import sample_mesh
 
@@ -54,7 +54,7 @@ def test_patch_signals_match_the_plain_numpy_winding_number():
     n = u.copy()
     n[u[:, 2] > 0.9] *= -1.0  # a cap turned in
     idx = np.asarray(query_knn(u, 10)[0])
-    lab = _patches(u, n, idx, 0.02)
+    lab = _patches(u, n, idx, 0.02 / PATCH_SPACINGS)  # within 0.02 of the planes
     members = np.flatnonzero(np.isin(lab, np.unique(lab)[:40]))
     ref = patch_signals_reference(u, n, lab, members, 0.01)
     # one cell holding every point: every term exact

@@ -23,7 +23,10 @@ always read as consistent with themselves). It is turned where the rest says its
 front is inside. Last, sheets of tens of points or more are turned by the winding
 number of all the points near them (`_sheets.near_sheet_flips`): a pocket turned
 inward as a whole, walls and floor, agrees with itself across its edges, so no
-patch of it disagrees. Only a closed sample has an inside: open ones keep their
+patch of it disagrees. Then the patches are asked once more, by the parity of ray
+crossings (`_parity`, `parity_turns`): a patch whose neighbours are wrong too (a
+wall's side turned with the wall) reads them through the winding number, but the
+crossings need no signs. Only a closed sample has an inside: open ones keep their
 normals.
 Decisions: docs/decisions/simplify.md, "Normals for raw points".
 """
@@ -36,6 +39,7 @@ from scipy.spatial import cKDTree
 
 from .._core import as_normals, as_points
 from ..neighbors import query_knn
+from ._parity import parity_votes
 from ._reconstruct import CLOSED_DIPOLE
 from ._sheets import far_sheet_flips, near_sheet_flips
 from ._sides import (
@@ -53,9 +57,15 @@ __all__ = [
     "FLIP_MARGIN",
     "MAX_PATCH_SHARE",
     "PATCH_COS",
+    "PARITY_CLEAR",
+    "PARITY_MARGIN",
+    "PARITY_MIN_PATCH",
+    "PARITY_SPREAD",
+    "PARITY_VETO",
     "PATCH_SPACINGS",
     "PROBE_SPACINGS",
     "outward_normals",
+    "parity_turns",
     "patch_signals",
     "winding_turns",
 ]
@@ -77,14 +87,26 @@ FLIP_MARGIN = 0.02
 MAX_PATCH_SHARE = 0.25
 #: Winding-number cells, in point spacings.
 CELL_SPACINGS = 4.0
+#: A patch of at least `PARITY_MIN_PATCH` points is turned where its points' mean
+#: crossing parity vote (`_parity.parity_votes`, in [-1, 1]) is below minus this
+#: margin, and below minus `PARITY_SPREAD` over the square root of its size (a
+#: point's vote spreads by about 0.5-0.7: small patches need a clearer mean).
+PARITY_MARGIN = 0.2
+PARITY_SPREAD = 1.0
+PARITY_MIN_PATCH = 10
+#: ... unless its mean is above minus `PARITY_CLEAR` and the winding number of the
+#: other points says its front is outside (`patch_signals` above this).
+PARITY_CLEAR = 0.5
+PARITY_VETO = 0.1
 
 
 def outward_normals(points, normals, *, neighbors=None) -> np.ndarray:
     """Oriented normals of a closed point set turned outward: whole sheets turned
     inward by the voxel outside (`_sides.turn_outward`), then by the winding number
     far from the points (`_sheets.far_sheet_flips`), then the patches still turned
-    inward by the winding number of the other points (see the module's notes). An
-    open sample keeps its normals (no inside).
+    inward by the winding number of the other points, then those the parity of ray
+    crossings finds inward (`parity_turns`; see the module's notes). An open sample
+    keeps its normals (no inside).
 
     Parameters
     ----------
@@ -132,7 +154,43 @@ def outward_normals(points, normals, *, neighbors=None) -> np.ndarray:
     dist = np.asarray(neighbors[1][:, :SMOOTH_K], dtype=np.float64)
     areas = table_areas(dist, AREA_NEIGHBOR)
     out, _ = turn_outward(pts, nrm, (idx, dist), areas)
-    return winding_turns(pts, out, idx, dist, areas)
+    out = winding_turns(pts, out, idx, dist, areas)
+    if dipole_share(pts, out, areas) > CLOSED_DIPOLE:
+        return out  # open: no inside to cross into
+    return parity_turns(pts, out, idx, dist)
+
+
+def parity_turns(pts, out, idx, dist) -> np.ndarray:
+    """The normals ``out`` of a closed sample ``pts`` (its `_sides.SMOOTH_K`-column
+    k-NN table ``idx``, ``dist``) with the patches the rays' crossings say face
+    inward turned: those of `PARITY_MIN_PATCH` points or more (and at most
+    `MAX_PATCH_SHARE` of them) whose mean `_parity.parity_votes` is below
+    -`PARITY_MARGIN` and -`PARITY_SPREAD` / sqrt(size), unless the other points'
+    winding number says their front is outside (`patch_signals` above
+    `PARITY_VETO`) and the crossings are not clear (the mean above -`PARITY_CLEAR`).
+    The crossings need the normals' directions only: a patch is judged with no help
+    from its neighbours' signs, which the winding number leans on; but a part whose
+    shells overlap (two bodies of one STL) has a point inside the other body vote
+    inward, where the winding number (2 there) still reads the side. Above
+    `_winding.MAX_POINTS` points the clear patches alone are turned."""
+    spacing = table_spacing(dist)
+    if spacing == 0.0:
+        return out
+    lab = _patches(pts, out, idx, spacing)
+    size = np.bincount(lab)
+    mean = np.bincount(lab, weights=parity_votes(pts, out, spacing)) / size
+    margin = np.maximum(PARITY_MARGIN, PARITY_SPREAD / np.sqrt(size))
+    asked = (mean < -margin) & (size >= PARITY_MIN_PATCH)
+    asked &= size <= MAX_PATCH_SHARE * pts.shape[0]
+    unclear = np.flatnonzero(asked & (mean >= -PARITY_CLEAR))
+    if unclear.size and pts.shape[0] > MAX_POINTS:
+        asked[unclear] = False
+    elif unclear.size:
+        members = np.flatnonzero(np.isin(lab, unclear))
+        probe, cell = PROBE_SPACINGS * spacing, CELL_SPACINGS * spacing
+        signal = patch_signals(pts, out, lab, members, probe, cell)
+        asked[unclear[signal[unclear] > PARITY_VETO]] = False
+    return np.where(asked[lab][:, None], -out, out)
 
 
 def winding_turns(pts, out, idx, dist, areas) -> np.ndarray:
@@ -168,9 +226,13 @@ def _turned(q, n, idx, dist, areas) -> np.ndarray:
     return flip ^ near_sheet_flips(q, np.where(flip[:, None], -n, n), idx, dist, areas)
 
 
-def _patches(q, n, idx, tol):
-    """Each point's patch label: components of the neighbour pairs within ``tol`` of
-    both tangent planes whose normals agree (`PATCH_COS`)."""
+def _patches(q, n, idx, spacing: float):
+    """Each point's patch label: components of the neighbour pairs within a
+    tolerance of both tangent planes whose normals agree (`PATCH_COS`); the
+    tolerance `PATCH_SPACINGS` point ``spacing``s, or three times the neighbours'
+    median offset from their tangent planes on noisy points."""
+    offsets = np.abs(np.einsum("ijk,ik->ij", q[idx[:, 1:]] - q[:, None, :], n))
+    tol = max(PATCH_SPACINGS * spacing, 3.0 * float(np.median(offsets)))
     rows, cols = neighbour_pairs(idx)
     e = q[cols] - q[rows]
     on = (np.abs(np.einsum("ij,ij->i", n[rows], e)) <= tol) & (
@@ -203,9 +265,7 @@ def _inward_patches(q, n, idx, dist) -> np.ndarray:
     flip = np.zeros(q.shape[0], dtype=bool)
     if spacing == 0.0:
         return flip
-    offsets = np.abs(np.einsum("ijk,ik->ij", q[idx[:, 1:]] - q[:, None, :], n))
-    tol = max(PATCH_SPACINGS * spacing, 3.0 * float(np.median(offsets)))
-    lab = _patches(q, n, idx, tol)
+    lab = _patches(q, n, idx, spacing)
     size = np.bincount(lab)
     asked = np.flatnonzero(_disagreeing(q, n, idx, lab) & (size <= MAX_PATCH_SHARE * q.shape[0]))
     if asked.size == 0:
