@@ -22,6 +22,7 @@ from pointatlas.simplify._signs import parity_turns
 from pointatlas.synth import sample_mesh
 
 from .cad_shapes import box, extrude
+from .test_signs import _inward, _plate
 
 
 def _crossings(t: np.ndarray, merge: float) -> int:
@@ -61,13 +62,6 @@ def _sphere(n: int = 3000):
     return u / np.linalg.norm(u, axis=1)[:, None]
 
 
-def _plate():
-    """A 1 x 1 plate 0.015 thick, 4,000 points: its sides about 1.4 spacings apart."""
-    v, t = extrude([(0, 0), (1, 0), (1, 1), (0, 1)], height=0.015)
-    s = sample_mesh(v, t, 4000, rng=0)
-    return np.asarray(s.points), np.asarray(s.normals)
-
-
 def test_votes_match_the_plain_numpy_cast():
     v, t = box()
     s = sample_mesh(v, t, 1200, rng=0)
@@ -96,10 +90,6 @@ def test_a_thin_plate_votes_out():
     votes = parity_votes(p, truth, _spacing(p))
     assert (votes > 0).mean() > 0.95
     assert votes.mean() > 0.9
-
-
-def _inward(normals, truth) -> int:
-    return int((np.einsum("ij,ij->i", normals, truth) < 0.0).sum())
 
 
 def _table(p):
