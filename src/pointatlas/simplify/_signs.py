@@ -172,7 +172,19 @@ def parity_turns(pts, out, idx, dist) -> np.ndarray:
     from its neighbours' signs, which the winding number leans on; but a part whose
     shells overlap (two bodies of one STL) has a point inside the other body vote
     inward, where the winding number (2 there) still reads the side. Above
-    `_winding.MAX_POINTS` points the clear patches alone are turned."""
+    `_winding.MAX_POINTS` points it decides on an even stride of them, as
+    `winding_turns` does (each point as its nearest there, where they face alike)."""
+    n = pts.shape[0]
+    if n > MAX_POINTS:  # on an even stride of the points; each point as its nearest there
+        stride = -(-n // MAX_POINTS)
+        sub = np.ascontiguousarray(pts[::stride])
+        sub_idx, sub_dist = query_knn(sub, SMOOTH_K)
+        sub_idx, sub_dist = np.asarray(sub_idx, dtype=np.int64), np.asarray(sub_dist)
+        sub_out = out[::stride]
+        sub_flip = np.einsum("ij,ij->i", parity_turns(sub, sub_out, sub_idx, sub_dist), sub_out)
+        j = cKDTree(sub).query(pts, 1, workers=-1)[1]
+        same = np.einsum("ij,ij->i", out, sub_out[j]) > 0.0
+        return np.where(((sub_flip < 0.0)[j] & same)[:, None], -out, out)
     spacing = table_spacing(dist)
     if spacing == 0.0:
         return out
@@ -181,11 +193,9 @@ def parity_turns(pts, out, idx, dist) -> np.ndarray:
     mean = np.bincount(lab, weights=parity_votes(pts, out, spacing)) / size
     margin = np.maximum(PARITY_MARGIN, PARITY_SPREAD / np.sqrt(size))
     asked = (mean < -margin) & (size >= PARITY_MIN_PATCH)
-    asked &= size <= MAX_PATCH_SHARE * pts.shape[0]
+    asked &= size <= MAX_PATCH_SHARE * n
     unclear = np.flatnonzero(asked & (mean >= -PARITY_CLEAR))
-    if unclear.size and pts.shape[0] > MAX_POINTS:
-        asked[unclear] = False
-    elif unclear.size:
+    if unclear.size:
         members = np.flatnonzero(np.isin(lab, unclear))
         probe, cell = PROBE_SPACINGS * spacing, CELL_SPACINGS * spacing
         signal = patch_signals(pts, out, lab, members, probe, cell)
