@@ -175,16 +175,12 @@ def parity_turns(pts, out, idx, dist) -> np.ndarray:
     `_winding.MAX_POINTS` points it decides on an even stride of them, as
     `winding_turns` does (each point as its nearest there, where they face alike)."""
     n = pts.shape[0]
-    if n > MAX_POINTS:  # on an even stride of the points; each point as its nearest there
-        stride = -(-n // MAX_POINTS)
-        sub = np.ascontiguousarray(pts[::stride])
-        sub_idx, sub_dist = query_knn(sub, SMOOTH_K)
-        sub_idx, sub_dist = np.asarray(sub_idx, dtype=np.int64), np.asarray(sub_dist)
-        sub_out = out[::stride]
-        sub_flip = np.einsum("ij,ij->i", parity_turns(sub, sub_out, sub_idx, sub_dist), sub_out)
-        j = cKDTree(sub).query(pts, 1, workers=-1)[1]
-        same = np.einsum("ij,ij->i", out, sub_out[j]) > 0.0
-        return np.where(((sub_flip < 0.0)[j] & same)[:, None], -out, out)
+    if n > MAX_POINTS:
+
+        def decide(q, o, i, d):
+            return np.einsum("ij,ij->i", parity_turns(q, o, i, d), o) < 0.0
+
+        return np.where(_strided_flips(pts, out, decide)[:, None], -out, out)
     spacing = table_spacing(dist)
     if spacing == 0.0:
         return out
@@ -213,17 +209,28 @@ def winding_turns(pts, out, idx, dist, areas) -> np.ndarray:
         return out  # open: both sides outside
     if n <= MAX_POINTS:
         flip = _turned(pts, out, idx, dist, areas)
-    else:  # on an even stride of the points; each point as its nearest there
-        stride = -(-n // MAX_POINTS)
-        sub = np.ascontiguousarray(pts[::stride])
-        sub_idx, sub_dist = query_knn(sub, SMOOTH_K)
-        sub_dist = np.asarray(sub_dist)
-        sub_areas = table_areas(sub_dist, AREA_NEIGHBOR)
-        sub_flip = _turned(sub, out[::stride], np.asarray(sub_idx), sub_dist, sub_areas)
-        j = cKDTree(sub).query(pts, 1, workers=-1)[1]
-        same = np.einsum("ij,ij->i", out, out[::stride][j]) > 0.0
-        flip = sub_flip[j] & same
+    else:
+
+        def decide(q, o, i, d):
+            return _turned(q, o, i, d, table_areas(d, AREA_NEIGHBOR))
+
+        flip = _strided_flips(pts, out, decide)
     return np.where(flip[:, None], -out, out)
+
+
+def _strided_flips(pts, out, decide) -> np.ndarray:
+    """Which of the normals ``out`` to turn, decided on an even stride of the points
+    (at most `_winding.MAX_POINTS`; ``decide(sub, sub_normals, idx, dist)``, given
+    their own `_sides.SMOOTH_K`-column k-NN table, says which of them): each point
+    as its nearest there, where their normals face alike."""
+    stride = -(-pts.shape[0] // MAX_POINTS)
+    sub = np.ascontiguousarray(pts[::stride])
+    sub_out = out[::stride]
+    sub_idx, sub_dist = query_knn(sub, SMOOTH_K)
+    sub_flip = decide(sub, sub_out, np.asarray(sub_idx, dtype=np.int64), np.asarray(sub_dist))
+    j = cKDTree(sub).query(pts, 1, workers=-1)[1]
+    same = np.einsum("ij,ij->i", out, sub_out[j]) > 0.0
+    return sub_flip[j] & same
 
 
 def _turned(q, n, idx, dist, areas) -> np.ndarray:
