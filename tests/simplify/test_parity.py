@@ -2,7 +2,8 @@
 the votes checked against a plain-numpy cast over every disc, their values on a
 sphere (outward +1, inward -1), a thin plate's right normals kept, inward patches
 turned back with no help from the other points' signs, overlapping bodies' true
-normals kept, open samples left alone."""
+normals kept, a closed sample whose inward patches make it read open turned back,
+open samples left alone."""
 
 from __future__ import annotations
 
@@ -18,7 +19,9 @@ from pointatlas.simplify._parity import (
     SKIP_SPACINGS,
     parity_votes,
 )
+from pointatlas.simplify._reconstruct import CLOSED_DIPOLE
 from pointatlas.simplify._signs import parity_turns
+from pointatlas.simplify._winding import dipole_share
 from pointatlas.synth import sample_mesh
 
 from .cad_shapes import box, extrude
@@ -143,6 +146,19 @@ def test_large_inputs_are_decided_on_a_stride(monkeypatch):
     # it (facing the other way: not followed) and the box's edges
     assert _inward(parity_turns(p, n, *_table(p)), truth) <= 0.1 * _inward(n, truth)
     np.testing.assert_array_equal(parity_turns(p, truth, *_table(p)), truth)
+
+
+def test_a_closed_sample_that_reads_open_is_turned_back():
+    # five patches of a thin plate's top turned inward: 8 % of the points, and their
+    # discs no longer sum to nearly zero (the sample reads open, as the einsy doors'
+    # did with 40 % inward); the crossings turn them back, and then it reads closed
+    p, truth = _plate()
+    n = truth.copy()
+    for c in ((0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75), (0.5, 0.5)):
+        n[(truth[:, 2] > 0.9) & (np.linalg.norm(p[:, :2] - c, axis=1) < 0.1)] *= -1.0
+    assert dipole_share(p, n) > CLOSED_DIPOLE
+    assert _inward(n, truth) > 300
+    assert _inward(outward_normals(p, n), truth) <= 3
 
 
 def test_an_open_sample_is_not_asked():

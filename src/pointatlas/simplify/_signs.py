@@ -27,7 +27,9 @@ patch of it disagrees. Then the patches are asked once more, by the parity of ra
 crossings (`_parity`, `parity_turns`): a patch whose neighbours are wrong too (a
 wall's side turned with the wall) reads them through the winding number, but the
 crossings need no signs. Only a closed sample has an inside: open ones keep their
-normals.
+normals. A closed sample can read open (`_winding.dipole_share`) where whole parts
+of it are turned in (a thin-walled lid, 40 % of its points inward): the crossings
+are asked there too, and their turns kept where the sample then reads closed.
 Decisions: docs/decisions/simplify.md, "Normals for raw points".
 """
 
@@ -106,7 +108,9 @@ def outward_normals(points, normals, *, neighbors=None) -> np.ndarray:
     far from the points (`_sheets.far_sheet_flips`), then the patches still turned
     inward by the winding number of the other points, then those the parity of ray
     crossings finds inward (`parity_turns`; see the module's notes). An open sample
-    keeps its normals (no inside).
+    keeps its normals (no inside); one that reads open, but closed once the
+    crossings' turns are made, is a closed sample with parts turned in: the winding
+    number's steps and the crossings are asked again on those.
 
     Parameters
     ----------
@@ -156,7 +160,11 @@ def outward_normals(points, normals, *, neighbors=None) -> np.ndarray:
     out, _ = turn_outward(pts, nrm, (idx, dist), areas)
     out = winding_turns(pts, out, idx, dist, areas)
     if dipole_share(pts, out, areas) > CLOSED_DIPOLE:
-        return out  # open: no inside to cross into
+        # open, or closed with sheets turned in: the crossings need no signs
+        trial = parity_turns(pts, out, idx, dist)
+        if dipole_share(pts, trial, areas) > CLOSED_DIPOLE:
+            return out  # open: no inside to cross into
+        out = winding_turns(pts, trial, idx, dist, areas)
     return parity_turns(pts, out, idx, dist)
 
 
