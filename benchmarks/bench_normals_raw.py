@@ -5,9 +5,12 @@ Run from the repository root::
 
     .venv/bin/python benchmarks/bench_normals_raw.py --every 6
     .venv/bin/python benchmarks/bench_normals_raw.py --every 1 --shard 0/2 --out a.csv
+    .venv/bin/python benchmarks/bench_normals_raw.py --every 3 --falloff 10 --no-peer
 
 Each model is sampled as `bench_simplify_points.py` samples it (20,000 points by
-area, the true face normals kept aside) and its normals are estimated as
+area unless its sampling options say otherwise, the same options and seeds; the
+true face normals of the points kept aside, those of points moved off by
+``--outliers`` or ``--noise`` too) and its normals are estimated as
 ``pointatlas simplify`` estimates them for raw points (`simplify_estimated`'s first
 estimate, k = 20), step by step:
 
@@ -23,7 +26,9 @@ Per step it counts the normals more than 30 degrees off the true normal's line
 has no outside, so it is given the better of its two global signs (a user would
 turn it by hand). Where the dipole test calls our sample open
 (`_winding.dipole_share` over `_reconstruct.CLOSED_DIPOLE`), ``open`` is set.
-Prints one line per model and the totals; ``--out`` writes the rows as CSV.
+Prints one line per model and the totals; ``--out`` writes the rows as CSV (two runs'
+CSVs, before and after a change of the normals' steps, say which rows of the
+simplify tables to run again).
 Decisions: docs/decisions/simplify.md, "Normals for raw points".
 """
 
@@ -98,10 +103,11 @@ def peer(p: np.ndarray, truth: np.ndarray) -> dict:
     return found | {"peer_seconds": seconds, "peer_crashed": False}
 
 
-def run_model(path: Path, with_peer: bool) -> dict:
-    """One model's row."""
+def run_model(path: Path, with_peer: bool, sampling: Sampling | None = None) -> dict:
+    """One model's row (``sampling``: true normals, as `bench_simplify_points.py`)."""
     mesh = read_mesh(path)
-    p, truth = Sampling().sample(mesh.vertices, np.asarray(mesh.triangles, dtype=np.int64))
+    sampling = Sampling() if sampling is None else sampling
+    p, truth = sampling.sample(mesh.vertices, np.asarray(mesh.triangles, dtype=np.int64))
     row = {"model": path.name, "kind": KINDS.get(path.stem, "organic"), "points": p.shape[0]}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -158,12 +164,21 @@ def main(argv=None) -> int:
     ap.add_argument("--shard", default="0/1", help="i/n: the i-th of n shards (from 0)")
     ap.add_argument("--no-peer", action="store_true", help="leave Open3D out")
     ap.add_argument("--out", type=Path, help="CSV of the rows")
+    ap.add_argument("--points", type=int, default=20000, help="points per model")
+    ap.add_argument("--noise", type=float, default=0.0, help="sigma in %% of the diagonal")
+    ap.add_argument("--falloff", type=float, default=1.0, help="density falling along x")
+    ap.add_argument("--no-bottom", action="store_true", help="no points facing down")
+    ap.add_argument("--view", action="store_true", help="the points one scanner sees")
+    ap.add_argument("--outliers", type=float, default=0.0, help="%% of the points moved off")
     args = ap.parse_args(argv)
+    sampling = Sampling(
+        args.points, False, args.noise, args.falloff, args.no_bottom, args.view, args.outliers
+    )
     i, n = (int(x) for x in args.shard.split("/"))
     paths = sorted(x for x in args.models.iterdir() if x.suffix.lower() in MESH_SUFFIXES)
     rows = []
     for path in paths[:: args.every][i::n]:
-        rows.append(run_model(path, not args.no_peer))
+        rows.append(run_model(path, not args.no_peer, sampling))
         print(line(rows[-1]), flush=True)
     if not rows:
         print("no models", file=sys.stderr)
