@@ -9,8 +9,8 @@ Run from the repository root::
 
 Each model is sampled as `bench_simplify_points.py` samples it (20,000 points by
 area unless its sampling options say otherwise, the same options and seeds; the
-true face normals of the points kept aside, those of points moved off by
-``--outliers`` or ``--noise`` too) and its normals are estimated as
+true face normals of the points kept aside, a point moved by ``--noise`` or
+``--outliers`` keeping its face's) and its normals are estimated as
 ``pointatlas simplify`` estimates them for raw points (`simplify_estimated`'s first
 estimate, k = 20), step by step:
 
