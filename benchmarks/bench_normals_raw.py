@@ -25,7 +25,7 @@ Per step it counts the normals more than 30 degrees off the true normal's line
 ``orient_normals_consistent_tangent_plane`` (k = 10); its field is consistent but
 has no outside, so it is given the better of its two global signs (a user would
 turn it by hand). Where the dipole test calls our sample open
-(`_winding.dipole_share` over `_reconstruct.CLOSED_DIPOLE`), ``open`` is set.
+(`_reconstruct.is_closed_sample`), ``open`` is set.
 Prints one line per model and the totals; ``--out`` writes the rows as CSV (two runs'
 CSVs, before and after a change of the normals' steps, say which rows of the
 simplify tables to run again).
@@ -47,8 +47,7 @@ from bench_simplify_points import KINDS, MESH_SUFFIXES, Sampling
 from pointatlas.io import read_mesh
 from pointatlas.normals import orient_normals
 from pointatlas.simplify import outward_normals, sharpen_normals, surface_normals
-from pointatlas.simplify._reconstruct import CLOSED_DIPOLE
-from pointatlas.simplify._winding import dipole_share
+from pointatlas.simplify._reconstruct import is_closed_sample
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "collection"
 #: Neighbourhood sizes: the CLI's ``--normal-k`` and Open3D's orientation graph.
@@ -80,7 +79,7 @@ def ours(p: np.ndarray, truth: np.ndarray) -> dict:
     out = outward_normals(p, sharp)
     row["seconds"] = time.perf_counter() - t0
     row.update({f"outward_{key}": v for key, v in counts(out, truth, True).items()})
-    row["open"] = bool(dipole_share(p, out) > CLOSED_DIPOLE)
+    row["open"] = not is_closed_sample(p, out)
     return row
 
 

@@ -27,9 +27,10 @@ patch of it disagrees. Then the patches are asked once more, by the parity of ra
 crossings (`_parity`, `parity_turns`): a patch whose neighbours are wrong too (a
 wall's side turned with the wall) reads them through the winding number, but the
 crossings need no signs. Only a closed sample has an inside: open ones keep their
-normals. A closed sample can read open (`_winding.dipole_share`) where whole parts
-of it are turned in (a thin-walled lid, 40 % of its points inward): the crossings
-are asked there too, and their turns kept where the sample then reads closed.
+normals. A closed sample can read open (`_reconstruct.is_closed_sample`) where
+whole parts of it are turned in (a thin-walled lid, 40 % of its points inward): the
+crossings are asked there too, and their turns kept where the sample then reads
+closed.
 Decisions: docs/decisions/simplify.md, "Normals for raw points".
 """
 
@@ -42,7 +43,7 @@ from scipy.spatial import cKDTree
 from .._core import as_normals, as_points
 from ..neighbors import query_knn
 from ._parity import parity_votes
-from ._reconstruct import CLOSED_DIPOLE
+from ._reconstruct import is_closed_sample
 from ._sheets import far_sheet_flips, near_sheet_flips
 from ._sides import (
     OPPOSED_COS,
@@ -53,7 +54,7 @@ from ._sides import (
     table_spacing,
     turn_outward,
 )
-from ._winding import AREA_NEIGHBOR, MAX_POINTS, dipole_share, dipoles, table_areas
+from ._winding import AREA_NEIGHBOR, MAX_POINTS, dipoles, table_areas
 
 __all__ = [
     "FLIP_MARGIN",
@@ -159,10 +160,10 @@ def outward_normals(points, normals, *, neighbors=None) -> np.ndarray:
     areas = table_areas(dist, AREA_NEIGHBOR)
     out, _ = turn_outward(pts, nrm, (idx, dist), areas)
     out = winding_turns(pts, out, idx, dist, areas)
-    if dipole_share(pts, out, areas) > CLOSED_DIPOLE:
+    if not is_closed_sample(pts, out, areas):
         # open, or closed with sheets turned in: the crossings need no signs
         trial = parity_turns(pts, out, idx, dist)
-        if dipole_share(pts, trial, areas) > CLOSED_DIPOLE:
+        if not is_closed_sample(pts, trial, areas):
             return out  # open: no inside to cross into
         out = winding_turns(pts, trial, idx, dist, areas)
     return parity_turns(pts, out, idx, dist)
@@ -213,7 +214,7 @@ def winding_turns(pts, out, idx, dist, areas) -> np.ndarray:
     disc ``areas``) with the sheets and patches the winding number finds turned
     inward turned out; unchanged on an open sample."""
     n = pts.shape[0]
-    if dipole_share(pts, out, areas) > CLOSED_DIPOLE:
+    if not is_closed_sample(pts, out, areas):
         return out  # open: both sides outside
     if n <= MAX_POINTS:
         flip = _turned(pts, out, idx, dist, areas)
