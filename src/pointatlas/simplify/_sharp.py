@@ -34,6 +34,7 @@ from ._normals import FLAT_VARIATION, NORMAL_K_RANGE, bent_beyond_noise
 
 __all__ = [
     "PAIR_NEIGHBORS",
+    "QUADRIC_NEIGHBORS",
     "PLANE_SPACINGS",
     "SIGN_AGREE",
     "SIGN_SAME",
@@ -45,6 +46,10 @@ PAIR_NEIGHBORS = 10
 #: ... hold a neighbour within this many point spacings (median nearest-neighbour
 #: distance; or three times the noise's deviation where that is more).
 PLANE_SPACINGS = 0.2
+#: A neighbourhood of at least this many points (itself counted) that a quadric
+#: height over the given normal's plane fits within the planes' tolerance is smooth
+#: (a cylinder, a sphere, a fillet): its normal stays.
+QUADRIC_NEIGHBORS = 12
 #: The sharp normal takes the oriented one's sign where their directions agree this
 #: well (|cos|) ...
 SIGN_AGREE = 0.8
@@ -72,6 +77,38 @@ def _score(n, rel, tau):
 
 
 @njit(cache=True)
+def _smooth(n, rel, tau, fewest):
+    """Whether the height over the plane of normal ``n`` of the neighbours ``rel``
+    (offsets from the point; at least ``fewest`` of them) is a quadric in the
+    plane's coordinates to within ``tau`` (least squares, in units of the farthest
+    neighbour's distance)."""
+    m = rel.shape[0]
+    scale = 0.0
+    for k in range(m):
+        scale = max(scale, np.sqrt((rel[k] ** 2).sum()))
+    if m < max(fewest, 7) or scale <= 0.0:
+        return False
+    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(n, a)
+    u /= np.sqrt((u**2).sum())
+    v = np.cross(n, u)
+    design = np.empty((m, 6))
+    height = np.empty(m)
+    for k in range(m):
+        x = (rel[k, 0] * u[0] + rel[k, 1] * u[1] + rel[k, 2] * u[2]) / scale
+        y = (rel[k, 0] * v[0] + rel[k, 1] * v[1] + rel[k, 2] * v[2]) / scale
+        height[k] = (rel[k, 0] * n[0] + rel[k, 1] * n[1] + rel[k, 2] * n[2]) / scale
+        design[k, 0] = x * x
+        design[k, 1] = x * y
+        design[k, 2] = y * y
+        design[k, 3] = x
+        design[k, 4] = y
+        design[k, 5] = 1.0
+    coef = np.linalg.lstsq(design, height)[0]
+    return np.abs(design @ coef - height).max() <= tau / scale
+
+
+@njit(cache=True)
 def _refit(n, rel, tau):
     """The plane of the neighbours within ``tau`` of the plane ``n``, refitted
     (their covariance's least eigenvector); ``n`` where they are fewer than six or
@@ -94,10 +131,12 @@ def _refit(n, rel, tau):
 
 
 @njit(cache=True, parallel=True)
-def _plane_normals(pts, idx, rows, normals, tau, pairs):
+def _plane_normals(pts, idx, rows, normals, tau, pairs, fewest):
     """For each row ``rows[r]`` (a point whose neighbourhood is not flat), the best
     scoring plane through it and two of its ``pairs`` nearest (`_score`), refitted
-    (`_refit`), where it scores above the plane of its normal: ``(sharp, took)``.
+    (`_refit`), where it scores above the plane of its normal and the neighbourhood
+    is not a smooth quadric over that plane (`_smooth`, with ``fewest``
+    neighbours or more): ``(sharp, took)``.
     Assumes validated input: ``idx`` rows nearest first, the point itself first."""
     out = np.empty((rows.size, 3))
     took = np.zeros(rows.size, dtype=np.bool_)
@@ -105,6 +144,9 @@ def _plane_normals(pts, idx, rows, normals, tau, pairs):
     for r in prange(rows.size):
         i = rows[r]
         rel = pts[idx[i]] - pts[i]
+        out[r] = normals[i]
+        if _smooth(normals[i], rel, tau, fewest):
+            continue
         own = _score(normals[i], rel, tau)
         best = own
         n = normals[i].copy()
@@ -120,7 +162,6 @@ def _plane_normals(pts, idx, rows, normals, tau, pairs):
                 s = _score(c, rel, tau)
                 if s > best:
                     best, n = s, c
-        out[r] = normals[i]
         if best > own:
             out[r] = _refit(n, rel, tau)
             took[r] = True
@@ -218,5 +259,5 @@ def sharpen_normals(points, normals, k: int = 20, *, neighbors=None) -> np.ndarr
     out = nrm.copy()
     rows = np.flatnonzero(bent)
     if rows.size:
-        out[rows] = _plane_normals(pts, idx, rows, nrm, tau, PAIR_NEIGHBORS)[0]
+        out[rows] = _plane_normals(pts, idx, rows, nrm, tau, PAIR_NEIGHBORS, QUADRIC_NEIGHBORS)[0]
     return out * _signs(pts, out, nrm, idx, tau)[:, None]
