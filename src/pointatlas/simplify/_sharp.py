@@ -15,9 +15,13 @@ neighbours are scored by the neighbours within a tolerance of them, less those o
 the plane's lesser side (a chord across a small cylinder or a slot has points on
 both sides; a face beside an edge has the other face on one side only); the best,
 refitted to the neighbours on it, replaces the blended normal where it holds more
-of them. The sign is the oriented normal's where the two agree, and elsewhere that
-of the neighbours already signed on the same plane (not across a thin wall: a
-neighbour off the plane does not vote). The noise floor that gates it is at most
+of them, unless a quadric height over the given normal's plane fits the
+neighbourhood within the spacings' tolerance: a smooth curve, where a chord plane
+through two rows of a coarsely sampled tube holds more neighbours than the tangent
+plane (within the noise's tolerance a noisy quadric takes an edge's crease in
+too). The sign is the oriented normal's where the two agree, and elsewhere that of
+the neighbours already signed on the same plane (not across a thin wall: a neighbour
+off the plane does not vote). The noise floor that gates it is at most
 `_normals.NOISE_CORE_RATIO` times the floor of the smallest neighbourhoods: both
 sides of a thin wall in a neighbourhood of 10 are not noise. Decisions:
 docs/decisions/simplify.md, "Normals for raw points".
@@ -47,8 +51,9 @@ PAIR_NEIGHBORS = 10
 #: distance; or three times the noise's deviation where that is more).
 PLANE_SPACINGS = 0.2
 #: A neighbourhood of at least this many points (itself counted) that a quadric
-#: height over the given normal's plane fits within the planes' tolerance is smooth
-#: (a cylinder, a sphere, a fillet): its normal stays.
+#: height over the given normal's plane fits within `PLANE_SPACINGS` point spacings
+#: (not the noise's tolerance) is smooth (a cylinder, a sphere, a fillet): its
+#: normal stays.
 QUADRIC_NEIGHBORS = 12
 #: The sharp normal takes the oriented one's sign where their directions agree this
 #: well (|cos|) ...
@@ -131,12 +136,12 @@ def _refit(n, rel, tau):
 
 
 @njit(cache=True, parallel=True)
-def _plane_normals(pts, idx, rows, normals, tau, pairs, fewest):
+def _plane_normals(pts, idx, rows, normals, tau, pairs, fewest, fit_tau):
     """For each row ``rows[r]`` (a point whose neighbourhood is not flat), the best
     scoring plane through it and two of its ``pairs`` nearest (`_score`), refitted
     (`_refit`), where it scores above the plane of its normal and the neighbourhood
-    is not a smooth quadric over that plane (`_smooth`, with ``fewest``
-    neighbours or more): ``(sharp, took)``.
+    is not a smooth quadric over that plane (`_smooth`: within ``fit_tau``, with
+    ``fewest`` neighbours or more): ``(sharp, took)``.
     Assumes validated input: ``idx`` rows nearest first, the point itself first."""
     out = np.empty((rows.size, 3))
     took = np.zeros(rows.size, dtype=np.bool_)
@@ -145,7 +150,7 @@ def _plane_normals(pts, idx, rows, normals, tau, pairs, fewest):
         i = rows[r]
         rel = pts[idx[i]] - pts[i]
         out[r] = normals[i]
-        if _smooth(normals[i], rel, tau, fewest):
+        if _smooth(normals[i], rel, fit_tau, fewest):
             continue
         own = _score(normals[i], rel, tau)
         best = own
@@ -202,8 +207,10 @@ def sharpen_normals(points, normals, k: int = 20, *, neighbors=None) -> np.ndarr
     `_normals.bent_beyond_noise`), its normal becomes that of the plane through it and two of its
     `PAIR_NEIGHBORS` nearest which holds the most of its neighbours within
     `PLANE_SPACINGS` point spacings (less those on the plane's lesser side),
-    refitted to them, where that plane holds more than the given normal's; the
-    signs follow the given orientation (see the module's notes).
+    refitted to them, where that plane holds more than the given normal's and no
+    quadric height over the given normal's plane fits the neighbourhood within
+    `PLANE_SPACINGS` point spacings (`QUADRIC_NEIGHBORS` points or more); the signs
+    follow the given orientation (see the module's notes).
 
     Parameters
     ----------
@@ -256,8 +263,13 @@ def sharpen_normals(points, normals, k: int = 20, *, neighbors=None) -> np.ndarr
     _, bent, floor = bent_beyond_noise(pts, idx, k, FLAT_VARIATION, small, core=True)
     spacing = float(np.median(neighbors[1][:, 1])) if k > 1 else 0.0
     tau = max(PLANE_SPACINGS * spacing, 3.0 * np.sqrt(max(floor, 0.0)))
+    # the quadric within the spacings' tolerance alone: within the noise's, a noisy
+    # neighbourhood's quadric takes an edge's crease in too
+    fit_tau = PLANE_SPACINGS * spacing
     out = nrm.copy()
     rows = np.flatnonzero(bent)
     if rows.size:
-        out[rows] = _plane_normals(pts, idx, rows, nrm, tau, PAIR_NEIGHBORS, QUADRIC_NEIGHBORS)[0]
+        out[rows] = _plane_normals(
+            pts, idx, rows, nrm, tau, PAIR_NEIGHBORS, QUADRIC_NEIGHBORS, fit_tau
+        )[0]
     return out * _signs(pts, out, nrm, idx, tau)[:, None]
