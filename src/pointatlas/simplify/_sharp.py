@@ -38,8 +38,8 @@ from ._normals import FLAT_VARIATION, NORMAL_K_RANGE, bent_beyond_noise
 
 __all__ = [
     "PAIR_NEIGHBORS",
-    "QUADRIC_NEIGHBORS",
     "PLANE_SPACINGS",
+    "QUADRIC_NEIGHBORS",
     "SIGN_AGREE",
     "SIGN_SAME",
     "sharpen_normals",
@@ -84,9 +84,9 @@ def _score(n, rel, tau):
 @njit(cache=True)
 def _smooth(n, rel, tau, fewest):
     """Whether the height over the plane of normal ``n`` of the neighbours ``rel``
-    (offsets from the point; at least ``fewest`` of them) is a quadric in the
-    plane's coordinates to within ``tau`` (least squares, in units of the farthest
-    neighbour's distance)."""
+    (offsets from the point; at least ``fewest`` of them, and more than the
+    quadric's six coefficients) is a quadric in the plane's coordinates to within
+    ``tau`` (least squares, in units of the farthest neighbour's distance)."""
     m = rel.shape[0]
     scale = 0.0
     for k in range(m):
