@@ -387,7 +387,7 @@ def test_raw_points_far_from_their_output_get_their_normals_estimated_again(tmp_
     out, rep = tmp_path / "out.obj", tmp_path / "r.json"
     res = runner.invoke(app, ["simplify", str(src), str(out), "--report", str(rep)])
     assert res.exit_code == 0, res.output
-    assert "normals estimated again at k = 30, 40" in res.output
+    assert "normals estimated again at k = 30, 40 in turn" in res.output
     info = json.loads(rep.read_text())
     tried = info["normals_estimated"]["tried"]
     assert [r["k"] for r in tried] == [20, 30, 40]

@@ -57,6 +57,22 @@ def test_a_far_output_is_estimated_again_and_the_nearest_kept(box):
     assert not out.normals.flags.writeable
 
 
+def test_the_estimates_stop_at_the_first_output_near_enough(box):
+    """Asked for 1 % of the diagonal, the tilted normals' output lies past twice it;
+    the second estimate (the true normals) comes within that: the third size is not
+    asked, and the second estimate's output is kept."""
+    p, n, bad = box
+    bound = 0.01 * _diag(p)
+    asked = []
+    out = simplify_estimated(
+        p, lambda k: asked.append(k) or n, normals=bad, path="robust", max_error=bound
+    )
+    assert out.tried[0][1] > 2.0 * bound  # the first output missed the points
+    assert asked == [RETRY_K[0]] and [k for k, _ in out.tried] == [20, RETRY_K[0]]
+    assert out.tried[1][1] <= 2.0 * bound and out.result.mesh.is_closed
+    assert out.k == RETRY_K[0] and np.array_equal(out.normals, n)
+
+
 def test_a_near_output_is_kept_without_a_second_estimate(box):
     p, n, _ = box
     bound = 0.015 * _diag(p)

@@ -26,11 +26,12 @@ __all__ = ["RETRY_FACTOR", "RETRY_K", "EstimatedSimplification", "simplify_estim
 #: points moved off: 19 of 25 past it; from one view: 8, the outputs kept at most
 #: 0.15 % of the diagonal nearer, the truth within 1 % on 13 / 25 either way) ...
 RETRY_FACTOR = 2.0
-#: ... at these neighbourhood sizes (but the first's, and those over the number of
-#: points), and the output nearest to the points kept (the first on a tie). All 149
-#: collection models sampled with 20,000 points, normals estimated at k = 20: 17
-#: closed outputs past 1 % of the diagonal; with k = 30 and 40 tried there, 8 of
-#: them within 1 % (k = 30 alone 4, 40 alone 5, 12 and 30 5; docs/decisions/simplify.md).
+#: ... at these neighbourhood sizes in turn (but the first's, and those over the
+#: number of points), until a closed output comes within that distance, and the
+#: output nearest to the points kept (the first on a tie). All 149 collection models
+#: sampled with 20,000 points, normals estimated at k = 20: 17 closed outputs past 1 %
+#: of the diagonal; with k = 30 and 40 tried there, 8 of them within 1 % (k = 30
+#: alone 4, 40 alone 5, 12 and 30 5; docs/decisions/simplify.md).
 RETRY_K = (30, 40)
 
 
@@ -92,8 +93,9 @@ def simplify_estimated(
 
     `simplify_points` runs on the normals estimated at ``normal_k``; where its output
     lies farther from the points than `RETRY_FACTOR` times the bound (both ways, as
-    reported), the normals are estimated again at each size of `RETRY_K` and the
-    closed output nearest to the points is kept. Estimated normals go wrong beside
+    reported), the normals are estimated again at each size of `RETRY_K` in turn,
+    until a closed output comes within that distance, and the closed output nearest
+    to the points is kept. Estimated normals go wrong beside
     edges and thin walls, in ways that change with the neighbourhood's size; the
     points say which surface fits them. Not with a triangle budget (``max_triangles``: the
     budget, not the normals, sets the distance), nor where points were left out far
@@ -114,7 +116,8 @@ def simplify_estimated(
         The first estimate, where already made (else ``estimate(normal_k)``).
     on_retry : callable, optional
         Called as ``on_retry(distance, sizes)`` before the normals are estimated
-        again (the first output's distance, the sizes to try): a progress line.
+        again (the first output's distance, the sizes to try in turn): a progress
+        line.
     **kwargs
         Passed to `simplify_points`.
 
@@ -138,17 +141,19 @@ def simplify_estimated(
     tried = [(normal_k, two_sided(runs[0][2]))]
     n_points = np.asarray(points).shape[0]
     sizes = tuple(k for k in RETRY_K if k != normal_k and k <= n_points)
-    far = tried[0][1] > retry_over(runs[0][2], points, kwargs.get("max_error"))
+    over = retry_over(runs[0][2], points, kwargs.get("max_error"))
     # not where strays left in or an open outline set the distance
     first_run = runs[0][2]
     surface_miss = first_run.n_off_surface == 0 and first_run.mesh.is_closed
-    if far and surface_miss and kwargs.get("max_triangles") is None and sizes:
+    if tried[0][1] > over and surface_miss and kwargs.get("max_triangles") is None and sizes:
         if on_retry is not None:
             on_retry(tried[0][1], sizes)
         for k in sizes:
             n = np.asarray(estimate(k), dtype=np.float64)
             runs.append((k, n, *_run(points, n, kwargs)))
             tried.append((k, two_sided(runs[-1][2])))
+            if tried[-1][1] <= over and runs[-1][2].mesh.is_closed:
+                break  # near enough: the next size is not asked
     # the nearest of the first and the later closed outputs (the first is closed where
     # they ran: another estimate may open the surface)
     kept = [0] + [i for i in range(1, len(runs)) if runs[i][2].mesh.is_closed]

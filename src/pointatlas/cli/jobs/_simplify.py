@@ -388,7 +388,7 @@ def _estimated_run(points, normals, normal_k: int, diagonal: float, options: dic
             f"the output lies {pct(distance)} of the diagonal from the points, over "
             f"{RETRY_FACTOR:g} times the bound: normals estimated again at k = "
             + ", ".join(str(k) for k in sizes)
-            + " (the output nearest to the points kept)"
+            + " in turn, until one comes within it (the output nearest to the points kept)"
         )
 
     kept = simplify_quietly(
