@@ -49,7 +49,8 @@ class EstimatedSimplification:
         The neighbourhood size of those normals.
     tried : tuple of (int, float)
         Each run's neighbourhood size and two-sided distance to the points (input
-        units), in the order run: one entry where the first output is near enough.
+        units), in the order run: one entry where the first output is near enough,
+        two where the first size of `RETRY_K` tried comes near enough.
     """
 
     result: PointSimplification
@@ -95,12 +96,12 @@ def simplify_estimated(
     lies farther from the points than `RETRY_FACTOR` times the bound (both ways, as
     reported), the normals are estimated again at each size of `RETRY_K` in turn,
     until a closed output comes within that distance, and the closed output nearest
-    to the points is kept. Estimated normals go wrong beside
-    edges and thin walls, in ways that change with the neighbourhood's size; the
-    points say which surface fits them. Not with a triangle budget (``max_triangles``: the
-    budget, not the normals, sets the distance), nor where points were left out far
-    off the surface (``n_off_surface``: the strays nearer than those set it), nor
-    where the first output is open (a scan of one side: its outline and gaps set it).
+    to the points is kept. Estimated normals go wrong beside edges and thin walls, in
+    ways that change with the neighbourhood's size; the points say which surface fits
+    them. Not with a triangle budget (``max_triangles``: the budget, not the normals,
+    sets the distance), nor where points were left out far off the surface
+    (``n_off_surface``: the strays nearer than those set it), nor where the first
+    output is open (a scan of one side: its outline and gaps set it).
 
     Parameters
     ----------
