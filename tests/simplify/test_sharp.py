@@ -75,6 +75,11 @@ def _reference(p, n, idx, rows, tau, pairs=PAIR_NEIGHBORS):
     return out
 
 
+def _far_off(normals, true, degrees: float) -> int:
+    """How many ``normals`` lie more than ``degrees`` off the line of ``true``."""
+    return int((np.abs((normals * true).sum(axis=1)) < np.cos(np.radians(degrees))).sum())
+
+
 def _torus(n: int):
     """A torus (radii 1 and 0.2) sampled with ``n`` points and true normals."""
     m = trimesh.creation.torus(1.0, 0.2)
@@ -106,22 +111,17 @@ def test_a_smooth_curved_sample_keeps_its_normals(monkeypatch):
     replaced 197 normals, 166 -> 225 more than 10 degrees off (measured)."""
     p, true = _torus(3000)
     blended = orient_normals(p, surface_normals(p))
-
-    def far_off(m):
-        return int((np.abs((m * true).sum(axis=1)) < np.cos(np.radians(10.0))).sum())
-
-    assert far_off(sharpen_normals(p, blended)) <= far_off(blended)
+    assert _far_off(sharpen_normals(p, blended), true, 10.0) <= _far_off(blended, true, 10.0)
     monkeypatch.setattr(_sharp, "QUADRIC_NEIGHBORS", p.shape[0] + 1)
-    assert far_off(sharpen_normals(p, blended)) > far_off(blended) + 0.01 * p.shape[0]
+    ungated = _far_off(sharpen_normals(p, blended), true, 10.0)
+    assert ungated > _far_off(blended, true, 10.0) + 0.01 * p.shape[0]
 
 
 def test_beside_the_edges_of_a_plate_the_normals_come_nearer_the_faces():
     p, true = _plate(0.1, 6000)
     blended = orient_normals(p, surface_normals(p))
     sharp = sharpen_normals(p, blended)
-    cos = np.cos(np.radians(30.0))
-    before = int((np.abs((blended * true).sum(axis=1)) < cos).sum())
-    after = int((np.abs((sharp * true).sum(axis=1)) < cos).sum())
+    before, after = _far_off(blended, true, 30.0), _far_off(sharp, true, 30.0)
     assert before > 0
     assert after < before / 2
     assert np.allclose(np.linalg.norm(sharp, axis=1), 1.0)
@@ -141,8 +141,7 @@ def test_signs_follow_the_given_orientation_and_stay_outward_on_a_thin_plate():
     given = int(((blended * true).sum(axis=1) < -0.5).sum())
     assert int(inward.sum()) <= given + 0.002 * p.shape[0]
     # while the directions come near the faces (235 -> 105 more than 30 degrees off)
-    cos = np.cos(np.radians(30.0))
-    far_off = [int((np.abs((m * true).sum(axis=1)) < cos).sum()) for m in (blended, sharp)]
+    far_off = [_far_off(m, true, 30.0) for m in (blended, sharp)]
     assert far_off[1] < far_off[0] / 2 and far_off[1] < 0.02 * p.shape[0]
 
 
@@ -180,14 +179,10 @@ def test_noise_does_not_let_the_quadric_take_in_an_edge(monkeypatch):
     )
     p, true = p[keep] + 0.002 * rng.standard_normal((6000, 3)), true[keep]
     blended = orient_normals(p, surface_normals(p))
-
-    def far_off(m):
-        return int((np.abs((m * true).sum(axis=1)) < np.cos(np.radians(30.0))).sum())
-
-    gated = far_off(sharpen_normals(p, blended))
+    gated = _far_off(sharpen_normals(p, blended), true, 30.0)
     monkeypatch.setattr(_sharp, "QUADRIC_NEIGHBORS", p.shape[0] + 1)
-    assert gated <= far_off(sharpen_normals(p, blended)) + 3
-    assert gated < 0.7 * far_off(blended)
+    assert gated <= _far_off(sharpen_normals(p, blended), true, 30.0) + 3
+    assert gated < 0.7 * _far_off(blended, true, 30.0)
 
 
 def test_flat_and_noisy_samples_keep_their_normals():
