@@ -1,11 +1,13 @@
 """The points path's last placement step: faces of flat regions a little bent, moved
 onto their own planes (`_planar.planar_faces`), faces meeting on near-parallel planes
-taken as one (`_planar.merged_planar_faces`)."""
+taken as one (`_planar.merged_planar_faces`), and the triangles that keep a face bent
+set apart (`_planar.bent_apart`)."""
 
 import numpy as np
 
 from pointatlas.simplify._place import plane_fits
 from pointatlas.simplify._planar import (
+    bent_apart,
     edge_neighbours,
     merged_planar_faces,
     off_plane_relabelled,
@@ -337,3 +339,43 @@ def test_a_triangle_no_flat_neighbour_holds_goes_to_a_curved_one():
     np.testing.assert_array_equal(kept, [1])
     same = off_plane_relabelled(v, t, face, np.ones(3, bool), planes, 0.1)
     np.testing.assert_array_equal(same, face)
+
+
+def test_the_triangles_that_keep_a_face_bent_are_set_apart_and_the_rest_is_planar():
+    """The box corner's face 1 (x = 0) holding face 0's triangles at their edge (a
+    corner 1 off x = 0, the cap 0.1): exactly those triangles go to face 1's
+    companion (label 3 + 1), nothing moves (every face is then on its plane), and
+    the faces planar before keep their labels."""
+    v, t, face, labels, wrong = _mislabelled_corner()
+    flat = np.ones(3, bool)
+    y, got = bent_apart(v, t, labels, flat, _axis_planes(), 1e-9, 0.1)
+    np.testing.assert_array_equal(got, np.where(np.isin(np.arange(len(t)), wrong), 4, labels))
+    assert np.array_equal(y, v)
+    assert _planarity(y, t, got, 6)[:3].max() <= 1e-12
+
+
+def test_set_apart_only_at_the_far_vertex_the_rest_goes_onto_its_plane():
+    """The box corner bent by up to 1e-4 with one vertex inside face 0 (z = 0) lifted
+    by 1: only face 0's triangles at that vertex are set apart (its companion, 3);
+    every face then lies on its own plane within 1e-9, no vertex but the lifted one's
+    neighbours' moved more than a few times the bend, and the lifted one stays."""
+    v, t, face = _box_corner(4, 1e-4, seed=0)
+    inner = [i for i in np.unique(t[face == 0]) if (face[(t == i).any(axis=1)] == 0).all()]
+    v[inner[0], 2] += 1.0
+    y, got = bent_apart(v, t, face, np.ones(3, bool), _axis_planes(), 1e-9, 0.01)
+    at = (t == inner[0]).any(axis=1)
+    np.testing.assert_array_equal(got, np.where(at, 3, face))
+    assert _planarity(y, t, got, 6)[:3].max() <= 1e-9
+    assert np.linalg.norm(y - v, axis=1).max() <= 5e-4
+    assert np.array_equal(y[inner[0]], v[inner[0]])
+
+
+def test_with_no_face_left_bent_it_is_the_planar_step_bit_for_bit():
+    """The box corner bent by up to 1e-4, every face within the cap: the faces'
+    labels stay and the vertices are `merged_planar_faces`' on their own planes."""
+    v, t, face = _box_corner(4, 1e-4, seed=2)
+    flat = np.ones(3, bool)
+    y, got = bent_apart(v, t, face, flat, _axis_planes(), 1e-9, 0.01)
+    want, labels = merged_planar_faces(v, t, face, flat, 1e-9, 0.01)
+    np.testing.assert_array_equal(got, labels)
+    np.testing.assert_array_equal(y, want)

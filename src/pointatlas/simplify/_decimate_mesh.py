@@ -556,12 +556,17 @@ class Decimation:
 
     def result(self, m: int, planar_tol: float, distances=None) -> SurfaceSimplification:
         """The `SurfaceSimplification` after ``m`` collapses: one face per region
-        that kept a triangle (a small region can be collapsed away whole);
-        ``distances``: those of `distances` (``m``), when already measured."""
+        that kept a triangle (a small region can be collapsed away whole), and one
+        more, not flat, for a label R + r (R regions: region r's companion,
+        `_planar.bent_apart`); ``distances``: those of `distances` (``m``), when
+        already measured."""
         if distances is None:
             distances = self.distances(m)
         out_v, out_t, region, source, _ = self._placed(m)
         present, face = np.unique(region, return_inverse=True)
+        n = self.planes[2].size
+        flat = np.zeros(present.size, dtype=bool)
+        flat[present < n] = self.planes[2][present[present < n]]
         res = surface_result(
             self.verts,
             self.tri,
@@ -572,10 +577,10 @@ class Decimation:
             [()] * present.size,
             labels=self.labels,
             kept_input=np.zeros(present.size, dtype=bool),
-            flat=self.planes[2][present],
+            flat=flat,
             planar_tol=planar_tol,
             chord_tolerance=float("nan"),
             n_refined=0,
             distances=distances,
         )
-        return dataclasses.replace(res, face_region=present.astype(np.int64))
+        return dataclasses.replace(res, face_region=(present % n).astype(np.int64))

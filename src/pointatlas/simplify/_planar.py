@@ -41,9 +41,12 @@ from ._mesh import unique_ints, unique_pairs
 from ._place import _PARALLEL_RTOL, _cross, _plane_groups, plane_fits
 
 __all__ = [
+    "APART_KEEP",
+    "APART_ROUNDS",
     "PLANAR_ATTEMPTS",
     "RELABEL_PASSES",
     "SHRINK",
+    "bent_apart",
     "edge_neighbours",
     "merged_planar_faces",
     "off_plane_relabelled",
@@ -285,25 +288,107 @@ def _least_moves(x, rows, normals, offsets, free):
 
 
 def _failed(x, y, tri, rows, normals, offsets, bent, size, before, tol, cap):
-    """Which bent faces give way: at each vertex moved more than ``cap``, on a
-    triangle turned over, or left off one of its planes by more than ``tol``
-    (near-parallel planes), its bent face of fewest triangles (ties: the lower
-    label). A triangle left with less than `SHRINK` of its area along its former
-    normal counts as turned over."""
-    bad = np.zeros(x.shape[0], dtype=bool)
-    bad[np.linalg.norm(y - x, axis=1) > cap] = True
-    # turned over, or left with less than `SHRINK` of its area along its normal
-    kept = np.einsum("ij,ij->i", before, _cross(y, tri))
-    flipped = (kept <= SHRINK * np.einsum("ij,ij->i", before, before)) & before.any(axis=1)
-    bad[unique_ints(tri[flipped])] = True
-    height = np.einsum("ij,ij->i", normals[rows[:, 1]], y[rows[:, 0]]) - offsets[rows[:, 1]]
-    bad[rows[np.abs(height) > tol, 0]] = True
+    """Which bent faces give way: at each vertex that cannot go where ``y`` puts it
+    (`_unplaceable`), its bent face of fewest triangles (ties: the lower label)."""
+    bad = _unplaceable(x, y, tri, rows, normals, offsets, before, tol, cap)
     off = rows[bad[rows[:, 0]] & bent[rows[:, 1]]]
     failed = np.zeros(bent.size, dtype=bool)
     if off.size:
         off = off[np.lexsort((off[:, 1], size[off[:, 1]], off[:, 0]))]
         failed[off[np.r_[True, off[1:, 0] != off[:-1, 0]], 1]] = True
     return failed
+
+
+def _unplaceable(x, y, tri, rows, normals, offsets, before, tol, cap, movers=False):
+    """(V,) bool: the vertices moved from ``x`` to ``y`` by more than ``cap``, on a
+    triangle turned over (``movers``: those of its corners that moved), or left off
+    one of their faces' planes (``rows``: (vertex, face) pairs) by more than ``tol``
+    (near-parallel planes, or four that do not meet). A triangle left with less than
+    `SHRINK` of its area along its former normal (``before``: its cross product)
+    counts as turned over."""
+    moved = np.linalg.norm(y - x, axis=1)
+    bad = moved > cap
+    kept = np.einsum("ij,ij->i", before, _cross(y, tri))
+    flipped = (kept <= SHRINK * np.einsum("ij,ij->i", before, before)) & before.any(axis=1)
+    corners = unique_ints(tri[flipped])
+    bad[corners[moved[corners] > 0.0] if movers else corners] = True
+    height = np.einsum("ij,ij->i", normals[rows[:, 1]], y[rows[:, 0]]) - offsets[rows[:, 1]]
+    bad[rows[np.abs(height) > tol, 0]] = True
+    return bad
+
+
+#: Rounds of `bent_apart` at most (the triangles set apart at one vertex can leave
+#: the face's next vertex unable to go onto its plane).
+APART_ROUNDS = 4
+#: ... and a face keeps at least this share of its triangles: set apart, a face
+#: of which most was bent would only be called curved (it stays, bent).
+APART_KEEP = 0.5
+
+
+def bent_apart(x, triangles, triangle_face, flat, planes, tol: float, cap: float):
+    """Every bent face of a flat region made planar, its triangles at the vertices
+    that cannot go onto its plane set apart.
+
+    Where `merged_planar_faces` (the faces' own planes) leaves a face bent by more
+    than ``tol``, the vertices of the bent faces that cannot go onto the ``planes``
+    of all their flat faces (the regions' normals (R, 3) and offsets (R,): the
+    points' fits; each vertex to the nearest point on them) are found
+    (`_unplaceable`: a move longer than ``cap``, a move that turns a triangle over,
+    planes that do not meet), and the bent face's triangles at them go to the face's
+    *companion* (label ``R + face``, not flat), in at most `APART_ROUNDS` rounds,
+    while the face keeps `APART_KEEP` of its triangles.
+    The points' planes, not the face's own fit, tell which vertices those are: a
+    far corner tilts the fit and takes every vertex off it. What held a face bent
+    (a corner across a sharp edge, a vertex of four planes) is then in its
+    companion, written as its own planar pieces.
+
+    Returns ``(x, triangle_face)``: the vertices (a copy) and each triangle's face,
+    a companion's label ``R + face``.
+
+    Examples
+    --------
+    A strip of four triangles on z = 0 whose last corner lies far above it: the
+    triangle at that corner is set apart, the rest stays on the plane:
+
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0], [1, 1, 0], [2, 1, 1.0]])
+    >>> t = np.array([[0, 1, 4], [0, 4, 3], [1, 2, 4], [2, 5, 4]])
+    >>> planes = (np.array([[0, 0, 1.0]]), np.zeros(1))
+    >>> y, face = bent_apart(v, t, np.zeros(4, np.int64), np.ones(1, bool), planes, 1e-9, 0.1)
+    >>> face.tolist(), bool(np.array_equal(y, v))
+    ([0, 0, 0, 1], True)
+    """
+    x = np.asarray(x, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    face = np.asarray(triangle_face, dtype=np.int64).copy()
+    n = np.asarray(flat, dtype=bool).size
+    flat = np.concatenate([np.asarray(flat, dtype=bool), np.zeros(n, dtype=bool)])
+    normals = np.concatenate([planes[0], np.zeros((n, 3))])
+    offsets = np.concatenate([planes[1], np.zeros(n)])
+    size = np.bincount(face, minlength=2 * n)
+    for _ in range(APART_ROUNDS):
+        y, merged = merged_planar_faces(x, tri, face, flat, tol, cap)
+        bendable = _bendable(face, flat)
+        _, _, deviation, spanned = _bendable_fits(y, tri, face, flat)
+        bent = bendable & spanned & (deviation > tol)
+        if not bent.any():
+            return y, merged
+        # each vertex of a bent face to the nearest point on its faces' planes
+        on = spanned & bendable
+        t = np.flatnonzero(on[face])
+        pairs = unique_pairs(np.column_stack([tri[t].reshape(-1), np.repeat(face[t], 3)]))
+        rows = pairs[np.isin(pairs[:, 0], unique_ints(pairs[bent[pairs[:, 1]], 0]))]
+        verts, move, _ = _least_moves(x, rows, normals, offsets, np.full(2 * n, -1))
+        z = x.copy()
+        z[verts] += move
+        bad = _unplaceable(x, z, tri, rows, normals, offsets, _cross(x, tri), tol, cap, True)
+        hit = bent[face] & bad[tri].any(axis=1)
+        # a face left with less than `APART_KEEP` of its triangles stays whole (bent)
+        left = np.bincount(face[~hit], minlength=2 * n)
+        hit &= left[face] >= APART_KEEP * size[face]
+        if not hit.any():
+            return y, merged
+        face = np.where(hit, n + face, face)
+    return merged_planar_faces(x, tri, face, flat, tol, cap)
 
 
 #: Passes of `off_plane_relabelled` at most (a triangle given away can let the one

@@ -62,7 +62,9 @@ class SurfaceSimplification:
     polygon_planarity : ndarray of shape (P,), float64
         Largest distance of each polygon's vertices to their least-squares plane.
     face_region : ndarray of shape (F,), int64
-        Region of every face (F = number of regions).
+        Region of every face (F = number of regions; on the points path a flat
+        face's triangles that kept it bent are a second face of its region, its
+        *companion*, not flat: `_planar.bent_apart`).
     face_loops : tuple of tuple of ndarray of int64
         Per face: the outer loop then the holes (output vertex ids).
     face_kept_input : ndarray of shape (F,), bool
@@ -161,6 +163,20 @@ class SurfaceSimplification:
         return np.array([max(len(lp) - 1, 0) for lp in self.face_loops], dtype=np.int64)
 
     @property
+    def n_flat_faces_bent(self) -> int:
+        """Faces of flat regions whose vertices lie farther than 1e-6 of the
+        diagonal (of the output's box) from their least-squares plane."""
+        diag = float(np.linalg.norm(np.ptp(self.vertices, axis=0))) if self.n_vertices else 0.0
+        return int((self.face_flat & (self.planarity_error > 1e-6 * diag)).sum())
+
+    @property
+    def n_triangles_set_apart(self) -> int:
+        """Triangles of the companions of flat faces: faces not flat of a region that
+        has a flat face (`_planar.bent_apart`)."""
+        companion = ~self.face_flat & np.isin(self.face_region, self.face_region[self.face_flat])
+        return int(companion[self.triangle_face].sum())
+
+    @property
     def hausdorff(self) -> float:
         """The two-sided Hausdorff distance: the larger of ``distance_max`` (the input
         to the output) and ``back_distance_max`` (the output back to the input)."""
@@ -190,6 +206,8 @@ class SurfaceSimplification:
             "max_flat_planarity_error": float(
                 self.planarity_error[self.face_flat].max(initial=0.0)
             ),
+            "n_flat_faces_bent": self.n_flat_faces_bent,
+            "n_triangles_set_apart": self.n_triangles_set_apart,
             "distance_mean": self.distance_mean,
             "distance_max": self.distance_max,
             "back_distance_mean": self.back_distance_mean,

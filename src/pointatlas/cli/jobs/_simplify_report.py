@@ -82,7 +82,8 @@ def surface_table(
     table.add_row("Euler characteristic", str(s["euler_characteristic"]))
     table.add_row(
         "max planarity error (flat faces)",
-        f"{s['max_flat_planarity_error']:.3g} ({s['n_flat_faces']} flat faces)",
+        f"{s['max_flat_planarity_error']:.3g} ({s['n_flat_faces']} flat faces, "
+        f"{s['n_flat_faces_bent']} bent; {s['n_triangles_set_apart']} triangles set apart)",
     )
     table.add_row("max planarity error (polygons)", f"{s['max_polygon_planarity_error']:.3g}")
     _distance_rows(table, s, diagonal)
