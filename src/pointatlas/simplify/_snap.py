@@ -396,9 +396,10 @@ class PointsDecimation(Decimation):
         """`Decimation.result`, the faces of flat regions still bent made planar with
         their triangles at the vertices that cannot go onto the points' planes by a
         move of at most `APART_SHARE` of the bound set apart (`_planar.bent_apart`:
-        each face's companion), where the output then stays within the bound (the level search's measure, floors and all) or no
-        farther from the points both ways than it was (a level over it: a budget's);
-        the distances measured again."""
+        each face's companion), where the output then stays within the bound (the
+        level search's measure, floors and all) or no farther from the points both
+        ways than it was (a level over it: a budget's); the distances measured
+        again."""
         if distances is None:
             distances = self.distances(m)
         x, t, face, source, lineage = self._placed(m)
