@@ -230,9 +230,7 @@ def planar_faces(
         bent = held & (deviation > tol)
         if not bent.any():
             break
-        t = np.flatnonzero(held[tface])
-        pairs = unique_pairs(np.column_stack([tri[t].reshape(-1), np.repeat(tface[t], 3)]))
-        rows = pairs[np.isin(pairs[:, 0], unique_ints(pairs[bent[pairs[:, 1]], 0]))]
+        rows = _bent_rows(tri, tface, held, bent)
         free = np.full(nf, -1, dtype=np.int64)
         if not hold_offsets:
             free[bent] = np.arange(int(bent.sum()))
@@ -249,6 +247,14 @@ def planar_faces(
             return y
         held &= ~failed
     return x.copy()
+
+
+def _bent_rows(tri, tface, held, bent) -> np.ndarray:
+    """The (vertex, face) pairs, sorted, of the ``held`` faces at the vertices of the
+    ``bent`` ones: what `_least_moves` moves."""
+    t = np.flatnonzero(held[tface])
+    pairs = unique_pairs(np.column_stack([tri[t].reshape(-1), np.repeat(tface[t], 3)]))
+    return pairs[np.isin(pairs[:, 0], unique_ints(pairs[bent[pairs[:, 1]], 0]))]
 
 
 def _least_moves(x, rows, normals, offsets, free):
@@ -373,10 +379,7 @@ def bent_apart(x, triangles, triangle_face, flat, planes, tol: float, cap: float
         if not bent.any():
             return y, merged
         # each vertex of a bent face to the nearest point on its faces' planes
-        on = spanned & bendable
-        t = np.flatnonzero(on[face])
-        pairs = unique_pairs(np.column_stack([tri[t].reshape(-1), np.repeat(face[t], 3)]))
-        rows = pairs[np.isin(pairs[:, 0], unique_ints(pairs[bent[pairs[:, 1]], 0]))]
+        rows = _bent_rows(tri, face, spanned & bendable, bent)
         verts, move, _ = _least_moves(x, rows, normals, offsets, np.full(2 * n, -1))
         z = x.copy()
         z[verts] += move

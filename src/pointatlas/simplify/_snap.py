@@ -244,6 +244,11 @@ APART_SHARE = 0.25
 SETTLE_SHARE = 0.01
 
 
+def _farthest(distances) -> float:
+    """The largest of ``(there, back)``, the distances both ways."""
+    return max(float(np.max(d, initial=0.0)) for d in distances)
+
+
 class PointsDecimation(Decimation):
     """`Decimation` whose placement onto the flat regions' planes is kept only where it
     stays within ``tol`` of the points' surface (`placed_near_points`), and whose
@@ -408,10 +413,7 @@ class PointsDecimation(Decimation):
         y, apart = bent_apart(x, t, face, flat, planes, PLANAR_RTOL * self.diag, cap)
         if not np.array_equal(apart, face):
             found = self.measure.report(y, t) if not np.array_equal(x, y) else distances
-            farthest = max(float(np.max(d, initial=0.0)) for d in found)
-            if self.measure.within(y, t, self.bound) or farthest <= max(
-                float(np.max(d, initial=0.0)) for d in distances
-            ):
+            if self.measure.within(y, t, self.bound) or _farthest(found) <= _farthest(distances):
                 self._kept_level = (m, (y, t, apart, source, lineage))
                 self._report = (m, found)
                 distances = found
