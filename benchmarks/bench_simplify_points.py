@@ -67,6 +67,7 @@ from pointatlas.simplify import (
     SimplifyWarning,
     mesh_checks,
     outward_normals,
+    self_intersections,
     sharpen_normals,
     simplify_estimated,
     simplify_points,
@@ -278,6 +279,7 @@ def peer_row(v_true, t_true, p, n, n_triangles: int, diag: float, sampling=None)
                 "peer_mean_pct": d["mean"],
                 "peer_hausdorff_pct": d["hausdorff"],
                 "peer_seconds": took,
+                "peer_crossings": len(self_intersections(pv, pt)) if len(pt) else "",
             }
     return best
 
@@ -344,6 +346,7 @@ def run_model(path: Path, sampling: Sampling, peer: bool = True) -> dict:
         max_distance_pct=100.0 * m.distance_max / diag,
         hausdorff_pct=100.0 * max(m.distance_max, m.back_distance_max) / diag,
         spike=bool(((mv < lo) | (mv > hi)).any()),
+        crossings=len(self_intersections(mv, mt)),
         seconds=seconds,
         **truth_distances(mesh.vertices, tri, mv, mt, diag, sampling),
     )
@@ -510,6 +513,8 @@ def main(argv=None) -> int:
         "max_flat_planarity_pct",
         "reason",
         "normal_k",
+        "crossings",
+        "peer_crossings",
     ]
     with open(args.out, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
@@ -549,6 +554,18 @@ def main(argv=None) -> int:
                 f"{sum(r['flat_faces_bent'] > 0 for r in flat)} models, largest "
                 f"{max(r['max_flat_planarity_pct'] for r in flat):.3f} %"
             )
+        crossed = [r for r in done if r["crossings"] > 0]
+        line = (
+            f"self-intersecting outputs: {len(crossed)}/{len(done)} "
+            f"({sum(r['crossings'] for r in done)} triangle pairs)"
+        )
+        peer = [r for r in done if r.get("peer_crossings", "") != ""]
+        if peer:
+            line += (
+                f"; the peer's {sum(r['peer_crossings'] > 0 for r in peer)}/{len(peer)} "
+                f"({sum(r['peer_crossings'] for r in peer)})"
+            )
+        print(line)
         for line in peer_summary(done):
             print(line)
     print(f"written: {args.out}")

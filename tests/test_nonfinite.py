@@ -215,6 +215,7 @@ def _calls(tmp_path):
         "decimate_mesh": lambda a: simplify.decimate_mesh(a["vertices"], a["faces"], 100),
         "region_proxies": lambda a: simplify.region_proxies(a["points"], a["normals"], lab),
         "simplify_mesh": lambda a: simplify.simplify_mesh(a["vertices"], a["faces"]),
+        "self_intersections": lambda a: simplify.self_intersections(a["vertices"], a["faces"]),
         "simplify_points": lambda a: simplify.simplify_points(a["points"], a["normals"], rng=0),
         "simplify_estimated": lambda a: simplify.simplify_estimated(
             a["points"], lambda k: a["normals"], rng=0

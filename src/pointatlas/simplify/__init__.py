@@ -1,5 +1,6 @@
 """Simplified polygon meshes from segmented point sets (thesis 4.4)."""
 
+from ._crossings import self_intersections
 from ._decimate_mesh import decimate_mesh
 from ._estimated import RETRY_FACTOR, RETRY_K, EstimatedSimplification, simplify_estimated
 from ._mesh import SimplifiedMesh, mesh_checks, point_mesh_distance
@@ -29,6 +30,7 @@ __all__ = [
     "outward_normals",
     "point_mesh_distance",
     "region_proxies",
+    "self_intersections",
     "sharpen_normals",
     "simplify_estimated",
     "simplify_mesh",

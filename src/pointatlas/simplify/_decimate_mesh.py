@@ -20,11 +20,10 @@ from ..neighbors import MeshDistanceIndex
 from ._caps import flip_caps
 from ._decimate import Collapses, collapse_all, no_collapses
 from ._distance import _samples_in_order, back_distances
-from ._mesh import point_mesh_distance, used_vertices
+from ._mesh import _as_triangles, point_mesh_distance, used_vertices
 from ._mesh_path import (
     FLAT_MERGE_ANGLE,
     MAX_ANGLE,
-    _as_triangles,
     _diagonal,
     _merge_flat,
     _segment_faces,

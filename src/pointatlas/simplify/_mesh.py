@@ -414,6 +414,21 @@ def link_is_one_fan(edges) -> bool:
     return len({find(x) for x in deg}) == 1 and max(deg.values()) <= 2
 
 
+def _as_triangles(triangles, n_vertices: int) -> np.ndarray:
+    try:
+        tri = np.asarray(triangles)
+    except (TypeError, ValueError):
+        raise TypeError("triangles must be an integer array of shape (F, 3)") from None
+    if tri.ndim != 2 or tri.shape[1] != 3 or tri.shape[0] == 0:
+        raise ValueError(f"triangles must have shape (F, 3) with F >= 1; got {tri.shape}")
+    if tri.dtype.kind not in "iu":
+        raise TypeError(f"triangles must be integers; got dtype {tri.dtype}")
+    tri = tri.astype(np.int64)
+    if tri.min() < 0 or tri.max() >= n_vertices:
+        raise ValueError(f"triangles must index vertices 0..{n_vertices - 1}")
+    return tri
+
+
 def mesh_checks(n_vertices: int, triangles) -> tuple[bool, bool, bool]:
     """Closed, manifold and consistently oriented tests of a triangle mesh.
 

@@ -14,7 +14,7 @@ import numpy as np
 from scipy import sparse
 
 from .._core import as_float, as_points
-from ._mesh import unique_ints, unique_pairs, used_vertices
+from ._mesh import _as_triangles, unique_ints, unique_pairs, used_vertices
 from ._nonmanifold import repair_mesh_input
 from ._surface import SurfaceSimplification, simplify_surface
 from ._triangles import _face_graph, _Surface, _surface
@@ -33,21 +33,6 @@ MAX_ANGLE = np.radians(10.0)
 #: pieces of one flat CAD face that VSA's agglomeration left apart. Larger unions
 #: are left to VSA (they fold over in their plane more often).
 FLAT_MERGE_ANGLE = np.radians(1.0)
-
-
-def _as_triangles(triangles, n_vertices: int) -> np.ndarray:
-    try:
-        tri = np.asarray(triangles)
-    except (TypeError, ValueError):
-        raise TypeError("triangles must be an integer array of shape (F, 3)") from None
-    if tri.ndim != 2 or tri.shape[1] != 3 or tri.shape[0] == 0:
-        raise ValueError(f"triangles must have shape (F, 3) with F >= 1; got {tri.shape}")
-    if tri.dtype.kind not in "iu":
-        raise TypeError(f"triangles must be integers; got dtype {tri.dtype}")
-    tri = tri.astype(np.int64)
-    if tri.min() < 0 or tri.max() >= n_vertices:
-        raise ValueError(f"triangles must index vertices 0..{n_vertices - 1}")
-    return tri
 
 
 def _segment_faces(s: _Surface, graph, *, max_angle, eta, rng, **vsa):

@@ -32,6 +32,7 @@ from ._arcs import (
     simplify_arc,
     split_arcs,
 )
+from ._crossings import crossing_pairs
 from ._distance import back_distances
 from ._mesh import unique_ints, unique_pairs
 from ._place import FLAT_RTOL, flat_planes, place_on_planes, plane_fits, triangle_normals
@@ -182,6 +183,12 @@ class SurfaceSimplification:
         to the output) and ``back_distance_max`` (the output back to the input)."""
         return max(self.distance_max, self.back_distance_max)
 
+    @property
+    def self_intersections(self) -> np.ndarray:
+        """Pairs of output triangles that pass through each other, shape (P, 2)
+        (`self_intersections`): what "closed, manifold, oriented" cannot see."""
+        return crossing_pairs(self.vertices, self.triangles)
+
     def summary(self) -> dict:
         """A JSON-friendly report of the mesh and its quality."""
         return {
@@ -199,6 +206,7 @@ class SurfaceSimplification:
             "is_manifold": self.is_manifold,
             "is_oriented": self.is_oriented,
             "euler_characteristic": self.euler_characteristic,
+            "n_self_intersections": int(self.self_intersections.shape[0]),
             "max_planarity_error": float(self.planarity_error.max(initial=0.0)),
             "max_polygon_planarity_error": float(self.polygon_planarity.max(initial=0.0)),
             "planarity_error": [float(x) for x in self.planarity_error],

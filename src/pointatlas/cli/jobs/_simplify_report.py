@@ -80,6 +80,7 @@ def surface_table(
     table.add_row("faces kept as input triangles", str(s["n_faces_kept_as_input_triangles"]))
     table.add_row("closed / manifold / oriented", _checks(s))
     table.add_row("Euler characteristic", str(s["euler_characteristic"]))
+    table.add_row("self-intersections", f"{s['n_self_intersections']} triangle pairs")
     table.add_row(
         "max planarity error (flat faces)",
         f"{s['max_flat_planarity_error']:.3g} ({s['n_flat_faces']} flat faces, "

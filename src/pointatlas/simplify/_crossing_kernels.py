@@ -1,0 +1,246 @@
+"""numba kernels of `_crossings.crossing_pairs`: the pairs of triangles that share no
+edge and pass through each other (private; kernels assume validated input).
+
+Candidate pairs come from a sweep over the triangles' boxes sorted by their lowest
+coordinate along the longest axis;
+each candidate is tested by the interval test of Möller (1997): two triangles in
+different planes meet where the segments they cut from the line of their planes
+overlap; two in one plane meet where an edge of one crosses an edge of the other or a
+corner of one lies inside the other. A corner the two share lies on both planes
+exactly. Two triangles whose corners all lie within ``tol`` (a length) of the other's
+plane are tested in that plane; otherwise the sides of a plane are the signs of the
+computed distances (a tolerance there would put one corner of a sliver on a plane it
+misses and cross the fans of a flat face that do not). Triangles that only touch (at
+their shared corner, too), or overlap by less than ``tol``, do not cross.
+tests/simplify/reference.py keeps a plain-numpy test of every pair by another route
+(an edge of one through the other).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["crossings"]
+
+
+@njit(cache=True)
+def _unit_normal(a, b, c):
+    n = np.cross(b - a, c - a)
+    length = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+    if length == 0.0:
+        return n, False
+    return n / length, True
+
+
+@njit(cache=True)
+def _interval(v, d, axis):
+    """The segment (lo, hi along ``axis``) that the plane cuts from triangle ``v``
+    whose signed distances to it are ``d``; (1, 0) where it cuts nothing."""
+    lo = np.inf
+    hi = -np.inf
+    for i in range(3):
+        s = axis[0] * v[i, 0] + axis[1] * v[i, 1] + axis[2] * v[i, 2]
+        if d[i] == 0.0:
+            lo = min(lo, s)
+            hi = max(hi, s)
+        j = (i + 1) % 3
+        if (d[i] > 0.0 and d[j] < 0.0) or (d[i] < 0.0 and d[j] > 0.0):
+            sj = axis[0] * v[j, 0] + axis[1] * v[j, 1] + axis[2] * v[j, 2]
+            t = s + (sj - s) * d[i] / (d[i] - d[j])
+            lo = min(lo, t)
+            hi = max(hi, t)
+    if lo > hi:
+        return 1.0, 0.0
+    return lo, hi
+
+
+@njit(cache=True)
+def _side(ax, ay, bx, by, cx, cy):
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+
+
+@njit(cache=True)
+def _inside(p, q, x, y, tol):
+    """Whether a corner or the centroid of p lies inside triangle q by more than
+    ``tol`` (in the plane of the two axes; the centroid catches a p inside q whose
+    corners lie on q's edges, and a copy of q)."""
+    area = _side(q[0, x], q[0, y], q[1, x], q[1, y], q[2, x], q[2, y])
+    if area == 0.0:
+        return False
+    sign = 1.0 if area > 0.0 else -1.0
+    for k in range(4):
+        if k < 3:
+            px = p[k, x]
+            py = p[k, y]
+        else:
+            px = (p[0, x] + p[1, x] + p[2, x]) / 3.0
+            py = (p[0, y] + p[1, y] + p[2, y]) / 3.0
+        inside = True
+        for e in range(3):
+            f = (e + 1) % 3
+            length = np.hypot(q[f, x] - q[e, x], q[f, y] - q[e, y])
+            if sign * _side(q[e, x], q[e, y], q[f, x], q[f, y], px, py) <= tol * length:
+                inside = False
+        if inside:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _edges_cross(p, q, x, y, tol):
+    """Whether an edge of p and an edge of q cross properly (in the plane of the two
+    axes): each edge's ends on strictly opposite sides of the other's line."""
+    for e in range(3):
+        f = (e + 1) % 3
+        lp = np.hypot(p[f, x] - p[e, x], p[f, y] - p[e, y])
+        for g in range(3):
+            h = (g + 1) % 3
+            lq = np.hypot(q[h, x] - q[g, x], q[h, y] - q[g, y])
+            s1 = _side(p[e, x], p[e, y], p[f, x], p[f, y], q[g, x], q[g, y])
+            s2 = _side(p[e, x], p[e, y], p[f, x], p[f, y], q[h, x], q[h, y])
+            s3 = _side(q[g, x], q[g, y], q[h, x], q[h, y], p[e, x], p[e, y])
+            s4 = _side(q[g, x], q[g, y], q[h, x], q[h, y], p[f, x], p[f, y])
+            apart_p = (s1 > tol * lp and s2 < -tol * lp) or (s1 < -tol * lp and s2 > tol * lp)
+            apart_q = (s3 > tol * lq and s4 < -tol * lq) or (s3 < -tol * lq and s4 > tol * lq)
+            if apart_p and apart_q:
+                return True
+    return False
+
+
+@njit(cache=True)
+def _coplanar_cross(p, q, n, tol):
+    """The test of two triangles in one plane of normal ``n``: dropped onto the two
+    axes the normal leans on least."""
+    drop = np.argmax(np.abs(n))
+    x = (drop + 1) % 3
+    y = (drop + 2) % 3
+    if _edges_cross(p, q, x, y, tol):
+        return True
+    return _inside(p, q, x, y, tol) or _inside(q, p, x, y, tol)
+
+
+@njit(cache=True)
+def pair_crosses(p, q, ip, iq, tol):
+    """Whether triangles ``p`` and ``q`` (3 x 3 corners; ``p[ip]`` is ``q[iq]`` where
+    they share a corner, else both are -1) pass through each other by more than
+    ``tol``; triangles without area never do."""
+    np_, ok_p = _unit_normal(p[0], p[1], p[2])
+    nq, ok_q = _unit_normal(q[0], q[1], q[2])
+    if not (ok_p and ok_q):
+        return False
+    dp = np.empty(3)
+    dq = np.empty(3)
+    for i in range(3):
+        dp[i] = np.dot(nq, p[i] - q[0])
+        dq[i] = np.dot(np_, q[i] - p[0])
+    if ip >= 0:
+        dp[ip] = 0.0
+        dq[iq] = 0.0
+    if dp.min() > 0.0 or dp.max() < 0.0 or dq.min() > 0.0 or dq.max() < 0.0:
+        return False
+    if np.abs(dp).max() <= tol and np.abs(dq).max() <= tol:
+        return _coplanar_cross(p, q, nq, tol)
+    axis, ok = _unit_normal(np.zeros(3), np_, nq)
+    if not ok:
+        return _coplanar_cross(p, q, nq, tol)
+    a0, a1 = _interval(p, dp, axis)
+    b0, b1 = _interval(q, dq, axis)
+    return min(a1, b1) - max(a0, b0) > tol
+
+
+@njit(cache=True)
+def _boxes(x, tri):
+    lo = np.empty((tri.shape[0], 3))
+    hi = np.empty((tri.shape[0], 3))
+    for t in range(tri.shape[0]):
+        for k in range(3):
+            a = x[tri[t, 0], k]
+            b = x[tri[t, 1], k]
+            c = x[tri[t, 2], k]
+            lo[t, k] = min(a, min(b, c))
+            hi[t, k] = max(a, max(b, c))
+    return lo, hi
+
+
+@njit(cache=True)
+def _shared(tri, a, b):
+    """``(n, i, j)``: how many corners triangles a and b share, and where the last
+    shared one is in each."""
+    n = 0
+    si = -1
+    sj = -1
+    for i in range(3):
+        for j in range(3):
+            if tri[a, i] == tri[b, j]:
+                n += 1
+                si = i
+                sj = j
+    return n, si, sj
+
+
+@njit(cache=True)
+def _apart(x, tri, nrm, a, b, tol):
+    """Whether every corner of triangle b lies farther than ``tol`` from the plane of
+    triangle a, all on one side (then `pair_crosses` is False: a quick test first)."""
+    above = 0
+    below = 0
+    o = tri[a, 0]
+    for k in range(3):
+        v = tri[b, k]
+        d = (
+            nrm[a, 0] * (x[v, 0] - x[o, 0])
+            + nrm[a, 1] * (x[v, 1] - x[o, 1])
+            + nrm[a, 2] * (x[v, 2] - x[o, 2])
+        )
+        if d > tol:
+            above += 1
+        elif d < -tol:
+            below += 1
+    return above == 3 or below == 3
+
+
+@njit(cache=True)
+def crossings(x, tri, tol):
+    """``(P, 2)`` int64: the pairs (a < b) of triangles of ``tri`` that share no edge
+    and pass through each other by more than ``tol``."""
+    lo, hi = _boxes(x, tri)
+    # the sweep runs along the box's longest axis (a plate across it: all at once)
+    ext = np.empty(3)
+    for k in range(3):
+        ext[k] = hi[:, k].max() - lo[:, k].min() if tri.shape[0] else 0.0
+    ax = np.argmax(ext)
+    ay = (ax + 1) % 3
+    az = (ax + 2) % 3
+    order = np.argsort(lo[:, ax], kind="mergesort")
+    nrm = np.zeros((tri.shape[0], 3))
+    for t in range(tri.shape[0]):
+        nrm[t], _ = _unit_normal(x[tri[t, 0]], x[tri[t, 1]], x[tri[t, 2]])
+    found = []
+    p = np.empty((3, 3))
+    q = np.empty((3, 3))
+    for i in range(order.shape[0]):
+        a = order[i]
+        for j in range(i + 1, order.shape[0]):
+            b = order[j]
+            if lo[b, ax] > hi[a, ax]:
+                break
+            if lo[b, ay] > hi[a, ay] or hi[b, ay] < lo[a, ay]:
+                continue
+            if lo[b, az] > hi[a, az] or hi[b, az] < lo[a, az]:
+                continue
+            n, ip, iq = _shared(tri, a, b)
+            if n > 1:
+                continue
+            if n == 0 and (_apart(x, tri, nrm, a, b, tol) or _apart(x, tri, nrm, b, a, tol)):
+                continue
+            for k in range(3):
+                p[k] = x[tri[a, k]]
+                q[k] = x[tri[b, k]]
+            if pair_crosses(p, q, ip, iq, tol):
+                found.append((min(a, b), max(a, b)))
+    out = np.empty((len(found), 2), np.int64)
+    for k in range(len(found)):
+        out[k, 0] = found[k][0]
+        out[k, 1] = found[k][1]
+    return out

@@ -1,0 +1,78 @@
+"""Triangles of a mesh that pass through each other (`self_intersections`).
+
+"Closed, manifold, oriented" counts edges and cannot see a surface that passes
+through itself, which a boolean operation or a 3-D printer's slicer trips on. Two
+triangles cross when they share no edge and have a common point beyond a corner they
+share: tested pair by pair on the candidates whose boxes meet (`_crossing_kernels`).
+Open3D's `is_self_intersecting` skips every pair with a common corner (two triangles
+of one fan can cross) and counts triangles that only touch; this test counts neither
+touching nor less than `CROSSING_RTOL` of the diagonal.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._core import as_points
+from .._core.tolerances import CROSSING_RTOL
+from ._crossing_kernels import crossings
+from ._mesh import _as_triangles
+
+__all__ = ["crossing_pairs", "self_intersections"]
+
+
+def self_intersections(vertices, triangles) -> np.ndarray:
+    """Pairs of triangles of a mesh that pass through each other.
+
+    Parameters
+    ----------
+    vertices : array_like of shape (V, 3), float64
+        Mesh vertices (finite).
+    triangles : array_like of shape (T, 3), int
+        Triangles (T >= 1).
+
+    Returns
+    -------
+    pairs : ndarray of shape (P, 2), int64
+        Triangle indices ``(a, b)``, ``a < b``, in lexicographic order, of every pair
+        that shares no edge and has a common point other than a shared corner, by
+        more than ``CROSSING_RTOL`` of the bounding-box diagonal (pairs that only
+        touch are not counted). Triangles without area never cross.
+
+    Raises
+    ------
+    ValueError
+        If ``vertices`` is not finite of shape (V, 3), or ``triangles`` does not have
+        shape (T, 3) with indices into ``vertices``.
+
+    Notes
+    -----
+    Candidates are the pairs whose bounding boxes meet (a sweep along x); each is
+    decided by the interval test of Möller (1997). Coordinates are taken from the
+    box's centre, so the test does not lose digits far from the origin.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> v = [[0, 0, 0], [2, 0, 0], [0, 2, 0], [0.5, 0.5, -1], [0.5, 0.5, 1], [2, 2, 0]]
+    >>> self_intersections(v, [[0, 1, 2], [3, 4, 5]])
+    array([[0, 1]])
+    >>> self_intersections(v, [[0, 1, 2], [1, 5, 2]]).shape
+    (0, 2)
+    """
+    x = as_points(vertices, name="vertices")
+    return crossing_pairs(x, _as_triangles(triangles, x.shape[0]))
+
+
+def crossing_pairs(x: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """`self_intersections` of vertices ``x`` (V, 3) float64 and triangles ``tri``
+    (T, 3) int64, both valid (not checked); no triangle: none."""
+    if tri.shape[0] == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    lo = x.min(axis=0)
+    hi = x.max(axis=0)
+    centred = np.ascontiguousarray(x - 0.5 * (lo + hi))
+    tol = CROSSING_RTOL * float(np.linalg.norm(hi - lo))
+    pairs = crossings(centred, tri, tol)
+    order = np.lexsort((pairs[:, 1], pairs[:, 0]))
+    return pairs[order]

@@ -1,0 +1,186 @@
+"""Self-intersections: triangles of a mesh that pass through each other."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from pointatlas._core.tolerances import CROSSING_RTOL
+from pointatlas.simplify import self_intersections
+from tests.jit_off import JIT_OFF, run_module_without_jit
+from tests.simplify.reference import self_intersections_reference
+
+
+def _pairs(rows):
+    return np.array(rows, dtype=np.int64).reshape(-1, 2)
+
+
+def _tol(v):
+    v = np.asarray(v, float)
+    return CROSSING_RTOL * np.linalg.norm(v.max(axis=0) - v.min(axis=0))
+
+
+def test_a_closed_sphere_does_not_cross_itself():
+    s = trimesh.creation.icosphere(subdivisions=3)
+    assert self_intersections(s.vertices, s.faces).shape == (0, 2)
+
+
+def test_a_vertex_pushed_through_the_far_side_crosses_it():
+    s = trimesh.creation.icosphere(subdivisions=2)
+    v = np.array(s.vertices)
+    top = int(np.argmax(v[:, 2]))
+    v[top] = [0.0, 0.0, -1.3]  # through the bottom of the unit sphere
+    pairs = self_intersections(v, s.faces)
+    assert len(pairs) > 0
+    moved = np.isin(s.faces, top).any(axis=1)
+    # every crossing pair holds one of the moved vertex's triangles
+    assert moved[pairs].any(axis=1).all()
+    np.testing.assert_array_equal(pairs, self_intersections_reference(v, s.faces, _tol(v)))
+
+
+@pytest.mark.parametrize(
+    ("vertices", "triangles", "expected"),
+    [
+        # a triangle through another, no corner shared
+        (
+            [[0, 0, 0], [2, 0, 0], [0, 2, 0], [0.5, 0.5, -1], [0.5, 0.5, 1], [2, 2, 0]],
+            [[0, 1, 2], [3, 4, 5]],
+            [[0, 1]],
+        ),
+        # the same, touching the other's edge only: not a crossing
+        (
+            [[0, 0, 0], [2, 0, 0], [0, 2, 0], [1, 1, -1], [1, 1, 1], [2, 2, 0]],
+            [[0, 1, 2], [3, 4, 5]],
+            [],
+        ),
+        # two triangles of one fan, one folded through the other (Open3D skips these)
+        (
+            [[0, 0, 0], [2, 0, 0], [0, 2, 0], [1, 0.5, -1], [1, 0.5, 1]],
+            [[0, 1, 2], [0, 3, 4]],
+            [[0, 1]],
+        ),
+        # the same fan, the second triangle only meeting the first at their corner
+        (
+            [[0, 0, 0], [2, 0, 0], [0, 2, 0], [-1, -0.5, -1], [-1, -0.5, 1]],
+            [[0, 1, 2], [0, 3, 4]],
+            [],
+        ),
+        # two triangles on one edge are never a crossing, even folded flat
+        ([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0.5, 0.5, 0]], [[0, 1, 2], [0, 1, 3]], []),
+        # a copy of a triangle with its own vertices lies on it
+        (
+            [[0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 0], [2, 0, 0], [0, 2, 0]],
+            [[0, 1, 2], [3, 4, 5]],
+            [[0, 1]],
+        ),
+        # two triangles side by side in one plane, an edge touching
+        (
+            [[0, 0, 0], [2, 0, 0], [0, 2, 0], [2, 2, 0], [2, 0, 0], [0, 2, 0]],
+            [[0, 1, 2], [3, 5, 4]],
+            [],
+        ),
+        # overlapping in one plane
+        (
+            [[0, 0, 0], [2, 0, 0], [0, 2, 0], [1, 1, 0], [-1, 1, 0], [1, -1, 0]],
+            [[0, 1, 2], [3, 4, 5]],
+            [[0, 1]],
+        ),
+        # a triangle without area crosses nothing
+        (
+            [[0, 0, 0], [2, 0, 0], [0, 2, 0], [0.5, 0.5, -1], [0.5, 0.5, 1], [0.5, 0.5, 0]],
+            [[0, 1, 2], [3, 4, 5]],
+            [],
+        ),
+    ],
+)
+def test_known_pairs_match_reference(vertices, triangles, expected):
+    got = self_intersections(vertices, triangles)
+    np.testing.assert_array_equal(got, _pairs(expected))
+    ref = self_intersections_reference(vertices, np.array(triangles), _tol(vertices))
+    np.testing.assert_array_equal(got, ref)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_random_triangles_match_reference(seed):
+    rng = np.random.default_rng(seed)
+    v = rng.random((60, 3))
+    # shared corners as well as separate ones: 40 triangles on 60 vertices
+    tri = np.array([rng.choice(60, 3, replace=False) for _ in range(40)])
+    got = self_intersections(v, tri)
+    np.testing.assert_array_equal(got, self_intersections_reference(v, tri, _tol(v)))
+    assert len(got) > 0
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_flat_fans_in_a_tilted_plane_match_reference(seed):
+    """Triangles of one flat face, its vertices a hair off the plane (a planar face
+    of a simplified mesh): a fan crosses nothing; folding a triangle over does."""
+    rng = np.random.default_rng(seed)
+    angle = np.linspace(0, 2 * np.pi, 13)[:-1]
+    rim = np.column_stack([np.cos(angle), np.sin(angle), 1e-9 * rng.standard_normal(12)])
+    v = np.vstack([[0.0, 0.0, 0.0], rim])
+    tri = np.array([[0, 1 + i, 1 + (i + 1) % 12] for i in range(12)])
+    turn = np.linalg.qr(rng.standard_normal((3, 3)))[0]
+    x = v @ turn.T + 5.0
+    assert self_intersections(x, tri).shape == (0, 2)
+    folded = x.copy()
+    # rim vertex 3 dragged across the centre, between rim vertices 8 and 9
+    folded[3] = x[0] + 0.7 * (x[8] + x[9] - 2 * x[0])
+    got = self_intersections(folded, tri)
+    assert len(got) > 0
+    np.testing.assert_array_equal(got, self_intersections_reference(folded, tri, _tol(folded)))
+
+
+def test_far_from_the_origin_gives_the_same_pairs():
+    rng = np.random.default_rng(7)
+    v = rng.random((30, 3))
+    tri = np.array([rng.choice(30, 3, replace=False) for _ in range(20)])
+    np.testing.assert_array_equal(self_intersections(v + 1e6, tri), self_intersections(v, tri))
+
+
+def test_crossings_found_are_crossings_for_open3d():
+    """Open3D skips triangles with a common corner and counts triangles that only
+    touch; on triangles without common corners, every crossing found here is one of
+    its pairs."""
+    o3d = pytest.importorskip("open3d")
+    rng = np.random.default_rng(3)
+    v = rng.random((90, 3))
+    tri = np.arange(90).reshape(30, 3)
+    got = self_intersections(v, tri)
+    m = o3d.geometry.TriangleMesh(
+        o3d.utility.Vector3dVector(v), o3d.utility.Vector3iVector(tri.astype(np.int32))
+    )
+    theirs = {tuple(sorted(p)) for p in np.asarray(m.get_self_intersecting_triangles())}
+    assert len(got) > 0
+    assert {tuple(p) for p in got} <= theirs
+
+
+@pytest.mark.parametrize(
+    ("vertices", "triangles", "message"),
+    [
+        ([[0, 0, 0], [1, 0, 0], [0, 1, np.nan]], [[0, 1, 2]], "vertices"),
+        ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 3]], "triangles must index"),
+        ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1]], "triangles must have shape"),
+    ],
+)
+def test_bad_input_is_refused(vertices, triangles, message):
+    with pytest.raises(ValueError, match=message):
+        self_intersections(vertices, triangles)
+
+
+@pytest.mark.skipif(JIT_OFF, reason="already running with the JIT off")
+def test_kernels_without_jit():
+    run_module_without_jit(__file__, select="match_reference")
+
+
+def test_a_report_counts_the_crossings_of_its_triangles():
+    from pointatlas.data import load_mesh
+    from pointatlas.simplify import simplify_mesh
+
+    m = load_mesh("fandisk")
+    res = simplify_mesh(m.vertices, m.triangles, max_triangles=60)
+    v, t = np.asarray(res.vertices), np.asarray(res.triangles)
+    ref = self_intersections_reference(v, t, _tol(v))
+    np.testing.assert_array_equal(res.self_intersections, ref)
+    assert res.summary()["n_self_intersections"] == len(ref)
