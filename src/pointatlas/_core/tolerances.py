@@ -175,8 +175,9 @@ DENOISE_K_WIDTH = 10
 MAX_ITERATIONS = 100_000
 
 #: simplify (self-intersections): two triangles cross when they pass through each
-#: other by more than this fraction of the mesh's bounding-box diagonal; a corner
-#: within it of the other's plane lies on it. Far above the round-off of the plane
-#: distances (~1e-16 of the diagonal, coordinates taken from the box's centre), far
-#: below any feature a mesh keeps (planar faces are flat within 1e-7 of it).
+#: other by more than this fraction of the mesh's bounding-box diagonal; two whose
+#: corners all lie within it of the other's plane are tested in that plane. Far above
+#: the round-off of the plane distances (~1e-16 of the diagonal, coordinates taken
+#: from the box's centre), far below any feature a mesh keeps (planar faces are flat
+#: within 1e-7 of it).
 CROSSING_RTOL = 1e-10

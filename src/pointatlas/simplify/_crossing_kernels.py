@@ -1,19 +1,18 @@
 """numba kernels of `_crossings.crossing_pairs`: the pairs of triangles that share no
 edge and pass through each other (private; kernels assume validated input).
 
-Candidate pairs come from a sweep over the triangles' boxes sorted by their lowest
-coordinate along the longest axis;
-each candidate is tested by the interval test of Möller (1997): two triangles in
-different planes meet where the segments they cut from the line of their planes
-overlap; two in one plane meet where an edge of one crosses an edge of the other or a
-corner of one lies inside the other. A corner the two share lies on both planes
-exactly. Two triangles whose corners all lie within ``tol`` (a length) of the other's
-plane are tested in that plane; otherwise the sides of a plane are the signs of the
-computed distances (a tolerance there would put one corner of a sliver on a plane it
-misses and cross the fans of a flat face that do not). Triangles that only touch (at
-their shared corner, too), or overlap by less than ``tol``, do not cross.
-tests/simplify/reference.py keeps a plain-numpy test of every pair by another route
-(an edge of one through the other).
+Candidate pairs are those whose boxes meet, found in a grid of cells of the median
+triangle's size (`_grid`); each is tested by the interval test of Möller (1997): two
+triangles in different planes meet where the segments they cut from the line of their
+planes overlap; two in one plane meet where an edge of one crosses an edge of the
+other or a corner (or the centroid) of one lies inside the other. A corner the two
+share lies on both planes exactly. Two triangles whose corners all lie within ``tol``
+(a length) of the other's plane are tested in that plane; otherwise the sides of a
+plane are the signs of the computed distances (a tolerance there would put one corner
+of a sliver on a plane it misses and cross the fans of a flat face that do not).
+Triangles that only touch (at their shared corner, too), or overlap by less than
+``tol``, do not cross. tests/simplify/reference.py keeps a plain-numpy test of every
+pair by another route (one triangle clipped by the other).
 """
 
 from __future__ import annotations
@@ -22,6 +21,10 @@ import numpy as np
 from numba import njit
 
 __all__ = ["crossings"]
+
+#: Most (cell, triangle) entries of the candidates' grid per triangle: the cells grow
+#: until long triangles (a CAD face's fan) take no more.
+ENTRIES_PER_TRIANGLE = 8
 
 
 @njit(cache=True)
@@ -180,13 +183,16 @@ def _shared(tri, a, b):
 
 
 @njit(cache=True)
-def _apart(x, tri, nrm, a, b, tol):
-    """Whether every corner of triangle b lies farther than ``tol`` from the plane of
-    triangle a, all on one side (then `pair_crosses` is False: a quick test first)."""
+def _apart(x, tri, nrm, a, b, skip, tol):
+    """Whether every corner of triangle b but its ``skip``-th (the corner it shares
+    with a; -1: none) lies farther than ``tol`` from the plane of triangle a, all on
+    one side (then `pair_crosses` is False: a quick test first)."""
     above = 0
     below = 0
     o = tri[a, 0]
     for k in range(3):
+        if k == skip:
+            continue
         v = tri[b, k]
         d = (
             nrm[a, 0] * (x[v, 0] - x[o, 0])
@@ -197,48 +203,124 @@ def _apart(x, tri, nrm, a, b, tol):
             above += 1
         elif d < -tol:
             below += 1
-    return above == 3 or below == 3
+    corners = 3 if skip < 0 else 2
+    return above == corners or below == corners
+
+
+@njit(cache=True)
+def _cell_of(v, gmin, h, k):
+    return np.int64(np.floor((v - gmin[k]) / h))
+
+
+@njit(cache=True)
+def _entries(lo, hi, gmin, h, cap):
+    """How many (cell, triangle) entries cells of side ``h`` take (stops past ``cap``)."""
+    total = 0
+    for t in range(lo.shape[0]):
+        span = 1
+        for k in range(3):
+            span *= _cell_of(hi[t, k], gmin, h, k) - _cell_of(lo[t, k], gmin, h, k) + 1
+        total += span
+        if total > cap:
+            break
+    return total
+
+
+@njit(cache=True)
+def _grid(lo, hi):
+    """``(key, ids, gmin, h, dims)``: every triangle under the key of every cell its box
+    meets, sorted by key; the cells' side ``h`` starts at the median box and doubles
+    until the entries are at most `ENTRIES_PER_TRIANGLE` per triangle."""
+    n = lo.shape[0]
+    gmin = np.empty(3)
+    top = np.empty(3)
+    for k in range(3):
+        gmin[k] = lo[:, k].min()
+        top[k] = hi[:, k].max()
+    size = np.empty(n)
+    for t in range(n):
+        size[t] = max(hi[t, 0] - lo[t, 0], max(hi[t, 1] - lo[t, 1], hi[t, 2] - lo[t, 2]))
+    h = np.median(size)
+    span = max(top[0] - gmin[0], max(top[1] - gmin[1], top[2] - gmin[2]))
+    if not h > span * 1e-6:
+        h = max(span * 1e-6, 1e-300)
+    cap = ENTRIES_PER_TRIANGLE * n
+    while _entries(lo, hi, gmin, h, cap) > cap:
+        h *= 2.0
+    dims = np.empty(3, np.int64)
+    for k in range(3):
+        dims[k] = _cell_of(top[k], gmin, h, k) + 1
+    total = _entries(lo, hi, gmin, h, cap)
+    key = np.empty(total, np.int64)
+    ids = np.empty(total, np.int64)
+    e = 0
+    for t in range(n):
+        c0 = np.empty(3, np.int64)
+        c1 = np.empty(3, np.int64)
+        for k in range(3):
+            c0[k] = _cell_of(lo[t, k], gmin, h, k)
+            c1[k] = _cell_of(hi[t, k], gmin, h, k)
+        for i in range(c0[0], c1[0] + 1):
+            for j in range(c0[1], c1[1] + 1):
+                for m in range(c0[2], c1[2] + 1):
+                    key[e] = (i * dims[1] + j) * dims[2] + m
+                    ids[e] = t
+                    e += 1
+    order = np.argsort(key, kind="mergesort")
+    return key[order], ids[order], gmin, h, dims
+
+
+@njit(cache=True)
+def _meets(lo, hi, a, b):
+    for k in range(3):
+        if lo[b, k] > hi[a, k] or hi[b, k] < lo[a, k]:
+            return False
+    return True
 
 
 @njit(cache=True)
 def crossings(x, tri, tol):
     """``(P, 2)`` int64: the pairs (a < b) of triangles of ``tri`` that share no edge
-    and pass through each other by more than ``tol``."""
+    and pass through each other by more than ``tol``. Each pair whose boxes meet is
+    tried once: in the cell of the lowest corner of their boxes' overlap."""
+    if tri.shape[0] == 0:
+        return np.zeros((0, 2), np.int64)
     lo, hi = _boxes(x, tri)
-    # the sweep runs along the box's longest axis (a plate across it: all at once)
-    ext = np.empty(3)
-    for k in range(3):
-        ext[k] = hi[:, k].max() - lo[:, k].min() if tri.shape[0] else 0.0
-    ax = np.argmax(ext)
-    ay = (ax + 1) % 3
-    az = (ax + 2) % 3
-    order = np.argsort(lo[:, ax], kind="mergesort")
+    key, ids, gmin, h, dims = _grid(lo, hi)
     nrm = np.zeros((tri.shape[0], 3))
     for t in range(tri.shape[0]):
         nrm[t], _ = _unit_normal(x[tri[t, 0]], x[tri[t, 1]], x[tri[t, 2]])
     found = []
     p = np.empty((3, 3))
     q = np.empty((3, 3))
-    for i in range(order.shape[0]):
-        a = order[i]
-        for j in range(i + 1, order.shape[0]):
-            b = order[j]
-            if lo[b, ax] > hi[a, ax]:
-                break
-            if lo[b, ay] > hi[a, ay] or hi[b, ay] < lo[a, ay]:
-                continue
-            if lo[b, az] > hi[a, az] or hi[b, az] < lo[a, az]:
-                continue
-            n, ip, iq = _shared(tri, a, b)
-            if n > 1:
-                continue
-            if n == 0 and (_apart(x, tri, nrm, a, b, tol) or _apart(x, tri, nrm, b, a, tol)):
-                continue
-            for k in range(3):
-                p[k] = x[tri[a, k]]
-                q[k] = x[tri[b, k]]
-            if pair_crosses(p, q, ip, iq, tol):
-                found.append((min(a, b), max(a, b)))
+    start = 0
+    while start < key.shape[0]:
+        stop = start
+        while stop < key.shape[0] and key[stop] == key[start]:
+            stop += 1
+        for i in range(start, stop):
+            for j in range(i + 1, stop):
+                a = min(ids[i], ids[j])
+                b = max(ids[i], ids[j])
+                if not _meets(lo, hi, a, b):
+                    continue
+                corner = (
+                    _cell_of(max(lo[a, 0], lo[b, 0]), gmin, h, 0) * dims[1]
+                    + _cell_of(max(lo[a, 1], lo[b, 1]), gmin, h, 1)
+                ) * dims[2] + _cell_of(max(lo[a, 2], lo[b, 2]), gmin, h, 2)
+                if corner != key[start]:
+                    continue
+                n, ip, iq = _shared(tri, a, b)
+                if n > 1:
+                    continue
+                if _apart(x, tri, nrm, a, b, iq, tol) or _apart(x, tri, nrm, b, a, ip, tol):
+                    continue
+                for k in range(3):
+                    p[k] = x[tri[a, k]]
+                    q[k] = x[tri[b, k]]
+                if pair_crosses(p, q, ip, iq, tol):
+                    found.append((a, b))
+        start = stop
     out = np.empty((len(found), 2), np.int64)
     for k in range(len(found)):
         out[k, 0] = found[k][0]
