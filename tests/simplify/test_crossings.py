@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import trimesh
 
-from pointatlas._core.tolerances import CROSSING_RTOL
-from pointatlas.simplify import self_intersections
+from pointatlas._core.tolerances import CROSSING_FLAT_RTOL, CROSSING_RTOL
+from pointatlas.simplify import mesh_checks, self_intersections
 from tests.jit_off import JIT_OFF, run_module_without_jit
 from tests.simplify.reference import self_intersections_reference
 
@@ -17,8 +19,10 @@ def _pairs(rows):
 
 
 def _tol(v):
+    """The kernel's two tolerances for vertices ``v``: crossing, and one plane."""
     v = np.asarray(v, float)
-    return CROSSING_RTOL * np.linalg.norm(v.max(axis=0) - v.min(axis=0))
+    diag = np.linalg.norm(v.max(axis=0) - v.min(axis=0))
+    return CROSSING_RTOL * diag, CROSSING_FLAT_RTOL * diag
 
 
 def test_a_closed_sphere_does_not_cross_itself():
@@ -36,7 +40,7 @@ def test_a_vertex_pushed_through_the_far_side_crosses_it():
     moved = np.isin(s.faces, top).any(axis=1)
     # every crossing pair holds one of the moved vertex's triangles
     assert moved[pairs].any(axis=1).all()
-    np.testing.assert_array_equal(pairs, self_intersections_reference(v, s.faces, _tol(v)))
+    np.testing.assert_array_equal(pairs, self_intersections_reference(v, s.faces, *_tol(v)))
 
 
 @pytest.mark.parametrize(
@@ -97,7 +101,7 @@ def test_a_vertex_pushed_through_the_far_side_crosses_it():
 def test_known_pairs_match_reference(vertices, triangles, expected):
     got = self_intersections(vertices, triangles)
     np.testing.assert_array_equal(got, _pairs(expected))
-    ref = self_intersections_reference(vertices, np.array(triangles), _tol(vertices))
+    ref = self_intersections_reference(vertices, np.array(triangles), *_tol(vertices))
     np.testing.assert_array_equal(got, ref)
 
 
@@ -108,7 +112,7 @@ def test_random_triangles_match_reference(seed):
     # shared corners as well as separate ones: 40 triangles on 60 vertices
     tri = np.array([rng.choice(60, 3, replace=False) for _ in range(40)])
     got = self_intersections(v, tri)
-    np.testing.assert_array_equal(got, self_intersections_reference(v, tri, _tol(v)))
+    np.testing.assert_array_equal(got, self_intersections_reference(v, tri, *_tol(v)))
     assert len(got) > 0
 
 
@@ -129,7 +133,7 @@ def test_flat_fans_in_a_tilted_plane_match_reference(seed):
     folded[3] = x[0] + 0.7 * (x[8] + x[9] - 2 * x[0])
     got = self_intersections(folded, tri)
     assert len(got) > 0
-    np.testing.assert_array_equal(got, self_intersections_reference(folded, tri, _tol(folded)))
+    np.testing.assert_array_equal(got, self_intersections_reference(folded, tri, *_tol(folded)))
 
 
 def test_far_from_the_origin_gives_the_same_pairs():
@@ -181,6 +185,64 @@ def test_a_report_counts_the_crossings_of_its_triangles():
     m = load_mesh("fandisk")
     res = simplify_mesh(m.vertices, m.triangles, max_triangles=60)
     v, t = np.asarray(res.vertices), np.asarray(res.triangles)
-    ref = self_intersections_reference(v, t, _tol(v))
+    ref = self_intersections_reference(v, t, *_tol(v))
     np.testing.assert_array_equal(res.self_intersections, ref)
     assert res.summary()["n_self_intersections"] == len(ref)
+
+
+def test_uncrossed_puts_back_the_moves_that_cross_and_keeps_the_rest():
+    from pointatlas.simplify._crossings import uncrossed
+
+    s = trimesh.creation.icosphere(subdivisions=2)
+    v = np.array(s.vertices)
+    tri = np.asarray(s.faces, dtype=np.int64)
+    top, side = int(np.argmax(v[:, 2])), int(np.argmax(v[:, 0]))
+    moved = v.copy()
+    moved[top] = [0.0, 0.0, -1.3]  # through the far side
+    moved[side] *= 1.05  # outwards: crosses nothing
+    assert len(self_intersections(moved, tri)) > 0
+    y = uncrossed(v, moved, tri)
+    assert self_intersections(y, tri).shape == (0, 2)
+    np.testing.assert_array_equal(y[top], v[top])
+    np.testing.assert_array_equal(np.delete(y, top, axis=0), np.delete(moved, top, axis=0))
+    # what crossed before the step is not the step's: left as it is
+    np.testing.assert_array_equal(uncrossed(moved, moved * 1.01, tri), moved * 1.01)
+    # no move: the same array back
+    assert uncrossed(v, v, tri) is v
+
+
+COLLECTION = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "collection"
+FAN_MOUNT = COLLECTION / "voron0_fan_mount_top_x1.stl"
+
+
+@pytest.mark.skipif(not FAN_MOUNT.exists(), reason="the collection is not under ../shared")
+def test_the_points_path_does_not_place_triangles_through_each_other(monkeypatch):
+    """A sampled CAD part of the collection (a fan mount): its vertices' moves onto the
+    planes and `bent_apart`'s made 20 triangle pairs cross; with the moves that did it
+    put back, none (the same triangles), and the report counts them."""
+    import warnings
+
+    from pointatlas.io import read_mesh
+    from pointatlas.simplify import _snap, simplify_points
+    from pointatlas.synth import sample_mesh
+
+    mesh = read_mesh(FAN_MOUNT)
+    v, t = np.asarray(mesh.vertices), np.asarray(mesh.triangles, dtype=np.int64)
+    s = sample_mesh(v, t, 20000, rng=0)
+    p, n = np.asarray(s.points), np.asarray(s.normals)
+    out = {}
+    for guard in (False, True):
+        if not guard:
+            monkeypatch.setattr(_snap, "uncrossed", lambda before, after, tri: after)
+        else:
+            monkeypatch.undo()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            out[guard] = simplify_points(p, n).mesh
+    plain, m = out[False], out[True]
+    assert len(self_intersections(plain.vertices, plain.triangles)) >= 10
+    assert m.summary()["n_self_intersections"] == 0 < plain.summary()["n_self_intersections"]
+    assert len(m.triangles) == len(plain.triangles)
+    x, tri = np.asarray(m.vertices), np.asarray(m.triangles)
+    assert self_intersections_reference(x, tri, *_tol(x)).shape == (0, 2)
+    assert all(mesh_checks(m.n_vertices, tri))

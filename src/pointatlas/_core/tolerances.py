@@ -175,9 +175,14 @@ DENOISE_K_WIDTH = 10
 MAX_ITERATIONS = 100_000
 
 #: simplify (self-intersections): two triangles cross when they pass through each
-#: other by more than this fraction of the mesh's bounding-box diagonal; two whose
-#: corners all lie within it of the other's plane are tested in that plane. Far above
-#: the round-off of the plane distances (~1e-16 of the diagonal, coordinates taken
-#: from the box's centre), far below any feature a mesh keeps (planar faces are flat
-#: within 1e-7 of it).
+#: other by more than this fraction of the mesh's bounding-box diagonal (each reaching
+#: past it to both sides of the other's plane, their common segment longer). Far
+#: above the round-off of the plane distances (~1e-16 of the diagonal, coordinates
+#: taken from the box's centre), far below any feature a mesh keeps.
 CROSSING_RTOL = 1e-10
+
+#: simplify (self-intersections): two triangles whose corners all lie within this
+#: fraction of the diagonal of the other's plane are tested in one plane: a planar
+#: face's triangles (flat within 1e-7 of the diagonal, `PLANAR_RTOL`), where a fold
+#: shows only as an overlap in the plane.
+CROSSING_FLAT_RTOL = 1e-7

@@ -6,13 +6,16 @@ triangle's size (`_grid`); each is tested by the interval test of Möller (1997)
 triangles in different planes meet where the segments they cut from the line of their
 planes overlap; two in one plane meet where an edge of one crosses an edge of the
 other or a corner (or the centroid) of one lies inside the other. A corner the two
-share lies on both planes exactly. Two triangles whose corners all lie within ``tol``
-(a length) of the other's plane are tested in that plane; otherwise the sides of a
-plane are the signs of the computed distances (a tolerance there would put one corner
-of a sliver on a plane it misses and cross the fans of a flat face that do not).
-Triangles that only touch (at their shared corner, too), or overlap by less than
-``tol``, do not cross. tests/simplify/reference.py keeps a plain-numpy test of every
-pair by another route (one triangle clipped by the other).
+share lies on both planes exactly. Two triangles whose corners all lie within
+``flat_tol`` of the other's plane (a planar face's triangles) are tested in that
+plane; otherwise each must reach more than ``tol`` (a length) to both sides of the
+other's plane (an edge of one lying on the other's plane, as the planar faces' rims
+do, only touches it), and the sides of a plane are the signs of the computed
+distances (a tolerance there would put one corner of a sliver on a plane it misses
+and cross the fans of a flat face that do not). Triangles that only touch (at their
+shared corner, too), or overlap by less than ``tol``, do not cross.
+tests/simplify/reference.py keeps a plain-numpy test of every pair by another route
+(one triangle clipped by the other).
 """
 
 from __future__ import annotations
@@ -115,7 +118,10 @@ def _edges_cross(p, q, x, y, tol):
 def _coplanar_cross(p, q, n, tol):
     """The test of two triangles in one plane of normal ``n``: dropped onto the two
     axes the normal leans on least."""
-    drop = np.argmax(np.abs(n))
+    drop = 0
+    for k in range(1, 3):
+        if abs(n[k]) > abs(n[drop]):
+            drop = k
     x = (drop + 1) % 3
     y = (drop + 2) % 3
     if _edges_cross(p, q, x, y, tol):
@@ -124,29 +130,58 @@ def _coplanar_cross(p, q, n, tol):
 
 
 @njit(cache=True)
-def pair_crosses(p, q, ip, iq, tol):
-    """Whether triangles ``p`` and ``q`` (3 x 3 corners; ``p[ip]`` is ``q[iq]`` where
-    they share a corner, else both are -1) pass through each other by more than
-    ``tol``; triangles without area never do."""
-    np_, ok_p = _unit_normal(p[0], p[1], p[2])
-    nq, ok_q = _unit_normal(q[0], q[1], q[2])
-    if not (ok_p and ok_q):
+def _side_of(n, v, o):
+    """Signed distance of ``v`` to the plane of unit normal ``n`` through ``o``."""
+    return n[0] * (v[0] - o[0]) + n[1] * (v[1] - o[1]) + n[2] * (v[2] - o[2])
+
+
+@njit(cache=True)
+def _straddle(d):
+    """How far a triangle reaches to the nearer side of a plane (its corners' signed
+    distances ``d``): 0 where it lies on one side."""
+    return min(max(d[0], max(d[1], d[2])), -min(d[0], min(d[1], d[2])))
+
+
+@njit(cache=True)
+def pair_crosses(p, q, np_, nq, ip, iq, tol, flat_tol, work):
+    """Whether triangles ``p`` and ``q`` (3 x 3 corners, unit normals ``np_``, ``nq``:
+    zero without area; ``p[ip]`` is ``q[iq]`` where they share a corner, else both
+    are -1) pass through each other by more than ``tol``; triangles without area
+    never do; ``flat_tol``: corners all this near the other's plane, in one plane.
+    ``work``: a 3 x 3 scratch array (no allocation per pair)."""
+    if (np_[0] == 0.0 and np_[1] == 0.0 and np_[2] == 0.0) or (
+        nq[0] == 0.0 and nq[1] == 0.0 and nq[2] == 0.0
+    ):
         return False
-    dp = np.empty(3)
-    dq = np.empty(3)
+    dp = work[0]
+    dq = work[1]
+    axis = work[2]
     for i in range(3):
-        dp[i] = np.dot(nq, p[i] - q[0])
-        dq[i] = np.dot(np_, q[i] - p[0])
+        dp[i] = _side_of(nq, p[i], q[0])
+        dq[i] = _side_of(np_, q[i], p[0])
     if ip >= 0:
         dp[ip] = 0.0
         dq[iq] = 0.0
-    if dp.min() > 0.0 or dp.max() < 0.0 or dq.min() > 0.0 or dq.max() < 0.0:
+    flat = True
+    for i in range(3):
+        if abs(dp[i]) > flat_tol or abs(dq[i]) > flat_tol:
+            flat = False
+    if flat:  # a fold shows only in the plane
+        return _coplanar_cross(p, q, nq, tol)
+    if min(dp[0], min(dp[1], dp[2])) > 0.0 or max(dp[0], max(dp[1], dp[2])) < 0.0:
         return False
-    if np.abs(dp).max() <= tol and np.abs(dq).max() <= tol:
+    if min(dq[0], min(dq[1], dq[2])) > 0.0 or max(dq[0], max(dq[1], dq[2])) < 0.0:
+        return False
+    if _straddle(dp) <= tol or _straddle(dq) <= tol:
+        return False  # one only touches the other's plane: they touch at most
+    axis[0] = np_[1] * nq[2] - np_[2] * nq[1]
+    axis[1] = np_[2] * nq[0] - np_[0] * nq[2]
+    axis[2] = np_[0] * nq[1] - np_[1] * nq[0]
+    length = np.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
+    if length == 0.0:
         return _coplanar_cross(p, q, nq, tol)
-    axis, ok = _unit_normal(np.zeros(3), np_, nq)
-    if not ok:
-        return _coplanar_cross(p, q, nq, tol)
+    for k in range(3):
+        axis[k] /= length
     a0, a1 = _interval(p, dp, axis)
     b0, b1 = _interval(q, dq, axis)
     return min(a1, b1) - max(a0, b0) > tol
@@ -183,10 +218,10 @@ def _shared(tri, a, b):
 
 
 @njit(cache=True)
-def _apart(x, tri, nrm, a, b, skip, tol):
+def _apart(x, tri, nrm, a, b, skip, flat_tol):
     """Whether every corner of triangle b but its ``skip``-th (the corner it shares
-    with a; -1: none) lies farther than ``tol`` from the plane of triangle a, all on
-    one side (then `pair_crosses` is False: a quick test first)."""
+    with a; -1: none) lies farther than ``flat_tol`` from the plane of triangle a,
+    all on one side (then `pair_crosses` is False: a quick test first)."""
     above = 0
     below = 0
     o = tri[a, 0]
@@ -199,9 +234,9 @@ def _apart(x, tri, nrm, a, b, skip, tol):
             + nrm[a, 1] * (x[v, 1] - x[o, 1])
             + nrm[a, 2] * (x[v, 2] - x[o, 2])
         )
-        if d > tol:
+        if d > flat_tol:
             above += 1
-        elif d < -tol:
+        elif d < -flat_tol:
             below += 1
     corners = 3 if skip < 0 else 2
     return above == corners or below == corners
@@ -279,10 +314,11 @@ def _meets(lo, hi, a, b):
 
 
 @njit(cache=True)
-def crossings(x, tri, tol):
+def crossings(x, tri, tol, flat_tol, live):
     """``(P, 2)`` int64: the pairs (a < b) of triangles of ``tri`` that share no edge
-    and pass through each other by more than ``tol``. Each pair whose boxes meet is
-    tried once: in the cell of the lowest corner of their boxes' overlap."""
+    and pass through each other by more than ``tol``, of those with a ``live``
+    triangle. Each pair whose boxes meet is tried once: in the cell of the lowest
+    corner of their boxes' overlap."""
     if tri.shape[0] == 0:
         return np.zeros((0, 2), np.int64)
     lo, hi = _boxes(x, tri)
@@ -293,6 +329,7 @@ def crossings(x, tri, tol):
     found = []
     p = np.empty((3, 3))
     q = np.empty((3, 3))
+    work = np.empty((3, 3))
     start = 0
     while start < key.shape[0]:
         stop = start
@@ -302,7 +339,7 @@ def crossings(x, tri, tol):
             for j in range(i + 1, stop):
                 a = min(ids[i], ids[j])
                 b = max(ids[i], ids[j])
-                if not _meets(lo, hi, a, b):
+                if not (live[a] or live[b]) or not _meets(lo, hi, a, b):
                     continue
                 corner = (
                     _cell_of(max(lo[a, 0], lo[b, 0]), gmin, h, 0) * dims[1]
@@ -313,12 +350,14 @@ def crossings(x, tri, tol):
                 n, ip, iq = _shared(tri, a, b)
                 if n > 1:
                     continue
-                if _apart(x, tri, nrm, a, b, iq, tol) or _apart(x, tri, nrm, b, a, ip, tol):
+                if _apart(x, tri, nrm, a, b, iq, flat_tol) or _apart(
+                    x, tri, nrm, b, a, ip, flat_tol
+                ):
                     continue
                 for k in range(3):
                     p[k] = x[tri[a, k]]
                     q[k] = x[tri[b, k]]
-                if pair_crosses(p, q, ip, iq, tol):
+                if pair_crosses(p, q, nrm[a], nrm[b], ip, iq, tol, flat_tol, work):
                     found.append((a, b))
         start = stop
     out = np.empty((len(found), 2), np.int64)

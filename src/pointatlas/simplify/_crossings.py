@@ -14,11 +14,11 @@ from __future__ import annotations
 import numpy as np
 
 from .._core import as_points
-from .._core.tolerances import CROSSING_RTOL
+from .._core.tolerances import CROSSING_FLAT_RTOL, CROSSING_RTOL
 from ._crossing_kernels import crossings
 from ._mesh import _as_triangles
 
-__all__ = ["crossing_pairs", "self_intersections"]
+__all__ = ["crossing_pairs", "self_intersections", "uncrossed"]
 
 
 def self_intersections(vertices, triangles) -> np.ndarray:
@@ -64,15 +64,49 @@ def self_intersections(vertices, triangles) -> np.ndarray:
     return crossing_pairs(x, _as_triangles(triangles, x.shape[0]))
 
 
-def crossing_pairs(x: np.ndarray, tri: np.ndarray) -> np.ndarray:
+def crossing_pairs(x: np.ndarray, tri: np.ndarray, live=None) -> np.ndarray:
     """`self_intersections` of vertices ``x`` (V, 3) float64 and triangles ``tri``
-    (T, 3) int64, both valid (not checked); no triangle: none."""
+    (T, 3) int64, both valid (not checked); no triangle: none. ``live``: (T,) bool,
+    only the pairs with a live triangle (default: all)."""
     if tri.shape[0] == 0:
         return np.zeros((0, 2), dtype=np.int64)
     lo = x.min(axis=0)
     hi = x.max(axis=0)
     centred = np.ascontiguousarray(x - 0.5 * (lo + hi))
-    tol = CROSSING_RTOL * float(np.linalg.norm(hi - lo))
-    pairs = crossings(centred, tri, tol)
+    diag = float(np.linalg.norm(hi - lo))
+    if live is None:
+        live = np.ones(tri.shape[0], dtype=bool)
+    pairs = crossings(centred, tri, CROSSING_RTOL * diag, CROSSING_FLAT_RTOL * diag, live)
     order = np.lexsort((pairs[:, 1], pairs[:, 0]))
     return pairs[order]
+
+
+def _codes(pairs: np.ndarray, n: int) -> np.ndarray:
+    return pairs[:, 0] * n + pairs[:, 1]
+
+
+def uncrossed(before, after, tri, rounds: int = 8):
+    """``after`` with a moved vertex of every triangle pair that crosses there and not
+    at ``before`` put back where it was in ``before`` (the corner of the pair that
+    moved most), pass by pass (at most ``rounds``): a step's moves that made the
+    surface pass through itself undone where they did (private; valid arrays). Only
+    pairs with a triangle at a moved vertex can be new: only those are tried."""
+    n = max(tri.shape[0], 1)
+    moved = (after != before).any(axis=1)
+    live = moved[tri].any(axis=1)
+    if not live.any():
+        return after
+    was = _codes(crossing_pairs(before, tri, live), n)
+    y = after.copy()
+    for _ in range(rounds):
+        pairs = crossing_pairs(y, tri, live)
+        new = pairs[~np.isin(_codes(pairs, n), was)]
+        if new.shape[0] == 0:
+            break
+        corners = tri[new].reshape(-1, 6)  # each pair's six corners
+        move = np.linalg.norm(y[corners] - before[corners], axis=2)
+        if not (move > 0).any():
+            break
+        verts = np.unique(corners[np.arange(corners.shape[0]), np.argmax(move, axis=1)])
+        y[verts] = before[verts]
+    return y
