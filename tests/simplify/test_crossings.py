@@ -216,10 +216,11 @@ FAN_MOUNT = COLLECTION / "voron0_fan_mount_top_x1.stl"
 
 
 @pytest.mark.skipif(not FAN_MOUNT.exists(), reason="the collection is not under ../shared")
-def test_the_points_path_does_not_place_triangles_through_each_other(monkeypatch):
-    """A sampled CAD part of the collection (a fan mount): its vertices' moves onto the
-    planes and `bent_apart`'s made 20 triangle pairs cross; with the moves that did it
-    put back, none (the same triangles), and the report counts them."""
+def test_the_faces_set_apart_do_not_pass_through_each_other(monkeypatch):
+    """A sampled CAD part of the collection (a fan mount): `_planar.bent_apart`'s moves
+    of its bent faces' vertices onto the points' planes made 20 triangle pairs cross;
+    with the moves that did it put back, none (the same triangles), and the report
+    counts them."""
     import warnings
 
     from pointatlas.io import read_mesh

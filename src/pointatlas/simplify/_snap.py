@@ -391,12 +391,6 @@ class PointsDecimation(Decimation):
             x = placed_keeps_points(out_v, x, out_t, q, floor[::s], self.tol, before)
         if self.box is not None:  # no vertex beyond the box (lo, hi)
             x = np.clip(x, *self.box)
-        # no triangle placed through another: the moves that did it undone; not on
-        # level 0, measured for the floors on every run and written only for the
-        # finest error targets (hfd_edge's 186,000 triangles: ~0.3 s a pass, passes
-        # each time it is placed)
-        if m > 0:
-            x = uncrossed(out_v, x, out_t)
         # vertices placed on one corner, or in a row on the line of two planes: no
         # zero-area triangle (`_caps`)
         x, out_t, face, source, kept, went = weld_needles(x, out_t, face, source, kept, went)
@@ -418,7 +412,7 @@ class PointsDecimation(Decimation):
         flat, planes = self.planes[2], self.planes[:2]
         cap = APART_SHARE * self.bound
         y, apart = bent_apart(x, t, face, flat, planes, PLANAR_RTOL * self.diag, cap)
-        y = uncrossed(x, y, t)
+        y = uncrossed(x, y, t)  # no move through another triangle
         if not np.array_equal(apart, face):
             found = self.measure.report(y, t) if not np.array_equal(x, y) else distances
             if self.measure.within(y, t, self.bound) or _farthest(found) <= _farthest(distances):
