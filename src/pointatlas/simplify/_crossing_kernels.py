@@ -228,12 +228,7 @@ def _apart(x, tri, nrm, a, b, skip, flat_tol):
     for k in range(3):
         if k == skip:
             continue
-        v = tri[b, k]
-        d = (
-            nrm[a, 0] * (x[v, 0] - x[o, 0])
-            + nrm[a, 1] * (x[v, 1] - x[o, 1])
-            + nrm[a, 2] * (x[v, 2] - x[o, 2])
-        )
+        d = _side_of(nrm[a], x[tri[b, k]], x[o])
         if d > flat_tol:
             above += 1
         elif d < -flat_tol:
