@@ -1,12 +1,14 @@
-"""Triangles of a mesh that pass through each other (`self_intersections`).
+"""Triangles of a mesh that pass through each other (`self_intersections`), and a
+step's moves that made them put back (`uncrossed`).
 
 "Closed, manifold, oriented" counts edges and cannot see a surface that passes
 through itself, which a boolean operation or a 3-D printer's slicer trips on. Two
-triangles cross when they share no edge and have a common point beyond a corner they
-share: tested pair by pair on the candidates whose boxes meet (`_crossing_kernels`).
+triangles cross when they share no edge and have a common segment beyond a corner
+they share, longer than `CROSSING_RTOL` of the diagonal (each reaching past it to
+both sides of the other's plane; a planar face's triangles are tested in its plane):
+tested pair by pair on the candidates whose boxes meet (`_crossing_kernels`).
 Open3D's `is_self_intersecting` skips every pair with a common corner (two triangles
-of one fan can cross) and counts triangles that only touch; this test counts neither
-touching nor less than `CROSSING_RTOL` of the diagonal.
+of one fan can cross) and counts triangles that only touch, or do not meet.
 """
 
 from __future__ import annotations
