@@ -11,7 +11,7 @@ import trimesh
 from pointatlas._core.tolerances import CROSSING_FLAT_RTOL, CROSSING_RTOL
 from pointatlas.simplify import mesh_checks, self_intersections
 from tests.jit_off import JIT_OFF, run_module_without_jit
-from tests.simplify.reference import self_intersections_reference
+from tests.simplify.reference_crossings import self_intersections_reference
 
 
 def _pairs(rows):

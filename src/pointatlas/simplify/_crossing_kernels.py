@@ -14,8 +14,8 @@ do, only touches it), and the sides of a plane are the signs of the computed
 distances (a tolerance there would put one corner of a sliver on a plane it misses
 and cross the fans of a flat face that do not). Triangles that only touch (at their
 shared corner, too), or overlap by less than ``tol``, do not cross.
-tests/simplify/reference.py keeps a plain-numpy test of every pair by another route
-(one triangle clipped by the other).
+tests/simplify/reference_crossings.py keeps a plain-numpy test of every pair by
+another route (one triangle clipped by the other).
 """
 
 from __future__ import annotations
