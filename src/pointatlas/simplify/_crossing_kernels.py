@@ -275,18 +275,19 @@ def _grid(lo, hi):
     if not h > span * 1e-6:
         h = max(span * 1e-6, 1e-300)
     cap = ENTRIES_PER_TRIANGLE * n
-    while _entries(lo, hi, gmin, h, cap) > cap:
+    total = _entries(lo, hi, gmin, h, cap)
+    while total > cap:
         h *= 2.0
+        total = _entries(lo, hi, gmin, h, cap)
     dims = np.empty(3, np.int64)
     for k in range(3):
         dims[k] = _cell_of(top[k], gmin, h, k) + 1
-    total = _entries(lo, hi, gmin, h, cap)
     key = np.empty(total, np.int64)
     ids = np.empty(total, np.int64)
     e = 0
+    c0 = np.empty(3, np.int64)
+    c1 = np.empty(3, np.int64)
     for t in range(n):
-        c0 = np.empty(3, np.int64)
-        c1 = np.empty(3, np.int64)
         for k in range(3):
             c0[k] = _cell_of(lo[t, k], gmin, h, k)
             c1[k] = _cell_of(hi[t, k], gmin, h, k)
