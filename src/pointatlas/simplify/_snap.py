@@ -35,6 +35,7 @@ from ._place import _unflip, place_on_planes
 from ._planar import bent_apart, merged_planar_faces, off_plane_relabelled
 from ._point_distances import SEARCH_POINTS
 from ._spread import spread_tiny
+from ._unfold import unfolded
 from ._untangle import untangle
 
 __all__ = [
@@ -402,10 +403,12 @@ class PointsDecimation(Decimation):
         """`Decimation.result`, the faces of flat regions still bent made planar with
         their triangles at the vertices that cannot go onto the points' planes by a
         move of at most `APART_SHARE` of the bound set apart (`_planar.bent_apart`:
-        each face's companion), where the output then stays within the bound (the
-        level search's measure, floors and all) or no farther from the points both
-        ways than it was (a level over it: a budget's); the distances measured
-        again."""
+        each face's companion), then the flat faces folded over in their plane
+        triangulated again from their outlines (`_unfold.unfolded`: all, else those
+        planar within `PLANAR_RTOL` of the diagonal); each where the
+        output then stays within the bound (the level search's measure, floors and
+        all) or no farther from the points both ways than it was (a level over it:
+        a budget's); the distances measured again."""
         if distances is None:
             distances = self.distances(m)
         x, t, face, source, lineage = self._placed(m)
@@ -415,11 +418,28 @@ class PointsDecimation(Decimation):
         y = uncrossed(x, y, t)  # no move through another triangle
         if not np.array_equal(apart, face):
             found = self.measure.report(y, t) if not np.array_equal(x, y) else distances
-            if self.measure.within(y, t, self.bound) or _farthest(found) <= _farthest(distances):
+            if self._keeps(y, t, found, distances):
                 self._kept_level = (m, (y, t, apart, source, lineage))
                 self._report = (m, found)
                 distances = found
+        x, t, face, source, lineage = self._placed(m)
+        for tol in (np.inf, PLANAR_RTOL * self.diag):  # every folded face, else the planar
+            y, u, refaced, kept, _ = unfolded(x, t, face, flat, self.diag, tol)
+            if u is t:  # no folded flat face triangulated again from its outline
+                break
+            found = self.measure.report(y, u)
+            if self._keeps(y, u, found, distances):
+                self._kept_level = (m, (y, u, refaced, source[kept], None))
+                self._report = (m, found)
+                distances = found
+                break
         return super().result(m, planar_tol, distances)
+
+    def _keeps(self, y, t, found, distances) -> bool:
+        """A change of the output level to vertices ``y`` and triangles ``t``, its
+        distances ``found``, is kept: within the bound (the level search's measure)
+        or no farther from the points both ways than ``distances``."""
+        return self.measure.within(y, t, self.bound) or _farthest(found) <= _farthest(distances)
 
     def within(self, m: int, bound: float, first=None) -> bool:
         """`Decimation.within`; a level over ``bound`` whose bent faces were made

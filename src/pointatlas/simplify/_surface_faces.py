@@ -70,12 +70,14 @@ def _edges_match(tri: np.ndarray, loops) -> bool:
     return bool(np.array_equal(np.sort(dk[~inner]), np.sort(wk)))
 
 
-def face_of_loops(loops_v, positions, normal):
+def face_of_loops(loops_v, positions, normal, every_vertex: bool = False):
     """Triangulate one region's loops in its plane; None when they bound no polygon.
 
     A loop may touch itself or another loop at a vertex (a region pinched at a
     vertex); the triangulation is accepted when its boundary is exactly the loops'
-    edges and it covers the loops' area once.
+    edges and it covers the loops' area once. earcut leaves out a vertex on the
+    straight line of its two neighbours (exactly, in the plane's coordinates);
+    ``every_vertex``: those are put back (`_put_back`), else the face is None.
     """
     if any(len(lp) < 3 for lp in loops_v):
         return None
@@ -105,6 +107,16 @@ def face_of_loops(loops_v, positions, normal):
     )
     flip = cross < 0
     tri[flip] = tri[flip][:, [0, 2, 1]]
+    if every_vertex and unique_ints(tri).size < pts2.shape[0]:
+        tri = _put_back(tri, pts2, ends)
+        if tri is None:
+            return None
+        p0, p1, p2 = pts2[tri[:, 0]], pts2[tri[:, 1]], pts2[tri[:, 2]]
+        cross = (p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (
+            p2[:, 0] - p0[:, 0]
+        )
+        if (cross <= 0.0).any():
+            return None
     covered = np.abs(cross).sum() / 2.0
     want = areas[outer] + areas[np.arange(areas.size) != outer].sum()
     if abs(covered - want) > 1e-9 * max(areas[outer], 1e-300):
@@ -113,6 +125,47 @@ def face_of_loops(loops_v, positions, normal):
     if not _edges_match(ids, loops_o):
         return None
     return tuple(loops_o), ids
+
+
+def _put_back(tri: np.ndarray, pts2: np.ndarray, ends: np.ndarray):
+    """``tri`` (earcut's, counter-clockwise) with the loops' vertices it left out put
+    back: a run of them between two vertices it kept, ``a`` and ``b``, in order along
+    the straight edge ``a b``, splits the triangle on that edge into a fan from its
+    third corner. None where a run does not lie in order between its ends or no
+    triangle has the edge ``a b`` in the loop's direction."""
+    used = np.zeros(pts2.shape[0], dtype=bool)
+    used[tri] = True
+    by_edge = {(int(t[i]), int(t[(i + 1) % 3])): k for k, t in enumerate(tri) for i in range(3)}
+    out = tri.tolist()
+    gone = set()
+    start = 0
+    for end in ends.tolist():
+        ring = np.arange(start, end)
+        start = end
+        kept = ring[used[ring]]
+        if kept.size == ring.size:
+            continue
+        if kept.size < 2:
+            return None
+        for i in np.flatnonzero(used[ring]).tolist():  # each kept vertex and its run
+            run = []
+            j = (i + 1) % ring.size
+            while not used[ring[j]]:
+                run.append(int(ring[j]))
+                j = (j + 1) % ring.size
+            if not run:
+                continue
+            a, b = int(ring[i]), int(ring[j])
+            k = by_edge.get((a, b))
+            ab = pts2[b] - pts2[a]
+            along = np.concatenate([[0.0], (pts2[run] - pts2[a]) @ ab, [ab @ ab]])
+            if k is None or k in gone or not (np.diff(along) > 0.0).all():
+                return None
+            c = [v for v in tri[k].tolist() if v not in (a, b)][0]
+            chain = [a, *run, b]
+            gone.add(k)
+            out.extend([chain[s], chain[s + 1], c] for s in range(len(chain) - 1))
+    return np.array([row for k, row in enumerate(out) if k not in gone], dtype=np.int64)
 
 
 def bad_regions(tri: np.ndarray, tface: np.ndarray, closed_input: bool) -> set[int]:
