@@ -22,7 +22,9 @@ Each output is measured both ways against the input surface with one metric
 seeded area samples to the output, and the output's vertices and 20,000 samples to
 the input. ``mean`` is the average of the two directions' mean distances,
 ``hausdorff`` the larger maximum, both in % of the bounding-box diagonal; ``closed``
-is closed + manifold + oriented (`mesh_checks`), ``euler`` V - E + F. One CSV row
+is closed + manifold + oriented (`mesh_checks`), ``euler`` V - E + F, ``crossings``
+the pairs of triangles that pass through each other (`self_intersections`, which
+"closed" cannot see). One CSV row
 per model, level and method; the summary prints, per kind (CAD parts, by the
 manifest's notes, and organic shapes), the geometric mean of ours / the best quadric
 decimator for the mean and the Hausdorff distance, the worst model, and the time
@@ -49,7 +51,7 @@ import numpy as np
 
 from pointatlas.io import read_mesh
 from pointatlas.neighbors import point_mesh_distance
-from pointatlas.simplify import decimate_mesh, mesh_checks, simplify_mesh
+from pointatlas.simplify import decimate_mesh, mesh_checks, self_intersections, simplify_mesh
 from pointatlas.synth import face_areas, sample_mesh
 
 DATA = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
@@ -130,6 +132,7 @@ def _row(model, kind, level, method, v, t, v_out, t_out, seconds) -> dict:
         "vertices": int(used.size),
         "closed": closed,
         "euler": euler_characteristic(t_out),
+        "crossings": len(self_intersections(v_out, t_out)) if len(t_out) else 0,
         "seconds": round(seconds, 3),
         **{k: round(float(x), 5) for k, x in both_ways(v, t, v_out, t_out).items()},
     }
@@ -183,10 +186,19 @@ def kinds() -> dict[str, str]:
 
 
 def summary(rows: list[dict]) -> list[str]:
-    """Geometric means of ours / the best quadric decimator, per kind and method."""
+    """Geometric means of ours / the best quadric decimator, per kind and method; the
+    outputs that pass through themselves, per method."""
     lines = []
     for ours_method in ("pointatlas", "pointatlas_regions"):
         lines += _summary(rows, ours_method)
+    crossing = []
+    for method in ("pointatlas", "pointatlas_regions", *PEERS):
+        mine = [r for r in rows if r["method"] == method]
+        if mine:
+            n = sum(r["crossings"] > 0 for r in mine)
+            pairs = sum(r["crossings"] for r in mine)
+            crossing.append(f"{method} {n} / {len(mine)} ({pairs} pairs)")
+    lines.append("outputs that pass through themselves: " + "; ".join(crossing))
     return lines
 
 
