@@ -8,8 +8,9 @@ triangles pass through each other although every edge is shared by two triangles
 (`_crossings`). The face itself is still the polygon its outline bounds: where that
 outline is simple in the face's plane, earcut triangulates it again
 (`_surface_faces.face_of_loops`: the new triangles cover the outline's area once and
-have its edges), the vertices inside the face, which then belong to no triangle,
-are dropped. Decisions in docs/decisions/simplify.md ("Self-intersections").
+have its edges), Lawson's flips make that the constrained Delaunay triangulation of
+the outline (`delaunay_flips`), and the vertices inside the face, which then belong
+to no triangle, are dropped. Decisions in docs/decisions/simplify.md ("Self-intersections").
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ __all__ = ["delaunay_flips", "folded_faces", "unfolded"]
 MIN_AREA_RTOL = 1e-12
 
 #: `delaunay_flips` stops after this many flips per triangle (Lawson's flips end
-#: after fewer than the square of the vertices; a bound against a loop on rounding).
+#: after at most the square of the vertices; a bound against a loop on rounding).
 FLIPS_PER_TRIANGLE = 10
 
 
@@ -87,7 +88,11 @@ def _retriangulated(x: np.ndarray, tri: np.ndarray, min_area: float):
     if made is None:
         return None
     u, v = plane_basis(normal / size)
-    new = delaunay_flips(made[1], np.stack([x @ u, x @ v], axis=1))
+    used = unique_ints(made[1])
+    local = np.full(x.shape[0], -1, dtype=np.int64)
+    local[used] = np.arange(used.size)
+    xy = x[used] - x[used].mean(axis=0)
+    new = used[delaunay_flips(local[made[1]], np.stack([xy @ u, xy @ v], axis=1))]
     area = 0.5 * np.linalg.norm(
         cross(x[new[:, 1]] - x[new[:, 0]], x[new[:, 2]] - x[new[:, 0]]), axis=1
     )
@@ -95,18 +100,23 @@ def _retriangulated(x: np.ndarray, tri: np.ndarray, min_area: float):
 
 
 def _orient(p, a, b, c) -> float:
-    """Twice the signed area of the 2-D triangle ``p[a] p[b] p[c]``."""
-    return float(
-        (p[b, 0] - p[a, 0]) * (p[c, 1] - p[a, 1]) - (p[b, 1] - p[a, 1]) * (p[c, 0] - p[a, 0])
-    )
+    """Twice the signed area of the 2-D triangle ``p[a] p[b] p[c]`` (``p``: a list
+    of coordinate pairs)."""
+    (ax, ay), (bx, by), (cx, cy) = p[a], p[b], p[c]
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
 def _in_circle(p, a, b, c, d) -> bool:
     """``p[d]`` strictly inside the circle through the counter-clockwise ``p[a]
-    p[b] p[c]``."""
-    m = p[[a, b, c]] - p[d]
-    w = (m * m).sum(axis=1)
-    return float(np.linalg.det(np.column_stack([m, w]))) > 0.0
+    p[b] p[c]`` (the determinant of their offsets from ``p[d]`` and squared
+    lengths)."""
+    dx, dy = p[d]
+    ax, ay = p[a][0] - dx, p[a][1] - dy
+    bx, by = p[b][0] - dx, p[b][1] - dy
+    cx, cy = p[c][0] - dx, p[c][1] - dy
+    aw, bw, cw = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
+    det = ax * (by * cw - bw * cy) - ay * (bx * cw - bw * cx) + aw * (bx * cy - by * cx)
+    return det > 0.0
 
 
 def delaunay_flips(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -115,7 +125,9 @@ def delaunay_flips(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
     (Lawson's flips: the constrained Delaunay triangulation of the same outline,
     which makes the smallest angle as large as it can be, so earcut's ears at
     nearly straight vertices of the outline become triangles with area); an edge
-    is flipped only where both new triangles stay counter-clockwise.
+    is flipped only where both new triangles stay counter-clockwise and the new
+    edge is not one already. The edges to test are kept on a stack: each flip puts
+    the four edges of its quad back on it.
 
     Examples
     --------
@@ -127,32 +139,32 @@ def delaunay_flips(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
     [[1, 2, 3], [0, 1, 3]]
     """
     t = tri.tolist()
-    for _ in range(FLIPS_PER_TRIANGLE * len(t)):
-        found = _flip(t, p)
-        if found is None:
-            break
-        k, j, row_k, row_j = found
-        t[k], t[j] = row_k, row_j
-    return np.array(t, dtype=np.int64).reshape(-1, 3)
-
-
-def _flip(t: list, p: np.ndarray):
-    """The first inner edge ``a b`` of the triangles ``t`` (rows of lists) whose
-    triangles ``a b c`` and ``b a d`` are not Delaunay and can be flipped:
-    ``(k, j, [a, d, c], [d, b, c])`` (not where ``c d`` is an edge already);
-    None: none."""
+    pts = [tuple(row) for row in p.tolist()]
     by_edge = {(r[i], r[(i + 1) % 3]): k for k, r in enumerate(t) for i in range(3)}
-    for (a, b), k in by_edge.items():
-        j = by_edge.get((b, a))
-        if j is None or a > b:
-            continue
+    stack = sorted(e for e in by_edge if e[0] < e[1] and (e[1], e[0]) in by_edge)
+    stack.reverse()  # the lowest edge first
+    budget = FLIPS_PER_TRIANGLE * len(t)
+    while stack and budget > 0:
+        a, b = stack.pop()
+        k, j = by_edge.get((a, b)), by_edge.get((b, a))
+        if k is None or j is None:
+            continue  # flipped away since it was put on the stack
         c = next(v for v in t[k] if v not in (a, b))
         d = next(v for v in t[j] if v not in (a, b))
-        if (c, d) in by_edge or (d, c) in by_edge or not _in_circle(p, a, b, c, d):
-            continue  # the new edge is one already (a vertex of degree 3 inside)
-        if _orient(p, a, d, c) > 0.0 and _orient(p, d, b, c) > 0.0:
-            return k, j, [a, d, c], [d, b, c]
-    return None
+        if (c, d) in by_edge or (d, c) in by_edge or not _in_circle(pts, a, b, c, d):
+            continue
+        if _orient(pts, a, d, c) <= 0.0 or _orient(pts, d, b, c) <= 0.0:
+            continue
+        for row in (t[k], t[j]):
+            for i in range(3):
+                del by_edge[(row[i], row[(i + 1) % 3])]
+        t[k], t[j] = [a, d, c], [d, b, c]
+        for m in (k, j):
+            for i in range(3):
+                by_edge[(t[m][i], t[m][(i + 1) % 3])] = m
+        stack.extend([(a, d), (d, b), (b, c), (c, a)])
+        budget -= 1
+    return np.array(t, dtype=np.int64).reshape(-1, 3)
 
 
 def _edge_counts(tri: np.ndarray) -> Counter:
