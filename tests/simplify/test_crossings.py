@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import trimesh
@@ -11,6 +9,7 @@ import trimesh
 from pointatlas._core.tolerances import CROSSING_FLAT_RTOL, CROSSING_RTOL
 from pointatlas.simplify import mesh_checks, self_intersections
 from tests.jit_off import JIT_OFF, run_module_without_jit
+from tests.simplify.collection_runs import COLLECTION, without_and_with
 from tests.simplify.reference_crossings import self_intersections_reference
 
 
@@ -211,7 +210,6 @@ def test_uncrossed_puts_back_the_moves_that_cross_and_keeps_the_rest():
     assert uncrossed(v, v, tri) is v
 
 
-COLLECTION = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "collection"
 FAN_MOUNT = COLLECTION / "voron0_fan_mount_top_x1.stl"
 
 
@@ -221,26 +219,11 @@ def test_the_faces_set_apart_do_not_pass_through_each_other(monkeypatch):
     of its bent faces' vertices onto the points' planes made 20 triangle pairs cross;
     with the moves that did it put back, none (the same triangles), and the report
     counts them."""
-    import warnings
+    from pointatlas.simplify import _snap
 
-    from pointatlas.io import read_mesh
-    from pointatlas.simplify import _snap, simplify_points
-    from pointatlas.synth import sample_mesh
-
-    mesh = read_mesh(FAN_MOUNT)
-    v, t = np.asarray(mesh.vertices), np.asarray(mesh.triangles, dtype=np.int64)
-    s = sample_mesh(v, t, 20000, rng=0)
-    p, n = np.asarray(s.points), np.asarray(s.normals)
-    out = {}
-    for guard in (False, True):
-        if not guard:
-            monkeypatch.setattr(_snap, "uncrossed", lambda before, after, tri: after)
-        else:
-            monkeypatch.undo()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            out[guard] = simplify_points(p, n).mesh
-    plain, m = out[False], out[True]
+    plain, m = without_and_with(
+        monkeypatch, _snap, "uncrossed", lambda before, after, tri: after, FAN_MOUNT
+    )
     assert len(self_intersections(plain.vertices, plain.triangles)) >= 10
     assert m.summary()["n_self_intersections"] == 0 < plain.summary()["n_self_intersections"]
     assert len(m.triangles) == len(plain.triangles)

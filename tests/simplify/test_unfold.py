@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import warnings
-from pathlib import Path
-
 import numpy as np
 import pytest
 import trimesh
@@ -13,6 +10,7 @@ from scipy.spatial import Delaunay
 from pointatlas.simplify import mesh_checks, self_intersections
 from pointatlas.simplify._surface_faces import face_of_loops
 from pointatlas.simplify._unfold import delaunay_flips, folded_faces, unfolded
+from tests.simplify.collection_runs import COLLECTION, without_and_with
 
 
 def _ccw(p, t):
@@ -149,7 +147,6 @@ def test_a_face_not_flat_or_bent_or_unfolded_stays_as_it_was():
     assert unfolded(v2, tri2, face2, np.ones(6, dtype=bool), np.sqrt(3.0), 1e-9)[1] is tri2
 
 
-COLLECTION = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "collection"
 COVER = COLLECTION / "prusai3_fs-cover-mmu2s.stl"
 
 
@@ -158,24 +155,11 @@ def test_the_folded_faces_of_a_sampled_cad_part_are_unfolded(monkeypatch):
     """A sampled CAD part of the collection (a filament sensor cover): its output's
     flat faces folded over in their plane, 25 triangle pairs crossing; triangulated
     again from their outlines, none, fewer triangles, the same distances."""
-    from pointatlas.io import read_mesh
-    from pointatlas.simplify import _snap, simplify_points
-    from pointatlas.synth import sample_mesh
+    from pointatlas.simplify import _snap
 
-    mesh = read_mesh(COVER)
-    v, t = np.asarray(mesh.vertices), np.asarray(mesh.triangles, dtype=np.int64)
-    s = sample_mesh(v, t, 20000, rng=0)
-    p, n = np.asarray(s.points), np.asarray(s.normals)
-    out = {}
-    for unfold in (False, True):
-        if not unfold:
-            monkeypatch.setattr(_snap, "unfolded", lambda x, t, f, *a: (x, t, f, None, None))
-        else:
-            monkeypatch.undo()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            out[unfold] = simplify_points(p, n).mesh
-    plain, m = out[False], out[True]
+    plain, m = without_and_with(
+        monkeypatch, _snap, "unfolded", lambda x, t, f, *a: (x, t, f, None, None), COVER
+    )
     assert len(self_intersections(plain.vertices, plain.triangles)) >= 10
     assert m.summary()["n_self_intersections"] == 0
     assert len(m.triangles) < len(plain.triangles)
