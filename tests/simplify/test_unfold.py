@@ -107,6 +107,11 @@ def _box_with_folded_top(c=(0.8, 0.1)):
     return v, tri, face
 
 
+def _unfolded(v, tri, face, flat, tol):
+    """`unfolded` of the faces `folded_faces` finds, on the unit box's diagonal."""
+    return unfolded(v, tri, face, folded_faces(v, tri, face, flat)[0], np.sqrt(3.0), tol)
+
+
 def test_a_folded_flat_face_is_triangulated_again_from_its_outline():
     v, tri, face = _box_with_folded_top()
     assert all(mesh_checks(v.shape[0], tri))  # closed, manifold, oriented: blind to it
@@ -116,7 +121,7 @@ def test_a_folded_flat_face_is_triangulated_again_from_its_outline():
     folded, found = folded_faces(v, tri, face, flat)
     assert folded.tolist() == [5]
     np.testing.assert_array_equal(found, pairs)
-    y, t, f, kept, before = unfolded(v, tri, face, flat, np.sqrt(3.0), 1e-9)
+    y, t, f, kept = _unfolded(v, tri, face, flat, 1e-9)
     assert self_intersections(y, t).shape == (0, 2)
     assert all(mesh_checks(y.shape[0], t))
     assert y.shape[0] == 8 and t.shape[0] == 12  # the vertex inside the top is gone
@@ -136,15 +141,15 @@ def test_a_face_not_flat_or_bent_or_unfolded_stays_as_it_was():
     flat = np.ones(6, dtype=bool)
     flat[5] = False  # not a flat region: not listed
     assert folded_faces(v, tri, face, flat)[0].size == 0
-    out = unfolded(v, tri, face, flat, np.sqrt(3.0), 1e-9)
+    out = _unfolded(v, tri, face, flat, 1e-9)
     assert out[1] is tri and out[0] is v
     bent = v.copy()
     bent[8, 2] += 1e-3  # the top bent past the tolerance: its outline bounds another surface
-    assert unfolded(bent, tri, face, np.ones(6, dtype=bool), np.sqrt(3.0), 1e-9)[1] is tri
+    assert _unfolded(bent, tri, face, np.ones(6, dtype=bool), 1e-9)[1] is tri
     # a fan whose vertex stays inside: nothing crosses, nothing changes
     v2, tri2, face2 = _box_with_folded_top(c=(0.1, -0.2))
     assert self_intersections(v2, tri2).shape == (0, 2)
-    assert unfolded(v2, tri2, face2, np.ones(6, dtype=bool), np.sqrt(3.0), 1e-9)[1] is tri2
+    assert _unfolded(v2, tri2, face2, np.ones(6, dtype=bool), 1e-9)[1] is tri2
 
 
 COVER = COLLECTION / "prusai3_fs-cover-mmu2s.stl"
@@ -158,7 +163,7 @@ def test_the_folded_faces_of_a_sampled_cad_part_are_unfolded(monkeypatch):
     from pointatlas.simplify import _snap
 
     plain, m = without_and_with(
-        monkeypatch, _snap, "unfolded", lambda x, t, f, *a: (x, t, f, None, None), COVER
+        monkeypatch, _snap, "unfolded", lambda x, t, f, *a: (x, t, f, None), COVER
     )
     assert len(self_intersections(plain.vertices, plain.triangles)) >= 10
     assert m.summary()["n_self_intersections"] == 0

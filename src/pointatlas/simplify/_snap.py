@@ -35,7 +35,7 @@ from ._place import _unflip, place_on_planes
 from ._planar import bent_apart, merged_planar_faces, off_plane_relabelled
 from ._point_distances import SEARCH_POINTS
 from ._spread import spread_tiny
-from ._unfold import unfolded
+from ._unfold import folded_faces, unfolded
 from ._untangle import untangle
 
 __all__ = [
@@ -423,8 +423,9 @@ class PointsDecimation(Decimation):
                 self._report = (m, found)
                 distances = found
         x, t, face, source, lineage = self._placed(m)
+        folded = folded_faces(x, t, face, flat)[0]
         for tol in (np.inf, PLANAR_RTOL * self.diag):  # every folded face, else the planar
-            y, u, refaced, kept, _ = unfolded(x, t, face, flat, self.diag, tol)
+            y, u, refaced, kept = unfolded(x, t, face, folded, self.diag, tol)
             if u is t:  # no folded flat face triangulated again from its outline
                 break
             found = self.measure.report(y, u)

@@ -70,6 +70,15 @@ def _edges_match(tri: np.ndarray, loops) -> bool:
     return bool(np.array_equal(np.sort(dk[~inner]), np.sort(wk)))
 
 
+def _twice_areas(pts2: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Twice the signed area of each 2-D triangle ``pts2[tri]`` (counter-clockwise
+    positive)."""
+    p0, p1, p2 = pts2[tri[:, 0]], pts2[tri[:, 1]], pts2[tri[:, 2]]
+    return (p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (
+        p2[:, 0] - p0[:, 0]
+    )
+
+
 def face_of_loops(loops_v, positions, normal, every_vertex: bool = False):
     """Triangulate one region's loops in its plane; None when they bound no polygon.
 
@@ -101,20 +110,14 @@ def face_of_loops(loops_v, positions, normal, every_vertex: bool = False):
     tri = np.asarray(mapbox_earcut.triangulate_float64(pts2, ends), dtype=np.int64).reshape(-1, 3)
     if tri.shape[0] == 0:
         return None
-    p0, p1, p2 = pts2[tri[:, 0]], pts2[tri[:, 1]], pts2[tri[:, 2]]
-    cross = (p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (
-        p2[:, 0] - p0[:, 0]
-    )
+    cross = _twice_areas(pts2, tri)
     flip = cross < 0
     tri[flip] = tri[flip][:, [0, 2, 1]]
     if every_vertex and unique_ints(tri).size < pts2.shape[0]:
         tri = _put_back(tri, pts2, ends)
         if tri is None:
             return None
-        p0, p1, p2 = pts2[tri[:, 0]], pts2[tri[:, 1]], pts2[tri[:, 2]]
-        cross = (p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (
-            p2[:, 0] - p0[:, 0]
-        )
+        cross = _twice_areas(pts2, tri)
         if (cross <= 0.0).any():
             return None
     covered = np.abs(cross).sum() / 2.0

@@ -173,18 +173,17 @@ def _edge_counts(tri: np.ndarray) -> Counter:
     return Counter(map(tuple, e.tolist()))
 
 
-def unfolded(x, tri, face, flat, diag: float, tol: float):
-    """``(x, tri, face, kept, pairs)``: the mesh with every face of ``folded_faces``
-    triangulated again from its outline (`_retriangulated`; a face whose outline is
-    not simple in its plane stays as it was), the vertices then on no triangle
-    dropped (``kept``: the old index of each vertex left, for arrays per vertex);
-    ``pairs``: the crossing pairs before. Only faces planar within ``tol`` (their
-    vertices to their least-squares plane) are triangulated again: a bent face's
-    outline bounds another surface than its triangles. The triangles of the other faces keep
-    their order, the new ones come last. Unchanged (the same arrays) where no face
-    was triangulated again. A face is left as it was where a new inner edge is an
-    edge of other triangles too (two of its outline's vertices joined outside it)."""
-    folded, pairs = folded_faces(x, tri, face, flat)
+def unfolded(x, tri, face, folded, diag: float, tol: float):
+    """``(x, tri, face, kept)``: the mesh with every face of ``folded`` (labels of
+    ``face``, `folded_faces`) triangulated again from its outline (`_retriangulated`;
+    a face whose outline is not simple in its plane stays as it was), the vertices
+    then on no triangle dropped (``kept``: the old index of each vertex left, for
+    arrays per vertex). Only faces planar within ``tol`` (their vertices to their
+    least-squares plane) are triangulated again: a bent face's outline bounds
+    another surface than its triangles. The triangles of the other faces keep their
+    order, the new ones come last. Unchanged (the same arrays) where no face was
+    triangulated again. A face is left as it was where a new inner edge is an edge
+    of other triangles too (two of its outline's vertices joined outside it)."""
     min_area = MIN_AREA_RTOL * diag * diag
     keep = np.ones(tri.shape[0], dtype=bool)
     new_t, new_f = [], []
@@ -206,10 +205,10 @@ def unfolded(x, tri, face, flat, diag: float, tol: float):
         new_t.append(made)
         new_f.append(np.full(made.shape[0], f, dtype=face.dtype))
     if not new_t:
-        return x, tri, face, np.arange(x.shape[0]), pairs
+        return x, tri, face, np.arange(x.shape[0])
     t = np.concatenate([tri[keep], *new_t])
     f = np.concatenate([face[keep], *new_f])
     kept = unique_ints(t)
     renumber = np.full(x.shape[0], -1, dtype=np.int64)
     renumber[kept] = np.arange(kept.size)
-    return x[kept], renumber[t], f, kept, pairs
+    return x[kept], renumber[t], f, kept
