@@ -7,6 +7,13 @@ DOCS_STAMP := $(VENV)/.docs-installed
 
 .PHONY: install demo test bench lint docs clean clean-numba
 
+# OpenBLAS' AVX2 kernels on every x86-64 CPU (it picks AVX-512 ones where it can: the
+# same products rounded apart): the same bits on every machine, tests and benchmarks
+# alike (`import pointatlas` sets it too, when it comes before numpy's)
+ifeq ($(shell uname -m),x86_64)
+export OPENBLAS_CORETYPE ?= Haswell
+endif
+
 # constraints.txt: the exact versions the suite passed with (a new release of a
 # dependency changes nothing unseen)
 $(STAMP): pyproject.toml constraints.txt
