@@ -127,7 +127,12 @@ def decimate_reference(vertices, triangles, target, *, labels=None, planes=None,
     shapes one ulp reorders ties."""
     import heapq
 
-    from pointatlas.simplify._decimate import _TIE, _held_planes, _vertex_quadrics
+    from pointatlas.simplify._decimate import (
+        _TIE,
+        _cross_tolerances,
+        _held_planes,
+        _vertex_quadrics,
+    )
     from pointatlas.simplify._kernels import collapse_position
     from pointatlas.simplify._plane_kernels import planes_position
 
@@ -176,11 +181,12 @@ def decimate_reference(vertices, triangles, target, *, labels=None, planes=None,
             around = list(others - shared)
             if around and turns_over_reference(v, tri[around], w, x):
                 return False
-        return True
+        return not fan_crosses_reference(v, tri, faces_of, a, b, shared, x, cross)
 
     v = np.array(vertices, dtype=np.float64)
     tri = np.array(triangles, dtype=np.int64)
     n_v = v.shape[0]
+    cross = _cross_tolerances(v, tri)
     q = _vertex_quadrics(v, tri, labels, planes, structure)
     faces_of = [set() for _ in range(n_v)]
     for f, (a, b, c) in enumerate(tri.tolist()):
@@ -232,6 +238,68 @@ def decimate_reference(vertices, triangles, target, *, labels=None, planes=None,
     remap = np.full(n_v, -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
     return v[used], remap[tri[kept]], kept, used
+
+
+def _candidate_pairs(y, t, changed, others, cross):
+    """The pairs ``(f, g)``, f of ``changed`` and g after it in ``changed + others``,
+    sharing at most one corner, whose boxes meet and each of which reaches both sides
+    of the other's plane or lies in it (the rest cannot cross: a quick filter in
+    numpy before `triangles_cross_reference`)."""
+    tol, flat_tol = cross
+    near = np.array(changed + others, dtype=np.int64)
+    k, m = np.triu_indices(len(near), 1)
+    keep = k < len(changed)
+    k, m = k[keep], m[keep]
+    f, g = near[k], near[m]
+    p, q = y[t[f]], y[t[g]]
+    meets = (p.min(axis=1) <= q.max(axis=1) + tol).all(1) & (
+        q.min(axis=1) <= p.max(axis=1) + tol
+    ).all(1)
+    same = t[f][:, :, None] == t[g][:, None, :]  # (pairs, f's corner, g's corner)
+    n_shared = same.any(axis=2).sum(axis=1)
+
+    def one_side(a, b, b_shared):
+        n = np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0])
+        n = n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        d = np.einsum("pk,pjk->pj", n, b - a[:, :1])
+        d = np.where(b_shared, 0.0, d)
+        far = np.abs(d) > flat_tol
+        return far.any(axis=1) & ((d <= tol).all(axis=1) | (d >= -tol).all(axis=1))
+
+    apart = one_side(p, q, same.any(axis=1)) | one_side(q, p, same.any(axis=2))
+    hit = meets & (n_shared < 2) & ~apart
+    return list(zip(f[hit].tolist(), g[hit].tolist(), strict=True))
+
+
+def fan_crosses_reference(v, tri, faces_of, a, b, shared, x, cross):
+    """Whether merging ``a`` and ``b`` at ``x`` makes more pairs cross among the
+    triangles on them (but the ``shared``) and those on their other vertices than
+    crossed among these and the ``shared`` before (`triangles_cross_reference` on
+    every pair a quick numpy filter leaves, `_candidate_pairs`)."""
+    from .reference_crossings import triangles_cross_reference
+
+    fan = sorted((faces_of[a] | faces_of[b]) - shared)
+    link = {int(u) for f in fan for u in tri[f]} - {a, b}
+    ring = sorted({f for u in link for f in faces_of[u]} - set(fan) - shared)
+    after = v.copy()
+    after[a] = after[b] = x
+    merged = np.where(tri == b, a, tri)
+
+    def count(y, t, changed, others):
+        n = 0
+        for f, g in _candidate_pairs(y, t, changed, others, cross):
+            common = set(t[f].tolist()) & set(t[g].tolist())
+            sp = sq = -1
+            if common:
+                (c,) = common
+                sp, sq = list(t[f]).index(c), list(t[g]).index(c)
+            n += bool(triangles_cross_reference(y[t[f]], y[t[g]], sp, sq, *cross))
+        return n
+
+    if not fan:
+        return False
+    new = count(after, merged, fan, ring)
+    return new > 0 and new > count(v, tri, fan + sorted(shared), ring)
 
 
 def place_on_planes_reference(v0, triangles, triangle_face, normals, offsets, flat, bound, still):

@@ -24,6 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._core.tolerances import CROSSING_FLAT_RTOL, CROSSING_RTOL
 from ._bound_kernels import nearest_of
 from ._kernels import add_rows, collapse_edges, replay
 from ._mesh import unique_pairs
@@ -180,6 +181,7 @@ def collapse_all(
     tolerance=None,
     back=None,
     hold=True,
+    uncross=True,
 ) -> Collapses:
     """The decimation's collapses down to the last valid one (`Collapses`), or down to
     the first that leaves at most ``target`` triangles (the same collapses: the
@@ -194,7 +196,8 @@ def collapse_all(
     are found (on a thread, `Decimation.start`, while the caller measures them).
     With ``labels`` and ``planes`` and ``hold``, every merged vertex goes onto the
     planes of its flat regions (`_plane_kernels`: the faces of flat regions stay
-    exactly planar)."""
+    exactly planar). With ``uncross``, a collapse that makes more triangles pass
+    through each other around it is refused (`_fan_kernels`)."""
     v = np.array(vertices, dtype=np.float64)
     tri = np.array(triangles, dtype=np.int64)
     n_v = v.shape[0]
@@ -210,10 +213,29 @@ def collapse_all(
         return no_collapses(v, tri)
     carried = _carried(surface, owners, tolerance, back)
     held = _held_planes(v, tri, labels, planes if hold else None)
+    cross = _cross_tolerances(v, tri) if uncross else (-1.0, -1.0)
     kept, gone, position, removed, cost = collapse_edges(
-        v.copy(), tri, q, on_boundary, edge.astype(np.int64), _TIE, int(target or 0), carried, held
+        v.copy(),
+        tri,
+        q,
+        on_boundary,
+        edge.astype(np.int64),
+        _TIE,
+        int(target or 0),
+        carried,
+        held,
+        cross,
     )
     return Collapses(v, tri, kept, gone, position, removed, cost)
+
+
+def _cross_tolerances(v, tri):
+    """`collapse_edges`' ``cross``: the tolerances of `_crossings.crossing_pairs` on
+    the diagonal of the triangles' vertices (a collapse is refused where it makes
+    more pairs cross by the measure's count)."""
+    on = v[np.unique(tri)]
+    diag = float(np.linalg.norm(on.max(axis=0) - on.min(axis=0)))
+    return CROSSING_RTOL * diag, CROSSING_FLAT_RTOL * diag
 
 
 def _held_planes(v, tri, labels, planes):

@@ -320,7 +320,8 @@ class Decimation:
     are clipped into it; ``target``: the collapses stop at the first level with at
     most this many triangles (`collapse_all`; for a budget: `steps_within` then sees
     only those); ``start``: False to begin the collapses later (`start`); ``hold``:
-    the collapses put their vertices on their flat regions' planes (`collapse_all`).
+    the collapses put their vertices on their flat regions' planes, ``uncross``:
+    refuse those that make the surface pass through itself more (`collapse_all`).
     """
 
     def __init__(
@@ -338,6 +339,7 @@ class Decimation:
         target=None,
         start=True,
         hold=True,
+        uncross=True,
     ):
         self.verts, self.tri, self.labels, self.planes = verts, tri, labels, planes
         self.step, self.still, self.measure, self.box = step, still, measure, box
@@ -348,6 +350,7 @@ class Decimation:
             "structure": structure,
             "target": target,
             "hold": hold,
+            "uncross": uncross,
         }
         self._seq, self._pending = None, None
         if start:

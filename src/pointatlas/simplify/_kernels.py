@@ -8,6 +8,7 @@ from numba import njit
 
 from .._core._threads import run_chunks
 from ._bound_kernels import link_points, move_points, points_stay
+from ._fan_kernels import fan_crosses, fan_scratch
 from ._heap import heap_grown, heap_pop, heap_push, heapify
 from ._plane_kernels import collapse_position, edge_planes, planes_position
 
@@ -190,7 +191,7 @@ def _collapsible(v, tri, head, nxt, alive, a, b, x, mark, stamp, shared) -> int:
 
 
 @njit(cache=True, nogil=True)
-def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried, planes):
+def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried, planes, cross):
     """Quadric edge collapse of a manifold triangle mesh, cheapest edge first, until
     no edge can be collapsed or at most ``target`` triangles are left (0: until none
     can; the decimation loop of `_decimate.decimate`). With points (``carried``: see
@@ -198,7 +199,10 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried, planes):
     farther than its tolerance from the triangles, or a triangle away from them, is
     refused. With flat planes (``planes``: ``(tflat (T,) each triangle's flat region
     or -1, normals (R, 3), offsets (R,), tol)``; ``tflat`` empty: none), every merged
-    vertex goes onto the planes of its flat regions (`_plane_kernels`).
+    vertex goes onto the planes of its flat regions (`_plane_kernels`). A collapse
+    that makes more triangles around it pass through each other is refused
+    (`_fan_kernels.fan_crosses`; ``cross``: its ``(tol, flat_tol)``; negative: not
+    tested).
 
     ``v`` (V, 3) and ``q`` (V, 4, 4) are changed in place; ``tri`` is read only.
     Returns the collapses in order: ``kept`` (n,) the vertex kept, ``gone`` (n,) the
@@ -229,6 +233,7 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried, planes):
             left[planes[0][f]] += 1
     hold = (*planes, np.empty(_MAX_PLANES, dtype=np.int64), np.empty((12, 3)), left)
     mesh = (tri, head, nxt, alive)
+    fans = fan_scratch(n_t)
     n_heap = edges.shape[0]
     hc = np.empty(2 * n_heap)
     hk, hd = np.empty(2 * n_heap, np.int64), np.empty(2 * n_heap, np.int64)
@@ -270,6 +275,10 @@ def collapse_edges(v, tri, q, on_boundary, edges, tie, target, carried, planes):
         ns = _collapsible(v, tri, head, nxt, alive, a, b, x, mark, stamp, shared)
         if ns == 0 or (ns == 2 and on_boundary[a] and on_boundary[b]):
             continue  # an inner edge between two boundary vertices would pinch
+        if cross[0] >= 0.0 and fan_crosses(
+            v, tri, head, nxt, alive, a, b, x, shared, ns, cross, fans
+        ):
+            continue  # the surface would pass through itself more
         n_ring = n_points = 0
         if n_p > 0:
             ok, n_ring, n_points = points_stay(
