@@ -20,7 +20,7 @@ from .._core.tolerances import CROSSING_FLAT_RTOL, CROSSING_RTOL
 from ._crossing_kernels import crossings
 from ._mesh import _as_triangles
 
-__all__ = ["crossing_pairs", "self_intersections", "uncrossed"]
+__all__ = ["between_faces", "crossing_pairs", "self_intersections", "uncrossed"]
 
 
 def self_intersections(vertices, triangles) -> np.ndarray:
@@ -87,12 +87,21 @@ def _codes(pairs: np.ndarray, n: int) -> np.ndarray:
     return pairs[:, 0] * n + pairs[:, 1]
 
 
-def uncrossed(before, after, tri, rounds: int = 8):
+def between_faces(pairs: np.ndarray, face) -> np.ndarray:
+    """The ``pairs`` of triangles in two faces (``face``: each triangle's; None: all)."""
+    if face is None:
+        return pairs
+    return pairs[face[pairs[:, 0]] != face[pairs[:, 1]]]
+
+
+def uncrossed(before, after, tri, rounds: int = 8, face=None):
     """``after`` with a moved vertex of every triangle pair that crosses there and not
     at ``before`` put back where it was in ``before`` (the corner of the pair that
     moved most), pass by pass (at most ``rounds``): a step's moves that made the
     surface pass through itself undone where they did (private; valid arrays). Only
-    pairs with a triangle at a moved vertex can be new: only those are tried."""
+    pairs with a triangle at a moved vertex can be new: only those are tried. With
+    ``face`` (each triangle's), only pairs in two faces (one face's folds are left to
+    `_unfold`)."""
     n = max(tri.shape[0], 1)
     moved = (after != before).any(axis=1)
     live = moved[tri].any(axis=1)
@@ -101,7 +110,7 @@ def uncrossed(before, after, tri, rounds: int = 8):
     was = _codes(crossing_pairs(before, tri, live), n)
     y = after.copy()
     for _ in range(rounds):
-        pairs = crossing_pairs(y, tri, live)
+        pairs = between_faces(crossing_pairs(y, tri, live), face)
         new = pairs[~np.isin(_codes(pairs, n), was)]
         if new.shape[0] == 0:
             break

@@ -27,7 +27,7 @@ from scipy.spatial import cKDTree
 
 from ..neighbors._kernels.mesh_distance import closest_sq
 from ._caps import flip_caps, weld_needles
-from ._crossings import uncrossed
+from ._crossings import between_faces, crossing_pairs, uncrossed
 from ._decimate_mesh import Decimation
 from ._grid_knn import GridKnn
 from ._mesh import unique_pairs
@@ -267,9 +267,22 @@ class PointsDecimation(Decimation):
         self, verts, tri, labels, planes, step, still, measure, box, tol, fit_bound, bound
     ):
         # the planes are the points' fits, not held by the collapses (held: the
-        # every-3rd sweep's triangles median 758 -> 1,005, within 1 % 47 -> 44 of 50)
+        # every-3rd sweep's triangles median 758 -> 1,005, within 1 % 47 -> 44 of 50);
+        # collapses that make more triangles cross not refused (refused: every 6th
+        # model's crossing pairs 105 -> 101, its triangles 20,504 -> 23,954; a
+        # voxel surface's coarsest levels went over the bound, `hfd_edge` 320 -> 4,024)
         super().__init__(
-            verts, tri, labels, planes, step, still, measure, box, start=False, hold=False
+            verts,
+            tri,
+            labels,
+            planes,
+            step,
+            still,
+            measure,
+            box,
+            start=False,
+            hold=False,
+            uncross=False,
         )
         self.tol, self.fit_bound = float(tol), float(fit_bound)
         self.full = measure  # all the points (`steps_within` measures a subset first)
@@ -289,6 +302,7 @@ class PointsDecimation(Decimation):
         # their planes to the faces they lie on (`within`), and whether that changed one
         self._relabel = {}
         self._relabelled = {}
+        self._uncross = False  # `_unplanar` puts back moves that cross (`result`)
 
     def steps_within(self, bound: float, lowest: int = 0) -> int | None:
         """`Decimation.steps_within`, its levels first measured on a subset of the
@@ -392,6 +406,8 @@ class PointsDecimation(Decimation):
             x = placed_keeps_points(out_v, x, out_t, q, floor[::s], self.tol, before)
         if self.box is not None:  # no vertex beyond the box (lo, hi)
             x = np.clip(x, *self.box)
+        if self._uncross:  # no move through a triangle of another face (`result`)
+            x = uncrossed(out_v, x, out_t, face=face)
         # vertices placed on one corner, or in a row on the line of two planes: no
         # zero-area triangle (`_caps`)
         x, out_t, face, source, kept, went = weld_needles(x, out_t, face, source, kept, went)
@@ -400,17 +416,19 @@ class PointsDecimation(Decimation):
         return x, out_t, face, source, (kept, went)
 
     def result(self, m: int, planar_tol: float, distances=None):
-        """`Decimation.result`, the faces of flat regions still bent made planar with
-        their triangles at the vertices that cannot go onto the points' planes by a
-        move of at most `APART_SHARE` of the bound set apart (`_planar.bent_apart`:
-        each face's companion), then the flat faces folded over in their plane
-        triangulated again from their outlines (`_unfold.unfolded`: all, else those
-        planar within `PLANAR_RTOL` of the diagonal); each where the
-        output then stays within the bound (the level search's measure, floors and
-        all) or no farther from the points both ways than it was (a level over it:
-        a budget's); the distances measured again."""
+        """`Decimation.result` of level ``m`` placed with the placement's moves that
+        made triangles cross put back (`_placed_uncrossed`), the faces of flat
+        regions still bent made planar with their triangles at the vertices that
+        cannot go onto the points' planes by a move of at most `APART_SHARE` of the
+        bound set apart (`_planar.bent_apart`: each face's companion), then the flat
+        faces folded over in their plane triangulated again from their outlines
+        (`_unfold.unfolded`: all, else those planar within `PLANAR_RTOL` of the
+        diagonal); each where the output then stays within the bound (the level
+        search's measure, floors and all) or no farther from the points both ways
+        than it was (a level over it: a budget's); the distances measured again."""
         if distances is None:
             distances = self.distances(m)
+        distances = self._placed_uncrossed(m, distances)
         x, t, face, source, lineage = self._placed(m)
         flat, planes = self.planes[2], self.planes[:2]
         cap = APART_SHARE * self.bound
@@ -435,6 +453,31 @@ class PointsDecimation(Decimation):
                 distances = found
                 break
         return super().result(m, planar_tol, distances)
+
+    def _placed_uncrossed(self, m: int, distances):
+        """Level ``m`` placed again with the placement's moves that made triangles of
+        two faces cross put back (`uncrossed`, before the caps; one face's folds are
+        `_unfold`'s), kept where fewer such pairs cross and `_keeps` (the level
+        search places without: a vertex put back is off the points' planes, and a
+        search on such levels took finer ones); its distances, else ``distances``."""
+        plain = self._placed(m)
+        n_plain = between_faces(crossing_pairs(plain[0], plain[1]), plain[2]).shape[0]
+        if n_plain == 0:
+            return distances
+        self._uncross, self._unstepped, self._kept_level = True, None, None
+        try:
+            y = self._placed(m)
+        finally:
+            self._uncross, self._unstepped = False, None
+        self._kept_level = (m, plain)
+        if between_faces(crossing_pairs(y[0], y[1]), y[2]).shape[0] >= n_plain:
+            return distances
+        found = self.measure.report(y[0], y[1])
+        if self._keeps(y[0], y[1], found, distances):
+            self._kept_level = (m, y)
+            self._report = (m, found)
+            return found
+        return distances
 
     def _keeps(self, y, t, found, distances) -> bool:
         """A change of the output level to vertices ``y`` and triangles ``t``, its
