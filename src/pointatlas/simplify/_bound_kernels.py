@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 
 from ..neighbors._kernels.mesh_distance import closest_sq
+from ._fan_kernels import live_around
 
 #: A point stays with its owner while within this share of its squared tolerance of
 #: it (else it goes to the nearest triangle around the collapse).
@@ -91,14 +92,7 @@ def _ring(tri, head, nxt, alive, a, b, tmark, stamp, ring) -> int:
     stamp[0] += 1
     n = 0
     for w in (a, b):
-        c = head[w]
-        while c != -1:
-            f = c // 3
-            if alive[f] and tmark[f] != stamp[0]:
-                tmark[f] = stamp[0]
-                ring[n] = f
-                n += 1
-            c = nxt[c]
+        n = live_around(head, nxt, alive, w, tmark, stamp[0], ring, n)
     return n
 
 

@@ -26,7 +26,7 @@ from numba import njit
 
 from ._crossing_kernels import pair_crosses
 
-__all__ = ["fan_crosses", "fan_scratch"]
+__all__ = ["fan_crosses", "fan_scratch", "live_around"]
 
 
 @njit(cache=True)
@@ -124,6 +124,22 @@ def _one_side(corners, normals, k, m, skip, cross) -> bool:
     return far and (hi <= tol or -lo <= tol)
 
 
+@njit(cache=True, inline="always")
+def live_around(head, nxt, alive, w, seen, stamp, out, n) -> int:
+    """The live triangles on vertex ``w`` (corner lists ``head`` / ``nxt``) not yet
+    ``seen`` at ``stamp`` appended to ``out`` from row ``n`` (and marked): the new
+    count."""
+    c = head[w]
+    while c != -1:
+        f = c // 3
+        if alive[f] and seen[f] != stamp:
+            seen[f] = stamp
+            out[n] = f
+            n += 1
+        c = nxt[c]
+    return n
+
+
 @njit(cache=True)
 def _gather(tri, head, nxt, alive, a, b, shared, ns, scratch):
     """``(n_fan, n_all)``: the live triangles on ``a`` or ``b`` but the collapse's
@@ -136,28 +152,13 @@ def _gather(tri, head, nxt, alive, a, b, shared, ns, scratch):
         seen[shared[k]] = stamp[0]
     n_fan = 0
     for w in (a, b):
-        c = head[w]
-        while c != -1:
-            f = c // 3
-            if alive[f] and seen[f] != stamp[0]:
-                seen[f] = stamp[0]
-                near[n_fan] = f
-                n_fan += 1
-            c = nxt[c]
+        n_fan = live_around(head, nxt, alive, w, seen, stamp[0], near, n_fan)
     n_all = n_fan
     for k in range(n_fan):
         for i in range(3):
             u = tri[near[k], i]
-            if u == a or u == b:
-                continue
-            c = head[u]
-            while c != -1:
-                g = c // 3
-                if alive[g] and seen[g] != stamp[0]:
-                    seen[g] = stamp[0]
-                    near[n_all] = g
-                    n_all += 1
-                c = nxt[c]
+            if u != a and u != b:
+                n_all = live_around(head, nxt, alive, u, seen, stamp[0], near, n_all)
     for k in range(ns):
         near[n_all + k] = shared[k]
     return n_fan, n_all

@@ -271,19 +271,8 @@ class PointsDecimation(Decimation):
         # collapses that make more triangles cross not refused (refused: every 6th
         # model's crossing pairs 105 -> 101, its triangles 20,504 -> 23,954; a
         # voxel surface's coarsest levels went over the bound, `hfd_edge` 320 -> 4,024)
-        super().__init__(
-            verts,
-            tri,
-            labels,
-            planes,
-            step,
-            still,
-            measure,
-            box,
-            start=False,
-            hold=False,
-            uncross=False,
-        )
+        late = {"start": False, "hold": False, "uncross": False}
+        super().__init__(verts, tri, labels, planes, step, still, measure, box, **late)
         self.tol, self.fit_bound = float(tol), float(fit_bound)
         self.full = measure  # all the points (`steps_within` measures a subset first)
         self.bound = float(bound)
