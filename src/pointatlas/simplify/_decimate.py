@@ -233,9 +233,14 @@ def _cross_tolerances(v, tri):
     """`collapse_edges`' ``cross``: the tolerances of `_crossings.crossing_pairs` on
     the diagonal of the triangles' vertices (a collapse is refused where it makes
     more pairs cross by the measure's count)."""
-    on = v[np.unique(tri)]
-    diag = float(np.linalg.norm(on.max(axis=0) - on.min(axis=0)))
+    diag = _diagonal_of_used(v, tri)
     return CROSSING_RTOL * diag, CROSSING_FLAT_RTOL * diag
+
+
+def _diagonal_of_used(v, tri) -> float:
+    """The bounding-box diagonal of the vertices on a triangle of ``tri`` (T >= 1)."""
+    on = v[np.unique(tri)]
+    return float(np.linalg.norm(on.max(axis=0) - on.min(axis=0)))
 
 
 def _held_planes(v, tri, labels, planes):
@@ -248,8 +253,7 @@ def _held_planes(v, tri, labels, planes):
     normals, offsets, flat = planes
     lab = np.asarray(labels, dtype=np.int64)
     tflat = np.where(flat[lab], lab, -1).astype(np.int64)
-    on = v[np.unique(tri)]
-    diag = float(np.linalg.norm(on.max(axis=0) - on.min(axis=0)))
+    diag = _diagonal_of_used(v, tri)
     normals = np.ascontiguousarray(normals, dtype=np.float64)
     return tflat, normals, np.ascontiguousarray(offsets, dtype=np.float64), _ON_PLANES * diag
 
