@@ -135,6 +135,72 @@ def test_flat_fans_in_a_tilted_plane_match_reference(seed):
     np.testing.assert_array_equal(got, self_intersections_reference(folded, tri, *_tol(folded)))
 
 
+def _coplanar_pair(rng, shared: bool):
+    """Two triangles in the plane z = 0 (3 x 2 corners each) and the corners they
+    share (-1, -1 if none): near each other, often with a side of one along a side
+    of the other or a hair off it (the early tests' edge cases)."""
+    o = rng.normal(size=2)
+    rays = rng.normal(size=(4, 2))
+    if shared:
+        # a side of q along a side of p (or turned a hair, or reversed) half the time
+        if rng.random() < 0.5:
+            hair = rng.choice([0.0, 1e-13, -1e-13, 1e-9, -1e-9, 1e-6])
+            c, s_ = np.cos(hair), np.sin(hair)
+            side = rays[rng.integers(2)]
+            rays[2] = (
+                rng.choice([1.0, -1.0])
+                * rng.uniform(0.2, 2.0)
+                * (np.array([[c, -s_], [s_, c]]) @ side)
+            )
+        p2 = np.vstack([o, o + rays[0], o + rays[1]])
+        q2 = np.vstack([o, o + rays[2], o + rays[3]])
+        ip, iq = rng.integers(3), rng.integers(3)
+        p2, q2 = np.roll(p2, ip, axis=0), np.roll(q2, iq, axis=0)
+        return p2, q2, int(ip), int(iq)
+    p2 = o + rng.normal(size=(3, 2))
+    q2 = o + rng.uniform(-2.0, 2.0, 2) + rng.normal(size=(3, 2))
+    if rng.random() < 0.3:  # q's corner on the line of p's side (touching)
+        t = rng.uniform(-0.5, 1.5)
+        q2[0] = p2[0] + t * (p2[1] - p2[0])
+    return p2, q2, -1, -1
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_coplanar_pairs_set_apart_early_match_reference_full_test(seed):
+    """Two triangles in one plane whose angles at their shared corner are apart, or
+    that a side's line of one sets apart from the other, are passed without the
+    full test (edges crossing, a corner or centroid inside): the same answer on
+    every pair, in a tilted plane far from the origin, both ways seen."""
+    from pointatlas.simplify import _crossing_kernels as k
+
+    rng = np.random.default_rng(seed)
+    turn = np.linalg.qr(rng.standard_normal((3, 3)))[0]
+    n = turn[:, 2].copy()
+    drop = int(np.argmax(np.abs(n)))
+    x, y = (drop + 1) % 3, (drop + 2) % 3
+    tol = 1e-10
+    seen = {"apart": 0, "crossing": 0, "full test, apart": 0}
+    for trial in range(600):
+        p2, q2, ip, iq = _coplanar_pair(rng, shared=trial % 3 != 0)
+        p = np.c_[p2, np.zeros(3)] @ turn.T + 50.0
+        q = np.c_[q2, np.zeros(3)] @ turn.T + 50.0
+        if ip >= 0:
+            q[iq] = p[ip]  # one corner, the same bits
+        full = (
+            k._edges_cross(p, q, x, y, tol)
+            or k._inside(p, q, x, y, tol)
+            or k._inside(q, p, x, y, tol)
+        )
+        assert k._coplanar_cross(p, q, n, tol, ip, iq) == full
+        if ip >= 0:
+            apart = k._angles_apart(p, q, ip, iq, x, y)
+        else:
+            apart = k._edge_apart(p, q, x, y) or k._edge_apart(q, p, x, y)
+        assert not (apart and full)
+        seen["apart" if apart else "crossing" if full else "full test, apart"] += 1
+    assert min(seen.values()) > 20, seen
+
+
 def test_far_from_the_origin_gives_the_same_pairs():
     rng = np.random.default_rng(7)
     v = rng.random((30, 3))

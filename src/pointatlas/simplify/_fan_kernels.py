@@ -17,6 +17,9 @@ Speed: the near triangles' corners, normals and boxes are written once per colla
 tried; each pair is first tested on its boxes, then on the sides of each one's
 plane that the other's corners lie on (`_one_side`, `pair_crosses`' first
 rejections), all on the whole arrays (a view per pair cost more than the test).
+On flat faces every pair is in one plane and reaches the in-plane test, which sets
+most apart by their angles at the shared corner or a side's line first
+(`_crossing_kernels._angles_apart`, `_edge_apart`).
 """
 
 from __future__ import annotations
