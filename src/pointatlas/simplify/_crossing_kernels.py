@@ -137,13 +137,19 @@ APART_RTOL = 1e-9
 
 
 @njit(cache=True, inline="always")
+def _clearly_behind(ux, uy, rx, ry, turn) -> bool:
+    """Whether ``turn`` times the cross product of (ux, uy) and (rx, ry) is below minus
+    `APART_RTOL` of their L1 lengths' product: (rx, ry) clearly on the side of the
+    line of (ux, uy) that ``turn`` calls behind."""
+    scale = (abs(rx) + abs(ry)) * APART_RTOL
+    return turn * (ux * ry - uy * rx) < -scale * (abs(ux) + abs(uy))
+
+
+@njit(cache=True, inline="always")
 def _outside(u1x, u1y, u2x, u2y, turn, rx, ry) -> bool:
     """Whether the ray (rx, ry) lies clearly outside the angle from (u1x, u1y) to
     (u2x, u2y) (``turn``: the sign of their cross product)."""
-    scale = (abs(rx) + abs(ry)) * APART_RTOL
-    c1 = turn * (u1x * ry - u1y * rx)
-    c2 = turn * (rx * u2y - ry * u2x)
-    return c1 < -scale * (abs(u1x) + abs(u1y)) or c2 < -scale * (abs(u2x) + abs(u2y))
+    return _clearly_behind(u1x, u1y, rx, ry, turn) or _clearly_behind(u2x, u2y, rx, ry, -turn)
 
 
 @njit(cache=True)
@@ -188,12 +194,9 @@ def _edge_apart(p, q, x, y) -> bool:
     for e in range(3):
         f = (e + 1) % 3
         ex, ey = p[f, x] - p[e, x], p[f, y] - p[e, y]
-        length = abs(ex) + abs(ey)
         apart = True
         for k in range(3):
-            rx, ry = q[k, x] - p[e, x], q[k, y] - p[e, y]
-            scale = APART_RTOL * length * (abs(rx) + abs(ry))
-            if turn * (ex * ry - ey * rx) >= -scale:
+            if not _clearly_behind(ex, ey, q[k, x] - p[e, x], q[k, y] - p[e, y], turn):
                 apart = False
                 break
         if apart:
