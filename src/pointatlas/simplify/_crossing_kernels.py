@@ -82,15 +82,24 @@ def _edge_margins(t, x, y, tol):
     return (m0, m1, m2)
 
 
+@njit(cache=True, inline="always")
+def _turn(t, x, y) -> float:
+    """The sign of triangle ``t``'s area in the plane of the two axes: 1 or -1, 0
+    without area."""
+    area = _side(t[0, x], t[0, y], t[1, x], t[1, y], t[2, x], t[2, y])
+    if area == 0.0:
+        return 0.0
+    return 1.0 if area > 0.0 else -1.0
+
+
 @njit(cache=True)
 def _inside(p, q, x, y, tol):
     """Whether a corner or the centroid of p lies inside triangle q by more than
     ``tol`` (in the plane of the two axes; the centroid catches a p inside q whose
     corners lie on q's edges, and a copy of q)."""
-    area = _side(q[0, x], q[0, y], q[1, x], q[1, y], q[2, x], q[2, y])
-    if area == 0.0:
+    sign = _turn(q, x, y)
+    if sign == 0.0:
         return False
-    sign = 1.0 if area > 0.0 else -1.0
     margin = _edge_margins(q, x, y, tol)
     for k in range(4):
         if k < 3:
@@ -187,10 +196,9 @@ def _edge_apart(p, q, x, y) -> bool:
     """Whether the line of an edge of triangle ``p`` has every corner of ``q`` clearly
     on its outer side (in the plane of the two axes; `APART_RTOL`): the two are
     apart, and `_coplanar_cross` is False."""
-    area = _side(p[0, x], p[0, y], p[1, x], p[1, y], p[2, x], p[2, y])
-    if area == 0.0:
+    turn = _turn(p, x, y)
+    if turn == 0.0:
         return False
-    turn = 1.0 if area > 0.0 else -1.0
     for e in range(3):
         f = (e + 1) % 3
         ex, ey = p[f, x] - p[e, x], p[f, y] - p[e, y]
