@@ -276,21 +276,21 @@ def test_uncrossed_puts_back_the_moves_that_cross_and_keeps_the_rest():
     assert uncrossed(v, v, tri) is v
 
 
-FAN_MOUNT = COLLECTION / "voron0_fan_mount_top_x1.stl"
+DIN_MOUNT = COLLECTION / "voron0_vhb_din_mount.stl"
 
 
-@pytest.mark.skipif(not FAN_MOUNT.exists(), reason="the collection is not under ../shared")
+@pytest.mark.skipif(not DIN_MOUNT.exists(), reason="the collection is not under ../shared")
 def test_the_faces_set_apart_do_not_pass_through_each_other(monkeypatch):
-    """A sampled CAD part of the collection (a fan mount): `_planar.bent_apart`'s moves
-    of its bent faces' vertices onto the points' planes made triangle pairs cross
-    with OpenBLAS' AVX-512 kernels (20; with the moves that did it put back, none);
-    with its AVX2 ones, which `make test` pins, the output crosses itself 5 times
-    elsewhere. Either way: the steps that put crossing moves back never add a pair,
-    keep about the same triangles, and the report counts what is left."""
+    """A sampled CAD part of the collection (a DIN rail mount): the moves of its
+    vertices onto the points' planes (`_planar.bent_apart`'s and the output level's)
+    make triangle pairs cross (68 with OpenBLAS' AVX2 kernels, which `make test`
+    pins); with the moves that did it put back (`_crossings.uncrossed`), 37. The
+    steps that put crossing moves back never add a pair, keep about the same
+    triangles, and the report counts what is left."""
     from pointatlas.simplify import _snap
 
     plain, m = without_and_with(
-        monkeypatch, _snap, "uncrossed", lambda before, after, tri, **_: after, FAN_MOUNT
+        monkeypatch, _snap, "uncrossed", lambda before, after, tri, **_: after, DIN_MOUNT
     )
     before = len(self_intersections(plain.vertices, plain.triangles))
     assert before >= 5 and plain.summary()["n_self_intersections"] == before
@@ -320,15 +320,15 @@ def test_uncrossed_leaves_one_face_s_folds_when_given_the_faces():
     assert pairs.shape[0] > 0
 
 
-A38 = COLLECTION / "cad_a_a38.obj"
+ADXL = COLLECTION / "voron0_minisb_adxl_mount_generic_15_5mm.stl"
 
 
-@pytest.mark.skipif(not A38.exists(), reason="the collection is not under ../shared")
+@pytest.mark.skipif(not ADXL.exists(), reason="the collection is not under ../shared")
 def test_the_placements_crossing_moves_are_put_back_on_the_output_level(monkeypatch):
-    """A sampled CAD part of the collection (`cad_a_a38`): its output level placed
-    onto the points' planes makes triangle pairs cross (12 with OpenBLAS' AVX2
-    kernels, 10 with its AVX-512 ones); placed again with those moves put back
-    (`_placed_uncrossed`), fewer cross (6, 7), about the same triangles, closed, and
+    """A sampled CAD part of the collection (`voron0_minisb_adxl_mount_generic_15_5mm`):
+    its output level placed onto the points' planes makes triangle pairs cross (18
+    with OpenBLAS' AVX2 kernels); placed again with those moves put back
+    (`_placed_uncrossed`), fewer cross (4), about the same triangles, closed, and
     within 1.1 % of the diagonal both ways as reported."""
     from pointatlas.simplify import _snap
 
@@ -337,7 +337,7 @@ def test_the_placements_crossing_moves_are_put_back_on_the_output_level(monkeypa
         _snap.PointsDecimation,
         "_placed_uncrossed",
         lambda self, level, distances: distances,
-        A38,
+        ADXL,
     )
     before = len(self_intersections(plain.vertices, plain.triangles))
     after = len(self_intersections(m.vertices, m.triangles))

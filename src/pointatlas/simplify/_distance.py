@@ -24,6 +24,8 @@ from ._mesh import unique_pairs
 __all__ = [
     "BACK_SAMPLES",
     "DISC_NEIGHBOR",
+    "DISC_OFF",
+    "DISC_TURN",
     "OUTLINE_MARGIN",
     "OUTLINE_NEIGHBORS",
     "PointSurface",
@@ -38,6 +40,13 @@ __all__ = [
 BACK_SAMPLES = 20_000
 #: A point's tangent disc reaches its this-th nearest neighbour (`PointSurface`).
 DISC_NEIGHBOR = 8
+#: A disc stops at an edge: at the nearest of those neighbours whose normal's line
+#: turns from the point's by more than this angle (radians; 30 degrees) ...
+DISC_TURN = np.pi / 6
+#: ... and which lie off the point's tangent plane by more than the sine of this
+#: angle (15 degrees) times their distance (points with normals blended at an edge,
+#: a mesh's vertex normals, lie on their own plane and do not stop it).
+DISC_OFF = np.pi / 12
 #: The distance to the points' surface is the nearest of this many points' discs (a
 #: sample on one face near an edge may have its nearest point across the edge).
 DISC_CANDIDATES = 6
@@ -49,27 +58,45 @@ OUTLINE_NEIGHBORS = 10
 OUTLINE_MARGIN = np.pi / 9
 
 
-def disc_radii(distances: np.ndarray) -> np.ndarray:
-    """The points' disc radii of `PointSurface` (the distance to the
-    `DISC_NEIGHBOR`-th nearest other point) from their k-NN table's ``distances``
-    (`query_knn`: the point itself first, at least `DISC_NEIGHBOR` + 1 columns or all
-    the points)."""
+def disc_radii(distances: np.ndarray, points=None, normals=None, rows=None) -> np.ndarray:
+    """The points' disc radii of `PointSurface` from their k-NN table (`query_knn`:
+    the point itself first, at least `DISC_NEIGHBOR` + 1 columns or all the points):
+    the distance to the `DISC_NEIGHBOR`-th nearest other point, and with ``points``,
+    ``normals`` and the table's ``rows`` no more than the distance to the nearest of
+    those neighbours past an edge (its normal's line turned by more than `DISC_TURN`
+    and it off the point's tangent plane by more than sin `DISC_OFF` of its distance):
+    a face's disc then does not reach over the edge, so a surface extended past the
+    edge is measured."""
     k = min(DISC_NEIGHBOR + 1, distances.shape[0])
     if distances.shape[1] < k:
         raise ValueError(f"disc_radii needs {k} neighbours; got {distances.shape[1]}")
-    return distances[:, k - 1] if k > 1 else np.zeros(distances.shape[0])
+    radius = distances[:, k - 1] if k > 1 else np.zeros(distances.shape[0])
+    if normals is None or k < 2:
+        return radius
+    p = np.asarray(points, dtype=np.float64)
+    n = np.asarray(normals, dtype=np.float64)
+    n = n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+    radius = radius.copy()
+    for j in range(1, k):  # a column at a time: (n, 3) temporaries, not (n, k, 3)
+        near, dist = rows[:, j], distances[:, j]
+        turned = np.abs(np.einsum("ij,ij->i", n, n[near])) < np.cos(DISC_TURN)
+        height = np.abs(np.einsum("ij,ij->i", n, p[near] - p))
+        edge = turned & (height > np.sin(DISC_OFF) * dist)
+        radius[edge] = np.minimum(radius[edge], dist[edge])
+    return radius
 
 
 class PointSurface:
     """The surface a point set samples, as each point's tangent disc (its normal,
     radius the distance to its `DISC_NEIGHBOR`-th neighbour): the distance of x to it
-    is the least of sqrt(h^2 + max(t - r, 0)^2) over x's nearest points, h the
+    is the least of sqrt(h^2 + max(t - r, 0)^2) over x's nearest points (r no more
+    than the distance to a neighbour past an edge, `disc_radii`), h the
     height of x over a point's tangent plane and t the distance along it. Sampling
     gaps (nearest points a spacing away on a flat face) then cost nothing, while a
     spike or a sheet where there are no points costs its full distance; without
     normals, the distance to the nearest point. ``tree`` (a `cKDTree` of the points)
     and ``radius`` (the discs' radii, e.g. from a k-NN table the caller has:
-    `_point_distances.disc_radii`) are searched when not given.
+    `disc_radii`) are searched when not given.
     """
 
     def __init__(self, points, normals=None, tree=None, radius=None):
@@ -80,8 +107,9 @@ class PointSurface:
         self.normals = None if normals is None else np.require(normals, np.float64, ["C", "W"])
         if radius is None:
             k = min(DISC_NEIGHBOR + 1, self.points.shape[0])
-            far = self.tree.query(self.points, k=k, workers=-1)[0]
-            radius = disc_radii(far.reshape(self.points.shape[0], k))
+            far, rows = self.tree.query(self.points, k=k, workers=-1)
+            shape = (self.points.shape[0], k)
+            radius = disc_radii(far.reshape(shape), self.points, self.normals, rows.reshape(shape))
         self.radius = np.ascontiguousarray(radius, dtype=np.float64)
 
     @functools.cached_property

@@ -97,7 +97,7 @@ def prepare_points(points, normals, vsa, vsa_settings, strays=None) -> PreparedP
         if opts.weights.shape != (n_input,):
             raise ValueError(f"weights must have shape ({n_input},); got {opts.weights.shape}")
         opts = opts.replace(weights=opts.weights[keep])
-    areas, radius = table_areas(dist), disc_radii(dist)
+    areas, radius = table_areas(dist), disc_radii(dist, q, nrm, wide)
     nrm, n_turned = _outward(q, nrm, (wide, dist), areas)
     idx = wide if wide.shape[1] == k else np.ascontiguousarray(wide[:, :k])
     n_off += n_strays  # the strays given are counted with them
