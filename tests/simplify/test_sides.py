@@ -177,9 +177,11 @@ def test_normals_given_pointing_in_are_all_turned_out():
     assert np.array_equal(np.asarray(inward.mesh.triangles), np.asarray(outward.mesh.triangles))
     v, t = np.asarray(inward.mesh.vertices), np.asarray(inward.mesh.triangles)
     volume = np.einsum("ij,ij->i", v[t[:, 0]], np.cross(v[t[:, 1]], v[t[:, 2]])).sum() / 6.0
-    # facing out, near the true volume: within 10 % (the walls are 0.3 thick, 0.01
-    # thinner is 3 % of it; the capped floors' level, 988 triangles for 4,634, 6 %)
-    assert abs(volume - (6 * 6 - (6 - 2 * WALL) * (6 - WALL)) * 4.0) < 0.1 * volume
+    # facing out, near the true volume: within 20 % (the walls are 0.3 thick, 0.01
+    # thinner is 3 % of it; this sample of thin walls takes the finer grid,
+    # `_voxel_grid.thin_share`, and its 174 triangles are 16 % thin, 17.6 for 20.9,
+    # where the first grid's 7,538 were 3 %: docs/decisions/simplify.md)
+    assert abs(volume - (6 * 6 - (6 - 2 * WALL) * (6 - WALL)) * 4.0) < 0.2 * volume
     g = np.linspace(0.0, 5.0, 40)
     x, y = np.meshgrid(g, g)
     sheet = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])

@@ -33,11 +33,14 @@ from ._voxel_grid import (
     LOST_POINTS,
     LOST_SHARE,
     LOST_STEPS,
+    THIN_SHARE,
+    THIN_WALL_STEPS,
     band_steps,
     euler_characteristic,
     finer_step,
     grid_step,
     lost_points,
+    thin_share,
     uneven_factor,
 )
 from ._winding import dipole_share
@@ -302,7 +305,9 @@ def reconstruct_surface(
     steps everywhere; cut open beyond the input's open boundaries. Where it leaves
     `LOST_POINTS` points more than `LOST_STEPS` steps off (a part thinner than the
     grid), built again on the finer grid (`finer_step`), kept when that brings most of
-    them near without adding handles (or `LOST_SHARE` of the points were lost); where
+    them near without adding handles (or `LOST_SHARE` of the points were lost), or
+    where `THIN_SHARE` of the points lie on walls or gaps thinner than
+    `THIN_WALL_STEPS` steps (`thin_share`), kept when that adds no handle; where
     points are still lost on a closed sample, again with their parts made solid
     (`_solid.solid_retry`).
     ``areas``: the points' disc areas (`is_closed_sample`), ``tree``: their
@@ -328,7 +333,8 @@ def reconstruct_surface(
     rec, closed, surface = _first_surface(q, normals, tree, grid, closed, surface, fields)
     fine = (spacing, *finer_step(q, spacing))
     if fine[1] < step / 1.2:
-        rec = _finer(q, normals, rec, fine, closed, surface, off, fields)
+        thin = thin_share(q, normals, tree, THIN_WALL_STEPS * step) >= THIN_SHARE
+        rec = _finer(q, normals, rec, fine, closed, surface, off, fields, thin)
 
     if closed:  # an open sample's far points lie beyond its cut outline: no inside
 
@@ -357,15 +363,16 @@ def _first_surface(q, normals, tree, grid, closed, surface, fields=None):
         return rec, False, surface
 
 
-def _finer(q, normals, rec, fine, closed, surface, off=None, fields=None):
+def _finer(q, normals, rec, fine, closed, surface, off=None, fields=None, thin=False):
     """``rec``, or the surface on the ``fine`` grid where ``rec`` lost a part thinner
     than its grid and the finer one brings most of those points near without adding
-    handles (``surface``: the points' `PointSurface` of an open sample; strays
-    among the lost points left out: `_voxel_grid.not_strays`, ``off``; ``fields``:
-    `_surface_at`'s)."""
+    handles, or where the sample is ``thin`` in part (`_voxel_grid.thin_share`) and
+    the finer one adds no handle (``surface``: the points' `PointSurface` of an open
+    sample; strays among the lost points left out: `_voxel_grid.not_strays`,
+    ``off``; ``fields``: `_surface_at`'s)."""
     far, link = LOST_STEPS * rec.step, LOST_LINK * fine[0]
     lost = lost_points(q, rec.vertices, rec.triangles, far, off, link, rec.distance_index())
-    if lost < LOST_POINTS:
+    if lost < LOST_POINTS and not thin:
         return rec
     try:
         finer = _surface_at(q, normals, fine, closed, surface=surface, fields=fields)
@@ -375,7 +382,8 @@ def _finer(q, normals, rec, fine, closed, surface, off=None, fields=None):
     no_handle = euler_characteristic(finer.triangles) >= euler_characteristic(rec.triangles)
     # a part lost whole is worth a handle through it (a fin 0.8 steps thin)
     whole = lost >= LOST_SHARE * q.shape[0]
-    return finer if 2 * still <= lost and (no_handle or whole) else rec
+    found = lost >= LOST_POINTS and 2 * still <= lost and (no_handle or whole)
+    return finer if found or (thin and no_handle) else rec
 
 
 def _surface_at(q, normals, grid, closed, solid=None, surface=None, fields=None) -> Reconstruction:

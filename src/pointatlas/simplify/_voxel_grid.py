@@ -22,8 +22,10 @@ __all__ = [
     "MAX_NODES",
     "SPACING_STEPS",
     "THIN_NEIGHBORS",
+    "THIN_SHARE",
     "THIN_SPACING_STEPS",
     "THIN_STEPS",
+    "THIN_WALL_STEPS",
     "UNEVEN",
     "band_steps",
     "euler_characteristic",
@@ -34,6 +36,7 @@ __all__ = [
     "lost_strays",
     "point_spacing",
     "thin_sample",
+    "thin_share",
     "uneven_factor",
 ]
 
@@ -68,6 +71,15 @@ LOST_POINTS = 4
 #: whole: a fin 0.8 steps thin on a block, 25 % of its points 40 % of the diagonal off
 #: the first surface, comes back with holes through it). `_reconstruct.reconstruct_surface`.
 LOST_SHARE = 0.01
+#: The finer grid is built too, no point lost, where at least `THIN_SHARE` of the
+#: points have a point facing the other way within `THIN_WALL_STEPS` steps
+#: (`thin_share`: walls and gaps about two grid steps thin over part of the shape,
+#: which the coarser grid rounds off or bridges), and kept where it adds no handle
+#: (all 149 collection models, true normals: within 1 % of the truth 133 -> 138, the
+#: input's Euler characteristic 140 -> 142, the finer grid built on the 37 models at
+#: or above 0.007; built on all, none below it gained).
+THIN_SHARE = 0.007
+THIN_WALL_STEPS = 2.0
 #: A lost point off its neighbours' tangent planes (`_checks.STRAY_RATIO`) with no
 #: other lost point within this many point spacings is a stray return near the
 #: surface, not a part the grid lost: not counted (with 1 % of the points moved off,
@@ -132,13 +144,26 @@ def point_spacing(q: np.ndarray, tree: cKDTree) -> float:
 def thin_sample(q, normals, tree, within: float) -> bool:
     """Whether most of at most 5,000 evenly strided points have a point facing the
     other way (`THIN_NEIGHBORS` nearest) nearer than ``within``: a thin sheet."""
-    stride = max(1, q.shape[0] // 5000)
+    return bool(np.median(_across(q, normals, tree, 5000)) < within)
+
+
+def thin_share(q, normals, tree, within: float) -> float:
+    """The share of at most 20,000 evenly strided points with a point facing the
+    other way (`THIN_NEIGHBORS` nearest) nearer than ``within``: how much of the
+    sample lies on walls and gaps that thin."""
+    return float(np.mean(_across(q, normals, tree, 20000) < within))
+
+
+def _across(q, normals, tree, most: int) -> np.ndarray:
+    """For at most ``most`` evenly strided points, the distance to the nearest of
+    their `THIN_NEIGHBORS` nearest points facing the other way (normals more than 135
+    degrees apart; inf where none)."""
+    stride = max(1, q.shape[0] // most)
     rows, k = q[::stride], min(THIN_NEIGHBORS, q.shape[0])
     d, j = tree.query(rows, k=k, workers=query_workers(rows.shape[0], k))
     d, j = d.reshape(-1, k), j.reshape(-1, k)
     facing = np.einsum("ij,ikj->ik", normals[::stride], normals[j])
-    across = np.where(facing < -0.7, d, np.inf).min(axis=1)
-    return bool(np.median(across) < within)
+    return np.where(facing < -0.7, d, np.inf).min(axis=1)
 
 
 def grid_shape(size, step: float, spacing: float):
